@@ -1,0 +1,1 @@
+"""Co-simulation of the RTL against the golden model, bit for bit, with cocotb (see ``cosim.harness``)."""

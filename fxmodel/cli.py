@@ -1,0 +1,140 @@
+"""Command line of the golden model: ``python -m fxmodel {info,eval,errors,presets} ...``.
+
+``info UNIT``
+    JSON: the unit's inputs and outputs (``name, signed, int_bits, frac_bits``; ``int_bits`` counts the sign),
+    latency, parameters and documented error bounds, for ``--preset NAME`` (default ``default``).
+``eval UNIT IN.npy OUT.npy``
+    Reads real input values (float64, shape ``(K,)`` or ``(K, inputs)``), which must be exactly representable in
+    the input formats (else an error naming the file, column and first bad row, and nothing is written); writes
+    the real value of every output as float64, shape ``(K, outputs)``. ``--hex FILE`` also writes ``$readmemh``
+    vectors (input codes then expected output codes, packed; see :mod:`fxmodel.vectors`).
+``errors UNIT``
+    Measures the preset's error against exact math: exhaustively if the input space has at most 2**26 vectors,
+    else over ``--random`` vectors plus the hard cases. Prints JSON (worst, mean, bound, faithful, monotone).
+``presets [UNIT]``
+    Lists units and their presets.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from . import exact
+from .unit import preset, preset_names, unit_class, units
+from .vectors import write_readmemh
+
+EXHAUSTIVE_LIMIT = 1 << 26
+
+
+def _params(args):
+    unit_class(args.unit)
+    return preset(args.unit, args.preset)
+
+
+def cmd_info(args) -> int:
+    params = _params(args)
+    print(json.dumps({"preset": args.preset, **params.info()}, indent=2))
+    return 0
+
+
+def cmd_eval(args) -> int:
+    params = _params(args)
+    src = Path(args.input)
+    try:
+        values = np.load(src, allow_pickle=False)
+    except (OSError, ValueError) as exc:
+        raise SystemExit(f"error: cannot read {src} as a .npy array: {exc}")
+    if values.ndim == 1 and len(params.inputs) == 1:
+        values = values[:, None]
+    if values.ndim != 2 or values.shape[1] != len(params.inputs):
+        names = ", ".join(p.name for p in params.inputs)
+        raise SystemExit(f"error: {src}: expected shape (K,{'' if len(params.inputs) == 1 else ' '}"
+                         f"{len(params.inputs)}) for inputs ({names}), got {values.shape}")
+    if not np.issubdtype(values.dtype, np.floating) and not np.issubdtype(values.dtype, np.integer):
+        raise SystemExit(f"error: {src}: expected real numbers (float64), got dtype {values.dtype}")
+    try:
+        codes = np.stack([p.fmt.from_real(values[:, i], what=f"{src} column {i} ({p.name})")
+                          for i, p in enumerate(params.inputs)], axis=1)
+    except ValueError as exc:
+        raise SystemExit(f"error: {exc}")
+    out = params.compute(codes)
+    reals = np.stack([p.fmt.to_real(out[:, i]) for i, p in enumerate(params.outputs)], axis=1)
+    np.save(args.output, reals)
+    if args.hex:
+        fields = [(p.name, p.fmt) for p in params.inputs + params.outputs]
+        write_readmemh(args.hex, fields, np.concatenate([codes, out], axis=1))
+    return 0
+
+
+def cmd_errors(args) -> int:
+    params = _params(args)
+    if args.unit not in exact.MEASURES:
+        raise SystemExit(f"error: no error measure for unit {args.unit!r}; have {', '.join(exact.MEASURES)}")
+    space = params.input_space()
+    if space <= EXHAUSTIVE_LIMIT and not args.random:
+        inputs, how = params.all_inputs(), "exhaustive"
+    else:
+        rng = np.random.default_rng(args.seed)
+        inputs = np.concatenate([params.hard_cases(), params.random_inputs(rng, args.random or 1_000_000)])
+        how = f"{len(inputs)} random and hard-case vectors"
+    t0 = time.perf_counter()
+    out = params.compute(inputs)
+    seconds = time.perf_counter() - t0
+    report = {"unit": args.unit, "preset": args.preset, "coverage": how,
+              **exact.MEASURES[args.unit](params, inputs if len(params.inputs) > 1 else inputs[:, 0], out),
+              "model_seconds": round(seconds, 3)}
+    if args.unit == "recip":
+        report["monotone"] = exact.recip_monotone(inputs[:, 0], out[:, 0], out[:, 1]) if how == "exhaustive" \
+            else "needs the exhaustive run"
+    print(json.dumps(report, indent=2))
+    return 0
+
+
+def cmd_presets(args) -> int:
+    for name in ([args.unit] if args.unit else units()):
+        print(f"{name}: {', '.join(preset_names(name))}")
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    ap = argparse.ArgumentParser(prog="python -m fxmodel", description=__doc__.split("\n")[0],
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    sub = ap.add_subparsers(dest="cmd", required=True)
+
+    def unit_arg(p):
+        p.add_argument("unit", help=f"one of: {', '.join(units())}")
+        p.add_argument("--preset", default="default", help="named parameter set (default: %(default)s)")
+
+    p = sub.add_parser("info", help="ports, formats, latency and error bound of a unit (JSON)")
+    unit_arg(p)
+    p.set_defaults(fn=cmd_info)
+    p = sub.add_parser("eval", help="run the golden model on real values from a .npy file")
+    unit_arg(p)
+    p.add_argument("input", help="IN.npy: float64, shape (K,) or (K, inputs)")
+    p.add_argument("output", help="OUT.npy: float64, shape (K, outputs)")
+    p.add_argument("--hex", help="also write $readmemh vectors (inputs then expected outputs) to this file")
+    p.set_defaults(fn=cmd_eval)
+    p = sub.add_parser("errors", help="measure the error against exact math (exhaustive when feasible)")
+    unit_arg(p)
+    p.add_argument("--random", type=int, default=0, help="use this many random vectors instead")
+    p.add_argument("--seed", type=int, default=1)
+    p.set_defaults(fn=cmd_errors)
+    p = sub.add_parser("presets", help="list units and presets")
+    p.add_argument("unit", nargs="?")
+    p.set_defaults(fn=cmd_presets)
+    return ap
+
+
+def main(argv=None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        return args.fn(args)
+    except ValueError as exc:           # unknown unit / preset: one clear line, no traceback
+        print(f"error: {exc}", file=sys.stderr)
+        return 2

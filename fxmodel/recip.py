@@ -1,0 +1,526 @@
+r"""Reciprocal unit 1/w by table lookup and Taylor series (paper, section 4.1), and a divider built on it.
+
+Algorithm (bit-exact; ``rtl/recip.py`` builds the same datapath from the same :class:`RecipParams`)
+--------------------------------------------------------------------------------------------------------
+Input ``w`` is a signed fixed-point code of ``n = in_fmt.width`` bits with ``F = in_fmt.frac_bits`` fraction bits.
+
+1. **Sign and magnitude.** ``X = |W|`` (two's complement negation; the most negative code gives ``2**(n-1)``,
+   which an ``n``-bit unsigned word holds). ``W = 0`` raises ``dbz``.
+2. **Normalization** by a leading-zero count ``s`` of ``X`` in ``n`` bits: ``x = (X << s) / 2**n`` lies in
+   ``[0.5, 1)`` and ``1/|w| = (1/x) * 2**e`` with ``e = F - bitlen(X)``.
+3. **Table.** The top ``m`` bits of ``x`` (the leading 1 and ``m - 1`` index bits) select ``B ~ 1/w_h`` from a table
+   of ``2**(m-1)`` words of ``b`` significant bits (``u1.(b-1)``; the leading 1 is not stored, so the ROM holds
+   ``b - 1`` bits a word). ``w_h`` is those ``m`` bits followed by ones, so ``d = w_h - x >= 0`` is the bitwise
+   complement of the low ``n - m`` bits: no subtractor.
+
+   *The paper's sign error.* The paper writes ``dw = w - w_h <= 0`` with an all-plus series; that expansion is
+   wrong (about 1.5 % error at 128 entries). About ``w_h`` with ``d = w_h - w >= 0``,
+   ``1/w = B0 (1 + B0 d + (B0 d)**2 + ...)`` with ``B0 = 1/w_h``: every omitted term is positive, so the
+   truncation error is one-sided (the series falls short).
+4. **Taylor terms in Horner form.** ``d`` is truncated to ``fd = fq + 1`` fraction bits, ``q = B d`` to
+   ``fq = p - 1 + guard`` bits; ``g_1 = 0``, ``g_2 = q``, ``g_(k+1) = q + trunc(q g_k)`` (this is
+   ``h_(k+1) = 1 + q h_k`` with the constant 1 kept implicit, so every multiplier sees only small operands);
+   ``t`` terms need ``t`` multipliers (``t >= 2``): ``q``, ``t - 2`` Horner steps and ``B (1 + g_t)``.
+5. **Result.** ``r = B + B g_t`` rounded half-up to ``p - 1`` fraction bits. A carry out of the binade
+   (``r >= 2``; the exact value there is at most 2) and the exact case ``x = 0.5`` give the mantissa 1.0 and
+   ``e + 1``, so every output mantissa is normalized to ``[1, 2)`` and powers of two are exact. The sign is
+   restored by negating the mantissa.
+
+Outputs: ``mant`` (``s2.(p-1)``, magnitude in ``[1, 2)``), ``exp`` (integer, ``[F - n, F]``) and ``dbz``;
+``1/w = mant * 2**exp``. ``w = 0`` gives the largest magnitude, ``mant = 2 - 2**-(p-1)``, ``exp = F``, ``dbz = 1``.
+
+Error bound (``RecipParams.error_bound_ulp``), in ulps of the result (``2**-(p-1)`` of the mantissa)
+---------------------------------------------------------------------------------------------------
+For interval ``i`` with ``B0 = 1/w_h``, table error ``eps = B - B0``, ``delta = 2**-m - 2**-n`` (largest ``d``):
+
+* Taylor truncation, in ``[-tau_i, 0]``, ``tau_i = (delta/w_h)**t / (w_h - delta)`` (worst at ``d = delta``);
+* table rounding, ``eps * dT/dB`` with ``1 <= dT/dB <= S = sum_k (k+1) (Bmax delta)**k``: in ``[0, eps S]`` if
+  ``eps >= 0``, else in ``[-|eps| S, 0]``;
+* datapath truncations, all downward (every operand is non-negative): ``d`` loses ``< 2**-fd`` (weight
+  ``Bmax**2 S1``), ``q`` loses ``< 2**-fq`` (weight ``Bmax S1``), each of the ``t - 2`` Horner steps loses
+  ``< 2**-fq`` (weight ``Bmax S0``), with ``S1 = sum_(k=1)^(t-1) k Q**(k-1)``, ``S0 = sum_(j=0)^(t-3) Q**j``,
+  ``Q = Bmax delta``;
+* final half-up rounding, in ``(-1/2, 1/2]`` ulp.
+
+The bound is the largest magnitude of the sum of the lower (resp. upper) ends over all intervals. All terms are
+computed exactly with fractions from the actual table, so the bound also holds for tables not made by rounding.
+
+Hard cases (each has a test): ``w = 0.5``; ``w = 1 - ulp``; every table boundary and one ulp either side, in
+every binade, both signs; the smallest and largest ``|w|``; the most negative code; zero.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from fractions import Fraction
+from functools import cached_property
+
+import numpy as np
+
+from .fixed import INT64_SAFE_BITS, Fmt
+from .rounding import Overflow, Rounding, narrow, saturate, shift_round
+from .unit import Port, Unit, register
+
+__all__ = ["RecipParams", "DivideParams", "TABLE_MODES"]
+
+#: How table entries are chosen: ``round`` is the paper's ``round(1/w_h)``.
+TABLE_MODES = ("round",)
+
+
+def _require(cond: bool, param: str, value, why: str):
+    if not cond:
+        raise ValueError(f"{param}={value!r}: {why}")
+
+
+@dataclass(frozen=True)
+class RecipParams(Unit):
+    """Parameters of the reciprocal unit.
+
+    Parameters
+    ----------
+    in_fmt : Fmt
+        Signed format of the input ``w`` (``n = in_fmt.width`` bits).
+    m : int
+        Bits of ``w_h`` that index the table, the leading 1 included: ``2**(m-1)`` entries. ``2 <= m < n``.
+    b : int
+        Significant bits of each table word ``B`` (``u1.(b-1)``, the ROM stores ``b - 1``). ``b >= p``.
+    t : int
+        Taylor terms, 1 to 4 (the paper uses 3).
+    p : int
+        Significant bits of the result mantissa (``s2.(p-1)`` output).
+    guard : int
+        Extra fraction bits kept in the Horner datapath beyond the output's ``p - 1``.
+    table : str
+        How table entries are chosen (see :data:`TABLE_MODES`).
+    center : bool
+        Add the constant :attr:`bias_code` before the final rounding so that the one-sided (downward) Taylor and
+        truncation errors are centred on zero. Costs nothing in hardware; the paper has no such term.
+    """
+
+    NAME = "recip"
+
+    in_fmt: Fmt = Fmt(True, 8, 16)
+    m: int = 7
+    b: int = 19
+    t: int = 3
+    p: int = 17
+    guard: int = 2
+    table: str = "round"
+    center: bool = True
+
+    def __post_init__(self):
+        _require(isinstance(self.in_fmt, Fmt), "in_fmt", self.in_fmt, "must be an Fmt")
+        _require(self.in_fmt.signed, "in_fmt", str(self.in_fmt), "the input must be a signed format")
+        for name in ("m", "b", "t", "p", "guard"):
+            value = getattr(self, name)
+            if not isinstance(value, int) or isinstance(value, bool):
+                raise TypeError(f"{name} must be an int, not {value!r}")
+        n = self.in_fmt.width
+        _require(n <= 48, "in_fmt", str(self.in_fmt), "input width above 48 bits is not supported")
+        _require(self.m >= 2, "m", self.m, "the table needs at least 2 entries (m >= 2)")
+        _require(self.m < n, "m", self.m, f"must be smaller than the input width n={n}")
+        _require(self.m <= 16, "m", self.m, "tables above 2**15 entries are not supported")
+        _require(1 <= self.t <= 4, "t", self.t, "Taylor terms must be 1 to 4")
+        _require(self.p >= 2, "p", self.p, "the result needs at least 2 significant bits")
+        _require(self.guard >= 0, "guard", self.guard, "must be >= 0")
+        _require(self.b >= self.p, "b", self.b,
+                 f"too small for the output: the table word needs at least p={self.p} significant bits")
+        _require(self.b <= 40, "b", self.b, "table words above 40 bits are not supported")
+        _require(isinstance(self.center, bool), "center", self.center, "must be a bool")
+        _require(self.table in TABLE_MODES, "table", self.table, f"must be one of {TABLE_MODES}")
+        if self.t >= 2:
+            _require(self.fd > self.m, "m", self.m,
+                     f"leaves no bits of d at fd={self.fd} fraction bits (raise p or guard, or use t=1)")
+        for what, bits in self.product_widths().items():
+            _require(bits <= INT64_SAFE_BITS, "b", self.b, f"product {what} would need {bits} bits (> 62)")
+
+    # -- formats (the RTL reads these) --------------------------------------------------------------------
+    @cached_property
+    def n(self) -> int:
+        return self.in_fmt.width
+
+    @cached_property
+    def fo(self) -> int:
+        """Fraction bits of the output mantissa."""
+        return self.p - 1
+
+    @cached_property
+    def fq(self) -> int:
+        """Fraction bits of ``q`` and of the Horner terms ``g``."""
+        return self.fo + self.guard
+
+    @cached_property
+    def fd(self) -> int:
+        """Fraction bits of ``d`` kept for the first product (``n`` if ``d`` has no more)."""
+        return min(self.fq + 1, self.n)
+
+    @cached_property
+    def entries(self) -> int:
+        return 1 << (self.m - 1)
+
+    @cached_property
+    def b_fmt(self) -> Fmt:
+        """Table word ``B`` in ``[1, 2)``."""
+        return Fmt(False, 1, self.b - 1)
+
+    @cached_property
+    def rom_bits(self) -> int:
+        """Stored bits per table word (the leading 1 is implicit)."""
+        return self.b - 1
+
+    @cached_property
+    def d_fmt(self) -> Fmt:
+        """``d < 2**-m``: only the bits below the table index remain."""
+        return Fmt(False, -self.m, self.fd)
+
+    @cached_property
+    def q_fmt(self) -> Fmt:
+        """``q = B d < 2 * 2**-m`` (proof: ``B < 2``, ``d < 2**-m``)."""
+        return Fmt(False, 1 - self.m, self.fq)
+
+    @cached_property
+    def g_fmt(self) -> Fmt:
+        """``g = q + q**2 + ... < q / (1 - q) <= 2 q < 2**(2-m)`` (``q <= 1/2`` as ``m >= 2``)."""
+        return Fmt(False, 2 - self.m, self.fq)
+
+    @cached_property
+    def bq(self) -> int:
+        """Significant bits of ``B`` fed to the small products ``B d`` and ``B g`` (``B`` truncated)."""
+        return min(self.b, self.fq - self.m + 3)
+
+    @cached_property
+    def bg_fmt(self) -> Fmt:
+        """``B g < 2 * 2**(2-m)``."""
+        return Fmt(False, 3 - self.m, self.fq)
+
+    @cached_property
+    def fr(self) -> int:
+        """Fraction bits of the exact sum ``B + B g + bias`` before the final rounding."""
+        return max(self.b - 1, self.fq) if self.t >= 2 else self.b - 1
+
+    @cached_property
+    def mant_fmt(self) -> Fmt:
+        return Fmt(True, 2, self.fo)
+
+    @cached_property
+    def exp_fmt(self) -> Fmt:
+        F = self.in_fmt.frac_bits
+        return Fmt.integer(F - self.n, F)
+
+    def product_widths(self) -> dict:
+        """Bit widths of each exact product of the datapath (checked against int64 at construction)."""
+        return {
+            "B*d": self.bq + max(self.fd - self.m, 0),
+            "q*g": self.q_fmt.width + self.g_fmt.width,
+            "B*g": self.bq + self.g_fmt.width,
+            "B+Bg": 2 + self.fr,
+        }
+
+    @property
+    def multipliers(self) -> int:
+        return 0 if self.t == 1 else self.t
+
+    @property
+    def table_bits(self) -> int:
+        return self.entries * self.rom_bits
+
+    # -- ports --------------------------------------------------------------------------------------------
+    @property
+    def inputs(self):
+        return (Port("w", self.in_fmt, "divisor"),)
+
+    @property
+    def outputs(self):
+        return (Port("mant", self.mant_fmt, "signed mantissa of 1/w, magnitude in [1, 2)"),
+                Port("exp", self.exp_fmt, "1/w = mant * 2**exp"),
+                Port("dbz", Fmt(False, 1, 0), "w was zero"))
+
+    @property
+    def latency(self) -> int:
+        """Stages: magnitude | normalize | table read | [q | t-2 Horner steps | B*g] | round and sign."""
+        return 4 if self.t == 1 else 4 + self.t
+
+    # -- the table ----------------------------------------------------------------------------------------
+    @cached_property
+    def table_codes(self) -> np.ndarray:
+        """The ``2**(m-1)`` table words as ``b_fmt`` codes (hidden bit included)."""
+        n, m, fb = self.n, self.m, self.b - 1
+        i = np.arange(self.entries, dtype=object)
+        wh = ((1 << (m - 1)) + i + 1) * (1 << (n - m)) - 1          # w_h * 2**n, exact
+        if self.table == "round":
+            # B = round_half_up(2**n / wh) at fb fraction bits
+            codes = (np.asarray([((1 << (n + fb + 1)) // int(v) + 1) // 2 for v in wh], dtype=object))
+        codes, _ = narrow(np.asarray(codes, dtype=np.int64), fb, self.b_fmt, Rounding.TRUNC, Overflow.SATURATE)
+        return codes
+
+    @property
+    def rom(self) -> list[int]:
+        """ROM contents: each word without its hidden leading 1."""
+        return [int(c) - (1 << (self.b - 1)) for c in self.table_codes]
+
+    # -- bit-exact model ----------------------------------------------------------------------------------
+    def _compute(self, cols):
+        return self._recip_chunk(cols[0])
+
+    def recip_codes(self, w):
+        """``(mant, exp, dbz)`` code arrays for input codes ``w`` (used by units built on the reciprocal)."""
+        out = self.compute(np.asarray(w, dtype=np.int64)[:, None])
+        return out[:, 0], out[:, 1], out[:, 2]
+
+    @cached_property
+    def _tables(self):
+        """Per-entry constants for the model's inner loop: ``B`` aligned to ``fr`` with the bias added, and
+        ``B`` truncated to ``bq`` bits. (The same values the RTL computes from the ROM word.)"""
+        B = self.table_codes
+        return (B << (self.fr - (self.b - 1))) + self.bias_code, B >> (self.b - self.bq)
+
+    def _recip_chunk(self, w):
+        n, m, fo, fq, fd, fr = self.n, self.m, self.fo, self.fq, self.fd, self.fr
+        F = self.in_fmt.frac_bits
+        X = np.abs(w)                                     # |most negative| = 2**(n-1) fits int64
+        # normalization: bitlen by the float exponent (exact: X < 2**53); X = 0 gives bitlen 0
+        bl = np.frexp(X.astype(np.float64))[1].astype(np.int64)
+        xn = X << (n - bl)                                # n-bit word, top bit set
+        low = n - m
+        idx = (xn >> low) & (self.entries - 1)
+        acc_tab, bh_tab = self._tables
+        acc = acc_tab[idx]                                # B (+ bias) at fr fraction bits
+        if self.t >= 2:
+            Bh = bh_tab[idx]                              # B truncated to bq bits for the small products
+            d = (~xn & ((1 << low) - 1)) >> (n - fd)      # d = complement of the low bits, truncated to fd
+            q, _ = narrow(Bh * d, self.bq - 1 + fd, self.q_fmt, Rounding.TRUNC, Overflow.PROVEN, "recip q")
+            g = q
+            for _ in range(self.t - 2):
+                qg, _ = narrow(q * g, 2 * fq, self.g_fmt, Rounding.TRUNC, Overflow.PROVEN, "recip q*g")
+                g, _ = saturate(q + qg, self.g_fmt, Overflow.PROVEN, "recip g")
+            bg, _ = narrow(Bh * g, self.bq - 1 + fq, self.bg_fmt, Rounding.TRUNC, Overflow.PROVEN, "recip B*g")
+            acc += bg << (fr - fq)
+        r = shift_round(acc, fr - fo, Rounding.HALF_UP)
+        one = 1 << fo
+        # carry out of [1, 2) (the exact value is at most 2 there) or exactly x = 0.5: mantissa 1.0, exponent + 1
+        carry = (r >= 2 * one) | (xn == (1 << (n - 1)))
+        r[carry] = one
+        exp = F - bl
+        exp += carry
+        np.negative(r, out=r, where=w < 0)
+        zero = bl == 0
+        if zero.any():
+            r[zero] = self.mant_fmt.max_code
+            exp[zero] = F
+        return r, exp, zero.astype(np.int64)
+
+    # -- hard cases ---------------------------------------------------------------------------------------
+    def hard_cases(self) -> np.ndarray:
+        n, m, F = self.n, self.m, self.in_fmt.frac_bits
+        fmt = self.in_fmt
+        codes = {0, 1, -1, fmt.max_code, fmt.min_code, fmt.min_code + 1, fmt.max_code - 1}
+        if F >= 1:
+            codes |= {1 << (F - 1), (1 << F) - 1, 1 << F}            # 0.5, 1 - ulp, 1.0
+        for k in range(1, n):                                         # every binade: X in [2**(k-1), 2**k)
+            codes |= {(1 << (k - 1)), (1 << k) - 1}
+            if k >= m:
+                for i in range(self.entries):
+                    base = ((1 << (m - 1)) + i) << (k - m)
+                    codes |= {base - 1, base, base + 1}
+        codes = np.array(sorted(codes), dtype=np.int64)
+        codes = np.concatenate([codes, -codes])
+        codes = np.unique(codes[(codes >= fmt.min_code) & (codes <= fmt.max_code)])
+        return codes[:, None]
+
+    # -- documented error bound ---------------------------------------------------------------------------
+    @cached_property
+    def _raw_error(self) -> tuple[Fraction, Fraction]:
+        """``(L, H)``: the exact sum ``B + B g`` (before bias and final rounding) minus ``1/x`` lies in
+        ``[L, H]`` for every input; see the module docstring for each term."""
+        n, m, t = self.n, self.m, self.t
+        delta = Fraction(1, 1 << m) - Fraction(1, 1 << n)
+        bmax = max(Fraction(int(c), 1 << (self.b - 1)) for c in self.table_codes)
+        Q = bmax * delta
+        S = sum((k + 1) * Q ** k for k in range(t))
+        datapath = Fraction(0)
+        if t >= 2:
+            S1 = sum(k * Q ** (k - 1) for k in range(1, t))
+            S0 = sum(Q ** j for j in range(t - 2))
+            gmax = sum(Q ** k for k in range(1, t))
+            e_bh = Fraction(1, 1 << (self.bq - 1)) if self.bq < self.b else Fraction(0)
+            e_d = Fraction(1, 1 << self.fd) if self.fd < n else Fraction(0)
+            ulp_q = Fraction(1, 1 << self.fq)
+            e_q = (ulp_q if self.bq - 1 + self.fd > self.fq else 0) + e_bh * delta
+            e_bg = (ulp_q if self.bq - 1 > 0 else 0) + e_bh * gmax
+            datapath = e_d * bmax * bmax * S1 + e_q * bmax * S1 + ulp_q * bmax * S0 + e_bg
+        lo_worst, hi_worst = Fraction(0), Fraction(0)
+        for i, c in enumerate(self.table_codes):
+            wh = Fraction(((1 << (m - 1)) + i + 1) * (1 << (n - m)) - 1, 1 << n)
+            eps = Fraction(int(c), 1 << (self.b - 1)) - 1 / wh
+            tau = (delta / wh) ** t / (wh - delta)
+            lo_worst = min(lo_worst, -tau - (abs(eps) * S if eps < 0 else 0) - datapath)
+            hi_worst = max(hi_worst, eps * S if eps > 0 else Fraction(0))
+        return lo_worst, hi_worst
+
+    @cached_property
+    def bias_code(self) -> int:
+        """Constant added before the final rounding (``fr`` fraction bits) that centres the one-sided errors;
+        free in hardware (it merges with the rounding constant). Zero unless ``center``."""
+        if not self.center:
+            return 0
+        lo, hi = self._raw_error
+        return int(round(-(lo + hi) / 2 * (1 << self.fr)))
+
+    @cached_property
+    def error_terms(self) -> dict:
+        """Worst error below and above the exact value, in result ulps (exact fractions)."""
+        lo, hi = self._raw_error
+        bias = Fraction(self.bias_code, 1 << self.fr)
+        ulp = Fraction(1, 1 << self.fo)
+        return {"below_ulp": -(lo + bias) / ulp + Fraction(1, 2),
+                "above_ulp": (hi + bias) / ulp + Fraction(1, 2)}
+
+    @property
+    def error_bound_ulp(self) -> Fraction:
+        """Documented bound: ``|result - 1/w| <= error_bound_ulp`` ulps of the result, for every input."""
+        terms = self.error_terms
+        return max(terms["below_ulp"], terms["above_ulp"])
+
+    def _info(self):
+        return {
+            "precision_bits": self.p,
+            "table_entries": self.entries,
+            "table_bits": self.table_bits,
+            "terms": self.t,
+            "multipliers": self.multipliers,
+            "max_error_ulp": float(self.error_bound_ulp),
+            "faithful_by_bound": bool(self.error_bound_ulp < 1),
+        }
+
+
+RecipParams.PRESETS = {
+    # 24-bit input, 17-bit faithful result from 64 entries and 3 terms; every product within 18x18.
+    "default": RecipParams(in_fmt=Fmt(True, 8, 16), m=7, b=20, t=3, p=17, guard=5),
+    # 16-bit input, 12-bit result.
+    "small": RecipParams(in_fmt=Fmt(True, 4, 12), m=6, b=14, t=3, p=12, guard=4),
+}
+register(RecipParams)
+
+
+@dataclass(frozen=True)
+class DivideParams(Unit):
+    """Parameters of the divider ``q = n / d``: ``n`` times the reciprocal unit's ``1/d``.
+
+    Algorithm: ``(mant, exp, dbz) = recip(d)``; the exact product ``n * mant`` is shifted by the
+    data-dependent amount ``exp`` (a barrel shifter), rounded half-up to ``out_fmt`` and saturated with the
+    ``ovf`` flag. ``d = 0`` gives ``dbz``, ``q = 0`` for ``n = 0`` and the saturated end of the sign of ``n``
+    otherwise (``ovf`` set).
+
+    Error bound: for an unsaturated result, ``|q - n/d| <= |n/d| * E * 2**-(p-1) + 2**-(out_fmt.frac_bits+1)``
+    with ``E = recip.error_bound_ulp`` (the reciprocal's relative error is at most ``E`` ulps of a mantissa
+    ``>= 1``). :attr:`max_error` evaluates it at ``|n/d| <= quotient_limit``.
+
+    Parameters
+    ----------
+    recip : RecipParams
+        The reciprocal unit; its ``in_fmt`` is the format of ``d``.
+    num_fmt : Fmt
+        Signed format of ``n``.
+    out_fmt : Fmt
+        Signed format of ``q``.
+    quotient_limit : int
+        Largest ``|n/d|`` the user promises (the cube unit's minor/major is at most 1); used for the bound only.
+    """
+
+    NAME = "divide"
+
+    recip: RecipParams = RecipParams(in_fmt=Fmt(True, 2, 14), m=6, b=13, t=2, p=12, guard=2)
+    num_fmt: Fmt = Fmt(True, 2, 14)
+    out_fmt: Fmt = Fmt(True, 2, 12)
+    quotient_limit: int = 1
+
+    def __post_init__(self):
+        _require(isinstance(self.recip, RecipParams), "recip", self.recip, "must be a RecipParams")
+        for name in ("num_fmt", "out_fmt"):
+            fmt = getattr(self, name)
+            _require(isinstance(fmt, Fmt) and fmt.signed, name, fmt, "must be a signed Fmt")
+        _require(isinstance(self.quotient_limit, int) and self.quotient_limit >= 1, "quotient_limit",
+                 self.quotient_limit, "must be an int >= 1")
+        bits = self.prod_fmt.width + self.pre_shift
+        _require(bits <= INT64_SAFE_BITS, "out_fmt", str(self.out_fmt), f"needs a {bits}-bit shifter (> 62)")
+
+    @property
+    def prod_fmt(self) -> Fmt:
+        """Exact ``n * mant``: ``|mant| < 2``."""
+        r = self.recip
+        return Fmt(True, self.num_fmt.int_bits + 1, self.num_fmt.frac_bits + r.fo)
+
+    @property
+    def shift_range(self) -> tuple[int, int]:
+        """Right shift ``prod_frac - out_frac - exp`` over the reciprocal's exponent range."""
+        r = self.recip
+        base = self.prod_fmt.frac_bits - self.out_fmt.frac_bits
+        return base - r.exp_fmt.max_code, base - r.exp_fmt.min_code
+
+    @property
+    def pre_shift(self) -> int:
+        """Left shift applied first so that every data-dependent shift is a right shift."""
+        return max(0, -self.shift_range[0])
+
+    @property
+    def inputs(self):
+        return (Port("n", self.num_fmt, "numerator"), Port("d", self.recip.in_fmt, "denominator"))
+
+    @property
+    def outputs(self):
+        return (Port("q", self.out_fmt, "n / d"), Port("dbz", Fmt(False, 1, 0), "d was zero"),
+                Port("ovf", Fmt(False, 1, 0), "q saturated"))
+
+    @property
+    def latency(self) -> int:
+        """The reciprocal's latency, one stage for ``n * mant`` and one to shift, round and saturate."""
+        return self.recip.latency + 2
+
+    def _compute(self, cols):
+        n, d = cols
+        mant, exp, dbz = self.recip.recip_codes(d)
+        prod = (n * mant) << self.pre_shift
+        shift = self.shift_range[0] + self.pre_shift + (self.recip.exp_fmt.max_code - exp)
+        y = shift_round(prod, shift, Rounding.HALF_UP)
+        q, ovf = saturate(y, self.out_fmt, Overflow.SATURATE)
+        dz = dbz.astype(bool)
+        q = np.where(dz, np.sign(n) * np.where(n > 0, self.out_fmt.max_code, -self.out_fmt.min_code), q)
+        ovf = np.where(dz, n != 0, ovf)
+        return [q, dbz, ovf.astype(np.int64)]
+
+    def hard_cases(self) -> np.ndarray:
+        rd = self.recip.hard_cases()[:, 0]
+        nf = self.num_fmt
+        nums = np.unique(np.array([0, 1, -1, nf.max_code, nf.min_code, 1 << nf.frac_bits,
+                                   -(1 << nf.frac_bits)], dtype=np.int64).clip(nf.min_code, nf.max_code))
+        grid = np.array(np.meshgrid(nums, rd, indexing="ij")).reshape(2, -1).T
+        # n = +-d (quotient exactly +-1) and n = d/2, where representable
+        for k in (1, -1):
+            nn = k * rd
+            ok = (nn >= nf.min_code) & (nn <= nf.max_code)
+            grid = np.concatenate([grid, np.stack([nn[ok], rd[ok]], 1), np.stack([nn[ok] // 2, rd[ok]], 1)])
+        return np.unique(grid, axis=0)
+
+    def error_bound(self, quotient: Fraction) -> Fraction:
+        """Bound on ``|q - n/d|`` (real units) for an unsaturated result with ``|n/d| <= quotient``."""
+        r = self.recip
+        return quotient * r.error_bound_ulp / (1 << r.fo) + Fraction(1, 1 << (self.out_fmt.frac_bits + 1))
+
+    @property
+    def max_error(self) -> Fraction:
+        return self.error_bound(Fraction(self.quotient_limit))
+
+    def _info(self):
+        return {"precision_bits": self.recip.p, "table_entries": self.recip.entries, "terms": self.recip.t,
+                "recip_max_error_ulp": float(self.recip.error_bound_ulp),
+                "quotient_limit": self.quotient_limit,
+                "max_error": float(self.max_error),
+                "max_error_ulp": float(self.max_error / self.out_fmt.ulp)}
+
+
+DivideParams.PRESETS = {
+    "default": DivideParams(),
+    # cube addressing: minor / major with |minor| <= |major|
+    "cube": DivideParams(),
+}
+register(DivideParams)

@@ -1,0 +1,66 @@
+"""Hardware side of :mod:`fxmodel.rounding`: the same narrowing rules as Amaranth expressions.
+
+Each function here has a twin of the same name in ``fxmodel/rounding.py``; a unit's RTL calls exactly the
+narrowings its model calls, with the same :class:`~fxmodel.rounding.Rounding` and
+:class:`~fxmodel.rounding.Overflow`, so review compares them line by line. Widths come from
+:class:`~fxmodel.fixed.Fmt`, never typed by hand.
+"""
+
+from __future__ import annotations
+
+from amaranth.hdl import Const, Mux, Shape, Value, signed, unsigned
+
+from fxmodel.fixed import Fmt
+from fxmodel.rounding import Overflow, Rounding
+
+__all__ = ["shape", "shift_round", "saturate", "narrow"]
+
+
+def shape(fmt: Fmt) -> Shape:
+    """Amaranth shape of a format's code."""
+    return signed(fmt.width) if fmt.signed else unsigned(fmt.width)
+
+
+def shift_round(x: Value, shift, rounding: Rounding) -> Value:
+    """``x / 2**shift`` rounded by ``rounding``; ``shift`` an int or an unsigned Value (barrel shifter, >= 0).
+
+    ``>>`` on a signed Amaranth value is an arithmetic shift, the same floor as numpy's.
+    """
+    x = Value.cast(x)
+    if isinstance(shift, int):
+        if shift <= 0:
+            return x << -shift
+        if rounding is Rounding.TRUNC:
+            return x >> shift
+        if rounding is Rounding.HALF_UP:
+            return (x + (1 << (shift - 1))) >> shift
+        q = x >> shift
+        r = x[:shift]
+        half = 1 << (shift - 1)
+        up = (r > half) | ((r == half) & q[0])
+        return q + up
+    shift = Value.cast(shift)
+    if rounding is Rounding.TRUNC:
+        return x >> shift
+    if rounding is Rounding.HALF_UP:
+        return (x + (Const(1, unsigned(1)) << shift >> 1)) >> shift
+    raise NotImplementedError("HALF_EVEN with a data-dependent shift")
+
+
+def saturate(x: Value, fmt: Fmt, overflow: Overflow):
+    """``(value, flag)``: ``x`` brought into ``fmt`` (a Value of ``shape(fmt)``) by ``overflow``.
+
+    ``PROVEN`` keeps the low bits (the model checks the proof on every value it computes); its flag is 0.
+    """
+    x = Value.cast(x)
+    if overflow is Overflow.PROVEN:
+        return x.as_signed()[:fmt.width].as_signed() if fmt.signed else x[:fmt.width], Const(0, 1)
+    hi = x > fmt.max_code
+    lo = x < fmt.min_code
+    value = Mux(hi, Const(fmt.max_code, shape(fmt)), Mux(lo, Const(fmt.min_code, shape(fmt)), x))[:fmt.width]
+    return (value.as_signed() if fmt.signed else value), hi | lo
+
+
+def narrow(x: Value, from_frac: int, fmt: Fmt, rounding: Rounding, overflow: Overflow):
+    """Narrow ``x`` (``from_frac`` fraction bits) to ``fmt``: round first, then the range rule."""
+    return saturate(shift_round(x, from_frac - fmt.frac_bits, rounding), fmt, overflow)

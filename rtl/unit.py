@@ -1,0 +1,109 @@
+"""What every unit's RTL shares: the port signature derived from the parameter object, a pipeline builder that
+counts stages (so the latency the model documents is checked, not trusted), the registry from parameter class
+to component, and Verilog generation.
+
+Port convention (the co-simulation harness relies on it): ``i_valid`` and one input port per
+``params.inputs`` entry, ``o_valid`` and one output port per ``params.outputs`` entry, same names, widths from the
+formats; plus Amaranth's ``clk`` and ``rst``. ``o_valid`` is ``i_valid`` delayed by ``params.latency`` cycles and
+each output belongs to the input accepted ``latency`` cycles earlier: one result per clock.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from types import SimpleNamespace
+
+from amaranth.hdl import Module, Signal, Value
+from amaranth.lib import wiring
+from amaranth.lib.wiring import In, Out
+
+from .fixed import shape
+
+__all__ = ["unit_signature", "Pipe", "register", "build", "verilog_text", "write_verilog"]
+
+
+def unit_signature(params) -> wiring.Signature:
+    members = {"i_valid": In(1)}
+    members.update({p.name: In(shape(p.fmt)) for p in params.inputs})
+    members["o_valid"] = Out(1)
+    members.update({p.name: Out(shape(p.fmt)) for p in params.outputs})
+    return wiring.Signature(members)
+
+
+class UnitComponent(wiring.Component):
+    """Base class: a component whose signature comes from its parameter object."""
+
+    def __init__(self, params):
+        self.params = params
+        super().__init__(unit_signature(params))
+
+    def finish(self, m: Module, pipe: "Pipe", outputs: dict):
+        """Register ``outputs`` (port name -> expression) as the last stage, drive ``o_valid``, check latency."""
+        for name, expr in outputs.items():
+            m.d.sync += getattr(self, name).eq(expr)
+        pipe.depth += 1
+        m.d.comb += self.o_valid.eq(pipe.delay(self.i_valid, pipe.depth, "valid"))
+        if pipe.depth != self.params.latency:
+            raise AssertionError(f"{type(self).__name__}: pipeline has {pipe.depth} stages but "
+                                 f"{type(self.params).__name__}.latency says {self.params.latency}")
+
+
+class Pipe:
+    """Builds a pipeline one registered stage at a time and counts its depth."""
+
+    def __init__(self, m: Module, prefix: str = ""):
+        self.m = m
+        self.depth = 0
+        self.prefix = prefix
+
+    def stage(self, **exprs) -> SimpleNamespace:
+        """Register each expression (shape kept) as the next stage; return the registers by name."""
+        self.depth += 1
+        regs = {}
+        for name, expr in exprs.items():
+            expr = Value.cast(expr)
+            reg = Signal(expr.shape(), name=f"{self.prefix}s{self.depth}_{name}")
+            self.m.d.sync += reg.eq(expr)
+            regs[name] = reg
+        return SimpleNamespace(**regs)
+
+    def delay(self, value, cycles: int, name: str = "dly") -> Value:
+        """``value`` delayed by ``cycles`` registers (a shift register; 0 returns ``value``)."""
+        value = Value.cast(value)
+        for i in range(cycles):
+            reg = Signal(value.shape(), name=f"{self.prefix}{name}{i + 1}")
+            self.m.d.sync += reg.eq(value)
+            value = reg
+        return value
+
+
+_COMPONENTS: dict[type, type] = {}
+
+
+def register(params_cls):
+    """Class decorator on a component: it is the RTL of ``params_cls``."""
+    def deco(component_cls):
+        _COMPONENTS[params_cls] = component_cls
+        return component_cls
+    return deco
+
+
+def build(params) -> wiring.Component:
+    """The RTL component of a parameter object."""
+    from . import recip  # noqa: F401  (registers)
+    try:
+        return _COMPONENTS[type(params)](params)
+    except KeyError:
+        raise ValueError(f"no RTL for {type(params).__name__}") from None
+
+
+def verilog_text(params, name: str) -> str:
+    from amaranth.back import verilog
+    return verilog.convert(build(params), name=name, emit_src=False)
+
+
+def write_verilog(params, path) -> Path:
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(verilog_text(params, path.stem))
+    return path

@@ -11,6 +11,7 @@ Environment: ``SIM`` (``icarus`` default, or ``verilator``), ``WAVES=1`` dumps a
 
 from __future__ import annotations
 
+import fcntl
 import hashlib
 import json
 import os
@@ -38,8 +39,18 @@ def simulator(sim: str | None = None) -> str:
     return sim
 
 
+def _source_digest() -> bytes:
+    """Digest of the model and RTL sources: generated Verilog is stale as soon as either changes."""
+    h = hashlib.sha1()
+    for folder in ("fxmodel", "rtl"):
+        for path in sorted((ROOT / folder).glob("*.py")):
+            h.update(path.name.encode() + path.read_bytes())
+    return h.digest()
+
+
 def params_key(params) -> str:
-    return hashlib.sha1(repr(params).encode()).hexdigest()[:12]
+    """Build-folder key: the parameter object and the sources that turn it into Verilog."""
+    return hashlib.sha1(repr(params).encode() + _source_digest()).hexdigest()[:12]
 
 
 class CosimResult(dict):
@@ -75,7 +86,9 @@ def run(params, inputs: np.ndarray, *, sim: str | None = None, waves: bool | Non
     top = params.NAME
     bdir = BUILD / sim / f"{params.NAME}_{params_key(params)}"
     bdir.mkdir(parents=True, exist_ok=True)
-    src = _verilog(params, bdir, top)
+    with open(bdir / ".build.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        src = _verilog(params, bdir, top)
     job = bdir / (f"job_{tag}" if tag else "job")
     job.mkdir(exist_ok=True)
     in_bits = np.stack([p.fmt.to_bits(inputs[:, i]) for i, p in enumerate(params.inputs)], axis=1)
@@ -90,8 +103,10 @@ def run(params, inputs: np.ndarray, *, sim: str | None = None, waves: bool | Non
     runner = get_runner(sim)
     build_args = ["-Wno-fatal", "-Wno-WIDTH", "-O3"] if sim == "verilator" else []
     t0 = time.perf_counter()
-    runner.build(sources=[src], hdl_toplevel=top, build_dir=bdir, timescale=("1ns", "1ps"), waves=waves,
-                 build_args=build_args)
+    with open(bdir / ".build.lock", "w") as lock:       # parallel test workers may share a build folder
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        runner.build(sources=[src], hdl_toplevel=top, build_dir=bdir, timescale=("1ns", "1ps"), waves=waves,
+                     build_args=build_args)
     t1 = time.perf_counter()
     env = {"COSIM_JOB": str(job), "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])}
     runner.test(hdl_toplevel=top, test_module="cosim.tb", build_dir=bdir, test_dir=job, extra_env=env,

@@ -17,6 +17,7 @@ from pathlib import Path
 
 import cocotb
 import numpy as np
+from tqdm import tqdm
 from cocotb.clock import Clock
 from cocotb.triggers import FallingEdge
 
@@ -42,7 +43,11 @@ async def stream(dut):
     results = []
     o_valid = dut.o_valid
     total = len(vectors)
+    bar = tqdm(total=total, desc=f"{dut._name} RTL", unit="vec", mininterval=1.0,
+               disable=os.environ.get("COSIM_PROGRESS", "0") == "0")
     for cycle in range(total + latency):
+        if cycle % 4096 == 0 and cycle < total:
+            bar.update(min(4096, total - cycle))
         if cycle < total:
             dut.i_valid.value = 1
             for port, value in zip(ins, vectors[cycle]):
@@ -56,4 +61,5 @@ async def stream(dut):
                                        f"(latency {latency})")
         if valid:
             results.append([int(port.value) for port in outs])
+    bar.close()
     np.save(meta["result"], np.array(results, dtype=np.uint64).reshape(-1, len(outs)))

@@ -54,8 +54,8 @@ def cmd_eval(args) -> int:
         values = values[:, None]
     if values.ndim != 2 or values.shape[1] != len(params.inputs):
         names = ", ".join(p.name for p in params.inputs)
-        raise SystemExit(f"error: {src}: expected shape (K,{'' if len(params.inputs) == 1 else ' '}"
-                         f"{len(params.inputs)}) for inputs ({names}), got {values.shape}")
+        raise SystemExit(f"error: {src}: expected shape (K, {len(params.inputs)}) for inputs ({names}), "
+                         f"got {values.shape}")
     if not np.issubdtype(values.dtype, np.floating) and not np.issubdtype(values.dtype, np.integer):
         raise SystemExit(f"error: {src}: expected real numbers (float64), got dtype {values.dtype}")
     try:

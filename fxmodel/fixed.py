@@ -171,7 +171,7 @@ class Fmt:
         in_range = integral & (scaled >= self.min_code) & (scaled <= self.max_code)
         if not np.all(in_range):
             row = int(np.flatnonzero(~in_range)[0])
-            v = flat[row]
+            v = float(flat[row])
             if not finite[row]:
                 why = "is not finite"
             elif not integral[row]:

@@ -278,9 +278,11 @@ class RecipParams(Unit):
         n, m, fo, fq, fd, fr = self.n, self.m, self.fo, self.fq, self.fd, self.fr
         F = self.in_fmt.frac_bits
         X = np.abs(w)                                     # |most negative| = 2**(n-1) fits int64
-        # normalization: bitlen by the float exponent (exact: X < 2**53); X = 0 gives bitlen 0
-        bl = np.frexp(X.astype(np.float64))[1].astype(np.int64)
-        xn = X << (n - bl)                                # n-bit word, top bit set
+        # normalization: bit length bl = e - 1022 from the biased exponent field e of float64(X) (exact as
+        # X < 2**53). X = 0 has e = 0: its shift exceeds 63, which numpy defines to give 0 (the zero flag
+        # below overrides the result anyway, like the hardware's).
+        e = X.astype(np.float64).view(np.int64) >> 52
+        xn = X << ((n + 1022) - e)                        # n-bit word, top bit set
         low = n - m
         idx = (xn >> low) & (self.entries - 1)
         acc_tab, bh_tab = self._tables
@@ -299,11 +301,11 @@ class RecipParams(Unit):
         one = 1 << fo
         # carry out of [1, 2) (the exact value is at most 2 there) or exactly x = 0.5: mantissa 1.0, exponent + 1
         carry = (r >= 2 * one) | (xn == (1 << (n - 1)))
-        r[carry] = one
-        exp = F - bl
-        exp += carry
-        np.negative(r, out=r, where=w < 0)
-        zero = bl == 0
+        r = np.where(carry, one, r)
+        exp = ((F + 1022) - e) + carry                    # F - bl (+1 on carry)
+        sign = w >> 63                                    # -1 where w < 0, else 0
+        r = (r ^ sign) - sign                             # two's-complement negation where w < 0
+        zero = X == 0
         if zero.any():
             r[zero] = self.mant_fmt.max_code
             exp[zero] = F

@@ -1,0 +1,74 @@
+"""``make bench``: throughput of the golden model and of the co-simulation, as medians over repeats.
+
+Model: whole-array ``compute`` over every input of the 24-bit reciprocal (2**24 codes) and over 10**6 random
+divider inputs, median of ``--repeat`` runs, one core. Co-simulation: vectors per second of the per-vector
+cocotb harness on each available simulator (build time excluded). Machines here are shared and noisy: the
+figures are medians, and the ratios between them mean more than any one number.
+
+Writes ``build/bench/bench.json`` and prints a Markdown table.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import platform
+import shutil
+import statistics
+import time
+
+import numpy as np
+from tqdm import tqdm
+
+from fxmodel.unit import preset
+
+from .harness import ROOT, run
+
+
+def model_rate(params, inputs, repeat: int) -> float:
+    params.compute(inputs[:1000])                       # build tables and cached formats outside the timing
+    times = []
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        params.compute(inputs)
+        times.append(time.perf_counter() - t0)
+    return len(inputs) / statistics.median(times)
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(prog="python -m cosim.bench", description=__doc__.split("\n")[0])
+    ap.add_argument("--repeat", type=int, default=5)
+    ap.add_argument("--cosim-vectors", type=int, default=30_000)
+    args = ap.parse_args(argv)
+    rows = []
+    rng = np.random.default_rng(1)
+    jobs = [("model", "recip", "default", "all 2^24 inputs"), ("model", "recip", "small", "all 2^16 inputs"),
+            ("model", "divide", "default", "10^6 random")]
+    sims = [s for s, tool in (("icarus", "iverilog"), ("verilator", "verilator")) if shutil.which(tool)]
+    jobs += [("cosim", "recip", "default", sim) for sim in sims]
+    for kind, unit, name, what in tqdm(jobs, desc="bench", unit="job"):
+        params = preset(unit, name)
+        if kind == "model":
+            inputs = params.all_inputs() if params.input_space() <= 1 << 24 else params.random_inputs(rng, 10 ** 6)
+            rate = model_rate(params, inputs, args.repeat)
+            rows.append({"what": f"model {unit} ({name})", "workload": what, "per_second": rate})
+        else:
+            vectors = params.random_inputs(rng, args.cosim_vectors)
+            res = run(params, vectors, sim=what, tag="bench")
+            if res["mismatches"]:
+                raise SystemExit(res.describe())
+            rows.append({"what": f"co-simulation {unit} ({name}), per-vector cocotb", "workload": what,
+                         "per_second": res["vectors_per_second"]})
+    out = ROOT / "build" / "bench"
+    out.mkdir(parents=True, exist_ok=True)
+    meta = {"machine": platform.platform(), "python": platform.python_version(), "repeat": args.repeat}
+    (out / "bench.json").write_text(json.dumps({"meta": meta, "results": rows}, indent=2))
+    print("\n| measurement | workload | per second |\n|---|---|---:|")
+    for r in rows:
+        print(f"| {r['what']} | {r['workload']} | {r['per_second']:,.0f} |")
+    print(f"\n(written to {out / 'bench.json'})")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

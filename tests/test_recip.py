@@ -1,0 +1,224 @@
+"""Reciprocal and divider golden model (fxmodel.recip) against exact rational / integer math.
+
+The exhaustive test covers all 2**24 inputs of ``default``; hypothesis draws whole parameter sets and checks
+every input of each against the documented bound; each hard case named in the module docstring has a test.
+"""
+
+from fractions import Fraction
+
+import numpy as np
+import pytest
+from hypothesis import assume, given, strategies as st
+
+from fxmodel import exact
+from fxmodel.fixed import Fmt
+from fxmodel.recip import DivideParams, RecipParams
+from fxmodel.unit import preset
+
+DEFAULT = preset("recip", "default")
+
+
+def value(params, code):
+    """Exact real value of the unit's result for one input code."""
+    mant, exp, dbz = (int(v) for v in params.compute(np.array([code]))[0])
+    return Fraction(mant, 1 << params.fo) * Fraction(2) ** exp, dbz
+
+
+def errors_ulp(params, w):
+    out = params.compute(w)
+    return exact.recip_error_ulp(w, out[:, 0], out[:, 1], params.in_fmt.frac_bits, params.fo)
+
+
+# -- exhaustive: the default preset is faithful on every one of the 2**24 inputs ----------------------------------
+def test_default_is_faithful_on_all_inputs():
+    w = DEFAULT.all_inputs()[:, 0]
+    assert len(w) == 1 << 24
+    num, den = errors_ulp(DEFAULT, w)
+    assert np.all(num < den), "some output is 1 ulp or more away from the exact 1/w"
+    assert np.all(exact.within(num[::997], den[::997], DEFAULT.error_bound_ulp))
+    ratios = num / den
+    assert ratios.max() <= float(DEFAULT.error_bound_ulp)
+    assert DEFAULT.error_bound_ulp < 1 and DEFAULT.p >= 16
+
+
+# -- random parameter sets: every input within the documented bound ----------------------------------------------
+@st.composite
+def recip_params(draw):
+    n = draw(st.integers(6, 14))
+    frac = draw(st.integers(0, n))
+    m = draw(st.integers(2, min(n - 1, 8)))
+    t = draw(st.integers(1, 4))
+    p = draw(st.integers(2, 16))
+    b = draw(st.integers(p, p + 6))
+    guard = draw(st.integers(0, 6))
+    center = draw(st.booleans())
+    try:
+        return RecipParams(in_fmt=Fmt(True, n - frac, frac), m=m, b=b, t=t, p=p, guard=guard, center=center)
+    except ValueError:
+        assume(False)
+
+
+@given(recip_params())
+def test_every_input_within_documented_bound(params):
+    w = params.all_inputs()[:, 0]
+    num, den = errors_ulp(params, w)
+    ok = exact.within(num, den, params.error_bound_ulp)
+    assert ok.all(), f"input code {w[~ok][0]} exceeds the bound {float(params.error_bound_ulp)} ulp"
+
+
+@given(recip_params())
+def test_negation_symmetry(params):
+    w = params.all_inputs()[:, 0]
+    w = w[(w != 0) & (w != params.in_fmt.min_code)]     # -w representable, w != 0
+    pos, neg = params.compute(w), params.compute(-w)
+    assert np.array_equal(neg[:, 0], -pos[:, 0]) and np.array_equal(neg[:, 1], pos[:, 1])
+
+
+@given(recip_params())
+def test_powers_of_two_are_exact(params):
+    F = params.in_fmt.frac_bits
+    for k in range(params.n - 1):
+        for code in ((1 << k), -(1 << k)):
+            v, dbz = value(params, code)
+            assert v == Fraction(1 << F, code) and dbz == 0
+
+
+def test_table_words_are_rounded_reciprocals_of_w_h():
+    P = DEFAULT
+    for i, word in enumerate(P.rom):
+        wh = Fraction((1 << (P.m - 1)) + i + 1, 1 << P.m) - Fraction(1, 1 << P.n)   # m bits then all ones
+        exact_b = (1 / wh) * (1 << (P.b - 1))
+        want = int(exact_b + Fraction(1, 2))                                           # round half up
+        assert (1 << (P.b - 1)) + word == want and 0 <= word < (1 << (P.b - 1))
+
+
+# -- hard cases named in the module docstring ----------------------------------------------------------------------
+F = DEFAULT.in_fmt.frac_bits
+
+
+def test_half_gives_exactly_two():
+    assert value(DEFAULT, 1 << (F - 1)) == (2, 0)
+
+
+def test_one_minus_ulp_is_faithful_and_above_one():
+    v, _ = value(DEFAULT, (1 << F) - 1)
+    exact_v = Fraction(1 << F, (1 << F) - 1)
+    assert 1 < v and abs(v - exact_v) < Fraction(1, 1 << DEFAULT.fo)
+
+
+def test_every_table_boundary_and_neighbours_in_every_binade():
+    P = DEFAULT
+    codes = []
+    for k in range(P.m, P.n):
+        for i in range(P.entries):
+            base = ((1 << (P.m - 1)) + i) << (k - P.m)
+            codes += [base - 1, base, base + 1]
+    codes = np.array(codes + [-c for c in codes], dtype=np.int64)
+    codes = codes[(codes >= P.in_fmt.min_code) & (codes <= P.in_fmt.max_code)]
+    num, den = errors_ulp(P, codes)
+    assert len(codes) > 5000 and np.all(num < den)
+    assert np.all(exact.within(num, den, P.error_bound_ulp))
+
+
+def test_smallest_and_largest_magnitudes():
+    P = DEFAULT
+    assert value(P, 1) == (Fraction(1 << F), 0) and value(P, -1) == (-Fraction(1 << F), 0)
+    for code in (P.in_fmt.max_code, -P.in_fmt.max_code):
+        num, den = errors_ulp(P, np.array([code]))
+        assert num[0] < den[0]
+
+
+def test_most_negative_code_is_exact():
+    P = DEFAULT
+    code = P.in_fmt.min_code
+    assert value(P, code) == (Fraction(1 << F, code), 0)
+
+
+def test_zero_saturates_and_flags():
+    P = DEFAULT
+    mant, exp, dbz = P.compute(np.array([0]))[0]
+    assert dbz == 1 and mant == P.mant_fmt.max_code and exp == P.in_fmt.frac_bits
+    # larger than every finite result
+    v, _ = value(P, 0)
+    assert v > value(P, 1)[0]
+
+
+def test_hard_cases_cover_the_named_cases():
+    codes = set(DEFAULT.hard_cases()[:, 0].tolist())
+    fmt = DEFAULT.in_fmt
+    assert {0, 1, -1, fmt.max_code, fmt.min_code, 1 << (F - 1), (1 << F) - 1} <= codes
+
+
+# -- monotonicity is reported, not required; the checker itself must detect a violation --------------------------
+def test_monotonicity_checker_detects_a_violation():
+    w = np.array([1, 2, 3, 4])
+    mant = np.array([8, 4, 5, 2])                 # value at w=3 larger than at w=2
+    rep = exact.recip_monotone(w, mant, np.zeros(4, dtype=np.int64))
+    assert rep == {"monotone": False, "violations": 1, "first": 2}
+    assert exact.recip_monotone(w, np.array([8, 4, 3, 2]), np.zeros(4, dtype=np.int64))["monotone"]
+
+
+# -- invalid parameters name the parameter -------------------------------------------------------------------------
+@pytest.mark.parametrize("changes, name", [
+    (dict(m=24), "m="), (dict(m=30), "m="), (dict(m=1), "m="), (dict(t=0), "t="), (dict(t=5), "t="),
+    (dict(b=16), "b="), (dict(p=1, b=4), "p="), (dict(guard=-1), "guard="), (dict(table="best"), "table="),
+    (dict(in_fmt=Fmt(False, 8, 16)), "in_fmt="), (dict(center=1), "center="),
+])
+def test_invalid_parameters_raise_naming_the_parameter(changes, name):
+    with pytest.raises(ValueError, match=name):
+        DEFAULT.replace(**changes)
+
+
+def test_non_integer_parameters_are_type_errors():
+    with pytest.raises(TypeError, match="m must be an int"):
+        DEFAULT.replace(m=7.0)
+
+
+def test_out_of_range_input_code_is_refused():
+    with pytest.raises(ValueError, match="recip input w: row 1"):
+        DEFAULT.compute(np.array([0, 1 << 23]))
+
+
+# -- divider ---------------------------------------------------------------------------------------------------------
+DIV = preset("divide", "default")
+
+
+@given(st.lists(st.tuples(st.integers(DIV.num_fmt.min_code, DIV.num_fmt.max_code),
+                          st.integers(DIV.recip.in_fmt.min_code, DIV.recip.in_fmt.max_code)), min_size=1, max_size=50))
+def test_divide_within_bound_or_saturated(pairs):
+    nd = np.array(pairs, dtype=np.int64)
+    out = DIV.compute(nd)
+    nf, df, of = DIV.num_fmt, DIV.recip.in_fmt, DIV.out_fmt
+    for (n, d), (q, dbz, ovf) in zip(nd.tolist(), out.tolist()):
+        if d == 0:
+            assert dbz == 1 and q == (of.max_code if n > 0 else of.min_code if n < 0 else 0) and ovf == (n != 0)
+            continue
+        ratio = Fraction(n, 1 << nf.frac_bits) / Fraction(d, 1 << df.frac_bits)
+        got = Fraction(q, 1 << of.frac_bits)
+        if ovf:      # saturated: only when the exact quotient (within the bound) leaves the format
+            assert got in (of.max_value, of.min_value) and (ratio > of.max_value - DIV.error_bound(abs(ratio))
+                                                          or ratio < of.min_value + DIV.error_bound(abs(ratio)))
+            assert (got > 0) == (ratio > 0)
+        else:
+            assert abs(got - ratio) <= DIV.error_bound(abs(ratio))
+
+
+def test_divide_exact_quotients_of_one():
+    d = np.array([1, 5, 1000, 1 << 13, -(1 << 14), DIV.recip.in_fmt.max_code], dtype=np.int64)
+    out = DIV.compute(np.stack([d, d], 1))
+    err = [abs(Fraction(int(q), 1 << DIV.out_fmt.frac_bits) - 1) for q in out[:, 0]]
+    assert max(err) <= DIV.error_bound(Fraction(1)) and not out[:, 1:].any()
+
+
+def test_divide_measure_reports_within_bound():
+    rng = np.random.default_rng(3)
+    nd = np.concatenate([DIV.hard_cases(), DIV.random_inputs(rng, 50_000)])
+    rep = exact.MEASURES["divide"](DIV, nd, DIV.compute(nd))
+    assert rep["vectors"] > 10_000 and rep["within_bound"] and rep["max_error"] <= rep["bound"]
+
+
+def test_divide_invalid_parameters():
+    with pytest.raises(ValueError, match="num_fmt="):
+        DivideParams(num_fmt=Fmt(False, 2, 14))
+    with pytest.raises(ValueError, match="quotient_limit="):
+        DivideParams(quotient_limit=0)

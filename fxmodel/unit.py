@@ -153,9 +153,14 @@ def register(cls):
     return cls
 
 
+#: File stems of the units, the same in ``fxmodel/``, ``rtl/``, ``cosim/`` and ``tests/`` (importing registers).
+UNIT_MODULES = ("recip", "bump")
+
+
 def _load_all():
-    # Importing the unit modules registers them.
-    from . import recip  # noqa: F401
+    import importlib
+    for stem in UNIT_MODULES:
+        importlib.import_module(f"{__package__}.{stem}")
 
 
 def units() -> list[str]:

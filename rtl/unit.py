@@ -90,7 +90,14 @@ def register(params_cls):
 
 def build(params) -> wiring.Component:
     """The RTL component of a parameter object."""
-    from . import recip  # noqa: F401  (registers)
+    import importlib
+
+    # the RTL of a unit lives under its model's file stem: fxmodel/recip.py -> rtl/recip.py
+    stem = type(params).__module__.rpartition(".")[2]
+    try:
+        importlib.import_module(f"{__package__}.{stem}")
+    except ModuleNotFoundError:
+        pass
     try:
         return _COMPONENTS[type(params)](params)
     except KeyError:

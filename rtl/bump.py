@@ -1,0 +1,53 @@
+"""RTL of the bump engine ``N' = N + du A[:,0] + dv A[:,1]`` (paper section 3.2, Fig. 6), from ``BumpParams``."""
+
+from __future__ import annotations
+
+from amaranth.hdl import Module
+
+from fxmodel.bump import AXES, BumpParams
+from fxmodel.rounding import Overflow
+
+from .fixed import narrow
+from .unit import Pipe, UnitComponent, register
+
+__all__ = ["Bump"]
+
+
+@register(BumpParams)
+class Bump(UnitComponent):
+    """Bump engine: six multipliers, three three-input adders, one narrowing per component.
+
+    Ports (formats from :class:`~fxmodel.bump.BumpParams`)
+    -----------------------------------------------------
+    i_valid : Signal(1), in
+    Nx, Ny, Nz : Signal(signed), in -- ``n_fmt`` (``s2.16`` for ``default``)
+    du, dv : Signal(signed), in -- ``d_fmt`` (``s1.9``)
+    A00, A10, A20, A01, A11, A21 : Signal(signed), in -- ``a_fmt`` (``s2.14``)
+    o_valid : Signal(1), out
+    Npx, Npy, Npz : Signal(signed), out -- ``out_fmt`` (``s2.16``), rounded by ``rounding``, saturated
+    saturated : Signal(1), out -- some component was clamped
+
+    Latency: 2 (products | sum, round, saturate).
+    """
+
+    def elaborate(self, platform):
+        P = self.params
+        m = Module()
+        pipe = Pipe(m)
+        terms = {}
+        for i, c in enumerate(AXES):
+            terms[f"n{c}"] = getattr(self, f"N{c}")
+            terms[f"pu{c}"] = self.du * getattr(self, f"A{i}0")
+            terms[f"pv{c}"] = self.dv * getattr(self, f"A{i}1")
+        s = pipe.stage(**terms)
+        sn = P.frac - P.n_fmt.frac_bits
+        sp = P.frac - P.prod_fmt.frac_bits
+        outs, flags = {}, []
+        for c in AXES:
+            exact = (getattr(s, f"n{c}") << sn) + ((getattr(s, f"pu{c}") + getattr(s, f"pv{c}")) << sp)
+            value, flag = narrow(exact, P.frac, P.out_fmt, P.rounding, Overflow.SATURATE)
+            outs[f"Np{c}"] = value
+            flags.append(flag)
+        outs["saturated"] = flags[0] | flags[1] | flags[2]
+        self.finish(m, pipe, outs)
+        return m

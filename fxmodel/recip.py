@@ -224,6 +224,22 @@ class RecipParams(Unit):
     def table_bits(self) -> int:
         return self.entries * self.rom_bits
 
+    # -- using the result: x * (1/w) ----------------------------------------------------------------------
+    def shift_plan(self, prod_frac: int, out_frac: int) -> tuple[int, int]:
+        """``(pre_shift, shift_min)`` to turn ``prod * 2**exp`` (``prod = x * mant`` with ``prod_frac``
+        fraction bits) into ``out_frac`` fraction bits: shift ``prod`` left by ``pre_shift`` (so that every
+        data-dependent shift is a right shift), then right by ``shift_min + pre_shift + (exp_max - exp)``."""
+        shift_min = prod_frac - out_frac - self.exp_fmt.max_code
+        return max(0, -shift_min), shift_min
+
+    def scale(self, prod, prod_frac: int, exp, out_frac: int, rounding: Rounding):
+        """``prod * 2**exp`` rounded to ``out_frac`` fraction bits: the barrel shifter after ``x * mant``.
+
+        Shared by every user of the reciprocal (divider, cube address, perspective texture coordinates);
+        ``rtl.recip.scale`` is its hardware twin."""
+        pre, shift_min = self.shift_plan(prod_frac, out_frac)
+        return shift_round(prod << pre, shift_min + pre + (self.exp_fmt.max_code - exp), rounding)
+
     # -- ports --------------------------------------------------------------------------------------------
     @property
     def inputs(self):
@@ -462,7 +478,7 @@ class DivideParams(Unit):
     @property
     def pre_shift(self) -> int:
         """Left shift applied first so that every data-dependent shift is a right shift."""
-        return max(0, -self.shift_range[0])
+        return self.recip.shift_plan(self.prod_fmt.frac_bits, self.out_fmt.frac_bits)[0]
 
     @property
     def inputs(self):
@@ -481,9 +497,7 @@ class DivideParams(Unit):
     def _compute(self, cols):
         n, d = cols
         mant, exp, dbz = self.recip.recip_codes(d)
-        prod = (n * mant) << self.pre_shift
-        shift = self.shift_range[0] + self.pre_shift + (self.recip.exp_fmt.max_code - exp)
-        y = shift_round(prod, shift, Rounding.HALF_UP)
+        y = self.recip.scale(n * mant, self.prod_fmt.frac_bits, exp, self.out_fmt.frac_bits, Rounding.HALF_UP)
         q, ovf = saturate(y, self.out_fmt, Overflow.SATURATE)
         dz = dbz.astype(bool)
         q = np.where(dz, np.sign(n) * np.where(n > 0, self.out_fmt.max_code, -self.out_fmt.min_code), q)

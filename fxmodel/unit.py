@@ -135,9 +135,13 @@ def _jsonable(value):
         return str(value)
     if isinstance(value, Unit):
         return {f.name: _jsonable(getattr(value, f.name)) for f in dataclasses.fields(value)}
-    if hasattr(value, "value") and not isinstance(value, (int, float, str, bool)):
+    if isinstance(value, (tuple, list)):
+        return [_jsonable(v) for v in value]
+    if isinstance(value, (int, float, str, bool)) or value is None:
+        return value
+    if hasattr(value, "value"):                      # enums
         return value.value
-    return value
+    return repr(value)                               # e.g. a texel memory: shape and digest
 
 
 _UNITS: dict[str, type] = {}
@@ -154,7 +158,7 @@ def register(cls):
 
 
 #: File stems of the units, the same in ``fxmodel/``, ``rtl/``, ``cosim/`` and ``tests/`` (importing registers).
-UNIT_MODULES = ("recip", "bump")
+UNIT_MODULES = ("recip", "persp", "bump", "sampler")
 
 
 def _load_all():

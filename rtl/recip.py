@@ -15,7 +15,15 @@ from fxmodel.rounding import Overflow, Rounding
 from .fixed import narrow, saturate, shift_round
 from .unit import Pipe, UnitComponent, register
 
-__all__ = ["Recip", "Divide"]
+__all__ = ["Recip", "Divide", "scale"]
+
+
+def scale(prod, prod_frac: int, exp, recip: RecipParams, out_frac: int, rounding: Rounding):
+    """Twin of :meth:`fxmodel.recip.RecipParams.scale`: ``prod * 2**exp`` rounded to ``out_frac`` fraction bits
+    (pre-shift left, then a data-dependent right shift with rounding: a barrel shifter)."""
+    pre, shift_min = recip.shift_plan(prod_frac, out_frac)
+    amount = (shift_min + pre + recip.exp_fmt.max_code - exp).as_unsigned()
+    return shift_round(prod << pre, amount, rounding)
 
 
 @register(RecipParams)
@@ -126,9 +134,7 @@ class Divide(UnitComponent):
         n_late = pipe.delay(self.n, R.latency, "num")
         pipe.depth = R.latency
         s = pipe.stage(prod=n_late * rcp.mant, exp=rcp.exp, dbz=rcp.dbz, n=n_late)
-        # data-dependent right shift: shift_min + pre_shift + (exp_max - exp) >= 0
-        amount = (P.shift_range[0] + P.pre_shift + R.exp_fmt.max_code - s.exp).as_unsigned()
-        y = shift_round(s.prod << P.pre_shift, amount, Rounding.HALF_UP)
+        y = scale(s.prod, P.prod_fmt.frac_bits, s.exp, R, P.out_fmt.frac_bits, Rounding.HALF_UP)
         q, ovf = saturate(y, P.out_fmt, Overflow.SATURATE)
         fmt = P.out_fmt
         q_dbz = Mux(s.n > 0, fmt.max_code, Mux(s.n < 0, fmt.min_code, 0))

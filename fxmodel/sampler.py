@@ -1,0 +1,303 @@
+r"""Texture sampler: repeat or clamp addressing, nearest or bilinear filtering, from a texel memory.
+
+One unit serves every lookup of the pixel pipeline (paper sections 3.2 and 4): the bump map ``(du, dv)`` and the
+color texture at the perspective-correct address ``(u/w, v/w)`` (repeat-wrapped, any map size: the paper's
+Fig. 9 bump map is 40 x 40, not a power of two), and the diffuse and specular reflectance cubes at
+``(face, s, t)`` from the cube address unit (clamped at face edges).
+
+Algorithm (bit-exact; ``rtl/sampler.py`` builds the same datapath from the same :class:`SamplerParams`)
+-------------------------------------------------------------------------------------------------------
+Coordinates ``s, t`` are codes of ``coord_fmt`` with ``T`` fraction bits.
+
+1. **Edge rule.** ``repeat``: keep the fraction bits, ``s - floor(s)`` in ``[0, 1)`` -- the texture's repeat,
+   exact for negative coordinates and coordinates far outside ``[0, 1)`` (two's complement makes it free: the
+   integer bits are simply not used). ``clamp``: ``s`` clamped to ``[0, 1]`` (clamp-to-edge; the cube unit's
+   ``s, t`` are already in ``[0, 1]``, so the clamp is idle there).
+2. **Texel position** for a map of ``W`` texels: nearest ``i = floor(s W)`` (``s = 1`` gives ``W - 1`` under
+   clamp); bilinear ``x = s W - 1/2`` exactly (``T + 1`` fraction bits), ``i0 = floor(x)``, ``i1 = i0 + 1``,
+   ``fx`` = the fraction of ``x`` truncated to ``weight_bits`` (``Rounding.TRUNC``). ``repeat`` wraps
+   ``i0 = -1`` to ``W - 1`` and ``i1 = W`` to ``0`` (one comparison each: ``x`` lies in ``[-1/2, W - 1/2)``); ``clamp``
+   clamps both to ``[0, W - 1]``. The same for ``t`` with ``H``.
+3. **Fetch** the texels at ``(face H + j) W + i``: one read port for nearest, four for bilinear.
+4. **Bilinear blend**, exact: ``top = a 2**B + fx (b - a)``, ``bot = c 2**B + fx (d - c)``,
+   ``v = top 2**B + fy (bot - top)`` (``B = weight_bits``), then one narrowing to the channel's format,
+   ``Rounding.HALF_UP`` and ``Overflow.PROVEN`` (a convex combination of four codes of a format, rounded to
+   nearest, stays within their range: the result lies between the smallest and largest of the four texels).
+
+Properties (tested): periodic with the map size under ``repeat``; a bilinear sample lies within the range of
+its four texels and equals a texel exactly at its center (``fx = fy = 0``); nearest returns a stored texel.
+Hard cases (each has a test): coordinates 0, 1 - ulp, 1, texel centers and texel edges, negative coordinates and
+coordinates far outside ``[0, 1)``, every face.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from dataclasses import dataclass
+from functools import cached_property
+
+import numpy as np
+
+from .fixed import Fmt
+from .rounding import Overflow, Rounding, narrow
+from .unit import Port, Unit, register
+
+__all__ = ["Texels", "SamplerParams", "FILTERS", "EDGES"]
+
+FILTERS = ("nearest", "bilinear")
+EDGES = ("repeat", "clamp")
+
+
+class Texels:
+    """A read-only texel memory: codes of shape ``(faces, height, width, channels)``.
+
+    Compared and hashed by content (a SHA-1 digest), so parameter objects holding one stay hashable and their
+    ``repr`` (used to key build caches) is short.
+    """
+
+    def __init__(self, codes):
+        arr = np.array(codes, dtype=np.int64)
+        if arr.ndim != 4:
+            raise ValueError(f"texels must have shape (faces, height, width, channels), not {arr.shape}")
+        arr.setflags(write=False)
+        self.codes = arr
+        self.digest = hashlib.sha1(repr(arr.shape).encode() + arr.tobytes()).hexdigest()
+
+    @property
+    def shape(self):
+        return self.codes.shape
+
+    def __eq__(self, other):
+        return isinstance(other, Texels) and other.digest == self.digest
+
+    def __hash__(self):
+        return hash(self.digest)
+
+    def __repr__(self):
+        return f"Texels(shape={self.shape}, sha1={self.digest[:12]})"
+
+
+def _require(cond, param, value, why):
+    if not cond:
+        raise ValueError(f"{param}={value!r}: {why}")
+
+
+@dataclass(frozen=True)
+class SamplerParams(Unit):
+    """Parameters of a texture sampler.
+
+    Parameters
+    ----------
+    texels : Texels
+        The memory, ``(faces, height, width, channels)`` codes; ``faces`` is 1 (a texture) or 6 (a cube map,
+        with a ``face`` input port).
+    channels : tuple of Fmt
+        Format of each channel (the outputs have the same formats).
+    coord_fmt : Fmt
+        Format of the ``s, t`` inputs.
+    filter : str
+        ``nearest`` or ``bilinear``.
+    edge : str
+        ``repeat`` or ``clamp``.
+    weight_bits : int
+        Bits of the bilinear weights ``fx, fy`` (``u0.weight_bits``).
+    names : tuple of str
+        Output port names, one per channel.
+    """
+
+    NAME = "sampler"
+
+    texels: Texels
+    channels: tuple
+    coord_fmt: Fmt = Fmt(True, 8, 16)
+    filter: str = "bilinear"
+    edge: str = "repeat"
+    weight_bits: int = 8
+    names: tuple = ()
+
+    def __post_init__(self):
+        _require(isinstance(self.texels, Texels), "texels", self.texels, "must be a Texels")
+        faces, h, w, ch = self.texels.shape
+        _require(faces in (1, 6), "texels", self.texels, "must have 1 face (texture) or 6 (cube map)")
+        _require(h >= 1 and w >= 1, "texels", self.texels, "must have at least one texel")
+        _require(isinstance(self.channels, tuple) and len(self.channels) == ch
+                 and all(isinstance(c, Fmt) for c in self.channels), "channels", self.channels,
+                 f"must be a tuple of {ch} Fmt (one per channel of the texels)")
+        for k, fmt in enumerate(self.channels):
+            col = self.texels.codes[..., k]
+            _require(bool(np.all((col >= fmt.min_code) & (col <= fmt.max_code))), "texels", self.texels,
+                     f"channel {k} has codes outside {fmt}")
+        _require(isinstance(self.coord_fmt, Fmt) and self.coord_fmt.frac_bits >= 1, "coord_fmt", self.coord_fmt,
+                 "must be an Fmt with at least one fraction bit")
+        _require(self.filter in FILTERS, "filter", self.filter, f"must be one of {FILTERS}")
+        _require(self.edge in EDGES, "edge", self.edge, f"must be one of {EDGES}")
+        _require(isinstance(self.weight_bits, int) and 1 <= self.weight_bits <= 16, "weight_bits",
+                 self.weight_bits, "must be an int in 1..16")
+        _require(self.weight_bits <= self.coord_fmt.frac_bits + 1, "weight_bits", self.weight_bits,
+                 f"cannot exceed the coordinate's fraction bits + 1 = {self.coord_fmt.frac_bits + 1}")
+        _require(isinstance(self.names, tuple) and len(self.names) in (0, ch), "names", self.names,
+                 f"must be empty or name all {ch} channels")
+        _require(max(w, h).bit_length() + self.coord_fmt.frac_bits + 2 <= 62, "texels", self.texels,
+                 "map too large for int64 texel positions")
+
+    # -- shape facts (the RTL reads these) ----------------------------------------------------------------
+    @property
+    def faces(self) -> int:
+        return self.texels.shape[0]
+
+    @property
+    def height(self) -> int:
+        return self.texels.shape[1]
+
+    @property
+    def width(self) -> int:
+        return self.texels.shape[2]
+
+    @property
+    def depth(self) -> int:
+        """Words in the memory."""
+        return self.faces * self.height * self.width
+
+    @property
+    def bilinear(self) -> bool:
+        return self.filter == "bilinear"
+
+    @cached_property
+    def out_names(self) -> tuple:
+        return self.names or tuple(f"c{k}" for k in range(len(self.channels)))
+
+    @cached_property
+    def words(self) -> list:
+        """Memory words: the channels' bit patterns packed, channel 0 in the low bits."""
+        codes = self.texels.codes.reshape(self.depth, -1)
+        word = np.zeros(self.depth, dtype=object)
+        shift = 0
+        for k, fmt in enumerate(self.channels):
+            word = word + (np.asarray(fmt.to_bits(codes[:, k]), dtype=object) << shift)
+            shift += fmt.width
+        return [int(v) for v in word]
+
+    @property
+    def word_bits(self) -> int:
+        return sum(f.width for f in self.channels)
+
+    # -- ports --------------------------------------------------------------------------------------------
+    @property
+    def inputs(self):
+        ports = (Port("s", self.coord_fmt, "horizontal texture coordinate"),
+                 Port("t", self.coord_fmt, "vertical texture coordinate"))
+        if self.faces == 6:
+            ports = (Port("face", Fmt(False, 3, 0), "cube face 0..5"),) + ports
+        return ports
+
+    @property
+    def outputs(self):
+        return tuple(Port(n, f, "sampled channel") for n, f in zip(self.out_names, self.channels))
+
+    @property
+    def latency(self) -> int:
+        """Address | memory read | [blend in x | blend in y] | output register."""
+        return 5 if self.bilinear else 3
+
+    # -- bit-exact model ----------------------------------------------------------------------------------
+    def edge_rule(self, s):
+        """Step 1: repeat (fraction bits) or clamp to [0, 1]; returns codes with ``T`` fraction bits."""
+        T = self.coord_fmt.frac_bits
+        if self.edge == "repeat":
+            return s & ((1 << T) - 1)
+        return np.clip(s, 0, 1 << T)
+
+    def positions(self, s, size: int):
+        """Step 2: ``(i0, i1, f)`` texel indices and weight codes along one axis (``i1``, ``f`` unused for
+        nearest)."""
+        T = self.coord_fmt.frac_bits
+        s = self.edge_rule(s)
+        if not self.bilinear:
+            i = (s * size) >> T
+            return np.minimum(i, size - 1), None, None
+        x = s * (2 * size) - (1 << T)                    # s W - 1/2 with T + 1 fraction bits
+        i0 = x >> (T + 1)
+        f = (x & ((1 << (T + 1)) - 1)) >> (T + 1 - self.weight_bits)
+        i1 = i0 + 1
+        if self.edge == "repeat":
+            i0 = np.where(i0 < 0, size - 1, i0)
+            i1 = np.where(i1 >= size, 0, i1)
+        else:
+            i0 = np.clip(i0, 0, size - 1)
+            i1 = np.clip(i1, 0, size - 1)
+        return i0, i1, f
+
+    def blend(self, a, b, c, d, fx, fy, fmt: Fmt):
+        """Step 4: exact bilinear blend of codes, one half-up narrowing to ``fmt``."""
+        B = self.weight_bits
+        top = (a << B) + fx * (b - a)
+        bot = (c << B) + fx * (d - c)
+        v = (top << B) + fy * (bot - top)
+        out, _ = narrow(v, 2 * B + fmt.frac_bits, fmt, Rounding.HALF_UP, Overflow.PROVEN, "sampler blend")
+        return out
+
+    def sample(self, face, s, t):
+        """Channel codes ``(K, channels)`` at ``(face, s, t)`` code arrays."""
+        tex = self.texels.codes
+        i0, i1, fx = self.positions(s, self.width)
+        j0, j1, fy = self.positions(t, self.height)
+        if not self.bilinear:
+            return tex[face, j0, i0]
+        a, b, c, d = tex[face, j0, i0], tex[face, j0, i1], tex[face, j1, i0], tex[face, j1, i1]
+        return np.stack([self.blend(a[:, k], b[:, k], c[:, k], d[:, k], fx, fy, fmt)
+                         for k, fmt in enumerate(self.channels)], axis=1)
+
+    def _compute(self, cols):
+        if self.faces == 6:
+            face, s, t = cols
+            if np.any(face > 5):
+                raise ValueError(f"sampler input face: row {int(np.flatnonzero(face > 5)[0])}: face > 5")
+        else:
+            s, t = cols
+            face = np.zeros_like(s)
+        out = self.sample(face, s, t)
+        return [out[:, k] for k in range(out.shape[1])]
+
+    def random_inputs(self, rng, k):
+        cols = super().random_inputs(rng, k)
+        if self.faces == 6:
+            cols[:, 0] %= 6
+        return cols
+
+    def hard_cases(self) -> np.ndarray:
+        T = self.coord_fmt.frac_bits
+        one = 1 << T
+        fmt = self.coord_fmt
+        vals = {0, 1, one - 1, one, one + 1, one // 2, fmt.max_code, fmt.min_code, -1, -one, 3 * one + 5}
+        for size in (self.width, self.height):
+            for i in range(size + 1):
+                vals |= {(i * one) // size, (2 * i + 1) * one // (2 * size)}   # texel edges and centres
+        vals = np.array(sorted(v for v in vals if fmt.min_code <= v <= fmt.max_code), dtype=np.int64)
+        grid = np.array(np.meshgrid(vals, vals[:: max(1, len(vals) // 24)])).reshape(2, -1).T
+        if self.faces == 6:
+            grid = np.concatenate([np.column_stack([np.full(len(grid), f), grid]) for f in range(6)])
+        return grid
+
+    def _info(self):
+        return {"texels": list(self.texels.shape), "filter": self.filter, "edge": self.edge,
+                "weight_bits": self.weight_bits, "memory_bits": self.depth * self.word_bits,
+                "max_error": {n: float(f.ulp / 2) if self.bilinear else 0.0
+                              for n, f in zip(self.out_names, self.channels)}}
+
+
+def _demo_texels() -> Texels:
+    """A 5 x 7 two-channel signed map (odd sizes on purpose) for the presets and tests."""
+    rng = np.random.default_rng(1995)
+    return Texels(rng.integers(-512, 512, size=(1, 5, 7, 2)))
+
+
+SamplerParams.PRESETS = {
+    "default": SamplerParams(texels=_demo_texels(), channels=(Fmt(True, 1, 9), Fmt(True, 1, 9)),
+                             names=("du", "dv")),
+    "nearest": SamplerParams(texels=_demo_texels(), channels=(Fmt(True, 1, 9), Fmt(True, 1, 9)),
+                             filter="nearest", names=("du", "dv")),
+    "cube": SamplerParams(texels=Texels(np.random.default_rng(7).integers(0, 4096, size=(6, 4, 4, 3))),
+                          channels=(Fmt(False, 2, 10),) * 3, coord_fmt=Fmt(False, 1, 16), edge="clamp",
+                          names=("r", "g", "b")),
+}
+register(SamplerParams)

@@ -1,0 +1,50 @@
+"""RTL of the perspective texture-coordinate unit ``s = U/W``, ``t = V/W`` (repeat-wrapped), from
+``fxmodel.persp.PerspParams``: one reciprocal, two products, two barrel shifts (``rtl.recip.scale``)."""
+
+from __future__ import annotations
+
+from amaranth.hdl import Module, Mux
+
+from fxmodel.persp import PerspParams
+from fxmodel.rounding import Rounding
+
+from .recip import Recip, scale
+from .unit import Pipe, UnitComponent, register
+
+__all__ = ["Persp"]
+
+
+@register(PerspParams)
+class Persp(UnitComponent):
+    """Perspective-correct texture coordinates.
+
+    Ports (formats from :class:`~fxmodel.persp.PerspParams`)
+    -------------------------------------------------------
+    i_valid : Signal(1), in
+    U, V : Signal(signed), in -- ``uv_fmt`` (``s8.16``)
+    W : Signal(signed), in -- ``recip.in_fmt`` (``s8.16``)
+    o_valid : Signal(1), out
+    s, t : Signal(unsigned(coord_bits)), out -- ``u0.coord_bits``: ``U/W`` and ``V/W`` modulo 1
+    dbz : Signal(1), out -- ``W`` was zero (``s = t = 0``)
+
+    Latency: ``recip.latency + 2``.
+    """
+
+    def elaborate(self, platform):
+        P = self.params
+        R = P.recip
+        m = Module()
+        m.submodules.recip = rcp = Recip(R)
+        m.d.comb += [rcp.w.eq(self.W), rcp.i_valid.eq(self.i_valid)]
+        pipe = Pipe(m)
+        u_late = pipe.delay(self.U, R.latency, "u")
+        v_late = pipe.delay(self.V, R.latency, "v")
+        pipe.depth = R.latency
+        s = pipe.stage(pu=u_late * rcp.mant, pv=v_late * rcp.mant, exp=rcp.exp, dbz=rcp.dbz)
+        outs = {}
+        for name, prod in (("s", s.pu), ("t", s.pv)):
+            y = scale(prod, P.prod_frac, s.exp, R, P.coord_bits, Rounding.HALF_UP)
+            outs[name] = Mux(s.dbz, 0, y[:P.coord_bits])                  # repeat rule: the fraction bits
+        outs["dbz"] = s.dbz
+        self.finish(m, pipe, outs)
+        return m

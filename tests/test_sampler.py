@@ -1,0 +1,142 @@
+"""Texture sampler (fxmodel.sampler) against exact rational math: addressing, wrap, clamp, bilinear blend."""
+
+import math
+from fractions import Fraction
+
+import numpy as np
+import pytest
+from hypothesis import given, strategies as st
+
+from fxmodel.fixed import Fmt
+from fxmodel.sampler import SamplerParams, Texels
+from fxmodel.unit import preset
+
+
+def texels_strategy():
+    return st.tuples(st.integers(1, 7), st.integers(1, 9), st.integers(0, 2**31 - 1))
+
+
+def make(shape, seed, **kw):
+    h, w = shape
+    codes = np.random.default_rng(seed).integers(-512, 512, size=(1, h, w, 2))
+    return SamplerParams(texels=Texels(codes), channels=(Fmt(True, 1, 9),) * 2, **kw)
+
+
+def exact_sample(params, face, s, t):
+    """Independent exact evaluation with fractions of the documented sampling rule."""
+    T = params.coord_fmt.frac_bits
+    B = params.weight_bits
+    tex = params.texels.codes
+
+    def axis(code, size):
+        v = Fraction(code, 1 << T)
+        v = v - math.floor(v) if params.edge == "repeat" else min(max(v, Fraction(0)), Fraction(1))
+        if params.filter == "nearest":
+            return min(math.floor(v * size), size - 1), None, None
+        x = v * size - Fraction(1, 2)
+        i0 = math.floor(x)
+        f = Fraction(math.floor((x - i0) * (1 << B)), 1 << B)   # weight truncated to B bits
+        i1 = i0 + 1
+        if params.edge == "repeat":
+            i0, i1 = i0 % size, i1 % size
+        else:
+            i0, i1 = min(max(i0, 0), size - 1), min(max(i1, 0), size - 1)
+        return i0, i1, f
+
+    i0, i1, fx = axis(s, params.width)
+    j0, j1, fy = axis(t, params.height)
+    if params.filter == "nearest":
+        return [int(v) for v in tex[face, j0, i0]], None
+    out, corners = [], []
+    for k, fmt in enumerate(params.channels):
+        a, b, c, d = (Fraction(int(tex[face, j, i, k])) for j, i in ((j0, i0), (j0, i1), (j1, i0), (j1, i1)))
+        v = (a * (1 - fx) + b * fx) * (1 - fy) + (c * (1 - fx) + d * fx) * fy
+        out.append(math.floor(v + Fraction(1, 2)))
+        corners.append((a, b, c, d))
+    return out, corners
+
+
+@given(texels_strategy(), st.sampled_from(["bilinear", "nearest"]), st.sampled_from(["repeat", "clamp"]),
+       st.integers(1, 8), st.lists(st.tuples(st.integers(-(1 << 23), (1 << 23) - 1),
+                                             st.integers(-(1 << 23), (1 << 23) - 1)), min_size=1, max_size=20))
+def test_matches_exact_sampling_rule(tex, flt, edge, wb, coords):
+    h, w, seed = tex
+    params = make((h, w), seed, filter=flt, edge=edge, weight_bits=wb)
+    st_codes = np.array(coords, dtype=np.int64)
+    out = params.compute(st_codes)
+    for (s, t), got in zip(coords, out.tolist()):
+        want, corners = exact_sample(params, 0, s, t)
+        assert got == want
+        if corners:        # a bilinear sample lies within the range of its four texels
+            for k, (a, b, c, d) in enumerate(corners):
+                assert min(a, b, c, d) <= got[k] <= max(a, b, c, d)
+
+
+@given(texels_strategy(), st.integers(-(1 << 20), 1 << 20), st.integers(-(1 << 20), 1 << 20), st.integers(-5, 5))
+def test_repeat_is_periodic_with_the_map(tex, s, t, k):
+    h, w, seed = tex
+    params = make((h, w), seed)
+    one = 1 << params.coord_fmt.frac_bits
+    base = params.compute(np.array([[s, t]]))
+    moved = params.compute(np.array([[s + k * one, t - k * one]]))
+    assert np.array_equal(base, moved)
+
+
+@pytest.mark.parametrize("filt", ["bilinear", "nearest"])
+def test_texel_centres_return_the_texel_exactly(filt):
+    params = make((5, 7), 3, filter=filt)
+    T = params.coord_fmt.frac_bits
+    tex = params.texels.codes[0]
+    for j in range(5):
+        for i in range(7):
+            # centre (i + 1/2) / W is not a multiple of 2**-T for W = 7: take the code nearest to it from above
+            s = -(-((2 * i + 1) << T) // (2 * 7))
+            t = -(-((2 * j + 1) << T) // (2 * 5))
+            got = params.compute(np.array([[s, t]]))[0]
+            if filt == "nearest":
+                assert got.tolist() == tex[j, i].tolist()
+            else:   # weights truncate to 8 bits: just above the centre, the weight is exactly 0
+                assert got.tolist() == tex[j, i].tolist()
+
+
+def test_hard_coordinates_negative_and_far_outside():
+    params = preset("sampler", "default")
+    one = 1 << params.coord_fmt.frac_bits
+    rows = np.array([[0, 0], [one - 1, one - 1], [-1, -1], [-one, 0], [100 * one + 7, -37 * one + 7],
+                     [params.coord_fmt.max_code, params.coord_fmt.min_code]])
+    out = params.compute(rows)
+    for (s, t), got in zip(rows.tolist(), out.tolist()):
+        assert got == exact_sample(params, 0, s, t)[0]
+    # -1 ulp wraps to just below 1: the same as 1 - ulp
+    assert out[1].tolist() == out[2].tolist()
+
+
+def test_cube_faces_and_clamped_edges():
+    params = preset("sampler", "cube")
+    one = 1 << params.coord_fmt.frac_bits
+    tex = params.texels.codes
+    for face in range(6):
+        rows = np.array([[face, 0, 0], [face, one, one], [face, one, 0]])
+        out = params.compute(rows)
+        # clamp: s = t = 0 is the corner texel, s = t = 1 the opposite corner, exactly
+        assert out[0].tolist() == tex[face, 0, 0].tolist() and out[1].tolist() == tex[face, -1, -1].tolist()
+        assert out[2].tolist() == tex[face, 0, -1].tolist()
+
+
+@pytest.mark.parametrize("kw, name", [(dict(filter="cubic"), "filter="), (dict(edge="mirror"), "edge="),
+                                      (dict(weight_bits=0), "weight_bits="), (dict(weight_bits=30), "weight_bits="),
+                                      (dict(channels=(Fmt(True, 1, 9),)), "channels="),
+                                      (dict(channels=(Fmt(True, 1, 5),) * 2), "texels="),
+                                      (dict(names=("a",)), "names=")])
+def test_invalid_parameters_name_the_parameter(kw, name):
+    base = dict(texels=Texels(np.zeros((1, 2, 2, 2), dtype=np.int64) + 100), channels=(Fmt(True, 1, 9),) * 2)
+    with pytest.raises(ValueError, match=name):
+        SamplerParams(**(base | kw))
+
+
+def test_texels_compare_by_content():
+    a = Texels(np.ones((1, 2, 2, 1)))
+    assert a == Texels(np.ones((1, 2, 2, 1))) and a != Texels(np.zeros((1, 2, 2, 1)))
+    assert hash(a) == hash(Texels(np.ones((1, 2, 2, 1)))) and "sha1=" in repr(a)
+    with pytest.raises(ValueError, match="shape"):
+        Texels(np.ones((2, 2)))

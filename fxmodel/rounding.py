@@ -23,7 +23,7 @@ import numpy as np
 
 from .fixed import Fmt
 
-__all__ = ["Rounding", "Overflow", "shift_round", "saturate", "narrow"]
+__all__ = ["Rounding", "Overflow", "shift_round", "saturate", "narrow", "quantize"]
 
 
 class Rounding(Enum):
@@ -117,3 +117,28 @@ def narrow(x, from_frac: int, fmt: Fmt, rounding: Rounding, overflow: Overflow, 
     """
     y = shift_round(np.asarray(x), from_frac - fmt.frac_bits, rounding)
     return saturate(y, fmt, overflow, what)
+
+
+def quantize(values, fmt: Fmt, rounding: Rounding, overflow: Overflow, what: str = "value"):
+    """Real (float64) ``values`` to codes of ``fmt``; return ``(codes, flag)``. The host side's one narrowing of
+    float data (textures, bump maps, lighting cubes, triangle set-up) to fixed point.
+
+    ``values * 2**frac_bits`` is exact in float64 (a power-of-two scaling); the rounding is then exact for
+    magnitudes below ``2**52``. Non-finite values are refused (``ValueError`` naming ``what`` and the row).
+    """
+    x = np.ldexp(np.asarray(values, dtype=np.float64), fmt.frac_bits)
+    if not np.all(np.isfinite(x)):
+        row = int(np.flatnonzero(~np.isfinite(x).ravel())[0])
+        raise ValueError(f"{what}: row {row}: {x.ravel()[row]!r} is not finite")
+    if np.any(np.abs(x) >= 2.0 ** 52):
+        raise ValueError(f"{what}: magnitude too large to quantize exactly")
+    if rounding is Rounding.TRUNC:
+        y = np.floor(x)
+    elif rounding is Rounding.HALF_UP:
+        y = np.floor(x + 0.5)
+    elif rounding is Rounding.HALF_EVEN:
+        y = np.round(x)                   # numpy rounds half to even
+    else:
+        raise TypeError(f"rounding must be a Rounding, not {rounding!r}")
+    lo, hi = float(fmt.min_code), float(fmt.max_code)
+    return saturate(np.clip(y, lo - 1, hi + 1).astype(np.int64), fmt, overflow, what)

@@ -158,7 +158,7 @@ def register(cls):
 
 
 #: File stems of the units, the same in ``fxmodel/``, ``rtl/``, ``cosim/`` and ``tests/`` (importing registers).
-UNIT_MODULES = ("recip", "persp", "bump", "sampler")
+UNIT_MODULES = ("recip", "persp", "bump", "sampler", "shade")
 
 
 def _load_all():

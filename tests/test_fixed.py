@@ -110,3 +110,20 @@ def test_rounding_arguments_are_typed():
         shift_round(np.array([1]), 1, "half_up")
     with pytest.raises(TypeError, match="overflow"):
         saturate(np.array([1]), Fmt(False, 2, 0), "saturate")
+
+
+@given(st.lists(st.floats(-300, 300, allow_nan=False), min_size=1, max_size=30),
+       st.sampled_from(list(Rounding)))
+def test_quantize_matches_exact_rounding_and_saturates(values, mode):
+    from fxmodel.rounding import quantize
+    f = Fmt(True, 8, 6)
+    codes, flag = quantize(np.array(values), f, mode, Overflow.SATURATE)
+    for v, c, fl in zip(values, codes.tolist(), flag.tolist()):
+        want = _exact_round(Fraction(v) * 64, mode)
+        assert c == min(max(want, f.min_code), f.max_code) and fl == (want != c)
+
+
+def test_quantize_refuses_non_finite():
+    from fxmodel.rounding import quantize
+    with pytest.raises(ValueError, match="tex: row 1"):
+        quantize(np.array([0.0, np.inf]), Fmt(True, 8, 6), Rounding.HALF_UP, Overflow.SATURATE, "tex")

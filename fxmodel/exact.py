@@ -138,4 +138,140 @@ def measure_divide(params, nd, out) -> dict:
             "bound": float(params.max_error)}
 
 
-MEASURES = {"recip": measure_recip, "divide": measure_divide}
+# -- cube addressing and reflection (issue 3) -----------------------------------------------------------------
+
+#: The OpenGL / Vulkan cube table (DESIGN.md): per face, (component, sign) of s_c and of t_c; 0, 1, 2 = x, y, z.
+CUBE_TABLE = {0: ((2, -1), (1, -1)), 1: ((2, 1), (1, -1)), 2: ((0, 1), (2, 1)),
+              3: ((0, 1), (2, -1)), 4: ((0, 1), (1, -1)), 5: ((0, -1), (1, -1))}
+
+
+def cube_face_exact(v) -> np.ndarray:
+    """Exact face of integer vectors ``v`` (``(K, 3)``): the largest magnitude, ties to the later axis
+    (z over y over x), negative only if ``< 0``; the zero vector gives +Z (4)."""
+    v = np.asarray(v, dtype=np.int64)
+    mag = np.abs(v)[:, ::-1]                                      # z, y, x: argmax takes the first maximum
+    axis = 2 - np.argmax(mag, axis=1)
+    ma = v[np.arange(len(v)), axis]
+    return 2 * axis + (ma < 0)
+
+
+def cube_st_error(v, face, s, t, st_frac: int):
+    """Exact ``|s - s_exact|`` and ``|t - t_exact|`` of cube outputs for the exact ``face``, as ``(num, den)`` pairs
+    ``((num_s, num_t), den)``; the zero vector is measured against ``s = t = 1/2``."""
+    v = np.asarray(v, dtype=np.int64)
+    big = int(np.abs(v).max(initial=1)).bit_length() + st_frac + 4 > 62
+    cast = (lambda a: np.asarray(a, dtype=object)) if big else (lambda a: np.asarray(a, dtype=np.int64))
+    face = np.asarray(face, dtype=np.int64)
+    rows = np.arange(len(v))
+    ma = np.abs(v[rows, face // 2])
+    zero = ma == 0
+    out = []
+    for k, got in ((0, s), (1, t)):
+        comp = np.array([CUBE_TABLE[f][k][0] for f in range(6)])[face]
+        sign = np.array([CUBE_TABLE[f][k][1] for f in range(6)])[face]
+        c = sign * v[rows, comp]
+        m = np.where(zero, 1, ma)
+        c = np.where(zero, 0, c)
+        # s = (c + m) / (2 m):  |S 2**-f - (c + m)/(2m)| = |2 m S - (c + m) 2**f| / (2**(f+1) m)
+        out.append(np.abs(cast(2 * m) * cast(got) - cast(c + m) * (1 << st_frac)))
+    den = cast(np.where(zero, 1, ma)) * (1 << (st_frac + 1))
+    return (out[0], out[1]), den
+
+
+def measure_cube(params, v, out) -> dict:
+    """Face agreement with the exact tie rule, range of s and t, worst s/t error against the exact quotients."""
+    v = np.asarray(v, dtype=np.int64)
+    face = cube_face_exact(v)
+    f = params.st_fmt.frac_bits
+    (ns, nt), den = cube_st_error(v, face, out[:, 1], out[:, 2], f)
+    es, et = as_float(ns, den), as_float(nt, den)
+    err = np.maximum(es, et)
+    worst = int(np.argmax(err))
+    one = 1 << f
+    zero = np.all(v == 0, axis=1)
+    return {"vectors": int(len(v)), "face_mismatches": int(np.sum(out[:, 0] != face)),
+            "st_in_range": bool(np.all((out[:, 1:3] >= 0) & (out[:, 1:3] <= one))),
+            "degenerate_correct": bool(np.all(out[:, 3].astype(bool) == zero)),
+            "max_error": float(err[worst]), "max_error_log2": float(np.log2(err[worst])) if err[worst] else None,
+            "mean_error": float(err.mean()), "worst_input_codes": v[worst].tolist(),
+            "within_bound": bool(np.all(within(ns, den, params.st_bound)) and np.all(within(nt, den, params.st_bound))),
+            "bound": float(params.st_bound)}
+
+
+def reflect_exact(nv, ev) -> np.ndarray:
+    """Exact ``R = 2 N (N.E) - E (N.N)`` (EQ 1) as Python integers, ``(K, 3)`` object array."""
+    N = np.asarray(nv, dtype=object)
+    E = np.asarray(ev, dtype=object)
+    p = (N * E).sum(axis=1)
+    q = (N * N).sum(axis=1)
+    return 2 * N * p[:, None] - E * q[:, None]
+
+
+def direction_error(R, r):
+    """``(sin2_num, sin2_den, dot)`` exactly, for the angle between integer vectors ``R`` and ``r`` (rows):
+    ``sin(theta)**2 = |R x r|**2 / (|R|**2 |r|**2)``; ``dot = R . r`` tells the hemisphere."""
+    R = np.asarray(R, dtype=object)
+    r = np.asarray(r, dtype=object)
+    cx = R[:, 1] * r[:, 2] - R[:, 2] * r[:, 1]
+    cy = R[:, 2] * r[:, 0] - R[:, 0] * r[:, 2]
+    cz = R[:, 0] * r[:, 1] - R[:, 1] * r[:, 0]
+    num = cx * cx + cy * cy + cz * cz
+    den = (R * R).sum(axis=1) * (r * r).sum(axis=1)
+    dot = (R * r).sum(axis=1)
+    return num, den, dot
+
+
+def measure_reflect(params, ne, out) -> dict:
+    """Worst angle between the exact R and the output, its bound, degenerate flags, and the implied cube s/t
+    error (exact R and output addressed exactly, where both select the same face)."""
+    ne = np.asarray(ne, dtype=np.int64)
+    R = reflect_exact(ne[:, :3], ne[:, 3:])
+    r = np.asarray(out[:, :3], dtype=np.int64)
+    zero = np.all(R == 0, axis=1).astype(bool)
+    ok = ~zero
+    num, den, dot = direction_error(R[ok], r[ok])
+    sin2 = as_float(num, np.where(den == 0, 1, den))
+    ang = np.arcsin(np.sqrt(np.minimum(sin2, 1.0)))
+    ang = np.where(np.asarray(dot > 0, dtype=bool), ang, np.pi - ang)
+    worst = int(np.argmax(ang)) if ang.size else 0
+    # implied s/t error on the cube (float: reporting only)
+    Rf = np.array([[float(c) for c in row] for row in R[ok]]) if ok.any() else np.zeros((0, 3))
+    rf = r[ok].astype(np.float64)
+    st_err = _st_float(Rf, rf)
+    return {"vectors": int(len(ne)), "degenerate_vectors": int(zero.sum()),
+            "degenerate_correct": bool(np.all(out[:, 3].astype(bool) == zero)
+                                       and np.all(r[zero] == 0) and np.all(np.any(r[ok] != 0, axis=1))),
+            "max_direction_error_rad": float(ang.max(initial=0.0)),
+            "mean_direction_error_rad": float(ang.mean()) if ang.size else 0.0,
+            "worst_input_codes": ne[ok][worst].tolist() if ang.size else None,
+            "within_bound": bool(np.all(np.asarray(dot > 0, dtype=bool))
+                                 and np.all(within(num, den, params.sin2_bound))),
+            "bound_rad": params.direction_bound,
+            "max_cube_st_error": st_err, "cube_st_bound": params.st_bound}
+
+
+def _st_float(Rf, rf) -> float:
+    """Largest |s, t difference| between two float vector sets addressed on the cube, rows on the same face."""
+    if not len(Rf):
+        return 0.0
+
+    def st(v):
+        mag = np.abs(v)[:, ::-1]
+        axis = 2 - np.argmax(mag, axis=1)
+        rows = np.arange(len(v))
+        ma = v[rows, axis]
+        face = 2 * axis + (ma < 0)
+        res = []
+        for k in (0, 1):
+            comp = np.array([CUBE_TABLE[f][k][0] for f in range(6)])[face]
+            sign = np.array([CUBE_TABLE[f][k][1] for f in range(6)])[face]
+            res.append((sign * v[rows, comp] / np.abs(ma) + 1) / 2)
+        return face, res[0], res[1]
+
+    fa, sa, ta = st(Rf)
+    fb, sb, tb = st(rf)
+    same = fa == fb
+    return float(np.max(np.maximum(np.abs(sa - sb), np.abs(ta - tb))[same], initial=0.0))
+
+
+MEASURES = {"recip": measure_recip, "divide": measure_divide, "cube": measure_cube, "reflect": measure_reflect}

@@ -1,0 +1,99 @@
+"""RTL of the cube-map address unit (paper, sections 2 and 4): face by the major axis, ``s, t`` by division.
+
+Built from :class:`fxmodel.cube.CubeParams`; the datapath is the model's (see ``fxmodel/cube.py`` for the
+algorithm, the OpenGL / Vulkan face table, the tie and zero-vector rules and the error bound). Fully pipelined,
+one result per clock.
+
+The two quotients ``a / ma`` and ``b / ma`` share one reciprocal of the signed major component: one
+:class:`~rtl.recip.Recip` (one ROM, ``t`` small multipliers) followed by two copies of the last two stages of
+:class:`~rtl.recip.Divide` (``n * mant``, then :func:`~rtl.recip.scale`: the barrel shift with half-up rounding),
+built from the same :class:`~fxmodel.recip.DivideParams`. Two ``Divide`` instances would give the same bits
+for twice the ROM and the reciprocal's multipliers. The divider's saturation and ``d = 0`` muxes are left out: ``|q| <= 1`` is proven,
+and ``d = 0`` comes only with ``n = 0`` (the zero vector), where the plain path already yields ``q = 0``.
+"""
+
+from __future__ import annotations
+
+from amaranth.hdl import Cat, Module, Mux
+
+from fxmodel.cube import FLIP_S, FLIP_T, CubeParams
+from fxmodel.rounding import Overflow, Rounding
+
+from .fixed import saturate
+from .recip import Recip, scale
+from .unit import Pipe, UnitComponent, register
+
+__all__ = ["Cube"]
+
+
+@register(CubeParams)
+class Cube(UnitComponent):
+    """Cube-map face and ``(s, t)`` of a signed 3-vector.
+
+    Ports (formats from :class:`~fxmodel.cube.CubeParams`)
+    -----------------------------------------------------
+    i_valid : Signal(1), in
+    x, y, z : Signal(signed(n)), in -- ``in_fmt`` (``divide.recip.in_fmt``), ``s1.17`` for ``default``
+    o_valid : Signal(1), out
+    face : Signal(unsigned(3)), out -- ``u3.0``, 0..5 = +X, -X, +Y, -Y, +Z, -Z
+    s, t : Signal(unsigned(fq + 2)), out -- ``st_fmt = u1.(fq+1)``, in ``[0, 1]``; ``u1.16`` for ``default``
+    degenerate : Signal(1), out -- the zero vector (then face +Z, ``s = t = 1/2``)
+
+    Latency: ``params.latency`` = 2 + ``divide.latency`` = ``recip.latency + 4``. Stages: magnitudes, three
+    comparators and the face/numerator muxes | the reciprocal of the signed major (``recip.latency``) |
+    ``a * mant``, ``b * mant`` | barrel shift and rounding (:func:`~rtl.recip.scale`) | ``(1 +- q) / 2``
+    and the face's sign flips (output registers).
+    """
+
+    def elaborate(self, platform):
+        P = self.params
+        D = P.divide
+        R = D.recip
+        n = P.in_fmt.width
+        m = Module()
+        pipe = Pipe(m)
+
+        # 1: magnitudes (n-bit unsigned: |min_code| = 2**(n-1) fits), tie rule, face and numerators
+        x, y, z = self.x, self.y, self.z
+        ax, ay, az = (Mux(v < 0, -v, v)[:n] for v in (x, y, z))
+        zsel = (az >= ax) & (az >= ay)
+        ysel = ~zsel & (ay >= ax)
+        ma = Mux(zsel, z, Mux(ysel, y, x))
+        axis = Mux(zsel, 2, Mux(ysel, 1, 0))
+        s1 = pipe.stage(face=Cat(ma < 0, axis[:2]), ma=ma,
+                        a=Mux(zsel | ysel, x, z), b=Mux(zsel, y, Mux(ysel, z, y)))
+
+        # reciprocal of the signed major component, shared by both quotients
+        m.submodules.recip = rcp = Recip(R)
+        m.d.comb += [rcp.w.eq(s1.ma), rcp.i_valid.eq(1)]
+        a_late = pipe.delay(s1.a, R.latency, "a")
+        b_late = pipe.delay(s1.b, R.latency, "b")
+        face_late = pipe.delay(s1.face, R.latency, "face")
+        pipe.depth += R.latency
+
+        # Divide's last two stages, twice: n * mant, then data-dependent right shift with half-up rounding
+        s = pipe.stage(pa=a_late * rcp.mant, pb=b_late * rcp.mant, exp=rcp.exp, dbz=rcp.dbz, face=face_late)
+        qs, _ = saturate(scale(s.pa, D.prod_fmt.frac_bits, s.exp, R, D.out_fmt.frac_bits, Rounding.HALF_UP),
+                         D.out_fmt, Overflow.PROVEN)
+        qt, _ = saturate(scale(s.pb, D.prod_fmt.frac_bits, s.exp, R, D.out_fmt.frac_bits, Rounding.HALF_UP),
+                         D.out_fmt, Overflow.PROVEN)
+        s = pipe.stage(qs=qs, qt=qt, dbz=s.dbz, face=s.face)
+        qs, qt = s.qs, s.qt
+
+        # s, t = (1 +- q) / 2, exact: st code = 2**fq +- q
+        one = 1 << D.out_fmt.frac_bits
+        flip_s = 0
+        flip_t = 0
+        for f in range(6):
+            if FLIP_S[f]:
+                flip_s = flip_s | (s.face == f)
+            if FLIP_T[f]:
+                flip_t = flip_t | (s.face == f)
+        width = P.st_fmt.width
+        self.finish(m, pipe, {
+            "face": s.face,
+            "s": (one + Mux(flip_s, -qs, qs))[:width],
+            "t": (one + Mux(flip_t, -qt, qt))[:width],
+            "degenerate": s.dbz,
+        })
+        return m

@@ -1,0 +1,144 @@
+"""RTL of the reflection-vector unit ``R = 2 N (N.E) - E (N.N)`` (paper, section 2, EQ 1), block-normalized.
+
+Built from :class:`fxmodel.reflect.ReflectParams`; the datapath is the model's, stage for stage (see
+``fxmodel/reflect.py`` for the algorithm, the no-overflow proof and the error bound). Fully pipelined, one
+result per clock.
+"""
+
+from __future__ import annotations
+
+from amaranth.hdl import Cat, Const, Module, Mux, Value
+
+from fxmodel.reflect import ReflectParams
+from fxmodel.rounding import Overflow, Rounding
+
+from .fixed import narrow, saturate
+from .recip import leading_zeros
+from .unit import Pipe, UnitComponent, register
+
+__all__ = ["Reflect"]
+
+#: Digit size of the wide second-level operands: a 17-bit unsigned digit is an 18-bit signed DSP operand (ECP5).
+_DIGIT = 17
+#: A top digit of at most this many bits is multiplied by shifts and adds (LUTs) instead of a whole DSP tile.
+_LUT_DIGIT = 4
+
+
+def _digits(x, signed: bool) -> list:
+    """``x`` (signed or unsigned) as signed digits ``d_j`` with ``x = sum_j d_j 2**(17 j)``: every digit but the
+    top one is 17 bits zero-extended (non-negative); the top one carries the sign of a signed ``x``."""
+    x = Value.cast(x)
+    out = []
+    for lo in range(0, len(x), _DIGIT):
+        hi = min(lo + _DIGIT, len(x))
+        if hi == len(x) and signed:
+            out.append(x[lo:].as_signed())
+        else:
+            out.append(Cat(x[lo:hi], Const(0, 1)).as_signed())
+    return out
+
+
+def _mul(a, d):
+    """``a * d`` for signed ``a`` and a signed digit ``d``: a DSP product, or shifts and adds for a narrow ``d``."""
+    if len(d) > _LUT_DIGIT:
+        return a * d
+    total = 0
+    for b in range(len(d)):
+        term = Mux(d[b], a << b, 0)
+        total = total - term if b == len(d) - 1 else total + term      # the top bit of a signed digit weighs -2**b
+    return total
+
+
+@register(ReflectParams)
+class Reflect(UnitComponent):
+    """Reflection vector ``R = 2 N (N.E) - E (N.N)``, scaled by a common power of two and truncated.
+
+    Ports (formats from :class:`~fxmodel.reflect.ReflectParams`)
+    -----------------------------------------------------------
+    i_valid : Signal(1), in
+    Nx, Ny, Nz : Signal(signed(nN)), in -- ``n_fmt``, ``s2.16`` for ``default``
+    Ex, Ey, Ez : Signal(signed(nE)), in -- ``e_fmt``, ``s2.16`` for ``default``
+    o_valid : Signal(1), out
+    Rx, Ry, Rz : Signal(signed(r_bits)), out -- ``r_fmt = s1.(r_bits-1)``, ``s1.17`` for ``default``; the
+        largest magnitude is at least 1/2 unless ``degenerate``
+    degenerate : Signal(1), out -- ``R = 0`` (``N = 0`` or ``E = 0``); ``Rx = Ry = Rz = 0`` then
+
+    Latency: ``params.latency`` = 7 cycles. Stages: ``N_i E_i``, ``N_i N_i`` (six 18x18 multipliers) | dot sums
+    ``p``, ``q`` | partial products of ``N_i`` and ``E_i`` with the 17-bit digits of ``p`` and ``q`` (18x18 DSP
+    tiles; a top digit of at most 4 bits by shifts and adds) | per digit ``A_j = 2 N_i p_j - E_i q_j`` |
+    ``R_i = sum_j A_j 2**(17 j)`` | leading-zero count of ``OR_i (R_i XOR sign)`` | barrel shift and truncation to
+    ``r_fmt`` (output registers). Each stage holds one product or one to two carry chains (ECP5 timing).
+
+    The ``degenerate`` flag is computed from the inputs (``N = 0`` or ``E = 0``, two narrow zero detectors)
+    instead of a zero test of the wide ``R``; they agree by ``|R| = |E| |N|**2`` (the model tests ``R = 0``).
+    """
+
+    def elaborate(self, platform):
+        P = self.params
+        w = P.widths()
+        W = P.W
+        m = Module()
+        pipe = Pipe(m)
+        N = [self.Nx, self.Ny, self.Nz]
+        E = [self.Ex, self.Ey, self.Ez]
+
+        # 1: first-level products
+        st = {}
+        for i in range(3):
+            st[f"ne{i}"] = saturate(N[i] * E[i], w["N*E"], Overflow.PROVEN)[0]
+            st[f"nn{i}"] = saturate(N[i] * N[i], w["N*N"], Overflow.PROVEN)[0]
+            st[f"N{i}"] = N[i]
+            st[f"E{i}"] = E[i]
+        st["zero"] = (Cat(*N) == 0) | (Cat(*E) == 0)
+        s1 = pipe.stage(**st)
+
+        # 2: dot products p = N.E, q = N.N
+        p, _ = saturate(s1.ne0 + s1.ne1 + s1.ne2, w["N.E"], Overflow.PROVEN)
+        q, _ = saturate(s1.nn0 + s1.nn1 + s1.nn2, w["N.N"], Overflow.PROVEN)
+        s2 = pipe.stage(p=p, q=q, zero=s1.zero, **{f"N{i}": getattr(s1, f"N{i}") for i in range(3)},
+                        **{f"E{i}": getattr(s1, f"E{i}") for i in range(3)})
+
+        # 3: second-level partial products: p and q cut into 17-bit digits (18-bit signed DSP operands), so each
+        #    wide product N_i p, E_i q is a few 18x18 tiles whose sum is left to the next stages
+        pp, qp = _digits(s2.p, True), _digits(s2.q, False)
+        st = {"zero": s2.zero}
+        for i in range(3):
+            Ni, Ei = getattr(s2, f"N{i}"), getattr(s2, f"E{i}")
+            for j, d in enumerate(pp):
+                st[f"np{i}{j}"] = _mul(Ni, d)
+            for j, d in enumerate(qp):
+                st[f"eq{i}{j}"] = _mul(Ei, d)
+        s3 = pipe.stage(**st)
+
+        # 4: per digit position j, A_j = 2 N_i p_j - E_i q_j
+        st = {"zero": s3.zero}
+        for i in range(3):
+            for j in range(max(len(pp), len(qp))):
+                a = (getattr(s3, f"np{i}{j}") << 1) if j < len(pp) else 0
+                b = getattr(s3, f"eq{i}{j}") if j < len(qp) else 0
+                st[f"A{i}{j}"] = a - b
+        s4 = pipe.stage(**st)
+
+        # 5: R_i = sum_j A_j 2**(17 j) = 2 N_i p - E_i q (fits W + 1 bits by |R| = |E| |N|**2)
+        st = {"zero": s4.zero}
+        for i in range(3):
+            total = 0
+            for j in range(max(len(pp), len(qp))):
+                total = total + (getattr(s4, f"A{i}{j}") << (_DIGIT * j))
+            st[f"R{i}"] = saturate(total, P.exact_fmt, Overflow.PROVEN)[0]
+        s5 = pipe.stage(**st)
+        R = [getattr(s5, f"R{i}") for i in range(3)]
+
+        # 6: common shift lz = W - bitlen(OR_i (R_i XOR sign)) = leading zeros of the W-bit OR (a balanced tree)
+        ones = [(r ^ r[W].replicate(W + 1))[:W] for r in R]
+        lz = leading_zeros(ones[0] | ones[1] | ones[2])
+        s6 = pipe.stage(lz=lz, zero=s5.zero, **{f"R{i}": R[i] for i in range(3)})
+
+        # 7: shift left by lz (fits W + 1 bits: normalization proof), read with W fraction bits, truncate to r_fmt
+        outs = {}
+        for i, c in enumerate("xyz"):
+            shifted, _ = saturate(getattr(s6, f"R{i}") << s6.lz, P.norm_fmt, Overflow.PROVEN)
+            outs[f"R{c}"] = narrow(shifted, W, P.r_fmt, Rounding.TRUNC, Overflow.PROVEN)[0]
+        outs["degenerate"] = s6.zero
+        self.finish(m, pipe, outs)
+        return m

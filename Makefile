@@ -7,18 +7,20 @@ PY       := $(VENV)/bin/python
 STAMP    := $(VENV)/.installed
 SIM      ?= icarus
 PRESET   ?= default
-UNIT     ?= recip
+SCENE    ?= tin-plane
 JOBS     ?= 2
 export PATH := $(CURDIR)/$(VENV)/bin:$(PATH)
 export SIM
 
-.PHONY: setup test verilog sim bench exhaustive clean help
+.PHONY: setup test verilog sim render bench fpga exhaustive clean help
 
 help:
-	@echo "make sim        co-simulate the RTL against the golden model (SIM=icarus|verilator, UNIT=, PRESET=)"
+	@echo "make sim        render SCENE (default tin-plane) through the RTL pipeline, bit-exact check (SIM=icarus|verilator)"
+	@echo "make render     render SCENE through the bit-exact model only, with the float references"
 	@echo "make test       the test suite (model properties, RTL build, co-simulation on \$$SIM)"
 	@echo "make verilog    write build/verilog/<unit>_<preset>.v for every unit and preset"
 	@echo "make bench      model and co-simulation throughput -> build/bench/bench.json"
+	@echo "make fpga       ECP5-85 synthesis, place and route of every unit and preset -> build/fpga/report.{json,md}"
 	@echo "make exhaustive exhaustive RTL equivalence runs"
 	@echo "make setup      create .venv, install everything, install iverilog if missing"
 
@@ -48,10 +50,16 @@ verilog: setup
 	$(PY) -m rtl verilog --out build/verilog
 
 sim: setup
-	$(PY) -m cosim.sim --unit $(UNIT) --preset $(PRESET) --sim $(SIM)
+	$(PY) -m cosim.sim --scene $(SCENE) --preset $(PRESET) --sim $(SIM)
+
+render: setup
+	$(PY) -m fxmodel render scenes/$(SCENE).toml build/render/$(SCENE)/model.png --preset $(PRESET) --refs build/render/$(SCENE)
 
 bench: setup
 	$(PY) -m cosim.bench
+
+fpga: setup
+	$(PY) -m rtl.fpga --jobs $(JOBS)
 
 exhaustive: setup
 	HYPOTHESIS_PROFILE=thorough $(PY) -m pytest -n $(JOBS) -q -m slow

@@ -12,7 +12,6 @@ Environment: ``SIM`` (``icarus`` default, or ``verilator``), ``WAVES=1`` dumps a
 from __future__ import annotations
 
 import fcntl
-import hashlib
 import json
 import os
 import shutil
@@ -20,6 +19,8 @@ import time
 from pathlib import Path
 
 import numpy as np
+
+from rtl.digest import params_key
 
 ROOT = Path(__file__).resolve().parents[1]
 BUILD = ROOT / "build" / "cosim"
@@ -37,20 +38,6 @@ def simulator(sim: str | None = None) -> str:
     if sim == "icarus" and not shutil.which("iverilog"):
         raise RuntimeError("SIM=icarus but no `iverilog` on PATH: run `make setup` (apt-get install iverilog)")
     return sim
-
-
-def _source_digest() -> bytes:
-    """Digest of the model and RTL sources: generated Verilog is stale as soon as either changes."""
-    h = hashlib.sha1()
-    for folder in ("fxmodel", "rtl"):
-        for path in sorted((ROOT / folder).glob("*.py")):
-            h.update(path.name.encode() + path.read_bytes())
-    return h.digest()
-
-
-def params_key(params) -> str:
-    """Build-folder key: the parameter object and the sources that turn it into Verilog."""
-    return hashlib.sha1(repr(params).encode() + _source_digest()).hexdigest()[:12]
 
 
 class CosimResult(dict):
@@ -134,7 +121,9 @@ def run(params, inputs: np.ndarray, *, sim: str | None = None, waves: bool | Non
     bad = np.flatnonzero(np.any(got != expected, axis=1))
     first = [{"row": int(r), "inputs": inputs[r].tolist(), "rtl": got[r].tolist(), "model": expected[r].tolist()}
              for r in bad[:keep_first]]
-    return CosimResult(unit=params.NAME, simulator=sim, vectors=int(len(inputs)), mismatches=int(len(bad)),
-                       first=first, build_seconds=round(t1 - t0, 2), seconds=round(seconds, 2),
-                       vectors_per_second=len(inputs) / seconds if seconds else float("inf"),
-                       waves=str(job) if waves else None)
+    result = CosimResult(unit=params.NAME, simulator=sim, vectors=int(len(inputs)), mismatches=int(len(bad)),
+                         first=first, build_seconds=round(t1 - t0, 2), seconds=round(seconds, 2),
+                         vectors_per_second=len(inputs) / seconds if seconds else float("inf"),
+                         waves=str(job) if waves else None)
+    result.rtl = got                       # every output code the RTL produced (not part of the JSON report)
+    return result

@@ -23,14 +23,36 @@ Input ``w`` is a signed fixed-point code of ``n = in_fmt.width`` bits with ``F =
    ``t`` terms need ``t`` multipliers (``t >= 2``): ``q``, ``t - 2`` Horner steps and ``B (1 + g_t)``.
 5. **Result.** ``r = B + B g_t`` rounded half-up to ``p - 1`` fraction bits. A carry out of the binade
    (``r >= 2``; the exact value there is at most 2) and the exact case ``x = 0.5`` give the mantissa 1.0 and
-   ``e + 1``, so every output mantissa is normalized to ``[1, 2)`` and powers of two are exact. The sign is
+   ``e + 1``, so every output mantissa is normalized to ``[1, 2)`` and powers of two are exact. (Normalized
+   whenever ``error_bound_ulp < 1``: then ``r > 1/x - ulp/2 > 1 - ulp/2``. A sloppier configuration of a
+   ``midpoint`` mode may return ``1 - ulp`` just below a binade; its value is still within the bound.) The sign is
    restored by negating the mantissa.
+
+Table modes (``table``, :data:`TABLE_MODES`)
+--------------------------------------------
+The paper expands about the top ``w_h`` of each interval with ``B = round(1/w_h)`` (``round``). Two better
+choices, both free in hardware:
+
+* ``minimax``: same expansion, but each word is the ``b``-bit value minimising the interval's worst error
+  ``|T(B, d) - 1/x|`` (``T`` the truncated series), instead of rounding ``1/w_h``. Because the centring bias
+  (``center``) already shifts the whole error band for free, this buys only the table's quantization slack
+  (<= 0.05 bits; about 1 bit over ``round`` with ``center=False``).
+* ``midpoint``: expand about the interval's centre ``c = w_h - 2**-(m+1)`` with ``B = round(1/c)``:
+  ``d = c - x`` is *signed*, ``[-2**-(m+1), 2**-(m+1))``. In hardware it is the same complemented low bits with
+  the top one inverted, read as two's complement: no subtractor, same widths; the products become signed
+  (``u x s``, still one MULT18X18D up to 18 bits). The series error ``-B0 (B0 d)**t / (1 - B0 d)`` shrinks by
+  ``2**t`` (``|d|`` halves): ``t`` bits for even ``t``, ``t - 1`` for odd ``t`` (where the error becomes
+  two-sided, which the bias already achieved), nothing for ``t = 1``. ``midpoint-minimax`` also picks each
+  word by minimax.
+
+``python -m fxmodel.tables`` prints the correct bits of every mode per table size and term count.
 
 Outputs: ``mant`` (``s2.(p-1)``, magnitude in ``[1, 2)``), ``exp`` (integer, ``[F - n, F]``) and ``dbz``;
 ``1/w = mant * 2**exp``. ``w = 0`` gives the largest magnitude, ``mant = 2 - 2**-(p-1)``, ``exp = F``, ``dbz = 1``.
 
 Error bound (``RecipParams.error_bound_ulp``), in ulps of the result (``2**-(p-1)`` of the mantissa)
 ---------------------------------------------------------------------------------------------------
+``round`` mode (the shipped ``default`` and ``small`` presets; their bias and results predate the other modes).
 For interval ``i`` with ``B0 = 1/w_h``, table error ``eps = B - B0``, ``delta = 2**-m - 2**-n`` (largest ``d``):
 
 * Taylor truncation, in ``[-tau_i, 0]``, ``tau_i = (delta/w_h)**t / (w_h - delta)`` (worst at ``d = delta``);
@@ -45,12 +67,26 @@ For interval ``i`` with ``B0 = 1/w_h``, table error ``eps = B - B0``, ``delta = 
 The bound is the largest magnitude of the sum of the lower (resp. upper) ends over all intervals. All terms are
 computed exactly with fractions from the actual table, so the bound also holds for tables not made by rounding.
 
+Other modes (general form, :meth:`RecipParams._entry_error`, :meth:`RecipParams._datapath_error`). The table and
+series error ``E(d) = T(B, d) - 1/(c - d)`` of each interval is bounded as a whole (the ``round`` form above
+would count ``eps`` and ``tau`` separately, which is loose by ``|eps|`` once ``B`` is chosen to centre them):
+``E = f1 + f2`` with ``f1 = T(B, d) - T(B0, d)`` and ``f2 = T(B0, d) - 1/(c - d)``, each monotone on each side
+of ``d = 0`` (``f1``'s monotonicity for ``d < 0`` is checked exactly, with a cruder bound as fallback), so on
+each of a few pieces of the interval ``min f1 + min f2 <= E <= max f1 + max f2`` with all four ends evaluated
+exactly. The datapath terms keep their weights with ``Q = Bmax max|d| + 2**-fq``; with a signed ``d`` three
+of them can point upward: ``B`` truncated to ``bq`` bits raises ``Bh d`` and ``Bh g`` where ``d, g < 0``
+(``<= e_bh |d_lo|`` and ``<= e_bh gmax``), and a Horner floor carried by an odd power of a negative ``q`` flips
+sign. Every other truncation floors a quantity whose effect on the result has a positive weight
+(``dT/dd = B**2 G'(B d)``, ``G'(u) = 1 + 2u + 3u**2 > 0``), so it stays downward.
+
 Hard cases (each has a test): ``w = 0.5``; ``w = 1 - ulp``; every table boundary and one ulp either side, in
-every binade, both signs; the smallest and largest ``|w|``; the most negative code; zero.
+every binade, both signs; for the ``midpoint`` modes also every interval centre (``d = 0``) and one ulp either
+side; the smallest and largest ``|w|``; the most negative code; zero.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from fractions import Fraction
 from functools import cached_property
@@ -63,8 +99,11 @@ from .unit import Port, Unit, register
 
 __all__ = ["RecipParams", "DivideParams", "TABLE_MODES"]
 
-#: How table entries are chosen: ``round`` is the paper's ``round(1/w_h)``.
-TABLE_MODES = ("round",)
+#: How table entries are chosen and where the series is expanded (module docstring, "Table modes"):
+#: ``round`` is the paper's ``round(1/w_h)`` about the top ``w_h`` of each interval; ``minimax`` expands about
+#: ``w_h`` too but picks each word to minimise the interval's worst approximation error; ``midpoint`` expands
+#: about the interval's centre ``c`` (signed ``d``) with ``round(1/c)``; ``midpoint-minimax`` combines both.
+TABLE_MODES = ("round", "minimax", "midpoint", "midpoint-minimax")
 
 
 def _require(cond: bool, param: str, value, why: str):
@@ -169,19 +208,27 @@ class RecipParams(Unit):
         return self.b - 1
 
     @cached_property
+    def signed_d(self) -> bool:
+        """``d`` is signed: the series is expanded about the interval's centre (``midpoint`` modes)."""
+        return self.table.startswith("midpoint")
+
+    @cached_property
     def d_fmt(self) -> Fmt:
-        """``d < 2**-m``: only the bits below the table index remain."""
-        return Fmt(False, -self.m, self.fd)
+        """``0 <= d < 2**-m``: only the bits below the table index remain. Signed modes: ``d - 2**-(m+1)`` in
+        ``[-2**-(m+1), 2**-(m+1))``, the same bits with the top one inverted (same width)."""
+        return Fmt(self.signed_d, -self.m, self.fd)
 
     @cached_property
     def q_fmt(self) -> Fmt:
-        """``q = B d < 2 * 2**-m`` (proof: ``B < 2``, ``d < 2**-m``)."""
-        return Fmt(False, 1 - self.m, self.fq)
+        """``q = B d < 2 * 2**-m`` (proof: ``B < 2``, ``d < 2**-m``); signed modes ``|q| < 2 * 2**-(m+1)``, and
+        flooring stays ``>= -2**-m``."""
+        return Fmt(self.signed_d, 1 - self.m, self.fq)
 
     @cached_property
     def g_fmt(self) -> Fmt:
-        """``g = q + q**2 + ... < q / (1 - q) <= 2 q < 2**(2-m)`` (``q <= 1/2`` as ``m >= 2``)."""
-        return Fmt(False, 2 - self.m, self.fq)
+        """``g = q + q**2 + ... < q / (1 - q) <= 2 q < 2**(2-m)`` (``q <= 1/2`` as ``m >= 2``); signed modes
+        ``|g| <= |q| / (1 - |q|) < 2**(1-m)`` (the floor of each step adds less than an ulp below)."""
+        return Fmt(self.signed_d, 2 - self.m, self.fq)
 
     @cached_property
     def bq(self) -> int:
@@ -190,8 +237,8 @@ class RecipParams(Unit):
 
     @cached_property
     def bg_fmt(self) -> Fmt:
-        """``B g < 2 * 2**(2-m)``."""
-        return Fmt(False, 3 - self.m, self.fq)
+        """``B g < 2 * 2**(2-m)``; signed modes ``|B g| < 2 * 2**(1-m)``."""
+        return Fmt(self.signed_d, 3 - self.m, self.fq)
 
     @cached_property
     def fr(self) -> int:
@@ -215,6 +262,26 @@ class RecipParams(Unit):
             "B*g": self.bq + self.g_fmt.width,
             "B+Bg": 2 + self.fr,
         }
+
+    #: Widest operand of one ECP5 multiplier block (MULT18X18D); wider products are split (:attr:`split_products`).
+    DSP_BITS = 18
+
+    def product_operands(self) -> list[tuple[str, int, int]]:
+        """``(name, width, width)`` of the operands of every multiplier in datapath order (``t >= 2``): ``B*d``,
+        the Horner steps (``q*q`` first, then ``q*g``) and ``B*g``."""
+        if self.t < 2:
+            return []
+        steps = [("q*q", self.q_fmt.width, self.q_fmt.width)] + \
+            [("q*g", self.q_fmt.width, self.g_fmt.width)] * (self.t - 3)
+        return ([("B*d", self.bq, self.d_fmt.width)] + steps[:self.t - 2]
+                + [("B*g", self.bq, self.g_fmt.width)])
+
+    @property
+    def split_products(self) -> int:
+        """Multipliers with an operand wider than :attr:`DSP_BITS`. The RTL cuts those operands into 17-bit
+        pieces, registers the partial products (one 18x18 block each) and sums them in the next stage: one extra
+        pipeline stage each (``rtl/recip.py``)."""
+        return sum(max(a, b) > self.DSP_BITS for _, a, b in self.product_operands())
 
     @property
     def multipliers(self) -> int:
@@ -253,21 +320,79 @@ class RecipParams(Unit):
 
     @property
     def latency(self) -> int:
-        """Stages: magnitude | normalize | table read | [q | t-2 Horner steps | B*g] | round and sign."""
-        return 4 if self.t == 1 else 4 + self.t
+        """Stages: magnitude | leading-zero count | normalizing shift | table read | [q | t-2 Horner steps of two
+        stages each (product, then add) | B*g] | sum and round | renormalize and sign: 6 for ``t = 1``,
+        ``2 t + 4`` for ``t >= 2``, plus one stage for each of the :attr:`split_products` (partial products).
+
+        Each stage holds at most one carry chain or one 18x18 product (``rtl/recip.py``; ECP5 timing from
+        ``python -m rtl.fpga``)."""
+        return 6 if self.t == 1 else 2 * self.t + 4 + self.split_products
 
     # -- the table ----------------------------------------------------------------------------------------
     @cached_property
+    def centers(self) -> tuple[int, ...]:
+        """Expansion point of each interval times ``2**n`` (exact integers): ``w_h`` (the ``m`` index bits
+        followed by ones), or for the signed (``midpoint``) modes ``c = w_h - 2**-(m+1)``."""
+        n, m = self.n, self.m
+        off = (1 << (n - m - 1)) if self.signed_d else 0
+        return tuple(((((1 << (m - 1)) + i + 1) << (n - m)) - 1 - off) for i in range(self.entries))
+
+    @cached_property
+    def d_range(self) -> tuple[Fraction, Fraction]:
+        """Exact ``(lo, hi)`` of ``d`` (before its truncation to ``fd`` bits) over every input of every interval:
+        ``[0, 2**-m - 2**-n]``, or ``[-2**-(m+1), 2**-(m+1) - 2**-n]`` for the signed modes."""
+        off = Fraction(1, 1 << (self.m + 1)) if self.signed_d else Fraction(0)
+        return -off, Fraction(1, 1 << self.m) - Fraction(1, 1 << self.n) - off
+
+    @cached_property
     def table_codes(self) -> np.ndarray:
-        """The ``2**(m-1)`` table words as ``b_fmt`` codes (hidden bit included)."""
-        n, m, fb = self.n, self.m, self.b - 1
-        i = np.arange(self.entries, dtype=object)
-        wh = ((1 << (m - 1)) + i + 1) * (1 << (n - m)) - 1          # w_h * 2**n, exact
-        if self.table == "round":
-            # B = round_half_up(2**n / wh) at fb fraction bits
-            codes = (np.asarray([((1 << (n + fb + 1)) // int(v) + 1) // 2 for v in wh], dtype=object))
+        """The ``2**(m-1)`` table words as ``b_fmt`` codes (hidden bit included), chosen by :attr:`table`."""
+        n, fb = self.n, self.b - 1
+        if self.table.endswith("minimax"):
+            codes = self._minimax_codes()
+        else:
+            # B = round_half_up(2**n / center) at fb fraction bits
+            codes = [((1 << (n + fb + 1)) // c + 1) // 2 for c in self.centers]
         codes, _ = narrow(np.asarray(codes, dtype=np.int64), fb, self.b_fmt, Rounding.TRUNC, Overflow.SATURATE)
         return codes
+
+    def series(self, B, d):
+        """The truncated series ``T(B, d) = B (1 + B d + ... + (B d)**(t-1))`` the datapath approximates (exact
+        for ``Fraction`` arguments, elementwise for float arrays)."""
+        u = B * d
+        acc = 1
+        for _ in range(self.t - 1):
+            acc = 1 + u * acc
+        return B * acc
+
+    def _minimax_codes(self) -> list[int]:
+        """Per interval, the ``b``-bit word minimising the worst ``|T(B, d) - 1/(c - d)|`` over the interval.
+
+        Only the *choice* uses float64 (on 1025 points of each interval: the error is smooth, about ``2**-52``
+        float error against errors above ``2**-40``); the documented bound is then computed exactly from the
+        chosen words. Both ends of the error rise with ``B``, so bisection finds the real ``B`` that centres the
+        error; the best of the four codes around it is kept.
+        """
+        fb = self.b - 1
+        c = np.array(self.centers, dtype=np.float64) / 2.0 ** self.n          # exact: at most 48 bits
+        d = np.linspace(float(self.d_range[0]), float(self.d_range[1]), 1025)
+        inv = 1.0 / (c[:, None] - d[None, :])
+
+        def err(B):
+            return self.series(B[:, None], d[None, :]) - inv
+
+        B0 = 1.0 / c
+        span = 4 * np.abs(err(B0)).max(axis=1) + 2.0 ** -fb
+        lo, hi = B0 - span, B0 + span
+        for _ in range(100):
+            mid = (lo + hi) / 2
+            e = err(mid)
+            up = e.max(axis=1) + e.min(axis=1) > 0
+            hi, lo = np.where(up, mid, hi), np.where(up, lo, mid)
+        base = np.floor(lo * 2.0 ** fb)
+        cands = base[:, None] + np.arange(-1, 3)[None, :]
+        worst = np.stack([np.abs(err(cands[:, j] / 2.0 ** fb)).max(axis=1) for j in range(cands.shape[1])], 1)
+        return [int(v) for v in cands[np.arange(len(c)), np.argmin(worst, axis=1)]]
 
     @property
     def rom(self) -> list[int]:
@@ -306,6 +431,8 @@ class RecipParams(Unit):
         if self.t >= 2:
             Bh = bh_tab[idx]                              # B truncated to bq bits for the small products
             d = (~xn & ((1 << low) - 1)) >> (n - fd)      # d = complement of the low bits, truncated to fd
+            if self.signed_d:                             # about the centre: d - 2**-(m+1), exact (in hardware:
+                d = d - (1 << (fd - m - 1))               # the top bit of d inverted and read as signed)
             q, _ = narrow(Bh * d, self.bq - 1 + fd, self.q_fmt, Rounding.TRUNC, Overflow.PROVEN, "recip q")
             g = q
             for _ in range(self.t - 2):
@@ -340,6 +467,9 @@ class RecipParams(Unit):
                 for i in range(self.entries):
                     base = ((1 << (m - 1)) + i) << (k - m)
                     codes |= {base - 1, base, base + 1}
+                    if self.signed_d and k > m:                      # the centre c, where d = 0
+                        mid = base + (1 << (k - m - 1)) - 1
+                        codes |= {mid - 1, mid, mid + 1}
         codes = np.array(sorted(codes), dtype=np.int64)
         codes = np.concatenate([codes, -codes])
         codes = np.unique(codes[(codes >= fmt.min_code) & (codes <= fmt.max_code)])
@@ -350,6 +480,10 @@ class RecipParams(Unit):
     def _raw_error(self) -> tuple[Fraction, Fraction]:
         """``(L, H)``: the exact sum ``B + B g`` (before bias and final rounding) minus ``1/x`` lies in
         ``[L, H]`` for every input; see the module docstring for each term."""
+        if self.table != "round":
+            lo, hi = self.approx_error
+            down, up = self._datapath_error()
+            return lo - down, hi + up
         n, m, t = self.n, self.m, self.t
         delta = Fraction(1, 1 << m) - Fraction(1, 1 << n)
         bmax = max(Fraction(int(c), 1 << (self.b - 1)) for c in self.table_codes)
@@ -374,6 +508,110 @@ class RecipParams(Unit):
             lo_worst = min(lo_worst, -tau - (abs(eps) * S if eps < 0 else 0) - datapath)
             hi_worst = max(hi_worst, eps * S if eps > 0 else Fraction(0))
         return lo_worst, hi_worst
+
+    def _entry_error(self, center: int, code: int, pieces: int = 4, splits: int = 64) -> tuple[Fraction, Fraction]:
+        """Rigorous ``(min, max)`` of ``E(d) = T(B, d) - 1/(c - d)`` over ``d`` in :attr:`d_range`, exactly.
+
+        ``E = f1 + f2`` with ``f1 = T(B, d) - T(B0, d)`` (``B0 = 1/c``; coefficients ``B**(k+1) - B0**(k+1)``,
+        all of the sign of ``B - B0``) and ``f2 = T(B0, d) - 1/(c - d) = -B0 (B0 d)**t / (1 - B0 d)``. ``f2`` is
+        monotone on each side of ``d = 0`` (its derivative has the sign of ``d**(t-1)`` as ``B0 d < 1``); ``f1`` is
+        monotone for ``d >= 0`` and, for ``d < 0``, when ``|a1| > sum_(k>=2) k |a_k| |d|**(k-1)`` (checked; else
+        it is bounded by ``|a0| + sum |a_k| |d|**k``). On a piece ``[u, v]`` where both are monotone,
+        ``min f1 + min f2 <= E <= max f1 + max f2`` with the four ends evaluated exactly. Each side starts as
+        ``pieces`` equal pieces; up to ``splits`` times, the piece with the worst end bound is halved while that
+        bound exceeds the largest (resp. smallest) ``E`` evaluated so far by more than 1/256 of the band.
+        """
+        import heapq
+
+        t = self.t
+        c = Fraction(center, 1 << self.n)
+        B = Fraction(code, 1 << (self.b - 1))
+        B0 = 1 / c
+        a = [B ** (k + 1) - B0 ** (k + 1) for k in range(t)]
+        lo, hi = self.d_range
+        neg_monotone = t < 2 or abs(a[1]) > sum(k * abs(a[k]) * (-lo) ** (k - 1) for k in range(2, t))
+        memo = {}
+
+        def at(d):
+            """``(f1(d), f2(d))``, exact."""
+            if d not in memo:
+                acc = Fraction(0)
+                for coef in reversed(a):
+                    acc = acc * d + coef
+                memo[d] = acc, -B0 * (B0 * d) ** t / (1 - B0 * d)
+            return memo[d]
+
+        def bounds(u, v):
+            (f1u, f2u), (f1v, f2v) = at(u), at(v)
+            if u >= 0 or neg_monotone:
+                F1 = (min(f1u, f1v), max(f1u, f1v))
+            else:
+                r = sum(abs(a[k]) * max(-u, abs(v)) ** k for k in range(1, t))
+                F1 = (a[0] - r, a[0] + r)
+            return F1[0] + min(f2u, f2v), F1[1] + max(f2u, f2v)
+
+        sides = [(lo, Fraction(0)), (Fraction(0), hi)] if lo < 0 < hi else [(lo, hi)]
+        segs = [(u0 + (v0 - u0) * j / pieces, u0 + (v0 - u0) * (j + 1) / pieces)
+                for u0, v0 in sides for j in range(pieces)]
+        result = []
+        for sign in (1, -1):                       # the upper end, then the lower end (as a max of -E)
+            heap = []
+            for u, v in segs:
+                e_lo, e_hi = bounds(u, v)
+                heapq.heappush(heap, (-(e_hi if sign > 0 else -e_lo), u, v))
+            for _ in range(splits):
+                known = [sign * (f1 + f2) for f1, f2 in memo.values()]
+                band = max(known) - min(known)
+                worst, u, v = heap[0]
+                if -worst - max(known) <= band / 256:
+                    break
+                heapq.heappop(heap)
+                mid = (u + v) / 2
+                for uu, vv in ((u, mid), (mid, v)):
+                    e_lo, e_hi = bounds(uu, vv)
+                    heapq.heappush(heap, (-(e_hi if sign > 0 else -e_lo), uu, vv))
+            result.append(sign * -heap[0][0])
+        return result[1], result[0]
+
+    @cached_property
+    def approx_error(self) -> tuple[Fraction, Fraction]:
+        """Rigorous ``(min, max)`` over all intervals of the approximation error ``T(B, d) - 1/x`` of the table
+        and the truncated series alone (exact ``d``, no datapath rounding, no bias), from the actual table."""
+        ranges = [self._entry_error(c, int(code)) for c, code in zip(self.centers, self.table_codes)]
+        return min(r[0] for r in ranges), max(r[1] for r in ranges)
+
+    @property
+    def approx_bits(self) -> float:
+        """Correct bits of the table and series alone: ``-log2`` of the half-width of :attr:`approx_error` (the
+        worst ``|error|`` of the mantissa in ``[1, 2)`` once a constant centres it)."""
+        lo, hi = self.approx_error
+        return -math.log2(float(hi - lo) / 2)
+
+    def _datapath_error(self) -> tuple[Fraction, Fraction]:
+        """``(down, up)`` >= 0: the datapath's truncations move ``B + B g`` by at most ``down`` below and ``up``
+        above the exact ``T(B, d)`` (module docstring, "Error bound", general form)."""
+        t = self.t
+        if t < 2:
+            return Fraction(0), Fraction(0)
+        dlo, dhi = self.d_range
+        D, Dneg = max(-dlo, dhi), -dlo
+        bmax = max(Fraction(int(c), 1 << (self.b - 1)) for c in self.table_codes)
+        ulp_q = Fraction(1, 1 << self.fq)
+        Q = bmax * D + ulp_q                                   # bounds |q| (the floor may add an ulp below)
+        S1 = sum(k * Q ** (k - 1) for k in range(1, t))        # bounds dG/dq, G(q) = q + ... + q**(t-1); > 0
+        S0 = sum(Q ** j for j in range(t - 2))                 # Horner floors, carried by q**j
+        S0_odd = sum(Q ** j for j in range(1, t - 2, 2))       # ... those whose sign flips when q < 0
+        gmax = sum(Q ** k for k in range(1, t)) + S0 * ulp_q  # bounds |g|
+        e_bh = Fraction(1, 1 << (self.bq - 1)) if self.bq < self.b else Fraction(0)
+        e_d = Fraction(1, 1 << self.fd) if self.fd < self.n else Fraction(0)
+        q_floor = ulp_q if self.bq - 1 + self.fd > self.fq else Fraction(0)
+        bg_floor = ulp_q if self.bq - 1 > 0 else Fraction(0)
+        down = (e_d * bmax * bmax * S1 + (q_floor + e_bh * dhi) * bmax * S1 + ulp_q * bmax * S0
+                + bg_floor + e_bh * gmax)
+        up = Fraction(0)
+        if Dneg > 0:      # B truncated to Bh raises Bh d and Bh g where d, g < 0; Horner floors flip with q < 0
+            up = e_bh * Dneg * bmax * S1 + ulp_q * bmax * S0_odd + e_bh * gmax
+        return down, up
 
     @cached_property
     def bias_code(self) -> int:
@@ -416,6 +654,11 @@ RecipParams.PRESETS = {
     "default": RecipParams(in_fmt=Fmt(True, 8, 16), m=7, b=20, t=3, p=17, guard=5),
     # 16-bit input, 12-bit result.
     "small": RecipParams(in_fmt=Fmt(True, 4, 12), m=6, b=14, t=3, p=12, guard=4),
+    # 25-bit input (sign and a 24-bit magnitude, the default's 16 fraction bits), 24-bit faithful result from
+    # 64 entries of 26 stored bits (1664 ROM bits) and 4 terms expanded about each interval's centre. Faithful
+    # by the bound and on every one of the 2**25 inputs (tests/test_recip.py, `python -m fxmodel errors recip
+    # --preset rcp24`). Products up to 23x22 bits, each split into 18x18 partial products (one more stage each).
+    "rcp24": RecipParams(in_fmt=Fmt(True, 9, 16), m=7, b=27, t=4, p=24, guard=4, table="midpoint"),
 }
 register(RecipParams)
 
@@ -536,7 +779,5 @@ class DivideParams(Unit):
 
 DivideParams.PRESETS = {
     "default": DivideParams(),
-    # cube addressing: minor / major with |minor| <= |major|
-    "cube": DivideParams(),
 }
 register(DivideParams)

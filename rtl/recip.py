@@ -6,7 +6,7 @@ table ROM contents come from ``RecipParams.rom``. Fully pipelined, one result pe
 
 from __future__ import annotations
 
-from amaranth.hdl import Cat, Const, Module, Mux, Signal
+from amaranth.hdl import Cat, Const, Module, Mux, Value
 from amaranth.lib.memory import Memory
 
 from fxmodel.recip import DivideParams, RecipParams
@@ -15,7 +15,66 @@ from fxmodel.rounding import Overflow, Rounding
 from .fixed import narrow, saturate, shift_round
 from .unit import Pipe, UnitComponent, register
 
-__all__ = ["Recip", "Divide", "scale"]
+__all__ = ["Recip", "Divide", "scale", "leading_zeros", "pieces", "split_product"]
+
+
+def pieces(x, limit: int = RecipParams.DSP_BITS) -> list[tuple[Value, int]]:
+    """``x`` as ``[(piece, shift)]`` with ``x = sum(piece << shift)``: unchanged if ``len(x) <= limit``, else
+    ``limit - 1``-bit unsigned pieces from the bottom and a top piece of at most ``limit`` bits that keeps the
+    sign. Every product of two pieces fits one ``limit x limit`` multiplier block."""
+    x = Value.cast(x)
+    if len(x) <= limit:
+        return [(x, 0)]
+    out, lo = [], 0
+    while len(x) - lo > limit:
+        out.append((x[lo:lo + limit - 1], lo))
+        lo += limit - 1
+    top = x[lo:]
+    out.append((top.as_signed() if x.shape().signed else top, lo))
+    return out
+
+
+def split_product(pipe: Pipe, a, b, carry: dict, name: str = "pp"):
+    """``(a * b, carry)``. Within one multiplier block: the product, ``carry`` unchanged. Wider (an operand above
+    ``RecipParams.DSP_BITS`` bits): the partial products of :func:`pieces` are registered as a stage of their
+    own (with the signals of ``carry``) and the expression returned is their exact sum, for the next stage."""
+    pa, pb = pieces(a), pieces(b)
+    if len(pa) == 1 and len(pb) == 1:
+        return a * b, carry
+    parts = {f"{name}{i}_{j}": xa * xb for i, (xa, _) in enumerate(pa) for j, (xb, _) in enumerate(pb)}
+    shifts = {f"{name}{i}_{j}": sa + sb for i, (_, sa) in enumerate(pa) for j, (_, sb) in enumerate(pb)}
+    s = pipe.stage(**parts, **carry)
+    total = sum(getattr(s, k) << shifts[k] for k in parts)
+    return total, {k: getattr(s, k) for k in carry}
+
+
+def leading_zeros(x) -> Value:
+    """Leading-zero count of the unsigned ``x`` (``len(x)`` for ``x = 0``), as a balanced tree of
+    ``ceil(log2(len(x)))`` levels of 2:1 multiplexers (a priority ``If`` chain would be ``len(x)`` levels deep).
+
+    ``x`` is padded at the bottom with ones to a power-of-two width: the padded count equals the count of ``x``,
+    zero included whenever there is padding (else the all-zero flag of the tree gives ``len(x)``).
+    """
+    x = Value.cast(x)
+    width = len(x)
+    if width == 1:
+        return Cat(~x[0], Const(0, 1))
+    size = 2
+    while size < width:
+        size *= 2
+    padded = Cat(Const((1 << (size - width)) - 1, size - width), x) if size > width else x
+
+    def tree(v):
+        """``(all zero, count)`` of ``v`` (power-of-two width); ``count`` is valid when not all zero."""
+        if len(v) == 2:
+            return ~v[1] & ~v[0], ~v[1]
+        half = len(v) // 2
+        zl, cl = tree(v[:half])
+        zh, ch = tree(v[half:])
+        return zh & zl, Cat(Mux(zh, cl, ch), zh)
+
+    zero, count = tree(padded)
+    return Mux(zero, width, count)
 
 
 def scale(prod, prod_frac: int, exp, recip: RecipParams, out_frac: int, rounding: Rounding):
@@ -39,9 +98,12 @@ class Recip(UnitComponent):
     exp : Signal(signed(E)), out -- integer in ``[F - n, F]``
     dbz : Signal(1), out -- ``w`` was zero (``mant``, ``exp`` then the largest magnitude)
 
-    Latency: ``params.latency`` = 4 + t cycles (t >= 2), 4 for t = 1. Stages: magnitude | leading-zero count and
-    normalizing shift | table ROM read (BRAM) and ``d`` | ``q = B d`` | t - 2 Horner steps | ``B g`` |
-    add, round, renormalize, sign.
+    Latency: ``params.latency`` = 2 t + 4 cycles (t >= 2) plus one per product wider than one DSP block
+    (``split_products``: its partial products get a stage of their own), 6 for t = 1. Stages: magnitude | leading-zero count |
+    normalizing shift | table ROM read and ``d`` | ``q = B d`` | t - 2 Horner steps, each a product stage then an
+    add stage | ``B g`` | add and round | renormalize and sign. Each stage holds at most one carry chain or one
+    product
+    (ECP5 speed grade 8: about 150 MHz for ``default``, see ``python -m rtl.fpga``).
     """
 
     def elaborate(self, platform):
@@ -54,51 +116,65 @@ class Recip(UnitComponent):
         w = self.w
         s1 = pipe.stage(neg=w < 0, X=Mux(w < 0, -w, w)[:n])
 
-        # 2: leading-zero count (priority encoder; the last true If wins) and normalizing shift
-        lz = Signal(range(n + 1))
-        m.d.comb += lz.eq(n)
-        for i in range(n):
-            with m.If(s1.X[i]):
-                m.d.comb += lz.eq(n - 1 - i)
-        s2 = pipe.stage(neg=s1.neg, xn=(s1.X << lz)[:n], lz=lz)
+        # 2: leading-zero count (a balanced tree, log2(n) levels)
+        s2 = pipe.stage(neg=s1.neg, X=s1.X, lz=leading_zeros(s1.X))
 
-        # 3: table read (synchronous ROM: its data register is this stage) and d = ~low bits, truncated to fd
+        # 3: normalizing shift (a barrel shifter)
+        s3 = pipe.stage(neg=s2.neg, xn=(s2.X << s2.lz)[:n], lz=s2.lz)
+
+        # 4: table read (synchronous ROM: its data register is this stage) and d = ~low bits, truncated to fd
         m.submodules.rom = rom = Memory(shape=P.rom_bits, depth=P.entries, init=P.rom)
         rd = rom.read_port(domain="sync")
-        m.d.comb += rd.addr.eq(s2.xn[low:n - 1])
-        stage3 = dict(neg=s2.neg, lz=s2.lz, zero=s2.lz == n, half=s2.xn == (1 << (n - 1)))
+        m.d.comb += rd.addr.eq(s3.xn[low:n - 1])
+        stage4 = dict(neg=s3.neg, lz=s3.lz, zero=s3.lz == n, half=s3.xn == (1 << (n - 1)))
         if P.t >= 2:
-            stage3["d"] = (~s2.xn[:low])[n - P.fd:]
-        s3 = pipe.stage(**stage3)
+            d = (~s3.xn[:low])[n - P.fd:]
+            # midpoint modes: d - 2**-(m+1), exact: the top bit inverted, read as two's complement
+            stage4["d"] = Cat(d[:-1], ~d[-1]).as_signed() if P.signed_d else d
+        s4 = pipe.stage(**stage4)
         B = Cat(rd.data, Const(1, 1))                                   # hidden leading 1: u1.(b-1)
-        flags = dict(neg=s3.neg, lz=s3.lz, zero=s3.zero, half=s3.half)
+        flags = dict(neg=s4.neg, lz=s4.lz, zero=s4.zero, half=s4.half)
 
-        acc = B << (P.fr - (P.b - 1))
+        Bb = (B << (P.fr - (P.b - 1))) + P.bias_code                    # B (+ the centring bias) at fr bits
         if P.t >= 2:
-            # 4: q = B d (B truncated to bq bits)
-            Bh = B[P.b - P.bq:]
-            q, _ = narrow(Bh * s3.d, P.bq - 1 + P.fd, P.q_fmt, Rounding.TRUNC, Overflow.PROVEN)
-            s = pipe.stage(q=q, B=B, **flags)
+            # Each product below gets one more stage when split_product cuts it into partial products
+            # (an operand wider than one DSP block; RecipParams.split_products counts them).
+            # q = B d (B truncated to bq bits)
+            prod, c = split_product(pipe, B[P.b - P.bq:], s4.d, dict(B=B, **flags), "pd")
+            q, _ = narrow(prod, P.bq - 1 + P.fd, P.q_fmt, Rounding.TRUNC, Overflow.PROVEN)
+            s = pipe.stage(q=q, **c)
             g = s.q
-            # t - 2 Horner steps: g = q + trunc(q g)
+            # t - 2 Horner steps g = q + trunc(q g), two stages each: the product (DSP), then the adder
             for _ in range(P.t - 2):
-                qg, _ = narrow(s.q * g, 2 * P.fq, P.g_fmt, Rounding.TRUNC, Overflow.PROVEN)
-                g_next, _ = saturate(s.q + qg, P.g_fmt, Overflow.PROVEN)
+                prod, c = split_product(pipe, s.q, g, dict(q=s.q, B=s.B, **{k: getattr(s, k) for k in flags}),
+                                        "pg")
+                qg, _ = narrow(prod, 2 * P.fq, P.g_fmt, Rounding.TRUNC, Overflow.PROVEN)
+                s = pipe.stage(qg=qg, **c)
+                g_next, _ = saturate(s.q + s.qg, P.g_fmt, Overflow.PROVEN)
                 s = pipe.stage(q=s.q, g=g_next, B=s.B, **{k: getattr(s, k) for k in flags})
                 g = s.g
-            # B g
-            bg, _ = narrow(s.B[P.b - P.bq:] * g, P.bq - 1 + P.fq, P.bg_fmt, Rounding.TRUNC, Overflow.PROVEN)
-            s = pipe.stage(bg=bg, B=s.B, **{k: getattr(s, k) for k in flags})
-            acc = (s.B << (P.fr - (P.b - 1))) + (s.bg << (P.fr - P.fq))
+            # B g, and B plus the bias beside it (a constant adder in parallel with the product)
+            prod, c = split_product(pipe, s.B[P.b - P.bq:], g, dict(B=s.B, **{k: getattr(s, k) for k in flags}),
+                                    "pb")
+            bg, _ = narrow(prod, P.bq - 1 + P.fq, P.bg_fmt, Rounding.TRUNC, Overflow.PROVEN)
+            Bb = (c["B"] << (P.fr - (P.b - 1))) + P.bias_code
+            s = pipe.stage(bg=bg, Bb=Bb, **{k: c[k] for k in flags})
+            acc = s.Bb + (s.bg << (P.fr - P.fq))
             flags = {k: getattr(s, k) for k in flags}
+        else:
+            acc = Bb
 
-        # last: add the centring bias, round half-up, renormalize, restore the sign
-        r = shift_round(acc + P.bias_code, P.fr - P.fo, Rounding.HALF_UP)
+        # next to last: sum, round half-up; the carry out of [1, 2) (or x = 0.5 exactly) is one bit of r
+        r = shift_round(acc, P.fr - P.fo, Rounding.HALF_UP)
         one = 1 << P.fo
-        carry = (r >= 2 * one) | flags["half"]
-        mag = Mux(carry, one, r)
-        mant = Mux(flags["neg"], -mag, mag)
-        exp = (F - n) + flags["lz"] + carry
+        carry = r[P.fo + 1:].any() | flags["half"]                         # r >= 2 * one (r >= 0)
+        s = pipe.stage(r=r, carry=carry, **flags)
+
+        # last: renormalize, restore the sign, flag zero
+        mag = Mux(s.carry, one, s.r)
+        mant = Mux(s.neg, -mag, mag)
+        exp = (F - n) + s.lz + s.carry
+        flags = {k: getattr(s, k) for k in flags}
         self.finish(m, pipe, {
             "mant": Mux(flags["zero"], P.mant_fmt.max_code, mant),
             "exp": Mux(flags["zero"], F, exp),

@@ -12,7 +12,7 @@ from hypothesis import assume, given, strategies as st
 
 from fxmodel import exact
 from fxmodel.fixed import Fmt
-from fxmodel.recip import DivideParams, RecipParams
+from fxmodel.recip import TABLE_MODES, DivideParams, RecipParams
 from fxmodel.unit import preset
 
 DEFAULT = preset("recip", "default")
@@ -52,8 +52,10 @@ def recip_params(draw):
     b = draw(st.integers(p, p + 6))
     guard = draw(st.integers(0, 6))
     center = draw(st.booleans())
+    table = draw(st.sampled_from(TABLE_MODES))
     try:
-        return RecipParams(in_fmt=Fmt(True, n - frac, frac), m=m, b=b, t=t, p=p, guard=guard, center=center)
+        return RecipParams(in_fmt=Fmt(True, n - frac, frac), m=m, b=b, t=t, p=p, guard=guard, center=center,
+                           table=table)
     except ValueError:
         assume(False)
 
@@ -64,6 +66,9 @@ def test_every_input_within_documented_bound(params):
     num, den = errors_ulp(params, w)
     ok = exact.within(num, den, params.error_bound_ulp)
     assert ok.all(), f"input code {w[~ok][0]} exceeds the bound {float(params.error_bound_ulp)} ulp"
+    if params.error_bound_ulp < 1:          # faithful by the bound: every mantissa normalized (module docstring)
+        mag = np.abs(params.compute(w[w != 0])[:, 0])
+        assert mag.min() >= 1 << params.fo and mag.max() < 2 << params.fo
 
 
 @given(recip_params())
@@ -222,3 +227,114 @@ def test_divide_invalid_parameters():
         DivideParams(num_fmt=Fmt(False, 2, 14))
     with pytest.raises(ValueError, match="quotient_limit="):
         DivideParams(quotient_limit=0)
+
+
+# -- table modes (module docstring, "Table modes") ------------------------------------------------------------------
+def test_midpoint_words_are_rounded_reciprocals_of_the_centres():
+    P = DEFAULT.replace(table="midpoint")
+    assert P.signed_d and P.d_fmt.signed and P.d_fmt.width == DEFAULT.d_fmt.width
+    for i, word in enumerate(P.rom):
+        wh = Fraction((1 << (P.m - 1)) + i + 1, 1 << P.m) - Fraction(1, 1 << P.n)
+        c = wh - Fraction(1, 1 << (P.m + 1))                                          # the interval's centre
+        assert (1 << (P.b - 1)) + word == int((1 / c) * (1 << (P.b - 1)) + Fraction(1, 2))
+
+
+def _off_centre(P):
+    """Largest ``|lo + hi| / 2`` over the intervals' exact error bands."""
+    worst = Fraction(0)
+    for c, code in zip(P.centers, P.table_codes):
+        lo, hi = P._entry_error(c, int(code), pieces=16)
+        worst = max(worst, abs(lo + hi) / 2)
+    return worst
+
+
+@pytest.mark.parametrize("mode", ["minimax", "midpoint-minimax"])
+@pytest.mark.parametrize("t", [2, 3])
+def test_minimax_words_centre_each_interval_within_a_word_step(mode, t):
+    """Minimax leaves each interval's error band off-centre by at most half a table step times dT/dB (< 2)."""
+    P = DEFAULT.replace(table=mode, t=t)
+    assert _off_centre(P) <= Fraction(1, 1 << (P.b - 1))
+
+
+@pytest.mark.parametrize("mode", ["round", "midpoint"])
+def test_one_sided_bands_are_off_centre(mode):
+    """The check above can fail: ``round`` bands, and ``midpoint`` bands for even t, are one-sided."""
+    P = DEFAULT.replace(table=mode, t=2)
+    assert _off_centre(P) > 4 * Fraction(1, 1 << (P.b - 1))
+
+
+@pytest.mark.parametrize("t", [2, 3, 4])
+def test_midpoint_buys_t_or_t_minus_one_bits_and_minimax_only_slack(t):
+    from fxmodel.tables import approx_bits
+    for m in (6, 8):
+        rnd, mmx, mid = (approx_bits(m, t, mode) for mode in ("round", "minimax", "midpoint"))
+        gain = t if t % 2 == 0 else t - 1
+        assert gain - 0.3 <= mid - rnd <= gain + 0.3, (m, rnd, mid)
+        assert -0.01 <= mmx - rnd <= 0.1, (m, rnd, mmx)
+
+
+@given(st.sampled_from(TABLE_MODES), st.integers(3, 8), st.integers(1, 4))
+def test_rigorous_approximation_bound_covers_a_dense_sample(mode, m, t):
+    """The exact band of table and series error contains a float64 sample of the same error (the bound's
+    decomposition into monotone pieces is not too optimistic)."""
+    from fxmodel.tables import approx_params, sampled_bits
+    P = approx_params(m, t, mode)
+    assert sampled_bits(P) >= P.approx_bits - 1e-6                   # (float64 noise: ~1e-9 bits)
+    assert sampled_bits(P) <= P.approx_bits + 0.02                   # and it is tight
+
+
+def test_midpoint_hard_cases_include_every_centre():
+    P = preset("recip", "small").replace(table="midpoint")
+    codes = set(P.hard_cases()[:, 0].tolist())
+    k, low = P.n - 1, P.n - 1 - P.m                                    # the top binade
+    for i in range(P.entries):
+        centre = (((1 << (P.m - 1)) + i) << (k - P.m)) + (1 << (k - P.m - 1)) - 1
+        assert {centre - 1, centre, centre + 1, -centre} <= codes
+    assert low > 0
+
+
+def test_signed_d_is_zero_at_the_centre_and_changes_sign_across_it():
+    """At the centre c the datapath's d is 0: with t = 2 the result there is B + B*0 = B, rounded."""
+    P = preset("recip", "small").replace(table="midpoint", t=2)
+    k = P.n - 1
+    centre = ((1 << (P.m - 1)) << (k - P.m)) + (1 << (k - P.m - 1)) - 1     # first interval, top binade
+    mant = int(P.compute(np.array([centre]))[0, 0])
+    B = int(P.table_codes[0])
+    want = (((B << (P.fr - (P.b - 1))) + P.bias_code + (1 << (P.fr - P.fo - 1))) >> (P.fr - P.fo))
+    assert mant == want
+
+
+# -- rcp24: a 24-bit faithful reciprocal from at most 128 entries ---------------------------------------------------
+RCP24 = preset("recip", "rcp24")
+
+
+def test_rcp24_preset_is_24_bit_faithful_by_the_bound_from_at_most_128_entries():
+    assert RCP24.p == 24 and RCP24.entries <= 128 and RCP24.error_bound_ulp < 1
+    assert RCP24.in_fmt.width == 25 and RCP24.input_space() <= 1 << 26
+
+
+def test_default_products_fit_one_dsp_block_each_and_rcp24_splits_its_four():
+    """Latency counts one extra stage per product wider than a MULT18X18D (the RTL registers its partial
+    products); the default's three products fit one block each."""
+    assert DEFAULT.split_products == 0 and DEFAULT.latency == 2 * DEFAULT.t + 4
+    assert all(max(a, b) <= RecipParams.DSP_BITS for _, a, b in DEFAULT.product_operands())
+    assert [name for name, _, _ in RCP24.product_operands()] == ["B*d", "q*q", "q*g", "B*g"]
+    assert RCP24.split_products == 4 and RCP24.latency == 2 * 4 + 4 + 4
+
+
+def test_rcp24_hard_cases_and_random_are_faithful():
+    rng = np.random.default_rng(24)
+    w = np.concatenate([RCP24.hard_cases()[:, 0], RCP24.random_inputs(rng, 1_000_000)[:, 0]])
+    num, den = errors_ulp(RCP24, w)
+    assert np.all(num < den) and np.all(exact.within(num, den, RCP24.error_bound_ulp))
+
+
+@pytest.mark.slow
+def test_rcp24_is_faithful_on_all_inputs():
+    total = RCP24.input_space()
+    assert total == 1 << 25
+    step = 1 << 23
+    for start in range(0, total, step):
+        w = RCP24.all_inputs(start, start + step)[:, 0]
+        num, den = errors_ulp(RCP24, w)
+        assert np.all(num < den) and np.all(exact.within(num, den, RCP24.error_bound_ulp)), start

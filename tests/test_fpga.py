@@ -1,0 +1,133 @@
+"""The ECP5 flow (rtl/fpga.py): report parsing, critical-path naming, the cache and the command line.
+
+The quick tests run no FPGA tool (a stub stands in for yosys and nextpnr); the ``slow`` ones run the real flow
+(``make exhaustive``; the first call of each YoWASP tool compiles it, about a minute).
+"""
+
+import json
+
+import pytest
+
+from fxmodel.unit import preset
+from rtl import fpga
+
+
+def _path(*steps):
+    """A nextpnr critical path from ``(type, delay, from_cell, to_cell)`` steps."""
+    return [{"type": k, "delay": d, "from": {"cell": a, "port": "Q", "loc": [0, 0]},
+             "to": {"cell": b, "port": "D", "loc": [0, 0]}} for k, d, a, b in steps]
+
+
+CLK = "$glbnet$clk$TRELLIS_IO_IN"
+REPORT = {
+    "fmax": {CLK: {"achieved": 143.25, "constraint": 150}},
+    "utilization": {"TRELLIS_COMB": {"used": 632, "available": 83640}, "TRELLIS_FF": {"used": 261, "available": 1},
+                    "MULT18X18D": {"used": 3, "available": 156}, "DP16KD": {"used": 1, "available": 208},
+                    "TRELLIS_RAMW": {"used": 0, "available": 1}, "TRELLIS_IO": {"used": 53, "available": 365}},
+    "critical_paths": [
+        {"from": "<async>", "to": f"posedge {CLK}",
+         "path": _path(("source", 0.0, "w[1]$tr_io", "w[1]$tr_io"), ("routing", 4.0, "w[1]$tr_io", "s1_X_TRELLIS_FF_Q"))},
+        {"from": f"posedge {CLK}", "to": f"posedge {CLK}",
+         "path": _path(("clk-to-q", 0.4, "s4_q_TRELLIS_FF_Q_3", "s4_q_TRELLIS_FF_Q_3"),
+                       ("routing", 1.2, "s4_q_TRELLIS_FF_Q_3", "\\$330_MULT18X18D_P9"),
+                       ("logic", 3.0, "\\$330_MULT18X18D_P9", "\\$330_MULT18X18D_P9"),
+                       ("routing", 0.9, "\\$330_MULT18X18D_P9", "s5_g_TRELLIS_FF_Q_1_DI_LUT4_Z_D_CCU2C_S0$CCU2_COMB0"),
+                       ("logic", 0.4, "s5_g_TRELLIS_FF_Q_1_DI_LUT4_Z_D_CCU2C_S0$CCU2_COMB0",
+                        "s5_g_TRELLIS_FF_Q_1_DI_LUT4_Z_D_CCU2C_S0$CCU2_COMB0"),
+                       ("routing", 0.3, "s5_g_TRELLIS_FF_Q_1_DI_LUT4_Z_D_CCU2C_S0$CCU2_COMB0", "s5_g_TRELLIS_FF_Q_1"),
+                       ("setup", 0.0, "s5_g_TRELLIS_FF_Q_1", "s5_g_TRELLIS_FF_Q_1"))},
+    ],
+}
+STAT = {"design": {"num_cells_by_type": {"LUT4": 522, "CCU2C": 44, "TRELLIS_FF": 261, "MULT18X18D": 3}}}
+
+
+def test_parse_results_reads_resources_fmax_and_the_clock_path():
+    res = fpga.parse_results(REPORT, STAT)
+    assert (res["LUT4"], res["FF"], res["DSP"], res["BRAM"], res["IO"]) == (632, 261, 3, 1, 53)
+    assert res["fmax_mhz"] == 143.25 and res["clock"] == CLK
+    assert res["yosys"]["CCU2C"] == 44
+    cp = res["critical_path"]
+    assert cp["from"] == "s4_q" and cp["to"] == "s5_g"              # the register path, not the pad path
+    assert cp["through"] == ["s4_q", "MULT18X18D", "s5_g"]
+    assert cp["delay_ns"] == pytest.approx(6.2) and cp["logic_ns"] == pytest.approx(3.8)
+    assert cp["routing_ns"] == pytest.approx(2.4) and cp["logic_levels"] == 2
+
+
+def test_slowest_clock_sets_fmax_and_a_design_without_clock_has_none():
+    two = dict(REPORT, fmax={"a": {"achieved": 200.0}, "b": {"achieved": 90.5}}, critical_paths=[])
+    res = fpga.parse_results(two)
+    assert res["fmax_mhz"] == 90.5 and res["clock"] == "b" and res["critical_path"] is None
+    assert fpga.parse_results({"utilization": {}})["fmax_mhz"] is None
+
+
+def _record(fmax, target=150.0):
+    res = fpga.parse_results(dict(REPORT, fmax={CLK: {"achieved": fmax}}), STAT)
+    return {"unit": "recip", "preset": "default", **{k: res[k] for k in ("LUT4", "FF", "DSP", "BRAM")},
+            "fmax_mhz": fmax, "target_mhz": target, "met": fmax >= target, "latency": 10,
+            "critical_path": res["critical_path"]}
+
+
+def test_markdown_names_the_critical_path_only_when_the_target_is_missed():
+    missed, met = fpga.markdown_table([_record(143.25)]), fpga.markdown_table([_record(170.0)])
+    assert "| recip | default | 632 | 261 | 3 | 1 | 143.25 | 150 | no | 10 | s4_q → s5_g: 6.2 ns" in missed
+    assert "| 170.0 | 150 | yes | 10 |  |" in met and "s4_q" not in met
+
+
+def test_targets_and_flow_settings_are_validated():
+    assert fpga.target_mhz(preset("recip")) == 150.0 and fpga.target_mhz(preset("divide")) == 100.0
+    with pytest.raises(ValueError, match="speed=9"):
+        fpga.Flow(speed=9)
+    with pytest.raises(ValueError, match="device="):
+        fpga.Flow(device="100k")
+
+
+def test_cache_reruns_nothing_and_keys_on_the_verilog(tmp_path, monkeypatch):
+    calls = []
+
+    def fake_tools(rdir, top, settings):
+        calls.append((rdir.name, settings["freq_mhz"]))
+        assert (rdir / f"{top}.v").read_text().startswith("/*") or f"module {top}" in (rdir / f"{top}.v").read_text()
+        return fpga.parse_results(REPORT, STAT)
+
+    monkeypatch.setattr(fpga, "_run_tools", fake_tools)
+    small = preset("recip", "small")
+    designs = [({"unit": "recip", "preset": "small"}, small), ({"unit": "recip", "preset": "copy"}, small)]
+    first = fpga.run_designs(designs, build=tmp_path, progress=False)
+    assert len(calls) == 1                                   # equal parameter objects share one run
+    assert [r["cached"] for r in first] == [False, True] and first[0]["fmax_mhz"] == 143.25
+    again = fpga.run_designs(designs, build=tmp_path, progress=False)
+    assert len(calls) == 1 and all(r["cached"] for r in again)
+    assert again[0]["latency"] == small.latency and again[0]["preset"] == "small"
+    other = fpga.measure(small, build=tmp_path, freq=120.0)  # another target is another run
+    assert len(calls) == 2 and other["target_mhz"] == 120.0 and other["met"]       # 143.25 >= 120
+
+
+def test_cli_rejects_unknown_units_and_writes_both_reports(tmp_path, monkeypatch, capsys):
+    assert fpga.main(["--unit", "nounit", "--out", str(tmp_path)]) == 2
+    assert "unknown unit 'nounit'" in capsys.readouterr().err
+    monkeypatch.setattr(fpga, "_run_tools", lambda rdir, top, settings: fpga.parse_results(REPORT, STAT))
+    assert fpga.main(["--unit", "recip", "--preset", "small", "--out", str(tmp_path)]) == 0
+    report = json.loads((tmp_path / "report.json").read_text())
+    (rec,) = report["designs"]
+    assert rec["unit"] == "recip" and rec["preset"] == "small" and rec["LUT4"] == 632 and rec["met"] is False
+    assert "| recip | small |" in (tmp_path / "report.md").read_text()
+
+
+def test_a_failed_tool_is_reported_not_cached(tmp_path, monkeypatch):
+    monkeypatch.setattr(fpga, "_run_tools", lambda rdir, top, settings: {"error": "nextpnr failed (1)"})
+    rec = fpga.measure(preset("recip", "small"), build=tmp_path)
+    assert rec["error"] == "nextpnr failed (1)" and not rec["met"] and not list(tmp_path.glob("index/*.json"))
+    assert "error" in fpga.markdown_table([rec])
+
+
+# -- the real flow (YoWASP yosys + nextpnr-ecp5) ---------------------------------------------------------------------
+@pytest.mark.slow
+def test_recip_default_meets_150_mhz_on_ecp5_85_speed_8(tmp_path):
+    params = preset("recip", "default")
+    rec = fpga.measure(params, build=tmp_path)
+    assert "error" not in rec, rec
+    assert rec["met"] and rec["fmax_mhz"] >= 150.0, rec["critical_path"]
+    assert rec["DSP"] == params.multipliers and rec["LUT4"] > 100 and rec["FF"] > 100
+    assert rec["latency"] == params.latency
+    again = fpga.measure(params, build=tmp_path)
+    assert again["cached"] and again["fmax_mhz"] == rec["fmax_mhz"]

@@ -1,9 +1,15 @@
-"""``make sim``: co-simulate a unit's RTL against the golden model and print a summary (bit-exact or fail).
+"""``make sim``: render a scene through the RTL pixel pipeline and prove it bit-identical to the golden model.
 
-Runs the unit's hard cases plus ``--vectors`` random inputs (or the whole input space with ``--exhaustive``)
-through the RTL on ``--sim`` (default ``$SIM`` or icarus), compares every output bit with the model, writes
-``build/sim/<unit>_<preset>/report.json`` and exits non-zero on any mismatch. ``WAVES=1`` dumps a waveform.
-(The whole-scene pixel pipeline will take this command over once it exists.)
+``python -m cosim.sim [--scene tin-plane] [--sim icarus|verilator] [--size N] [--preset default]``
+
+The model side prepares the frame (scene file, front end, maps and reflectance cubes quantized into the
+pipeline's memories, fragments quantized to its input formats: ``fxmodel.render.prepare``); the fragment codes
+stream through the RTL of ``rtl/pipeline.py`` in cocotb, one per clock; every output byte and flag is compared
+with the bit-exact model. Writes ``build/sim/<scene>/``: ``rtl.png``, ``model.png``, ``float.png``,
+``ideal.png``, ``diff.png`` (amplified differences of the model from the two float references), ``compare.png``
+and ``report.json``; prints a summary table; exits non-zero on any mismatch. ``WAVES=1`` dumps a waveform.
+
+``--unit U [--preset P]`` co-simulates a single unit on its hard cases and random vectors instead.
 """
 
 from __future__ import annotations
@@ -12,51 +18,107 @@ import argparse
 import json
 import os
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
 
-from fxmodel.unit import preset
-
 from .harness import ROOT, run, simulator
+
+SCENES = ROOT / "scenes"
+
+
+def _table(rows) -> str:
+    width = max(len(k) for k, _ in rows)
+    return "\n".join(f"  {k:<{width}}  {v}" for k, v in rows)
+
+
+def sim_scene(args) -> int:
+    from fxmodel.render import prepare, render, save_png
+    from fxmodel.scene import SceneError
+
+    path = Path(args.scene)
+    if not path.suffix:
+        path = SCENES / f"{args.scene}.toml"
+    t0 = time.perf_counter()
+    try:
+        frame = prepare(path, size=args.size, preset=args.preset, cube_size=args.cube_size)
+    except (SceneError, ValueError, OSError) as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    name = frame.scene.name
+    out_dir = ROOT / "build" / "sim" / name
+    out_dir.mkdir(parents=True, exist_ok=True)
+    for stale in ("report.json", "rtl.png"):                # never leave an old result looking current
+        (out_dir / stale).unlink(missing_ok=True)
+    print(f"{name}: {len(frame.codes)} fragments, {frame.scene.width}x{frame.scene.height}, RTL on {args.sim}")
+    report = render(frame, out_dir)
+    model = report.pop("_model_bytes")
+    os.environ.setdefault("COSIM_PROGRESS", "1")
+    result = run(frame.params, frame.codes, sim=args.sim, tag=f"scene_{name}")
+    wall = time.perf_counter() - t0
+    # the harness compared every output (bytes and flags) with the model; this is what the RTL drew
+    save_png(out_dir / "rtl.png", frame.image(result.rtl[:, :3].astype(np.uint8)))
+    del model
+    report.update({"simulator": args.sim, "preset": args.preset, "mismatches": result["mismatches"],
+                   "first_mismatches": result["first"], "rtl_seconds": result["seconds"],
+                   "build_seconds": result["build_seconds"], "wall_seconds": round(wall, 2),
+                   "pixels_per_second": round(len(frame.codes) / result["seconds"]) if result["seconds"] else None,
+                   "pipeline_latency": frame.params.latency})
+    (out_dir / "report.json").write_text(json.dumps(report, indent=2))
+    print(_table([
+        ("scene", name), ("simulator", args.sim), ("pixels", f"{report['pixels']:,}"),
+        ("mismatches", str(report["mismatches"])),
+        ("PSNR vs float", f"{report['psnr_db_vs_float']} dB (max {report['max_lsb_vs_float']} LSB)"),
+        ("PSNR vs ideal", f"{report['psnr_db_vs_ideal']} dB (max {report['max_lsb_vs_ideal']} LSB)"),
+        ("RTL pixels/s", f"{report['pixels_per_second']:,}"), ("wall seconds", f"{wall:.1f}"),
+        ("output", str(out_dir))]))
+    if result["mismatches"]:
+        print(result.describe(), file=sys.stderr)
+        return 1
+    print("  RTL == model on every pixel")
+    return 0
+
+
+def sim_unit(args) -> int:
+    from fxmodel.unit import preset
+
+    params = preset(args.unit, args.preset)
+    rng = np.random.default_rng(args.seed)
+    vectors = params.all_inputs() if args.exhaustive else \
+        np.concatenate([params.hard_cases(), params.random_inputs(rng, args.vectors)])
+    os.environ.setdefault("COSIM_PROGRESS", "1")
+    result = run(params, vectors, sim=args.sim, tag="sim")
+    out = ROOT / "build" / "sim" / f"{args.unit}_{args.preset}"
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "report.json").write_text(json.dumps({"unit": args.unit, "preset": args.preset, **result}, indent=2))
+    print(_table([("unit", f"{args.unit} ({args.preset})"), ("simulator", args.sim),
+                  ("vectors", f"{result['vectors']:,}"), ("mismatches", str(result["mismatches"])),
+                  ("vectors/s", f"{result['vectors_per_second']:,.0f}"), ("report", str(out / "report.json"))]))
+    if result["mismatches"]:
+        print(result.describe(), file=sys.stderr)
+        return 1
+    return 0
 
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(prog="python -m cosim.sim", description=__doc__.split("\n")[0])
-    ap.add_argument("--unit", default="recip")
+    ap.add_argument("--scene", default="tin-plane", help="scene name in scenes/ or a .toml path")
+    ap.add_argument("--size", type=int, default=None, help="override the image size (square)")
+    ap.add_argument("--cube-size", type=int, default=64, help="texels per reflectance-cube face edge")
     ap.add_argument("--preset", default="default")
     ap.add_argument("--sim", default=None, help="icarus or verilator (default: $SIM or icarus)")
-    ap.add_argument("--vectors", type=int, default=100_000, help="random vectors besides the hard cases")
-    ap.add_argument("--exhaustive", action="store_true", help="the whole input space instead")
+    ap.add_argument("--unit", help="co-simulate one unit instead of a scene")
+    ap.add_argument("--vectors", type=int, default=100_000, help="random vectors besides the hard cases (--unit)")
+    ap.add_argument("--exhaustive", action="store_true", help="the unit's whole input space (--unit)")
     ap.add_argument("--seed", type=int, default=1)
     args = ap.parse_args(argv)
     try:
-        params = preset(args.unit, args.preset)
-        sim = simulator(args.sim)
+        args.sim = simulator(args.sim)
     except (ValueError, RuntimeError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
-    if args.exhaustive:
-        vectors = params.all_inputs()
-    else:
-        rng = np.random.default_rng(args.seed)
-        vectors = np.concatenate([params.hard_cases(), params.random_inputs(rng, args.vectors)])
-    os.environ.setdefault("COSIM_PROGRESS", "1")
-    result = run(params, vectors, sim=sim, tag="sim")
-    out = ROOT / "build" / "sim" / f"{args.unit}_{args.preset}"
-    out.mkdir(parents=True, exist_ok=True)
-    report = {"unit": args.unit, "preset": args.preset, **result}
-    (out / "report.json").write_text(json.dumps(report, indent=2))
-    rows = [("unit", f"{args.unit} ({args.preset})"), ("simulator", sim), ("vectors", f"{result['vectors']:,}"),
-            ("mismatches", str(result["mismatches"])), ("RTL seconds", f"{result['seconds']:.1f}"),
-            ("vectors/s", f"{result['vectors_per_second']:,.0f}"), ("report", str(out / "report.json"))]
-    width = max(len(k) for k, _ in rows)
-    print("\n".join(f"  {k:<{width}}  {v}" for k, v in rows))
-    if result["mismatches"]:
-        print(result.describe(), file=sys.stderr)
-        return 1
-    print("  RTL == model, bit for bit")
-    return 0
+    return sim_unit(args) if args.unit else sim_scene(args)
 
 
 if __name__ == "__main__":

@@ -8,7 +8,7 @@ from cosim.harness import run
 from fxmodel.unit import preset
 
 
-@pytest.mark.parametrize("name", ["default", "small"])
+@pytest.mark.parametrize("name", ["default", "small", "color"])
 def test_persp_random_and_hard_cases(sim, name):
     params = preset("persp", name)
     rng = np.random.default_rng(31)

@@ -8,7 +8,7 @@ from cosim.harness import run
 from fxmodel.unit import preset
 
 
-@pytest.mark.parametrize("name", ["default", "nearest", "cube"])
+@pytest.mark.parametrize("name", ["default", "nearest", "cube", "border"])
 def test_sampler_presets_random_and_hard_cases(sim, name):
     params = preset("sampler", name)
     rng = np.random.default_rng(21)

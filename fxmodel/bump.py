@@ -13,7 +13,7 @@ exact sum ``N_i + du A_i0 + dv A_i1`` at ``F = max(n_fmt.frac, d_fmt.frac + a_fm
 perturbed normal too long for ``out_fmt`` is clamped per component (its direction then changes, which the flag
 reports), it never wraps.
 
-Widths (:meth:`BumpParams.widths`): each product has ``d_fmt.width + a_fmt.width`` bits (10 + 16 for ``default``,
+Widths (:meth:`BumpParams.widths`): each product has ``d_fmt.width + a_fmt.width`` bits (12 + 16 for ``default``,
 within one 18 x 18 DSP block); the sum of the aligned ``N`` and two products needs two more bits than the widest
 term; all exact in ``int64``.
 
@@ -63,7 +63,7 @@ class BumpParams(Unit):
     NAME = "bump"
 
     n_fmt: Fmt = Fmt(True, 2, 16)
-    d_fmt: Fmt = Fmt(True, 1, 9)
+    d_fmt: Fmt = Fmt(True, 1, 11)
     a_fmt: Fmt = Fmt(True, 2, 14)
     out_fmt: Fmt = Fmt(True, 2, 16)
     rounding: Rounding = Rounding.HALF_UP

@@ -11,6 +11,9 @@
 ``errors UNIT``
     Measures the preset's error against exact math: exhaustively if the input space has at most 2**26 vectors,
     else over ``--random`` vectors plus the hard cases. Prints JSON (worst, mean, bound, faithful, monotone).
+``render SCENE.toml OUT.png``
+    Renders a scene through the bit-exact pipeline model (no simulator); ``--refs DIR`` also writes the two float
+    references and reports PSNR and the largest per-channel difference against each.
 ``presets [UNIT]``
     Lists units and their presets.
 """
@@ -96,6 +99,19 @@ def cmd_errors(args) -> int:
     return 0
 
 
+def cmd_render(args) -> int:
+    from .render import prepare, render, save_png
+    from .scene import SceneError
+    try:
+        frame = prepare(args.scene, size=args.size, preset=args.preset, cube_size=args.cube_size)
+    except (SceneError, OSError) as exc:
+        raise SystemExit(f"error: {exc}")
+    report = render(frame, args.refs, references=bool(args.refs))
+    save_png(args.output, frame.image(report.pop("_model_bytes")))
+    print(json.dumps(report, indent=2))
+    return 0
+
+
 def cmd_presets(args) -> int:
     for name in ([args.unit] if args.unit else units()):
         print(f"{name}: {', '.join(preset_names(name))}")
@@ -125,6 +141,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--random", type=int, default=0, help="use this many random vectors instead")
     p.add_argument("--seed", type=int, default=1)
     p.set_defaults(fn=cmd_errors)
+    p = sub.add_parser("render", help="render a scene through the bit-exact pipeline model (no simulator)")
+    p.add_argument("scene", help="scene file (TOML)")
+    p.add_argument("output", help="PNG to write")
+    p.add_argument("--size", type=int, help="override the image size (square)")
+    p.add_argument("--preset", default="default", help="pipeline preset (default: %(default)s)")
+    p.add_argument("--cube-size", type=int, default=64, help="texels per reflectance-cube face edge")
+    p.add_argument("--refs", metavar="DIR", help="also render the float references into DIR, report PSNR")
+    p.set_defaults(fn=cmd_render)
     p = sub.add_parser("presets", help="list units and presets")
     p.add_argument("unit", nargs="?")
     p.set_defaults(fn=cmd_presets)

@@ -132,13 +132,15 @@ def quantize(values, fmt: Fmt, rounding: Rounding, overflow: Overflow, what: str
         raise ValueError(f"{what}: row {row}: {x.ravel()[row]!r} is not finite")
     if np.any(np.abs(x) >= 2.0 ** 52):
         raise ValueError(f"{what}: magnitude too large to quantize exactly")
-    if rounding is Rounding.TRUNC:
-        y = np.floor(x)
-    elif rounding is Rounding.HALF_UP:
-        y = np.floor(x + 0.5)
-    elif rounding is Rounding.HALF_EVEN:
-        y = np.round(x)                   # numpy rounds half to even
-    else:
+    if not isinstance(rounding, Rounding):
         raise TypeError(f"rounding must be a Rounding, not {rounding!r}")
+    # one exact rounding: floor(x) and x - floor(x) are exact below 2**52 (floor(x + 0.5) would round twice:
+    # 0.49999999999999994 + 0.5 is 1.0 in float64)
+    y = np.floor(x)
+    frac = x - y
+    if rounding is Rounding.HALF_UP:
+        y += frac >= 0.5
+    elif rounding is Rounding.HALF_EVEN:
+        y += (frac > 0.5) | ((frac == 0.5) & (np.fmod(y, 2) != 0))
     lo, hi = float(fmt.min_code), float(fmt.max_code)
     return saturate(np.clip(y, lo - 1, hi + 1).astype(np.int64), fmt, overflow, what)

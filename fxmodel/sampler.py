@@ -12,12 +12,16 @@ Coordinates ``s, t`` are codes of ``coord_fmt`` with ``T`` fraction bits.
 1. **Edge rule.** ``repeat``: keep the fraction bits, ``s - floor(s)`` in ``[0, 1)`` -- the texture's repeat,
    exact for negative coordinates and coordinates far outside ``[0, 1)`` (two's complement makes it free: the
    integer bits are simply not used). ``clamp``: ``s`` clamped to ``[0, 1]`` (clamp-to-edge; the cube unit's
-   ``s, t`` are already in ``[0, 1]``, so the clamp is idle there).
+   ``s, t`` are already in ``[0, 1]``, so the clamp is idle there). ``border``: like ``clamp``, but each face is
+   stored with a one-texel border (``(H + 2) x (W + 2)`` texels) that continues the face past its edges -- for
+   a reflectance cube, the lighting evaluated one texel beyond the edge, which is the neighbouring face's
+   lighting -- so bilinear filtering never clamps and is seamless across faces to second order (the seamless
+   option; no adjacent-face addressing in hardware, only ``4 (W + 1)`` more texels a face).
 2. **Texel position** for a map of ``W`` texels: nearest ``i = floor(s W)`` (``s = 1`` gives ``W - 1`` under
    clamp); bilinear ``x = s W - 1/2`` exactly (``T + 1`` fraction bits), ``i0 = floor(x)``, ``i1 = i0 + 1``,
    ``fx`` = the fraction of ``x`` truncated to ``weight_bits`` (``Rounding.TRUNC``). ``repeat`` wraps
    ``i0 = -1`` to ``W - 1`` and ``i1 = W`` to ``0`` (one comparison each: ``x`` lies in ``[-1/2, W - 1/2)``); ``clamp``
-   clamps both to ``[0, W - 1]``. The same for ``t`` with ``H``.
+   clamps both to ``[0, W - 1]``; ``border`` adds 1 (the border column), no clamp needed. The same for ``t``.
 3. **Fetch** the texels at ``(face H + j) W + i``: one read port for nearest, four for bilinear.
 4. **Bilinear blend**, exact: ``top = a 2**B + fx (b - a)``, ``bot = c 2**B + fx (d - c)``,
    ``v = top 2**B + fy (bot - top)`` (``B = weight_bits``), then one narrowing to the channel's format,
@@ -45,7 +49,7 @@ from .unit import Port, Unit, register
 __all__ = ["Texels", "SamplerParams", "FILTERS", "EDGES"]
 
 FILTERS = ("nearest", "bilinear")
-EDGES = ("repeat", "clamp")
+EDGES = ("repeat", "clamp", "border")
 
 
 class Texels:
@@ -119,7 +123,8 @@ class SamplerParams(Unit):
         _require(isinstance(self.texels, Texels), "texels", self.texels, "must be a Texels")
         faces, h, w, ch = self.texels.shape
         _require(faces in (1, 6), "texels", self.texels, "must have 1 face (texture) or 6 (cube map)")
-        _require(h >= 1 and w >= 1, "texels", self.texels, "must have at least one texel")
+        _require(h >= 1 + 2 * (self.edge == "border") and w >= 1 + 2 * (self.edge == "border"), "texels",
+                 self.texels, "must have at least one texel (plus the border for edge='border')")
         _require(isinstance(self.channels, tuple) and len(self.channels) == ch
                  and all(isinstance(c, Fmt) for c in self.channels), "channels", self.channels,
                  f"must be a tuple of {ch} Fmt (one per channel of the texels)")
@@ -146,17 +151,24 @@ class SamplerParams(Unit):
         return self.texels.shape[0]
 
     @property
+    def border(self) -> int:
+        """Border texels on each side of a face (1 for the ``border`` edge rule)."""
+        return 1 if self.edge == "border" else 0
+
+    @property
     def height(self) -> int:
-        return self.texels.shape[1]
+        """Texels of the sample grid along ``t`` (the border excluded)."""
+        return self.texels.shape[1] - 2 * self.border
 
     @property
     def width(self) -> int:
-        return self.texels.shape[2]
+        """Texels of the sample grid along ``s`` (the border excluded)."""
+        return self.texels.shape[2] - 2 * self.border
 
     @property
     def depth(self) -> int:
         """Words in the memory."""
-        return self.faces * self.height * self.width
+        return int(np.prod(self.texels.shape[:3]))
 
     @property
     def bilinear(self) -> bool:
@@ -214,18 +226,19 @@ class SamplerParams(Unit):
         s = self.edge_rule(s)
         if not self.bilinear:
             i = (s * size) >> T
-            return np.minimum(i, size - 1), None, None
-        x = s * (2 * size) - (1 << T)                    # s W - 1/2 with T + 1 fraction bits
+            return np.minimum(i, size - 1) + self.border, None, None
+        # s W - 1/2 (+ 1 for the border column) with T + 1 fraction bits
+        x = s * (2 * size) + (1 << T) * (2 * self.border - 1)
         i0 = x >> (T + 1)
         f = (x & ((1 << (T + 1)) - 1)) >> (T + 1 - self.weight_bits)
         i1 = i0 + 1
         if self.edge == "repeat":
             i0 = np.where(i0 < 0, size - 1, i0)
             i1 = np.where(i1 >= size, 0, i1)
-        else:
+        elif self.edge == "clamp":
             i0 = np.clip(i0, 0, size - 1)
             i1 = np.clip(i1, 0, size - 1)
-        return i0, i1, f
+        return i0, i1, f                                 # border: i0 in [0, W], i1 in [1, W + 1]
 
     def blend(self, a, b, c, d, fx, fy, fmt: Fmt):
         """Step 4: exact bilinear blend of codes, one half-up narrowing to ``fmt``."""
@@ -299,5 +312,8 @@ SamplerParams.PRESETS = {
     "cube": SamplerParams(texels=Texels(np.random.default_rng(7).integers(0, 4096, size=(6, 4, 4, 3))),
                           channels=(Fmt(False, 2, 10),) * 3, coord_fmt=Fmt(False, 1, 16), edge="clamp",
                           names=("r", "g", "b")),
+    "border": SamplerParams(texels=Texels(np.random.default_rng(8).integers(0, 4096, size=(6, 7, 7, 3))),
+                            channels=(Fmt(False, 2, 10),) * 3, coord_fmt=Fmt(False, 1, 16), edge="border",
+                            names=("r", "g", "b")),
 }
 register(SamplerParams)

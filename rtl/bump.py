@@ -21,7 +21,7 @@ class Bump(UnitComponent):
     -----------------------------------------------------
     i_valid : Signal(1), in
     Nx, Ny, Nz : Signal(signed), in -- ``n_fmt`` (``s2.16`` for ``default``)
-    du, dv : Signal(signed), in -- ``d_fmt`` (``s1.9``)
+    du, dv : Signal(signed), in -- ``d_fmt`` (``s1.11``)
     A00, A10, A20, A01, A11, A21 : Signal(signed), in -- ``a_fmt`` (``s2.14``)
     o_valid : Signal(1), out
     Npx, Npy, Npz : Signal(signed), out -- ``out_fmt`` (``s2.16``), rounded by ``rounding``, saturated

@@ -22,9 +22,11 @@ class Persp(UnitComponent):
     -------------------------------------------------------
     i_valid : Signal(1), in
     U, V : Signal(signed), in -- ``uv_fmt`` (``s8.16``)
+    Uc, Vc : Signal(signed), in -- only with ``color``: the color texture's numerators
     W : Signal(signed), in -- ``recip.in_fmt`` (``s8.16``)
     o_valid : Signal(1), out
     s, t : Signal(unsigned(coord_bits)), out -- ``u0.coord_bits``: ``U/W`` and ``V/W`` modulo 1
+    sc, tc : Signal(unsigned(coord_bits)), out -- only with ``color``: ``Uc/W``, ``Vc/W`` modulo 1
     dbz : Signal(1), out -- ``W`` was zero (``s = t = 0``)
 
     Latency: ``recip.latency + 2``.
@@ -37,13 +39,12 @@ class Persp(UnitComponent):
         m.submodules.recip = rcp = Recip(R)
         m.d.comb += [rcp.w.eq(self.W), rcp.i_valid.eq(self.i_valid)]
         pipe = Pipe(m)
-        u_late = pipe.delay(self.U, R.latency, "u")
-        v_late = pipe.delay(self.V, R.latency, "v")
+        late = {i: pipe.delay(getattr(self, i), R.latency, i) for i, _ in P.numerators}
         pipe.depth = R.latency
-        s = pipe.stage(pu=u_late * rcp.mant, pv=v_late * rcp.mant, exp=rcp.exp, dbz=rcp.dbz)
+        s = pipe.stage(exp=rcp.exp, dbz=rcp.dbz, **{f"p{o}": late[i] * rcp.mant for i, o in P.numerators})
         outs = {}
-        for name, prod in (("s", s.pu), ("t", s.pv)):
-            y = scale(prod, P.prod_frac, s.exp, R, P.coord_bits, Rounding.HALF_UP)
+        for _, name in P.numerators:
+            y = scale(getattr(s, f"p{name}"), P.prod_frac, s.exp, R, P.coord_bits, Rounding.HALF_UP)
             outs[name] = Mux(s.dbz, 0, y[:P.coord_bits])                  # repeat rule: the fraction bits
         outs["dbz"] = s.dbz
         self.finish(m, pipe, outs)

@@ -30,6 +30,8 @@ class Sampler(UnitComponent):
     o_valid : Signal(1), out
     <names> : Signal(channel format), out -- one per channel, e.g. ``du, dv`` (``s1.9``) or ``r, g, b``
 
+    Edge rules ``repeat``, ``clamp`` and ``border`` (see ``fxmodel/sampler.py``).
+
     Latency: 5 for bilinear (address | read | blend x | blend y | round), 3 for nearest.
     """
 
@@ -44,20 +46,20 @@ class Sampler(UnitComponent):
         def edge(s):
             if P.edge == "repeat":
                 return s[:T]                                           # s - floor(s): the fraction bits
-            return Mux(s < 0, 0, Mux(s > one, one, s))[:T + 1]
+            return Mux(s < 0, 0, Mux(s > one, one, s))[:T + 1]         # clamp and border
 
         def axis(s, size):
             se = edge(s)
             if not P.bilinear:
                 i = (se * size) >> T
-                return dict(i0=Mux(i > size - 1, size - 1, i))
-            x = se * (2 * size) - one                                  # s W - 1/2, T + 1 fraction bits
+                return dict(i0=Mux(i > size - 1, size - 1, i) + P.border)
+            x = se * (2 * size) + one * (2 * P.border - 1)              # s W - 1/2 (+ border), T + 1 fraction bits
             i0 = x >> (T + 1)
             i1 = i0 + 1
             if P.edge == "repeat":
                 i0 = Mux(i0 < 0, size - 1, i0)
                 i1 = Mux(i1 >= size, 0, i1)
-            else:
+            elif P.edge == "clamp":
                 i0 = Mux(i0 < 0, 0, Mux(i0 > size - 1, size - 1, i0))
                 i1 = Mux(i1 > size - 1, size - 1, i1)
             return dict(i0=i0, i1=i1, f=x[T + 1 - B:T + 1])
@@ -72,8 +74,9 @@ class Sampler(UnitComponent):
         data = []
         for xi, yi in corners:
             port = mem.read_port(domain="sync")
-            row = s1.face * P.height + getattr(s1, yi)[:max(1, (P.height - 1).bit_length())]
-            m.d.comb += port.addr.eq(row * P.width + getattr(s1, xi)[:max(1, (P.width - 1).bit_length())])
+            mh, mw = P.texels.shape[1:3]                               # memory rows and columns of a face
+            row = s1.face * mh + getattr(s1, yi)[:max(1, (mh - 1).bit_length())]
+            m.d.comb += port.addr.eq(row * mw + getattr(s1, xi)[:max(1, (mw - 1).bit_length())])
             data.append(port.data)
         s2 = pipe.stage(fx=s1.x_f, fy=s1.y_f) if P.bilinear else pipe.stage()
 

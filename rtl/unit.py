@@ -96,8 +96,9 @@ def build(params) -> wiring.Component:
     stem = type(params).__module__.rpartition(".")[2]
     try:
         importlib.import_module(f"{__package__}.{stem}")
-    except ModuleNotFoundError:
-        pass
+    except ModuleNotFoundError as exc:
+        if exc.name != f"{__package__}.{stem}":       # a broken import inside the unit's RTL: say so
+            raise
     try:
         return _COMPONENTS[type(params)](params)
     except KeyError:

@@ -127,3 +127,12 @@ def test_quantize_refuses_non_finite():
     from fxmodel.rounding import quantize
     with pytest.raises(ValueError, match="tex: row 1"):
         quantize(np.array([0.0, np.inf]), Fmt(True, 8, 6), Rounding.HALF_UP, Overflow.SATURATE, "tex")
+
+
+def test_quantize_rounds_once():
+    from fxmodel.rounding import quantize
+    codes, _ = quantize(np.array([0.49999999999999994, 0.5, -0.5, 2.5, 3.5]), Fmt(True, 8, 0), Rounding.HALF_UP,
+                        Overflow.SATURATE)
+    assert codes.tolist() == [0, 1, 0, 3, 4]
+    codes, _ = quantize(np.array([0.5, 1.5, 2.5, -0.5, -1.5]), Fmt(True, 8, 0), Rounding.HALF_EVEN, Overflow.SATURATE)
+    assert codes.tolist() == [0, 2, 2, 0, -2]

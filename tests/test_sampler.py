@@ -18,6 +18,8 @@ def texels_strategy():
 
 def make(shape, seed, **kw):
     h, w = shape
+    if kw.get("edge") == "border":
+        h, w = h + 2, w + 2
     codes = np.random.default_rng(seed).integers(-512, 512, size=(1, h, w, 2))
     return SamplerParams(texels=Texels(codes), channels=(Fmt(True, 1, 9),) * 2, **kw)
 
@@ -28,18 +30,20 @@ def exact_sample(params, face, s, t):
     B = params.weight_bits
     tex = params.texels.codes
 
+    border = params.border
+
     def axis(code, size):
         v = Fraction(code, 1 << T)
         v = v - math.floor(v) if params.edge == "repeat" else min(max(v, Fraction(0)), Fraction(1))
         if params.filter == "nearest":
-            return min(math.floor(v * size), size - 1), None, None
-        x = v * size - Fraction(1, 2)
+            return min(math.floor(v * size), size - 1) + border, None, None
+        x = v * size - Fraction(1, 2) + border
         i0 = math.floor(x)
         f = Fraction(math.floor((x - i0) * (1 << B)), 1 << B)   # weight truncated to B bits
         i1 = i0 + 1
         if params.edge == "repeat":
             i0, i1 = i0 % size, i1 % size
-        else:
+        elif params.edge == "clamp":
             i0, i1 = min(max(i0, 0), size - 1), min(max(i1, 0), size - 1)
         return i0, i1, f
 
@@ -56,7 +60,7 @@ def exact_sample(params, face, s, t):
     return out, corners
 
 
-@given(texels_strategy(), st.sampled_from(["bilinear", "nearest"]), st.sampled_from(["repeat", "clamp"]),
+@given(texels_strategy(), st.sampled_from(["bilinear", "nearest"]), st.sampled_from(["repeat", "clamp", "border"]),
        st.integers(1, 8), st.lists(st.tuples(st.integers(-(1 << 23), (1 << 23) - 1),
                                              st.integers(-(1 << 23), (1 << 23) - 1)), min_size=1, max_size=20))
 def test_matches_exact_sampling_rule(tex, flt, edge, wb, coords):
@@ -140,3 +144,17 @@ def test_texels_compare_by_content():
     assert hash(a) == hash(Texels(np.ones((1, 2, 2, 1)))) and "sha1=" in repr(a)
     with pytest.raises(ValueError, match="shape"):
         Texels(np.ones((2, 2)))
+
+
+def test_border_faces_never_clamp_and_reach_the_border_texels():
+    params = preset("sampler", "border")
+    one = 1 << params.coord_fmt.frac_bits
+    tex = params.texels.codes
+    F = params.width
+    assert F == tex.shape[2] - 2
+    out = params.compute(np.array([[2, 0, 0], [2, one, one], [2, one // 2, one // 2]]))
+    # s = t = 0 is halfway between the first texel and the border corner: the mean of four texels, rounded
+    want = [exact_sample(params, 2, s, t)[0] for s, t in ((0, 0), (one, one), (one // 2, one // 2))]
+    assert out.tolist() == want
+    corner_sums = tex[2, 0:2, 0:2].reshape(4, 3).sum(0)
+    assert out[0].tolist() == [math.floor(Fraction(int(c), 4) + Fraction(1, 2)) for c in corner_sums]

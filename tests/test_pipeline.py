@@ -1,0 +1,95 @@
+"""The pixel pipeline model (fxmodel.pipeline) and scene rendering (fxmodel.render, fxmodel.reference)."""
+
+import dataclasses
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from fxmodel.cli import main
+from fxmodel.fixed import Fmt
+from fxmodel.pipeline import FLAG_BITS
+from fxmodel.reference import max_lsb, psnr, sample_float
+from fxmodel.render import prepare, render
+from fxmodel.unit import preset
+
+ROOT = Path(__file__).resolve().parents[1]
+SCENES = sorted((ROOT / "scenes").glob("*.toml"))
+P = preset("pipeline")
+
+
+def test_pipeline_is_the_composition_of_its_units():
+    rng = np.random.default_rng(8)
+    frags = P.random_inputs(rng, 500)
+    tr = P.trace(frags)
+    names = [p.name for p in P.inputs]
+    col = {n: frags[:, i] for i, n in enumerate(names)}
+    st = P.persp.compute(np.stack([col[p.name] for p in P.persp.inputs], 1))
+    npr = P.bump.compute(np.column_stack([frags[:, names.index("Nx"):names.index("Nx") + 3],
+                                          P.bump_map.compute(st[:, 0:2]),
+                                          np.stack([col[p.name] for p in P.bump.inputs[5:]], 1)]))
+    assert np.array_equal(tr["N'"], npr)
+    r = P.reflect.compute(np.column_stack([npr[:, :3], np.stack([col["Ex"], col["Ey"], col["Ez"]], 1)]))
+    sp = P.specular.compute(P.cube.compute(r[:, :3])[:, :3])
+    d = P.diffuse.compute(P.cube.compute(npr[:, :3])[:, :3])
+    out = P.shade.compute(np.column_stack([P.texture.compute(st[:, 2:4]), d, sp]))
+    assert np.array_equal(tr["rgb"], out[:, :3])
+    assert np.array_equal(P.compute(frags)[:, :3], out[:, :3])
+
+
+def test_flags_report_saturation_and_degenerate_vectors():
+    rng = np.random.default_rng(9)
+    frags = P.random_inputs(rng, 3000)
+    flags = P.compute(frags)[:, 3]
+    assert ((flags >> FLAG_BITS["bump_saturated"]) & 1).any()
+    zero = frags.copy()
+    names = [p.name for p in P.inputs]
+    for c in "xyz":
+        zero[:, names.index(f"E{c}")] = 0
+    assert np.all((P.compute(zero[:50])[:, 3] >> FLAG_BITS["degenerate"]) & 1)
+
+
+def test_mismatched_stage_formats_name_the_stage():
+    with pytest.raises(ValueError, match="reflect.n_fmt"):
+        dataclasses.replace(P, reflect=dataclasses.replace(P.reflect, n_fmt=Fmt(True, 2, 14)))
+    with pytest.raises(ValueError, match="persp"):
+        dataclasses.replace(P, persp=dataclasses.replace(P.persp, color=False))
+
+
+@pytest.mark.parametrize("path", SCENES, ids=[p.stem for p in SCENES])
+def test_shipped_scenes_within_one_lsb_of_the_float_reference(path):
+    frame = prepare(path, size=64)
+    report = render(frame)
+    model = report.pop("_model_bytes")
+    assert report["pixels"] > 500 and len(model) == report["pixels"]
+    assert report["max_lsb_vs_float"] <= 1, report
+    assert report["psnr_db_vs_float"] >= 50 and report["psnr_db_vs_ideal"] >= 35
+    assert not frame.stats["clamped_fragment_inputs"]
+
+
+def test_render_command_writes_png_and_report(tmp_path, capsys):
+    out = tmp_path / "x.png"
+    assert main(["render", str(ROOT / "scenes" / "tin-plane.toml"), str(out), "--size", "40"]) == 0
+    rep = json.loads(capsys.readouterr().out)
+    from PIL import Image
+    img = np.asarray(Image.open(out))
+    assert img.shape == (40, 40, 3) and rep["pixels"] > 0 and "psnr_db_vs_float" not in rep
+
+
+def test_bad_scene_is_one_clear_error(tmp_path):
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[image]\nwidth = 'wide'\n")
+    with pytest.raises(SystemExit, match="bad.toml"):
+        main(["render", str(bad), str(tmp_path / "x.png")])
+    assert not (tmp_path / "x.png").exists()
+
+
+def test_reference_metrics_and_float_sampler():
+    a = np.array([[0, 10, 254]], dtype=np.uint8)
+    assert psnr(a, a) == float("inf") and max_lsb(a, a + 1) == 1
+    assert abs(psnr(a, a + 1) - 48.13) < 0.01
+    tex = np.arange(12, dtype=float).reshape(1, 2, 3, 2)
+    # the centre of texel (1, 0) returns it exactly; repeat wraps
+    got = sample_float(tex, np.array([0, 0]), np.array([0.5, 1.5]), np.array([0.25, 0.25]), "bilinear", "repeat")
+    assert np.allclose(got, [tex[0, 0, 1], tex[0, 0, 1]])

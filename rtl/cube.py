@@ -20,7 +20,7 @@ from fxmodel.cube import FLIP_S, FLIP_T, CubeParams
 from fxmodel.rounding import Overflow, Rounding
 
 from .fixed import saturate
-from .recip import Recip, scale
+from .recip import scale, times_reciprocal
 from .unit import Pipe, UnitComponent, register
 
 __all__ = ["Cube"]
@@ -63,19 +63,12 @@ class Cube(UnitComponent):
         s1 = pipe.stage(face=Cat(ma < 0, axis[:2]), ma=ma,
                         a=Mux(zsel | ysel, x, z), b=Mux(zsel, y, Mux(ysel, z, y)))
 
-        # reciprocal of the signed major component, shared by both quotients
-        m.submodules.recip = rcp = Recip(R)
-        m.d.comb += [rcp.w.eq(s1.ma), rcp.i_valid.eq(1)]
-        a_late = pipe.delay(s1.a, R.latency, "a")
-        b_late = pipe.delay(s1.b, R.latency, "b")
-        face_late = pipe.delay(s1.face, R.latency, "face")
-        pipe.depth += R.latency
-
-        # Divide's last two stages, twice: n * mant, then data-dependent right shift with half-up rounding
-        s = pipe.stage(pa=a_late * rcp.mant, pb=b_late * rcp.mant, exp=rcp.exp, dbz=rcp.dbz, face=face_late)
-        qs, _ = saturate(scale(s.pa, D.prod_fmt.frac_bits, s.exp, R, D.out_fmt.frac_bits, Rounding.HALF_UP),
+        # one reciprocal of the signed major component for both quotients: n * mant, then the barrel shift
+        # with half-up rounding, twice
+        s = times_reciprocal(m, pipe, R, s1.ma, 1, {"a": s1.a, "b": s1.b}, carry={"face": s1.face})
+        qs, _ = saturate(scale(s.p_a, D.prod_fmt.frac_bits, s.exp, R, D.out_fmt.frac_bits, Rounding.HALF_UP),
                          D.out_fmt, Overflow.PROVEN)
-        qt, _ = saturate(scale(s.pb, D.prod_fmt.frac_bits, s.exp, R, D.out_fmt.frac_bits, Rounding.HALF_UP),
+        qt, _ = saturate(scale(s.p_b, D.prod_fmt.frac_bits, s.exp, R, D.out_fmt.frac_bits, Rounding.HALF_UP),
                          D.out_fmt, Overflow.PROVEN)
         s = pipe.stage(qs=qs, qt=qt, dbz=s.dbz, face=s.face)
         qs, qt = s.qs, s.qt

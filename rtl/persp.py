@@ -8,7 +8,7 @@ from amaranth.hdl import Module, Mux
 from fxmodel.persp import PerspParams
 from fxmodel.rounding import Rounding
 
-from .recip import Recip, scale
+from .recip import scale, times_reciprocal
 from .unit import Pipe, UnitComponent, register
 
 __all__ = ["Persp"]
@@ -36,15 +36,11 @@ class Persp(UnitComponent):
         P = self.params
         R = P.recip
         m = Module()
-        m.submodules.recip = rcp = Recip(R)
-        m.d.comb += [rcp.w.eq(self.W), rcp.i_valid.eq(self.i_valid)]
         pipe = Pipe(m)
-        late = {i: pipe.delay(getattr(self, i), R.latency, i) for i, _ in P.numerators}
-        pipe.depth = R.latency
-        s = pipe.stage(exp=rcp.exp, dbz=rcp.dbz, **{f"p{o}": late[i] * rcp.mant for i, o in P.numerators})
+        s = times_reciprocal(m, pipe, R, self.W, self.i_valid, {i: getattr(self, i) for i, _ in P.numerators})
         outs = {}
-        for _, name in P.numerators:
-            y = scale(getattr(s, f"p{name}"), P.prod_frac, s.exp, R, P.coord_bits, Rounding.HALF_UP)
+        for num, name in P.numerators:
+            y = scale(getattr(s, f"p_{num}"), P.prod_frac, s.exp, R, P.coord_bits, Rounding.HALF_UP)
             outs[name] = Mux(s.dbz, 0, y[:P.coord_bits])                  # repeat rule: the fraction bits
         outs["dbz"] = s.dbz
         self.finish(m, pipe, outs)

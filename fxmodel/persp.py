@@ -99,8 +99,8 @@ class PerspParams(Unit):
 
     @property
     def latency(self) -> int:
-        """The reciprocal, the two products, the shift with rounding."""
-        return self.recip.latency + 2
+        """The reciprocal, the products, the shift, the rounding."""
+        return self.recip.latency + 3
 
     def coords(self, nums, W):
         """Wrapped coordinates of each numerator code array in ``nums``, and ``dbz``."""

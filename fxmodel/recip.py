@@ -768,8 +768,8 @@ class DivideParams(Unit):
 
     @property
     def latency(self) -> int:
-        """The reciprocal's latency, one stage for ``n * mant`` and one to shift, round and saturate."""
-        return self.recip.latency + 2
+        """The reciprocal's latency, one stage for ``n * mant``, one for the shift, one to round and saturate."""
+        return self.recip.latency + 3
 
     def _compute(self, cols):
         n, d = cols

@@ -17,10 +17,10 @@ from __future__ import annotations
 from amaranth.hdl import Cat, Module, Mux
 
 from fxmodel.cube import FLIP_S, FLIP_T, CubeParams
-from fxmodel.rounding import Overflow, Rounding
+from fxmodel.rounding import Overflow
 
 from .fixed import saturate
-from .recip import scale, times_reciprocal
+from .recip import scale_stages, times_reciprocal
 from .unit import Pipe, UnitComponent, register
 
 __all__ = ["Cube"]
@@ -66,10 +66,10 @@ class Cube(UnitComponent):
         # one reciprocal of the signed major component for both quotients: n * mant, then the barrel shift
         # with half-up rounding, twice
         s = times_reciprocal(m, pipe, R, s1.ma, 1, {"a": s1.a, "b": s1.b}, carry={"face": s1.face})
-        qs, _ = saturate(scale(s.p_a, D.prod_fmt.frac_bits, s.exp, R, D.out_fmt.frac_bits, Rounding.HALF_UP),
-                         D.out_fmt, Overflow.PROVEN)
-        qt, _ = saturate(scale(s.p_b, D.prod_fmt.frac_bits, s.exp, R, D.out_fmt.frac_bits, Rounding.HALF_UP),
-                         D.out_fmt, Overflow.PROVEN)
+        y, s = scale_stages(pipe, {"a": s.p_a, "b": s.p_b}, D.prod_fmt.frac_bits, s.exp, R, D.out_fmt.frac_bits,
+                            carry={"dbz": s.dbz, "face": s.face})
+        qs, _ = saturate(y["a"], D.out_fmt, Overflow.PROVEN)
+        qt, _ = saturate(y["b"], D.out_fmt, Overflow.PROVEN)
         s = pipe.stage(qs=qs, qt=qt, dbz=s.dbz, face=s.face)
         qs, qt = s.qs, s.qt
 

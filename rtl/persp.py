@@ -6,9 +6,8 @@ from __future__ import annotations
 from amaranth.hdl import Module, Mux
 
 from fxmodel.persp import PerspParams
-from fxmodel.rounding import Rounding
 
-from .recip import scale, times_reciprocal
+from .recip import scale_stages, times_reciprocal
 from .unit import Pipe, UnitComponent, register
 
 __all__ = ["Persp"]
@@ -29,7 +28,7 @@ class Persp(UnitComponent):
     sc, tc : Signal(unsigned(coord_bits)), out -- only with ``color``: ``Uc/W``, ``Vc/W`` modulo 1
     dbz : Signal(1), out -- ``W`` was zero (``s = t = 0``)
 
-    Latency: ``recip.latency + 2``.
+    Latency: ``recip.latency + 3``.
     """
 
     def elaborate(self, platform):
@@ -38,10 +37,11 @@ class Persp(UnitComponent):
         m = Module()
         pipe = Pipe(m)
         s = times_reciprocal(m, pipe, R, self.W, self.i_valid, {i: getattr(self, i) for i, _ in P.numerators})
+        y, s = scale_stages(pipe, {o: getattr(s, f"p_{i}") for i, o in P.numerators}, P.prod_frac, s.exp, R,
+                            P.coord_bits, carry={"dbz": s.dbz})
         outs = {}
-        for num, name in P.numerators:
-            y = scale(getattr(s, f"p_{num}"), P.prod_frac, s.exp, R, P.coord_bits, Rounding.HALF_UP)
-            outs[name] = Mux(s.dbz, 0, y[:P.coord_bits])                  # repeat rule: the fraction bits
+        for _, name in P.numerators:
+            outs[name] = Mux(s.dbz, 0, y[name][:P.coord_bits])            # repeat rule: the fraction bits
         outs["dbz"] = s.dbz
         self.finish(m, pipe, outs)
         return m

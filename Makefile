@@ -19,7 +19,7 @@ help:
 	@echo "make render     render SCENE through the bit-exact model only, with the float references"
 	@echo "make test       the test suite (model properties, RTL build, co-simulation on \$$SIM)"
 	@echo "make verilog    write build/verilog/<unit>_<preset>.v for every unit and preset"
-	@echo "make bench      model and co-simulation throughput -> build/bench/bench.json"
+	@echo "make bench      throughput, then the reciprocal's speed-against-error sweep -> build/bench/"
 	@echo "make fpga       ECP5-85 synthesis, place and route of every unit and preset -> build/fpga/report.{json,md}"
 	@echo "make exhaustive exhaustive RTL equivalence (streaming co-simulation) -> build/exhaustive/report.json"
 	@echo "make setup      create .venv, install everything, install iverilog if missing"
@@ -56,7 +56,7 @@ render: setup
 	$(PY) -m fxmodel render scenes/$(SCENE).toml build/render/$(SCENE)/model.png --preset $(PRESET) --refs build/render/$(SCENE)
 
 bench: setup
-	$(PY) -m cosim.bench
+	$(PY) -m cosim.bench --docs
 
 fpga: setup
 	$(PY) -m rtl.fpga --jobs $(JOBS)

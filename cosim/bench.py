@@ -6,7 +6,10 @@ cocotb harness and of the streaming harness (``cosim/stream.py``: vectors from m
 on each available simulator (build time excluded). Machines here are shared and noisy: the
 figures are medians, and the ratios between them mean more than any one number.
 
-Writes ``build/bench/bench.json`` and prints a Markdown table.
+Writes ``build/bench/bench.json`` and prints a Markdown table. Second phase (skip with ``--no-sweep``): the
+reciprocal's design-space sweep, speed against error (:mod:`cosim.sweep`: ``build/bench/speed_vs_error.{json,md}``
+and ``build/bench/pareto.png``), with the ECP5 flow on at most ``--fpga-points`` of its points (cached under
+``build/fpga``; ``--no-fpga`` skips it).
 """
 
 from __future__ import annotations
@@ -40,7 +43,14 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(prog="python -m cosim.bench", description=__doc__.split("\n")[0])
     ap.add_argument("--repeat", type=int, default=5)
     ap.add_argument("--cosim-vectors", type=int, default=30_000)
+    ap.add_argument("--no-sweep", action="store_true", help="skip the design-space sweep (cosim.sweep)")
+    ap.add_argument("--no-fpga", action="store_true", help="sweep without the ECP5 flow")
+    ap.add_argument("--fpga-points", type=int, default=6, help="sweep points placed and routed (0 to 6, cached)")
+    ap.add_argument("--jobs", type=int, default=2, help="FPGA designs placed and routed in parallel")
+    ap.add_argument("--docs", action="store_true", help="also write docs/img/pareto.png")
     args = ap.parse_args(argv)
+    if not 0 <= args.fpga_points <= 6:
+        ap.error("--fpga-points must be 0 to 6 (each new design takes 1-2 minutes)")
     rows = []
     rng = np.random.default_rng(1)
     jobs = [("model", "recip", "default", "all 2^24 inputs"), ("model", "recip", "small", "all 2^16 inputs"),
@@ -73,7 +83,13 @@ def main(argv=None) -> int:
     for r in rows:
         print(f"| {r['what']} | {r['workload']} | {r['per_second']:,.0f} |")
     print(f"\n(written to {out / 'bench.json'})")
-    return 0
+    if args.no_sweep:
+        return 0
+    from . import sweep
+    sweep_argv = ["--fpga-points", str(0 if args.no_fpga else args.fpga_points), "--jobs", str(args.jobs),
+                  "--out", str(out)] + (["--docs"] if args.docs else [])
+    print("\nSpeed against error (python -m cosim.sweep):\n")
+    return sweep.main(sweep_argv)
 
 
 if __name__ == "__main__":

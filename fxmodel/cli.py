@@ -16,6 +16,12 @@
     references and reports PSNR and the largest per-channel difference against each.
 ``presets [UNIT]``
     Lists units and their presets.
+``fit SCENE.toml --max-lsb 1``
+    Measures the ranges the scene produces and searches the smallest formats and table sizes for which the
+    bit-exact frame stays within ``--max-lsb`` of the float reference (a) on every pixel; writes the pipeline
+    preset ``presets/<name>.toml`` (``--name``, default ``<scene>-fit``; folder ``--out`` or ``$FXMODEL_PRESETS``)
+    that ``--preset`` and ``make sim PRESET=<name>`` accept, and prints JSON: the knobs, the ranges, the final
+    error at full size and the hardware estimate against ``default``.
 """
 
 from __future__ import annotations
@@ -112,6 +118,19 @@ def cmd_render(args) -> int:
     return 0
 
 
+def cmd_fit(args) -> int:
+    from .fit import fit
+    from .scene import SceneError
+    try:
+        report = fit(args.scene, max_lsb=args.max_lsb, size=args.size or None, cube_size=args.cube_size,
+                     name=args.name, directory=args.out, progress=not args.quiet, passes=args.passes,
+                     scene_size=args.scene_size)
+    except (SceneError, OSError) as exc:
+        raise SystemExit(f"error: {exc}")
+    print(json.dumps(report, indent=2))
+    return 0
+
+
 def cmd_presets(args) -> int:
     for name in ([args.unit] if args.unit else units()):
         print(f"{name}: {', '.join(preset_names(name))}")
@@ -149,6 +168,18 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--cube-size", type=int, default=64, help="texels per reflectance-cube face edge")
     p.add_argument("--refs", metavar="DIR", help="also render the float references into DIR, report PSNR")
     p.set_defaults(fn=cmd_render)
+    p = sub.add_parser("fit", help="scene-driven word lengths: the smallest preset within --max-lsb of float")
+    p.add_argument("scene", help="scene file (TOML)")
+    p.add_argument("--max-lsb", type=int, default=1, help="allowed per-channel error vs reference (a), 8-bit steps")
+    p.add_argument("--size", type=int, default=64, help="square size of the screening renders (0: full size only); "
+                   "every accepted step is also checked at the scene's size (default: %(default)s)")
+    p.add_argument("--cube-size", type=int, default=64, help="texels per reflectance-cube face edge")
+    p.add_argument("--name", help="preset name (default: <scene>-fit)")
+    p.add_argument("--out", help="preset folder (default: $FXMODEL_PRESETS or presets/ at the repo root)")
+    p.add_argument("--scene-size", type=int, help="render the scene at this square size instead of its own")
+    p.add_argument("--passes", type=int, default=2, help="passes over the knobs (default: %(default)s)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(fn=cmd_fit)
     p = sub.add_parser("presets", help="list units and presets")
     p.add_argument("unit", nargs="?")
     p.set_defaults(fn=cmd_presets)

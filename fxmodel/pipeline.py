@@ -175,14 +175,18 @@ class PipelineParams(Unit):
 
     @classmethod
     def assemble(cls, *, bump_codes, texture_bytes, lighting: Lighting, cube_face: int, preset: str = "default",
-                 bump_filter: str = "bilinear", texture_filter: str = "bilinear", weight_bits: int = 10,
+                 bump_filter: str = "bilinear", texture_filter: str = "bilinear", weight_bits: int | None = None,
                  cube_edge: str = "border"):
         """A pipeline from a scene's tables: the bump map codes ``(H, W, 2)`` in ``bump.d_fmt``, the texture
         bytes ``(H, W, 3)``, the lighting (baked into cubes of ``cube_face`` texels) and the units' preset.
 
         ``weight_bits`` of the bump-map and texture bilinear weights: 10 keeps a hard texture edge (a jump of up
-        to 255) within a quarter step of the exact blend; the cube lookups' lighting is smooth, 8 bits there."""
+        to 255) within a quarter step of the exact blend; the cube lookups' lighting is smooth, 8 bits there.
+        ``None``: the preset's ``weight_bits`` (10 unless a preset file sets it). ``preset`` is a built-in name
+        or a preset file (``presets/<name>.toml``, see :mod:`fxmodel.fit`)."""
         units = PRESET_UNITS[preset]
+        if weight_bits is None:
+            weight_bits = units.get("weight_bits", 10)
         persp, bump, reflect, cube, shade = (units[k] for k in ("persp", "bump", "reflect", "cube", "shade"))
         diffuse, specular, info = bake_cubes(lighting, cube_face, shade.diffuse_fmt, shade.specular_fmt,
                                              border=1 if cube_edge == "border" else 0)
@@ -202,11 +206,21 @@ class PipelineParams(Unit):
         return params, info
 
 
-PRESET_UNITS = {
+class _PresetUnits(dict):
+    """Built-in unit presets by name; a name that is not built in is read from ``presets/<name>.toml``
+    (:func:`fxmodel.fit.load_preset`, re-read on every lookup; errors name the file and the key)."""
+
+    def __missing__(self, name):
+        from .fit import load_preset
+        return load_preset(name)
+
+
+BUILTIN_PRESET_UNITS = {
     "default": {"persp": PerspParams.PRESETS["color"], "bump": BumpParams.PRESETS["default"],
                 "reflect": ReflectParams.PRESETS["default"], "cube": CubeParams.PRESETS["default"],
-                "shade": ShadeParams.PRESETS["default"]},
+                "shade": ShadeParams.PRESETS["default"], "weight_bits": 10},
 }
+PRESET_UNITS = _PresetUnits(BUILTIN_PRESET_UNITS)
 
 
 def _demo() -> PipelineParams:

@@ -1,0 +1,118 @@
+"""Preset files and ``python -m fxmodel fit`` (scene-driven word lengths)."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+
+import pytest
+
+from fxmodel import cli
+from fxmodel.fit import (KNOB_STEPS, PresetError, fit, knobs_of, load_preset, preset_path, units_of,
+                         write_preset)
+from fxmodel.fixed import Fmt
+from fxmodel.pipeline import BUILTIN_PRESET_UNITS, PRESET_UNITS
+from fxmodel.reference import max_lsb
+from fxmodel.render import prepare, render
+
+SCENE = "scenes/tin-plane.toml"
+DEFAULT = BUILTIN_PRESET_UNITS["default"]
+
+
+@pytest.fixture
+def presets(tmp_path, monkeypatch):
+    monkeypatch.setenv("FXMODEL_PRESETS", str(tmp_path))
+    return tmp_path
+
+
+def _smaller_units():
+    k = knobs_of(DEFAULT)
+    return units_of({**k, "coord_bits": 18, "persp_p": 19, "persp_b": 20, "word": 16, "weight_bits": 9}, DEFAULT)
+
+
+def test_preset_file_round_trips_and_prepare_uses_it(presets):
+    units = _smaller_units()
+    path = write_preset("small-test", units)
+    assert path == presets / "small-test.toml"
+    back = load_preset("small-test")
+    for key in ("persp", "bump", "reflect", "cube", "shade", "weight_bits"):
+        assert back[key] == units[key], key
+    assert back["persp"] != DEFAULT["persp"]
+    frame = prepare(SCENE, size=32, preset="small-test")
+    assert frame.params.persp == units["persp"] and frame.params.cube == units["cube"]
+    assert frame.params.reflect.r_bits == 16 and frame.params.texture.weight_bits == 9
+    assert PRESET_UNITS["small-test"]["bump"] == units["bump"]
+
+
+def test_missing_fields_keep_default(presets):
+    (presets / "part.toml").write_text('[persp]\ncoord_bits = 20\n')
+    units = load_preset("part")
+    assert units["persp"] == dataclasses.replace(DEFAULT["persp"], coord_bits=20)
+    assert units["bump"] == DEFAULT["bump"] and units["weight_bits"] == 10
+
+
+@pytest.mark.parametrize("text, key", [
+    ('[persp]\ncoord_bits = "wide"\n', "persp.coord_bits"),
+    ('[persp.recip]\nm = 99\n', "persp.recip"),
+    ('[bump]\nn_fmt = "x2.16"\n', "bump.n_fmt"),
+    ('[reflect]\nbogus = 1\n', "reflect.bogus"),
+    ('colour = 1\n', "colour"),
+    ('weight_bits = 40\n', "weight_bits"),
+    ('[bump]\nrounding = "SIDEWAYS"\n', "bump.rounding"),
+])
+def test_bad_preset_file_names_file_and_key(presets, text, key):
+    (presets / "bad.toml").write_text(text)
+    with pytest.raises(PresetError) as err:
+        load_preset("bad")
+    assert str(presets / "bad.toml") in str(err.value) and key in str(err.value)
+    with pytest.raises(ValueError, match="bad.toml"):            # prepare() surfaces it as a ValueError too
+        prepare(SCENE, size=16, preset="bad")
+
+
+def test_not_toml_is_named(presets):
+    (presets / "broken.toml").write_text("[persp\n")
+    with pytest.raises(PresetError, match="broken.toml.*not valid TOML"):
+        load_preset("broken")
+
+
+def test_unknown_preset_errors_clearly(presets, capsys):
+    with pytest.raises(KeyError, match="unknown pipeline preset 'nope'.*nope.toml"):
+        PRESET_UNITS["nope"]
+    assert cli.main(["render", SCENE, str(presets / "x.png"), "--size", "16", "--preset", "nope"]) == 2
+    assert "unknown pipeline preset 'nope'" in capsys.readouterr().err
+
+
+def test_fit_small_scene_stays_within_bound_and_shrinks(presets):
+    report = fit(SCENE, max_lsb=3, size=None, name="tiny", progress=False, passes=1,
+                 scene_size=48)
+    units = load_preset("tiny")
+    k = knobs_of(units)
+    default = knobs_of(DEFAULT)
+    assert set(k) == set(KNOB_STEPS)
+    assert all(k[n] <= default[n] for n in k), {n: (k[n], default[n]) for n in k if k[n] > default[n]}
+    assert sum(k.values()) < sum(default.values())               # it found something to save
+    assert report["hardware"]["fit"]["table_bits"] <= report["hardware"]["default"]["table_bits"]
+    # the written preset, rendered on its own, is within the bound of reference (a) on every pixel
+    frame = prepare(SCENE, size=48, preset="tiny")
+    rep = render(frame)
+    a, _ = frame.references()
+    assert max_lsb(rep["_model_bytes"], a) <= 3
+    assert rep["max_lsb_vs_float"] == report["final"]["max_lsb_vs_float"] <= 3
+
+
+def test_fit_cli_writes_preset_and_json(presets, capsys):
+    assert cli.main(["fit", SCENE, "--max-lsb", "4", "--size", "0", "--passes", "1", "--quiet", "--name", "c",
+                     "--out", str(presets / "out"), "--scene-size", "32"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["path"] == str(preset_path("c", presets / "out"))
+    assert out["final"]["max_lsb_vs_float"] <= 4
+    assert {"table_bits", "memory_bits", "dsp18_tiles"} <= set(out["hardware"]["savings"])
+    assert out["ranges"]["max_abs_uv"] > 0 and 0 < out["ranges"]["min_W"] <= out["ranges"]["max_W"] <= 1
+
+
+def test_units_of_rejects_invalid_knobs():
+    k = knobs_of(DEFAULT)
+    assert units_of(k, DEFAULT)["persp"] == DEFAULT["persp"]
+    with pytest.raises(ValueError):
+        units_of({**k, "persp_b": k["persp_p"] - 1}, DEFAULT)        # table word narrower than the result
+    assert Fmt.parse(str(units_of(k, DEFAULT)["bump"].out_fmt)).width == k["word"]

@@ -41,7 +41,7 @@ from .fixed import Fmt
 from .rounding import Overflow, Rounding, narrow
 from .scene import BumpSpec, ColorSpec, Material, Scene
 
-__all__ = ["mexican_hat", "heights_from_image", "chiselled_text", "height_field", "perturbations", "BumpCodes",
+__all__ = ["bump_rgb", "mexican_hat", "heights_from_image", "chiselled_text", "height_field", "perturbations", "BumpCodes",
            "quantize", "tangent_frame", "triangle_matrix", "graffiti", "checker", "color_texture",
            "MaterialMaps", "material_maps", "scene_maps", "bump_gain", "periodic_noise"]
 
@@ -543,6 +543,13 @@ def scene_maps(scene: Scene, d_fmt: Fmt = DEFAULT_D_FMT) -> tuple[MaterialMaps, 
     return tuple(material_maps(m, d_fmt) for m in scene.materials)
 
 
+def bump_rgb(bump: BumpCodes) -> np.ndarray:
+    """A quantized bump map as a picture: ``du`` red, ``dv`` green, 128 = no perturbation, full scale = the
+    format's range."""
+    rg = [np.clip(np.floor(128 + 127 * c / bump.fmt.max_code + 0.5), 0, 255) for c in (bump.du, bump.dv)]
+    return np.stack(rg + [np.full_like(rg[0], 128)], -1).astype(np.uint8)
+
+
 def main(argv=None) -> int:
     """``python -m fxmodel.bumpmap SCENE.toml OUTDIR``: write each material's maps as PNG files.
 
@@ -571,10 +578,7 @@ def main(argv=None) -> int:
         if maps.bump is None:
             continue
         Image.fromarray(_to_uint8(maps.heights)).save(out / f"{mat.name}_height.png")
-        f = maps.bump.fmt
-        rg = [np.clip(np.floor(128 + 127 * c / f.max_code + 0.5), 0, 255) for c in (maps.bump.du, maps.bump.dv)]
-        Image.fromarray(np.stack(rg + [np.full_like(rg[0], 128)], -1).astype(np.uint8)).save(
-            out / f"{mat.name}_bump.png")
+        Image.fromarray(bump_rgb(maps.bump)).save(out / f"{mat.name}_bump.png")
         print(f"{mat.name}: {maps.bump.shape[1]}x{maps.bump.shape[0]} bump map, scale {maps.bump.scale:.6g}, "
               f"A gain {maps.a_gain:.6g}, saturated {maps.bump.n_saturated}")
     print(f"wrote {out}")

@@ -80,7 +80,7 @@ import numpy as np
 from .fixed import Fmt
 from .recip import DivideParams, RecipParams
 
-from .unit import Port, Unit, register
+from .unit import Port, Unit, register, require
 
 __all__ = ["CubeParams", "FACE_NAMES", "FLIP_S", "FLIP_T"]
 
@@ -91,9 +91,6 @@ FLIP_S = (True, True, False, True, False, False)
 FLIP_T = (True, False, False, False, True, False)
 
 
-def _require(cond: bool, param: str, value, why: str):
-    if not cond:
-        raise ValueError(f"{param}={value!r}: {why}")
 
 
 def _divide(in_fmt: Fmt, m: int, b: int, t: int, p: int, guard: int) -> DivideParams:
@@ -119,18 +116,18 @@ class CubeParams(Unit):
     divide: DivideParams = _divide(Fmt(True, 1, 17), m=7, b=20, t=3, p=17, guard=5)
 
     def __post_init__(self):
-        _require(isinstance(self.divide, DivideParams), "divide", self.divide, "must be a DivideParams")
+        require(isinstance(self.divide, DivideParams), "divide", self.divide, "must be a DivideParams")
         d = self.divide
-        _require(d.num_fmt == d.recip.in_fmt, "divide", f"num_fmt={d.num_fmt}, recip.in_fmt={d.recip.in_fmt}",
+        require(d.num_fmt == d.recip.in_fmt, "divide", f"num_fmt={d.num_fmt}, recip.in_fmt={d.recip.in_fmt}",
                  "numerator and denominator must share the input format")
         # |q| <= 1 after rounding needs the pre-rounding error below half an ulp of q (module docstring)
         pre = d.recip.error_bound_ulp / (1 << d.recip.fo)
         half = Fraction(1, 1 << (d.out_fmt.frac_bits + 1))
-        _require(pre < half, "divide",
+        require(pre < half, "divide",
                  f"p={d.recip.p}, out_fmt={d.out_fmt}",
                  f"the reciprocal's error {float(pre):.3g} is not below half an ulp of q ({float(half):.3g}): "
                  f"raise p or lower out_fmt.frac_bits")
-        _require(d.out_fmt.int_bits >= 2, "divide", f"out_fmt={d.out_fmt}", "q needs the range [-1, 1] (int_bits >= 2)")
+        require(d.out_fmt.int_bits >= 2, "divide", f"out_fmt={d.out_fmt}", "q needs the range [-1, 1] (int_bits >= 2)")
 
     # -- formats (the RTL reads these) --------------------------------------------------------------------
     @property

@@ -19,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .bumpmap import bump_rgb
 from .render import compose, prepare, render, save_png
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -41,10 +42,7 @@ def bump_picture(maps) -> np.ndarray:
     """Height field and quantized ``(du, dv)`` side by side."""
     h = maps.heights
     grey = np.clip((h - h.min()) / max(np.ptp(h), 1e-12) * 255 + 0.5, 0, 255).astype(np.uint8)
-    fmax = maps.bump.fmt.max_code
-    rg = [np.clip(np.floor(128 + 127 * c / fmax + 0.5), 0, 255).astype(np.uint8) for c in (maps.bump.du, maps.bump.dv)]
-    bump = np.stack(rg + [np.full_like(rg[0], 128)], -1)
-    return compose(np.repeat(grey[..., None], 3, -1), bump)
+    return compose(np.repeat(grey[..., None], 3, -1), bump_rgb(maps.bump))
 
 
 def _upscale(img: np.ndarray, k: int) -> np.ndarray:

@@ -95,7 +95,7 @@ import numpy as np
 
 from .fixed import INT64_SAFE_BITS, Fmt
 from .rounding import Overflow, Rounding, narrow, saturate, shift_round
-from .unit import Port, Unit, register
+from .unit import Port, Unit, register, require
 
 __all__ = ["RecipParams", "DivideParams", "TABLE_MODES"]
 
@@ -106,9 +106,6 @@ __all__ = ["RecipParams", "DivideParams", "TABLE_MODES"]
 TABLE_MODES = ("round", "minimax", "midpoint", "midpoint-minimax")
 
 
-def _require(cond: bool, param: str, value, why: str):
-    if not cond:
-        raise ValueError(f"{param}={value!r}: {why}")
 
 
 @dataclass(frozen=True)
@@ -148,30 +145,30 @@ class RecipParams(Unit):
     center: bool = True
 
     def __post_init__(self):
-        _require(isinstance(self.in_fmt, Fmt), "in_fmt", self.in_fmt, "must be an Fmt")
-        _require(self.in_fmt.signed, "in_fmt", str(self.in_fmt), "the input must be a signed format")
+        require(isinstance(self.in_fmt, Fmt), "in_fmt", self.in_fmt, "must be an Fmt")
+        require(self.in_fmt.signed, "in_fmt", str(self.in_fmt), "the input must be a signed format")
         for name in ("m", "b", "t", "p", "guard"):
             value = getattr(self, name)
             if not isinstance(value, int) or isinstance(value, bool):
                 raise TypeError(f"{name} must be an int, not {value!r}")
         n = self.in_fmt.width
-        _require(n <= 48, "in_fmt", str(self.in_fmt), "input width above 48 bits is not supported")
-        _require(self.m >= 2, "m", self.m, "the table needs at least 2 entries (m >= 2)")
-        _require(self.m < n, "m", self.m, f"must be smaller than the input width n={n}")
-        _require(self.m <= 16, "m", self.m, "tables above 2**15 entries are not supported")
-        _require(1 <= self.t <= 4, "t", self.t, "Taylor terms must be 1 to 4")
-        _require(self.p >= 2, "p", self.p, "the result needs at least 2 significant bits")
-        _require(self.guard >= 0, "guard", self.guard, "must be >= 0")
-        _require(self.b >= self.p, "b", self.b,
+        require(n <= 48, "in_fmt", str(self.in_fmt), "input width above 48 bits is not supported")
+        require(self.m >= 2, "m", self.m, "the table needs at least 2 entries (m >= 2)")
+        require(self.m < n, "m", self.m, f"must be smaller than the input width n={n}")
+        require(self.m <= 16, "m", self.m, "tables above 2**15 entries are not supported")
+        require(1 <= self.t <= 4, "t", self.t, "Taylor terms must be 1 to 4")
+        require(self.p >= 2, "p", self.p, "the result needs at least 2 significant bits")
+        require(self.guard >= 0, "guard", self.guard, "must be >= 0")
+        require(self.b >= self.p, "b", self.b,
                  f"too small for the output: the table word needs at least p={self.p} significant bits")
-        _require(self.b <= 40, "b", self.b, "table words above 40 bits are not supported")
-        _require(isinstance(self.center, bool), "center", self.center, "must be a bool")
-        _require(self.table in TABLE_MODES, "table", self.table, f"must be one of {TABLE_MODES}")
+        require(self.b <= 40, "b", self.b, "table words above 40 bits are not supported")
+        require(isinstance(self.center, bool), "center", self.center, "must be a bool")
+        require(self.table in TABLE_MODES, "table", self.table, f"must be one of {TABLE_MODES}")
         if self.t >= 2:
-            _require(self.fd > self.m, "m", self.m,
+            require(self.fd > self.m, "m", self.m,
                      f"leaves no bits of d at fd={self.fd} fraction bits (raise p or guard, or use t=1)")
         for what, bits in self.product_widths().items():
-            _require(bits <= INT64_SAFE_BITS, "b", self.b, f"product {what} would need {bits} bits (> 62)")
+            require(bits <= INT64_SAFE_BITS, "b", self.b, f"product {what} would need {bits} bits (> 62)")
 
     # -- formats (the RTL reads these) --------------------------------------------------------------------
     @cached_property
@@ -730,14 +727,14 @@ class DivideParams(Unit):
     quotient_limit: int = 1
 
     def __post_init__(self):
-        _require(isinstance(self.recip, RecipParams), "recip", self.recip, "must be a RecipParams")
+        require(isinstance(self.recip, RecipParams), "recip", self.recip, "must be a RecipParams")
         for name in ("num_fmt", "out_fmt"):
             fmt = getattr(self, name)
-            _require(isinstance(fmt, Fmt) and fmt.signed, name, fmt, "must be a signed Fmt")
-        _require(isinstance(self.quotient_limit, int) and self.quotient_limit >= 1, "quotient_limit",
+            require(isinstance(fmt, Fmt) and fmt.signed, name, fmt, "must be a signed Fmt")
+        require(isinstance(self.quotient_limit, int) and self.quotient_limit >= 1, "quotient_limit",
                  self.quotient_limit, "must be an int >= 1")
         bits = self.prod_fmt.width + self.pre_shift
-        _require(bits <= INT64_SAFE_BITS, "out_fmt", str(self.out_fmt), f"needs a {bits}-bit shifter (> 62)")
+        require(bits <= INT64_SAFE_BITS, "out_fmt", str(self.out_fmt), f"needs a {bits}-bit shifter (> 62)")
 
     @property
     def prod_fmt(self) -> Fmt:

@@ -80,14 +80,11 @@ import numpy as np
 
 from .fixed import INT64_SAFE_BITS, Fmt
 from .rounding import Overflow, Rounding, narrow, saturate
-from .unit import Port, Unit, register
+from .unit import Port, Unit, register, require
 
 __all__ = ["ReflectParams", "bitlen_int64", "ones_magnitude"]
 
 
-def _require(cond: bool, param: str, value, why: str):
-    if not cond:
-        raise ValueError(f"{param}={value!r}: {why}")
 
 
 def _prod_range(a: tuple[int, int], b: tuple[int, int]) -> tuple[int, int]:
@@ -138,14 +135,14 @@ class ReflectParams(Unit):
     def __post_init__(self):
         for name in ("n_fmt", "e_fmt"):
             fmt = getattr(self, name)
-            _require(isinstance(fmt, Fmt) and fmt.signed, name, fmt, "must be a signed Fmt")
-        _require(isinstance(self.r_bits, int) and not isinstance(self.r_bits, bool), "r_bits", self.r_bits,
+            require(isinstance(fmt, Fmt) and fmt.signed, name, fmt, "must be a signed Fmt")
+        require(isinstance(self.r_bits, int) and not isinstance(self.r_bits, bool), "r_bits", self.r_bits,
                  "must be an int")
-        _require(self.r_bits >= 2, "r_bits", self.r_bits, "the output needs a sign and at least one bit (>= 2)")
+        require(self.r_bits >= 2, "r_bits", self.r_bits, "the output needs a sign and at least one bit (>= 2)")
         W = self.exact_fmt.width
-        _require(W <= INT64_SAFE_BITS, "n_fmt", str(self.n_fmt),
+        require(W <= INT64_SAFE_BITS, "n_fmt", str(self.n_fmt),
                  f"with e_fmt={self.e_fmt} the exact R needs {W} bits (> {INT64_SAFE_BITS})")
-        _require(self.r_bits <= W, "r_bits", self.r_bits, f"exceeds the exact R's width {W} (nothing to narrow)")
+        require(self.r_bits <= W, "r_bits", self.r_bits, f"exceeds the exact R's width {W} (nothing to narrow)")
 
     # -- formats (the RTL reads these) --------------------------------------------------------------------
     @cached_property

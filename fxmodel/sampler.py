@@ -44,7 +44,7 @@ import numpy as np
 
 from .fixed import Fmt
 from .rounding import Overflow, Rounding, narrow
-from .unit import Port, Unit, register
+from .unit import Port, Unit, register, require
 
 __all__ = ["Texels", "SamplerParams", "FILTERS", "EDGES"]
 
@@ -81,9 +81,6 @@ class Texels:
         return f"Texels(shape={self.shape}, sha1={self.digest[:12]})"
 
 
-def _require(cond, param, value, why):
-    if not cond:
-        raise ValueError(f"{param}={value!r}: {why}")
 
 
 @dataclass(frozen=True)
@@ -120,29 +117,29 @@ class SamplerParams(Unit):
     names: tuple = ()
 
     def __post_init__(self):
-        _require(isinstance(self.texels, Texels), "texels", self.texels, "must be a Texels")
+        require(isinstance(self.texels, Texels), "texels", self.texels, "must be a Texels")
         faces, h, w, ch = self.texels.shape
-        _require(faces in (1, 6), "texels", self.texels, "must have 1 face (texture) or 6 (cube map)")
-        _require(h >= 1 + 2 * (self.edge == "border") and w >= 1 + 2 * (self.edge == "border"), "texels",
+        require(faces in (1, 6), "texels", self.texels, "must have 1 face (texture) or 6 (cube map)")
+        require(h >= 1 + 2 * (self.edge == "border") and w >= 1 + 2 * (self.edge == "border"), "texels",
                  self.texels, "must have at least one texel (plus the border for edge='border')")
-        _require(isinstance(self.channels, tuple) and len(self.channels) == ch
+        require(isinstance(self.channels, tuple) and len(self.channels) == ch
                  and all(isinstance(c, Fmt) for c in self.channels), "channels", self.channels,
                  f"must be a tuple of {ch} Fmt (one per channel of the texels)")
         for k, fmt in enumerate(self.channels):
             col = self.texels.codes[..., k]
-            _require(bool(np.all((col >= fmt.min_code) & (col <= fmt.max_code))), "texels", self.texels,
+            require(bool(np.all((col >= fmt.min_code) & (col <= fmt.max_code))), "texels", self.texels,
                      f"channel {k} has codes outside {fmt}")
-        _require(isinstance(self.coord_fmt, Fmt) and self.coord_fmt.frac_bits >= 1, "coord_fmt", self.coord_fmt,
+        require(isinstance(self.coord_fmt, Fmt) and self.coord_fmt.frac_bits >= 1, "coord_fmt", self.coord_fmt,
                  "must be an Fmt with at least one fraction bit")
-        _require(self.filter in FILTERS, "filter", self.filter, f"must be one of {FILTERS}")
-        _require(self.edge in EDGES, "edge", self.edge, f"must be one of {EDGES}")
-        _require(isinstance(self.weight_bits, int) and 1 <= self.weight_bits <= 16, "weight_bits",
+        require(self.filter in FILTERS, "filter", self.filter, f"must be one of {FILTERS}")
+        require(self.edge in EDGES, "edge", self.edge, f"must be one of {EDGES}")
+        require(isinstance(self.weight_bits, int) and 1 <= self.weight_bits <= 16, "weight_bits",
                  self.weight_bits, "must be an int in 1..16")
-        _require(self.weight_bits <= self.coord_fmt.frac_bits + 1, "weight_bits", self.weight_bits,
+        require(self.weight_bits <= self.coord_fmt.frac_bits + 1, "weight_bits", self.weight_bits,
                  f"cannot exceed the coordinate's fraction bits + 1 = {self.coord_fmt.frac_bits + 1}")
-        _require(isinstance(self.names, tuple) and len(self.names) in (0, ch), "names", self.names,
+        require(isinstance(self.names, tuple) and len(self.names) in (0, ch), "names", self.names,
                  f"must be empty or name all {ch} channels")
-        _require(max(w, h).bit_length() + self.coord_fmt.frac_bits + 2 <= 62, "texels", self.texels,
+        require(max(w, h).bit_length() + self.coord_fmt.frac_bits + 2 <= 62, "texels", self.texels,
                  "map too large for int64 texel positions")
 
     # -- shape facts (the RTL reads these) ----------------------------------------------------------------

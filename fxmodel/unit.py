@@ -19,7 +19,14 @@ import numpy as np
 
 from .fixed import Fmt, as_codes
 
-__all__ = ["Port", "Unit", "register", "units", "unit_class", "preset", "preset_names"]
+__all__ = ["require", "Port", "Unit", "register", "units", "unit_class", "preset", "preset_names"]
+
+
+def require(cond: bool, param: str, value, why: str):
+    """Raise ``ValueError("<param>=<value>: <why>")`` unless ``cond``: every parameter object validates this way,
+    so an error always names the parameter and its bad value."""
+    if not cond:
+        raise ValueError(f"{param}={value!r}: {why}")
 
 
 @dataclass(frozen=True)

@@ -99,8 +99,9 @@ class PerspParams(Unit):
 
     @property
     def latency(self) -> int:
-        """The reciprocal, the products, the shift, the rounding."""
-        return self.recip.latency + 3
+        """The reciprocal, the products (two stages when split into partial products,
+        :meth:`RecipParams.times_split`), the shift, the rounding."""
+        return self.recip.latency + 3 + self.recip.times_split(self.uv_fmt.width)
 
     def coords(self, nums, W):
         """Wrapped coordinates of each numerator code array in ``nums``, and ``dbz``."""

@@ -280,6 +280,12 @@ class RecipParams(Unit):
         pipeline stage each (``rtl/recip.py``)."""
         return sum(max(a, b) > self.DSP_BITS for _, a, b in self.product_operands())
 
+    def times_split(self, width: int) -> int:
+        """Extra stages of ``x * mant`` for a ``width``-bit ``x`` (the users of ``1/w``: divider, perspective
+        coordinates, cube address): 1 when an operand is wider than :attr:`DSP_BITS` (the RTL registers the
+        partial products, then sums them; ``rtl.recip.times_reciprocal``), else 0."""
+        return int(max(width, self.mant_fmt.width) > self.DSP_BITS)
+
     @property
     def multipliers(self) -> int:
         return 0 if self.t == 1 else self.t
@@ -765,8 +771,9 @@ class DivideParams(Unit):
 
     @property
     def latency(self) -> int:
-        """The reciprocal's latency, one stage for ``n * mant``, one for the shift, one to round and saturate."""
-        return self.recip.latency + 3
+        """The reciprocal's latency, one stage for ``n * mant`` (two when split into partial products,
+        :meth:`RecipParams.times_split`), one for the shift, one to round and saturate."""
+        return self.recip.latency + 3 + self.recip.times_split(self.num_fmt.width)
 
     def _compute(self, cols):
         n, d = cols

@@ -205,8 +205,9 @@ class SamplerParams(Unit):
 
     @property
     def latency(self) -> int:
-        """Address | memory read | [blend in x | blend in y] | output register."""
-        return 5 if self.bilinear else 3
+        """Scaled position | indices and weights | texel address | memory read | [six blend stages, one
+        operation each] | rounding (``rtl/sampler.py``: one carry chain or one product per stage, ECP5 timing)."""
+        return 11 if self.bilinear else 5
 
     # -- bit-exact model ----------------------------------------------------------------------------------
     def edge_rule(self, s):

@@ -13,7 +13,7 @@ from amaranth.hdl import Const, Mux, Shape, Value, signed, unsigned
 from fxmodel.fixed import Fmt
 from fxmodel.rounding import Overflow, Rounding
 
-__all__ = ["shape", "shift_round", "saturate", "narrow"]
+__all__ = ["shape", "shift_round", "saturate", "narrow", "const_mul"]
 
 
 def shape(fmt: Fmt) -> Shape:
@@ -64,3 +64,29 @@ def saturate(x: Value, fmt: Fmt, overflow: Overflow):
 def narrow(x: Value, from_frac: int, fmt: Fmt, rounding: Rounding, overflow: Overflow):
     """Narrow ``x`` (``from_frac`` fraction bits) to ``fmt``: round first, then the range rule."""
     return saturate(shift_round(x, from_frac - fmt.frac_bits, rounding), fmt, overflow)
+
+
+def const_mul(x, c: int) -> Value:
+    """``x * c`` for a constant ``c >= 0``, exact, as shifted copies of ``x`` added and subtracted (the
+    canonical signed-digit form of ``c``: at most ``ceil((bits + 1) / 2)`` nonzero digits, a balanced adder tree).
+
+    No model twin (an exact product). Why not ``x * c``: Yosys maps a constant product onto a multiplier block
+    like any other (``synth_ecp5`` spent five MULT18X18D on a sampler's texel addresses), and the pixel pipeline
+    is short of them; a texel-address constant (a map width) has two or three nonzero digits.
+    """
+    x = Value.cast(x)
+    if c < 0:
+        raise ValueError(f"const_mul: constant {c} must be >= 0")
+    terms, k = [], 0
+    while c:
+        if c & 1:
+            digit = 2 - (c & 3)                       # +1 or -1: the non-adjacent form
+            terms.append(x << k if digit > 0 else -(x << k))
+            c -= digit
+        c >>= 1
+        k += 1
+    if not terms:
+        return Const(0, 1)
+    while len(terms) > 1:
+        terms = [terms[i] + terms[i + 1] if i + 1 < len(terms) else terms[i] for i in range(0, len(terms), 2)]
+    return terms[0]

@@ -15,7 +15,8 @@ from fxmodel.rounding import Overflow, Rounding
 from .fixed import narrow, saturate, shift_round
 from .unit import Pipe, UnitComponent, register
 
-__all__ = ["Recip", "Divide", "scale", "scale_stages", "times_reciprocal", "leading_zeros", "pieces", "split_product"]
+__all__ = ["Recip", "Divide", "scale", "scale_stages", "times_reciprocal", "leading_zeros", "pieces", "split_product",
+           "split_products"]
 
 
 def pieces(x, limit: int = RecipParams.DSP_BITS) -> list[tuple[Value, int]]:
@@ -34,18 +35,29 @@ def pieces(x, limit: int = RecipParams.DSP_BITS) -> list[tuple[Value, int]]:
     return out
 
 
-def split_product(pipe: Pipe, a, b, carry: dict, name: str = "pp"):
-    """``(a * b, carry)``. Within one multiplier block: the product, ``carry`` unchanged. Wider (an operand above
-    ``RecipParams.DSP_BITS`` bits): the partial products of :func:`pieces` are registered as a stage of their
-    own (with the signals of ``carry``) and the expression returned is their exact sum, for the next stage."""
-    pa, pb = pieces(a), pieces(b)
-    if len(pa) == 1 and len(pb) == 1:
-        return a * b, carry
-    parts = {f"{name}{i}_{j}": xa * xb for i, (xa, _) in enumerate(pa) for j, (xb, _) in enumerate(pb)}
-    shifts = {f"{name}{i}_{j}": sa + sb for i, (_, sa) in enumerate(pa) for j, (_, sb) in enumerate(pb)}
+def split_products(pipe: Pipe, products: dict, carry: dict, name: str = "pp"):
+    """``({k: a * b}, carry)`` for ``products = {k: (a, b)}``. All within one multiplier block: the products,
+    ``carry`` unchanged. Any wider (an operand above ``RecipParams.DSP_BITS`` bits): the partial products of
+    :func:`pieces` of every product are registered together as one stage of their own (with the signals of
+    ``carry``) and the expressions returned are their exact sums, for the next stage."""
+    cut = {k: (pieces(a), pieces(b)) for k, (a, b) in products.items()}
+    if all(len(pa) == 1 and len(pb) == 1 for pa, pb in cut.values()):
+        return {k: a * b for k, (a, b) in products.items()}, carry
+    parts, shifts = {}, {}
+    for k, (pa, pb) in cut.items():
+        for i, (xa, sa) in enumerate(pa):
+            for j, (xb, sb) in enumerate(pb):
+                parts[f"{name}{k}{i}_{j}"] = xa * xb
+                shifts[f"{name}{k}{i}_{j}"] = (k, sa + sb)
     s = pipe.stage(**parts, **carry)
-    total = sum(getattr(s, k) << shifts[k] for k in parts)
-    return total, {k: getattr(s, k) for k in carry}
+    totals = {k: sum(getattr(s, p) << sh for p, (kk, sh) in shifts.items() if kk == k) for k in products}
+    return totals, {k: getattr(s, k) for k in carry}
+
+
+def split_product(pipe: Pipe, a, b, carry: dict, name: str = "pp"):
+    """``(a * b, carry)``: :func:`split_products` of one product."""
+    totals, carry = split_products(pipe, {"": (a, b)}, carry, name)
+    return totals[""], carry
 
 
 def leading_zeros(x) -> Value:
@@ -82,13 +94,22 @@ def times_reciprocal(m: Module, pipe: Pipe, recip: RecipParams, w, valid, numera
 
     A :class:`Recip` of ``w``; the ``numerators`` and ``carry`` signals delayed by its latency; then one register
     stage holding ``p_<name> = numerator * mant`` for each numerator, ``exp``, ``dbz``, and every delayed signal
-    under its own name. Follow with :func:`scale` on each product (the model's :meth:`RecipParams.scale`).
+    under its own name -- preceded by a stage of partial products when an operand is wider than one multiplier
+    block (:meth:`RecipParams.times_split`, :func:`split_products`). Follow with :func:`scale` on each product
+    (the model's :meth:`RecipParams.scale`).
     """
     m.submodules.recip = rcp = Recip(recip)
     m.d.comb += [rcp.w.eq(w), rcp.i_valid.eq(valid)]
     late = {k: pipe.delay(v, recip.latency, k) for k, v in {**numerators, **(carry or {})}.items()}
     pipe.depth += recip.latency
-    return pipe.stage(exp=rcp.exp, dbz=rcp.dbz, **{f"p_{k}": late[k] * rcp.mant for k in numerators}, **late)
+    before = pipe.depth
+    prods, late = split_products(pipe, {k: (late[k], rcp.mant) for k in numerators},
+                                 dict(late, exp=rcp.exp, dbz=rcp.dbz), "pm")
+    expected = max((recip.times_split(len(Value.cast(v))) for v in numerators.values()), default=0)
+    if pipe.depth - before != expected:
+        raise AssertionError(f"times_reciprocal: {pipe.depth - before} partial-product stages, "
+                             f"RecipParams.times_split says {expected}")
+    return pipe.stage(**{f"p_{k}": v for k, v in prods.items()}, **late)
 
 
 def scale_stages(pipe: Pipe, prods: dict, prod_frac: int, exp, recip: RecipParams, out_frac: int, carry: dict):

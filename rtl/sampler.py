@@ -12,7 +12,7 @@ from fxmodel.rounding import Overflow, Rounding
 from fxmodel.sampler import SamplerParams
 from amaranth.lib.memory import Memory
 
-from .fixed import narrow
+from .fixed import const_mul, narrow
 from .unit import Pipe, UnitComponent, register
 
 __all__ = ["Sampler"]
@@ -32,7 +32,13 @@ class Sampler(UnitComponent):
 
     Edge rules ``repeat``, ``clamp`` and ``border`` (see ``fxmodel/sampler.py``).
 
-    Latency: 5 for bilinear (address | read | blend x | blend y | round), 3 for nearest.
+    Latency ``params.latency``: 11 for bilinear, 5 for nearest. Stages: edge rule and scaled position |
+    indices, weights and wraps | texel address | memory read (the block RAM's output register) | [texel
+    differences | ``fx`` products | row blends | row difference | ``fy`` product | column blend] | rounding.
+    Each stage holds at most one carry chain or one product, and every multiplier block has a register on each
+    side (ECP5: the pixel pipeline uses most of the device's MULT18X18D, so blocks sit far from their logic and
+    routing to and from them costs about 4 ns each way; ``python -m rtl.fpga``). Constant products (map sizes)
+    are shift-and-add (:func:`~rtl.fixed.const_mul`), not multiplier blocks.
     """
 
     def elaborate(self, platform):
@@ -48,12 +54,20 @@ class Sampler(UnitComponent):
                 return s[:T]                                           # s - floor(s): the fraction bits
             return Mux(s < 0, 0, Mux(s > one, one, s))[:T + 1]         # clamp and border
 
-        def axis(s, size):
-            se = edge(s)
+        # 1: edge rule, then the scaled position: nearest s W; bilinear s W - 1/2 (+ border), T + 1 fraction bits
+        def scaled(s, size):
             if not P.bilinear:
-                i = (se * size) >> T
+                return const_mul(edge(s), size)
+            return const_mul(edge(s), 2 * size) + one * (2 * P.border - 1)
+
+        s1 = pipe.stage(x=scaled(self.s, P.width), y=scaled(self.t, P.height),
+                        face=self.face if P.faces == 6 else Const(0, 3))
+
+        # 2: texel indices along each axis, wraps and clamps, bilinear weights
+        def axis(x, size):
+            if not P.bilinear:
+                i = x >> T
                 return dict(i0=Mux(i > size - 1, size - 1, i) + P.border)
-            x = se * (2 * size) + one * (2 * P.border - 1)              # s W - 1/2 (+ border), T + 1 fraction bits
             i0 = x >> (T + 1)
             i1 = i0 + 1
             if P.edge == "repeat":
@@ -64,21 +78,28 @@ class Sampler(UnitComponent):
                 i1 = Mux(i1 > size - 1, size - 1, i1)
             return dict(i0=i0, i1=i1, f=x[T + 1 - B:T + 1])
 
-        ax, ay = axis(self.s, P.width), axis(self.t, P.height)
-        regs = {f"x_{k}": v for k, v in ax.items()} | {f"y_{k}": v for k, v in ay.items()}
-        regs["face"] = self.face if P.faces == 6 else Const(0, 3)
-        s1 = pipe.stage(**regs)
+        ax, ay = axis(s1.x, P.width), axis(s1.y, P.height)
+        s2 = pipe.stage(face=s1.face, **{f"x_{k}": v for k, v in ax.items()}, **{f"y_{k}": v for k, v in ay.items()})
 
-        m.submodules.texels = mem = Memory(shape=P.word_bits, depth=P.depth, init=P.words)
+        # 3: texel addresses (face H + j) W + i = face (H W) + j W + i, constant products as shift-and-add
+        mh, mw = P.texels.shape[1:3]                                   # memory rows and columns of a face
         corners = [("x_i0", "y_i0")] + ([("x_i1", "y_i0"), ("x_i0", "y_i1"), ("x_i1", "y_i1")] if P.bilinear else [])
+        base = const_mul(s2.face, mh * mw) if P.faces > 1 else 0
+        rows = {yi: const_mul(getattr(s2, yi)[:max(1, (mh - 1).bit_length())], mw) for yi in ("y_i0", "y_i1")
+                if hasattr(s2, yi)}
+        addrs = {f"a{k}": base + rows[yi] + getattr(s2, xi)[:max(1, (mw - 1).bit_length())]
+                 for k, (xi, yi) in enumerate(corners)}
+        weights = dict(fx=s2.x_f, fy=s2.y_f) if P.bilinear else {}
+        s3 = pipe.stage(**addrs, **weights)
+
+        # 4: memory read; the read port's data register is this stage
+        m.submodules.texels = mem = Memory(shape=P.word_bits, depth=P.depth, init=P.words)
         data = []
-        for xi, yi in corners:
+        for k in range(len(corners)):
             port = mem.read_port(domain="sync")
-            mh, mw = P.texels.shape[1:3]                               # memory rows and columns of a face
-            row = s1.face * mh + getattr(s1, yi)[:max(1, (mh - 1).bit_length())]
-            m.d.comb += port.addr.eq(row * mw + getattr(s1, xi)[:max(1, (mw - 1).bit_length())])
+            m.d.comb += port.addr.eq(getattr(s3, f"a{k}"))
             data.append(port.data)
-        s2 = pipe.stage(fx=s1.x_f, fy=s1.y_f) if P.bilinear else pipe.stage()
+        s4 = pipe.stage(**weights and dict(fx=s3.fx, fy=s3.fy))
 
         def channel(word, k):
             lo = sum(f.width for f in P.channels[:k])
@@ -88,19 +109,26 @@ class Sampler(UnitComponent):
         if not P.bilinear:
             self.finish(m, pipe, {n: channel(data[0], k) for k, n in enumerate(P.out_names)})
             return m
-        terms = {}
-        for k in range(len(P.channels)):
-            a, b, c, d = (channel(w, k) for w in data)
-            terms[f"top{k}"] = (a << B) + s2.fx * (b - a)
-            terms[f"bot{k}"] = (c << B) + s2.fx * (d - c)
-        terms["fy"] = s2.fy
-        s3 = pipe.stage(**terms)
-        s4 = pipe.stage(**{f"v{k}": (getattr(s3, f"top{k}") << B) + s3.fy * (getattr(s3, f"bot{k}")
-                                                                             - getattr(s3, f"top{k}"))
-                           for k in range(len(P.channels))})
+        ch = range(len(P.channels))
+        # the exact blend of the model, top = a 2**B + fx (b - a), bot = c 2**B + fx (d - c),
+        # v = top 2**B + fy (bot - top), one operation per stage
+        texel = [[channel(w, k) for w in data] for k in ch]
+        s = pipe.stage(fx=s4.fx, fy=s4.fy, **{f"a{k}": texel[k][0] for k in ch}, **{f"c{k}": texel[k][2] for k in ch},
+                       **{f"dab{k}": texel[k][1] - texel[k][0] for k in ch},
+                       **{f"dcd{k}": texel[k][3] - texel[k][2] for k in ch})
+        s = pipe.stage(fy=s.fy, **{f"a{k}": getattr(s, f"a{k}") for k in ch}, **{f"c{k}": getattr(s, f"c{k}") for k in ch},
+                       **{f"pt{k}": s.fx * getattr(s, f"dab{k}") for k in ch},
+                       **{f"pb{k}": s.fx * getattr(s, f"dcd{k}") for k in ch})
+        s = pipe.stage(fy=s.fy, **{f"top{k}": (getattr(s, f"a{k}") << B) + getattr(s, f"pt{k}") for k in ch},
+                       **{f"bot{k}": (getattr(s, f"c{k}") << B) + getattr(s, f"pb{k}") for k in ch})
+        s = pipe.stage(fy=s.fy, **{f"top{k}": getattr(s, f"top{k}") for k in ch},
+                       **{f"dtb{k}": getattr(s, f"bot{k}") - getattr(s, f"top{k}") for k in ch})
+        s = pipe.stage(**{f"top{k}": getattr(s, f"top{k}") for k in ch},
+                       **{f"pv{k}": s.fy * getattr(s, f"dtb{k}") for k in ch})
+        s = pipe.stage(**{f"v{k}": (getattr(s, f"top{k}") << B) + getattr(s, f"pv{k}") for k in ch})
         outs = {}
         for k, (n, fmt) in enumerate(zip(P.out_names, P.channels)):
-            outs[n], _ = narrow(getattr(s4, f"v{k}"), 2 * B + fmt.frac_bits, fmt, Rounding.HALF_UP,
+            outs[n], _ = narrow(getattr(s, f"v{k}"), 2 * B + fmt.frac_bits, fmt, Rounding.HALF_UP,
                                 Overflow.PROVEN)
         self.finish(m, pipe, outs)
         return m

@@ -10,7 +10,6 @@ four ways so pytest-xdist spreads the shards over workers, merged into ``build/e
 
 from __future__ import annotations
 
-import copy
 import json
 
 import numpy as np
@@ -25,13 +24,9 @@ from fxmodel.unit import preset, preset_names, units
 def broken_recip(params, entry: int, delta: int = 1):
     """A copy of reciprocal ``params`` whose table word ``entry`` is off by ``delta`` (its ROM, hence its RTL,
     and its model); the centring bias stays the true table's, as a wrong ROM word would leave it."""
-    params.bias_code                                     # cached from the true table before the copy
-    bad = copy.copy(params)
     codes = np.array(params.table_codes, copy=True)
     codes[entry] += delta
-    bad.__dict__["table_codes"] = codes
-    for derived in ("_tables", "_lut"):                  # the model's per-entry constants and memoized datapath,
-        bad.__dict__.pop(derived, None)                  # rebuilt from the broken table
+    bad = params.with_table(codes)
     assert bad.rom[entry] == params.rom[entry] + delta and bad.bias_code == params.bias_code
     return bad
 

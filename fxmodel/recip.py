@@ -86,6 +86,7 @@ side; the smallest and largest ``|w|``; the most negative code; zero.
 
 from __future__ import annotations
 
+import copy
 import math
 from dataclasses import dataclass, field
 from fractions import Fraction
@@ -396,6 +397,27 @@ class RecipParams(Unit):
         cands = base[:, None] + np.arange(-1, 3)[None, :]
         worst = np.stack([np.abs(err(cands[:, j] / 2.0 ** fb)).max(axis=1) for j in range(cands.shape[1])], 1)
         return [int(v) for v in cands[np.arange(len(c)), np.argmin(worst, axis=1)]]
+
+    def with_table(self, codes, *, keep_bias: bool = True) -> "RecipParams":
+        """A copy whose table words are ``codes`` (``b_fmt`` codes, hidden bit included) instead of the ones
+        :attr:`table` chooses: fault injection for the co-simulation tests (a wrong ROM word must be caught).
+        Every value cached from the table (the model's per-entry constants, its memoized datapath) is dropped and
+        rebuilt from ``codes``; with ``keep_bias`` the centring constant stays this table's, as a wrong ROM word
+        leaves the rest of the datapath unchanged. The copy compares equal to ``self`` (same fields): key build
+        caches by something else (the co-simulation's ``variant``)."""
+        codes = np.array(codes, dtype=np.int64)
+        require(codes.shape == (self.entries,), "codes", codes.shape, f"must hold {self.entries} table words")
+        require(bool(np.all((codes >= self.b_fmt.min_code) & (codes <= self.b_fmt.max_code))), "codes",
+                f"[{codes.min()}, {codes.max()}]", f"must be codes of {self.b_fmt}")
+        bias = self.bias_code
+        out = copy.copy(self)
+        for name in [k for k in out.__dict__ if isinstance(getattr(type(self), k, None), cached_property)]:
+            del out.__dict__[name]
+        codes.setflags(write=False)
+        out.__dict__["table_codes"] = codes
+        if keep_bias:
+            out.__dict__["bias_code"] = bias
+        return out
 
     @property
     def rom(self) -> list[int]:

@@ -347,3 +347,24 @@ def test_lookup_table_path_equals_direct_datapath(params):
     fast, direct = params._recip_chunk(w), params._recip_chunk(w, direct=True)
     assert params._lut is not None
     assert all(np.array_equal(a, b) for a, b in zip(fast, direct))
+
+
+def test_with_table_rebuilds_the_model_from_the_given_words():
+    """Fault injection: the same words give the same outputs on every input; one word off by one changes the
+    outputs of some inputs (and only some), keeps the centring constant, and is refused when malformed."""
+    small = preset("recip", "small")
+    inputs = small.all_inputs()
+    want = small.compute(inputs)
+    same = small.with_table(small.table_codes)
+    assert np.array_equal(same.compute(inputs), want)
+    codes = np.array(small.table_codes)
+    codes[5] += 1
+    bad = small.with_table(codes)
+    assert bad.rom[5] == small.rom[5] + 1 and bad.bias_code == small.bias_code
+    changed = np.any(bad.compute(inputs) != want, axis=1)
+    assert 0 < changed.sum() < len(inputs) // small.entries * 2
+    assert np.array_equal(small.compute(inputs), want)           # the original is untouched
+    with pytest.raises(ValueError, match="codes"):
+        small.with_table(codes[:-1])
+    with pytest.raises(ValueError, match="codes"):
+        small.with_table(np.full(small.entries, small.b_fmt.max_code + 1))

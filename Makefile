@@ -9,6 +9,9 @@ SIM      ?= icarus
 PRESET   ?= default
 SCENE    ?= tin-plane
 JOBS     ?= 2
+# PRESET or SCENE given on the command line or in the environment: `make verilog` and `make fpga` build the pixel
+# pipeline with SCENE's tables and PRESET (built in or presets/<name>.toml); otherwise every unit and preset.
+SCENE_ARGS = $(if $(filter-out file default undefined,$(origin PRESET) $(origin SCENE)),--scene $(SCENE) --preset $(PRESET))
 export PATH := $(CURDIR)/$(VENV)/bin:$(PATH)
 export SIM
 
@@ -18,9 +21,11 @@ help:
 	@echo "make sim        render SCENE (default tin-plane) through the RTL pipeline, bit-exact check (SIM=icarus|verilator)"
 	@echo "make render     render SCENE through the bit-exact model only, with the float references"
 	@echo "make test       the test suite (model properties, RTL build, co-simulation on \$$SIM)"
-	@echo "make verilog    write build/verilog/<unit>_<preset>.v for every unit and preset"
+	@echo "make verilog    write build/verilog/<unit>_<preset>.v for every unit and preset;"
+	@echo "                with PRESET= and/or SCENE=: build/verilog/pipeline_<preset>_<scene>.v (the scene's tables)"
 	@echo "make bench      throughput, then the reciprocal's speed-against-error sweep -> build/bench/"
-	@echo "make fpga       ECP5-85 synthesis, place and route of every unit and preset -> build/fpga/report.{json,md}"
+	@echo "make fpga       ECP5-85 synthesis, place and route of every unit and preset -> build/fpga/report.{json,md};"
+	@echo "                with PRESET= and/or SCENE=: the pipeline with that preset and the scene's tables"
 	@echo "make exhaustive exhaustive RTL equivalence (streaming co-simulation) -> build/exhaustive/report.json"
 	@echo "make setup      create .venv, install everything, install iverilog if missing"
 
@@ -47,7 +52,7 @@ test: setup
 	$(PY) -m pytest -n $(JOBS) -q
 
 verilog: setup
-	$(PY) -m rtl verilog --out build/verilog
+	$(PY) -m rtl verilog --out build/verilog $(SCENE_ARGS)
 
 sim: setup
 	$(PY) -m cosim.sim --scene $(SCENE) --preset $(PRESET) --sim $(SIM)
@@ -59,7 +64,7 @@ bench: setup
 	$(PY) -m cosim.bench --docs
 
 fpga: setup
-	$(PY) -m rtl.fpga --jobs $(JOBS)
+	$(PY) -m rtl.fpga --jobs $(JOBS) $(SCENE_ARGS)
 
 exhaustive: setup
 	HYPOTHESIS_PROFILE=thorough $(PY) -m pytest -n $(JOBS) -q -m slow -k "not test_exhaustive_target"

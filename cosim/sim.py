@@ -19,13 +19,10 @@ import json
 import os
 import sys
 import time
-from pathlib import Path
 
 import numpy as np
 
 from .harness import ROOT, run, simulator
-
-SCENES = ROOT / "scenes"
 
 
 def _table(rows) -> str:
@@ -35,14 +32,11 @@ def _table(rows) -> str:
 
 def sim_scene(args) -> int:
     from fxmodel.render import prepare, render, save_png
-    from fxmodel.scene import SceneError
+    from fxmodel.scene import SceneError, scene_path
 
-    path = Path(args.scene)
-    if not path.suffix:
-        path = SCENES / f"{args.scene}.toml"
     t0 = time.perf_counter()
     try:
-        frame = prepare(path, size=args.size, preset=args.preset, cube_size=args.cube_size)
+        frame = prepare(scene_path(args.scene), size=args.size, preset=args.preset, cube_size=args.cube_size)
     except (SceneError, ValueError, OSError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2

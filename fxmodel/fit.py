@@ -2,9 +2,10 @@
 
 :func:`fit` measures the ranges a scene produces and searches, by greedy coordinate descent from ``default``,
 the smallest formats and table sizes (:data:`KNOB_STEPS`) for which the bit-exact frame stays within
-``max_lsb`` of the float reference (a) on every pixel; it writes the result as a preset file that
-``prepare(..., preset=NAME)``, ``python -m fxmodel render --preset NAME`` and ``make sim PRESET=NAME`` accept,
-and reports a hardware estimate (:func:`hardware`) against ``default``.
+``max_lsb`` of the float reference (a) on every pixel (candidates go to ``prepare`` as units dicts, nothing
+is registered globally); it writes the result as a preset file that ``prepare(..., preset=NAME)``,
+``python -m fxmodel render --preset NAME``, ``make sim PRESET=NAME`` and, with a scene, ``make verilog`` and
+``make fpga`` accept, and reports a hardware estimate (:func:`hardware`) against ``default``.
 
 Preset files (``presets/<name>.toml``)
 --------------------------------------
@@ -386,24 +387,13 @@ def fit(scene, *, max_lsb: int = 1, size: int | None = 64, cube_size: int = 64, 
         sizes = [None]
     renders = 0
 
-    def evaluate(units, at):
+    def run(units, at):
+        """Frame and render report of candidate ``units`` (a units dict) at size ``at`` (None: full size)."""
         nonlocal renders
         renders += 1
         sc = scene if at is None else scene.with_size(*at)
         frame = prepare(sc, preset=units, cube_size=cube_size)
-        rep = render(frame)
-        return frame, rep
-
-    # prepare() takes a preset name; register candidates under a private name in the lookup dict
-    from .pipeline import PRESET_UNITS
-    key = "__fit_candidate__"
-
-    def run(units, at):
-        PRESET_UNITS[key] = units
-        try:
-            return evaluate(key, at)
-        finally:
-            PRESET_UNITS.pop(key, None)
+        return frame, render(frame)
 
     ref = {}
     for at in sizes:
@@ -455,12 +445,7 @@ def fit(scene, *, max_lsb: int = 1, size: int | None = 64, cube_size: int = 64, 
     bar.close()
 
     units = units_of(k, base)
-    PRESET_UNITS[key] = units
-    try:
-        frame = prepare(scene, preset=key, cube_size=cube_size)
-        rep = render(frame)
-    finally:
-        PRESET_UNITS.pop(key, None)
+    frame, rep = run(units, None)
     if rep["max_lsb_vs_float"] > max_lsb:              # cannot happen: every accepted step was checked at full size
         raise RuntimeError(f"fit: the final preset is {rep['max_lsb_vs_float']} LSB from reference (a)")
     fit_hw = hardware(units, frame.params)

@@ -35,9 +35,9 @@ from .persp import PerspParams
 from .reflect import ReflectParams
 from .sampler import SamplerParams, Texels
 from .shade import ShadeParams
-from .unit import Port, Unit, register
+from .unit import Port, Unit, register, require
 
-__all__ = ["PipelineParams", "FLAG_BITS"]
+__all__ = ["PipelineParams", "FLAG_BITS", "preset_units"]
 
 FLAG_BITS = {"bump_saturated": 0, "shade_saturated": 1, "degenerate": 2, "w_zero": 3}
 
@@ -174,17 +174,17 @@ class PipelineParams(Unit):
                                embed(base[1], self.bump, self.bump.hard_cases())])
 
     @classmethod
-    def assemble(cls, *, bump_codes, texture_bytes, lighting: Lighting, cube_face: int, preset: str = "default",
-                 bump_filter: str = "bilinear", texture_filter: str = "bilinear", weight_bits: int | None = None,
-                 cube_edge: str = "border"):
+    def assemble(cls, *, bump_codes, texture_bytes, lighting: Lighting, cube_face: int,
+                 preset: str | dict = "default", bump_filter: str = "bilinear", texture_filter: str = "bilinear",
+                 weight_bits: int | None = None, cube_edge: str = "border"):
         """A pipeline from a scene's tables: the bump map codes ``(H, W, 2)`` in ``bump.d_fmt``, the texture
         bytes ``(H, W, 3)``, the lighting (baked into cubes of ``cube_face`` texels) and the units' preset.
 
         ``weight_bits`` of the bump-map and texture bilinear weights: 10 keeps a hard texture edge (a jump of up
         to 255) within a quarter step of the exact blend; the cube lookups' lighting is smooth, 8 bits there.
-        ``None``: the preset's ``weight_bits`` (10 unless a preset file sets it). ``preset`` is a built-in name
-        or a preset file (``presets/<name>.toml``, see :mod:`fxmodel.fit`)."""
-        units = PRESET_UNITS[preset]
+        ``None``: the preset's ``weight_bits`` (10 unless a preset file sets it). ``preset`` is a preset name or
+        a units dict (see :func:`preset_units`)."""
+        units = preset_units(preset)
         if weight_bits is None:
             weight_bits = units.get("weight_bits", 10)
         persp, bump, reflect, cube, shade = (units[k] for k in ("persp", "bump", "reflect", "cube", "shade"))
@@ -221,6 +221,48 @@ BUILTIN_PRESET_UNITS = {
                 "shade": ShadeParams.PRESETS["default"], "weight_bits": 10},
 }
 PRESET_UNITS = _PresetUnits(BUILTIN_PRESET_UNITS)
+
+#: The parameter class of each unit in a pipeline preset's units dict.
+UNIT_TYPES = {"persp": PerspParams, "bump": BumpParams, "reflect": ReflectParams, "cube": CubeParams,
+              "shade": ShadeParams}
+
+
+def preset_units(preset: str | dict) -> dict:
+    """The units of a pipeline preset, given by name or as the units themselves.
+
+    Parameters
+    ----------
+    preset : str or dict
+        A name: built in (:data:`BUILTIN_PRESET_UNITS`) or a preset file ``presets/<name>.toml`` (see
+        :mod:`fxmodel.fit`). Or a units dict of the same shape as ``BUILTIN_PRESET_UNITS["default"]``: ``persp``,
+        ``bump``, ``reflect``, ``cube``, ``shade`` (parameter objects, see :data:`UNIT_TYPES`) and optionally
+        ``weight_bits`` (int; default 10); returned as given, nothing is registered anywhere.
+
+    Raises
+    ------
+    fxmodel.fit.PresetError
+        An unknown name or a bad preset file (a ``KeyError`` and a ``ValueError``).
+    ValueError
+        A dict with a missing, unknown or wrongly typed entry (naming it).
+    TypeError
+        Anything but a str or a dict.
+    """
+    if isinstance(preset, str):
+        return PRESET_UNITS[preset]
+    if not isinstance(preset, dict):
+        raise TypeError(f"preset: must be a pipeline preset name (str) or a units dict like "
+                        f"BUILTIN_PRESET_UNITS['default'], not {type(preset).__name__} {preset!r}")
+    allowed = (*UNIT_TYPES, "weight_bits")
+    for key in preset:
+        require(key in allowed, "preset key", key, f"unknown (a units dict has {', '.join(allowed)})")
+    for key, cls in UNIT_TYPES.items():
+        require(key in preset, "preset keys", sorted(preset),
+                f"a units dict needs {key!r} (all of {', '.join(UNIT_TYPES)})")
+        require(isinstance(preset[key], cls), f"type(preset[{key!r}])", type(preset[key]).__name__,
+                f"must be {cls.__name__}")
+    wb = preset.get("weight_bits", 10)
+    require(isinstance(wb, int) and not isinstance(wb, bool), "preset['weight_bits']", wb, "must be an int")
+    return preset
 
 
 def _demo() -> PipelineParams:

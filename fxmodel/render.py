@@ -22,12 +22,12 @@ import numpy as np
 from .bumpmap import perturbations, scene_maps
 from .frontend import rasterize
 from .lighting import Light, Lighting, face_directions
-from .pipeline import FLAG_BITS, PRESET_UNITS, PipelineParams
+from .pipeline import FLAG_BITS, PipelineParams, preset_units
 from .reference import float_pipeline, ideal_phong, max_lsb, psnr
 from .rounding import Overflow, Rounding, quantize
-from .scene import load_scene
+from .scene import load_scene, scene_path
 
-__all__ = ["Frame", "prepare", "render", "save_png", "compose"]
+__all__ = ["Frame", "prepare", "pipeline_params", "render", "save_png", "compose"]
 
 DIFF_GAIN = 16
 
@@ -76,14 +76,35 @@ class Frame:
         return a, b
 
 
-def prepare(scene, *, size=None, preset: str = "default", cube_size: int = 64) -> Frame:
-    """Load (if a path), rasterize and quantize a scene for the pipeline preset ``preset``."""
+def prepare(scene, *, size=None, preset: str | dict = "default", cube_size: int = 64) -> Frame:
+    """Load (if a path), rasterize and quantize a scene for a pipeline preset.
+
+    Parameters
+    ----------
+    scene : path or Scene
+        The scene file (or a loaded scene).
+    size : int or (int, int), optional
+        Override the image size.
+    preset : str or dict
+        A pipeline preset name (built in or ``presets/<name>.toml``) or a units dict like
+        ``BUILTIN_PRESET_UNITS["default"]`` (see :func:`fxmodel.pipeline.preset_units`).
+    cube_size : int
+        Texels per reflectance-cube face edge.
+
+    Raises
+    ------
+    SceneError
+        A missing or malformed scene file (naming it).
+    ValueError, TypeError
+        An unknown or bad preset (see :func:`fxmodel.pipeline.preset_units`), or a frame whose visible
+        fragments use more than one material.
+    """
     t0 = time.perf_counter()
     if not hasattr(scene, "materials"):
         scene = load_scene(scene, size=size)
     elif size is not None:
         scene = scene.with_size(*((size, size) if isinstance(size, int) else size))
-    units = PRESET_UNITS[preset]
+    units = preset_units(preset)
     maps = scene_maps(scene, units["bump"].d_fmt)
     frags = rasterize(scene, maps)
     used = np.unique(frags.material)
@@ -97,7 +118,7 @@ def prepare(scene, *, size=None, preset: str = "default", cube_size: int = 64) -
                         ambient=tuple(scene.ambient), specular=tuple(mat.specular), shininess=float(mat.shininess))
     t1 = time.perf_counter()
     params, cube_info = PipelineParams.assemble(bump_codes=bump, texture_bytes=mm.color, lighting=lighting,
-                                                cube_face=cube_size, preset=preset)
+                                                cube_face=cube_size, preset=units)
     t2 = time.perf_counter()
     N, E, A = np.asarray(frags.N), np.asarray(frags.E), np.asarray(frags.A)
     values = {"U": frags.U, "V": frags.V, "Uc": frags.Uc, "Vc": frags.Vc, "W": frags.W,
@@ -116,6 +137,18 @@ def prepare(scene, *, size=None, preset: str = "default", cube_size: int = 64) -
              "seconds_front_end": round(t1 - t0, 3), "seconds_tables": round(t2 - t1, 3),
              "seconds_quantize": round(time.perf_counter() - t2, 3)}
     return Frame(scene=scene, params=params, frags=frags, codes=codes, lighting=lighting, maps=mm, stats=stats)
+
+
+def pipeline_params(scene, preset: str | dict = "default", *, cube_size: int = 64) -> PipelineParams:
+    """The pipeline that renders ``scene``: ``preset``'s units with the scene's memories (bump map, texture and
+    the reflectance cubes of ``cube_size`` texels), as ``make sim`` streams it; for ``make verilog`` and
+    ``make fpga``.
+
+    ``scene`` is a scene name in ``scenes/`` (``tin-plane``) or a file (see :func:`fxmodel.scene.scene_path`);
+    ``preset`` as :func:`prepare`. The scene is prepared at its own size (a fraction of a second for the shipped
+    scenes), so the tables, including which material is visible, are exactly those of the rendered frame.
+    """
+    return prepare(scene_path(scene), preset=preset, cube_size=cube_size).params
 
 
 def save_png(path, img: np.ndarray) -> Path:

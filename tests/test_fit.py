@@ -11,7 +11,7 @@ from fxmodel import cli
 from fxmodel.fit import (KNOB_STEPS, PresetError, fit, knobs_of, load_preset, preset_path, units_of,
                          write_preset)
 from fxmodel.fixed import Fmt
-from fxmodel.pipeline import BUILTIN_PRESET_UNITS, PRESET_UNITS
+from fxmodel.pipeline import BUILTIN_PRESET_UNITS, PRESET_UNITS, preset_units
 from fxmodel.reference import max_lsb
 from fxmodel.render import prepare, render
 
@@ -42,6 +42,30 @@ def test_preset_file_round_trips_and_prepare_uses_it(presets):
     assert frame.params.persp == units["persp"] and frame.params.cube == units["cube"]
     assert frame.params.reflect.r_bits == 16 and frame.params.texture.weight_bits == 9
     assert PRESET_UNITS["small-test"]["bump"] == units["bump"]
+
+
+def test_prepare_takes_a_units_dict_as_the_preset(presets):
+    units = _smaller_units()
+    write_preset("small-dict", units)
+    by_dict = prepare(SCENE, size=24, preset=units)
+    assert by_dict.params == prepare(SCENE, size=24, preset="small-dict").params
+    assert (by_dict.codes == prepare(SCENE, size=24, preset="small-dict").codes).all()
+    assert preset_units(units) is units and preset_units("default") is DEFAULT
+
+
+@pytest.mark.parametrize("bad, error, match", [
+    (3, TypeError, "preset name .str. or a units dict.*not int 3"),
+    (("default",), TypeError, "not tuple"),
+    ({**DEFAULT, "colour": 1}, ValueError, "preset key='colour': unknown"),
+    ({k: v for k, v in DEFAULT.items() if k != "cube"}, ValueError, "needs 'cube'"),
+    ({**DEFAULT, "bump": DEFAULT["persp"]}, ValueError, r"type\(preset\['bump'\]\)='PerspParams': must be BumpParams"),
+    ({**DEFAULT, "weight_bits": 9.5}, ValueError, "weight_bits.*must be an int"),
+])
+def test_bad_preset_values_are_named(bad, error, match):
+    with pytest.raises(error, match=match):
+        preset_units(bad)
+    with pytest.raises(error, match=match):
+        prepare(SCENE, size=8, preset=bad)
 
 
 def test_missing_fields_keep_default(presets):
@@ -82,7 +106,11 @@ def test_unknown_preset_errors_clearly(presets, capsys):
     assert "unknown pipeline preset 'nope'" in capsys.readouterr().err
 
 
-def test_fit_small_scene_stays_within_bound_and_shrinks(presets):
+def test_fit_small_scene_stays_within_bound_and_shrinks(presets, monkeypatch):
+    def no_registering(self, key, value):                # candidates go to prepare() as units dicts
+        raise AssertionError(f"fit registered {key!r} in PRESET_UNITS")
+
+    monkeypatch.setattr(type(PRESET_UNITS), "__setitem__", no_registering)
     report = fit(SCENE, max_lsb=3, size=None, name="tiny", progress=False, passes=1,
                  scene_size=48)
     units = load_preset("tiny")

@@ -120,6 +120,52 @@ def test_a_failed_tool_is_reported_not_cached(tmp_path, monkeypatch):
     assert "error" in fpga.markdown_table([rec])
 
 
+# -- the pipeline with a scene's tables (fitted or built-in pipeline presets) ------------------------------------------
+def test_design_list_with_a_scene_is_the_pipeline_of_that_preset_and_scene():
+    from fxmodel.pipeline import PRESET_UNITS
+    from fxmodel.render import pipeline_params, prepare
+
+    (fit_design, default_design) = fpga.design_list(None, ["tin-plane-fit", "default"], scene="tin-plane")
+    label, params = fit_design
+    assert label == {"unit": "pipeline", "preset": "tin-plane-fit", "scene": "tin-plane"}
+    units = PRESET_UNITS["tin-plane-fit"]
+    assert params.persp == units["persp"] and params.cube == units["cube"] and params.bump == units["bump"]
+    assert params.bump_map.depth == 40 * 40                          # the tin plane's Mexican-hat height field
+    assert params == prepare("scenes/tin-plane.toml", preset="tin-plane-fit").params    # what `make sim` streams
+    assert default_design[1] == pipeline_params("scenes/tin-plane.toml")
+    assert default_design[1].persp == PRESET_UNITS["default"]["persp"] != params.persp
+    assert fpga.design_list(["pipeline"], None, scene="tin-plane")[0][0]["preset"] == "default"
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--scene", "no-such-scene"], "no-such-scene.toml: cannot read the scene file"),
+    (["--scene", "tin-plane", "--preset", "no-such-preset"], "unknown pipeline preset 'no-such-preset'"),
+    (["--scene", "tin-plane", "--unit", "recip"], "a scene sets the tables of the pipeline only"),
+    (["--preset", "tin-plane-fit"], "tin-plane-fit: a pipeline preset, whose memories come from a scene"),
+])
+def test_cli_scene_errors_are_named(tmp_path, capsys, args, message):
+    assert fpga.main([*args, "--out", str(tmp_path)]) == 2
+    assert message in capsys.readouterr().err
+
+
+def test_cli_measures_the_pipeline_of_a_fitted_preset_and_scene(tmp_path, monkeypatch):
+    tops = []
+
+    def fake_tools(rdir, top, settings):
+        tops.append(top)
+        assert "texels[1599]" in (rdir / f"{top}.v").read_text()    # the scene's bump map is in the Verilog
+        return fpga.parse_results(REPORT, STAT)
+
+    monkeypatch.setattr(fpga, "_run_tools", fake_tools)
+    assert fpga.main(["--scene", "tin-plane", "--preset", "tin-plane-fit", "--out", str(tmp_path)]) == 0
+    (rec,) = json.loads((tmp_path / "report.json").read_text())["designs"]
+    assert tops == ["pipeline"]
+    assert (rec["unit"], rec["preset"], rec["scene"]) == ("pipeline", "tin-plane-fit", "tin-plane")
+    md = (tmp_path / "report.md").read_text()
+    assert "| unit | preset | scene | LUT4 |" in md and "| pipeline | tin-plane-fit | tin-plane | 632 |" in md
+    assert "scene" not in fpga.markdown_table([_record(170.0)])         # no scene column without scenes
+
+
 # -- the real flow (YoWASP yosys + nextpnr-ecp5) ---------------------------------------------------------------------
 @pytest.mark.slow
 def test_recip_default_meets_150_mhz_on_ecp5_85_speed_8(tmp_path):

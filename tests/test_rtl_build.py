@@ -25,6 +25,38 @@ def test_verilog_is_written_with_the_module_name(tmp_path):
     assert "module recip_small(" in text and "mant" in text
 
 
+def test_cli_writes_the_pipeline_of_a_fitted_preset_with_the_scene_tables(tmp_path, capsys):
+    import re
+
+    from rtl.__main__ import main
+    from fxmodel.render import pipeline_params
+
+    assert main(["verilog", "--scene", "tin-plane", "--preset", "tin-plane-fit", "--out", str(tmp_path)]) == 0
+    path = tmp_path / "pipeline_tin-plane-fit_tin-plane.v"
+    assert f"wrote {path}" in capsys.readouterr().out
+    text = path.read_text()
+    assert "module pipeline_tin_plane_fit_tin_plane(" in text     # a plain identifier, no escaped name
+    # the bump map memory holds the scene's (du, dv) words, as the model packs them
+    bump = text[text.index("module \\pipeline_tin_plane_fit_tin_plane.bump_map "):]
+    bump = bump[:bump.index("endmodule")]
+    words = pipeline_params("tin-plane", "tin-plane-fit").bump_map.words
+    init = {int(i): int(v, 16) for i, v in re.findall(r"texels\[(\d+)\] = \d+'h([0-9a-f]+);", bump)}
+    assert len(init) == len(words) == 1600 and [init[i] for i in range(len(words))] == words
+    assert any(words)
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--scene", "scenes/no-such.toml"], "scenes/no-such.toml: cannot read the scene file"),
+    (["--scene", "tin-plane", "--preset", "no-such"], "unknown pipeline preset 'no-such'"),
+    (["--preset", "tin-plane-fit"], "tin-plane-fit: a pipeline preset, whose memories come from a scene"),
+])
+def test_cli_scene_errors_are_named(tmp_path, capsys, args, message):
+    from rtl.__main__ import main
+
+    assert main(["verilog", *args, "--out", str(tmp_path)]) == 2
+    assert message in capsys.readouterr().err and not list(tmp_path.iterdir())
+
+
 def test_latency_mismatch_is_caught():
     params = preset("recip", "small")
 

@@ -99,7 +99,8 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(prog="python -m cosim.sim", description=__doc__.split("\n")[0])
     ap.add_argument("--scene", default="tin-plane", help="scene name in scenes/ or a .toml path")
     ap.add_argument("--size", type=int, default=None, help="override the image size (square)")
-    ap.add_argument("--cube-size", type=int, default=64, help="texels per reflectance-cube face edge")
+    ap.add_argument("--cube-size", type=int, help="texels per reflectance-cube face edge (default: the preset's, 64 "
+                   "unless a preset file sets it)")
     ap.add_argument("--preset", default="default")
     ap.add_argument("--sim", default=None, help="icarus or verilator (default: $SIM or icarus)")
     ap.add_argument("--unit", help="co-simulate one unit instead of a scene")

@@ -165,7 +165,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("output", help="PNG to write")
     p.add_argument("--size", type=int, help="override the image size (square)")
     p.add_argument("--preset", default="default", help="pipeline preset (default: %(default)s)")
-    p.add_argument("--cube-size", type=int, default=64, help="texels per reflectance-cube face edge")
+    p.add_argument("--cube-size", type=int, help="texels per reflectance-cube face edge (default: the preset's, 64 "
+                   "unless a preset file sets it)")
     p.add_argument("--refs", metavar="DIR", help="also render the float references into DIR, report PSNR")
     p.set_defaults(fn=cmd_render)
     p = sub.add_parser("fit", help="scene-driven word lengths: the smallest preset within --max-lsb of float")
@@ -173,7 +174,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--max-lsb", type=int, default=1, help="allowed per-channel error vs reference (a), 8-bit steps")
     p.add_argument("--size", type=int, default=64, help="square size of the screening renders (0: full size only); "
                    "every accepted step is also checked at the scene's size (default: %(default)s)")
-    p.add_argument("--cube-size", type=int, default=64, help="texels per reflectance-cube face edge")
+    p.add_argument("--cube-size", type=int, help="texels per reflectance-cube face edge to start from (a "
+                   "knob of the search; default: the default preset's, 64)")
     p.add_argument("--name", help="preset name (default: <scene>-fit)")
     p.add_argument("--out", help="preset folder (default: $FXMODEL_PRESETS or presets/ at the repo root)")
     p.add_argument("--scene-size", type=int, help="render the scene at this square size instead of its own")

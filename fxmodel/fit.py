@@ -14,7 +14,8 @@ A preset file holds one table per unit of the pixel pipeline (``persp``, ``bump`
 ``shade``) with that unit's parameter fields; nested parameter objects are sub-tables (``[persp.recip]``,
 ``[cube.divide]``, ``[cube.divide.recip]``). Formats are written in their short form (``"s2.16"``), enums by
 name. A field that is missing keeps the ``default`` preset's value. Top-level keys: ``weight_bits`` (the bump-map
-and texture bilinear weights) and the free-form ``[fit]`` table (what ``fit`` measured; not read back).
+and texture bilinear weights), ``cube_size`` (texels per reflectance-cube face edge) and the free-form ``[fit]``
+table (what ``fit`` measured; not read back).
 
 The folder is ``presets/`` at the repository root, or the environment variable ``FXMODEL_PRESETS``.
 """
@@ -29,10 +30,11 @@ from pathlib import Path
 
 from .fixed import Fmt
 
-__all__ = ["PresetError", "presets_dir", "preset_path", "load_preset", "dump_preset", "write_preset", "UNIT_KEYS"]
+__all__ = ["PresetError", "presets_dir", "preset_path", "load_preset", "dump_preset", "write_preset", "UNIT_KEYS",
+           "bram_blocks"]
 
 UNIT_KEYS = ("persp", "bump", "reflect", "cube", "shade")
-TOP_KEYS = ("weight_bits",)
+TOP_KEYS = ("weight_bits", "cube_size")
 META_KEY = "fit"
 
 
@@ -175,7 +177,7 @@ def _build(base, table: dict, file: Path, where: str):
 
 
 def load_preset(name: str, directory=None, base: dict | None = None) -> dict:
-    """The units of preset file ``name`` (``persp, bump, reflect, cube, shade`` and ``weight_bits``).
+    """The units of preset file ``name`` (``persp, bump, reflect, cube, shade``, ``weight_bits``, ``cube_size``).
 
     Parameters
     ----------
@@ -212,20 +214,25 @@ def load_preset(name: str, directory=None, base: dict | None = None) -> dict:
     if not isinstance(wb, int) or isinstance(wb, bool) or not 1 <= wb <= 16:
         raise PresetError(f"{path}: key weight_bits: must be an integer in 1..16, got {wb!r}")
     units["weight_bits"] = wb
+    from .pipeline import MAX_CUBE_SIZE
+    cs = data.get("cube_size", base.get("cube_size", 64))
+    if not isinstance(cs, int) or isinstance(cs, bool) or not 1 <= cs <= MAX_CUBE_SIZE:
+        raise PresetError(f"{path}: key cube_size: must be an integer in 1..{MAX_CUBE_SIZE}, got {cs!r}")
+    units["cube_size"] = cs
     return units
 
 
 # -- scene-driven word lengths: ``python -m fxmodel fit`` ---------------------------------------------------
 #: The knobs the search reduces, in search order (widest savings first), with the starting step in bits.
 KNOB_STEPS = {
-    "word": 2, "cube_p": 2, "cube_b": 2, "cube_guard": 1, "cube_m": 1, "cube_t": 1,
+    "cube_size": 16, "word": 2, "cube_p": 2, "cube_b": 2, "cube_guard": 1, "cube_m": 1, "cube_t": 1,
     "coord_bits": 2, "persp_p": 2, "persp_b": 2, "persp_guard": 1, "persp_m": 1, "persp_t": 1,
     "uv_frac": 2, "w_frac": 2, "n_frac": 2, "a_frac": 2, "e_frac": 2, "d_frac": 1,
     "weight_bits": 1, "diffuse_frac": 1, "specular_frac": 1,
     "uv_int": 1, "a_int": 1, "e_int": 1,
 }
 #: Smallest value tried for each knob (the parameter objects reject what does not work anyway).
-KNOB_MIN = {"cube_t": 1, "persp_t": 1, "cube_m": 2, "persp_m": 2, "weight_bits": 1, "word": 4,
+KNOB_MIN = {"cube_size": 2, "cube_t": 1, "persp_t": 1, "cube_m": 2, "persp_m": 2, "weight_bits": 1, "word": 4,
             "uv_int": 1, "a_int": 1, "e_int": 1}
 
 
@@ -233,8 +240,8 @@ def knobs_of(units: dict) -> dict:
     """The flat integer knobs of a pipeline preset's units (see :data:`KNOB_STEPS`)."""
     persp, bump, reflect, cube, shade = (units[k] for k in UNIT_KEYS)
     pr, cr = persp.recip, cube.divide.recip
-    return {"word": bump.out_fmt.width, "cube_p": cr.p, "cube_b": cr.b, "cube_guard": cr.guard, "cube_m": cr.m,
-            "cube_t": cr.t, "coord_bits": persp.coord_bits, "persp_p": pr.p, "persp_b": pr.b,
+    return {"cube_size": units.get("cube_size", 64), "word": bump.out_fmt.width, "cube_p": cr.p, "cube_b": cr.b,
+            "cube_guard": cr.guard, "cube_m": cr.m, "cube_t": cr.t, "coord_bits": persp.coord_bits, "persp_p": pr.p, "persp_b": pr.b,
             "persp_guard": pr.guard, "persp_m": pr.m, "persp_t": pr.t, "uv_frac": persp.uv_fmt.frac_bits,
             "w_frac": pr.in_fmt.frac_bits, "n_frac": bump.n_fmt.frac_bits, "a_frac": bump.a_fmt.frac_bits,
             "e_frac": reflect.e_fmt.frac_bits, "d_frac": bump.d_fmt.frac_bits,
@@ -271,6 +278,7 @@ def units_of(k: dict, base: dict) -> dict:
         "shade": dataclasses.replace(shade, diffuse_fmt=Fmt(False, shade.diffuse_fmt.int_bits, k["diffuse_frac"]),
                                      specular_fmt=Fmt(False, shade.specular_fmt.int_bits, k["specular_frac"])),
         "weight_bits": k["weight_bits"],
+        "cube_size": k["cube_size"],
     }
 
 
@@ -298,7 +306,8 @@ def measure_ranges(frame) -> dict:
 
 def hardware(units: dict, params=None) -> dict:
     """A hardware estimate of a pipeline preset: table bits, multipliers (count, sum of operand-width products
-    and 18x18 DSP tiles), memory bits (with the assembled ``params``) and the sum of the units' port widths."""
+    and 18x18 DSP tiles), memory bits and block RAMs (with the assembled ``params``, :func:`bram_blocks`) and
+    the sum of the units' port widths."""
     import math
     persp, bump, reflect, cube = (units[k] for k in ("persp", "bump", "reflect", "cube"))
     mults = []
@@ -319,7 +328,29 @@ def hardware(units: dict, params=None) -> dict:
                                      for p in u.inputs + u.outputs)}
     if params is not None:
         out["memory_bits"] = params.info()["memory_bits"]
+        out["bram_blocks"] = sum(bram_blocks(smp) for smp in (params.bump_map, params.texture, params.diffuse,
+                                                               params.specular))
     return out
+
+
+#: ECP5 DP16KD block RAM shapes (words x bits) usable as a read port of a ROM.
+DP16KD_SHAPES = ((16384, 1), (8192, 2), (4096, 4), (2048, 9), (1024, 18), (512, 36))
+
+
+#: Memories up to this many words are estimated as distributed (LUT) RAM.
+DISTRIBUTED_WORDS = 64
+
+
+def bram_blocks(sampler) -> int:
+    """Estimated ECP5 DP16KD blocks of a sampler's texel memory: the cheapest block shape for its depth and word
+    width, one copy for each two read ports (a DP16KD has two; bilinear filtering reads four texels a clock);
+    none for a memory of at most :data:`DISTRIBUTED_WORDS` words (Yosys puts those in LUT RAM: the demo
+    pipeline's 64-word bump map did). ``python -m rtl.fpga`` measures the real count."""
+    import math
+    if sampler.depth <= DISTRIBUTED_WORDS:
+        return 0
+    per_copy = min(math.ceil(sampler.depth / d) * math.ceil(sampler.word_bits / w) for d, w in DP16KD_SHAPES)
+    return per_copy * math.ceil((4 if sampler.bilinear else 1) / 2)
 
 
 def _savings(new: dict, old: dict) -> dict:
@@ -328,14 +359,18 @@ def _savings(new: dict, old: dict) -> dict:
             for k in new if isinstance(new[k], int) and k in old}
 
 
-def fit(scene, *, max_lsb: int = 1, size: int | None = 64, cube_size: int = 64, name: str | None = None,
+def fit(scene, *, max_lsb: int = 1, size: int | None = 64, cube_size: int | None = None, name: str | None = None,
         directory=None, progress: bool = True, passes: int = 2, scene_size: int | None = None) -> dict:
     """Search the smallest formats and table sizes for which ``scene`` stays within ``max_lsb`` of reference (a).
 
     Greedy coordinate descent from the ``default`` preset over :data:`KNOB_STEPS`: each step lowers one knob
     (by its step, halved down to 1 bit on failure) and keeps the change if the bit-exact frame stays within
-    ``max_lsb`` of reference (a) on every pixel and clamps no more fragment inputs than ``default``, first at the
-    screening ``size``, then at the scene's own size (so the result holds at full size). Knobs that make an
+    ``max_lsb`` of reference (a) on every pixel, no more than ``max_lsb`` further from the ideal reference (b)
+    than ``default`` is, and clamps no more fragment inputs than ``default``, first at the screening ``size``,
+    then at the scene's own size (so the result holds at full size). The check against (b) is what holds the
+    reflectance cubes' face size: reference (a) samples the same cubes in float, so their resolution error is
+    invisible to it (without it the search shrank the tin plane's cubes to 2 texels, 1 LSB from (a) and 112
+    from (b)). Knobs that make an
     invalid unit (``ValueError``) are not allowed. Integer bits start from the measured ranges.
 
     Parameters
@@ -346,8 +381,9 @@ def fit(scene, *, max_lsb: int = 1, size: int | None = 64, cube_size: int = 64, 
         Largest allowed per-channel difference from reference (a), in 8-bit steps.
     size : int or None
         Square image size of the screening renders (``None``: the scene's size only).
-    cube_size : int
-        Texels per reflectance-cube face edge (as ``prepare``).
+    cube_size : int, optional
+        Texels per reflectance-cube face edge to start from (``None``: the default preset's, 64). A knob like the
+        others: the search shrinks the cubes (memory, block RAM) while the frame stays within ``max_lsb``.
     name : str, optional
         Preset name to write (``presets/<name>.toml``; default ``<scene>-fit``).
     directory : path, optional
@@ -382,6 +418,8 @@ def fit(scene, *, max_lsb: int = 1, size: int | None = 64, cube_size: int = 64, 
     if scene_size:
         scene = scene.with_size(scene_size, scene_size)
     base = BUILTIN_PRESET_UNITS["default"]
+    if cube_size is not None:
+        base = {**base, "cube_size": cube_size}
     sizes = [s for s in ((size, size), None) if s is None or s != (scene.width, scene.height)]
     if size is None:
         sizes = [None]
@@ -392,13 +430,14 @@ def fit(scene, *, max_lsb: int = 1, size: int | None = 64, cube_size: int = 64, 
         nonlocal renders
         renders += 1
         sc = scene if at is None else scene.with_size(*at)
-        frame = prepare(sc, preset=units, cube_size=cube_size)
+        frame = prepare(sc, preset=units)                # the cube size is the units' (a knob)
         return frame, render(frame)
 
     ref = {}
     for at in sizes:
         frame, rep = run(base, at)
-        ref[at] = (rep["max_lsb_vs_float"], sum(frame.stats["clamped_fragment_inputs"].values()))
+        ref[at] = (rep["max_lsb_vs_float"], sum(frame.stats["clamped_fragment_inputs"].values()),
+                   rep["max_lsb_vs_ideal"])
         if rep["max_lsb_vs_float"] > max_lsb:
             raise ValueError(f"{scene.name}: the default preset is already {rep['max_lsb_vs_float']} LSB from "
                              f"reference (a) at {at or 'full size'}; nothing to fit under --max-lsb {max_lsb}")
@@ -412,7 +451,8 @@ def fit(scene, *, max_lsb: int = 1, size: int | None = 64, cube_size: int = 64, 
             for at in sizes:
                 frame, rep = run(units, at)
                 clamped = sum(frame.stats["clamped_fragment_inputs"].values())
-                if rep["max_lsb_vs_float"] > max_lsb or clamped > ref[at][1]:
+                if (rep["max_lsb_vs_float"] > max_lsb or clamped > ref[at][1]
+                        or rep["max_lsb_vs_ideal"] > ref[at][2] + max_lsb):
                     return False
         except (ValueError, TypeError):
             return False
@@ -453,7 +493,7 @@ def fit(scene, *, max_lsb: int = 1, size: int | None = 64, cube_size: int = 64, 
     final = {"max_lsb_vs_float": rep["max_lsb_vs_float"], "psnr_db_vs_float": rep["psnr_db_vs_float"],
              "max_lsb_vs_ideal": rep["max_lsb_vs_ideal"], "psnr_db_vs_ideal": rep["psnr_db_vs_ideal"],
              "pixels": rep["pixels"], "width": scene.width, "height": scene.height}
-    meta = {"scene": scene.name, "max_lsb": max_lsb, "screen_size": size or 0, "cube_size": cube_size,
+    meta = {"scene": scene.name, "max_lsb": max_lsb, "screen_size": size or 0, "start_cube_size": base["cube_size"],
             "final": final, "ranges": ranges, "knobs": k}
     path = write_preset(name, units, directory, meta=meta,
                         comment=f"Written by `python -m fxmodel fit` for scene {scene.name} (--max-lsb {max_lsb}).\n"

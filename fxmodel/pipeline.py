@@ -218,9 +218,12 @@ class _PresetUnits(dict):
 BUILTIN_PRESET_UNITS = {
     "default": {"persp": PerspParams.PRESETS["color"], "bump": BumpParams.PRESETS["default"],
                 "reflect": ReflectParams.PRESETS["default"], "cube": CubeParams.PRESETS["default"],
-                "shade": ShadeParams.PRESETS["default"], "weight_bits": 10},
+                "shade": ShadeParams.PRESETS["default"], "weight_bits": 10, "cube_size": 64},
 }
 PRESET_UNITS = _PresetUnits(BUILTIN_PRESET_UNITS)
+
+#: Largest reflectance-cube face edge a preset may ask for (texels; 6 faces of (edge + 2)**2 words each).
+MAX_CUBE_SIZE = 1024
 
 #: The parameter class of each unit in a pipeline preset's units dict.
 UNIT_TYPES = {"persp": PerspParams, "bump": BumpParams, "reflect": ReflectParams, "cube": CubeParams,
@@ -236,7 +239,8 @@ def preset_units(preset: str | dict) -> dict:
         A name: built in (:data:`BUILTIN_PRESET_UNITS`) or a preset file ``presets/<name>.toml`` (see
         :mod:`fxmodel.fit`). Or a units dict of the same shape as ``BUILTIN_PRESET_UNITS["default"]``: ``persp``,
         ``bump``, ``reflect``, ``cube``, ``shade`` (parameter objects, see :data:`UNIT_TYPES`) and optionally
-        ``weight_bits`` (int; default 10); returned as given, nothing is registered anywhere.
+        ``weight_bits`` (int; default 10) and ``cube_size`` (texels per reflectance-cube face edge; default 64);
+        returned as given, nothing is registered anywhere.
 
     Raises
     ------
@@ -252,7 +256,7 @@ def preset_units(preset: str | dict) -> dict:
     if not isinstance(preset, dict):
         raise TypeError(f"preset: must be a pipeline preset name (str) or a units dict like "
                         f"BUILTIN_PRESET_UNITS['default'], not {type(preset).__name__} {preset!r}")
-    allowed = (*UNIT_TYPES, "weight_bits")
+    allowed = (*UNIT_TYPES, "weight_bits", "cube_size")
     for key in preset:
         require(key in allowed, "preset key", key, f"unknown (a units dict has {', '.join(allowed)})")
     for key, cls in UNIT_TYPES.items():
@@ -262,6 +266,9 @@ def preset_units(preset: str | dict) -> dict:
                 f"must be {cls.__name__}")
     wb = preset.get("weight_bits", 10)
     require(isinstance(wb, int) and not isinstance(wb, bool), "preset['weight_bits']", wb, "must be an int")
+    cs = preset.get("cube_size", 64)
+    require(isinstance(cs, int) and not isinstance(cs, bool) and 1 <= cs <= MAX_CUBE_SIZE, "preset['cube_size']",
+            cs, f"must be an int in 1..{MAX_CUBE_SIZE}")
     return preset
 
 

@@ -76,7 +76,7 @@ class Frame:
         return a, b
 
 
-def prepare(scene, *, size=None, preset: str | dict = "default", cube_size: int = 64) -> Frame:
+def prepare(scene, *, size=None, preset: str | dict = "default", cube_size: int | None = None) -> Frame:
     """Load (if a path), rasterize and quantize a scene for a pipeline preset.
 
     Parameters
@@ -88,8 +88,9 @@ def prepare(scene, *, size=None, preset: str | dict = "default", cube_size: int 
     preset : str or dict
         A pipeline preset name (built in or ``presets/<name>.toml``) or a units dict like
         ``BUILTIN_PRESET_UNITS["default"]`` (see :func:`fxmodel.pipeline.preset_units`).
-    cube_size : int
-        Texels per reflectance-cube face edge.
+    cube_size : int, optional
+        Texels per reflectance-cube face edge; ``None``: the preset's ``cube_size`` (64 unless a preset file,
+        e.g. one written by ``fit``, sets it).
 
     Raises
     ------
@@ -105,6 +106,8 @@ def prepare(scene, *, size=None, preset: str | dict = "default", cube_size: int 
     elif size is not None:
         scene = scene.with_size(*((size, size) if isinstance(size, int) else size))
     units = preset_units(preset)
+    if cube_size is None:
+        cube_size = units.get("cube_size", 64)
     maps = scene_maps(scene, units["bump"].d_fmt)
     frags = rasterize(scene, maps)
     used = np.unique(frags.material)
@@ -139,9 +142,9 @@ def prepare(scene, *, size=None, preset: str | dict = "default", cube_size: int 
     return Frame(scene=scene, params=params, frags=frags, codes=codes, lighting=lighting, maps=mm, stats=stats)
 
 
-def pipeline_params(scene, preset: str | dict = "default", *, cube_size: int = 64) -> PipelineParams:
+def pipeline_params(scene, preset: str | dict = "default", *, cube_size: int | None = None) -> PipelineParams:
     """The pipeline that renders ``scene``: ``preset``'s units with the scene's memories (bump map, texture and
-    the reflectance cubes of ``cube_size`` texels), as ``make sim`` streams it; for ``make verilog`` and
+    the reflectance cubes of ``cube_size`` texels, default the preset's), as ``make sim`` streams it; for ``make verilog`` and
     ``make fpga``.
 
     ``scene`` is a scene name in ``scenes/`` (``tin-plane``) or a file (see :func:`fxmodel.scene.scene_path`);

@@ -27,7 +27,8 @@ def presets(tmp_path, monkeypatch):
 
 def _smaller_units():
     k = knobs_of(DEFAULT)
-    return units_of({**k, "coord_bits": 18, "persp_p": 19, "persp_b": 20, "word": 16, "weight_bits": 9}, DEFAULT)
+    return units_of({**k, "coord_bits": 18, "persp_p": 19, "persp_b": 20, "word": 16, "weight_bits": 9,
+                     "cube_size": 12}, DEFAULT)
 
 
 def test_preset_file_round_trips_and_prepare_uses_it(presets):
@@ -35,12 +36,15 @@ def test_preset_file_round_trips_and_prepare_uses_it(presets):
     path = write_preset("small-test", units)
     assert path == presets / "small-test.toml"
     back = load_preset("small-test")
-    for key in ("persp", "bump", "reflect", "cube", "shade", "weight_bits"):
+    for key in ("persp", "bump", "reflect", "cube", "shade", "weight_bits", "cube_size"):
         assert back[key] == units[key], key
     assert back["persp"] != DEFAULT["persp"]
     frame = prepare(SCENE, size=32, preset="small-test")
     assert frame.params.persp == units["persp"] and frame.params.cube == units["cube"]
     assert frame.params.reflect.r_bits == 16 and frame.params.texture.weight_bits == 9
+    assert frame.params.diffuse.texels.shape == (6, 14, 14, 3)        # 12 texels a face edge, plus the border
+    assert frame.stats["cube_size"] == 12
+    assert prepare(SCENE, size=32, preset="small-test", cube_size=10).params.diffuse.texels.shape[1] == 12
     assert PRESET_UNITS["small-test"]["bump"] == units["bump"]
 
 
@@ -60,6 +64,8 @@ def test_prepare_takes_a_units_dict_as_the_preset(presets):
     ({k: v for k, v in DEFAULT.items() if k != "cube"}, ValueError, "needs 'cube'"),
     ({**DEFAULT, "bump": DEFAULT["persp"]}, ValueError, r"type\(preset\['bump'\]\)='PerspParams': must be BumpParams"),
     ({**DEFAULT, "weight_bits": 9.5}, ValueError, "weight_bits.*must be an int"),
+    ({**DEFAULT, "cube_size": 0}, ValueError, r"cube_size.*must be an int in 1\.\.1024"),
+    ({**DEFAULT, "cube_size": True}, ValueError, "cube_size"),
 ])
 def test_bad_preset_values_are_named(bad, error, match):
     with pytest.raises(error, match=match):
@@ -82,6 +88,8 @@ def test_missing_fields_keep_default(presets):
     ('[reflect]\nbogus = 1\n', "reflect.bogus"),
     ('colour = 1\n', "colour"),
     ('weight_bits = 40\n', "weight_bits"),
+    ('cube_size = 0\n', "cube_size"),
+    ('cube_size = "big"\n', "cube_size"),
     ('[bump]\nrounding = "SIDEWAYS"\n', "bump.rounding"),
 ])
 def test_bad_preset_file_names_file_and_key(presets, text, key):
@@ -126,6 +134,13 @@ def test_fit_small_scene_stays_within_bound_and_shrinks(presets, monkeypatch):
     a, _ = frame.references()
     assert max_lsb(rep["_model_bytes"], a) <= 3
     assert rep["max_lsb_vs_float"] == report["final"]["max_lsb_vs_float"] <= 3
+    # and no more than the bound further from the ideal reference (b) than default (what holds the cube size:
+    # reference (a) samples the same reflectance cubes)
+    base = prepare(SCENE, size=48)
+    base_rep = render(base)
+    _, b = frame.references()
+    assert max_lsb(rep["_model_bytes"], b) <= max_lsb(base_rep["_model_bytes"], base.references()[1]) + 3
+    assert k["cube_size"] >= 4, "the cube size must be held by reference (b)"
 
 
 def test_fit_cli_writes_preset_and_json(presets, capsys):
@@ -144,3 +159,22 @@ def test_units_of_rejects_invalid_knobs():
     with pytest.raises(ValueError):
         units_of({**k, "persp_b": k["persp_p"] - 1}, DEFAULT)        # table word narrower than the result
     assert Fmt.parse(str(units_of(k, DEFAULT)["bump"].out_fmt)).width == k["word"]
+
+
+def test_bram_estimate_counts_blocks_copies_and_distributed_memories():
+    """DP16KD estimate against hand counts: 6 x 66 x 66 words of 36 bits = 52 blocks of 512 x 36, two copies for
+    four read ports; a 40 x 40 two-channel 12-bit map (1600 words of 24 bits) is 3 blocks (2048 x 9, 24 -> 3
+    wide) per copy, two copies; a 64-word memory is distributed RAM."""
+    import numpy as np
+    from fxmodel.fit import bram_blocks
+    from fxmodel.sampler import SamplerParams, Texels
+    u2 = Fmt(False, 2, 10)
+    cube = SamplerParams(texels=Texels(np.zeros((6, 66, 66, 3), np.int64)), channels=(u2,) * 3,
+                         coord_fmt=Fmt(False, 1, 16), edge="border")
+    assert bram_blocks(cube) == 52 * 2
+    assert bram_blocks(dataclasses.replace(cube, filter="nearest")) == 52
+    s12 = Fmt(True, 1, 11)
+    bump = SamplerParams(texels=Texels(np.zeros((1, 40, 40, 2), np.int64)), channels=(s12,) * 2)
+    assert bram_blocks(bump) == 3 * 2
+    tiny = SamplerParams(texels=Texels(np.zeros((1, 8, 8, 2), np.int64)), channels=(s12,) * 2)
+    assert bram_blocks(tiny) == 0

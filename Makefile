@@ -23,7 +23,7 @@ help:
 	@echo "make test       the test suite (model properties, RTL build, co-simulation on \$$SIM)"
 	@echo "make verilog    write build/verilog/<unit>_<preset>.v for every unit and preset;"
 	@echo "                with PRESET= and/or SCENE=: build/verilog/pipeline_<preset>_<scene>.v (the scene's tables)"
-	@echo "make bench      throughput, then the reciprocal's speed-against-error sweep -> build/bench/"
+	@echo "make bench      throughput, then the speed-against-error sweep (reciprocal, unit widths, pipeline presets) -> build/bench/"
 	@echo "make fpga       ECP5-85 synthesis, place and route of every unit and preset -> build/fpga/report.{json,md};"
 	@echo "                with PRESET= and/or SCENE=: the pipeline with that preset and the scene's tables"
 	@echo "make exhaustive exhaustive RTL equivalence (streaming co-simulation) -> build/exhaustive/report.json"

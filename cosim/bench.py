@@ -7,9 +7,10 @@ on each available simulator (build time excluded). Machines here are shared and 
 figures are medians, and the ratios between them mean more than any one number.
 
 Writes ``build/bench/bench.json`` and prints a Markdown table. Second phase (skip with ``--no-sweep``): the
-reciprocal's design-space sweep, speed against error (:mod:`cosim.sweep`: ``build/bench/speed_vs_error.{json,md}``
-and ``build/bench/pareto.png``), with the ECP5 flow on at most ``--fpga-points`` of its points (cached under
-``build/fpga``; ``--no-fpga`` skips it).
+design-space sweep, speed against error of the reciprocal, the other units' widths and pipeline presets
+(:mod:`cosim.sweep`: ``build/bench/speed_vs_error.{json,md}``, ``build/bench/pareto.png`` and
+``build/bench/units.png``), with the ECP5 flow on at most ``--fpga-points`` reciprocal points and each other unit's
+default preset and cheapest front point (cached under ``build/fpga``; ``--no-fpga`` skips it).
 """
 
 from __future__ import annotations
@@ -47,7 +48,7 @@ def main(argv=None) -> int:
     ap.add_argument("--no-fpga", action="store_true", help="sweep without the ECP5 flow")
     ap.add_argument("--fpga-points", type=int, default=6, help="sweep points placed and routed (0 to 6, cached)")
     ap.add_argument("--jobs", type=int, default=2, help="FPGA designs placed and routed in parallel")
-    ap.add_argument("--docs", action="store_true", help="also write docs/img/pareto.png")
+    ap.add_argument("--docs", action="store_true", help="also write docs/img/pareto.png and docs/img/units.png")
     args = ap.parse_args(argv)
     if not 0 <= args.fpga_points <= 6:
         ap.error("--fpga-points must be 0 to 6 (each new design takes 1-2 minutes)")
@@ -86,8 +87,8 @@ def main(argv=None) -> int:
     if args.no_sweep:
         return 0
     from . import sweep
-    sweep_argv = ["--fpga-points", str(0 if args.no_fpga else args.fpga_points), "--jobs", str(args.jobs),
-                  "--out", str(out)] + (["--docs"] if args.docs else [])
+    sweep_argv = (["--no-fpga"] if args.no_fpga else ["--fpga-points", str(args.fpga_points)]) + [
+        "--jobs", str(args.jobs), "--out", str(out)] + (["--docs"] if args.docs else [])
     print("\nSpeed against error (python -m cosim.sweep):\n")
     return sweep.main(sweep_argv)
 

@@ -1,7 +1,14 @@
-r"""Design-space sweep of the reciprocal: speed against error (issue 7, item 2).
+r"""Design-space sweep: speed against error of the reciprocal, the other units' widths and the pipeline (issue 7,
+item 2).
 
-``python -m cosim.sweep [--no-fpga] [--fpga-points N] [--jobs J] [--docs]`` (second phase of ``make bench``)
-measures a grid of about 45 reciprocal configurations that spans cheap to precise: table index bits ``m``, table
+``python -m cosim.sweep [--no-fpga] [--fpga-points N] [--unit-fpga-points N] [--unit-samples K] [--no-units]
+[--no-pipeline] [--jobs J] [--docs]`` (second phase of ``make bench``) measures the reciprocal grid below, the
+unit-width families and pipeline points of :mod:`cosim.sweep_units` (perspective, cube, reflection and bump units:
+error against exact math, cost, latency, throughput, ECP5 results for each unit's default preset and the cheapest
+point of its front; pipeline presets rendered through the bit-exact model: PSNR and largest error against the float
+reference, ``fit``'s hardware estimate), with one progress bar over all points.
+
+Reciprocal: a grid of about 45 configurations that spans cheap to precise: table index bits ``m``, table
 word bits ``b``, Taylor terms ``t`` (1 to 4), output precision ``p`` and table mode (``round``, the paper's
 ``round(1/w_h)``, against ``midpoint``, the expansion about each interval's centre; ``fxmodel/recip.py``). The grid
 (:func:`default_grid`) holds
@@ -31,8 +38,10 @@ A point is on the front when no other point has at least as many worst-case corr
 of quadratic-interpolation coefficients, about 6.5 Kbit, two multipliers, at most 1 ulp at 24 bits, drawn at 23
 correct bits) and the paper's configuration (measured here).
 
-Writes ``build/bench/speed_vs_error.json``, ``build/bench/speed_vs_error.md`` and ``build/bench/pareto.png``
-(with ``--docs`` also ``docs/img/pareto.png``).
+Writes ``build/bench/speed_vs_error.json`` (``points``: every unit's records with ``unit``; ``pareto``: each unit's
+front; ``pipeline``), ``build/bench/speed_vs_error.md`` (a table per unit and one of the pipeline points),
+``build/bench/pareto.png`` (the reciprocal) and ``build/bench/units.png`` (correct bits against cost per unit, PSNR
+against cost for the pipeline); with ``--docs`` also both pictures in ``docs/img/``.
 """
 
 from __future__ import annotations
@@ -53,8 +62,8 @@ from fxmodel.fixed import Fmt
 from fxmodel.recip import RecipParams
 from fxmodel.unit import preset
 
-__all__ = ["PAPER", "ANCHORS", "dsp_blocks", "faithful_p", "default_grid", "measure_point", "pareto_front",
-           "sweep", "markdown", "plot", "write_outputs", "main"]
+__all__ = ["PAPER", "ANCHORS", "dsp_pieces", "dsp_blocks", "faithful_p", "default_grid", "unique_points",
+           "measure_point", "pareto_front", "sweep", "markdown", "plot", "plot_units", "write_outputs", "main"]
 
 ROOT = Path(__file__).resolve().parent.parent
 OUT = ROOT / "build" / "bench"
@@ -73,12 +82,18 @@ ANCHORS = [("NVIDIA SFU (Oberman & Siu 2005)", 6656, 2, 23.0)]
 CHUNK = 1 << 22
 
 
-def dsp_blocks(params: RecipParams) -> int:
-    """Estimated MULT18X18D blocks: one per product whose operands fit 18 bits, else the number of partial
-    products of ``rtl.recip.pieces`` (17-bit pieces and a top piece of at most 18 bits per operand)."""
+def dsp_pieces(a: int, b: int) -> int:
+    """Estimated MULT18X18D blocks of one ``a x b`` product: one if both operands fit 18 bits, else the number of
+    partial products of ``rtl.recip.pieces`` (17-bit pieces and a top piece of at most 18 bits per operand)."""
     def npieces(w):
-        return 1 if w <= params.DSP_BITS else 1 + math.ceil((w - params.DSP_BITS) / (params.DSP_BITS - 1))
-    return sum(npieces(a) * npieces(b) for _, a, b in params.product_operands())
+        d = RecipParams.DSP_BITS
+        return 1 if w <= d else 1 + math.ceil((w - d) / (d - 1))
+    return npieces(a) * npieces(b)
+
+
+def dsp_blocks(params: RecipParams) -> int:
+    """Estimated MULT18X18D blocks of a reciprocal: :func:`dsp_pieces` of each of its products."""
+    return sum(dsp_pieces(a, b) for _, a, b in params.product_operands())
 
 
 def _params(m, t, p, table, b=None, guard=4, in_fmt=IN24):
@@ -127,6 +142,11 @@ def default_grid() -> list[tuple[str, str, RecipParams]]:
                 P = _params(m, t, 17, table, b=20)
                 if P is not None:
                     grid.append((f"t{t} m{m} {table} p17", "p17", P))
+    return unique_points(grid)
+
+
+def unique_points(grid) -> list[tuple[str, str, object]]:
+    """``grid`` of ``(name, family, params)`` without repeated parameter objects (the first name kept)."""
     seen, out = set(), []
     for name, family, P in grid:
         if P not in seen:
@@ -169,7 +189,7 @@ def measure_point(name: str, family: str, params: RecipParams, *, exhaustive_lim
         return round(params.p - 1 - math.log2(e), 3) if e > 0 else None
 
     return {
-        "name": name, "family": family,
+        "name": name, "family": family, "unit": "recip",
         "params": {"in_fmt": str(params.in_fmt), "m": params.m, "b": params.b, "t": params.t, "p": params.p,
                    "guard": params.guard, "table": params.table, "center": params.center},
         "entries": params.entries, "table_bits": params.table_bits, "multipliers": params.multipliers,
@@ -203,10 +223,20 @@ def _fpga_subset(records, front, limit: int) -> list[int]:
     return chosen
 
 
+def _unit_fpga_subset(records, front, limit: int) -> list[int]:
+    """A unit's default preset, then the cheapest point of its front (the narrow end), then the middle of the
+    front, ``limit`` in all (the other presets are in ``make fpga``'s report)."""
+    chosen = [i for i, r in enumerate(records) if r["family"] == "preset" and r["name"].endswith("default")][:1]
+    for i in (front[:1] + front[len(front) // 2:len(front) // 2 + 1]) if front else []:
+        if i not in chosen:
+            chosen.append(i)
+    return chosen[:limit]
+
+
 def _run_fpga(records, grid, idx, jobs: int, progress: bool) -> None:
     try:
         from rtl.fpga import run_designs
-        results = run_designs([({"unit": "recip", "preset": records[i]["name"]}, grid[i][2]) for i in idx],
+        results = run_designs([({"unit": records[i]["unit"], "preset": records[i]["name"]}, grid[i][2]) for i in idx],
                               jobs=jobs, progress=progress)
     except Exception as exc:                       # a broken tool or RTL must not lose the model results
         print(f"sweep: FPGA flow failed: {exc!r}", file=sys.stderr)
@@ -218,48 +248,100 @@ def _run_fpga(records, grid, idx, jobs: int, progress: bool) -> None:
                                                       "met", "cached", "run", "error") if k in res}
 
 
-def sweep(grid=None, *, exhaustive_limit: int = 1 << 24, samples: int = 10 ** 6, dsp_weight: float = 1024.0,
-          fpga_points: int = 0, jobs: int = 1, progress: bool = True) -> dict:
-    """Measure every ``(name, family, params)`` of ``grid`` (:func:`default_grid` if ``None``).
+def _groups(records) -> dict:
+    """Record indices by unit, in order of first appearance."""
+    out = {}
+    for i, r in enumerate(records):
+        out.setdefault(r["unit"], []).append(i)
+    return out
 
-    Returns ``{"meta", "points", "pareto"}``: ``points`` the records of :func:`measure_point` (``pareto`` true on
-    the front, ``fpga`` filled for at most ``fpga_points`` of them), ``pareto`` the front's names by cost.
+
+def sweep(grid=None, *, pipeline=None, scene=None, scene_size: int | None = None, exhaustive_limit: int = 1 << 24,
+          samples: int = 10 ** 6, unit_samples: int | None = None, dsp_weight: float = 1024.0,
+          fpga_points: int = 0, unit_fpga_points: int = 0, jobs: int = 1, progress: bool = True) -> dict:
+    """Measure every ``(name, family, params)`` of ``grid`` and render every pipeline point.
+
+    ``grid``: reciprocal and other unit points (``None``: :func:`default_grid` and
+    :func:`cosim.sweep_units.default_unit_grid`). ``pipeline``: ``(name, preset name or knob changes)`` pairs
+    (:data:`cosim.sweep_units.PIPELINE_POINTS` when ``None`` and ``grid`` is ``None``, else none), rendered from
+    ``scene`` (default :data:`cosim.sweep_units.SCENE`) at ``scene_size`` (default: the scene's own size).
+    ``unit_samples``: random vectors of the non-reciprocal units (default ``samples``).
+
+    Returns ``{"meta", "points", "pareto", "pipeline"}``: ``points`` one record per grid point
+    (:func:`measure_point`, :func:`cosim.sweep_units.measure_unit_point`; ``unit`` names the unit, ``pareto`` true
+    on its unit's front, ``fpga`` filled for at most ``fpga_points`` reciprocal and ``unit_fpga_points`` points of
+    every other unit), ``pareto`` each unit's front (names by cost), ``pipeline`` ``{"scene", "points", "pareto"}``
+    (:func:`cosim.sweep_units.measure_pipeline_point`; front of PSNR against reference (a) over cost).
     """
     from tqdm import tqdm
 
+    from . import sweep_units as su
+
     t0 = time.perf_counter()
-    grid = default_grid() if grid is None else list(grid)
-    if not grid:
+    full = grid is None
+    grid = default_grid() + su.default_unit_grid() if full else list(grid)
+    pipe = su.pipeline_grid(None if pipeline is None else pipeline) if (pipeline is not None or full) else []
+    if not grid and not pipe:
         raise ValueError("sweep: the grid is empty")
-    records = []
-    bar = tqdm(grid, desc="sweep", unit="point", disable=not progress)
-    for name, family, params in bar:
+    scene = scene or su.SCENE
+    unit_samples = samples if unit_samples is None else unit_samples
+    records, prec = [], []
+    bar = tqdm(total=len(grid) + len(pipe), desc="sweep", unit="point", disable=not progress)
+    for name, family, params in grid:
         bar.set_postfix_str(name)
-        records.append(measure_point(name, family, params, exhaustive_limit=exhaustive_limit, samples=samples,
-                                     dsp_weight=dsp_weight))
-    front = pareto_front(records)
-    for i, r in enumerate(records):
-        r["pareto"] = i in front
-    if fpga_points > 0:
-        _run_fpga(records, grid, _fpga_subset(records, front, min(fpga_points, len(records))), jobs, progress)
+        if params.NAME == "recip":
+            records.append(measure_point(name, family, params, exhaustive_limit=exhaustive_limit, samples=samples,
+                                         dsp_weight=dsp_weight))
+        else:
+            records.append(su.measure_unit_point(name, family, params, samples=unit_samples, dsp_weight=dsp_weight,
+                                                 exhaustive_limit=exhaustive_limit))
+        bar.update(1)
+    for name, units, changes in pipe:
+        bar.set_postfix_str(f"pipeline {name}")
+        prec.append(su.measure_pipeline_point(name, units, changes, scene=scene, size=scene_size,
+                                              dsp_weight=dsp_weight))
+        bar.update(1)
+    bar.close()
+    fronts, fpga_idx = {}, []
+    for unit, idx in _groups(records).items():
+        sub = [records[i] for i in idx]
+        front = [idx[j] for j in pareto_front(sub)]
+        fronts[unit] = [records[i]["name"] for i in front]
+        for i in idx:
+            records[i]["pareto"] = i in front
+        limit = fpga_points if unit == "recip" else unit_fpga_points
+        if limit > 0:
+            pick = _fpga_subset if unit == "recip" else _unit_fpga_subset
+            fpga_idx += [idx[j] for j in pick(sub, [idx.index(i) for i in front], min(limit, len(sub)))]
+    if fpga_idx:
+        _run_fpga(records, grid, fpga_idx, jobs, progress)
+    pfront = pareto_front(prec, bits_key="psnr_db_vs_float") if prec else []
+    for i, r in enumerate(prec):
+        r["pareto"] = i in pfront
     meta = {"machine": platform.platform(), "python": platform.python_version(), "dsp_weight": dsp_weight,
-            "exhaustive_limit": exhaustive_limit, "samples": samples, "seconds": round(time.perf_counter() - t0, 1),
-            "cost": "table_bits + dsp_weight * dsp_blocks_est",
+            "exhaustive_limit": exhaustive_limit, "samples": samples, "unit_samples": unit_samples,
+            "seconds": round(time.perf_counter() - t0, 1),
+            "cost": "table_bits + dsp_weight * dsp_blocks_est (pipeline: fit's dsp18_tiles)",
+            "unit_errors": {u: {"error": e["what"], "ulp": e["ulp_name"]} for u, e in su.UNIT_ERRORS.items()},
             "anchors": [{"name": a, "table_bits": tb, "multipliers": mu, "correct_bits": cb}
                         for a, tb, mu, cb in ANCHORS]}
-    return {"meta": meta, "points": records, "pareto": [records[i]["name"] for i in front]}
+    return {"meta": meta, "points": records, "pareto": fronts,
+            "pipeline": {"scene": str(scene), "points": prec, "pareto": [prec[i]["name"] for i in pfront]}}
 
 
 def _fmt(v, spec):
     return "" if v is None else format(v, spec)
 
 
-def markdown(result: dict) -> str:
-    """The sweep as a Markdown table (front points in bold names), sorted by cost."""
+def _points(result: dict, unit: str) -> list[dict]:
+    return [r for r in result["points"] if r.get("unit", "recip") == unit]
+
+
+def _recip_table(result: dict) -> list[str]:
     lines = ["| point | mode | m | entries | b | t | p | table bits | mult. (DSP est.) | latency | bound ulp "
              "| worst ulp | mean ulp | correct bits worst / mean | model M/s | LUT4 | DSP | Fmax MHz |",
              "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
-    for r in sorted(result["points"], key=lambda r: (r["cost"], r["name"])):
+    for r in sorted(_points(result, "recip"), key=lambda r: (r["cost"], r["name"])):
         P, f = r["params"], r["fpga"] or {}
         name = f"**{r['name']}**" if r.get("pareto") else r["name"]
         mode = P["table"] + ("" if P["center"] else ", no centring")
@@ -274,16 +356,80 @@ def markdown(result: dict) -> str:
     lines += ["", f"Bold: Pareto front of worst-case correct bits against cost = table bits + {meta['dsp_weight']:g} "
               "× estimated MULT18X18D blocks. Errors over every input (24-bit `s8.16` input; `small`: `s4.12`); "
               f"`*`: {meta['samples']:,} random inputs plus the hard cases. FPGA: ECP5-85 speed 8 (`rtl.fpga`)."]
+    return lines
+
+
+def _unit_table(result: dict, unit: str) -> list[str]:
+    from .sweep_units import UNIT_ERRORS
+    spec = UNIT_ERRORS[unit]
+    lines = [f"Error: {spec['what']}; in real units (radians for reflect) and in {spec['ulp_name']}.", "",
+             "| point | widths | table bits | mult. (DSP est.) | latency | bound | worst | mean | worst / bound ulp "
+             "| correct bits worst / mean | vectors | model M/s | LUT4 | DSP | Fmax MHz |",
+             "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
+    for r in sorted(_points(result, unit), key=lambda r: (r["cost"], -(r["correct_bits_worst"] or 0), r["name"])):
+        f = r["fpga"] or {}
+        name = f"**{r['name']}**" if r.get("pareto") else r["name"]
+        flag = "" if r["within_bound"] else " (above bound!)"
+        lines.append(
+            f"| {name} | {r['knobs']} | {r['table_bits']} | {r['multipliers']} ({r['dsp_blocks_est']}) "
+            f"| {r['latency']} | {r['bound']:.3g} | {r['worst']:.3g}{flag} | {r['mean']:.3g} "
+            f"| {r['worst_ulp']:.2f} / {r['bound_ulp']:.2f} | {_fmt(r['correct_bits_worst'], '.2f')} / "
+            f"{_fmt(r['correct_bits_mean'], '.2f')} | {r['vectors']:,} | {r['model_per_second'] / 1e6:.1f} "
+            f"| {_fmt(f.get('LUT4'), 'd')} | {_fmt(f.get('DSP'), 'd')} | {_fmt(f.get('fmax_mhz'), '.1f')} |")
+    return lines
+
+
+def _pipeline_table(result: dict) -> list[str]:
+    pipe = result.get("pipeline") or {}
+    lines = ["| point | changes from default | max LSB / PSNR dB vs float (a) | vs ideal (b) | table bits "
+             "| multipliers | DSP18 tiles | multiplier bit products | cube edge | memory bits | cost | model Mpixel/s |",
+             "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
+    for r in sorted(pipe.get("points", []), key=lambda r: (r["cost"], r["name"])):
+        hw = r["hardware"]
+        name = f"**{r['name']}**" if r.get("pareto") else r["name"]
+        ch = ", ".join(f"{k} {a}→{b}" for k, (a, b) in r["changes"].items()) or (r["preset"] or "")
+        rate = r["model_pixels_per_second"]
+        lines.append(
+            f"| {name} | {ch} | {r['max_lsb_vs_float']} / {r['psnr_db_vs_float']:.2f} "
+            f"| {r['max_lsb_vs_ideal']} / {r['psnr_db_vs_ideal']:.2f} | {hw['table_bits']} | {hw['multipliers']} "
+            f"| {hw['dsp18_tiles']} | {hw['multiplier_bit_products']} | {r.get('cube_size', '')} "
+            f"| {hw.get('memory_bits', '')} "
+            f"| {r['cost']:.0f} | {_fmt(rate and rate / 1e6, '.2f')} |")
+    return lines
+
+
+def markdown(result: dict) -> str:
+    """The sweep as Markdown: one table per unit (front points in bold names, sorted by cost), then the
+    pipeline points."""
+    meta = result["meta"]
+    lines = ["## Reciprocal", ""] + _recip_table(result)
+    units = [u for u in dict.fromkeys(r.get("unit", "recip") for r in result["points"]) if u != "recip"]
+    for unit in units:
+        lines += ["", f"## {unit}", ""] + _unit_table(result, unit)
+    if units:
+        lines += ["", f"Unit points: {meta.get('unit_samples', meta['samples']):,} random inputs plus the hard "
+                  "cases (`vectors`: those in the measured domain). Bold: Pareto front of worst-case correct bits "
+                  f"(−log2 of the worst error) against cost = table bits + {meta['dsp_weight']:g} × estimated "
+                  "MULT18X18D blocks."]
+    pipe = result.get("pipeline") or {}
+    if pipe.get("points"):
+        p0 = pipe["points"][0]
+        lines += ["", f"## Pipeline ({p0['scene']}, {p0['width']}×{p0['height']}, bit-exact model)", ""]
+        lines += _pipeline_table(result)
+        lines += ["", "Bold: Pareto front of PSNR against reference (a) over cost = table bits + "
+                  f"{meta['dsp_weight']:g} × DSP18 tiles (`fxmodel.fit.hardware`). Memory bits: maps, texture and "
+                  "reflectance cubes."]
     return "\n".join(lines)
 
 
 def plot(result: dict, path: Path) -> None:
-    """Pareto plot (PNG): worst-case correct bits against the cost proxy, and against LUT4 where the FPGA flow ran."""
+    """Pareto plot of the reciprocal (PNG): worst-case correct bits against the cost proxy, and against LUT4 where
+    the FPGA flow ran."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    recs = result["points"]
+    recs = _points(result, "recip")
     w = result["meta"]["dsp_weight"]
     has_fpga = any(r["fpga"] and r["fpga"].get("LUT4") for r in recs)
     fig, axes = plt.subplots(1, 2 if has_fpga else 1, figsize=(13 if has_fpga else 8, 5.5), squeeze=False)
@@ -346,16 +492,105 @@ def plot(result: dict, path: Path) -> None:
     plt.close(fig)
 
 
+def plot_units(result: dict, path: Path) -> None:
+    """Per-unit plots (PNG): worst-case correct bits against cost for each non-reciprocal unit (families by
+    marker, Pareto front as a step line, presets circled, ECP5 LUT4 / Fmax beside the points placed), and the
+    pipeline points' PSNR against reference (a) over cost."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from .sweep_units import UNIT_ERRORS
+
+    w = result["meta"]["dsp_weight"]
+    units = [u for u in UNIT_ERRORS if _points(result, u)]
+    pipe = (result.get("pipeline") or {}).get("points") or []
+    n = len(units) + bool(pipe)
+    if n == 0:
+        return
+    cols = min(3, n)
+    rows = math.ceil(n / cols)
+    fig, axes = plt.subplots(rows, cols, figsize=(5.2 * cols, 4.4 * rows), squeeze=False)
+    markers = ["o", "s", "D", "^", "v"]
+    for k, unit in enumerate(units):
+        ax = axes[k // cols][k % cols]
+        recs = [r for r in _points(result, unit) if r["correct_bits_worst"] is not None]
+        mid = (min(r["cost"] for r in recs) + max(r["cost"] for r in recs)) / 2 if recs else 0
+        fams = list(dict.fromkeys(r["family"] for r in recs if r["family"] != "preset"))
+        for j, fam in enumerate(fams):
+            pts = [r for r in recs if r["family"] == fam]
+            ax.scatter([r["cost"] for r in pts], [r["correct_bits_worst"] for r in pts], marker=markers[j % 5],
+                       s=28, alpha=0.8, label=f"{fam} family")
+        for r in recs:
+            if r["family"] == "preset":
+                ax.scatter(r["cost"], r["correct_bits_worst"], s=120, facecolors="none", edgecolors="red", zorder=3)
+                ax.annotate(r["name"].replace(f"{unit} ", ""), (r["cost"], r["correct_bits_worst"]), fontsize=7,
+                            color="red", xytext=(6, -10), textcoords="offset points")
+            f = r["fpga"] or {}
+            if f.get("LUT4"):
+                left = r["cost"] <= mid
+                ax.annotate(f"ECP5: {f['LUT4']} LUT4, {f['DSP']} DSP, {f['fmax_mhz']:.0f} MHz",
+                            (r["cost"], r["correct_bits_worst"]), fontsize=6.5, color="tab:purple",
+                            xytext=(6 if left else -6, 6), ha="left" if left else "right",
+                            textcoords="offset points")
+        front = sorted((r for r in recs if r.get("pareto")), key=lambda r: r["cost"])
+        ax.step([r["cost"] for r in front], [r["correct_bits_worst"] for r in front], where="post", c="k", lw=1,
+                zorder=1, label="Pareto front")
+        if len({r["cost"] for r in recs}) == 1:
+            ax.text(0.03, 0.03, f"every point: {recs[0]['dsp_blocks_est']} MULT18X18D, {recs[0]['table_bits']} table "
+                    "bits\n(the cost proxy does not see the narrower adders)", transform=ax.transAxes, fontsize=7)
+        ax.set_title(f"{unit}: {UNIT_ERRORS[unit]['what']}", fontsize=8.5)
+        ax.set_xlabel(f"cost: table bits + {w:g} × MULT18X18D (est.)", fontsize=8)
+        ax.set_ylabel("correct bits, worst case (−log2 error)", fontsize=8)
+        ax.grid(True, alpha=0.3)
+        ax.margins(x=0.12, y=0.12)
+        ax.legend(fontsize=7, loc="lower right")
+    if pipe:
+        ax = axes[(n - 1) // cols][(n - 1) % cols]
+        right = max(r["cost"] for r in pipe)
+        for k, r in enumerate(sorted(pipe, key=lambda r: (r["psnr_db_vs_float"], r["cost"]))):
+            y = min(r["psnr_db_vs_float"], 99.0)
+            c = "red" if r["preset"] else "tab:blue"
+            ax.scatter(r["cost"], y, c=c, s=40, zorder=3)
+            near_edge = r["cost"] > 0.9 * right          # labels alternate above / below, inward at the right edge
+            ax.annotate(f"{r['name']} ({r['max_lsb_vs_float']} LSB)", (r["cost"], y), fontsize=6.5, color=c,
+                        xytext=(-6 if near_edge else 6, 5 if k % 2 == 0 else -11), ha="right" if near_edge else "left",
+                        textcoords="offset points")
+        front = sorted((r for r in pipe if r.get("pareto")), key=lambda r: r["cost"])
+        ax.step([r["cost"] for r in front], [min(r["psnr_db_vs_float"], 99.0) for r in front], where="post",
+                c="k", lw=1, zorder=1)
+        ax.set_title(f"pipeline, {pipe[0]['scene']} {pipe[0]['width']}×{pipe[0]['height']} (bit-exact model)",
+                     fontsize=8.5)
+        ax.set_xlabel(f"cost: table bits + {w:g} × DSP18 tiles (fit's estimate)", fontsize=8)
+        ax.set_ylabel("PSNR against float reference (a), dB", fontsize=8)
+        ax.grid(True, alpha=0.3)
+        ax.margins(x=0.35, y=0.12)
+    for k in range(n, rows * cols):
+        axes[k // cols][k % cols].axis("off")
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
 def write_outputs(result: dict, out: Path = OUT, docs: bool = False) -> list[Path]:
-    """Write the JSON, Markdown and PNG under ``out`` (and ``docs/img/pareto.png`` with ``docs``)."""
+    """Write the JSON, Markdown and PNGs (``pareto.png``; ``units.png`` when there are unit or pipeline points)
+    under ``out``, and with ``docs`` the PNGs also to ``docs/img/``."""
     out.mkdir(parents=True, exist_ok=True)
-    paths = [out / "speed_vs_error.json", out / "speed_vs_error.md", out / "pareto.png"]
+    paths = [out / "speed_vs_error.json", out / "speed_vs_error.md"]
     paths[0].write_text(json.dumps(result, indent=2))
-    paths[1].write_text("Reciprocal design-space sweep, `python -m cosim.sweep`.\n\n" + markdown(result) + "\n")
-    plot(result, paths[2])
-    if docs:
-        plot(result, DOCS_IMG / "pareto.png")
-        paths.append(DOCS_IMG / "pareto.png")
+    paths[1].write_text("# Design-space sweep, `python -m cosim.sweep`\n\n" + markdown(result) + "\n")
+    pictures = []
+    if _points(result, "recip"):
+        pictures.append(("pareto.png", plot))
+    if any(r.get("unit", "recip") != "recip" for r in result["points"]) or (result.get("pipeline") or {}).get("points"):
+        pictures.append(("units.png", plot_units))
+    for name, fn in pictures:
+        fn(result, out / name)
+        paths.append(out / name)
+        if docs:
+            fn(result, DOCS_IMG / name)
+            paths.append(DOCS_IMG / name)
     return paths
 
 
@@ -363,26 +598,45 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(prog="python -m cosim.sweep", description=__doc__.split("\n")[0])
     ap.add_argument("--no-fpga", action="store_true", help="skip the ECP5 flow")
     ap.add_argument("--fpga-points", type=int, default=6,
-                    help="points placed and routed (cached; at most 6, default %(default)s)")
+                    help="reciprocal points placed and routed (cached; at most 6, default %(default)s)")
+    ap.add_argument("--unit-fpga-points", type=int, default=2,
+                    help="points placed and routed per other unit: its default preset, the cheapest and the middle "
+                         "point of its front (cached; 0 to 3, default %(default)s)")
     ap.add_argument("--jobs", type=int, default=2, help="FPGA designs placed and routed in parallel")
     ap.add_argument("--exhaustive-limit", type=int, default=1 << 24,
                     help="measure every input when the input space is at most this (default 2**24)")
     ap.add_argument("--samples", type=int, default=10 ** 6, help="random inputs otherwise (plus the hard cases)")
+    ap.add_argument("--unit-samples", type=int,
+                    help="random inputs of the other units (default: --samples; fewer for a quick look)")
+    ap.add_argument("--no-units", action="store_true", help="only the reciprocal and the pipeline points")
+    ap.add_argument("--no-pipeline", action="store_true", help="no pipeline points (no scene renders)")
+    ap.add_argument("--scene", help="scene of the pipeline points (default: scenes/tin-plane.toml)")
+    ap.add_argument("--scene-size", type=int, help="render the pipeline points at this square size "
+                    "(default: the scene's own)")
     ap.add_argument("--dsp-weight", type=float, default=1024.0, help="ROM bits per multiplier block in the cost")
     ap.add_argument("--out", default=str(OUT), help="output folder (default: build/bench)")
-    ap.add_argument("--docs", action="store_true", help="also write docs/img/pareto.png")
+    ap.add_argument("--docs", action="store_true", help="also write docs/img/pareto.png and docs/img/units.png")
     args = ap.parse_args(argv)
-    if not 0 <= args.fpga_points <= 6:
-        print("error: --fpga-points must be 0 to 6 (each new design takes 1-2 minutes)", file=sys.stderr)
+    if not 0 <= args.fpga_points <= 6 or not 0 <= args.unit_fpga_points <= 3:
+        print("error: --fpga-points must be 0 to 6 and --unit-fpga-points 0 to 3 (each new design takes 1-2 "
+              "minutes)", file=sys.stderr)
         return 2
-    if args.samples < 1 or args.exhaustive_limit < 1 or args.dsp_weight < 0:
-        print("error: --samples and --exhaustive-limit must be positive, --dsp-weight >= 0", file=sys.stderr)
+    if (args.samples < 1 or args.exhaustive_limit < 1 or args.dsp_weight < 0
+            or (args.unit_samples is not None and args.unit_samples < 1)):
+        print("error: --samples, --unit-samples and --exhaustive-limit must be positive, --dsp-weight >= 0",
+              file=sys.stderr)
         return 2
-    result = sweep(exhaustive_limit=args.exhaustive_limit, samples=args.samples, dsp_weight=args.dsp_weight,
-                   fpga_points=0 if args.no_fpga else args.fpga_points, jobs=args.jobs)
+    from . import sweep_units as su
+    grid = default_grid() + ([] if args.no_units else su.default_unit_grid())
+    result = sweep(grid, pipeline=[] if args.no_pipeline else su.PIPELINE_POINTS, scene=args.scene,
+                   scene_size=args.scene_size, exhaustive_limit=args.exhaustive_limit, samples=args.samples,
+                   unit_samples=args.unit_samples, dsp_weight=args.dsp_weight,
+                   fpga_points=0 if args.no_fpga else args.fpga_points,
+                   unit_fpga_points=0 if args.no_fpga else args.unit_fpga_points, jobs=args.jobs)
     paths = write_outputs(result, Path(args.out), docs=args.docs)
     print(markdown(result))
-    print(f"\nPareto front: {', '.join(result['pareto'])}")
+    for unit, names in result["pareto"].items():
+        print(f"\nPareto front, {unit}: {', '.join(names)}")
     print(f"({result['meta']['seconds']} s; written to {', '.join(str(p) for p in paths)})")
     bad = [r["name"] for r in result["points"] if not r["within_bound"]]
     if bad:

@@ -53,7 +53,7 @@ def test_worst_matches_model(result):
 def test_pareto_front_non_dominated(result):
     recs = result["points"]
     front = [r for r in recs if r["pareto"]]
-    assert front and result["pareto"] == [r["name"] for r in sorted(front, key=lambda r: r["cost"])]
+    assert front and result["pareto"]["recip"] == [r["name"] for r in sorted(front, key=lambda r: r["cost"])]
     for f in front:
         for r in recs:
             assert not (r["cost"] <= f["cost"] and r["correct_bits_worst"] >= f["correct_bits_worst"]

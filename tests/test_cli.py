@@ -90,6 +90,14 @@ def test_errors_command_on_small_is_exhaustive(capsys):
     assert isinstance(rep["monotone"]["monotone"], bool)
 
 
+@pytest.mark.parametrize("unit", ["persp", "bump"])
+def test_errors_command_measures_persp_and_bump(capsys, unit):
+    assert main(["errors", unit, "--preset", "small", "--random", "3000"]) == 0
+    rep = json.loads(capsys.readouterr().out)
+    assert rep["within_bound"] and 0 < rep["vectors"] <= 3000 + len(preset(unit, "small").hard_cases())
+    assert 0 < rep["mean_error"] <= rep["max_error"] <= rep["bound"]
+
+
 @given(st.lists(st.tuples(st.integers(-(1 << 23), (1 << 23) - 1), st.integers(0, 7), st.integers(-(1 << 40), 1 << 40)),
                 min_size=1, max_size=40))
 def test_readmemh_round_trip(tmp_path_factory, rows):

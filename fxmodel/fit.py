@@ -342,15 +342,17 @@ DISTRIBUTED_WORDS = 64
 
 
 def bram_blocks(sampler) -> int:
-    """Estimated ECP5 DP16KD blocks of a sampler's texel memory: the cheapest block shape for its depth and word
-    width, one copy for each two read ports (a DP16KD has two; bilinear filtering reads four texels a clock);
-    none for a memory of at most :data:`DISTRIBUTED_WORDS` words (Yosys puts those in LUT RAM: the demo
-    pipeline's 64-word bump map did). ``python -m rtl.fpga`` measures the real count."""
+    """Estimated ECP5 DP16KD blocks of a sampler's texel memories (:attr:`SamplerParams.memories`): for each,
+    the cheapest block shape for its depth and word width, one copy for each two read ports (a DP16KD has two;
+    an unbanked bilinear memory has four); none for a memory of at most :data:`DISTRIBUTED_WORDS` words (Yosys
+    puts those in LUT RAM: the demo pipeline's 64-word bump map did). ``python -m rtl.fpga`` measures the real
+    count."""
     import math
-    if sampler.depth <= DISTRIBUTED_WORDS:
-        return 0
-    per_copy = min(math.ceil(sampler.depth / d) * math.ceil(sampler.word_bits / w) for d, w in DP16KD_SHAPES)
-    return per_copy * math.ceil((4 if sampler.bilinear else 1) / 2)
+    total = 0
+    for depth, bits, ports in sampler.memories:
+        if depth > DISTRIBUTED_WORDS:
+            total += min(math.ceil(depth / d) * math.ceil(bits / w) for d, w in DP16KD_SHAPES) * math.ceil(ports / 2)
+    return total
 
 
 def _savings(new: dict, old: dict) -> dict:

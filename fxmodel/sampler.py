@@ -175,16 +175,50 @@ class SamplerParams(Unit):
     def out_names(self) -> tuple:
         return self.names or tuple(f"c{k}" for k in range(len(self.channels)))
 
-    @cached_property
-    def words(self) -> list:
-        """Memory words: the channels' bit patterns packed, channel 0 in the low bits."""
-        codes = self.texels.codes.reshape(self.depth, -1)
-        word = np.zeros(self.depth, dtype=object)
+    def _pack(self, codes) -> list:
+        """Words of texel codes ``(..., channels)``: the channels' bit patterns packed, channel 0 in the low bits."""
+        codes = np.asarray(codes).reshape(-1, len(self.channels))
+        word = np.zeros(len(codes), dtype=object)
         shift = 0
         for k, fmt in enumerate(self.channels):
             word = word + (np.asarray(fmt.to_bits(codes[:, k]), dtype=object) << shift)
             shift += fmt.width
         return [int(v) for v in word]
+
+    @cached_property
+    def words(self) -> list:
+        """Memory words in texel order ``(face, row, column)`` (one memory; see :attr:`banked`)."""
+        return self._pack(self.texels.codes)
+
+    @property
+    def banked(self) -> bool:
+        """Bilinear lookups read their four texels from four banks by texel parity (bank ``(i mod 2, j mod 2)``
+        holds texel ``(i, j)`` at ``(face, j // 2, i // 2)``), one read port each: the four texels of a lookup
+        always lie in four different banks (``i1 = i0 + 1``), or are the same texel twice (``clamp`` at an edge).
+        That stores the map once instead of twice (a block RAM has two read ports). Not for ``repeat`` with an
+        odd map size, where ``i0 = W - 1`` and ``i1 = 0`` share a parity: one memory with four read ports there."""
+        return self.bilinear and (self.edge != "repeat" or (self.width % 2 == 0 and self.height % 2 == 0))
+
+    @property
+    def bank_shape(self) -> tuple:
+        """``(faces, rows, columns)`` of each bank (a map of odd memory size is padded by one row/column)."""
+        f, h, w = self.texels.shape[:3]
+        return f, (h + 1) // 2, (w + 1) // 2
+
+    @cached_property
+    def bank_words(self) -> list:
+        """The four banks' words, bank ``2 * (j mod 2) + (i mod 2)``, padding texels zero."""
+        f, h, w, ch = self.texels.shape
+        padded = np.zeros((f, 2 * self.bank_shape[1], 2 * self.bank_shape[2], ch), dtype=np.int64)
+        padded[:, :h, :w] = self.texels.codes
+        return [self._pack(padded[:, py::2, px::2]) for py in (0, 1) for px in (0, 1)]
+
+    @property
+    def memories(self) -> tuple:
+        """The physical texel memories the RTL instantiates: ``(words, bits, read ports)`` each."""
+        if self.banked:
+            return ((int(np.prod(self.bank_shape)), self.word_bits, 1),) * 4
+        return ((self.depth, self.word_bits, 4 if self.bilinear else 1),)
 
     @property
     def word_bits(self) -> int:
@@ -205,9 +239,10 @@ class SamplerParams(Unit):
 
     @property
     def latency(self) -> int:
-        """Scaled position | indices and weights | texel address | memory read | [six blend stages, one
-        operation each] | rounding (``rtl/sampler.py``: one carry chain or one product per stage, ECP5 timing)."""
-        return 11 if self.bilinear else 5
+        """Scaled position | indices and weights | texel address | memory read | [bank to corner routing, when
+        :attr:`banked`] | [six blend stages, one operation each] | rounding (``rtl/sampler.py``: one carry chain or
+        one product per stage, ECP5 timing)."""
+        return (11 + self.banked) if self.bilinear else 5
 
     # -- bit-exact model ----------------------------------------------------------------------------------
     def edge_rule(self, s):
@@ -291,7 +326,7 @@ class SamplerParams(Unit):
 
     def _info(self):
         return {"texels": list(self.texels.shape), "filter": self.filter, "edge": self.edge,
-                "weight_bits": self.weight_bits, "memory_bits": self.depth * self.word_bits,
+                "weight_bits": self.weight_bits, "memory_bits": self.depth * self.word_bits, "banked": self.banked,
                 "max_error": {n: float(f.ulp / 2) if self.bilinear else 0.0
                               for n, f in zip(self.out_names, self.channels)}}
 

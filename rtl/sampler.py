@@ -1,7 +1,9 @@
 """RTL of the texture sampler (repeat/clamp, nearest/bilinear) from ``fxmodel.sampler.SamplerParams``.
 
-The texel memory is an Amaranth ``Memory`` initialised with ``SamplerParams.words`` (the model's packed texels);
-bilinear filtering reads four texels a clock through four read ports (replicated block RAM on an FPGA).
+The texels are Amaranth ``Memory`` blocks initialised from the model's packed words: for bilinear filtering
+four banks by texel parity with one read port each (``SamplerParams.banked``, ``bank_words``; the map stored
+once), or, for ``repeat`` with an odd map size, one memory (``words``) with four read ports (replicated block
+RAM on an FPGA). Nearest filtering: one memory, one port.
 """
 
 from __future__ import annotations
@@ -32,8 +34,9 @@ class Sampler(UnitComponent):
 
     Edge rules ``repeat``, ``clamp`` and ``border`` (see ``fxmodel/sampler.py``).
 
-    Latency ``params.latency``: 11 for bilinear, 5 for nearest. Stages: edge rule and scaled position |
-    indices, weights and wraps | texel address | memory read (the block RAM's output register) | [texel
+    Latency ``params.latency``: 11 for bilinear (12 banked), 5 for nearest. Stages: edge rule and scaled position
+    | indices, weights and wraps | texel address | memory read (the block RAM's output register) | [bank to corner
+    routing when ``params.banked``] | [texel
     differences | ``fx`` products | row blends | row difference | ``fy`` product | column blend] | rounding.
     Each stage holds at most one carry chain or one product, and every multiplier block has a register on each
     side (ECP5: the pixel pipeline uses most of the device's MULT18X18D, so blocks sit far from their logic and
@@ -81,25 +84,50 @@ class Sampler(UnitComponent):
         ax, ay = axis(s1.x, P.width), axis(s1.y, P.height)
         s2 = pipe.stage(face=s1.face, **{f"x_{k}": v for k, v in ax.items()}, **{f"y_{k}": v for k, v in ay.items()})
 
-        # 3: texel addresses (face H + j) W + i = face (H W) + j W + i, constant products as shift-and-add
-        mh, mw = P.texels.shape[1:3]                                   # memory rows and columns of a face
+        # 3: texel addresses (face H + j) W + i = face (H W) + j W + i, constant products as shift-and-add;
+        #    banked: bank (px, py) at (face BH + j // 2) BW + i // 2 for the corner index of parity px (py)
         corners = [("x_i0", "y_i0")] + ([("x_i1", "y_i0"), ("x_i0", "y_i1"), ("x_i1", "y_i1")] if P.bilinear else [])
-        base = const_mul(s2.face, mh * mw) if P.faces > 1 else 0
-        rows = {yi: const_mul(getattr(s2, yi)[:max(1, (mh - 1).bit_length())], mw) for yi in ("y_i0", "y_i1")
-                if hasattr(s2, yi)}
-        addrs = {f"a{k}": base + rows[yi] + getattr(s2, xi)[:max(1, (mw - 1).bit_length())]
-                 for k, (xi, yi) in enumerate(corners)}
         weights = dict(fx=s2.x_f, fy=s2.y_f) if P.bilinear else {}
-        s3 = pipe.stage(**addrs, **weights)
 
-        # 4: memory read; the read port's data register is this stage
-        m.submodules.texels = mem = Memory(shape=P.word_bits, depth=P.depth, init=P.words)
+        def address(face_words, row_words, row, col, rows, cols):
+            base = const_mul(s2.face, face_words) if P.faces > 1 else 0
+            return base + const_mul(row[:max(1, (rows - 1).bit_length())], row_words) + col[:max(1, (cols - 1).bit_length())]
+
+        if P.banked:
+            _, bh, bw = P.bank_shape
+            half = {ax: [Mux(getattr(s2, f"{ax}_i0")[0] == par, getattr(s2, f"{ax}_i0"), getattr(s2, f"{ax}_i1")) >> 1
+                         for par in (0, 1)] for ax in "xy"}
+            addrs = {f"a{2 * py + px}": address(bh * bw, bw, half["y"][py], half["x"][px], bh, bw)
+                     for py in (0, 1) for px in (0, 1)}
+            parity = {f"p_{ax}_i{i}": getattr(s2, f"{ax}_i{i}")[0] for ax in "xy" for i in (0, 1)}
+            memories = [(P.bank_words[k], [f"a{k}"]) for k in range(4)]
+        else:
+            mh, mw = P.texels.shape[1:3]                               # memory rows and columns of a face
+            addrs = {f"a{k}": address(mh * mw, mw, getattr(s2, yi), getattr(s2, xi), mh, mw)
+                     for k, (xi, yi) in enumerate(corners)}
+            parity = {}
+            memories = [(P.words, list(addrs))]
+        s3 = pipe.stage(**addrs, **weights, **parity)
+
+        # 4: memory read; the read ports' data registers are this stage
         data = []
-        for k in range(len(corners)):
-            port = mem.read_port(domain="sync")
-            m.d.comb += port.addr.eq(getattr(s3, f"a{k}"))
-            data.append(port.data)
-        s4 = pipe.stage(**weights and dict(fx=s3.fx, fy=s3.fy))
+        for k, (init, ports) in enumerate(memories):
+            mem = Memory(shape=P.word_bits, depth=len(init), init=init)
+            m.submodules[f"texels{k}" if P.banked else "texels"] = mem
+            for a in ports:
+                port = mem.read_port(domain="sync")
+                m.d.comb += port.addr.eq(getattr(s3, a))
+                data.append(port.data)
+        s4 = pipe.stage(**weights and dict(fx=s3.fx, fy=s3.fy), **{k: getattr(s3, k) for k in parity})
+
+        if P.banked:
+            # 5: each corner's word from the bank of its parities (a 4:1 multiplexer behind the block RAM)
+            def bank(px, py):
+                return Mux(py, Mux(px, data[3], data[2]), Mux(px, data[1], data[0]))
+            s5 = pipe.stage(fx=s4.fx, fy=s4.fy, **{f"w{k}": bank(getattr(s4, f"p_{xi}"), getattr(s4, f"p_{yi}"))
+                                                   for k, (xi, yi) in enumerate(corners)})
+            data = [getattr(s5, f"w{k}") for k in range(4)]
+            s4 = s5
 
         def channel(word, k):
             lo = sum(f.width for f in P.channels[:k])

@@ -162,19 +162,23 @@ def test_units_of_rejects_invalid_knobs():
 
 
 def test_bram_estimate_counts_blocks_copies_and_distributed_memories():
-    """DP16KD estimate against hand counts: 6 x 66 x 66 words of 36 bits = 52 blocks of 512 x 36, two copies for
-    four read ports; a 40 x 40 two-channel 12-bit map (1600 words of 24 bits) is 3 blocks (2048 x 9, 24 -> 3
-    wide) per copy, two copies; a 64-word memory is distributed RAM."""
+    """DP16KD estimate against hand counts. A bordered 64-texel cube map is banked by texel parity: four banks of
+    6 x 33 x 33 = 6534 words of 36 bits, 13 blocks of 512 x 36 each; nearest filtering, one memory of 26136
+    words, 52 blocks. A 41 x 40 two-channel 12-bit repeat map (odd width: not banked) is 1640 words of 24 bits,
+    3 blocks of 2048 x 9 per copy, two copies for four read ports; at 40 x 40 it is banked, four banks of 400
+    words, one 512 x 36 block each. A 64-word memory is distributed RAM."""
     import numpy as np
     from fxmodel.fit import bram_blocks
     from fxmodel.sampler import SamplerParams, Texels
     u2 = Fmt(False, 2, 10)
     cube = SamplerParams(texels=Texels(np.zeros((6, 66, 66, 3), np.int64)), channels=(u2,) * 3,
                          coord_fmt=Fmt(False, 1, 16), edge="border")
-    assert bram_blocks(cube) == 52 * 2
+    assert cube.banked and bram_blocks(cube) == 4 * 13
     assert bram_blocks(dataclasses.replace(cube, filter="nearest")) == 52
     s12 = Fmt(True, 1, 11)
-    bump = SamplerParams(texels=Texels(np.zeros((1, 40, 40, 2), np.int64)), channels=(s12,) * 2)
-    assert bram_blocks(bump) == 3 * 2
+    odd = SamplerParams(texels=Texels(np.zeros((1, 40, 41, 2), np.int64)), channels=(s12,) * 2)
+    assert not odd.banked and bram_blocks(odd) == 3 * 2
+    even = SamplerParams(texels=Texels(np.zeros((1, 40, 40, 2), np.int64)), channels=(s12,) * 2)
+    assert even.banked and bram_blocks(even) == 4
     tiny = SamplerParams(texels=Texels(np.zeros((1, 8, 8, 2), np.int64)), channels=(s12,) * 2)
     assert bram_blocks(tiny) == 0

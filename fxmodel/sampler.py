@@ -195,7 +195,7 @@ class SamplerParams(Unit):
         """Bilinear lookups read their four texels from four banks by texel parity (bank ``(i mod 2, j mod 2)``
         holds texel ``(i, j)`` at ``(face, j // 2, i // 2)``), one read port each: the four texels of a lookup
         always lie in four different banks (``i1 = i0 + 1``), or are the same texel twice (``clamp`` at an edge).
-        That stores the map once instead of twice (a block RAM has two read ports). Not for ``repeat`` with an
+        That stores the map once instead of twice (a block RAM has two read ports), for two more pipeline stages. Not for ``repeat`` with an
         odd map size, where ``i0 = W - 1`` and ``i1 = 0`` share a parity: one memory with four read ports there."""
         return self.bilinear and (self.edge != "repeat" or (self.width % 2 == 0 and self.height % 2 == 0))
 
@@ -239,10 +239,10 @@ class SamplerParams(Unit):
 
     @property
     def latency(self) -> int:
-        """Scaled position | indices and weights | texel address | memory read | [bank to corner routing, when
-        :attr:`banked`] | [six blend stages, one operation each] | rounding (``rtl/sampler.py``: one carry chain or
-        one product per stage, ECP5 timing)."""
-        return (11 + self.banked) if self.bilinear else 5
+        """Scaled position | indices and weights | texel address | memory read | [bank words registered | bank to
+        corner routing, when :attr:`banked`] | [six blend stages, one operation each] | rounding
+        (``rtl/sampler.py``: one carry chain or one product per stage, ECP5 timing)."""
+        return (11 + 2 * self.banked) if self.bilinear else 5
 
     # -- bit-exact model ----------------------------------------------------------------------------------
     def edge_rule(self, s):

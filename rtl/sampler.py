@@ -34,9 +34,9 @@ class Sampler(UnitComponent):
 
     Edge rules ``repeat``, ``clamp`` and ``border`` (see ``fxmodel/sampler.py``).
 
-    Latency ``params.latency``: 11 for bilinear (12 banked), 5 for nearest. Stages: edge rule and scaled position
-    | indices, weights and wraps | texel address | memory read (the block RAM's output register) | [bank to corner
-    routing when ``params.banked``] | [texel
+    Latency ``params.latency``: 11 for bilinear (13 banked), 5 for nearest. Stages: edge rule and scaled position
+    | indices, weights and wraps | texel address | memory read (the block RAM's output register) | [bank words
+    registered | bank to corner routing, when ``params.banked``] | [texel
     differences | ``fx`` products | row blends | row difference | ``fy`` product | column blend] | rounding.
     Each stage holds at most one carry chain or one product, and every multiplier block has a register on each
     side (ECP5: the pixel pipeline uses most of the device's MULT18X18D, so blocks sit far from their logic and
@@ -121,13 +121,20 @@ class Sampler(UnitComponent):
         s4 = pipe.stage(**weights and dict(fx=s3.fx, fy=s3.fy), **{k: getattr(s3, k) for k in parity})
 
         if P.banked:
-            # 5: each corner's word from the bank of its parities (a 4:1 multiplexer behind the block RAM)
+            # 5: the bank words registered as they leave the block RAMs (a bank of a large map is a cascade of
+            #    blocks spread over the device, with a multiplexer of its own: ECP5 ran a 64-texel cube map at
+            #    78 MHz with the corner routing in this stage)
+            # 6: each corner's word from the bank of its parities (a 4:1 multiplexer)
+            s5 = pipe.stage(fx=s4.fx, fy=s4.fy, **{f"b{k}": d for k, d in enumerate(data)},
+                            **{k: getattr(s4, k) for k in parity})
+            data = [getattr(s5, f"b{k}") for k in range(4)]
+
             def bank(px, py):
                 return Mux(py, Mux(px, data[3], data[2]), Mux(px, data[1], data[0]))
-            s5 = pipe.stage(fx=s4.fx, fy=s4.fy, **{f"w{k}": bank(getattr(s4, f"p_{xi}"), getattr(s4, f"p_{yi}"))
+            s6 = pipe.stage(fx=s5.fx, fy=s5.fy, **{f"w{k}": bank(getattr(s5, f"p_{xi}"), getattr(s5, f"p_{yi}"))
                                                    for k, (xi, yi) in enumerate(corners)})
-            data = [getattr(s5, f"w{k}") for k in range(4)]
-            s4 = s5
+            data = [getattr(s6, f"w{k}") for k in range(4)]
+            s4 = s6
 
         def channel(word, k):
             lo = sum(f.width for f in P.channels[:k])

@@ -153,7 +153,7 @@ def test_cli_measures_the_pipeline_of_a_fitted_preset_and_scene(tmp_path, monkey
 
     def fake_tools(rdir, top, settings):
         tops.append(top)
-        assert "texels[1599]" in (rdir / f"{top}.v").read_text()    # the scene's bump map is in the Verilog
+        assert "texels3[399]" in (rdir / f"{top}.v").read_text()   # the scene's 40 x 40 bump map, 4 banks
         return fpga.parse_results(REPORT, STAT)
 
     monkeypatch.setattr(fpga, "_run_tools", fake_tools)

@@ -36,13 +36,17 @@ def test_cli_writes_the_pipeline_of_a_fitted_preset_with_the_scene_tables(tmp_pa
     assert f"wrote {path}" in capsys.readouterr().out
     text = path.read_text()
     assert "module pipeline_tin_plane_fit_tin_plane(" in text     # a plain identifier, no escaped name
-    # the bump map memory holds the scene's (du, dv) words, as the model packs them
+    # the bump map's four banks hold the scene's (du, dv) words, as the model packs and banks them
     bump = text[text.index("module \\pipeline_tin_plane_fit_tin_plane.bump_map "):]
     bump = bump[:bump.index("endmodule")]
-    words = pipeline_params("tin-plane", "tin-plane-fit").bump_map.words
-    init = {int(i): int(v, 16) for i, v in re.findall(r"texels\[(\d+)\] = \d+'h([0-9a-f]+);", bump)}
-    assert len(init) == len(words) == 1600 and [init[i] for i in range(len(words))] == words
-    assert any(words)
+    params = pipeline_params("tin-plane", "tin-plane-fit").bump_map
+    assert params.banked and params.texels.shape == (1, 40, 40, 2)
+    for k, words in enumerate(params.bank_words):
+        init = {int(i): int(v, 16) for i, v in re.findall(rf"texels{k}\[(\d+)\] = \d+'h([0-9a-f]+);", bump)}
+        assert len(init) == len(words) == 400 and [init[i] for i in range(len(words))] == words, k
+        py, px = divmod(k, 2)                       # bank (i mod 2, j mod 2) holds texel (i, j) at (j // 2, i // 2)
+        assert words == [params.words[(2 * j + py) * 40 + 2 * i + px] for j in range(20) for i in range(20)]
+        assert any(words)
 
 
 @pytest.mark.parametrize("args, message", [

@@ -15,6 +15,7 @@ from fxmodel.sampler import SamplerParams
 from amaranth.lib.memory import Memory
 
 from .fixed import const_mul, narrow
+from .recip import split_products
 from .unit import Pipe, UnitComponent, register
 
 __all__ = ["Sampler"]
@@ -38,7 +39,8 @@ class Sampler(UnitComponent):
     | indices, weights and wraps | texel address | memory read (the block RAM's output register) | [bank words
     registered | bank to corner routing, when ``params.banked``] | [texel
     differences | ``fx`` products | row blends | row difference | ``fy`` product | column blend] | rounding.
-    Each stage holds at most one carry chain or one product, and every multiplier block has a register on each
+    Each stage holds at most one carry chain or one product (a product wider than one 18 x 18 block as
+    registered partial products, summed in the next stage's adder), and every multiplier block has a register on each
     side (ECP5: the pixel pipeline uses most of the device's MULT18X18D, so blocks sit far from their logic and
     routing to and from them costs about 4 ns each way; ``python -m rtl.fpga``). Constant products (map sizes)
     are shift-and-add (:func:`~rtl.fixed.const_mul`), not multiplier blocks.
@@ -151,16 +153,28 @@ class Sampler(UnitComponent):
         s = pipe.stage(fx=s4.fx, fy=s4.fy, **{f"a{k}": texel[k][0] for k in ch}, **{f"c{k}": texel[k][2] for k in ch},
                        **{f"dab{k}": texel[k][1] - texel[k][0] for k in ch},
                        **{f"dcd{k}": texel[k][3] - texel[k][2] for k in ch})
-        s = pipe.stage(fy=s.fy, **{f"a{k}": getattr(s, f"a{k}") for k in ch}, **{f"c{k}": getattr(s, f"c{k}") for k in ch},
-                       **{f"pt{k}": s.fx * getattr(s, f"dab{k}") for k in ch},
-                       **{f"pb{k}": s.fx * getattr(s, f"dcd{k}") for k in ch})
-        s = pipe.stage(fy=s.fy, **{f"top{k}": (getattr(s, f"a{k}") << B) + getattr(s, f"pt{k}") for k in ch},
-                       **{f"bot{k}": (getattr(s, f"c{k}") << B) + getattr(s, f"pb{k}") for k in ch})
+        def products(prods: dict, carry: dict):
+            """A product stage: ``prods`` (name -> (a, b)) registered, or, when an operand is wider than one
+            multiplier block, their 18 x 18 partial products (``split_products``); returns the products' values
+            for the next stage (exact: the partials' sum) and the carried registers."""
+            before = pipe.depth
+            values, regs = split_products(pipe, prods, carry, "pp")
+            if pipe.depth == before:
+                r = pipe.stage(**values, **carry)
+                values, regs = {k: getattr(r, k) for k in values}, {k: getattr(r, k) for k in carry}
+            return values, regs
+
+        pt, c = products({f"pt{k}": (s.fx, getattr(s, f"dab{k}")) for k in ch}
+                         | {f"pb{k}": (s.fx, getattr(s, f"dcd{k}")) for k in ch},
+                         {"fy": s.fy} | {f"a{k}": getattr(s, f"a{k}") for k in ch}
+                         | {f"c{k}": getattr(s, f"c{k}") for k in ch})
+        s = pipe.stage(fy=c["fy"], **{f"top{k}": (c[f"a{k}"] << B) + pt[f"pt{k}"] for k in ch},
+                       **{f"bot{k}": (c[f"c{k}"] << B) + pt[f"pb{k}"] for k in ch})
         s = pipe.stage(fy=s.fy, **{f"top{k}": getattr(s, f"top{k}") for k in ch},
                        **{f"dtb{k}": getattr(s, f"bot{k}") - getattr(s, f"top{k}") for k in ch})
-        s = pipe.stage(**{f"top{k}": getattr(s, f"top{k}") for k in ch},
-                       **{f"pv{k}": s.fy * getattr(s, f"dtb{k}") for k in ch})
-        s = pipe.stage(**{f"v{k}": (getattr(s, f"top{k}") << B) + getattr(s, f"pv{k}") for k in ch})
+        pv, c = products({f"pv{k}": (s.fy, getattr(s, f"dtb{k}")) for k in ch},
+                         {f"top{k}": getattr(s, f"top{k}") for k in ch})
+        s = pipe.stage(**{f"v{k}": (c[f"top{k}"] << B) + pv[f"pv{k}"] for k in ch})
         outs = {}
         for k, (n, fmt) in enumerate(zip(P.out_names, P.channels)):
             outs[n], _ = narrow(getattr(s, f"v{k}"), 2 * B + fmt.frac_bits, fmt, Rounding.HALF_UP,

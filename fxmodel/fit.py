@@ -29,12 +29,13 @@ import tomllib
 from pathlib import Path
 
 from .fixed import Fmt
+from .pipeline import TOP_KEYS as PIPELINE_TOP_KEYS, top_problem, top_value
 
 __all__ = ["PresetError", "presets_dir", "preset_path", "load_preset", "dump_preset", "write_preset", "UNIT_KEYS",
            "bram_blocks"]
 
 UNIT_KEYS = ("persp", "bump", "reflect", "cube", "shade")
-TOP_KEYS = ("weight_bits", "cube_size")
+TOP_KEYS = tuple(PIPELINE_TOP_KEYS)
 META_KEY = "fit"
 
 
@@ -210,15 +211,12 @@ def load_preset(name: str, directory=None, base: dict | None = None) -> dict:
         if key not in UNIT_KEYS + TOP_KEYS + (META_KEY,):
             raise PresetError(f"{path}: key {key}: unknown (have {', '.join(UNIT_KEYS + TOP_KEYS + (META_KEY,))})")
     units = {key: _convert(base[key], data[key], path, key) if key in data else base[key] for key in UNIT_KEYS}
-    wb = data.get("weight_bits", base.get("weight_bits", 10))
-    if not isinstance(wb, int) or isinstance(wb, bool) or not 1 <= wb <= 16:
-        raise PresetError(f"{path}: key weight_bits: must be an integer in 1..16, got {wb!r}")
-    units["weight_bits"] = wb
-    from .pipeline import MAX_CUBE_SIZE
-    cs = data.get("cube_size", base.get("cube_size", 64))
-    if not isinstance(cs, int) or isinstance(cs, bool) or not 1 <= cs <= MAX_CUBE_SIZE:
-        raise PresetError(f"{path}: key cube_size: must be an integer in 1..{MAX_CUBE_SIZE}, got {cs!r}")
-    units["cube_size"] = cs
+    for key in TOP_KEYS:
+        value = data.get(key, top_value(base, key))
+        problem = top_problem(key, value)
+        if problem:
+            raise PresetError(f"{path}: key {key}: {problem}, got {value!r}")
+        units[key] = value
     return units
 
 
@@ -240,12 +238,12 @@ def knobs_of(units: dict) -> dict:
     """The flat integer knobs of a pipeline preset's units (see :data:`KNOB_STEPS`)."""
     persp, bump, reflect, cube, shade = (units[k] for k in UNIT_KEYS)
     pr, cr = persp.recip, cube.divide.recip
-    return {"cube_size": units.get("cube_size", 64), "word": bump.out_fmt.width, "cube_p": cr.p, "cube_b": cr.b,
+    return {"cube_size": top_value(units, "cube_size"), "word": bump.out_fmt.width, "cube_p": cr.p, "cube_b": cr.b,
             "cube_guard": cr.guard, "cube_m": cr.m, "cube_t": cr.t, "coord_bits": persp.coord_bits, "persp_p": pr.p, "persp_b": pr.b,
             "persp_guard": pr.guard, "persp_m": pr.m, "persp_t": pr.t, "uv_frac": persp.uv_fmt.frac_bits,
             "w_frac": pr.in_fmt.frac_bits, "n_frac": bump.n_fmt.frac_bits, "a_frac": bump.a_fmt.frac_bits,
             "e_frac": reflect.e_fmt.frac_bits, "d_frac": bump.d_fmt.frac_bits,
-            "weight_bits": units.get("weight_bits", 10), "diffuse_frac": shade.diffuse_fmt.frac_bits,
+            "weight_bits": top_value(units, "weight_bits"), "diffuse_frac": shade.diffuse_fmt.frac_bits,
             "specular_frac": shade.specular_fmt.frac_bits, "uv_int": persp.uv_fmt.int_bits,
             "a_int": bump.a_fmt.int_bits, "e_int": reflect.e_fmt.int_bits}
 

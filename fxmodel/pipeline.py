@@ -37,7 +37,7 @@ from .sampler import SamplerParams, Texels
 from .shade import ShadeParams
 from .unit import Port, Unit, register, require
 
-__all__ = ["PipelineParams", "FLAG_BITS", "preset_units"]
+__all__ = ["PipelineParams", "FLAG_BITS", "preset_units", "TOP_KEYS", "top_value", "top_problem"]
 
 FLAG_BITS = {"bump_saturated": 0, "shade_saturated": 1, "degenerate": 2, "w_zero": 3}
 
@@ -186,7 +186,7 @@ class PipelineParams(Unit):
         a units dict (see :func:`preset_units`)."""
         units = preset_units(preset)
         if weight_bits is None:
-            weight_bits = units.get("weight_bits", 10)
+            weight_bits = top_value(units, "weight_bits")
         persp, bump, reflect, cube, shade = (units[k] for k in ("persp", "bump", "reflect", "cube", "shade"))
         diffuse, specular, info = bake_cubes(lighting, cube_face, shade.diffuse_fmt, shade.specular_fmt,
                                              border=1 if cube_edge == "border" else 0)
@@ -215,15 +215,31 @@ class _PresetUnits(dict):
         return load_preset(name)
 
 
+#: The integer keys of a pipeline preset beside its units: ``(default, smallest, largest)``. ``weight_bits``: the
+#: bump-map and texture bilinear weights; ``cube_size``: texels per reflectance-cube face edge (6 faces of
+#: ``(edge + 2)**2`` words each).
+TOP_KEYS = {"weight_bits": (10, 1, 16), "cube_size": (64, 1, 1024)}
+
+
+def top_value(units: dict, key: str) -> int:
+    """The preset's ``key`` (one of :data:`TOP_KEYS`), or its default when ``units`` leaves it out."""
+    return units.get(key, TOP_KEYS[key][0])
+
+
+def top_problem(key: str, value) -> str | None:
+    """Why ``value`` cannot be the preset's ``key`` (one of :data:`TOP_KEYS`), or ``None`` if it can."""
+    _, lo, hi = TOP_KEYS[key]
+    if isinstance(value, int) and not isinstance(value, bool) and lo <= value <= hi:
+        return None
+    return f"must be an int in {lo}..{hi}"
+
+
 BUILTIN_PRESET_UNITS = {
     "default": {"persp": PerspParams.PRESETS["color"], "bump": BumpParams.PRESETS["default"],
                 "reflect": ReflectParams.PRESETS["default"], "cube": CubeParams.PRESETS["default"],
-                "shade": ShadeParams.PRESETS["default"], "weight_bits": 10, "cube_size": 64},
+                "shade": ShadeParams.PRESETS["default"], **{k: v[0] for k, v in TOP_KEYS.items()}},
 }
 PRESET_UNITS = _PresetUnits(BUILTIN_PRESET_UNITS)
-
-#: Largest reflectance-cube face edge a preset may ask for (texels; 6 faces of (edge + 2)**2 words each).
-MAX_CUBE_SIZE = 1024
 
 #: The parameter class of each unit in a pipeline preset's units dict.
 UNIT_TYPES = {"persp": PerspParams, "bump": BumpParams, "reflect": ReflectParams, "cube": CubeParams,
@@ -239,8 +255,8 @@ def preset_units(preset: str | dict) -> dict:
         A name: built in (:data:`BUILTIN_PRESET_UNITS`) or a preset file ``presets/<name>.toml`` (see
         :mod:`fxmodel.fit`). Or a units dict of the same shape as ``BUILTIN_PRESET_UNITS["default"]``: ``persp``,
         ``bump``, ``reflect``, ``cube``, ``shade`` (parameter objects, see :data:`UNIT_TYPES`) and optionally
-        ``weight_bits`` (int; default 10) and ``cube_size`` (texels per reflectance-cube face edge; default 64);
-        returned as given, nothing is registered anywhere.
+        the :data:`TOP_KEYS` (``weight_bits``, ``cube_size``; defaults 10 and 64); returned as given, nothing is
+        registered anywhere.
 
     Raises
     ------
@@ -256,7 +272,7 @@ def preset_units(preset: str | dict) -> dict:
     if not isinstance(preset, dict):
         raise TypeError(f"preset: must be a pipeline preset name (str) or a units dict like "
                         f"BUILTIN_PRESET_UNITS['default'], not {type(preset).__name__} {preset!r}")
-    allowed = (*UNIT_TYPES, "weight_bits", "cube_size")
+    allowed = (*UNIT_TYPES, *TOP_KEYS)
     for key in preset:
         require(key in allowed, "preset key", key, f"unknown (a units dict has {', '.join(allowed)})")
     for key, cls in UNIT_TYPES.items():
@@ -264,11 +280,10 @@ def preset_units(preset: str | dict) -> dict:
                 f"a units dict needs {key!r} (all of {', '.join(UNIT_TYPES)})")
         require(isinstance(preset[key], cls), f"type(preset[{key!r}])", type(preset[key]).__name__,
                 f"must be {cls.__name__}")
-    wb = preset.get("weight_bits", 10)
-    require(isinstance(wb, int) and not isinstance(wb, bool), "preset['weight_bits']", wb, "must be an int")
-    cs = preset.get("cube_size", 64)
-    require(isinstance(cs, int) and not isinstance(cs, bool) and 1 <= cs <= MAX_CUBE_SIZE, "preset['cube_size']",
-            cs, f"must be an int in 1..{MAX_CUBE_SIZE}")
+    for key in TOP_KEYS:
+        if key in preset:
+            problem = top_problem(key, preset[key])
+            require(problem is None, f"preset[{key!r}]", preset[key], problem)
     return preset
 
 

@@ -22,7 +22,7 @@ import numpy as np
 from .bumpmap import perturbations, scene_maps
 from .frontend import rasterize
 from .lighting import Light, Lighting, face_directions
-from .pipeline import FLAG_BITS, PipelineParams, preset_units
+from .pipeline import FLAG_BITS, PipelineParams, preset_units, top_value
 from .reference import float_pipeline, ideal_phong, max_lsb, psnr
 from .rounding import Overflow, Rounding, quantize
 from .scene import load_scene, scene_path
@@ -107,7 +107,7 @@ def prepare(scene, *, size=None, preset: str | dict = "default", cube_size: int 
         scene = scene.with_size(*((size, size) if isinstance(size, int) else size))
     units = preset_units(preset)
     if cube_size is None:
-        cube_size = units.get("cube_size", 64)
+        cube_size = top_value(units, "cube_size")
     maps = scene_maps(scene, units["bump"].d_fmt)
     frags = rasterize(scene, maps)
     used = np.unique(frags.material)

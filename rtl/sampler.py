@@ -120,7 +120,8 @@ class Sampler(UnitComponent):
                 port = mem.read_port(domain="sync")
                 m.d.comb += port.addr.eq(getattr(s3, a))
                 data.append(port.data)
-        s4 = pipe.stage(**weights and dict(fx=s3.fx, fy=s3.fy), **{k: getattr(s3, k) for k in parity})
+        s4 = pipe.stage(**{k: getattr(s3, k) for k in (*weights, *parity)})
+        late = s4                                                      # the weights, as the texels arrive
 
         if P.banked:
             # 5: the bank words registered as they leave the block RAMs (a bank of a large map is a cascade of
@@ -136,7 +137,7 @@ class Sampler(UnitComponent):
             s6 = pipe.stage(fx=s5.fx, fy=s5.fy, **{f"w{k}": bank(getattr(s5, f"p_{xi}"), getattr(s5, f"p_{yi}"))
                                                    for k, (xi, yi) in enumerate(corners)})
             data = [getattr(s6, f"w{k}") for k in range(4)]
-            s4 = s6
+            late = s6
 
         def channel(word, k):
             lo = sum(f.width for f in P.channels[:k])
@@ -150,9 +151,10 @@ class Sampler(UnitComponent):
         # the exact blend of the model, top = a 2**B + fx (b - a), bot = c 2**B + fx (d - c),
         # v = top 2**B + fy (bot - top), one operation per stage
         texel = [[channel(w, k) for w in data] for k in ch]
-        s = pipe.stage(fx=s4.fx, fy=s4.fy, **{f"a{k}": texel[k][0] for k in ch}, **{f"c{k}": texel[k][2] for k in ch},
+        s = pipe.stage(fx=late.fx, fy=late.fy, **{f"a{k}": texel[k][0] for k in ch}, **{f"c{k}": texel[k][2] for k in ch},
                        **{f"dab{k}": texel[k][1] - texel[k][0] for k in ch},
                        **{f"dcd{k}": texel[k][3] - texel[k][2] for k in ch})
+
         def products(prods: dict, carry: dict):
             """A product stage: ``prods`` (name -> (a, b)) registered, or, when an operand is wider than one
             multiplier block, their 18 x 18 partial products (``split_products``); returns the products' values

@@ -3,7 +3,7 @@
 import pytest
 
 from fxmodel.fixed import Fmt
-from fxmodel.unit import preset
+from fxmodel.unit import preset, preset_names, units
 from rtl import build, write_verilog
 from rtl.unit import Pipe, UnitComponent
 
@@ -17,6 +17,13 @@ def test_ports_follow_the_parameter_object(unit, name):
         shape = members[port.name].shape
         assert (shape.width, shape.signed) == (port.fmt.width, port.fmt.signed), port.name
     assert {"i_valid", "o_valid"} <= set(members.keys())
+
+
+@pytest.mark.parametrize("unit, name", [(u, n) for u in units() for n in preset_names(u)])
+def test_every_preset_elaborates_with_the_documented_latency(unit, name):
+    from amaranth.hdl import Fragment
+
+    Fragment.get(build(preset(unit, name)), None)        # finish() raises if the depth is not params.latency
 
 
 def test_verilog_is_written_with_the_module_name(tmp_path):

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from hypothesis import assume, given, strategies as st
+from hypothesis import HealthCheck, assume, given, settings, strategies as st
 
 from fxmodel.bump import BumpParams
 from fxmodel.frontend import SUBPIXEL_BITS, clip_space, rasterize, scan_triangle, screen_space, snap
@@ -84,10 +84,12 @@ def test_two_triangles_sharing_an_edge_cover_once(a, b, c, d):
     check_tiling([(a, b, c), (b, a, d)], [(b, c), (c, a), (a, d), (d, b)])
 
 
+@settings(suppress_health_check=[HealthCheck.filter_too_much, HealthCheck.too_slow])
 @given(st.data())
 def test_fan_around_a_vertex_covers_once(data):
     """A closed fan of 3..8 triangles around a center (often exactly a pixel center): the center's pixel and
-    every pixel on a spoke are visited exactly once."""
+    every pixel on a spoke are visited exactly once. Random angles are rejected until no gap is wider than
+    0.9 pi or narrower than 0.05 (most draws of 3 angles are): the filter health check would fail at random."""
     c = data.draw(st.one_of(point, st.tuples(st.integers(4, SIZE - 4), st.integers(4, SIZE - 4)).map(
         lambda q: (q[0] * ONE + ONE // 2, q[1] * ONE + ONE // 2))))
     k = data.draw(st.integers(3, 8))

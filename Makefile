@@ -61,15 +61,15 @@ render: setup
 	$(PY) -m fxmodel render scenes/$(SCENE).toml build/render/$(SCENE)/model.png --preset $(PRESET) --refs build/render/$(SCENE)
 
 bench: setup
-	$(PY) -m cosim.bench --docs
+	$(PY) -m tools.bench --docs
 
 fpga: setup
-	$(PY) -m rtl.fpga --jobs $(JOBS) $(SCENE_ARGS)
+	$(PY) -m tools.fpga --jobs $(JOBS) $(SCENE_ARGS)
 
 exhaustive: setup
 	HYPOTHESIS_PROFILE=thorough $(PY) -m pytest -n $(JOBS) -q -m slow -k "not test_exhaustive_target"
-	$(PY) -m cosim.exhaustive --sim verilator
-	$(PY) -m cosim.exhaustive --sim icarus --jobs $(JOBS)
+	$(PY) -m tools.exhaustive --sim verilator
+	$(PY) -m tools.exhaustive --sim icarus --jobs $(JOBS)
 
 clean:
 	rm -rf build sim_build .pytest_cache .hypothesis

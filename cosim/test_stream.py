@@ -4,7 +4,7 @@ right first mismatch, and covers exactly the vectors it claims; input spaces, sh
 Quick tier (``make test``): the reciprocal ``small`` preset over all 2**16 inputs, true and broken (inputs
 counted by the wrapper and read from the vector files), on ``SIM``; the divider, and two other units of unlike
 port shapes, on hard cases and random vectors (the slow tier: every registered unit). Slow tier (``-m slow``, run
-by ``make exhaustive``'s pytest line if it has one): every target of :data:`cosim.exhaustive.TARGETS`, sharded
+by ``make exhaustive``'s pytest line if it has one): every target of :data:`tools.exhaustive.TARGETS`, sharded
 four ways so pytest-xdist spreads the shards over workers, merged into ``build/exhaustive/report.json``.
 """
 
@@ -15,7 +15,7 @@ import json
 import numpy as np
 import pytest
 
-from cosim import exhaustive
+from tools import exhaustive
 from cosim.stream import (ArraySpace, ConcatSpace, ProductSpace, full_space, grid_space, measure_throughput,
                           parse_shard, run_stream, shard_range, wrapper_verilog)
 from fxmodel.unit import preset, preset_names, units

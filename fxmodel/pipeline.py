@@ -208,10 +208,10 @@ class PipelineParams(Unit):
 
 class _PresetUnits(dict):
     """Built-in unit presets by name; a name that is not built in is read from ``presets/<name>.toml``
-    (:func:`fxmodel.fit.load_preset`, re-read on every lookup; errors name the file and the key)."""
+    (:func:`tools.fit.load_preset`, re-read on every lookup; errors name the file and the key)."""
 
     def __missing__(self, name):
-        from .fit import load_preset
+        from tools.fit import load_preset
         return load_preset(name)
 
 
@@ -253,14 +253,14 @@ def preset_units(preset: str | dict) -> dict:
     ----------
     preset : str or dict
         A name: built in (:data:`BUILTIN_PRESET_UNITS`) or a preset file ``presets/<name>.toml`` (see
-        :mod:`fxmodel.fit`). Or a units dict of the same shape as ``BUILTIN_PRESET_UNITS["default"]``: ``persp``,
+        :mod:`tools.fit`). Or a units dict of the same shape as ``BUILTIN_PRESET_UNITS["default"]``: ``persp``,
         ``bump``, ``reflect``, ``cube``, ``shade`` (parameter objects, see :data:`UNIT_TYPES`) and optionally
         the :data:`TOP_KEYS` (``weight_bits``, ``cube_size``; defaults 10 and 64); returned as given, nothing is
         registered anywhere.
 
     Raises
     ------
-    fxmodel.fit.PresetError
+    tools.fit.PresetError
         An unknown name or a bad preset file (a ``KeyError`` and a ``ValueError``).
     ValueError
         A dict with a missing, unknown or wrongly typed entry (naming it).

@@ -45,7 +45,7 @@ choices, both free in hardware:
   two-sided, which the bias already achieved), nothing for ``t = 1``. ``midpoint-minimax`` also picks each
   word by minimax.
 
-``python -m fxmodel.tables`` prints the correct bits of every mode per table size and term count.
+``python -m tools.tables`` prints the correct bits of every mode per table size and term count.
 
 Outputs: ``mant`` (``s2.(p-1)``, magnitude in ``[1, 2)``), ``exp`` (integer, ``[F - n, F]``) and ``dbz``;
 ``1/w = mant * 2**exp``. ``w = 0`` gives the largest magnitude, ``mant = 2 - 2**-(p-1)``, ``exp = F``, ``dbz = 1``.
@@ -329,7 +329,7 @@ class RecipParams(Unit):
         ``2 t + 4`` for ``t >= 2``, plus one stage for each of the :attr:`split_products` (partial products).
 
         Each stage holds at most one carry chain or one 18x18 product (``rtl/recip.py``; ECP5 timing from
-        ``python -m rtl.fpga``)."""
+        ``python -m tools.fpga``)."""
         return 6 if self.t == 1 else 2 * self.t + 4 + self.split_products
 
     # -- the table ----------------------------------------------------------------------------------------

@@ -6,7 +6,7 @@ Without ``--scene``: ``DIR/<unit>_<preset>.v``; without ``--unit`` every registe
 With ``--scene`` (a name in ``scenes/`` or a ``.toml`` file): the pixel pipeline with that scene's memories (bump
 map, texture, reflectance cubes) and each pipeline ``--preset`` (built in or ``presets/<name>.toml``, e.g. one
 ``python -m fxmodel fit`` wrote; default ``default``), as ``DIR/pipeline_<preset>_<scene>.v`` (see
-:func:`rtl.fpga.design_list`).
+:func:`tools.fpga.design_list`).
 """
 
 from __future__ import annotations
@@ -31,7 +31,7 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     try:
         if args.scene is not None:
-            from .fpga import design_list
+            from tools.fpga import design_list
             for label, params in design_list(args.unit, args.preset, scene=args.scene):
                 path = write_verilog(params, f"{args.out}/{'_'.join(label.values())}.v")
                 print(f"wrote {path}")
@@ -41,7 +41,7 @@ def main(argv=None) -> int:
                 path = write_verilog(preset(unit, name), f"{args.out}/{unit}_{name}.v")
                 print(f"wrote {path}")
     except ValueError as exc:
-        from .fpga import scene_hint
+        from tools.fpga import scene_hint
         print(f"error: {exc}{scene_hint(args.preset) if args.scene is None else ''}", file=sys.stderr)
         return 2
     return 0

@@ -1,7 +1,7 @@
 """Cache keys shared by the build flows: a digest of the sources that turn a parameter object into Verilog.
 
 ``params_key(params)`` is the key ``cosim/harness.py`` uses for its build folders (same definition: the
-parameter object's ``repr`` plus every ``*.py`` of ``fxmodel/`` and ``rtl/``); the FPGA flow (``rtl/fpga.py``)
+parameter object's ``repr`` plus every ``*.py`` of ``fxmodel/`` and ``rtl/``); the FPGA flow (``tools/fpga.py``)
 uses it as its first-level cache key. A parameter object must have a deterministic, complete ``repr`` (frozen
 dataclasses do).
 """

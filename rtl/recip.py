@@ -154,7 +154,7 @@ class Recip(UnitComponent):
     normalizing shift | table ROM read and ``d`` | ``q = B d`` | t - 2 Horner steps, each a product stage then an
     add stage | ``B g`` | add and round | renormalize and sign. Each stage holds at most one carry chain or one
     product
-    (ECP5 speed grade 8: about 150 MHz for ``default``, see ``python -m rtl.fpga``).
+    (ECP5 speed grade 8: about 150 MHz for ``default``, see ``python -m tools.fpga``).
     """
 
     def elaborate(self, platform):

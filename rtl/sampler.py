@@ -42,7 +42,7 @@ class Sampler(UnitComponent):
     Each stage holds at most one carry chain or one product (a product wider than one 18 x 18 block as
     registered partial products, summed in the next stage's adder), and every multiplier block has a register on each
     side (ECP5: the pixel pipeline uses most of the device's MULT18X18D, so blocks sit far from their logic and
-    routing to and from them costs about 4 ns each way; ``python -m rtl.fpga``). Constant products (map sizes)
+    routing to and from them costs about 4 ns each way; ``python -m tools.fpga``). Constant products (map sizes)
     are shift-and-add (:func:`~rtl.fixed.const_mul`), not multiplier blocks.
     """
 

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from hypothesis import given, strategies as st
 
-from fxmodel.cli import main
+from tools.cli import main
 from fxmodel.fixed import Fmt
 from fxmodel.unit import preset
 from fxmodel.vectors import read_readmemh, write_readmemh

@@ -13,7 +13,8 @@ import pytest
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
-from fxmodel import cli, exact
+from fxmodel import exact
+from tools import cli
 from fxmodel.cube import FLIP_S, FLIP_T, CubeParams
 from fxmodel.fixed import Fmt
 from fxmodel.recip import DivideParams, RecipParams

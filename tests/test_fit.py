@@ -7,8 +7,8 @@ import json
 
 import pytest
 
-from fxmodel import cli
-from fxmodel.fit import (KNOB_STEPS, PresetError, fit, knobs_of, load_preset, preset_path, units_of,
+from tools import cli
+from tools.fit import (KNOB_STEPS, PresetError, fit, knobs_of, load_preset, preset_path, units_of,
                          write_preset)
 from fxmodel.fixed import Fmt
 from fxmodel.pipeline import BUILTIN_PRESET_UNITS, PRESET_UNITS, preset_units
@@ -168,7 +168,7 @@ def test_bram_estimate_counts_blocks_copies_and_distributed_memories():
     3 blocks of 2048 x 9 per copy, two copies for four read ports; at 40 x 40 it is banked, four banks of 400
     words, one 512 x 36 block each. A 64-word memory is distributed RAM."""
     import numpy as np
-    from fxmodel.fit import bram_blocks
+    from tools.fit import bram_blocks
     from fxmodel.sampler import SamplerParams, Texels
     u2 = Fmt(False, 2, 10)
     cube = SamplerParams(texels=Texels(np.zeros((6, 66, 66, 3), np.int64)), channels=(u2,) * 3,

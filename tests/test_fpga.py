@@ -1,4 +1,4 @@
-"""The ECP5 flow (rtl/fpga.py): report parsing, critical-path naming, the cache and the command line.
+"""The ECP5 flow (tools/fpga.py): report parsing, critical-path naming, the cache and the command line.
 
 The quick tests run no FPGA tool (a stub stands in for yosys and nextpnr); the ``slow`` ones run the real flow
 (``make exhaustive``; the first call of each YoWASP tool compiles it, about a minute).
@@ -9,7 +9,7 @@ import json
 import pytest
 
 from fxmodel.unit import preset
-from rtl import fpga
+from tools import fpga
 
 
 def _path(*steps):

@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from fxmodel.cli import main
+from tools.cli import main
 from fxmodel.fixed import Fmt
 from fxmodel.pipeline import FLAG_BITS
 from fxmodel.reference import max_lsb, psnr, sample_float

@@ -265,7 +265,7 @@ def test_one_sided_bands_are_off_centre(mode):
 
 @pytest.mark.parametrize("t", [2, 3, 4])
 def test_midpoint_buys_t_or_t_minus_one_bits_and_minimax_only_slack(t):
-    from fxmodel.tables import approx_bits
+    from tools.tables import approx_bits
     for m in (6, 8):
         rnd, mmx, mid = (approx_bits(m, t, mode) for mode in ("round", "minimax", "midpoint"))
         gain = t if t % 2 == 0 else t - 1
@@ -277,7 +277,7 @@ def test_midpoint_buys_t_or_t_minus_one_bits_and_minimax_only_slack(t):
 def test_rigorous_approximation_bound_covers_a_dense_sample(mode, m, t):
     """The exact band of table and series error contains a float64 sample of the same error (the bound's
     decomposition into monotone pieces is not too optimistic)."""
-    from fxmodel.tables import approx_params, sampled_bits
+    from tools.tables import approx_params, sampled_bits
     P = approx_params(m, t, mode)
     assert sampled_bits(P) >= P.approx_bits - 1e-6                   # (float64 noise: ~1e-9 bits)
     assert sampled_bits(P) <= P.approx_bits + 0.02                   # and it is tight

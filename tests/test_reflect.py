@@ -14,7 +14,8 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from fxmodel import cli, exact
+from fxmodel import exact
+from tools import cli
 from fxmodel.fixed import Fmt
 from fxmodel.reflect import ReflectParams, bitlen_int64
 from fxmodel.unit import preset

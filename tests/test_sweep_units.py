@@ -1,4 +1,4 @@
-"""Unit-width and pipeline points of the design-space sweep (``cosim/sweep_units.py``): a tiny grid, no FPGA flow.
+"""Unit-width and pipeline points of the design-space sweep (``tools/sweep_units.py``): a tiny grid, no FPGA flow.
 
 Errors are checked against exact rational math written here (``Fraction``), not against the sweep's own code.
 """
@@ -10,8 +10,8 @@ from fractions import Fraction
 import numpy as np
 import pytest
 
-from cosim import sweep as sw
-from cosim import sweep_units as su
+from tools import sweep as sw
+from tools import sweep_units as su
 from fxmodel.exact import bump_error, wrapped_error
 from fxmodel.fixed import Fmt
 from fxmodel.unit import preset
@@ -164,7 +164,7 @@ def test_dsp_estimate_matches_the_placed_presets():
 
 
 def test_pipeline_points(result):
-    from fxmodel.fit import hardware, knobs_of, units_of
+    from tools.fit import hardware, knobs_of, units_of
     from fxmodel.pipeline import BUILTIN_PRESET_UNITS
 
     pipe = result["pipeline"]

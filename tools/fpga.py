@@ -1,6 +1,6 @@
 """ECP5 FPGA flow: resources, Fmax and latency of any unit, preset or parameter object (issue 7, item 1).
 
-``python -m rtl.fpga [--unit U ...] [--preset P ...] [--scene SCENE] [--jobs N]`` (``make fpga``) runs, for each
+``python -m tools.fpga [--unit U ...] [--preset P ...] [--scene SCENE] [--jobs N]`` (``make fpga``) runs, for each
 design (with ``--scene``: the pixel pipeline with that scene's tables, for each pipeline ``--preset``; see
 :func:`design_list`),
 
@@ -44,7 +44,7 @@ from dataclasses import asdict, dataclass
 from importlib import metadata
 from pathlib import Path
 
-from .digest import ROOT, params_key, text_key
+from rtl.digest import ROOT, params_key, text_key
 
 __all__ = ["Flow", "FLOW", "TARGET_MHZ", "target_mhz", "design_list", "measure", "run_designs",
            "parse_results", "critical_path_summary", "markdown_table", "scene_hint", "main"]
@@ -254,7 +254,7 @@ class _Job:
 def _prepare(label: dict, params, flow: Flow, freq: float | None, build: Path, use_cache: bool) -> _Job:
     """Resolve the cache; write the Verilog when the first level misses (in this thread: Amaranth is not
     thread-safe)."""
-    from .unit import verilog_text
+    from rtl.unit import verilog_text
 
     freq = float(freq if freq is not None else target_mhz(params))
     settings = _settings(params, flow, freq)
@@ -366,7 +366,7 @@ def design_list(unit_names=None, preset_list=None, scene=None) -> list[tuple[dic
     """
     from fxmodel.unit import preset, preset_names, units
 
-    from .unit import build as build_rtl
+    from rtl.unit import build as build_rtl
 
     if scene is not None:
         from fxmodel.render import pipeline_params
@@ -418,7 +418,7 @@ def markdown_table(records) -> str:
 
 def scene_hint(preset_list) -> str:
     """A hint for the command lines when a preset named without ``--scene`` is a pipeline preset file."""
-    from fxmodel.fit import preset_path
+    from tools.fit import preset_path
 
     names = [p for p in preset_list or () if preset_path(p).is_file()]
     return (f" ({', '.join(names)}: a pipeline preset, whose memories come from a scene: add --scene SCENE)"
@@ -426,7 +426,7 @@ def scene_hint(preset_list) -> str:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m rtl.fpga", description=__doc__.split("\n")[0])
+    ap = argparse.ArgumentParser(prog="python -m tools.fpga", description=__doc__.split("\n")[0])
     ap.add_argument("--unit", action="append", help="unit name (repeatable; default: every unit with RTL)")
     ap.add_argument("--preset", action="append", help="preset name (repeatable; default: all of each unit; "
                     "with --scene: pipeline presets, default 'default')")
@@ -453,7 +453,7 @@ def main(argv=None) -> int:
     (out / "report.json").write_text(json.dumps({"flow": asdict(flow), "tools": tool_versions(),
                                                  "designs": records}, indent=2))
     table = markdown_table(records)
-    (out / "report.md").write_text(f"ECP5 {records[0]['device']}, seed {flow.seed}, `python -m rtl.fpga`; "
+    (out / "report.md").write_text(f"ECP5 {records[0]['device']}, seed {flow.seed}, `python -m tools.fpga`; "
                                    "one result per clock.\n\n" + table + "\n")
     print(table)
     print(f"\n(written to {out / 'report.json'} and {out / 'report.md'})")

@@ -28,8 +28,8 @@ import os
 import tomllib
 from pathlib import Path
 
-from .fixed import Fmt
-from .pipeline import TOP_KEYS as PIPELINE_TOP_KEYS, top_problem, top_value
+from fxmodel.fixed import Fmt
+from fxmodel.pipeline import TOP_KEYS as PIPELINE_TOP_KEYS, top_problem, top_value
 
 __all__ = ["PresetError", "presets_dir", "preset_path", "load_preset", "dump_preset", "write_preset", "UNIT_KEYS",
            "bram_blocks"]
@@ -195,7 +195,7 @@ def load_preset(name: str, directory=None, base: dict | None = None) -> dict:
         If the file does not exist (naming it and the built-in presets), is not TOML, or has an unknown or
         invalid key (naming the file and the key).
     """
-    from .pipeline import BUILTIN_PRESET_UNITS
+    from fxmodel.pipeline import BUILTIN_PRESET_UNITS
     path = preset_path(name, directory)
     if not isinstance(name, str) or not name or "/" in name or "\\" in name:
         raise PresetError(f"bad pipeline preset name {name!r}")
@@ -256,7 +256,7 @@ def units_of(k: dict, base: dict) -> dict:
     ValueError, TypeError
         If the knobs make an invalid unit (the search treats that as "not allowed").
     """
-    from .cube import _divide
+    from fxmodel.cube import _divide
     persp, bump, reflect, cube, shade = (base[key] for key in UNIT_KEYS)
     pr, cr = persp.recip, cube.divide.recip
     word = k["word"]
@@ -343,7 +343,7 @@ def bram_blocks(sampler) -> int:
     """Estimated ECP5 DP16KD blocks of a sampler's texel memories (:attr:`SamplerParams.memories`): for each,
     the cheapest block shape for its depth and word width, one copy for each two read ports (a DP16KD has two;
     an unbanked bilinear memory has four); none for a memory of at most :data:`DISTRIBUTED_WORDS` words (Yosys
-    puts those in LUT RAM: the demo pipeline's 64-word bump map did). ``python -m rtl.fpga`` measures the real
+    puts those in LUT RAM: the demo pipeline's 64-word bump map did). ``python -m tools.fpga`` measures the real
     count."""
     import math
     total = 0
@@ -408,9 +408,9 @@ def fit(scene, *, max_lsb: int = 1, size: int | None = 64, cube_size: int | None
     """
     import time
     from tqdm import tqdm
-    from .pipeline import BUILTIN_PRESET_UNITS
-    from .render import prepare, render
-    from .scene import load_scene
+    from fxmodel.pipeline import BUILTIN_PRESET_UNITS
+    from fxmodel.render import prepare, render
+    from fxmodel.scene import load_scene
 
     t0 = time.perf_counter()
     if not hasattr(scene, "materials"):

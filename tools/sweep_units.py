@@ -1,6 +1,6 @@
 r"""Design-space sweep of the other units' datapath widths, and pipeline points (issue 7, item 2).
 
-The unit and pipeline points of ``python -m cosim.sweep`` (:mod:`cosim.sweep` measures, records, draws and writes
+The unit and pipeline points of ``python -m tools.sweep`` (:mod:`tools.sweep` measures, records, draws and writes
 them with the reciprocal's points, one progress bar over all). Each family changes one width (and what follows from
 it) from the unit's ``default`` preset; the unit's presets are points too.
 
@@ -34,11 +34,11 @@ estimate equals the placed ECP5 count of every unit preset). Placed and routed (
 and the cheapest point of its front (``--unit-fpga-points 3``: also the middle of the front).
 
 Pipeline points (:data:`PIPELINE_POINTS`): the ``default`` preset, the fitted ``presets/tin-plane-fit.toml`` and
-variants of ``default`` that narrow one unit's widths (:func:`fxmodel.fit.units_of`: the knobs of ``python -m
+variants of ``default`` that narrow one unit's widths (:func:`tools.fit.units_of`: the knobs of ``python -m
 fxmodel fit``). Each renders a shipped scene (``scenes/tin-plane.toml`` at its own 256 x 256) through the bit-exact
 model only, as ``fit`` evaluates a candidate (:func:`fxmodel.render.prepare` with a preset name or a units dict,
 then :func:`fxmodel.render.render`), and records PSNR and the largest per-channel difference against the float
-reference (a) and the ideal Phong reference (b), and ``fit``'s hardware estimate (:func:`fxmodel.fit.hardware`:
+reference (a) and the ideal Phong reference (b), and ``fit``'s hardware estimate (:func:`tools.fit.hardware`:
 table bits, multipliers, 18x18 DSP tiles, memory bits); cost = table bits + ``dsp_weight`` x DSP tiles.
 """
 
@@ -81,7 +81,7 @@ UNIT_ERRORS = {
 #: The scene of the pipeline points.
 SCENE = "scenes/tin-plane.toml"
 
-#: ``(name, preset name or knob changes from default)``: knobs as in :data:`fxmodel.fit.KNOB_STEPS`.
+#: ``(name, preset name or knob changes from default)``: knobs as in :data:`tools.fit.KNOB_STEPS`.
 PIPELINE_POINTS = [
     ("default", "default"),
     ("tin-plane-fit", "tin-plane-fit"),
@@ -113,7 +113,7 @@ def _rtl_reflect_digits():
 
 def unit_cost(params) -> tuple[int, int, int]:
     """``(table_bits, multipliers, estimated MULT18X18D blocks)`` of a ``persp``, ``cube``, ``reflect`` or
-    ``bump`` parameter object. Products are split as the RTL splits them: :func:`cosim.sweep.dsp_pieces` (the
+    ``bump`` parameter object. Products are split as the RTL splits them: :func:`tools.sweep.dsp_pieces` (the
     reciprocal's pieces) for ``persp`` and ``cube``; for ``reflect`` the second-level operands ``N.E`` and
     ``N.N`` cut into 17-bit digits, a top digit of at most 4 bits made of adds (``rtl/reflect.py``)."""
     name = params.NAME
@@ -247,7 +247,7 @@ def measure_unit_point(name: str, family: str, params, *, samples: int = 10 ** 6
 # -- pipeline points ------------------------------------------------------------------------------------------
 def pipeline_grid(points=None) -> list[tuple[str, object, dict]]:
     """``(name, preset name or units dict, knob changes)`` of :data:`PIPELINE_POINTS` (or ``points``)."""
-    from fxmodel.fit import knobs_of, units_of
+    from tools.fit import knobs_of, units_of
     from fxmodel.pipeline import BUILTIN_PRESET_UNITS
 
     base = BUILTIN_PRESET_UNITS["default"]
@@ -266,7 +266,7 @@ def measure_pipeline_point(name: str, units, changes: dict, *, scene=SCENE, size
     """Render ``scene`` with the bit-exact model for one pipeline preset (name or units dict); PSNR and the
     largest per-channel difference against references (a) and (b), and ``fit``'s hardware estimate.
     ``cube_size``: reflectance-cube face edge (``None``: ``prepare``'s default, the preset's own)."""
-    from fxmodel.fit import hardware
+    from tools.fit import hardware
     from fxmodel.pipeline import preset_units
     from fxmodel.render import prepare, render
     from fxmodel.scene import load_scene

@@ -34,9 +34,9 @@ from pathlib import Path
 
 import numpy as np
 
-from . import exact
-from .unit import preset, preset_names, unit_class, units
-from .vectors import write_readmemh
+from fxmodel import exact
+from fxmodel.unit import preset, preset_names, unit_class, units
+from fxmodel.vectors import write_readmemh
 
 EXHAUSTIVE_LIMIT = 1 << 26
 
@@ -106,8 +106,8 @@ def cmd_errors(args) -> int:
 
 
 def cmd_render(args) -> int:
-    from .render import prepare, render, save_png
-    from .scene import SceneError
+    from fxmodel.render import prepare, render, save_png
+    from fxmodel.scene import SceneError
     try:
         frame = prepare(args.scene, size=args.size, preset=args.preset, cube_size=args.cube_size)
     except (SceneError, OSError) as exc:
@@ -120,7 +120,7 @@ def cmd_render(args) -> int:
 
 def cmd_fit(args) -> int:
     from .fit import fit
-    from .scene import SceneError
+    from fxmodel.scene import SceneError
     try:
         report = fit(args.scene, max_lsb=args.max_lsb, size=args.size or None, cube_size=args.cube_size,
                      name=args.name, directory=args.out, progress=not args.quiet, passes=args.passes,

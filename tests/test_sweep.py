@@ -1,10 +1,10 @@
-"""The design-space sweep (``cosim/sweep.py``) on a tiny grid: 16-bit inputs, three points, no FPGA flow."""
+"""The design-space sweep (``tools/sweep.py``) on a tiny grid: 16-bit inputs, three points, no FPGA flow."""
 
 import json
 import math
 import pytest
 
-from cosim import sweep as sw
+from tools import sweep as sw
 from fxmodel.fixed import Fmt
 from fxmodel.recip import RecipParams
 

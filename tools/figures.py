@@ -1,4 +1,4 @@
-"""``python -m fxmodel.figures [OUTDIR]``: the pictures in the README, from the bit-exact model.
+"""``python -m tools.figures [OUTDIR]``: the pictures in the README, from the bit-exact model.
 
 Writes into ``OUTDIR`` (default ``docs/img``):
 
@@ -19,8 +19,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .bumpmap import bump_rgb
-from .render import compose, prepare, render, save_png
+from fxmodel.bumpmap import bump_rgb
+from fxmodel.render import compose, prepare, render, save_png
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -50,7 +50,7 @@ def _upscale(img: np.ndarray, k: int) -> np.ndarray:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m fxmodel.figures", description=__doc__.split("\n")[0])
+    ap = argparse.ArgumentParser(prog="python -m tools.figures", description=__doc__.split("\n")[0])
     ap.add_argument("outdir", nargs="?", default=str(ROOT / "docs" / "img"))
     args = ap.parse_args(argv)
     out = Path(args.outdir)

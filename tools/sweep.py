@@ -1,9 +1,9 @@
 r"""Design-space sweep: speed against error of the reciprocal, the other units' widths and the pipeline (issue 7,
 item 2).
 
-``python -m cosim.sweep [--no-fpga] [--fpga-points N] [--unit-fpga-points N] [--unit-samples K] [--no-units]
+``python -m tools.sweep [--no-fpga] [--fpga-points N] [--unit-fpga-points N] [--unit-samples K] [--no-units]
 [--no-pipeline] [--jobs J] [--docs]`` (second phase of ``make bench``) measures the reciprocal grid below, the
-unit-width families and pipeline points of :mod:`cosim.sweep_units` (perspective, cube, reflection and bump units:
+unit-width families and pipeline points of :mod:`tools.sweep_units` (perspective, cube, reflection and bump units:
 error against exact math, cost, latency, throughput, ECP5 results for each unit's default preset and the cheapest
 point of its front; pipeline presets rendered through the bit-exact model: PSNR and largest error against the float
 reference, ``fit``'s hardware estimate), with one progress bar over all points.
@@ -29,7 +29,7 @@ worst and mean error in ulps of the result, correct bits ``p - 1 - log2(error)``
 ``[1, 2)``; worst and mean), the documented bound, table bits, multipliers, estimated MULT18X18D blocks
 (:func:`dsp_blocks`), latency, model throughput (one timing of the whole ``compute`` call, one core), and, for at
 most ``--fpga-points`` points (the four named ones first, then Pareto points spread evenly inside the front), the
-ECP5 results of :func:`rtl.fpga.run_designs` (LUT4, FF, DSP, block RAM, Fmax; cached under ``build/fpga``).
+ECP5 results of :func:`tools.fpga.run_designs` (LUT4, FF, DSP, block RAM, Fmax; cached under ``build/fpga``).
 
 Cost and Pareto front. Without place and route for every point, the cost is a proxy:
 ``table_bits + dsp_weight * dsp_blocks`` (``--dsp-weight``, default 1024 ROM bits per 18x18 multiplier block).
@@ -235,7 +235,7 @@ def _unit_fpga_subset(records, front, limit: int) -> list[int]:
 
 def _run_fpga(records, grid, idx, jobs: int, progress: bool) -> None:
     try:
-        from rtl.fpga import run_designs
+        from tools.fpga import run_designs
         results = run_designs([({"unit": records[i]["unit"], "preset": records[i]["name"]}, grid[i][2]) for i in idx],
                               jobs=jobs, progress=progress)
     except Exception as exc:                       # a broken tool or RTL must not lose the model results
@@ -262,16 +262,16 @@ def sweep(grid=None, *, pipeline=None, scene=None, scene_size: int | None = None
     """Measure every ``(name, family, params)`` of ``grid`` and render every pipeline point.
 
     ``grid``: reciprocal and other unit points (``None``: :func:`default_grid` and
-    :func:`cosim.sweep_units.default_unit_grid`). ``pipeline``: ``(name, preset name or knob changes)`` pairs
-    (:data:`cosim.sweep_units.PIPELINE_POINTS` when ``None`` and ``grid`` is ``None``, else none), rendered from
-    ``scene`` (default :data:`cosim.sweep_units.SCENE`) at ``scene_size`` (default: the scene's own size).
+    :func:`tools.sweep_units.default_unit_grid`). ``pipeline``: ``(name, preset name or knob changes)`` pairs
+    (:data:`tools.sweep_units.PIPELINE_POINTS` when ``None`` and ``grid`` is ``None``, else none), rendered from
+    ``scene`` (default :data:`tools.sweep_units.SCENE`) at ``scene_size`` (default: the scene's own size).
     ``unit_samples``: random vectors of the non-reciprocal units (default ``samples``).
 
     Returns ``{"meta", "points", "pareto", "pipeline"}``: ``points`` one record per grid point
-    (:func:`measure_point`, :func:`cosim.sweep_units.measure_unit_point`; ``unit`` names the unit, ``pareto`` true
+    (:func:`measure_point`, :func:`tools.sweep_units.measure_unit_point`; ``unit`` names the unit, ``pareto`` true
     on its unit's front, ``fpga`` filled for at most ``fpga_points`` reciprocal and ``unit_fpga_points`` points of
     every other unit), ``pareto`` each unit's front (names by cost), ``pipeline`` ``{"scene", "points", "pareto"}``
-    (:func:`cosim.sweep_units.measure_pipeline_point`; front of PSNR against reference (a) over cost).
+    (:func:`tools.sweep_units.measure_pipeline_point`; front of PSNR against reference (a) over cost).
     """
     from tqdm import tqdm
 
@@ -355,7 +355,7 @@ def _recip_table(result: dict) -> list[str]:
     meta = result["meta"]
     lines += ["", f"Bold: Pareto front of worst-case correct bits against cost = table bits + {meta['dsp_weight']:g} "
               "× estimated MULT18X18D blocks. Errors over every input (24-bit `s8.16` input; `small`: `s4.12`); "
-              f"`*`: {meta['samples']:,} random inputs plus the hard cases. FPGA: ECP5-85 speed 8 (`rtl.fpga`)."]
+              f"`*`: {meta['samples']:,} random inputs plus the hard cases. FPGA: ECP5-85 speed 8 (`tools.fpga`)."]
     return lines
 
 
@@ -417,7 +417,7 @@ def markdown(result: dict) -> str:
         lines += ["", f"## Pipeline ({p0['scene']}, {p0['width']}×{p0['height']}, bit-exact model)", ""]
         lines += _pipeline_table(result)
         lines += ["", "Bold: Pareto front of PSNR against reference (a) over cost = table bits + "
-                  f"{meta['dsp_weight']:g} × DSP18 tiles (`fxmodel.fit.hardware`). Memory bits: maps, texture and "
+                  f"{meta['dsp_weight']:g} × DSP18 tiles (`tools.fit.hardware`). Memory bits: maps, texture and "
                   "reflectance cubes."]
     return "\n".join(lines)
 
@@ -579,7 +579,7 @@ def write_outputs(result: dict, out: Path = OUT, docs: bool = False) -> list[Pat
     out.mkdir(parents=True, exist_ok=True)
     paths = [out / "speed_vs_error.json", out / "speed_vs_error.md"]
     paths[0].write_text(json.dumps(result, indent=2))
-    paths[1].write_text("# Design-space sweep, `python -m cosim.sweep`\n\n" + markdown(result) + "\n")
+    paths[1].write_text("# Design-space sweep, `python -m tools.sweep`\n\n" + markdown(result) + "\n")
     pictures = []
     if _points(result, "recip"):
         pictures.append(("pareto.png", plot))
@@ -595,7 +595,7 @@ def write_outputs(result: dict, out: Path = OUT, docs: bool = False) -> list[Pat
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m cosim.sweep", description=__doc__.split("\n")[0])
+    ap = argparse.ArgumentParser(prog="python -m tools.sweep", description=__doc__.split("\n")[0])
     ap.add_argument("--no-fpga", action="store_true", help="skip the ECP5 flow")
     ap.add_argument("--fpga-points", type=int, default=6,
                     help="reciprocal points placed and routed (cached; at most 6, default %(default)s)")

@@ -1,6 +1,6 @@
 """Correct bits of the reciprocal's table modes per table size and term count (issue 7, item 3).
 
-``python -m fxmodel.tables [--m 5 6 7 8 9] [--t 1 2 3 4] [--json FILE]`` prints two Markdown tables:
+``python -m tools.tables [--m 5 6 7 8 9] [--t 1 2 3 4] [--json FILE]`` prints two Markdown tables:
 
 1. **Approximation bits** of the table and truncated series alone, for each :data:`~fxmodel.recip.TABLE_MODES`
    entry: ``-log2`` of the half-width of the exact error band ``[min, max]`` of ``T(B, d) - 1/x`` over every
@@ -24,8 +24,8 @@ import math
 
 import numpy as np
 
-from .fixed import Fmt
-from .recip import TABLE_MODES, RecipParams
+from fxmodel.fixed import Fmt
+from fxmodel.recip import TABLE_MODES, RecipParams
 
 __all__ = ["approx_params", "approx_bits", "sampled_bits", "faithful_width", "table_study", "markdown", "main"]
 
@@ -115,7 +115,7 @@ def markdown(rows) -> str:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m fxmodel.tables", description=__doc__.split("\n")[0])
+    ap = argparse.ArgumentParser(prog="python -m tools.tables", description=__doc__.split("\n")[0])
     ap.add_argument("--m", type=int, nargs="+", default=[5, 6, 7, 8, 9], help="index bits (2**(m-1) entries)")
     ap.add_argument("--t", type=int, nargs="+", default=[1, 2, 3, 4], help="Taylor terms")
     ap.add_argument("--no-faithful", action="store_true", help="skip the faithful-width search (faster)")

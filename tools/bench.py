@@ -8,7 +8,7 @@ figures are medians, and the ratios between them mean more than any one number.
 
 Writes ``build/bench/bench.json`` and prints a Markdown table. Second phase (skip with ``--no-sweep``): the
 design-space sweep, speed against error of the reciprocal, the other units' widths and pipeline presets
-(:mod:`cosim.sweep`: ``build/bench/speed_vs_error.{json,md}``, ``build/bench/pareto.png`` and
+(:mod:`tools.sweep`: ``build/bench/speed_vs_error.{json,md}``, ``build/bench/pareto.png`` and
 ``build/bench/units.png``), with the ECP5 flow on at most ``--fpga-points`` reciprocal points and each other unit's
 default preset and cheapest front point (cached under ``build/fpga``; ``--no-fpga`` skips it).
 """
@@ -27,7 +27,7 @@ from tqdm import tqdm
 
 from fxmodel.unit import preset
 
-from .harness import ROOT, run
+from cosim.harness import ROOT, run
 
 
 def model_rate(params, inputs, repeat: int) -> float:
@@ -41,10 +41,10 @@ def model_rate(params, inputs, repeat: int) -> float:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m cosim.bench", description=__doc__.split("\n")[0])
+    ap = argparse.ArgumentParser(prog="python -m tools.bench", description=__doc__.split("\n")[0])
     ap.add_argument("--repeat", type=int, default=5)
     ap.add_argument("--cosim-vectors", type=int, default=30_000)
-    ap.add_argument("--no-sweep", action="store_true", help="skip the design-space sweep (cosim.sweep)")
+    ap.add_argument("--no-sweep", action="store_true", help="skip the design-space sweep (tools.sweep)")
     ap.add_argument("--no-fpga", action="store_true", help="sweep without the ECP5 flow")
     ap.add_argument("--fpga-points", type=int, default=6, help="sweep points placed and routed (0 to 6, cached)")
     ap.add_argument("--jobs", type=int, default=2, help="FPGA designs placed and routed in parallel")
@@ -66,7 +66,7 @@ def main(argv=None) -> int:
             rate = model_rate(params, inputs, args.repeat)
             rows.append({"what": f"model {unit} ({name})", "workload": what, "per_second": rate})
         elif kind == "stream":
-            from .stream import measure_throughput
+            from cosim.stream import measure_throughput
             rate = measure_throughput(params, what, inputs="exhaustive")
             rows.append({"what": f"co-simulation {unit} ({name}), streaming", "workload": what, "per_second": rate})
         else:
@@ -89,7 +89,7 @@ def main(argv=None) -> int:
     from . import sweep
     sweep_argv = (["--no-fpga"] if args.no_fpga else ["--fpga-points", str(args.fpga_points)]) + [
         "--jobs", str(args.jobs), "--out", str(out)] + (["--docs"] if args.docs else [])
-    print("\nSpeed against error (python -m cosim.sweep):\n")
+    print("\nSpeed against error (python -m tools.sweep):\n")
     return sweep.main(sweep_argv)
 
 

@@ -22,10 +22,10 @@ the shards' times, what one process would have taken. ``process_seconds`` is alw
 
 Examples::
 
-    python -m cosim.exhaustive --sim icarus,verilator --jobs 2     # what `make exhaustive` runs
-    python -m cosim.exhaustive --sim verilator --only recip:default --shard 3/8
-    python -m cosim.exhaustive --merge
-    python -m cosim.exhaustive --list
+    python -m tools.exhaustive --sim icarus,verilator --jobs 2     # what `make exhaustive` runs
+    python -m tools.exhaustive --sim verilator --only recip:default --shard 3/8
+    python -m tools.exhaustive --merge
+    python -m tools.exhaustive --list
 
 Exit status: 0 when every record is bit-exact, 1 on any mismatch or valid-protocol error, 2 on a usage error.
 """
@@ -45,8 +45,8 @@ from typing import Callable
 
 from fxmodel.unit import preset
 
-from .harness import ROOT, simulator
-from .stream import Space, full_space, grid_space, parse_shard, run_stream
+from cosim.harness import ROOT, simulator
+from cosim.stream import Space, full_space, grid_space, parse_shard, run_stream
 
 __all__ = ["Target", "TARGETS", "target", "run_target", "merge_shards", "update_report", "REPORT", "SHARDS"]
 
@@ -277,7 +277,7 @@ def _run_jobs(t: Target, sim: str, jobs: int, full: bool, chunk: int | None) -> 
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m cosim.exhaustive", description=__doc__.split("\n")[0],
+    ap = argparse.ArgumentParser(prog="python -m tools.exhaustive", description=__doc__.split("\n")[0],
                                  formatter_class=argparse.RawDescriptionHelpFormatter,
                                  epilog=__doc__[__doc__.index("Sharding"):])
     ap.add_argument("--sim", default="icarus,verilator", help="comma-separated simulators (default: %(default)s)")

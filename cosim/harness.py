@@ -66,7 +66,7 @@ def _verilog(params, bdir: Path, top: str, sim: str) -> Path:
     from rtl import write_verilog
     path = bdir / f"{top}.v"
     if not path.exists():
-        write_verilog(params, path, optimize=(sim == "icarus"))
+        write_verilog(params, path, optimize=(sim == "icarus"), flat=True)
     return path
 
 

@@ -546,7 +546,7 @@ def _build(params, rtl_params, variant: str, sim: str, keep: int, waves: bool) -
         if not src.exists():
             from rtl import verilog_text
             # as cosim.harness: a Yosys-optimized netlist for event-driven Icarus, Amaranth's Verilog for Verilator
-            (bdir / f"{dut}.v.tmp").write_text(verilog_text(rtl_params, dut, optimize=(sim == "icarus")))
+            (bdir / f"{dut}.v.tmp").write_text(verilog_text(rtl_params, dut, optimize=(sim == "icarus"), flat=True))
             os.replace(bdir / f"{dut}.v.tmp", src)
         text = wrapper_verilog(params, top, dut, keep=keep, clock=clock_style(src.read_text(), waves))
         wrapper = bdir / f"{top}.v"

@@ -43,8 +43,9 @@ def test_cli_writes_the_pipeline_of_a_fitted_preset_with_the_scene_tables(tmp_pa
     assert f"wrote {path}" in capsys.readouterr().out
     text = path.read_text()
     assert "module pipeline_tin_plane_fit_tin_plane(" in text     # a plain identifier, no escaped name
+    assert "i__ready" in text and "o__payload" in text            # the stream version (rtl/streams.py)
     # the bump map's four banks hold the scene's (du, dv) words, as the model packs and banks them
-    bump = text[text.index("module \\pipeline_tin_plane_fit_tin_plane.bump_map "):]
+    bump = text[re.search(r"module \\pipeline_tin_plane_fit_tin_plane\.[\w.]*\bbump_map ", text).start():]
     bump = bump[:bump.index("endmodule")]
     params = pipeline_params("tin-plane", "tin-plane-fit").bump_map
     assert params.banked and params.texels.shape == (1, 40, 40, 2)

@@ -207,7 +207,7 @@ def parse_results(report: dict, stat: dict | None = None) -> dict:
 # -- running ------------------------------------------------------------------------------------------------------
 
 def _port_bits(params) -> int:
-    return sum(p.fmt.width for p in params.inputs + params.outputs) + 4      # + clk, rst, i_valid, o_valid
+    return sum(p.fmt.width for p in params.inputs + params.outputs) + 6      # + clk, rst, valid and ready of i, o
 
 
 def _settings(params, flow: Flow, freq: float) -> dict:

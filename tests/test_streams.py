@@ -1,0 +1,184 @@
+"""Stream interfaces (``rtl/streams.py``) in Amaranth's simulator: payload layouts from the parameter object,
+bit-exact results in order under input gaps and output backpressure, the documented latency and one result per
+clock without stalls, the sideband, and every memory read port under the stage enable.
+
+The HDL-simulator stress test of every unit and preset is ``cosim/test_streams.py``; this file checks the
+component itself on small presets, cycle by cycle, where Python sees every handshake.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from amaranth.hdl import Fragment
+from amaranth.lib import data
+from amaranth.sim import Simulator
+
+from fxmodel.unit import preset
+from rtl.fixed import shape
+from rtl.streams import SKID_DEPTH, StreamUnit, input_layout, output_layout
+
+SIDE = data.StructLayout({"x": 9, "y": 9})
+
+
+def pattern(name: str, rng: np.random.Generator, cycles: int) -> np.ndarray:
+    """0/1 per cycle: ``none`` (always 1), ``half`` (random 50 %), ``bursts`` (runs of 1 to 16), ``long`` (low
+    for 100 to 300 cycles now and then)."""
+    if name == "none":
+        return np.ones(cycles, dtype=bool)
+    if name == "half":
+        return rng.random(cycles) < 0.5
+    out, level = [], True
+    while len(out) < cycles:
+        n = rng.integers(1, 17) if name == "bursts" else (rng.integers(100, 301) if not level else
+                                                          rng.integers(1, 60))
+        out += [level] * int(n)
+        level = not level
+    return np.array(out[:cycles], dtype=bool)
+
+
+def stream_through(params, vectors, valid, ready, side=None, max_cycles=None):
+    """Drive ``vectors`` into a :class:`StreamUnit` (offering one when ``valid[cycle]``, held until taken),
+    take outputs when ``ready[cycle]``; return outputs (codes), their sidebands, the cycles each input was
+    accepted and each output taken, and the handshake-rule violations seen on ``o``."""
+    dut = StreamUnit(params, side=SIDE if side is not None else None)
+    n = len(vectors)
+    got, sides, t_in, t_out, violations = [], [], [], [], []
+    cycles = max_cycles or len(valid)
+
+    async def bench(ctx):
+        k, held = 0, None
+        for cycle in range(cycles):
+            if k < n and (valid[cycle] or held is not None):
+                fields = {p.name: int(vectors[k][j]) for j, p in enumerate(params.inputs)}
+                if side is not None:
+                    fields["side"] = {"x": int(side[k][0]), "y": int(side[k][1])}
+                ctx.set(dut.i.payload, fields)
+                ctx.set(dut.i.valid, 1)
+                offering = True
+            else:
+                ctx.set(dut.i.valid, 0)
+                offering = False
+            ctx.set(dut.o.ready, int(ready[cycle]))
+            o_valid, payload = ctx.get(dut.o.valid), ctx.get(dut.o.payload)
+            if held is not None and (not o_valid or payload.as_value().value != held):
+                violations.append(cycle)                   # o changed while valid and not taken
+            held = None
+            if o_valid and ready[cycle]:
+                got.append([getattr(payload, p.name) for p in params.outputs])
+                if side is not None:
+                    sides.append([payload.side.x, payload.side.y])
+                t_out.append(cycle)
+            elif o_valid:
+                held = payload.as_value().value
+            if offering and ctx.get(dut.i.ready):
+                t_in.append(cycle)
+                k += 1
+            await ctx.tick()
+
+    sim = Simulator(dut)
+    sim.add_clock(1e-8)
+    sim.add_testbench(bench)
+    sim.run()
+    return np.array(got, dtype=np.int64).reshape(-1, len(params.outputs)), sides, t_in, t_out, violations
+
+
+def test_payload_layouts_follow_the_parameter_object():
+    params = preset("divide", "default")
+    lay_in, lay_out = input_layout(params), output_layout(params, side=SIDE)
+    assert list(dict(lay_in.members)) == [p.name for p in params.inputs]
+    for p in params.inputs:
+        assert lay_in.members[p.name] == shape(p.fmt)
+    assert list(dict(lay_out.members)) == [p.name for p in params.outputs] + ["side"]
+    assert lay_out.size == sum(p.fmt.width for p in params.outputs) + SIDE.size
+    from amaranth.lib import stream
+    from amaranth.lib.wiring import In, Out
+    sig = StreamUnit(params, side=SIDE).signature.members
+    assert sig["i"] == In(stream.Signature(input_layout(params, SIDE))) and sig["o"] == Out(stream.Signature(lay_out))
+
+
+def test_no_stall_keeps_the_latency_and_one_result_per_clock():
+    params = preset("recip", "small")
+    vectors = np.concatenate([params.hard_cases()[:40], params.random_inputs(np.random.default_rng(1), 60)])
+    n = len(vectors)
+    cycles = n + params.latency + 4
+    ones = np.ones(cycles, dtype=bool)
+    got, _, t_in, t_out, bad = stream_through(params, vectors, ones, ones)
+    assert np.array_equal(got, params.compute(vectors))
+    assert t_in == list(range(n))                               # accepted on every cycle
+    assert t_out == [t + params.latency for t in t_in]          # the documented latency, one per clock
+    assert not bad
+
+
+@pytest.mark.parametrize("valid_pat, ready_pat", [("half", "half"), ("bursts", "bursts"), ("none", "long"),
+                                                  ("half", "long"), ("none", "half")])
+def test_gaps_and_backpressure_lose_nothing(valid_pat, ready_pat):
+    """Every result exactly once, in order, bit-exact; the sideband travels with its fragment; ``o`` holds still
+    while it waits."""
+    params = preset("recip", "small")
+    rng = np.random.default_rng(list((valid_pat + ready_pat).encode()))
+    hard = params.hard_cases()
+    vectors = np.concatenate([hard[rng.choice(len(hard), 100)], params.random_inputs(rng, 150)])
+    side = rng.integers(0, 512, size=(len(vectors), 2))
+    cycles = 3000
+    valid, ready = pattern(valid_pat, rng, cycles), pattern(ready_pat, rng, cycles)
+    ready[-200:] = True                                          # let it drain
+    got, sides, t_in, t_out, bad = stream_through(params, vectors, valid, ready, side=side)
+    assert len(t_in) == len(vectors), "not every input was accepted"
+    assert np.array_equal(got, params.compute(vectors))         # none lost, none extra, in order
+    assert sides == side.tolist()
+    assert not bad, f"o changed while waiting at cycles {bad[:5]}"
+    if ready_pat != "none":
+        assert not all(ready[:t_out[-1]]), "the pattern must stall the output, or this test proves nothing"
+
+
+def test_a_stalled_consumer_fills_the_buffer_then_stops_the_pipeline():
+    """With ``o.ready`` low the unit accepts only what the pipeline and the skid buffer can hold, then drops
+    ``i.ready``; nothing is lost when ``ready`` returns."""
+    params = preset("recip", "small")
+    vectors = params.random_inputs(np.random.default_rng(3), 100)
+    cycles = 400
+    valid = np.ones(cycles, dtype=bool)
+    ready = np.zeros(cycles, dtype=bool)
+    ready[300:] = True
+    got, _, t_in, t_out, bad = stream_through(params, vectors, valid, ready)
+    before = [t for t in t_in if t < 300]
+    assert len(before) == params.latency + SKID_DEPTH          # the stages plus the buffer, nothing more
+    assert np.array_equal(got, params.compute(vectors)) and not bad
+
+
+@pytest.mark.parametrize("name", ["default", "cube"])
+def test_sampler_block_ram_holds_through_stalls(name):
+    """The samplers' texel memories are read in the pipeline (synchronous read ports): their data registers must
+    hold with the stage enable. Structurally: every read port's enable includes it; behaviourally: bit-exact
+    under long stalls."""
+    params = preset("sampler", name)
+    frag = Fragment.get(StreamUnit(params), None)
+    ports = []
+
+    def walk(f):
+        for sub, _, _ in f.subfragments:
+            ports.extend(getattr(sub, "_read_ports", []))
+            walk(sub)
+    walk(frag)
+    assert ports, "the sampler has no memory read port?"
+    for port in ports:
+        assert "en" in {s.name for s in port._en._rhs_signals()}, "a read port runs without the stage enable"
+    rng = np.random.default_rng(7)
+    hard = params.hard_cases()
+    vectors = np.concatenate([hard[rng.choice(len(hard), min(len(hard), 80), replace=False)],
+                              params.random_inputs(rng, 80)])
+    cycles = 2500
+    ready = pattern("long", rng, cycles)
+    ready[-100:] = True
+    got, _, t_in, _, bad = stream_through(params, vectors, pattern("half", rng, cycles), ready)
+    assert len(t_in) == len(vectors)
+    assert np.array_equal(got, params.compute(vectors)) and not bad
+
+
+def test_sideband_name_clash_is_refused():
+    from fxmodel.unit import Port
+    from rtl.streams import payload_layout
+    from fxmodel.fixed import Fmt
+    with pytest.raises(ValueError, match="side"):
+        payload_layout([Port("side", Fmt(True, 1, 3))], SIDE)

@@ -1,4 +1,4 @@
-"""Streaming co-simulation: exhaustive RTL equivalence at simulator speed (issue 6).
+"""Streaming co-simulation: exhaustive RTL equivalence at simulator speed.
 
 The per-vector harness (:mod:`cosim.harness`) drives every input from Python and tops out at some ten
 thousand vectors a second. Here Python never touches a vector inside the simulation:

@@ -1,4 +1,4 @@
-"""Co-simulation of the cube-map address RTL against the golden model, bit for bit (issue 3).
+"""Co-simulation of the cube-map address RTL against the golden model, bit for bit (paper sections 2 and 4).
 
 Every hard case of ``fxmodel/cube.py`` (ties of two and three components with all signs, corners, axis-aligned
 vectors, zero components, the most negative codes, minor = +-major, the zero vector) plus random vectors, for

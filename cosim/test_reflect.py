@@ -1,4 +1,4 @@
-"""Co-simulation of the reflection-vector RTL against the golden model, bit for bit (issue 3).
+"""Co-simulation of the reflection-vector RTL against the golden model, bit for bit (paper section 2, EQ 1).
 
 Every hard case of ``fxmodel/reflect.py`` (all extreme-code combinations, parallel, anti-parallel, grazing, tiny,
 zero, width-tight) plus random vectors, for ``default`` and ``small``; random vectors with short N and E too

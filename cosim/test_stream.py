@@ -1,4 +1,4 @@
-"""Streaming co-simulation (issue 6): the exhaustive check passes on the true RTL, fails on a broken one with the
+"""Streaming co-simulation: the exhaustive check passes on the true RTL, fails on a broken one with the
 right first mismatch, and covers exactly the vectors it claims; input spaces, shards and report merging.
 
 Quick tier (``make test``): the reciprocal ``small`` preset over all 2**16 inputs, true and broken (inputs

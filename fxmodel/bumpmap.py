@@ -1,7 +1,7 @@
 r"""Bump maps, color textures and the per-triangle matrix ``A`` (paper, sections 3.2 and 5; Fig. 4, 9 and 11).
 
 Host-side tools: everything is float64 until :func:`quantize`, which narrows the perturbations **once** to the
-bump engine's signed ``d_fmt`` (``BumpParams.d_fmt``, ``s1.9`` by default).
+bump engine's signed ``d_fmt`` (``BumpParams.d_fmt``; ``python -m fxmodel info bump`` prints it).
 
 Height fields
     :func:`mexican_hat` (the paper's Fig. 9: a Ricker wavelet, made periodic by summing the neighbouring tiles'
@@ -283,7 +283,7 @@ def quantize(du, dv, fmt: Fmt = DEFAULT_D_FMT, scale: float | None = None) -> Bu
     du, dv : array_like, shape (H, W)
         Float perturbations from :func:`perturbations`.
     fmt : Fmt
-        Signed target format (default ``BumpParams().d_fmt``, ``s1.9``).
+        Signed target format (default ``BumpParams().d_fmt``, the bump engine's).
     scale : float, optional
         Perturbation represented by a real value of 1 in ``fmt``. Default:
         ``max(|du|, |dv|) / fmt.max_value``, so the largest magnitude becomes ``fmt.max_code`` (or its negation)
@@ -369,7 +369,7 @@ def triangle_matrix(positions, uvs, strength: float, scale: float) -> np.ndarray
     With it the bump engine's ``N' = N + du_r A[:, 0] + dv_r A[:, 1]`` (``du_r``, ``dv_r`` the real values of
     the quantized codes, ``du ~ scale du_r``) is the float perturbation ``N + strength (du T + dv B)
     = N - strength (dh/du T + dh/dv B)`` in units where ``|N| ~ 1``. The pipeline quantizes ``A`` to
-    ``BumpParams.a_fmt`` (``s2.14``): keep ``strength * scale < 2``. A degenerate mapping gives ``A = 0``.
+    ``BumpParams.a_fmt`` (half-up, saturating): keep ``strength * scale`` below ``a_fmt.max_value``. A degenerate mapping gives ``A = 0``.
 
     Parameters
     ----------

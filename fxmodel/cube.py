@@ -3,8 +3,9 @@ r"""Cube-map address unit: face, s, t of a signed 3-vector (paper, sections 2 an
 The paper addresses a diffuse reflectance cube by the (perturbed) normal and a specular one by the unnormalized
 reflection vector (section 2); "the vector's major axis determines the corresponding reflectance cube face.
 Indexing this map is done by dividing the vector's minor axis values by the major axis value" (section 4), with
-the divider of section 4.1 at a lower precision. The face orientation follows the OpenGL / Vulkan table (see
-``DESIGN.md``) instead of the paper's, so cube maps authored for GL work unchanged:
+the divider of section 4.1 at a lower precision. The face orientation follows the OpenGL / Vulkan table
+(``docs/design.md``, "Cube faces: table and tie rule") instead of the paper's, so cube maps authored for GL work
+unchanged:
 
 ==========  ====  =======  =======
 major axis  face  ``s_c``  ``t_c``
@@ -245,10 +246,11 @@ class CubeParams(Unit):
 
 
 CubeParams.PRESETS = {
-    # 18-bit input (the reflection unit's default R, s1.17; the bump engine's N' fits by wiring); the recip
-    # default's table (64 x 19 bits, 3 terms) at p = 17; every multiplier within 18x18. s, t in u1.16.
+    # 18-bit input (the width of the reflection unit's default R and of the bump engine's N': wired by codes);
+    # the recip default's table (64 x 19 bits, 3 terms) at p = 17; every multiplier within 18x18; s, t with 16
+    # fraction bits.
     "default": CubeParams(),
-    # 14-bit input (the reflection unit's ``small`` R), 32-entry table, p = 12; s, t in u1.11.
+    # 14-bit input (the reflection unit's ``small`` R), 32-entry table, p = 12; s, t with 11 fraction bits.
     "small": CubeParams(divide=_divide(Fmt(True, 1, 13), m=6, b=14, t=3, p=12, guard=4)),
 }
 register(CubeParams)

@@ -214,9 +214,9 @@ def measure_bump(params, rows, out) -> dict:
             "within_bound": bool(worst <= params.max_error), "bound": float(params.max_error)}
 
 
-# -- cube addressing and reflection (issue 3) -----------------------------------------------------------------
+# -- cube addressing and reflection -------------------------------------------------------------------------
 
-#: The OpenGL / Vulkan cube table (DESIGN.md): per face, (component, sign) of s_c and of t_c; 0, 1, 2 = x, y, z.
+#: The OpenGL / Vulkan cube table (docs/design.md, "The face table"): per face, (component, sign) of s_c and of t_c; 0, 1, 2 = x, y, z.
 CUBE_TABLE = {0: ((2, -1), (1, -1)), 1: ((2, 1), (1, -1)), 2: ((0, 1), (2, 1)),
               3: ((0, 1), (2, -1)), 4: ((0, 1), (1, -1)), 5: ((0, -1), (1, -1))}
 

@@ -39,8 +39,9 @@ Output conventions (see :class:`Fragments`)
 address (the material's bump ``repeat`` applied; one tile per unit) and ``k`` one constant per rasterized
 triangle, the smallest ``w_c`` of its three vertices: the triangle's largest ``W`` is exactly 1 and
 ``W`` lies in ``(0, 1]`` (to rounding), while ``s = U / W`` is unchanged by ``k``. ``Uc, Vc`` are the same for
-the color texture's repeat (equal to ``U, V`` when both repeats agree). The pipeline's reciprocal takes ``W`` in
-``s8.16`` and ``U, V`` in ``s8.16``: ``|U| <= |s|`` (so ``|s| < 128`` suffices), and ``W`` is small only for a
+the color texture's repeat (equal to ``U, V`` when both repeats agree). The pipeline takes ``W`` in
+``persp.recip.in_fmt`` and ``U, V`` in ``persp.uv_fmt`` (``python -m fxmodel info persp`` prints them):
+``|U| <= |s|`` as ``W <= 1``, so every ``|s|`` within the range of ``uv_fmt`` fits, and ``W`` is small only for a
 triangle spanning a large depth range (``W >= w_min / w_max`` over the triangle).
 """
 

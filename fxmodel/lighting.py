@@ -11,7 +11,7 @@ Host-side, float64, quantized once (:func:`fxmodel.rounding.quantize`, half-up, 
   (see :mod:`fxmodel.shade`);
 
 evaluated at the direction of every texel centre. Face orientation is the OpenGL / Vulkan table of
-``DESIGN.md`` (the cube address unit's): texel ``(i, j)`` of a face of ``F x F`` texels has
+``docs/design.md`` ("Cube faces: table and tie rule"; the cube address unit's): texel ``(i, j)`` of a face of ``F x F`` texels has
 ``s = (i + 1/2) / F``, ``t = (j + 1/2) / F`` and ``(s_c, t_c) = (2s - 1, 2t - 1)``; :func:`face_directions`
 inverts the table. The same float functions serve the ideal per-pixel Phong reference, so the two differ only
 by what the cube method itself costs (sampling the lighting at texel centres and blending).

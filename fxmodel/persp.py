@@ -135,7 +135,7 @@ class PerspParams(Unit):
                 "max_error": {"s": float(bound16), "t": float(bound16)}, "max_error_for_abs_s_up_to": 16}
 
 
-#: The reciprocal for texture addresses: ``W`` in ``s2.22`` (the front end scales each triangle's ``W`` into
+#: The reciprocal for texture addresses: ``W`` in ``[-2, 2)`` with 22 fraction bits (the front end scales each triangle's ``W`` into
 #: ``(0, 1]``), 22-bit faithful result (bound 0.97 ulp) from 64 entries and 4 terms. Measured need: a hard edge of a
 #: 512-texel texture sampled bilinearly stays within 1 LSB of the float reference only with address errors
 #: near 2**-19; the 17-bit ``recip`` default gave 3 LSB on the Berlin wall.

@@ -1,4 +1,5 @@
-r"""The whole pixel pipeline, bit-exact: fragment -> color (paper, sections 3.2, 4 and 4.1; DESIGN.md).
+r"""The whole pixel pipeline, bit-exact: fragment -> color (paper, sections 3.2, 4 and 4.1; ``docs/design.md``,
+"Data flow of one pixel").
 
 ::
 
@@ -8,7 +9,7 @@ r"""The whole pixel pipeline, bit-exact: fragment -> color (paper, sections 3.2,
       -> bump       N' = N + du A[:,0] + dv A[:,1]                     (section 3.2, Fig. 6)
       -> reflect    R = 2 N'(N'.E) - E (N'.N'), block-normalized       (EQ 1)
       -> cube       face, s, t of N' (diffuse) and of R (specular)     (section 4)
-      -> samplers   bilinear lookups in the diffuse and specular reflectance cubes (clamped at face edges)
+      -> samplers   bilinear lookups in the diffuse and specular reflectance cubes (seamless: one-texel border)
       -> shade      RGB = texture * D + S, saturated to bytes
 
 Every stage is the unit of its own module, with its own parameter object; :class:`PipelineParams` holds one of

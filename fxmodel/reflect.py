@@ -358,10 +358,10 @@ class ReflectParams(Unit):
 
 
 ReflectParams.PRESETS = {
-    # N (the bump engine's N') and E as s2.16; R as s1.17 = the cube unit's default input. First-level
+    # N (the bump engine's N') and E in 18 bits; R in 18 bits, the cube unit's default input width. First-level
     # products are 18x18; the exact second level is 18x38 (two DSP tiles each on ECP5).
     "default": ReflectParams(n_fmt=Fmt(True, 2, 16), e_fmt=Fmt(True, 2, 16), r_bits=18),
-    # 12-bit N and E; R as s1.13 = the cube unit's ``small`` input.
+    # 12-bit N and E; R in 14 bits, the cube unit's ``small`` input width.
     "small": ReflectParams(n_fmt=Fmt(True, 2, 10), e_fmt=Fmt(True, 2, 10), r_bits=14),
 }
 register(ReflectParams)

@@ -99,7 +99,7 @@ class SamplerParams(Unit):
     filter : str
         ``nearest`` or ``bilinear``.
     edge : str
-        ``repeat`` or ``clamp``.
+        ``repeat``, ``clamp`` or ``border`` (see the module docstring, step 1).
     weight_bits : int
         Bits of the bilinear weights ``fx, fy`` (``u0.weight_bits``).
     names : tuple of str

@@ -37,7 +37,7 @@ class ShadeParams(Unit):
     Parameters
     ----------
     tex_fmt : Fmt
-        Unsigned format of a texture channel (a byte, ``u8.0``).
+        Unsigned format of a texture channel (a byte).
     diffuse_fmt : Fmt
         Unsigned format of a diffuse-cube channel (the factor ``D``).
     specular_fmt : Fmt

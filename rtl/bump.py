@@ -20,11 +20,11 @@ class Bump(UnitComponent):
     Ports (formats from :class:`~fxmodel.bump.BumpParams`)
     -----------------------------------------------------
     i_valid : Signal(1), in
-    Nx, Ny, Nz : Signal(signed), in -- ``n_fmt`` (``s2.16`` for ``default``)
-    du, dv : Signal(signed), in -- ``d_fmt`` (``s1.11``)
-    A00, A10, A20, A01, A11, A21 : Signal(signed), in -- ``a_fmt`` (``s2.14``)
+    Nx, Ny, Nz : Signal(signed), in -- ``n_fmt``
+    du, dv : Signal(signed), in -- ``d_fmt``
+    A00, A10, A20, A01, A11, A21 : Signal(signed), in -- ``a_fmt``
     o_valid : Signal(1), out
-    Npx, Npy, Npz : Signal(signed), out -- ``out_fmt`` (``s2.16``), rounded by ``rounding``, saturated
+    Npx, Npy, Npz : Signal(signed), out -- ``out_fmt``, rounded by ``rounding``, saturated
     saturated : Signal(1), out -- some component was clamped
 
     Latency: 2 (products | sum, round, saturate).

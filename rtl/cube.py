@@ -33,16 +33,16 @@ class Cube(UnitComponent):
     Ports (formats from :class:`~fxmodel.cube.CubeParams`)
     -----------------------------------------------------
     i_valid : Signal(1), in
-    x, y, z : Signal(signed(n)), in -- ``in_fmt`` (``divide.recip.in_fmt``), ``s1.17`` for ``default``
+    x, y, z : Signal(signed(n)), in -- ``in_fmt`` (``divide.recip.in_fmt``)
     o_valid : Signal(1), out
-    face : Signal(unsigned(3)), out -- ``u3.0``, 0..5 = +X, -X, +Y, -Y, +Z, -Z
-    s, t : Signal(unsigned(fq + 2)), out -- ``st_fmt = u1.(fq+1)``, in ``[0, 1]``; ``u1.16`` for ``default``
+    face : Signal(unsigned(3)), out -- ``face_fmt``, 0..5 = +X, -X, +Y, -Y, +Z, -Z
+    s, t : Signal(unsigned(fq + 2)), out -- ``st_fmt = u1.(fq+1)``, in ``[0, 1]``
     degenerate : Signal(1), out -- the zero vector (then face +Z, ``s = t = 1/2``)
 
-    Latency: ``params.latency`` = 2 + ``divide.latency`` = ``recip.latency + 4``. Stages: magnitudes, three
-    comparators and the face/numerator muxes | the reciprocal of the signed major (``recip.latency``) |
-    ``a * mant``, ``b * mant`` | barrel shift and rounding (:func:`~rtl.recip.scale`) | ``(1 +- q) / 2``
-    and the face's sign flips (output registers).
+    Latency: ``params.latency`` = 2 + ``divide.latency`` = ``recip.latency + 5`` (one more when ``a * mant``
+    is split into partial products). Stages: magnitudes, three comparators and the face/numerator muxes | the
+    reciprocal of the signed major (``recip.latency``) | ``a * mant``, ``b * mant`` | barrel shift | rounding
+    (:func:`~rtl.recip.scale`) | ``(1 +- q) / 2`` and the face's sign flips (output registers).
     """
 
     def elaborate(self, platform):

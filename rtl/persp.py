@@ -20,15 +20,16 @@ class Persp(UnitComponent):
     Ports (formats from :class:`~fxmodel.persp.PerspParams`)
     -------------------------------------------------------
     i_valid : Signal(1), in
-    U, V : Signal(signed), in -- ``uv_fmt`` (``s8.16``)
+    U, V : Signal(signed), in -- ``uv_fmt``
     Uc, Vc : Signal(signed), in -- only with ``color``: the color texture's numerators
-    W : Signal(signed), in -- ``recip.in_fmt`` (``s8.16``)
+    W : Signal(signed), in -- ``recip.in_fmt``
     o_valid : Signal(1), out
     s, t : Signal(unsigned(coord_bits)), out -- ``u0.coord_bits``: ``U/W`` and ``V/W`` modulo 1
     sc, tc : Signal(unsigned(coord_bits)), out -- only with ``color``: ``Uc/W``, ``Vc/W`` modulo 1
     dbz : Signal(1), out -- ``W`` was zero (``s = t = 0``)
 
-    Latency: ``recip.latency + 3``.
+    Latency: ``params.latency`` = ``recip.latency + 3``, one more when ``U mant`` is split into partial
+    products (``recip.times_split``).
     """
 
     def elaborate(self, platform):

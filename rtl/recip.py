@@ -143,7 +143,7 @@ class Recip(UnitComponent):
     Ports (formats from :class:`~fxmodel.recip.RecipParams`)
     -------------------------------------------------------
     i_valid : Signal(1), in
-    w : Signal(signed(n)), in -- ``in_fmt``, e.g. ``s8.16`` for ``default``
+    w : Signal(signed(n)), in -- ``in_fmt``
     o_valid : Signal(1), out
     mant : Signal(signed(p + 1)), out -- ``s2.(p-1)``, magnitude in ``[1, 2)``
     exp : Signal(signed(E)), out -- integer in ``[F - n, F]``
@@ -248,7 +248,8 @@ class Divide(UnitComponent):
     dbz : Signal(1), out -- ``d`` was zero
     ovf : Signal(1), out -- ``q`` saturated
 
-    Latency: ``recip.latency + 3``: the reciprocal, ``n * mant``, the shift, then round and saturate.
+    Latency: ``params.latency`` = ``recip.latency + 3``: the reciprocal, ``n * mant`` (two stages when split
+    into partial products), the shift, then round and saturate.
     """
 
     def elaborate(self, platform):

@@ -56,10 +56,10 @@ class Reflect(UnitComponent):
     Ports (formats from :class:`~fxmodel.reflect.ReflectParams`)
     -----------------------------------------------------------
     i_valid : Signal(1), in
-    Nx, Ny, Nz : Signal(signed(nN)), in -- ``n_fmt``, ``s2.16`` for ``default``
-    Ex, Ey, Ez : Signal(signed(nE)), in -- ``e_fmt``, ``s2.16`` for ``default``
+    Nx, Ny, Nz : Signal(signed(nN)), in -- ``n_fmt``
+    Ex, Ey, Ez : Signal(signed(nE)), in -- ``e_fmt``
     o_valid : Signal(1), out
-    Rx, Ry, Rz : Signal(signed(r_bits)), out -- ``r_fmt = s1.(r_bits-1)``, ``s1.17`` for ``default``; the
+    Rx, Ry, Rz : Signal(signed(r_bits)), out -- ``r_fmt = s1.(r_bits-1)``; the
         largest magnitude is at least 1/2 unless ``degenerate``
     degenerate : Signal(1), out -- ``R = 0`` (``N = 0`` or ``E = 0``); ``Rx = Ry = Rz = 0`` then
 

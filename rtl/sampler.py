@@ -29,9 +29,11 @@ class Sampler(UnitComponent):
     -----------------------------------------------------------
     i_valid : Signal(1), in
     face : Signal(unsigned(3)), in -- only for a cube map (6 faces), 0..5
-    s, t : Signal(coord_fmt), in -- e.g. ``s8.16`` (repeat) or ``u1.16`` (cube, clamp)
+    s, t : Signal(coord_fmt), in -- ``coord_fmt`` (in the pipeline: ``persp.coord_fmt`` for
+        the bump map and the texture, ``cube.st_fmt`` for the reflectance cubes)
     o_valid : Signal(1), out
-    <names> : Signal(channel format), out -- one per channel, e.g. ``du, dv`` (``s1.9``) or ``r, g, b``
+    <names> : Signal(channel format), out -- one per channel (``channels``), e.g. ``du, dv`` in ``bump.d_fmt`` or
+        ``r, g, b``
 
     Edge rules ``repeat``, ``clamp`` and ``border`` (see ``fxmodel/sampler.py``).
 

@@ -20,9 +20,9 @@ class Shade(UnitComponent):
     Ports (formats from :class:`~fxmodel.shade.ShadeParams`)
     -------------------------------------------------------
     i_valid : Signal(1), in
-    tr, tg, tb : Signal(unsigned(8)), in -- ``tex_fmt`` (``u8.0``)
-    dr, dg, db : Signal(unsigned), in -- ``diffuse_fmt`` (``u2.10``)
-    sr, sg, sb : Signal(unsigned), in -- ``specular_fmt`` (``u8.4``)
+    tr, tg, tb : Signal(unsigned(8)), in -- ``tex_fmt``
+    dr, dg, db : Signal(unsigned), in -- ``diffuse_fmt``
+    sr, sg, sb : Signal(unsigned), in -- ``specular_fmt``
     o_valid : Signal(1), out
     r, g, b : Signal(unsigned(8)), out -- bytes, rounded half-up, saturated
     saturated : Signal(1), out

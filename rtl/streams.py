@@ -101,7 +101,7 @@ class StreamUnit(wiring.Component):
     Ports
     -----
     i : ``In(stream.Signature(input_layout(params, side)))``
-        ``i.payload.<input>`` in the input's format (e.g. ``i.payload.w``: ``s8.16`` for ``recip default``);
+        ``i.payload.<input>`` in the input's format (e.g. ``i.payload.w`` in ``RecipParams.in_fmt``);
         ``i.ready`` is a register (the stage enable), independent of ``i.valid``.
     o : ``Out(stream.Signature(output_layout(params, side)))``
         ``o.payload.<output>`` in the output's format; the result of the input accepted ``params.latency``

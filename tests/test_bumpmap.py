@@ -16,7 +16,7 @@ from fxmodel.fixed import Fmt
 from fxmodel.rounding import Overflow, Rounding
 from fxmodel.scene import ColorSpec, load_scene, quad_mesh
 
-D = BumpParams().d_fmt                       # s1.9
+D = BumpParams().d_fmt                       # the bump engine's default
 SCENES = Path(__file__).resolve().parent.parent / "scenes"
 
 
@@ -228,6 +228,6 @@ def test_shipped_scene_maps_fit_the_formats(name):
             continue
         assert maps.bump.n_saturated == 0 and maps.bump.scale > 0
         assert D.contains(maps.bump.du).all() and D.contains(maps.bump.dv).all()
-        assert 0 < maps.a_gain < float(a_fmt.max_value)                   # A = a_gain [T B] fits s2.14
+        assert 0 < maps.a_gain < float(a_fmt.max_value)                   # A = a_gain [T B] fits a_fmt
     tin = material_maps(load_scene(SCENES / "tin-plane.toml").materials[0])
     assert tin.bump.shape == (40, 40)                                     # the paper's Fig. 9 map size

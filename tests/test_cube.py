@@ -1,6 +1,6 @@
-"""Cube-map address unit (issue 3): golden model against exact integer / rational math.
+"""Cube-map address unit (paper sections 2 and 4): golden model against exact integer / rational math.
 
-The face rule and the OpenGL / Vulkan table are restated here from DESIGN.md, independently of the model; s and t
+The face rule and the OpenGL / Vulkan table are restated here from docs/design.md ("Cube faces: table and tie rule"), independently of the model; s and t
 are checked against exact ``Fraction`` quotients within the documented bound; every hard case of the module
 docstring has a test.
 """
@@ -22,7 +22,7 @@ from fxmodel.unit import preset
 
 PRESETS = ["default", "small"]
 
-# DESIGN.md, verbatim: face -> (s_c, t_c) as (axis, sign), axis 0, 1, 2 = x, y, z
+# docs/design.md, "The face table", verbatim: face -> (s_c, t_c) as (axis, sign), axis 0, 1, 2 = x, y, z
 TABLE = {0: ((2, -1), (1, -1)),   # +x: s_c = -z, t_c = -y
          1: ((2, +1), (1, -1)),   # -x: s_c = +z, t_c = -y
          2: ((0, +1), (2, +1)),   # +y: s_c = +x, t_c = +z

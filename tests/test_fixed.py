@@ -98,7 +98,7 @@ def test_proven_overflow_raises_naming_the_value():
 
 
 def test_narrow_rounds_before_the_range_check():
-    # 7.75 -> half-up at 0 fraction bits = 8 -> saturates to 7 in u3.0 with the flag
+    # 7.75 -> half-up at 0 fraction bits = 8 -> saturates to 7 in Fmt(False, 3, 0) with the flag
     y, flag = narrow(np.array([31]), 2, Fmt(False, 3, 0), Rounding.HALF_UP, Overflow.SATURATE)
     assert y.tolist() == [7] and flag.tolist() == [True]
     y, flag = narrow(np.array([31]), 2, Fmt(False, 3, 0), Rounding.TRUNC, Overflow.SATURATE)

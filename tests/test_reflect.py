@@ -1,4 +1,4 @@
-"""Reflection-vector unit (issue 3): golden model against exact integer math.
+"""Reflection-vector unit (paper section 2, EQ 1): golden model against exact integer math.
 
 EQ 1 is recomputed here with Python integers; the exact identities ``R.N = (N.E)(N.N)`` and
 ``|R|**2 = |E|**2 |N|**4`` are checked on the model's pre-narrowing R; the direction after narrowing is checked

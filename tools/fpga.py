@@ -1,4 +1,4 @@
-"""ECP5 FPGA flow: resources, Fmax and latency of any unit, preset or parameter object (issue 7, item 1).
+"""ECP5 FPGA flow: resources, Fmax and latency of any unit, preset or parameter object.
 
 ``python -m tools.fpga [--unit U ...] [--preset P ...] [--scene SCENE] [--jobs N]`` (``make fpga``) runs, for each
 design (with ``--scene``: the pixel pipeline with that scene's tables, for each pipeline ``--preset``; see
@@ -51,7 +51,7 @@ __all__ = ["Flow", "FLOW", "TARGET_MHZ", "target_mhz", "design_list", "measure",
 
 BUILD = ROOT / "build" / "fpga"
 
-#: Clock targets (MHz) from issue 7: the reciprocal at 150 MHz; everything else sits in the pixel pipeline,
+#: Clock targets (MHz): the reciprocal at 150 MHz; everything else sits in the pixel pipeline,
 #: whose target is 100 MHz. One result per clock everywhere.
 TARGET_MHZ = {"recip": 150.0}
 DEFAULT_TARGET_MHZ = 100.0

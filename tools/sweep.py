@@ -1,5 +1,4 @@
-r"""Design-space sweep: speed against error of the reciprocal, the other units' widths and the pipeline (issue 7,
-item 2).
+r"""Design-space sweep: speed against error of the reciprocal, the other units' widths and the pipeline.
 
 ``python -m tools.sweep [--no-fpga] [--fpga-points N] [--unit-fpga-points N] [--unit-samples K] [--no-units]
 [--no-pipeline] [--jobs J] [--docs]`` (second phase of ``make bench``) measures the reciprocal grid below, the

@@ -1,4 +1,4 @@
-r"""Design-space sweep of the other units' datapath widths, and pipeline points (issue 7, item 2).
+r"""Design-space sweep of the other units' datapath widths, and pipeline points.
 
 The unit and pipeline points of ``python -m tools.sweep`` (:mod:`tools.sweep` measures, records, draws and writes
 them with the reciprocal's points, one progress bar over all). Each family changes one width (and what follows from

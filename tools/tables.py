@@ -1,4 +1,4 @@
-"""Correct bits of the reciprocal's table modes per table size and term count (issue 7, item 3).
+"""Correct bits of the reciprocal's table modes per table size and term count (paper section 4.1).
 
 ``python -m tools.tables [--m 5 6 7 8 9] [--t 1 2 3 4] [--json FILE]`` prints two Markdown tables:
 

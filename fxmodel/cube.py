@@ -83,7 +83,7 @@ from .recip import DivideParams, RecipParams
 
 from .unit import Port, Unit, register, require
 
-__all__ = ["CubeParams", "FACE_NAMES", "FLIP_S", "FLIP_T"]
+__all__ = ["CubeParams", "cube_divider", "FACE_NAMES", "FLIP_S", "FLIP_T"]
 
 FACE_NAMES = ("+X", "-X", "+Y", "-Y", "+Z", "-Z")
 #: Per face: does ``s_c / |ma|`` equal ``-q_s`` (True) or ``+q_s``?  (``q_s = a / ma``, see the module docstring)
@@ -94,8 +94,10 @@ FLIP_T = (True, False, False, False, True, False)
 
 
 
-def _divide(in_fmt: Fmt, m: int, b: int, t: int, p: int, guard: int) -> DivideParams:
-    """The cube unit's divider: ``minor / major`` at ``p`` bits, quotient ``s2.(p - 2)``."""
+def cube_divider(in_fmt: Fmt, m: int, b: int, t: int, p: int, guard: int) -> DivideParams:
+    """The cube unit's divider: ``minor / major`` with the reciprocal's table size ``m``, word bits ``b``, terms
+    ``t``, result bits ``p`` and ``guard`` bits (see :class:`RecipParams`), quotient ``s2.(p - 2)`` limited to
+    ``|q| <= 1``; ``in_fmt`` is both the numerator's and the denominator's format (the unit's input)."""
     return DivideParams(recip=RecipParams(in_fmt=in_fmt, m=m, b=b, t=t, p=p, guard=guard),
                         num_fmt=in_fmt, out_fmt=Fmt(True, 2, p - 2), quotient_limit=1)
 
@@ -114,7 +116,7 @@ class CubeParams(Unit):
 
     NAME = "cube"
 
-    divide: DivideParams = _divide(Fmt(True, 1, 17), m=7, b=20, t=3, p=17, guard=5)
+    divide: DivideParams = cube_divider(Fmt(True, 1, 17), m=7, b=20, t=3, p=17, guard=5)
 
     def __post_init__(self):
         require(isinstance(self.divide, DivideParams), "divide", self.divide, "must be a DivideParams")
@@ -251,6 +253,6 @@ CubeParams.PRESETS = {
     # fraction bits.
     "default": CubeParams(),
     # 14-bit input (the reflection unit's ``small`` R), 32-entry table, p = 12; s, t with 11 fraction bits.
-    "small": CubeParams(divide=_divide(Fmt(True, 1, 13), m=6, b=14, t=3, p=12, guard=4)),
+    "small": CubeParams(divide=cube_divider(Fmt(True, 1, 13), m=6, b=14, t=3, p=12, guard=4)),
 }
 register(CubeParams)

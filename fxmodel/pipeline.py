@@ -33,12 +33,13 @@ from .cube import CubeParams
 from .fixed import Fmt
 from .lighting import Light, Lighting, bake_cubes
 from .persp import PerspParams
+from .presets import preset_units, top_value
 from .reflect import ReflectParams
 from .sampler import SamplerParams, Texels
 from .shade import ShadeParams
-from .unit import Port, Unit, register, require
+from .unit import Port, Unit, register
 
-__all__ = ["PipelineParams", "FLAG_BITS", "preset_units", "TOP_KEYS", "top_value", "top_problem"]
+__all__ = ["PipelineParams", "FLAG_BITS"]
 
 FLAG_BITS = {"bump_saturated": 0, "shade_saturated": 1, "degenerate": 2, "w_zero": 3}
 
@@ -184,7 +185,7 @@ class PipelineParams(Unit):
         ``weight_bits`` of the bump-map and texture bilinear weights: 10 keeps a hard texture edge (a jump of up
         to 255) within a quarter step of the exact blend; the cube lookups' lighting is smooth, 8 bits there.
         ``None``: the preset's ``weight_bits`` (10 unless a preset file sets it). ``preset`` is a preset name or
-        a units dict (see :func:`preset_units`)."""
+        a units dict (see :func:`fxmodel.presets.preset_units`)."""
         units = preset_units(preset)
         if weight_bits is None:
             weight_bits = top_value(units, "weight_bits")
@@ -205,87 +206,6 @@ class PipelineParams(Unit):
             specular=SamplerParams(texels=specular, channels=(shade.specular_fmt,) * 3, coord_fmt=cube.st_fmt,
                                    edge=cube_edge, names=("r", "g", "b")))
         return params, info
-
-
-class _PresetUnits(dict):
-    """Built-in unit presets by name; a name that is not built in is read from ``presets/<name>.toml``
-    (:func:`tools.fit.load_preset`, re-read on every lookup; errors name the file and the key)."""
-
-    def __missing__(self, name):
-        from tools.fit import load_preset
-        return load_preset(name)
-
-
-#: The integer keys of a pipeline preset beside its units: ``(default, smallest, largest)``. ``weight_bits``: the
-#: bump-map and texture bilinear weights; ``cube_size``: texels per reflectance-cube face edge (6 faces of
-#: ``(edge + 2)**2`` words each).
-TOP_KEYS = {"weight_bits": (10, 1, 16), "cube_size": (64, 1, 1024)}
-
-
-def top_value(units: dict, key: str) -> int:
-    """The preset's ``key`` (one of :data:`TOP_KEYS`), or its default when ``units`` leaves it out."""
-    return units.get(key, TOP_KEYS[key][0])
-
-
-def top_problem(key: str, value) -> str | None:
-    """Why ``value`` cannot be the preset's ``key`` (one of :data:`TOP_KEYS`), or ``None`` if it can."""
-    _, lo, hi = TOP_KEYS[key]
-    if isinstance(value, int) and not isinstance(value, bool) and lo <= value <= hi:
-        return None
-    return f"must be an int in {lo}..{hi}"
-
-
-BUILTIN_PRESET_UNITS = {
-    "default": {"persp": PerspParams.PRESETS["color"], "bump": BumpParams.PRESETS["default"],
-                "reflect": ReflectParams.PRESETS["default"], "cube": CubeParams.PRESETS["default"],
-                "shade": ShadeParams.PRESETS["default"], **{k: v[0] for k, v in TOP_KEYS.items()}},
-}
-PRESET_UNITS = _PresetUnits(BUILTIN_PRESET_UNITS)
-
-#: The parameter class of each unit in a pipeline preset's units dict.
-UNIT_TYPES = {"persp": PerspParams, "bump": BumpParams, "reflect": ReflectParams, "cube": CubeParams,
-              "shade": ShadeParams}
-
-
-def preset_units(preset: str | dict) -> dict:
-    """The units of a pipeline preset, given by name or as the units themselves.
-
-    Parameters
-    ----------
-    preset : str or dict
-        A name: built in (:data:`BUILTIN_PRESET_UNITS`) or a preset file ``presets/<name>.toml`` (see
-        :mod:`tools.fit`). Or a units dict of the same shape as ``BUILTIN_PRESET_UNITS["default"]``: ``persp``,
-        ``bump``, ``reflect``, ``cube``, ``shade`` (parameter objects, see :data:`UNIT_TYPES`) and optionally
-        the :data:`TOP_KEYS` (``weight_bits``, ``cube_size``; defaults 10 and 64); returned as given, nothing is
-        registered anywhere.
-
-    Raises
-    ------
-    tools.fit.PresetError
-        An unknown name or a bad preset file (a ``KeyError`` and a ``ValueError``).
-    ValueError
-        A dict with a missing, unknown or wrongly typed entry (naming it).
-    TypeError
-        Anything but a str or a dict.
-    """
-    if isinstance(preset, str):
-        return PRESET_UNITS[preset]
-    if not isinstance(preset, dict):
-        raise TypeError(f"preset: must be a pipeline preset name (str) or a units dict like "
-                        f"BUILTIN_PRESET_UNITS['default'], not {type(preset).__name__} {preset!r}")
-    allowed = (*UNIT_TYPES, *TOP_KEYS)
-    for key in preset:
-        require(key in allowed, "preset key", key, f"unknown (a units dict has {', '.join(allowed)})")
-    for key, cls in UNIT_TYPES.items():
-        require(key in preset, "preset keys", sorted(preset),
-                f"a units dict needs {key!r} (all of {', '.join(UNIT_TYPES)})")
-        require(isinstance(preset[key], cls), f"type(preset[{key!r}])", type(preset[key]).__name__,
-                f"must be {cls.__name__}")
-    for key in TOP_KEYS:
-        if key in preset:
-            problem = top_problem(key, preset[key])
-            require(problem is None, f"preset[{key!r}]", preset[key], problem)
-    return preset
 
 
 def _demo() -> PipelineParams:

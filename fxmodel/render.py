@@ -22,7 +22,8 @@ import numpy as np
 from .bumpmap import perturbations, scene_maps
 from .frontend import rasterize
 from .lighting import Light, Lighting, face_directions
-from .pipeline import FLAG_BITS, PipelineParams, preset_units, top_value
+from .pipeline import FLAG_BITS, PipelineParams
+from .presets import preset_units, top_value
 from .reference import float_pipeline, ideal_phong, max_lsb, psnr
 from .rounding import Overflow, Rounding, quantize
 from .scene import load_scene, scene_path
@@ -87,7 +88,7 @@ def prepare(scene, *, size=None, preset: str | dict = "default", cube_size: int 
         Override the image size.
     preset : str or dict
         A pipeline preset name (built in or ``presets/<name>.toml``) or a units dict like
-        ``BUILTIN_PRESET_UNITS["default"]`` (see :func:`fxmodel.pipeline.preset_units`).
+        ``BUILTIN_PRESET_UNITS["default"]`` (see :func:`fxmodel.presets.preset_units`).
     cube_size : int, optional
         Texels per reflectance-cube face edge; ``None``: the preset's ``cube_size`` (64 unless a preset file,
         e.g. one written by ``fit``, sets it).
@@ -97,7 +98,7 @@ def prepare(scene, *, size=None, preset: str | dict = "default", cube_size: int 
     SceneError
         A missing or malformed scene file (naming it).
     ValueError, TypeError
-        An unknown or bad preset (see :func:`fxmodel.pipeline.preset_units`), or a frame whose visible
+        An unknown or bad preset (see :func:`fxmodel.presets.preset_units`), or a frame whose visible
         fragments use more than one material.
     """
     t0 = time.perf_counter()

@@ -16,12 +16,12 @@ from .fixed import narrow, saturate
 from .recip import leading_zeros
 from .unit import Pipe, UnitComponent, register
 
-__all__ = ["Reflect"]
+__all__ = ["Reflect", "DIGIT_BITS", "LUT_DIGIT_BITS"]
 
 #: Digit size of the wide second-level operands: a 17-bit unsigned digit is an 18-bit signed DSP operand (ECP5).
-_DIGIT = 17
+DIGIT_BITS = 17
 #: A top digit of at most this many bits is multiplied by shifts and adds (LUTs) instead of a whole DSP tile.
-_LUT_DIGIT = 4
+LUT_DIGIT_BITS = 4
 
 
 def _digits(x, signed: bool) -> list:
@@ -29,8 +29,8 @@ def _digits(x, signed: bool) -> list:
     top one is 17 bits zero-extended (non-negative); the top one carries the sign of a signed ``x``."""
     x = Value.cast(x)
     out = []
-    for lo in range(0, len(x), _DIGIT):
-        hi = min(lo + _DIGIT, len(x))
+    for lo in range(0, len(x), DIGIT_BITS):
+        hi = min(lo + DIGIT_BITS, len(x))
         if hi == len(x) and signed:
             out.append(x[lo:].as_signed())
         else:
@@ -40,7 +40,7 @@ def _digits(x, signed: bool) -> list:
 
 def _mul(a, d):
     """``a * d`` for signed ``a`` and a signed digit ``d``: a DSP product, or shifts and adds for a narrow ``d``."""
-    if len(d) > _LUT_DIGIT:
+    if len(d) > LUT_DIGIT_BITS:
         return a * d
     total = 0
     for b in range(len(d)):
@@ -124,7 +124,7 @@ class Reflect(UnitComponent):
         for i in range(3):
             total = 0
             for j in range(max(len(pp), len(qp))):
-                total = total + (getattr(s4, f"A{i}{j}") << (_DIGIT * j))
+                total = total + (getattr(s4, f"A{i}{j}") << (DIGIT_BITS * j))
             st[f"R{i}"] = saturate(total, P.exact_fmt, Overflow.PROVEN)[0]
         s5 = pipe.stage(**st)
         R = [getattr(s5, f"R{i}") for i in range(3)]

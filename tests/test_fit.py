@@ -8,10 +8,10 @@ import json
 import pytest
 
 from tools import cli
-from tools.fit import (KNOB_STEPS, PresetError, fit, knobs_of, load_preset, preset_path, units_of,
-                         write_preset)
+from fxmodel.presets import PresetError, load_preset, preset_path, write_preset
+from tools.fit import KNOB_STEPS, fit, knobs_of, units_of
 from fxmodel.fixed import Fmt
-from fxmodel.pipeline import BUILTIN_PRESET_UNITS, PRESET_UNITS, preset_units
+from fxmodel.presets import BUILTIN_PRESET_UNITS, PRESET_UNITS, preset_units
 from fxmodel.reference import max_lsb
 from fxmodel.render import prepare, render
 

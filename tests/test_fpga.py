@@ -122,7 +122,7 @@ def test_a_failed_tool_is_reported_not_cached(tmp_path, monkeypatch):
 
 # -- the pipeline with a scene's tables (fitted or built-in pipeline presets) ------------------------------------------
 def test_design_list_with_a_scene_is_the_pipeline_of_that_preset_and_scene():
-    from fxmodel.pipeline import PRESET_UNITS
+    from fxmodel.presets import PRESET_UNITS
     from fxmodel.render import pipeline_params, prepare
 
     (fit_design, default_design) = fpga.design_list(None, ["tin-plane-fit", "default"], scene="tin-plane")

@@ -5,6 +5,7 @@ import math
 import pytest
 
 from tools import sweep as sw
+from tools import sweep_units as su
 from fxmodel.fixed import Fmt
 from fxmodel.recip import RecipParams
 
@@ -86,8 +87,8 @@ def test_faithful_p_is_widest():
 def test_dsp_estimate_and_grid():
     from fxmodel.unit import preset
 
-    assert sw.dsp_blocks(preset("recip", "default")) == 3          # every product within 18x18
-    assert sw.dsp_blocks(preset("recip", "rcp24")) == 14           # 23x18, 21x21, 21x22, 23x22 split in pieces
+    assert su.dsp_blocks(preset("recip", "default")) == 3          # every product within 18x18
+    assert su.dsp_blocks(preset("recip", "rcp24")) == 14           # 23x18, 21x21, 21x22, 23x22 split in pieces
     assert sw.PAPER.entries == 128 and sw.PAPER.t == 3 and not sw.PAPER.center and sw.PAPER.table == "round"
 
 

@@ -165,7 +165,7 @@ def test_dsp_estimate_matches_the_placed_presets():
 
 def test_pipeline_points(result):
     from tools.fit import hardware, knobs_of, units_of
-    from fxmodel.pipeline import BUILTIN_PRESET_UNITS
+    from fxmodel.presets import BUILTIN_PRESET_UNITS
 
     pipe = result["pipeline"]
     base, narrow = pipe["points"]

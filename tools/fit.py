@@ -1,4 +1,4 @@
-"""Scene-driven word lengths (``python -m fxmodel fit``) and pipeline presets stored as TOML files.
+"""Scene-driven word lengths: ``python -m fxmodel fit`` writes a pipeline preset fitted to a scene.
 
 :func:`fit` measures the ranges a scene produces and searches, by greedy coordinate descent from ``default``,
 the smallest formats and table sizes (:data:`KNOB_STEPS`) for which the bit-exact frame stays within
@@ -7,218 +7,18 @@ is registered globally); it writes the result as a preset file that ``prepare(..
 ``python -m fxmodel render --preset NAME``, ``make sim PRESET=NAME`` and, with a scene, ``make verilog`` and
 ``make fpga`` accept, and reports a hardware estimate (:func:`hardware`) against ``default``.
 
-Preset files (``presets/<name>.toml``)
---------------------------------------
-
-A preset file holds one table per unit of the pixel pipeline (``persp``, ``bump``, ``reflect``, ``cube``,
-``shade``) with that unit's parameter fields; nested parameter objects are sub-tables (``[persp.recip]``,
-``[cube.divide]``, ``[cube.divide.recip]``). Formats are written in their short form (``"s2.16"``), enums by
-name. A field that is missing keeps the ``default`` preset's value. Top-level keys: ``weight_bits`` (the bump-map
-and texture bilinear weights), ``cube_size`` (texels per reflectance-cube face edge) and the free-form ``[fit]``
-table (what ``fit`` measured; not read back).
-
-The folder is ``presets/`` at the repository root, or the environment variable ``FXMODEL_PRESETS``.
+The preset files themselves (reading, writing, the built-in ``default``) are :mod:`fxmodel.presets`.
 """
 
 from __future__ import annotations
 
 import dataclasses
-import enum
-import os
-import tomllib
-from pathlib import Path
 
+from fxmodel.cube import cube_divider
 from fxmodel.fixed import Fmt
-from fxmodel.pipeline import TOP_KEYS as PIPELINE_TOP_KEYS, top_problem, top_value
+from fxmodel.presets import BUILTIN_PRESET_UNITS, UNIT_KEYS, top_value, write_preset
 
-__all__ = ["PresetError", "presets_dir", "preset_path", "load_preset", "dump_preset", "write_preset", "UNIT_KEYS",
-           "bram_blocks"]
-
-UNIT_KEYS = ("persp", "bump", "reflect", "cube", "shade")
-TOP_KEYS = tuple(PIPELINE_TOP_KEYS)
-META_KEY = "fit"
-
-
-class PresetError(KeyError, ValueError):
-    """An unknown preset name or a bad preset file (a ``KeyError`` for dict-style lookups, a ``ValueError``
-    for the command lines, which print it as one line)."""
-
-    def __str__(self):
-        return str(self.args[0]) if self.args else ""
-
-
-def presets_dir() -> Path:
-    """The folder of preset files: ``$FXMODEL_PRESETS`` if set, else ``presets/`` at the repository root."""
-    env = os.environ.get("FXMODEL_PRESETS")
-    return Path(env) if env else Path(__file__).resolve().parents[1] / "presets"
-
-
-def preset_path(name: str, directory=None) -> Path:
-    """The file of preset ``name`` in ``directory`` (default :func:`presets_dir`)."""
-    return Path(directory if directory is not None else presets_dir()) / f"{name}.toml"
-
-
-# -- writing ------------------------------------------------------------------------------------------------
-def _scalar(value, where: str) -> str:
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, int):
-        return str(value)
-    if isinstance(value, float):
-        return repr(value)
-    if isinstance(value, Fmt):
-        return f'"{value}"'
-    if isinstance(value, enum.Enum):
-        return f'"{value.name}"'
-    if isinstance(value, str):
-        return '"' + value.replace("\\", "\\\\").replace('"', '\\"') + '"'
-    if isinstance(value, (list, tuple)):
-        return "[" + ", ".join(_scalar(v, where) for v in value) + "]"
-    raise TypeError(f"{where}: cannot write {type(value).__name__} {value!r} to TOML")
-
-
-def _tables(path: str, obj) -> list[str]:
-    """``[path]`` with the scalar fields of the dataclass ``obj``, then its nested dataclasses as sub-tables."""
-    lines, nested = [f"[{path}]"], []
-    for f in dataclasses.fields(obj):
-        if not f.init:
-            continue
-        value = getattr(obj, f.name)
-        if dataclasses.is_dataclass(value) and not isinstance(value, Fmt):
-            nested.append((f.name, value))
-        else:
-            lines.append(f"{f.name} = {_scalar(value, f'{path}.{f.name}')}")
-    out = lines + [""]
-    for name, value in nested:
-        out += _tables(f"{path}.{name}", value)
-    return out
-
-
-def dump_preset(units: dict, meta: dict | None = None, comment: str = "") -> str:
-    """TOML text of a preset: ``units`` maps ``persp, bump, reflect, cube, shade`` to parameter objects (and
-    optionally ``weight_bits`` to an int); ``meta`` (flat or one level of dicts of scalars) goes to ``[fit]``."""
-    lines = [f"# {line}" for line in comment.splitlines()]
-    for key in TOP_KEYS:
-        if key in units:
-            lines.append(f"{key} = {_scalar(units[key], key)}")
-    lines.append("")
-    for key in UNIT_KEYS:
-        lines += _tables(key, units[key])
-    if meta:
-        flat = {k: v for k, v in meta.items() if not isinstance(v, dict)}
-        lines += [f"[{META_KEY}]"] + [f"{k} = {_scalar(v, f'{META_KEY}.{k}')}" for k, v in flat.items()] + [""]
-        for k, v in meta.items():
-            if isinstance(v, dict):
-                lines += [f"[{META_KEY}.{k}]"] + [f'"{kk}" = {_scalar(vv, f"{META_KEY}.{k}.{kk}")}'
-                                                  for kk, vv in v.items()] + [""]
-    return "\n".join(lines)
-
-
-def write_preset(name: str, units: dict, directory=None, meta: dict | None = None, comment: str = "") -> Path:
-    """Write ``units`` (see :func:`dump_preset`) as preset ``name``; returns the file. Checks it reads back."""
-    path = preset_path(name, directory)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(dump_preset(units, meta, comment))
-    back = load_preset(name, directory)
-    for key in UNIT_KEYS:
-        if back[key] != units[key]:
-            raise RuntimeError(f"{path}: [{key}] does not read back equal to what was written")
-    return path
-
-
-# -- reading ------------------------------------------------------------------------------------------------
-def _convert(base, value, file: Path, where: str):
-    """``value`` from the file, of the same kind as ``base`` (the default preset's value of that field)."""
-    def bad(why):
-        return PresetError(f"{file}: key {where}: {why}")
-
-    if dataclasses.is_dataclass(base) and not (isinstance(base, Fmt) and isinstance(value, str)):
-        if not isinstance(value, dict):
-            raise bad(f"must be a table, got {value!r}")
-        return _build(base, value, file, where)
-    if isinstance(base, Fmt):
-        if not isinstance(value, str):
-            raise bad(f"must be a format string like \"s2.16\", got {value!r}")
-        try:
-            return Fmt.parse(value)
-        except (ValueError, TypeError) as exc:
-            raise bad(str(exc)) from None
-    if isinstance(base, enum.Enum):
-        try:
-            return type(base)[value]
-        except (KeyError, TypeError):
-            raise bad(f"must be one of {[e.name for e in type(base)]}, got {value!r}") from None
-    if isinstance(base, bool):
-        if not isinstance(value, bool):
-            raise bad(f"must be true or false, got {value!r}")
-        return value
-    if isinstance(base, int):
-        if not isinstance(value, int) or isinstance(value, bool):
-            raise bad(f"must be an integer, got {value!r}")
-        return value
-    if isinstance(base, str):
-        if not isinstance(value, str):
-            raise bad(f"must be a string, got {value!r}")
-        return value
-    raise bad(f"fields of type {type(base).__name__} cannot be set from a preset file")
-
-
-def _build(base, table: dict, file: Path, where: str):
-    names = {f.name for f in dataclasses.fields(base) if f.init}
-    changes = {}
-    for key, value in table.items():
-        if key not in names:
-            raise PresetError(f"{file}: key {where}.{key}: unknown field of {type(base).__name__} "
-                              f"(have {', '.join(sorted(names))})")
-        changes[key] = _convert(getattr(base, key), value, file, f"{where}.{key}")
-    try:
-        return dataclasses.replace(base, **changes)
-    except (ValueError, TypeError) as exc:
-        raise PresetError(f"{file}: table [{where}]: {exc}") from None
-
-
-def load_preset(name: str, directory=None, base: dict | None = None) -> dict:
-    """The units of preset file ``name`` (``persp, bump, reflect, cube, shade``, ``weight_bits``, ``cube_size``).
-
-    Parameters
-    ----------
-    name : str
-        Preset name: the file ``<directory>/<name>.toml``.
-    directory : path, optional
-        Default :func:`presets_dir`.
-    base : dict, optional
-        Units that missing fields fall back to (default: the pipeline's ``default`` preset).
-
-    Raises
-    ------
-    PresetError
-        If the file does not exist (naming it and the built-in presets), is not TOML, or has an unknown or
-        invalid key (naming the file and the key).
-    """
-    from fxmodel.pipeline import BUILTIN_PRESET_UNITS
-    path = preset_path(name, directory)
-    if not isinstance(name, str) or not name or "/" in name or "\\" in name:
-        raise PresetError(f"bad pipeline preset name {name!r}")
-    if not path.is_file():
-        raise PresetError(f"unknown pipeline preset {name!r}: not built in ({', '.join(BUILTIN_PRESET_UNITS)}) "
-                          f"and no file {path}")
-    try:
-        data = tomllib.loads(path.read_text())
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
-        raise PresetError(f"{path}: not valid TOML: {exc}") from None
-    base = base if base is not None else BUILTIN_PRESET_UNITS["default"]
-    for key in data:
-        if key not in UNIT_KEYS + TOP_KEYS + (META_KEY,):
-            raise PresetError(f"{path}: key {key}: unknown (have {', '.join(UNIT_KEYS + TOP_KEYS + (META_KEY,))})")
-    units = {key: _convert(base[key], data[key], path, key) if key in data else base[key] for key in UNIT_KEYS}
-    for key in TOP_KEYS:
-        value = data.get(key, top_value(base, key))
-        problem = top_problem(key, value)
-        if problem:
-            raise PresetError(f"{path}: key {key}: {problem}, got {value!r}")
-        units[key] = value
-    return units
-
+__all__ = ["KNOB_STEPS", "KNOB_MIN", "knobs_of", "units_of", "measure_ranges", "hardware", "bram_blocks", "fit"]
 
 # -- scene-driven word lengths: ``python -m fxmodel fit`` ---------------------------------------------------
 #: The knobs the search reduces, in search order (widest savings first), with the starting step in bits.
@@ -256,7 +56,6 @@ def units_of(k: dict, base: dict) -> dict:
     ValueError, TypeError
         If the knobs make an invalid unit (the search treats that as "not allowed").
     """
-    from fxmodel.cube import _divide
     persp, bump, reflect, cube, shade = (base[key] for key in UNIT_KEYS)
     pr, cr = persp.recip, cube.divide.recip
     word = k["word"]
@@ -271,7 +70,7 @@ def units_of(k: dict, base: dict) -> dict:
                                     a_fmt=Fmt(True, k["a_int"], k["a_frac"]), out_fmt=n_prime),
         "reflect": dataclasses.replace(reflect, n_fmt=n_prime, e_fmt=Fmt(True, k["e_int"], k["e_frac"]),
                                        r_bits=word),
-        "cube": dataclasses.replace(cube, divide=_divide(Fmt(True, 1, word - 1), m=k["cube_m"], b=k["cube_b"],
+        "cube": dataclasses.replace(cube, divide=cube_divider(Fmt(True, 1, word - 1), m=k["cube_m"], b=k["cube_b"],
                                                          t=k["cube_t"], p=k["cube_p"], guard=k["cube_guard"])),
         "shade": dataclasses.replace(shade, diffuse_fmt=Fmt(False, shade.diffuse_fmt.int_bits, k["diffuse_frac"]),
                                      specular_fmt=Fmt(False, shade.specular_fmt.int_bits, k["specular_frac"])),
@@ -387,7 +186,7 @@ def fit(scene, *, max_lsb: int = 1, size: int | None = 64, cube_size: int | None
     name : str, optional
         Preset name to write (``presets/<name>.toml``; default ``<scene>-fit``).
     directory : path, optional
-        Where to write the preset (default :func:`presets_dir`).
+        Where to write the preset (default :func:`fxmodel.presets.presets_dir`).
     progress : bool
         Show a progress bar (tqdm).
     passes : int
@@ -408,7 +207,6 @@ def fit(scene, *, max_lsb: int = 1, size: int | None = 64, cube_size: int | None
     """
     import time
     from tqdm import tqdm
-    from fxmodel.pipeline import BUILTIN_PRESET_UNITS
     from fxmodel.render import prepare, render
     from fxmodel.scene import load_scene
 

@@ -418,7 +418,7 @@ def markdown_table(records) -> str:
 
 def scene_hint(preset_list) -> str:
     """A hint for the command lines when a preset named without ``--scene`` is a pipeline preset file."""
-    from tools.fit import preset_path
+    from fxmodel.presets import preset_path
 
     names = [p for p in preset_list or () if preset_path(p).is_file()]
     return (f" ({', '.join(names)}: a pipeline preset, whose memories come from a scene: add --scene SCENE)"

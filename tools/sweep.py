@@ -26,7 +26,7 @@ Every point but ``rcp24`` has the 24-bit input ``s8.16`` (``small``: ``s4.12``).
 output against the exact ``1/w`` comes from :func:`fxmodel.exact.recip_error_ulp` (exact integers). Recorded:
 worst and mean error in ulps of the result, correct bits ``p - 1 - log2(error)`` (relative error of a mantissa in
 ``[1, 2)``; worst and mean), the documented bound, table bits, multipliers, estimated MULT18X18D blocks
-(:func:`dsp_blocks`), latency, model throughput (one timing of the whole ``compute`` call, one core), and, for at
+(:func:`tools.sweep_units.dsp_blocks`), latency, model throughput (one timing of the whole ``compute`` call, one core), and, for at
 most ``--fpga-points`` points (the four named ones first, then Pareto points spread evenly inside the front), the
 ECP5 results of :func:`tools.fpga.run_designs` (LUT4, FF, DSP, block RAM, Fmax; cached under ``build/fpga``).
 
@@ -61,7 +61,9 @@ from fxmodel.fixed import Fmt
 from fxmodel.recip import RecipParams
 from fxmodel.unit import preset
 
-__all__ = ["PAPER", "ANCHORS", "dsp_pieces", "dsp_blocks", "faithful_p", "default_grid", "unique_points",
+from .sweep_units import dsp_blocks, unique_points
+
+__all__ = ["PAPER", "ANCHORS", "faithful_p", "default_grid",
            "measure_point", "pareto_front", "sweep", "markdown", "plot", "plot_units", "write_outputs", "main"]
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -79,20 +81,6 @@ ANCHORS = [("NVIDIA SFU (Oberman & Siu 2005)", 6656, 2, 23.0)]
 
 #: Chunk of inputs measured at once (bounds the memory of the exact error arithmetic).
 CHUNK = 1 << 22
-
-
-def dsp_pieces(a: int, b: int) -> int:
-    """Estimated MULT18X18D blocks of one ``a x b`` product: one if both operands fit 18 bits, else the number of
-    partial products of ``rtl.recip.pieces`` (17-bit pieces and a top piece of at most 18 bits per operand)."""
-    def npieces(w):
-        d = RecipParams.DSP_BITS
-        return 1 if w <= d else 1 + math.ceil((w - d) / (d - 1))
-    return npieces(a) * npieces(b)
-
-
-def dsp_blocks(params: RecipParams) -> int:
-    """Estimated MULT18X18D blocks of a reciprocal: :func:`dsp_pieces` of each of its products."""
-    return sum(dsp_pieces(a, b) for _, a, b in params.product_operands())
 
 
 def _params(m, t, p, table, b=None, guard=4, in_fmt=IN24):
@@ -142,16 +130,6 @@ def default_grid() -> list[tuple[str, str, RecipParams]]:
                 if P is not None:
                     grid.append((f"t{t} m{m} {table} p17", "p17", P))
     return unique_points(grid)
-
-
-def unique_points(grid) -> list[tuple[str, str, object]]:
-    """``grid`` of ``(name, family, params)`` without repeated parameter objects (the first name kept)."""
-    seen, out = set(), []
-    for name, family, P in grid:
-        if P not in seen:
-            seen.add(P)
-            out.append((name, family, P))
-    return out
 
 
 def _inputs(params: RecipParams, exhaustive_limit: int, samples: int, rng) -> tuple[np.ndarray, bool]:

@@ -51,14 +51,12 @@ from fractions import Fraction
 import numpy as np
 
 from fxmodel import exact
-from fxmodel.cube import CubeParams, _divide
+from fxmodel.cube import CubeParams, cube_divider
 from fxmodel.fixed import Fmt
 from fxmodel.recip import RecipParams
 from fxmodel.unit import preset
 
-from .sweep import dsp_blocks, dsp_pieces, unique_points
-
-__all__ = ["S_ABS", "UNIT_ERRORS", "PIPELINE_POINTS", "SCENE", "smallest_faithful", "unit_cost", "knobs",
+__all__ = ["dsp_pieces", "dsp_blocks", "unique_points", "S_ABS", "UNIT_ERRORS", "PIPELINE_POINTS", "SCENE", "smallest_faithful", "unit_cost", "knobs",
            "default_unit_grid", "unit_inputs", "measure_unit_point", "pipeline_grid", "measure_pipeline_point"]
 
 #: Largest ``|U/W|`` of the perspective unit's measured domain (its documented bound's ``s_abs``).
@@ -93,6 +91,30 @@ PIPELINE_POINTS = [
 ]
 
 
+def dsp_pieces(a: int, b: int) -> int:
+    """Estimated MULT18X18D blocks of one ``a x b`` product: one if both operands fit 18 bits, else the number of
+    partial products of ``rtl.recip.pieces`` (17-bit pieces and a top piece of at most 18 bits per operand)."""
+    def npieces(w):
+        d = RecipParams.DSP_BITS
+        return 1 if w <= d else 1 + math.ceil((w - d) / (d - 1))
+    return npieces(a) * npieces(b)
+
+
+def dsp_blocks(params: RecipParams) -> int:
+    """Estimated MULT18X18D blocks of a reciprocal: :func:`dsp_pieces` of each of its products."""
+    return sum(dsp_pieces(a, b) for _, a, b in params.product_operands())
+
+
+def unique_points(grid) -> list[tuple[str, str, object]]:
+    """``grid`` of ``(name, family, params)`` without repeated parameter objects (the first name kept)."""
+    seen, out = set(), []
+    for name, family, P in grid:
+        if P not in seen:
+            seen.add(P)
+            out.append((name, family, P))
+    return out
+
+
 def smallest_faithful(in_fmt: Fmt, p: int, t: int, guard: int = 4, table: str = "round") -> RecipParams | None:
     """The reciprocal with the fewest index bits ``m`` (2 to 12) whose documented bound is below one ulp at
     precision ``p`` (``b = p + 3``), or ``None``."""
@@ -107,8 +129,8 @@ def smallest_faithful(in_fmt: Fmt, p: int, t: int, guard: int = 4, table: str = 
 
 
 def _rtl_reflect_digits():
-    from rtl.reflect import _DIGIT, _LUT_DIGIT       # the RTL's digit split of the wide second-level products
-    return _DIGIT, _LUT_DIGIT
+    from rtl.reflect import DIGIT_BITS, LUT_DIGIT_BITS  # the RTL's digit split of the wide second-level products
+    return DIGIT_BITS, LUT_DIGIT_BITS
 
 
 def unit_cost(params) -> tuple[int, int, int]:
@@ -180,7 +202,7 @@ def default_unit_grid() -> list[tuple[str, str, object]]:
             in_fmt = Fmt(True, 1, p)
             r = smallest_faithful(in_fmt, p, t, guard=5)
             if r is not None:
-                d = _divide(in_fmt, m=r.m, b=r.b, t=t, p=p, guard=r.guard)
+                d = cube_divider(in_fmt, m=r.m, b=r.b, t=t, p=p, guard=r.guard)
                 grid.append((f"cube t{t} p{p} m{r.m}", f"p, t={t}", CubeParams(divide=d)))
     refl = preset("reflect")
     for w in (8, 10, 12, 14, 16, 18, 20):
@@ -248,7 +270,7 @@ def measure_unit_point(name: str, family: str, params, *, samples: int = 10 ** 6
 def pipeline_grid(points=None) -> list[tuple[str, object, dict]]:
     """``(name, preset name or units dict, knob changes)`` of :data:`PIPELINE_POINTS` (or ``points``)."""
     from tools.fit import knobs_of, units_of
-    from fxmodel.pipeline import BUILTIN_PRESET_UNITS
+    from fxmodel.presets import BUILTIN_PRESET_UNITS
 
     base = BUILTIN_PRESET_UNITS["default"]
     k0 = knobs_of(base)
@@ -267,7 +289,7 @@ def measure_pipeline_point(name: str, units, changes: dict, *, scene=SCENE, size
     largest per-channel difference against references (a) and (b), and ``fit``'s hardware estimate.
     ``cube_size``: reflectance-cube face edge (``None``: ``prepare``'s default, the preset's own)."""
     from tools.fit import hardware
-    from fxmodel.pipeline import preset_units
+    from fxmodel.presets import preset_units
     from fxmodel.render import prepare, render
     from fxmodel.scene import load_scene
 

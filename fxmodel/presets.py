@@ -9,10 +9,10 @@ from a preset file by :func:`load_preset` (what ``python -m fxmodel fit`` writes
 Preset files
 ------------
 
-A preset file holds one table per unit with that unit's parameter fields; nested parameter objects are
-sub-tables (``[persp.recip]``, ``[cube.divide]``, ``[cube.divide.recip]``). Formats are written in their short
-form (``"s2.16"``), enums by name. A field that is missing keeps the ``default`` preset's value. Top-level keys:
-``weight_bits`` (the bump-map and texture bilinear weights), ``cube_size`` (texels per reflectance-cube face
+A preset file holds one table per unit with that unit's parameter fields; nested parameter objects are sub-tables
+(``[persp.recip]``, ``[cube.divide]``, ``[cube.divide.recip]``). Formats are written in their short form
+(``str(Fmt)``, a string), enums by name. A field that is missing keeps the ``default`` preset's value. Top-level
+keys: ``weight_bits`` (the bump-map and texture bilinear weights), ``cube_size`` (texels per reflectance-cube face
 edge) and the free-form ``[fit]`` table (what ``fit`` measured; not read back).
 
 The folder is ``presets/`` at the repository root, or the environment variable ``FXMODEL_PRESETS``.

@@ -16,7 +16,7 @@ import sys
 
 from fxmodel.unit import preset, preset_names, units
 
-from .unit import write_verilog
+from .verilog import write_verilog
 
 
 def main(argv=None) -> int:

@@ -254,7 +254,7 @@ class _Job:
 def _prepare(label: dict, params, flow: Flow, freq: float | None, build: Path, use_cache: bool) -> _Job:
     """Resolve the cache; write the Verilog when the first level misses (in this thread: Amaranth is not
     thread-safe)."""
-    from rtl.unit import verilog_text
+    from rtl.verilog import verilog_text
 
     freq = float(freq if freq is not None else target_mhz(params))
     settings = _settings(params, flow, freq)

@@ -162,3 +162,22 @@ def test_design_documents_the_cube_table_the_oracle_uses():
     for major, face, sc, tc in rows:
         assert 2 * "xyz".index(major[1]) + (major[0] != "+") == int(face)
         assert exact.CUBE_TABLE[int(face)] == (signed_axis(sc), signed_axis(tc)), f"face {face}"
+
+
+def _slug(heading: str) -> str:
+    """GitHub's anchor of a heading: lower case, punctuation dropped, spaces to hyphens."""
+    return re.sub(r"[^\w\- ]", "", heading.strip().lower()).replace(" ", "-")
+
+
+def test_links_within_the_documents_resolve():
+    broken = []
+    for rel in tracked(".md"):
+        text = (ROOT / rel).read_text(encoding="utf-8")
+        anchors = {_slug(h) for h in re.findall(r"^#+ (.+)$", text, re.M)}
+        for m in re.finditer(r"\]\(#([^)]+)\)", text):
+            if m.group(1) not in anchors:
+                broken.append(f"{rel}: #{m.group(1)}")
+        for m in re.finditer(r"\]\((?!https?:|#)([^)#]+)", text):
+            if not (ROOT / rel).parent.joinpath(m.group(1)).exists():
+                broken.append(f"{rel}: {m.group(1)}")
+    assert not broken, "links to missing headings or files:\n" + "\n".join(broken)

@@ -114,12 +114,34 @@ def as_float(num, den) -> np.ndarray:
     return num / den
 
 
+#: Relative margin of :func:`within`'s float screen (the float ratio is within ``2**-51`` of the exact one).
+_SCREEN = 2.0 ** -40
+
+
 def within(num, den, bound: Fraction) -> np.ndarray:
-    """Exact test ``num / den <= bound`` for each row."""
+    """Exact test ``num / den <= bound`` for each row (``num >= 0``, ``den > 0``).
+
+    ``int64`` ratios are screened in float64 first: ``float(num) / float(den)`` is within a relative ``2**-51`` of
+    the exact ratio (three roundings of ``2**-53``), so a row whose float ratio is more than a relative
+    :data:`_SCREEN` below (above) ``float(bound)`` is inside (outside) for certain; only the rows in between are
+    decided with exact integers. Object (big-integer) ratios are always decided exactly.
+    """
     bound = Fraction(bound)
-    num = np.asarray(num, dtype=object)
-    den = np.asarray(den, dtype=object)
-    return np.asarray(num * bound.denominator <= den * bound.numerator, dtype=bool)
+    num, den = np.asarray(num), np.asarray(den)
+
+    def exact(n, d):
+        return np.asarray(np.asarray(n, dtype=object) * bound.denominator
+                          <= np.asarray(d, dtype=object) * bound.numerator, dtype=bool)
+
+    if num.dtype == object or den.dtype == object:
+        return exact(num, den)
+    ratio = num / den
+    b = float(bound)
+    inside = ratio <= b * (1 - _SCREEN)
+    unsure = ~inside & (ratio < b * (1 + _SCREEN))
+    if unsure.any():
+        inside[unsure] = exact(num[unsure], den[unsure])
+    return inside
 
 
 def recip_monotone(w, mant, exp) -> dict:

@@ -1,6 +1,6 @@
 """Co-simulation of the reciprocal and divider RTL against the golden model, bit for bit (issue: recip).
 
-Random plus every hard case of the model's docstring for ``default`` and ``rcp24``; the whole input space
+Random plus every hard case of the model's docstring for ``default``, ``rcp24`` and ``rcp32``; the whole input space
 (2**16) of ``small`` in every table mode; the divider on random and hard cases. ``SIM=verilator`` runs the same tests on Verilator.
 """
 
@@ -62,6 +62,14 @@ def test_recip_rcp24_random_and_hard_cases(sim, mode):
     rng = np.random.default_rng(24)
     vectors = np.concatenate([params.hard_cases(), params.random_inputs(rng, 20_000 if mode == "midpoint" else 5000)])
     assert_bit_exact(run(params, vectors, sim=sim, tag=f"rcp24_{mode}"))
+
+
+def test_recip_rcp32_random_and_hard_cases(sim):
+    """The 32-bit input preset (all 2**32 inputs: `make exhaustive-wide`)."""
+    params = preset("recip", "rcp32")
+    rng = np.random.default_rng(32)
+    vectors = np.concatenate([params.hard_cases(), params.random_inputs(rng, 2000)])
+    assert_bit_exact(run(params, vectors, sim=sim, tag="rcp32"))
 
 
 def test_divide_random_and_hard_cases(sim):

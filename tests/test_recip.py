@@ -340,6 +340,24 @@ def test_rcp24_is_faithful_on_all_inputs():
         assert np.all(num < den) and np.all(exact.within(num, den, RCP24.error_bound_ulp)), start
 
 
+# -- rcp32: a 32-bit input; all 2**32 inputs are checked by `make exhaustive-wide` (tools.exhaustive) ----------
+RCP32 = preset("recip", "rcp32")
+
+
+def test_rcp32_preset_is_24_bit_faithful_by_the_bound_from_64_entries():
+    assert RCP32.in_fmt == Fmt(True, 16, 16) and RCP32.p == 24 and RCP32.entries == 64
+    assert RCP32.error_bound_ulp < 1
+    # one Taylor term fewer, or half the entries, is not faithful by the bound (why the preset needs both)
+    assert RCP32.replace(t=3).error_bound_ulp >= 1 and RCP32.replace(m=6).error_bound_ulp >= 1
+
+
+def test_rcp32_hard_cases_and_random_are_faithful():
+    rng = np.random.default_rng(32)
+    w = np.concatenate([RCP32.hard_cases()[:, 0], RCP32.random_inputs(rng, 500_000)[:, 0]])
+    num, den = errors_ulp(RCP32, w)
+    assert np.all(num < den) and np.all(exact.within(num, den, RCP32.error_bound_ulp))
+
+
 @given(recip_params())
 def test_lookup_table_path_equals_direct_datapath(params):
     """The memoized datapath (``_lut``) is the datapath: same codes on every input."""

@@ -15,7 +15,7 @@ SCENE_ARGS = $(if $(filter-out file default undefined,$(origin PRESET) $(origin 
 export PATH := $(CURDIR)/$(VENV)/bin:$(PATH)
 export SIM
 
-.PHONY: setup test verilog sim render bench fpga exhaustive clean help
+.PHONY: setup test verilog sim render bench fpga exhaustive exhaustive-wide clean help
 
 help:
 	@echo "make sim        render SCENE (default tin-plane) through the RTL pipeline, bit-exact check (SIM=icarus|verilator)"
@@ -27,6 +27,8 @@ help:
 	@echo "make fpga       ECP5-85 synthesis, place and route of every unit and preset -> build/fpga/report.{json,md};"
 	@echo "                with PRESET= and/or SCENE=: the pipeline with that preset and the scene's tables"
 	@echo "make exhaustive exhaustive RTL equivalence (streaming co-simulation) -> build/exhaustive/report.json"
+	@echo "make exhaustive-wide  the 2^32-input proof of recip rcp32: model vs exact math, RTL vs model on Verilator"
+	@echo "                (long: Dask, --jobs \$$JOBS local workers or DASK_SCHEDULER_ADDRESS; resumes where it stopped)"
 	@echo "make setup      create .venv, install everything, install iverilog if missing"
 
 setup: $(STAMP) iverilog-check
@@ -70,6 +72,10 @@ exhaustive: setup
 	HYPOTHESIS_PROFILE=thorough $(PY) -m pytest -n $(JOBS) -q -m slow -k "not test_exhaustive_target"
 	$(PY) -m tools.exhaustive --sim verilator
 	$(PY) -m tools.exhaustive --sim icarus --jobs $(JOBS)
+
+# The 2^32 inputs of the 32-bit reciprocal (README, "Long runs on a cluster"): hours on one machine.
+exhaustive-wide: setup
+	$(PY) -m tools.exhaustive --sim exact,verilator --only recip:rcp32 --jobs $(JOBS)
 
 clean:
 	rm -rf build sim_build .pytest_cache .hypothesis

@@ -182,3 +182,23 @@ def test_bram_estimate_counts_blocks_copies_and_distributed_memories():
     assert even.banked and bram_blocks(even) == 4
     tiny = SamplerParams(texels=Texels(np.zeros((1, 8, 8, 2), np.int64)), channels=(s12,) * 2)
     assert bram_blocks(tiny) == 0
+
+
+def test_speculative_search_takes_the_same_path_as_the_sequential_one(presets):
+    """fit judges up to `speculate` candidates of a knob's descent at once (Dask workers with --jobs); the
+    verdicts decide one path, so the preset is the same, only more candidates are rendered."""
+    one = fit(SCENE, max_lsb=3, size=None, name="one", progress=False, passes=1, scene_size=24)
+    three = fit(SCENE, max_lsb=3, size=None, name="three", progress=False, passes=1, scene_size=24, speculate=3)
+    assert three["knobs"] == one["knobs"] and three["final"] == one["final"]
+    assert three["renders"] >= one["renders"]
+
+
+def test_speculation_lists_the_next_candidates_of_a_descent_breadth_first():
+    from tools.fit import _descent, _speculate
+
+    known = {}
+    assert _speculate(16, 8, 0, known.get, 3) == [8, 0, 12]        # now; after ok (8 - 8); after not ok (16 - 4)
+    known.update({8: True, 0: False})
+    assert _descent(16, 8, 0, known.get) == (8, 4, 4)              # 8 kept, 0 refused: next 8 - 4
+    assert _speculate(5, 8, 2, {}.get, 1) == [3]                   # steps below the minimum are skipped
+    assert _descent(2, 1, 2, {}.get)[2] is None                    # nothing left to try

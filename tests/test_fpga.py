@@ -177,3 +177,28 @@ def test_recip_default_meets_150_mhz_on_ecp5_85_speed_8(tmp_path):
     assert rec["latency"] == params.latency
     again = fpga.measure(params, build=tmp_path)
     assert again["cached"] and again["fmax_mhz"] == rec["fmax_mhz"]
+
+
+# -- the router: a flow option ------------------------------------------------------------------------------------------
+@pytest.mark.parametrize("router", fpga.ROUTERS)
+def test_router_is_a_flow_option_on_nextpnr_command_line_and_in_the_cache_key(tmp_path, monkeypatch, router):
+    commands = []
+
+    class Done:
+        returncode = 0
+
+    def fake_run(cmd, **kwargs):
+        commands.append(cmd)
+        return type("Failed", (), {"returncode": 1})() if "nextpnr" in cmd[0] else Done()
+
+    monkeypatch.setattr(fpga.subprocess, "run", fake_run)
+    rec = fpga.measure(preset("recip", "small"), build=tmp_path, flow=fpga.Flow(router=router))
+    assert rec["error"].startswith("nextpnr failed") and rec["router"] == router
+    nextpnr = commands[-1]
+    assert ("--router" in nextpnr) == (router != "router1")        # router1 is nextpnr's default
+    if router != "router1":
+        assert nextpnr[nextpnr.index("--router") + 1] == router
+    # router1 keeps the settings (cache keys) of runs made before the option; router2 is another key
+    assert ("router" in fpga.Flow(router=router).settings()) == (router != "router1")
+    with pytest.raises(ValueError, match="router='router3'"):
+        fpga.Flow(router="router3")

@@ -47,7 +47,8 @@ def main(argv=None) -> int:
     ap.add_argument("--no-sweep", action="store_true", help="skip the design-space sweep (tools.sweep)")
     ap.add_argument("--no-fpga", action="store_true", help="sweep without the ECP5 flow")
     ap.add_argument("--fpga-points", type=int, default=6, help="sweep points placed and routed (0 to 6, cached)")
-    ap.add_argument("--jobs", type=int, default=2, help="FPGA designs placed and routed in parallel")
+    from . import jobs as jobrunner
+    jobrunner.add_arguments(ap, jobs=2, what="sweep points and FPGA designs")
     ap.add_argument("--docs", action="store_true", help="also write docs/img/pareto.png and docs/img/units.png")
     args = ap.parse_args(argv)
     if not 0 <= args.fpga_points <= 6:
@@ -88,7 +89,8 @@ def main(argv=None) -> int:
         return 0
     from . import sweep
     sweep_argv = (["--no-fpga"] if args.no_fpga else ["--fpga-points", str(args.fpga_points)]) + [
-        "--jobs", str(args.jobs), "--out", str(out)] + (["--docs"] if args.docs else [])
+        "--jobs", str(args.jobs), "--out", str(out)] + (["--docs"] if args.docs else []) + (
+        ["--scheduler", args.scheduler] if args.scheduler else [])
     print("\nSpeed against error (python -m tools.sweep):\n")
     return sweep.main(sweep_argv)
 

@@ -15,6 +15,22 @@ present (copy them there from other machines of a batch system), the shards are 
 automatically, or by ``--merge``. ``--jobs N`` runs ``N`` shards of each target at once on this machine. Merged
 records sum ``vectors`` and ``mismatches``.
 
+Running on Dask (:mod:`tools.jobs`)
+-----------------------------------
+Without ``--shard``, each target is cut into pieces of at most :data:`PIECE` vectors (``--pieces`` to choose; a
+multiple of the workers) that run as Dask tasks: ``--jobs N`` single-threaded worker processes on this machine,
+or the workers of the cluster at ``--scheduler`` (``$DASK_SCHEDULER_ADDRESS``). A piece carries its parameter
+object and index range, builds its simulation on its worker (cached there by content) and returns its record;
+the client merges them as the shard files are merged. Each piece's record is stored in
+``build/jobs/exhaustive/`` under a key of unit, parameter object, simulator, RTL digest, input space and range, so
+a rerun after an interruption checks only the missing pieces (``--no-resume`` to redo them). A mismatch in any
+piece is reported with its vectors as a single-process run reports it.
+
+``--sim exact`` is the model side of a proof: the bit-exact model against exact math over the same pieces
+(:mod:`tools.prove`; a *mismatch* is then an output outside the unit's documented error bound).
+``--throughput N`` measures the per-worker rate on ``N`` inputs of each target with 1 and with 2 local workers in
+one run (``build/exhaustive/throughput.json``) and projects the whole space for more workers.
+
 ``seconds`` is the time the check took. For a run on one machine (``--jobs N`` included) that is the wall time; for
 shards merged from their files (``--shard``, perhaps run on several machines at different times) it is the sum of
 the shards' times, what one process would have taken. ``process_seconds`` is always that sum and
@@ -26,6 +42,9 @@ Examples::
     python -m tools.exhaustive --sim verilator --only recip:default --shard 3/8
     python -m tools.exhaustive --merge
     python -m tools.exhaustive --list
+    python -m tools.exhaustive --sim exact,verilator --only recip:rcp32 --jobs 2   # `make exhaustive-wide`
+    python -m tools.exhaustive --sim exact --only recip:rcp32 --throughput 67108864
+    DASK_SCHEDULER_ADDRESS=tcp://head:8786 python -m tools.exhaustive --sim verilator --only recip:rcp32
 
 Exit status: 0 when every record is bit-exact, 1 on any mismatch or valid-protocol error, 2 on a usage error.
 """
@@ -37,16 +56,19 @@ import fcntl
 import json
 import re
 import sys
-import threading
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Callable
 
 from fxmodel.unit import preset
 
 from cosim.harness import ROOT, simulator
-from cosim.stream import Space, full_space, grid_space, parse_shard, run_stream
+from cosim.stream import Space, full_space, grid_space, parse_shard, run_stream, shard_range
+from rtl.digest import params_key
+
+from . import jobs as jobrunner
+from .prove import check_range
 
 __all__ = ["Target", "TARGETS", "target", "run_target", "merge_shards", "update_report", "REPORT", "SHARDS"]
 
@@ -57,6 +79,12 @@ SHARDS = OUT / "shards"
 KEEP = 8
 #: Largest input space a target may check whole without naming a subset (``--full`` overrides).
 FULL_LIMIT = 1 << 32
+#: Most vectors in one Dask task, per simulator (a Verilator piece takes about a minute on a free core).
+PIECE = {"verilator": 1 << 26, "icarus": 1 << 22, "exact": 1 << 25}
+#: Results of finished pieces (resume).
+CACHE = jobrunner.CACHE / "exhaustive"
+#: The model against exact math (tools.prove), beside the HDL simulators.
+EXACT = "exact"
 
 
 @dataclass(frozen=True)
@@ -119,13 +147,16 @@ def _record(t: Target, result: dict, shard: tuple[int, int] | None, full: bool =
     rec = {"unit": t.unit, "preset": t.preset, "simulator": result["simulator"], "vectors": result["vectors"],
            "mismatches": result["mismatches"], "seconds": result["seconds"],
            "vectors_per_second": result["vectors_per_second"], "process_seconds": result["seconds"],
-           "ok": result.ok,
+           "ok": bool(result.ok if hasattr(result, "ok") else result["ok"]),
            "valid_errors": result["valid_errors"], "missing": result["missing"],
            "expected_vectors": result["expected_vectors"], "space": result["space"], "range": result["range"],
            "first": result["first"], "build_seconds": result["build_seconds"],
            "sim_cpu_seconds": result["sim_cpu_seconds"],
            "started": result["started"], "finished": result["finished"],
            "wall_seconds": round(result["finished"] - result["started"], 3)}
+    for k in _EXACT_KEYS:
+        if k in result:
+            rec[k] = result[k]
     if t.why and not full:
         rec["subset"] = t.why
     if shard:
@@ -133,16 +164,77 @@ def _record(t: Target, result: dict, shard: tuple[int, int] | None, full: bool =
     return rec
 
 
+#: Extra fields of a model-against-exact-math record (tools.prove).
+_EXACT_KEYS = ("max_error_ulp", "worst_index", "unfaithful", "bound_ulp")
+
+
+def check(t: Target, sim: str, space: Space, lo: int, hi: int, *, shard: tuple[int, int] | None = None,
+          full: bool = False, progress=None, chunk: int | None = None) -> dict:
+    """The record of rows ``lo..hi`` of ``space`` of target ``t``: streamed through the RTL on ``sim`` against the
+    model, or (``sim == "exact"``) the model against exact math."""
+    if sim == EXACT:
+        result = check_range(t.params(), space, lo, hi)
+    else:
+        kwargs = {"chunk": chunk} if chunk else {}
+        result = run_stream(t.params(), space, sim=sim, lo=lo, hi=hi, progress=progress, **kwargs)
+    return _record(t, result, shard, full)
+
+
 def run_target(t: Target, sim: str, *, shard: tuple[int, int] | None = None, full: bool = False,
                progress=None, chunk: int | None = None) -> dict:
-    """Run one target (or one shard of it) on ``sim``; a shard is also written to its shard file."""
-    kwargs = {"chunk": chunk} if chunk else {}
-    result = run_stream(t.params(), t.make_space(full), sim=sim, shard=shard, progress=progress, **kwargs)
-    rec = _record(t, result, shard, full)
+    """Run one target (or one shard of it) on ``sim`` in this process; a shard is also written to its shard file."""
+    space = t.make_space(full)
+    rec = check(t, sim, space, *shard_range(len(space), shard), shard=shard, full=full, progress=progress,
+                chunk=chunk)
     if shard:
         SHARDS.mkdir(parents=True, exist_ok=True)
         _shard_file(t, sim, *shard).write_text(json.dumps(rec, indent=1))
     return rec
+
+
+@dataclass(frozen=True)
+class Piece:
+    """One Dask task: shard ``shard[0]`` of ``shard[1]`` (rows ``lo..hi`` of ``space``) of a target on ``sim``."""
+
+    target: Target
+    sim: str
+    space: Space
+    lo: int
+    hi: int
+    shard: tuple[int, int]
+    full: bool = False
+    chunk: int | None = None
+
+    def key(self) -> str:
+        """What the piece checks: unit, parameter object, simulator, RTL digest, input space and range."""
+        params = self.target.params()
+        return jobrunner.content_key(self.target.unit, self.target.preset, params, self.sim, params_key(params),
+                                     self.space.describe(), self.lo, self.hi)
+
+    def describe(self) -> str:
+        return (f"{self.target.name} on {self.sim}: piece {self.shard[0]}/{self.shard[1]} "
+                f"(rows {self.lo}..{self.hi})")
+
+
+def run_piece(piece: Piece) -> dict:
+    """The record of one piece (runs on a Dask worker)."""
+    return check(piece.target, piece.sim, piece.space, piece.lo, piece.hi, shard=piece.shard, full=piece.full,
+                 progress=False, chunk=piece.chunk)
+
+
+def pieces(t: Target, sim: str, *, workers: int = 1, count: int | None = None, full: bool = False,
+           chunk: int | None = None, lo: int = 0, hi: int | None = None) -> list[Piece]:
+    """Rows ``lo..hi`` (default: all) of the target cut into ``count`` pieces (default: pieces of at most
+    :data:`PIECE` vectors, a multiple of ``workers``)."""
+    space = t.make_space(full)
+    hi = len(space) if hi is None else hi
+    n = hi - lo
+    if count is None:
+        count = -(-n // PIECE[sim])
+        count = workers * -(-count // workers)
+    count = max(1, min(count, n))
+    return [Piece(t, sim, space, lo + a, lo + b, (i, count), full, chunk)
+            for i, (a, b) in enumerate((shard_range(n, (i, count)) for i in range(1, count + 1)), 1)]
 
 
 def merge_records(recs: list[dict]) -> dict:
@@ -172,7 +264,16 @@ def merge_records(recs: list[dict]) -> dict:
             "build_seconds": max(r["build_seconds"] for r in recs),
             "sim_cpu_seconds": round(sum(r.get("sim_cpu_seconds", 0.0) for r in recs), 3),
             "started": started, "finished": finished,
-            "wall_seconds": round(finished - started, 3), "shards": n}
+            "wall_seconds": round(finished - started, 3), "shards": n, **_merge_exact(recs)}
+
+
+def _merge_exact(recs: list[dict]) -> dict:
+    """The model-against-exact-math fields of merged records: the worst error and where, unfaithful outputs."""
+    if not all("max_error_ulp" in r for r in recs):
+        return {}
+    worst = max(recs, key=lambda r: r["max_error_ulp"])
+    return {"max_error_ulp": worst["max_error_ulp"], "worst_index": worst["worst_index"],
+            "unfaithful": sum(r["unfaithful"] for r in recs), "bound_ulp": worst["bound_ulp"]}
 
 
 _SHARD_RE = re.compile(r"^(?P<unit>.+)-(?P<preset>[^-]+)-(?P<sim>[^-]+)-(?P<i>\d+)of(?P<n>\d+)\.json$")
@@ -220,7 +321,7 @@ def table(records: list[dict]) -> str:
     head = ("unit", "preset", "simulator", "vectors", "mismatches", "seconds", "vectors/s", "wall s", "result")
     rows = [(r["unit"], r["preset"], r["simulator"], f"{r['vectors']:,}", f"{r['mismatches']:,}",
              f"{r['seconds']:.1f}", f"{r['vectors_per_second']:,.0f}", f"{r['wall_seconds']:.1f}",
-             "bit-exact" if r["ok"] else "FAIL") for r in records]
+             ("within bound" if r["simulator"] == EXACT else "bit-exact") if r["ok"] else "FAIL") for r in records]
     widths = [max(len(str(x)) for x in col) for col in zip(head, *rows)]
     fmt = lambda row: "  ".join(str(x).rjust(w) if i >= 3 else str(x).ljust(w)  # noqa: E731
                                 for i, (x, w) in enumerate(zip(row, widths)))
@@ -235,55 +336,80 @@ def _failures(records: list[dict]) -> str:
         out.append(f"{r['unit']}:{r['preset']} on {r['simulator']}: {r['mismatches']} mismatches, "
                    f"{r['valid_errors']} valid-protocol errors, {r['missing']} missing outputs, "
                    f"{r['vectors']} of {r['expected_vectors']} vectors compared")
-        out += [f"  index {f['index']}: inputs {f['inputs']} rtl {f['rtl']} model {f['model']}" for f in r["first"]]
+        out += [f"  index {f['index']}: inputs {f['inputs']} model {f['model']} error {f['error_ulp']:.6f} ulp "
+                f"> bound {f['bound_ulp']:.6f}" if "error_ulp" in f else
+                f"  index {f['index']}: inputs {f['inputs']} rtl {f['rtl']} model {f['model']}" for f in r["first"]]
     return "\n".join(out)
 
 
-def _run_jobs(t: Target, sim: str, jobs: int, full: bool, chunk: int | None) -> dict:
-    """Run ``jobs`` shards of a target at once (threads; each drives its own simulator process) and merge."""
-    from tqdm import tqdm
-
-    space = t.make_space(full)
-    bar = tqdm(total=len(space), desc=f"{t.name} {sim}", unit="vec", unit_scale=True, smoothing=0.1)
-    if jobs == 1:
-        try:
-            return run_target(t, sim, full=full, progress=bar, chunk=chunk)
-        finally:
-            bar.close()
-    recs, errors = [None] * jobs, []
-
-    def one(i):
-        try:
-            recs[i - 1] = run_target(t, sim, shard=(i, jobs), full=full, progress=bar, chunk=chunk)
-        except BaseException as exc:
-            errors.append(exc)
-
-    threads = [threading.Thread(target=one, args=(i,)) for i in range(1, jobs + 1)]
-    for th in threads:
-        th.start()
-        time.sleep(0.2)                                  # the first takes the build lock
-    for th in threads:
-        th.join()
-    bar.close()
-    if errors:
-        raise errors[0]
-    for i in range(1, jobs + 1):
-        _shard_file(t, sim, i, jobs).unlink(missing_ok=True)
+def run_dask(t: Target, sim: str, *, jobs: int = 1, scheduler: str | None = None, full: bool = False,
+             chunk: int | None = None, count: int | None = None, resume: bool = True, client=None,
+             progress: bool = True) -> dict:
+    """Run a whole target as Dask tasks (:mod:`tools.jobs`) and merge the pieces' records; ``seconds`` is the
+    wall time of this run (``resumed`` counts the pieces taken from the cache of an earlier run)."""
+    ps = pieces(t, sim, workers=jobs, count=count, full=full, chunk=chunk)
+    done = []
+    t0 = time.perf_counter()
+    recs = jobrunner.run_pieces(run_piece, ps, jobs=jobs, scheduler=scheduler, key=Piece.key if resume else None,
+                                cache=CACHE if resume else None, vectors=lambda p: p.hi - p.lo,
+                                describe=Piece.describe, desc=f"{t.name} {sim}", progress=progress,
+                                callback=lambda i, r: done.append(i), client=client)
+    wall = time.perf_counter() - t0
     rec = merge_records(recs)
-    # the shards ran side by side here: the run took the wall time
-    rec["seconds"] = rec["wall_seconds"]
-    rec["vectors_per_second"] = rec["vectors"] / rec["seconds"] if rec["seconds"] else 0.0
+    rec["resumed"] = len(ps) - len(done)
+    rec["workers"] = jobs if client is None and not jobrunner.scheduler_address(scheduler) else None
+    # the pieces ran side by side: the run took the wall time
+    rec["seconds"] = round(wall, 3)
+    rec["vectors_per_second"] = rec["vectors"] / wall if wall else 0.0
     return rec
+
+
+def throughput(t: Target, sim: str, vectors: int, *, workers=(1, 2), full: bool = False, lo: int | None = None,
+               progress: bool = True) -> dict:
+    """Per-worker rate of ``sim`` on ``vectors`` rows of target ``t`` (from the middle of its space unless
+    ``lo``) with each count of local ``workers``, one after the other in this run, each on a cluster started
+    (and warmed up: imports, build) before the clock starts; the same ``2 * max(workers)`` pieces each time.
+    Returns the rates, the speed-up over the first count and the projected wall time of the whole space."""
+    space = t.make_space(full)
+    lo = (len(space) - vectors) // 2 if lo is None else lo
+    count = 2 * max(workers)
+    runs = []
+    for n in workers:
+        with jobrunner.cluster(n) as client:
+            warm = pieces(t, sim, workers=n, count=n, full=full, lo=lo, hi=lo + 1024 * n)
+            jobrunner.run_pieces(run_piece, warm, client=client, progress=False)
+            ps = pieces(t, sim, count=count, full=full, lo=lo, hi=lo + vectors)
+            t0 = time.perf_counter()
+            recs = jobrunner.run_pieces(run_piece, ps, client=client, progress=progress, desc=f"{n} worker(s)",
+                                        vectors=lambda p: p.hi - p.lo)
+            wall = time.perf_counter() - t0
+        ok = all(r["ok"] for r in recs)
+        runs.append({"workers": n, "vectors": vectors, "seconds": round(wall, 3), "vectors_per_second": vectors / wall,
+                     "per_worker": vectors / wall / n, "ok": ok,
+                     "cpu_seconds": round(sum(r["sim_cpu_seconds"] for r in recs), 3)})
+    base = runs[0]["vectors_per_second"]
+    for r in runs:
+        r["speedup"] = round(r["vectors_per_second"] / base, 3)
+    rate = max(r["per_worker"] for r in runs)   # the per-worker rate the machine gave (the best of the runs)
+    return {"unit": t.unit, "preset": t.preset, "simulator": sim, "space": len(space), "range": [lo, lo + vectors],
+            "pieces": count, "runs": runs, "per_worker_rate": rate,
+            "projected_seconds": {str(n): round(len(space) / (rate * n), 1) for n in (1, 2, 8, 32, 128)}}
 
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(prog="python -m tools.exhaustive", description=__doc__.split("\n")[0],
                                  formatter_class=argparse.RawDescriptionHelpFormatter,
                                  epilog=__doc__[__doc__.index("Sharding"):])
-    ap.add_argument("--sim", default="icarus,verilator", help="comma-separated simulators (default: %(default)s)")
+    ap.add_argument("--sim", default="icarus,verilator",
+                    help="comma-separated simulators, or exact (the model against exact math) (default: %(default)s)")
     ap.add_argument("--only", default="", help="comma-separated targets UNIT[:PRESET] (default: all of TARGETS)")
     ap.add_argument("--shard", help="run only shard i of N (1-based) of each target, e.g. 2/8")
-    ap.add_argument("--jobs", type=int, default=1, help="shards run at once on this machine (default: 1)")
+    jobrunner.add_arguments(ap, what="pieces of each target")
+    ap.add_argument("--pieces", type=int, help="Dask tasks per target (default: pieces of at most PIECE vectors, a "
+                                               "multiple of --jobs)")
+    ap.add_argument("--no-resume", action="store_true", help="recheck pieces stored by an earlier run")
+    ap.add_argument("--throughput", type=int, metavar="N",
+                    help="measure the rate on N inputs of each target with 1 and 2 local workers, and project")
     ap.add_argument("--merge", action="store_true", help="only merge complete sets of shard files into the report")
     ap.add_argument("--full", action="store_true", help="every input of every target, not a documented subset")
     ap.add_argument("--chunk", type=int, help="vectors per $readmemh chunk (default: cosim.stream.CHUNK)")
@@ -298,12 +424,28 @@ def main(argv=None) -> int:
         shard = parse_shard(args.shard) if args.shard else None
         if args.jobs < 1:
             raise ValueError(f"--jobs {args.jobs}: must be >= 1")
-        if shard and args.jobs > 1:
-            raise ValueError("--shard and --jobs > 1 do not combine: give each process its own --shard")
-        sims = [] if args.merge else [simulator(s.strip()) for s in args.sim.split(",") if s.strip()]
+        if shard and (args.jobs > 1 or args.scheduler):
+            raise ValueError("--shard does not combine with --jobs > 1 or --scheduler: give each process its own "
+                             "--shard, or let the Dask cluster run the pieces")
+        sims = [] if args.merge else [s.strip() if s.strip() == EXACT else simulator(s.strip())
+                                      for s in args.sim.split(",") if s.strip()]
+        if args.pieces is not None and args.pieces < 1:
+            raise ValueError(f"--pieces {args.pieces}: must be >= 1")
     except (ValueError, RuntimeError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
+    if args.throughput:
+        out = [throughput(t, sim, args.throughput, full=args.full) for t in targets for sim in sims]
+        OUT.mkdir(parents=True, exist_ok=True)
+        (OUT / "throughput.json").write_text(json.dumps(out, indent=1))
+        for r in out:
+            runs = ", ".join(f"{x['workers']} worker(s) {x['vectors_per_second']:,.0f} vectors/s "
+                             f"({x['seconds']:.1f} s, x{x['speedup']:.2f})" for x in r["runs"])
+            proj = ", ".join(f"{n}: {s / 60:,.1f} min" for n, s in r["projected_seconds"].items())
+            print(f"{r['unit']}:{r['preset']} {r['simulator']}: {runs}; all {r['space']:,} inputs projected "
+                  f"(workers: time) {proj}" + ("" if all(x["ok"] for x in r["runs"]) else "  FAIL"))
+        print(f"(throughput: {OUT / 'throughput.json'})")
+        return 0 if all(x["ok"] for r in out for x in r["runs"]) else 1
     if args.merge:
         records = merge_shards()
         if not records:
@@ -317,7 +459,8 @@ def main(argv=None) -> int:
                     print(f"{t.name} on {sim}: shard {shard[0]}/{shard[1]}", flush=True)
                     run_target(t, sim, shard=shard, full=args.full, progress=True, chunk=args.chunk)
                 else:
-                    records.append(_run_jobs(t, sim, args.jobs, args.full, args.chunk))
+                    records.append(run_dask(t, sim, jobs=args.jobs, scheduler=args.scheduler, full=args.full,
+                                            chunk=args.chunk, count=args.pieces, resume=not args.no_resume))
         if shard:
             records = merge_shards()
             if not records:

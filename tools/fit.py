@@ -158,8 +158,115 @@ def _savings(new: dict, old: dict) -> dict:
             for k in new if isinstance(new[k], int) and k in old}
 
 
+@dataclasses.dataclass(frozen=True)
+class Candidate:
+    """One Dask task of the search: render a candidate preset at the screening sizes and judge it."""
+
+    scene: object
+    knobs: tuple                    # sorted (knob, value) pairs
+    base: tuple                     # sorted (unit, params) pairs of the starting preset
+    sizes: tuple                    # square sizes of the renders ((w, h) or None for the scene's own)
+    ref: tuple                      # per size: (max LSB vs (a), clamped inputs, max LSB vs (b)) of the start
+    max_lsb: int
+
+    def describe(self) -> str:
+        return f"fit candidate {dict(self.knobs)}"
+
+
+def check_candidate(c: Candidate) -> dict:
+    """``{"ok", "renders"}``: whether the candidate stays within ``max_lsb`` of reference (a) on every pixel, no
+    more than ``max_lsb`` further from reference (b) than the start, and clamps no more fragment inputs than the
+    start, at every size (stopping at the first size that fails). A candidate that makes an invalid unit
+    (``ValueError``, ``TypeError``) is not ok."""
+    from fxmodel.render import prepare, render
+
+    renders = 0
+    try:
+        units = units_of(dict(c.knobs), dict(c.base))
+        for at, (lsb_a, clamped_ref, lsb_b) in zip(c.sizes, c.ref):
+            renders += 1
+            frame = prepare(c.scene if at is None else c.scene.with_size(*at), preset=units)
+            rep = render(frame)
+            clamped = sum(frame.stats["clamped_fragment_inputs"].values())
+            if rep["max_lsb_vs_float"] > c.max_lsb or clamped > clamped_ref or rep["max_lsb_vs_ideal"] > lsb_b + c.max_lsb:
+                return {"ok": False, "renders": renders}
+    except (ValueError, TypeError):
+        return {"ok": False, "renders": renders}
+    return {"ok": True, "renders": renders}
+
+
+def _descent(value: int, step: int, low: int, verdict) -> tuple[int, int, int | None]:
+    """Advance one knob's descent (in :func:`fit`: try ``value - step``; keep it if ok, else halve the step)
+    through the verdicts known so far: ``(value, step, candidate)``, ``candidate`` the first value whose verdict
+    ``verdict(v)`` (True, False or None) is unknown, or ``None`` when the descent is over."""
+    while step >= 1:
+        cand = value - step
+        if cand < low:
+            step //= 2
+            continue
+        ok = verdict(cand)
+        if ok is None:
+            return value, step, cand
+        if ok:
+            value = cand
+        else:
+            step //= 2
+    return value, step, None
+
+
+def _speculate(value: int, step: int, low: int, verdict, width: int) -> list[int]:
+    """Up to ``width`` values whose verdicts the descent may need next: the one it needs now, then those it needs
+    after either answer, breadth first (so that ``width`` workers judge them at once)."""
+    out, queue = [], [(value, step)]
+    while queue and len(out) < width:
+        v, s = queue.pop(0)
+        v, s, cand = _descent(v, s, low, verdict)
+        if cand is None or cand in out:
+            continue
+        out.append(cand)
+        queue += [(cand, s), (v, s // 2)]            # after "ok", after "not ok"
+    return out
+
+
+def _search(base, ranges, ok, judge, verdicts, width: int, passes: int, progress: bool, name: str, renders):
+    """The greedy coordinate descent of :func:`fit` (its docstring); ``judge`` evaluates up to ``width``
+    speculative candidates of a knob's descent at once (:func:`_speculate`), ``verdicts`` holds every answer, so
+    the path taken, and the result, is the same for any ``width``."""
+    from tqdm import tqdm
+
+    start = knobs_of(base)
+    k = dict(start)
+    # integer bits from the measured ranges (only where that narrows; the render check decides)
+    for knob, rng in (("uv_int", ranges["max_abs_uv"]), ("a_int", ranges["max_abs_A"]),
+                      ("e_int", ranges["max_abs_E"])):
+        want = _int_bits(rng)
+        if want < k[knob] and ok({**k, knob: want}):
+            k[knob] = want
+    order = list(KNOB_STEPS)
+    bar = tqdm(total=passes * len(order), desc=f"fit {name}", disable=not progress, unit="knob")
+    for pass_ in range(passes):
+        for knob in order:
+            low = KNOB_MIN.get(knob, 0)
+
+            def verdict(v, knob=knob):
+                return verdicts.get(tuple(sorted({**k, knob: v}.items())))
+
+            value, step = k[knob], KNOB_STEPS[knob] if pass_ == 0 else 1
+            while True:
+                value, step, cand = _descent(value, step, low, verdict)
+                if cand is None:
+                    break
+                judge([{**k, knob: v} for v in _speculate(value, step, low, verdict, width)])
+            k[knob] = value
+            bar.set_postfix_str(f"{knob}={k[knob]} renders={renders()}")
+            bar.update(1)
+    bar.close()
+    return k, start, order
+
+
 def fit(scene, *, max_lsb: int = 1, size: int | None = 64, cube_size: int | None = None, name: str | None = None,
-        directory=None, progress: bool = True, passes: int = 2, scene_size: int | None = None) -> dict:
+        directory=None, progress: bool = True, passes: int = 2, scene_size: int | None = None, jobs: int = 1,
+        scheduler: str | None = None, speculate: int | None = None) -> dict:
     """Search the smallest formats and table sizes for which ``scene`` stays within ``max_lsb`` of reference (a).
 
     Greedy coordinate descent from the ``default`` preset over :data:`KNOB_STEPS`: each step lowers one knob
@@ -193,6 +300,11 @@ def fit(scene, *, max_lsb: int = 1, size: int | None = 64, cube_size: int | None
         Passes over the knobs (later passes use 1-bit steps).
     scene_size : int, optional
         Render the scene at this square size instead of its own as the "full size" (for quick runs and tests).
+    jobs, scheduler
+        Judge candidates as Dask tasks (:mod:`tools.jobs`): on a local cluster of ``jobs`` worker processes, or on
+        the cluster at ``scheduler``. The search is sequential, so the workers judge the candidates a knob's
+        descent may need next (:func:`_speculate`, ``speculate`` of them, default ``jobs``) at once; the answers
+        decide the same path, so the preset is the same for any ``jobs``.
 
     Returns
     -------
@@ -206,9 +318,12 @@ def fit(scene, *, max_lsb: int = 1, size: int | None = 64, cube_size: int | None
         If the ``default`` preset itself misses ``max_lsb`` on this scene.
     """
     import time
-    from tqdm import tqdm
+    from contextlib import nullcontext
+
     from fxmodel.render import prepare, render
     from fxmodel.scene import load_scene
+
+    from . import jobs as jobrunner
 
     t0 = time.perf_counter()
     if not hasattr(scene, "materials"):
@@ -243,45 +358,30 @@ def fit(scene, *, max_lsb: int = 1, size: int | None = 64, cube_size: int | None
     ranges = measure_ranges(full_frame)
     default_hw = hardware(base, full_frame.params)
 
+    verdicts: dict[tuple, bool] = {}
+    remote = jobs > 1 or bool(jobrunner.scheduler_address(scheduler))
+    width = max(1, speculate if speculate is not None else (jobs if remote else 1))
+
+    def judge(cands: list[dict]) -> None:
+        """Verdicts of candidate knob sets, as Dask tasks (in this process without a cluster)."""
+        nonlocal renders
+        todo = [c for c in {tuple(sorted(c.items())): c for c in cands} if c not in verdicts]
+        pieces = [Candidate(scene, c, tuple(sorted(base.items())), tuple(sizes), tuple(ref[at] for at in sizes),
+                            max_lsb) for c in todo]
+        for c, out in zip(todo, jobrunner.run_pieces(check_candidate, pieces, client=client, progress=False,
+                                                     describe=Candidate.describe)):
+            verdicts[c] = out["ok"]
+            renders += out["renders"]
+
     def ok(k) -> bool:
-        try:
-            units = units_of(k, base)
-            for at in sizes:
-                frame, rep = run(units, at)
-                clamped = sum(frame.stats["clamped_fragment_inputs"].values())
-                if (rep["max_lsb_vs_float"] > max_lsb or clamped > ref[at][1]
-                        or rep["max_lsb_vs_ideal"] > ref[at][2] + max_lsb):
-                    return False
-        except (ValueError, TypeError):
-            return False
-        return True
+        judge([k])
+        return verdicts[tuple(sorted(k.items()))]
 
-    start = knobs_of(base)
-    k = dict(start)
-    # integer bits from the measured ranges (only where that narrows; the render check decides)
-    for knob, rng in (("uv_int", ranges["max_abs_uv"]), ("a_int", ranges["max_abs_A"]),
-                      ("e_int", ranges["max_abs_E"])):
-        want = _int_bits(rng)
-        if want < k[knob] and ok({**k, knob: want}):
-            k[knob] = want
-    order = list(KNOB_STEPS)
-    bar = tqdm(total=passes * len(order), desc=f"fit {scene.name}", disable=not progress, unit="knob")
-    for pass_ in range(passes):
-        for knob in order:
-            step = KNOB_STEPS[knob] if pass_ == 0 else 1
-            while step >= 1:
-                cand = k[knob] - step
-                if cand < KNOB_MIN.get(knob, 0):
-                    step //= 2
-                    continue
-                if ok({**k, knob: cand}):
-                    k[knob] = cand
-                else:
-                    step //= 2
-            bar.set_postfix_str(f"{knob}={k[knob]} renders={renders}")
-            bar.update(1)
-    bar.close()
-
+    cluster = jobrunner.cluster(jobs, scheduler) if remote else nullcontext()
+    with cluster as client:
+        k, start, order = _search(base, ranges, ok, judge, verdicts, width, passes, progress, scene.name,
+                                  lambda: renders)
+    k = dict(k)
     units = units_of(k, base)
     frame, rep = run(units, None)
     if rep["max_lsb_vs_float"] > max_lsb:              # cannot happen: every accepted step was checked at full size

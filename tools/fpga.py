@@ -39,12 +39,13 @@ import shutil
 import subprocess
 import sys
 import time
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import asdict, dataclass
 from importlib import metadata
 from pathlib import Path
 
 from rtl.digest import ROOT, params_key, text_key
+
+from . import jobs as jobrunner
 
 __all__ = ["Flow", "FLOW", "TARGET_MHZ", "target_mhz", "design_list", "measure", "run_designs",
            "parse_results", "critical_path_summary", "markdown_table", "scene_hint", "main"]
@@ -75,12 +76,17 @@ class Flow:
         Package name.
     seed : int
         Placer seed (fixed so that results are reproducible; Fmax varies by a few percent between seeds).
+    router : str
+        nextpnr's router (:data:`ROUTERS`): ``router1``, nextpnr's default, for the figures the README reports
+        (``make fpga``); ``router2`` (:data:`QUICK`) for sweep points and quick checks. Measured (README, "Place
+        and route"): router2 routes several times faster for a few percent lower Fmax.
     """
 
     device: str = "85k"
     speed: int = 8
     package: str = "CABGA381"
     seed: int = 1
+    router: str = "router1"
 
     def __post_init__(self):
         if self.device not in ("12k", "25k", "45k", "85k", "um-25k", "um-45k", "um-85k",
@@ -90,9 +96,24 @@ class Flow:
             raise ValueError(f"speed={self.speed!r}: ECP5 speed grades are 6, 7 and 8")
         if not isinstance(self.seed, int) or self.seed < 1:
             raise ValueError(f"seed={self.seed!r}: must be a positive int")
+        if self.router not in ROUTERS:
+            raise ValueError(f"router={self.router!r}: nextpnr's routers are {', '.join(ROUTERS)}")
+
+    def settings(self) -> dict:
+        """The settings that enter the cache keys. ``router1`` is nextpnr's default (its command line has no
+        ``--router``), so it is left out of the key: runs made before the option existed stay valid."""
+        out = asdict(self)
+        if self.router == "router1":
+            del out["router"]
+        return out
 
 
+#: nextpnr's routers.
+ROUTERS = ("router1", "router2")
+#: The flow of the README's figures (``make fpga``): nextpnr's default router1.
 FLOW = Flow()
+#: The flow of sweep points and quick checks: router2 (several times faster; README, "Place and route").
+QUICK = Flow(router="router2")
 
 
 def _device_name(option: str) -> str:
@@ -212,7 +233,7 @@ def _port_bits(params) -> int:
 
 def _settings(params, flow: Flow, freq: float) -> dict:
     mode = "io" if _port_bits(params) <= PACKAGE_IO else "out-of-context"
-    return {**asdict(flow), "freq_mhz": freq, "mode": mode, "tools": tool_versions()}
+    return {**flow.settings(), "freq_mhz": freq, "mode": mode, "tools": tool_versions()}
 
 
 def _run_tools(rdir: Path, top: str, settings: dict) -> dict:
@@ -230,6 +251,8 @@ def _run_tools(rdir: Path, top: str, settings: dict) -> dict:
            "--log", "nextpnr.log", "--quiet"]
     if settings["mode"] == "out-of-context":
         cmd.append("--out-of-context")
+    if settings.get("router", "router1") != "router1":
+        cmd += ["--router", settings["router"]]
     res = subprocess.run(cmd, cwd=rdir, capture_output=True, text=True)
     if res.returncode:
         return {"error": f"nextpnr failed ({res.returncode}), see {rdir / 'nextpnr.log'}"}
@@ -249,6 +272,7 @@ class _Job:
     top: str = ""
     result: dict | None = None
     cached: bool = False
+    text: str = ""
 
 
 def _prepare(label: dict, params, flow: Flow, freq: float | None, build: Path, use_cache: bool) -> _Job:
@@ -274,14 +298,38 @@ def _prepare(label: dict, params, flow: Flow, freq: float | None, build: Path, u
         job.result, job.cached = json.loads((rdir / "result.json").read_text()), True
     else:
         (rdir / f"{top}.v").write_text(text)
+        job.text = text
     return job
 
 
-def _execute(job: _Job) -> dict:
-    """Run the tools for ``job`` (no cached result) and store a successful result."""
-    result = _run_tools(job.rdir, job.top, job.settings)
+@dataclass(frozen=True)
+class PlaceAndRoute:
+    """One Dask task of the flow: everything a worker needs (no shared file system with the client)."""
+
+    run: str            # run folder (its name is the content key of the Verilog and the settings)
+    top: str
+    text: str           # the Verilog
+    settings: dict
+
+    def describe(self) -> str:
+        return f"place and route of {Path(self.run).name}"
+
+
+def place_and_route(piece: PlaceAndRoute) -> dict:
+    """yosys and nextpnr for one design, in the run folder of the worker's machine (cached there by content:
+    a folder with a ``result.json`` is not run again); returns the parsed results."""
+    rdir = Path(piece.run)
+    if not rdir.is_relative_to(ROOT) and not rdir.parent.exists():
+        rdir = BUILD / "runs" / rdir.name                # another machine's layout: this checkout's build folder
+    rdir.mkdir(parents=True, exist_ok=True)
+    if (rdir / "result.json").exists():
+        return json.loads((rdir / "result.json").read_text())
+    verilog = rdir / f"{piece.top}.v"
+    if not verilog.exists() or verilog.read_text() != piece.text:
+        verilog.write_text(piece.text)
+    result = _run_tools(rdir, piece.top, piece.settings)
     if "error" not in result:
-        (job.rdir / "result.json").write_text(json.dumps(result, indent=2))
+        (rdir / "result.json").write_text(json.dumps(result, indent=2))
     return result
 
 
@@ -301,6 +349,7 @@ def _finish(job: _Job) -> dict:
               "critical_path": res.get("critical_path"), "mode": job.settings["mode"],
               "device": f"{_device_name(job.settings['device'])} speed {job.settings['speed']} "
                         f"{job.settings['package']}", "seed": job.settings["seed"],
+              "router": job.settings.get("router", "router1"), "flow_seconds": res.get("flow_seconds"),
               "yosys_cells": res.get("yosys"), "cached": job.cached, "run": str(job.rdir.relative_to(ROOT))
               if job.rdir.is_relative_to(ROOT) else str(job.rdir)}
     if "error" in res:
@@ -309,39 +358,37 @@ def _finish(job: _Job) -> dict:
 
 
 def run_designs(designs, *, flow: Flow = FLOW, freq: float | None = None, jobs: int = 1, build: Path = BUILD,
-                use_cache: bool = True, progress: bool = True) -> list[dict]:
+                use_cache: bool = True, progress: bool = True, scheduler: str | None = None) -> list[dict]:
     """Run the flow on ``designs``, an iterable of ``(label, params)`` (``label`` a dict such as
     ``{"unit": "recip", "preset": "default"}``, copied into the record); results in the same order.
 
-    ``freq`` overrides every design's target; ``jobs`` designs are placed and routed in parallel.
+    ``freq`` overrides every design's target. The place-and-route runs are Dask tasks (:mod:`tools.jobs`):
+    ``jobs`` at once on a local cluster (one core each), or on the cluster at ``scheduler``; each distinct Verilog
+    and settings runs once.
     """
     from tqdm import tqdm
 
     designs = list(designs)
-    bar = tqdm(total=len(designs), desc="fpga", unit="design", disable=not progress)
     prepared = []
-    for label, params in designs:                  # Verilog generation: sequential, in this thread
-        bar.set_postfix_str(f"verilog {'/'.join(str(v) for v in label.values())}")
-        prepared.append(_prepare(label, params, flow, freq, build, use_cache))
+    for label, params in tqdm(designs, desc="fpga verilog", unit="design", disable=not progress or len(designs) < 2):
+        prepared.append(_prepare(label, params, flow, freq, build, use_cache))   # sequential: Amaranth
     runs = {}                                      # one tool run per distinct Verilog and settings
     for job in prepared:
         if job.result is None:
             runs.setdefault(job.rdir, job)
-    bar.set_postfix_str(f"place and route {len(runs)} of {len(designs)}")
-    bar.update(len(designs) - len(runs))
-
-    def work(job):
-        out = _execute(job)
-        bar.update(1)
-        return out
-
-    with ThreadPoolExecutor(max_workers=max(1, jobs)) as pool:
-        results = dict(zip(runs, pool.map(work, runs.values())))
+    pieces = [PlaceAndRoute(str(job.rdir), job.top, job.text, job.settings) for job in runs.values()]
+    out = jobrunner.run_pieces(place_and_route, pieces, jobs=jobs, scheduler=scheduler,
+                               describe=PlaceAndRoute.describe, desc="place and route", progress=progress,
+                               retries=0)                  # a tool failure is a result ("error"), not a fault
+    results = dict(zip(runs, out))
+    for rdir, result in results.items():
+        if "error" not in result and not (rdir / "result.json").exists():   # run on another machine
+            rdir.mkdir(parents=True, exist_ok=True)
+            (rdir / "result.json").write_text(json.dumps(result, indent=2))
     for job in prepared:
         if job.result is None:
             job.result = results[job.rdir]
             job.cached = runs[job.rdir] is not job
-    bar.close()
     return [_finish(job) for job in prepared]
 
 
@@ -433,13 +480,15 @@ def main(argv=None) -> int:
     ap.add_argument("--scene", help="the pipeline with this scene's tables (name in scenes/ or a .toml file)")
     ap.add_argument("--freq", type=float, help="override every design's target (MHz)")
     ap.add_argument("--seed", type=int, default=FLOW.seed, help="placer seed (default: %(default)s)")
-    ap.add_argument("--jobs", type=int, default=1, help="designs placed and routed in parallel")
+    ap.add_argument("--router", choices=ROUTERS, default=FLOW.router,
+                    help="nextpnr router (default: %(default)s, for the README's figures; router2 routes faster)")
+    jobrunner.add_arguments(ap, what="designs placed and routed")
     ap.add_argument("--out", default=str(BUILD), help="output folder (default: build/fpga)")
     ap.add_argument("--no-cache", action="store_true", help="rerun every tool")
     args = ap.parse_args(argv)
     try:
         designs = design_list(args.unit, args.preset, scene=args.scene)
-        flow = Flow(seed=args.seed)
+        flow = Flow(seed=args.seed, router=args.router)
     except ValueError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
@@ -448,12 +497,13 @@ def main(argv=None) -> int:
         return 2
     out = Path(args.out)
     records = run_designs(designs, flow=flow, freq=args.freq, jobs=args.jobs, build=out,
-                          use_cache=not args.no_cache)
+                          use_cache=not args.no_cache, scheduler=args.scheduler)
     out.mkdir(parents=True, exist_ok=True)
     (out / "report.json").write_text(json.dumps({"flow": asdict(flow), "tools": tool_versions(),
                                                  "designs": records}, indent=2))
     table = markdown_table(records)
-    (out / "report.md").write_text(f"ECP5 {records[0]['device']}, seed {flow.seed}, `python -m tools.fpga`; "
+    (out / "report.md").write_text(f"ECP5 {records[0]['device']}, seed {flow.seed}, {flow.router}, "
+                                   "`python -m tools.fpga`; "
                                    "one result per clock.\n\n" + table + "\n")
     print(table)
     print(f"\n(written to {out / 'report.json'} and {out / 'report.md'})")

@@ -1,7 +1,7 @@
 r"""Design-space sweep: speed against error of the reciprocal, the other units' widths and the pipeline.
 
 ``python -m tools.sweep [--no-fpga] [--fpga-points N] [--unit-fpga-points N] [--unit-samples K] [--no-units]
-[--no-pipeline] [--jobs J] [--docs]`` (second phase of ``make bench``) measures the reciprocal grid below, the
+[--no-pipeline] [--jobs J] [--scheduler ADDRESS] [--docs]`` (second phase of ``make bench``) measures the reciprocal grid below, the
 unit-width families and pipeline points of :mod:`tools.sweep_units` (perspective, cube, reflection and bump units:
 error against exact math, cost, latency, throughput, ECP5 results for each unit's default preset and the cheapest
 point of its front; pipeline presets rendered through the bit-exact model: PSNR and largest error against the float
@@ -51,6 +51,7 @@ import math
 import platform
 import sys
 import time
+from dataclasses import dataclass
 from fractions import Fraction
 from pathlib import Path
 
@@ -210,11 +211,11 @@ def _unit_fpga_subset(records, front, limit: int) -> list[int]:
     return chosen[:limit]
 
 
-def _run_fpga(records, grid, idx, jobs: int, progress: bool) -> None:
+def _run_fpga(records, grid, idx, jobs: int, progress: bool, scheduler: str | None = None) -> None:
     try:
-        from tools.fpga import run_designs
+        from tools.fpga import QUICK, run_designs
         results = run_designs([({"unit": records[i]["unit"], "preset": records[i]["name"]}, grid[i][2]) for i in idx],
-                              jobs=jobs, progress=progress)
+                              flow=QUICK, jobs=jobs, progress=progress, scheduler=scheduler)
     except Exception as exc:                       # a broken tool or RTL must not lose the model results
         print(f"sweep: FPGA flow failed: {exc!r}", file=sys.stderr)
         for i in idx:
@@ -223,6 +224,27 @@ def _run_fpga(records, grid, idx, jobs: int, progress: bool) -> None:
     for i, res in zip(idx, results):
         records[i]["fpga"] = {k: res.get(k) for k in ("LUT4", "FF", "DSP", "BRAM", "fmax_mhz", "target_mhz",
                                                       "met", "cached", "run", "error") if k in res}
+
+
+@dataclass(frozen=True)
+class SweepPoint:
+    """One Dask task of the sweep: a unit point (``kind`` ``recip`` or ``unit``: name, family, parameter object) or
+    a pipeline point (``pipeline``: name, units, knob changes), with the measurement's keyword arguments."""
+
+    kind: str
+    args: tuple
+    kwargs: tuple = ()
+
+    def describe(self) -> str:
+        return f"sweep point {self.args[0]} ({self.kind})"
+
+
+def measure_sweep_point(point: SweepPoint) -> dict:
+    """The record of one sweep point (runs on a Dask worker)."""
+    from . import sweep_units as su
+
+    fn = {"recip": measure_point, "unit": su.measure_unit_point, "pipeline": su.measure_pipeline_point}[point.kind]
+    return fn(*point.args, **dict(point.kwargs))
 
 
 def _groups(records) -> dict:
@@ -235,7 +257,8 @@ def _groups(records) -> dict:
 
 def sweep(grid=None, *, pipeline=None, scene=None, scene_size: int | None = None, exhaustive_limit: int = 1 << 24,
           samples: int = 10 ** 6, unit_samples: int | None = None, dsp_weight: float = 1024.0,
-          fpga_points: int = 0, unit_fpga_points: int = 0, jobs: int = 1, progress: bool = True) -> dict:
+          fpga_points: int = 0, unit_fpga_points: int = 0, jobs: int = 1, progress: bool = True,
+          scheduler: str | None = None) -> dict:
     """Measure every ``(name, family, params)`` of ``grid`` and render every pipeline point.
 
     ``grid``: reciprocal and other unit points (``None``: :func:`default_grid` and
@@ -249,9 +272,12 @@ def sweep(grid=None, *, pipeline=None, scene=None, scene_size: int | None = None
     on its unit's front, ``fpga`` filled for at most ``fpga_points`` reciprocal and ``unit_fpga_points`` points of
     every other unit), ``pareto`` each unit's front (names by cost), ``pipeline`` ``{"scene", "points", "pareto"}``
     (:func:`tools.sweep_units.measure_pipeline_point`; front of PSNR against reference (a) over cost).
-    """
-    from tqdm import tqdm
 
+    Every point, then every place-and-route run (nextpnr's ``router2``, :data:`tools.fpga.QUICK`), is a Dask
+    task (:mod:`tools.jobs`): ``jobs`` at once on a local cluster, or on the cluster at ``scheduler``. (The model
+    throughput of a point is then measured beside the other workers.)
+    """
+    from . import jobs as jobrunner
     from . import sweep_units as su
 
     t0 = time.perf_counter()
@@ -262,23 +288,19 @@ def sweep(grid=None, *, pipeline=None, scene=None, scene_size: int | None = None
         raise ValueError("sweep: the grid is empty")
     scene = scene or su.SCENE
     unit_samples = samples if unit_samples is None else unit_samples
-    records, prec = [], []
-    bar = tqdm(total=len(grid) + len(pipe), desc="sweep", unit="point", disable=not progress)
+    points = []
     for name, family, params in grid:
-        bar.set_postfix_str(name)
         if params.NAME == "recip":
-            records.append(measure_point(name, family, params, exhaustive_limit=exhaustive_limit, samples=samples,
-                                         dsp_weight=dsp_weight))
+            points.append(SweepPoint("recip", (name, family, params), (
+                ("exhaustive_limit", exhaustive_limit), ("samples", samples), ("dsp_weight", dsp_weight))))
         else:
-            records.append(su.measure_unit_point(name, family, params, samples=unit_samples, dsp_weight=dsp_weight,
-                                                 exhaustive_limit=exhaustive_limit))
-        bar.update(1)
-    for name, units, changes in pipe:
-        bar.set_postfix_str(f"pipeline {name}")
-        prec.append(su.measure_pipeline_point(name, units, changes, scene=scene, size=scene_size,
-                                              dsp_weight=dsp_weight))
-        bar.update(1)
-    bar.close()
+            points.append(SweepPoint("unit", (name, family, params), (
+                ("samples", unit_samples), ("dsp_weight", dsp_weight), ("exhaustive_limit", exhaustive_limit))))
+    points += [SweepPoint("pipeline", (name, units, changes), (("scene", scene), ("size", scene_size),
+                                                                ("dsp_weight", dsp_weight))) for name, units, changes in pipe]
+    out = jobrunner.run_pieces(measure_sweep_point, points, jobs=jobs, scheduler=scheduler, desc="sweep",
+                               describe=SweepPoint.describe, progress=progress)
+    records, prec = out[:len(grid)], out[len(grid):]
     fronts, fpga_idx = {}, []
     for unit, idx in _groups(records).items():
         sub = [records[i] for i in idx]
@@ -291,7 +313,7 @@ def sweep(grid=None, *, pipeline=None, scene=None, scene_size: int | None = None
             pick = _fpga_subset if unit == "recip" else _unit_fpga_subset
             fpga_idx += [idx[j] for j in pick(sub, [idx.index(i) for i in front], min(limit, len(sub)))]
     if fpga_idx:
-        _run_fpga(records, grid, fpga_idx, jobs, progress)
+        _run_fpga(records, grid, fpga_idx, jobs, progress, scheduler)
     pfront = pareto_front(prec, bits_key="psnr_db_vs_float") if prec else []
     for i, r in enumerate(prec):
         r["pareto"] = i in pfront
@@ -579,7 +601,8 @@ def main(argv=None) -> int:
     ap.add_argument("--unit-fpga-points", type=int, default=2,
                     help="points placed and routed per other unit: its default preset, the cheapest and the middle "
                          "point of its front (cached; 0 to 3, default %(default)s)")
-    ap.add_argument("--jobs", type=int, default=2, help="FPGA designs placed and routed in parallel")
+    from . import jobs as jobrunner
+    jobrunner.add_arguments(ap, jobs=2, what="sweep points, then FPGA designs,")
     ap.add_argument("--exhaustive-limit", type=int, default=1 << 24,
                     help="measure every input when the input space is at most this (default 2**24)")
     ap.add_argument("--samples", type=int, default=10 ** 6, help="random inputs otherwise (plus the hard cases)")
@@ -609,7 +632,8 @@ def main(argv=None) -> int:
                    scene_size=args.scene_size, exhaustive_limit=args.exhaustive_limit, samples=args.samples,
                    unit_samples=args.unit_samples, dsp_weight=args.dsp_weight,
                    fpga_points=0 if args.no_fpga else args.fpga_points,
-                   unit_fpga_points=0 if args.no_fpga else args.unit_fpga_points, jobs=args.jobs)
+                   unit_fpga_points=0 if args.no_fpga else args.unit_fpga_points, jobs=args.jobs,
+                   scheduler=args.scheduler)
     paths = write_outputs(result, Path(args.out), docs=args.docs)
     print(markdown(result))
     for unit, names in result["pareto"].items():

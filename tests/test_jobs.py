@@ -104,3 +104,27 @@ def test_a_killed_worker_is_replaced_and_the_merged_result_equals_a_serial_run()
     assert killed and pids[killed[0]] not in after.values()
     assert all(r["ok"] for r in serial) and sum(r["vectors"] for r in dask) == 1 << 23
     assert _strip(dask) == _strip(serial)
+
+
+def test_exhaustive_pieces_merge_to_the_whole_and_resume(tmp_path, monkeypatch):
+    from tools import exhaustive
+
+    monkeypatch.setattr(exhaustive, "CACHE", tmp_path)
+    t = exhaustive.target("recip:small")
+    whole = exhaustive.run_target(t, "exact")
+    rec = exhaustive.run_dask(t, "exact", count=4, progress=False)
+    assert rec["shards"] == 4 and rec["resumed"] == 0 and rec["vectors"] == whole["vectors"] == 1 << 16
+    for k in ("ok", "mismatches", "max_error_ulp", "worst_index", "unfaithful", "range", "space", "first"):
+        assert rec[k] == whole[k], k
+    again = exhaustive.run_dask(t, "exact", count=4, progress=False)
+    assert again["resumed"] == 4 and again["max_error_ulp"] == rec["max_error_ulp"]
+    assert "within bound" in exhaustive.table([rec])
+
+
+def test_exact_failures_name_the_input_the_output_and_the_bound():
+    from tools import exhaustive
+
+    rec = {"unit": "recip", "preset": "x", "simulator": "exact", "ok": False, "mismatches": 1, "valid_errors": 0,
+           "missing": 0, "vectors": 4, "expected_vectors": 4,
+           "first": [{"index": 3, "inputs": [7], "model": [1, 2, 0], "error_ulp": 1.25, "bound_ulp": 0.89}]}
+    assert "index 3: inputs [7] model [1, 2, 0] error 1.250000 ulp > bound 0.890000" in exhaustive._failures([rec])

@@ -9,6 +9,8 @@ SIM      ?= icarus
 PRESET   ?= default
 SCENE    ?= tin-plane
 JOBS     ?= 2
+# nextpnr router of `make fpga` (router1: the README's figures; router2: quick checks of the pipeline)
+ROUTER   ?= router1
 # PRESET or SCENE given on the command line or in the environment: `make verilog` and `make fpga` build the pixel
 # pipeline with SCENE's tables and PRESET (built in or presets/<name>.toml); otherwise every unit and preset.
 SCENE_ARGS = $(if $(filter-out file default undefined,$(origin PRESET) $(origin SCENE)),--scene $(SCENE) --preset $(PRESET))
@@ -25,7 +27,8 @@ help:
 	@echo "                with PRESET= and/or SCENE=: build/verilog/pipeline_<preset>_<scene>.v (the scene's tables)"
 	@echo "make bench      throughput, then the speed-against-error sweep (reciprocal, unit widths, pipeline presets) -> build/bench/"
 	@echo "make fpga       ECP5-85 synthesis, place and route of every unit and preset -> build/fpga/report.{json,md};"
-	@echo "                with PRESET= and/or SCENE=: the pipeline with that preset and the scene's tables"
+	@echo "                with PRESET= and/or SCENE=: the pipeline with that preset and the scene's tables;"
+	@echo "                ROUTER=router2 for a quick check of the pipeline (nextpnr's router1 is the default)"
 	@echo "make exhaustive exhaustive RTL equivalence (streaming co-simulation) -> build/exhaustive/report.json"
 	@echo "make exhaustive-wide  the 2^32-input proof of recip rcp32: model vs exact math, RTL vs model on Verilator"
 	@echo "                (long: Dask, --jobs \$$JOBS local workers or DASK_SCHEDULER_ADDRESS; resumes where it stopped)"
@@ -66,7 +69,7 @@ bench: setup
 	$(PY) -m tools.bench --docs
 
 fpga: setup
-	$(PY) -m tools.fpga --jobs $(JOBS) $(SCENE_ARGS)
+	$(PY) -m tools.fpga --jobs $(JOBS) --router $(ROUTER) $(SCENE_ARGS)
 
 exhaustive: setup
 	HYPOTHESIS_PROFILE=thorough $(PY) -m pytest -n $(JOBS) -q -m slow -k "not test_exhaustive_target"

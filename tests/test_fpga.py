@@ -202,3 +202,8 @@ def test_router_is_a_flow_option_on_nextpnr_command_line_and_in_the_cache_key(tm
     assert ("router" in fpga.Flow(router=router).settings()) == (router != "router1")
     with pytest.raises(ValueError, match="router='router3'"):
         fpga.Flow(router="router3")
+
+
+def test_route_seconds_add_every_router_pass_of_the_log():
+    log = "Info: Router2 time 98.03s\nInfo: Running router1 to check that route is legal...\nInfo: Router1 time 0.92s\n"
+    assert fpga.route_seconds(log) == 98.95 and fpga.route_seconds("Info: Program finished normally.") is None

@@ -213,9 +213,9 @@ def _unit_fpga_subset(records, front, limit: int) -> list[int]:
 
 def _run_fpga(records, grid, idx, jobs: int, progress: bool, scheduler: str | None = None) -> None:
     try:
-        from tools.fpga import QUICK, run_designs
+        from tools.fpga import run_designs      # router1: on unit designs faster than router2 (tools.fpga.Flow)
         results = run_designs([({"unit": records[i]["unit"], "preset": records[i]["name"]}, grid[i][2]) for i in idx],
-                              flow=QUICK, jobs=jobs, progress=progress, scheduler=scheduler)
+                              jobs=jobs, progress=progress, scheduler=scheduler)
     except Exception as exc:                       # a broken tool or RTL must not lose the model results
         print(f"sweep: FPGA flow failed: {exc!r}", file=sys.stderr)
         for i in idx:
@@ -273,7 +273,7 @@ def sweep(grid=None, *, pipeline=None, scene=None, scene_size: int | None = None
     every other unit), ``pareto`` each unit's front (names by cost), ``pipeline`` ``{"scene", "points", "pareto"}``
     (:func:`tools.sweep_units.measure_pipeline_point`; front of PSNR against reference (a) over cost).
 
-    Every point, then every place-and-route run (nextpnr's ``router2``, :data:`tools.fpga.QUICK`), is a Dask
+    Every point, then every place-and-route run, is a Dask
     task (:mod:`tools.jobs`): ``jobs`` at once on a local cluster, or on the cluster at ``scheduler``. (The model
     throughput of a point is then measured beside the other workers.)
     """

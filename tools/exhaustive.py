@@ -12,8 +12,8 @@ Sharding
 ``--shard i/N`` checks only the ``i``-th of ``N`` contiguous index ranges of every selected target (1-based) and
 writes ``build/exhaustive/shards/<unit>-<preset>-<sim>-<i>of<N>.json``; once all ``N`` shard files of a run are
 present (copy them there from other machines of a batch system), the shards are merged into the report
-automatically, or by ``--merge``. ``--jobs N`` runs ``N`` shards of each target at once on this machine. Merged
-records sum ``vectors`` and ``mismatches``.
+automatically, or by ``--merge``. Merged records sum ``vectors`` and ``mismatches``. (Without ``--shard`` the
+pieces run on Dask, below: no files to copy.)
 
 Running on Dask (:mod:`tools.jobs`)
 -----------------------------------

@@ -128,3 +128,14 @@ def test_exact_failures_name_the_input_the_output_and_the_bound():
            "missing": 0, "vectors": 4, "expected_vectors": 4,
            "first": [{"index": 3, "inputs": [7], "model": [1, 2, 0], "error_ulp": 1.25, "bound_ulp": 0.89}]}
     assert "index 3: inputs [7] model [1, 2, 0] error 1.250000 ulp > bound 0.890000" in exhaustive._failures([rec])
+
+
+def _fails(piece):
+    raise ValueError(f"piece {piece} is bad")
+
+
+def test_a_failing_piece_is_retried_then_named(tmp_path):
+    with pytest.raises(jobs.JobError, match=r"piece 7 failed after 2 retries: ValueError\('piece 7 is bad'\)"):
+        jobs.run_pieces(_fails, [7], retries=2, progress=False, describe=lambda p: f"piece {p}")
+    with pytest.raises(ValueError, match="both key and cache"):
+        jobs.run_pieces(_fails, [1], cache=tmp_path)

@@ -718,11 +718,11 @@ RecipParams.PRESETS = {
     # by the bound and on every one of the 2**25 inputs (tests/test_recip.py, `python -m fxmodel errors recip
     # --preset rcp24`). Products up to 23x22 bits, each split into 18x18 partial products (one more stage each).
     "rcp24": RecipParams(in_fmt=Fmt(True, 9, 16), m=7, b=27, t=4, p=24, guard=4, table="midpoint"),
-    # 32-bit input s16.16, 24-bit faithful result: the smallest configuration faithful by the bound in a scan of
-    # m 5..8, t 3..4, b 25..28, guard 3..5, both midpoint modes (bound 0.890 ulp; m = 6 or t = 3 never reach
-    # 1 ulp): 64 entries of 24 stored bits (1536 ROM bits), 4 terms about each interval's centre. The bound does
-    # not depend on the input's width beyond the normalization. Proven on all 2**32 inputs against exact math and
-    # RTL == model on all 2**32 inputs: `make exhaustive-wide` (README, "Exhaustive proofs on a cluster").
+    # 32-bit input (16 fraction bits), 24-bit faithful result: the smallest table faithful by the bound in a scan
+    # of m 5..8, t 3..4, b 25..28, guard 3..5, both midpoint modes (bound 0.890 ulp; m = 6 or t = 3 never reach
+    # 1 ulp): 64 entries of 24 stored bits (1536 ROM bits), 4 terms about each interval's centre. The tests check
+    # the hard cases and random inputs; all 2**32 inputs, model against exact math and RTL against model, are the
+    # long run `make exhaustive-wide` (README, "Long runs on a cluster").
     "rcp32": RecipParams(in_fmt=Fmt(True, 16, 16), m=7, b=25, t=4, p=24, guard=5, table="midpoint"),
 }
 register(RecipParams)

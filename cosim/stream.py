@@ -57,7 +57,7 @@ from fxmodel.vectors import layout, write_readmemh
 
 from .harness import ROOT, params_key, simulator, verilator_env
 
-__all__ = ["Space", "FullSpace", "ProductSpace", "ArraySpace", "ConcatSpace", "full_space", "grid_space",
+__all__ = ["PATTERNS", "render", "Space", "FullSpace", "ProductSpace", "ArraySpace", "ConcatSpace", "full_space", "grid_space",
            "edge_codes", "as_space", "shard_range", "parse_shard", "wrapper_verilog", "run_stream",
            "measure_throughput", "StreamResult", "DEPTH", "CHUNK", "AHEAD", "BUILD"]
 
@@ -318,29 +318,51 @@ def clock_style(dut_text: str, waves: bool) -> str:
     return "square" if waves or re.search(r"\bnegedge\b", dut_text) else "pulse"
 
 
+#: The wrapper's template (Jinja2), rendered by :func:`wrapper_verilog`.
+TEMPLATE = Path(__file__).with_name("stream_wrapper.v.j2")
+#: Stimulus patterns: name -> (input valid mode, output ready mode), the modes of the template's MODES comment:
+#: 0 always on, 1 random 50 %, 2 bursts (runs of 1 to 64 cycles on and off), 3 stalls (on for 1 to 1024 cycles,
+#: off for 256 to 767).
+PATTERNS = {"none": (0, 0), "random": (1, 1), "bursts": (2, 2), "stalls": (1, 3)}
+
+
+def render(template: Path, **values) -> str:
+    """``template`` (a Jinja2 file) with ``values``; an undefined name in the template is an error."""
+    import jinja2
+    env = jinja2.Environment(undefined=jinja2.StrictUndefined, keep_trailing_newline=True)
+    return env.from_string(template.read_text()).render(**values)
+
+
 def wrapper_verilog(params, top: str, dut: str, *, depth: int = DEPTH, keep: int = 8, clock: str = "pulse") -> str:
-    """Verilog of the streaming testbench wrapper ``top`` around the unit's module ``dut``.
+    """Verilog of the streaming testbench wrapper ``top`` around the stream version of the unit, module ``dut``
+    (:class:`rtl.streams.StreamUnit`: ``clk``, ``rst``, ``i__valid``, ``i__ready``, ``i__payload``,
+    ``o__valid``, ``o__ready``, ``o__payload``; payload fields at the offsets of ``rtl.streams.input_layout``
+    and ``output_layout``), rendered from :data:`TEMPLATE`.
 
-    Ports of ``dut`` follow :mod:`rtl.unit`'s convention (``clk``, ``rst``, ``i_valid``, inputs, ``o_valid``,
-    outputs, names and widths from ``params``). The wrapper's own ports are written by cocotb: ``rst``,
-    ``counter`` (inputs from the row counter ``chunk_base + position``, the file holding expected outputs only),
-    ``chunk_base``, ``chunk_len`` (vectors in the chunk) and ``load_seq`` (set to ``k + 1`` once
-    ``chunk_<k>.hex`` is ready in the folder named by the plusarg ``+STREAM_DIR=``); it answers by raising
-    ``done_seq`` to ``k + 1`` once every output of chunk ``k`` has been compared.
+    The wrapper's own ports are written by cocotb: ``rst``, ``counter`` (inputs from the row counter
+    ``chunk_base + position``, the file holding expected outputs only), ``chunk_base``, ``chunk_len`` (vectors in
+    the chunk), ``pattern`` and ``seed`` (the chunk's stimulus, :data:`PATTERNS`), ``dump`` (write the outputs to
+    ``out_<k>.hex``) and ``load_seq`` (set to ``k + 1`` once ``chunk_<k>.hex`` is ready in the folder named by
+    the plusarg ``+STREAM_DIR=``); it answers by raising ``done_seq`` to ``k + 1`` once every output of chunk
+    ``k`` has been compared.
 
-    Counters (64 bits): ``checked``, ``mismatches``, ``valid_errors`` (cycles where ``o_valid`` differs from
-    ``i_valid`` delayed by the latency), ``missing`` (vectors whose output never came). The first ``keep``
-    mismatches are kept in ``rec_index`` (run index, 64 bits each), ``rec_vector`` (the memory word: inputs and
-    expected outputs; zeros for the inputs in counter mode) and ``rec_got`` (the unit's outputs), slot ``s`` at
-    bits ``[s*width +: width]``. The ``depth``-word vector memory is the submodule ``<top>_mem``; ``clock`` is a
-    key of ``_CLOCKS`` (see :func:`clock_style`).
+    Counters (64 bits): ``checked``, ``mismatches``, ``valid_errors`` (under pattern ``none``: cycles where
+    ``o__valid`` differs from the input handshake delayed by the latency), ``missing`` (vectors whose output
+    never came), ``extra`` (outputs taken that no vector asked for), ``protocol_errors`` (an output offered and
+    not taken that changed or was withdrawn), ``cycles``, ``stalled`` (cycles an output waited for ready),
+    ``starved`` (cycles an input waited for ready). The first ``keep`` mismatches are kept in ``rec_index`` (run
+    index, 64 bits each), ``rec_vector`` (the memory word: inputs and expected outputs; zeros for the inputs in
+    counter mode) and ``rec_got`` (the unit's outputs), slot ``s`` at bits ``[s*width +: width]``. The
+    ``depth``-word vector memory is the submodule ``<top>_mem``; ``clock`` is a key of ``_CLOCKS`` (see
+    :func:`clock_style`).
     """
+    from rtl.streams import input_layout, output_layout
+
     fields = _fields(params)
     lay = layout(fields)
     n_in = len(params.inputs)
     ow = sum(f.width for _, f in fields[n_in:])
     iw = sum(f.width for _, f in fields[:n_in])
-    w = iw + ow
     lat = int(params.latency)
     if lat < 1:
         raise ValueError(f"{params.NAME}: latency {lat}: the streaming wrapper needs registered outputs "
@@ -351,134 +373,18 @@ def wrapper_verilog(params, top: str, dut: str, *, depth: int = DEPTH, keep: int
         raise ValueError(f"depth={depth}: must be a power of two")
     if clock not in _CLOCKS:
         raise ValueError(f"clock={clock!r}: one of {', '.join(_CLOCKS)}")
-    conns = [".clk(clk)", ".rst(rst_q)", ".i_valid(i_valid)"]
-    for name, fmt, msb, lsb in lay[:n_in]:
-        conns.append(f".{_vid(name)}(in_word[{msb - ow}:{lsb - ow}])")
-    conns.append(".o_valid(o_valid)")
-    for name, fmt, msb, lsb in lay[n_in:]:
-        conns.append(f".{_vid(name)}(got[{msb}:{lsb}])")
-    field_doc = "\n".join(f"//   [{msb}:{lsb}] {name} {fmt}" for name, fmt, msb, lsb in lay)
-    vpipe_next = "i_valid" if lat == 1 else f"{{vpipe[{lat - 2}:0], i_valid}}"
+    lin, lout = input_layout(params), output_layout(params)
+    offsets = {**{(0, n): f.offset for n, f in lin}, **{(1, n): f.offset for n, f in lout}}
+    rows = [{"name": name, "fmt": str(fmt), "msb": msb, "lsb": lsb, "width": fmt.width,
+             "offset": offsets[(int(k >= n_in), name)]} for k, (name, fmt, msb, lsb) in enumerate(lay)]
     # counter mode: row i of the whole input space is the bit pattern of i with each signed field's top bit
     # inverted (code = min_code + digit, fields first port slowest; see Unit.all_inputs)
     sign_mask = sum(1 << (msb - ow) for _, fmt, msb, _ in lay[:n_in] if fmt.signed)
-    return f"""// Generated by cosim/stream.py for unit {params.NAME} (do not edit): streams vectors through `{dut}`
-// at one per clock and compares every output bit with the golden model's expected outputs.
-// Memory word = inputs then expected outputs, most significant field first (fxmodel/vectors.py):
-{field_doc}
-`timescale 1ns/1ps
-module {top} (rst, load_seq, chunk_len, chunk_base, counter);
-  input rst;
-  input [63:0] chunk_base;                // counter mode: the space row of the chunk's first vector
-  input counter;                          // inputs from the row counter, the file holds expected outputs only
-  input [31:0] load_seq;
-  input [31:0] chunk_len;
-  localparam integer IW = {iw}, OW = {ow}, W = {w}, DEPTH = {depth}, KEEP = {keep}, LATENCY = {lat};
-  localparam [IW-1:0] SIGNS = {iw}'h{sign_mask:x};
-
-  reg clk = 1'b0;
-{_CLOCKS[clock]}
-  // The control inputs written by cocotb are registered: nothing in the unit depends combinationally on a
-  // top-level input (Verilator re-evaluates such logic on every evaluation). rst_q starts unknown, so that it
-  // changes when the reset is applied: Icarus runs an `always @*` block only once one of its inputs changes.
-  reg rst_q;
-  reg [31:0] load_q = 0, len_q = 0;
-  reg [63:0] base_q = 0;
-  reg counter_q = 1'b0;
-  always @(posedge clk) begin
-    rst_q <= rst;
-    load_q <= load_seq;
-    len_q <= chunk_len;
-    base_q <= chunk_base;
-    counter_q <= counter;
-  end
-
-  reg [31:0] done_seq = 0;
-  reg [63:0] checked = 0, mismatches = 0, valid_errors = 0, missing = 0;
-  reg [KEEP*64-1:0] rec_index = 0;
-  reg [KEEP*W-1:0] rec_vector = 0;
-  reg [KEEP*OW-1:0] rec_got = 0;
-  reg running = 1'b0;
-  reg [31:0] rp = 0, wp = 0, tail = 0;
-  reg i_valid = 1'b0;
-  reg [IW-1:0] in_word = 0;
-  reg [LATENCY-1:0] vpipe = 0;
-  wire o_valid;
-  wire [OW-1:0] got;
-  wire [W-1:0] next, cur;                 // the memory words at rp (to stream) and at wp (to compare)
-  wire start = !running && rst_q === 1'b0 && load_q != done_seq;
-
-  {top}_mem #(.W(W), .DEPTH(DEPTH)) vectors (.clk(clk), .load(start), .seq(done_seq), .len(len_q), .ra(rp), .rb(wp),
-    .da(next), .db(cur));
-  {_vid(dut)} dut ({", ".join(conns)});
-
-  always @(posedge clk) begin
-    // valid protocol: o_valid is i_valid delayed by exactly LATENCY cycles, on every cycle
-    vpipe <= {vpipe_next};
-    if (rst_q === 1'b0 && o_valid !== vpipe[LATENCY-1]) valid_errors <= valid_errors + 1;
-    if (!running) begin
-      i_valid <= 1'b0;
-      if (start) begin                    // the memory loads chunk done_seq on this edge
-        rp <= 0;
-        wp <= 0;
-        tail <= 0;
-        running <= 1'b1;
-      end
-    end else begin
-      if (rp < len_q) begin
-        i_valid <= 1'b1;
-        in_word <= counter_q ? (base_q + rp) ^ SIGNS : next[W-1:OW];
-        rp <= rp + 1;
-      end else begin
-        i_valid <= 1'b0;
-        tail <= tail + 1;
-      end
-      if (wp == len_q || tail > LATENCY + 2) begin
-        missing <= missing + (len_q - wp);
-        running <= 1'b0;
-        done_seq <= done_seq + 1;
-      end
-    end
-    if (running && o_valid === 1'b1 && wp < len_q) begin
-      if (got !== cur[OW-1:0]) begin
-        if (mismatches < KEEP) begin
-          rec_index[mismatches*64 +: 64] <= checked;
-          rec_vector[mismatches*W +: W] <= cur;
-          rec_got[mismatches*OW +: OW] <= got;
-        end
-        mismatches <= mismatches + 1;
-      end
-      checked <= checked + 1;
-      wp <= wp + 1;
-    end
-  end
-endmodule
-
-// The vector memory in a scope of its own: cocotb's handle look-ups in the top scope then never walk its
-// words (Icarus' VPI did, for every name: 0.5 s a run with 2**20 words).
-module {top}_mem (clk, load, seq, len, ra, rb, da, db);
-  parameter integer W = 1, DEPTH = 1;
-  input clk, load;
-  input [31:0] seq, len, ra, rb;
-  output [W-1:0] da, db;
-  reg [W-1:0] mem [0:DEPTH-1];
-  reg [8*{MAX_PATH}-1:0] dir, fname;
-  initial begin
-    if (!$value$plusargs("STREAM_DIR=%s", dir)) begin
-      $display("stream: no +STREAM_DIR= plusarg");
-      $finish;
-    end
-  end
-  always @(posedge clk) begin
-    if (load) begin
-      $sformat(fname, "%0s/chunk_%0d.hex", dir, seq);
-      $readmemh(fname, mem, 0, len - 1);
-    end
-  end
-  assign da = mem[ra];
-  assign db = mem[rb];
-endmodule
-"""
+    return render(TEMPLATE, unit=params.NAME, top=top, dut=dut, dut_id=_vid(dut), fields=rows,
+                  inputs=rows[:n_in], outputs=rows[n_in:], iw=iw, ow=ow, depth=depth, keep=keep, latency=lat,
+                  sign_mask=sign_mask, clock=_CLOCKS[clock], pw_in=lin.size, pw_out=lout.size,
+                  max_path=MAX_PATH,
+                  vpipe_next="take_in" if lat == 1 else f"{{vpipe[{lat - 2}:0], take_in}}")
 
 
 # ---------------------------------------------------------------------------------------------------------------
@@ -489,8 +395,11 @@ class StreamResult(dict):
 
     Keys: ``unit``, ``simulator``, ``vectors`` (outputs compared), ``expected_vectors``, ``mismatches``,
     ``first`` (up to ``keep`` dicts ``index, inputs, rtl, model``; ``index`` is the row of the input space),
-    ``valid_errors`` (cycles where ``o_valid`` was not ``i_valid`` delayed by the latency), ``missing`` (vectors
-    whose output never came), ``seconds`` (wall time of the check: model, files and simulation, the HDL build
+    ``valid_errors`` (under pattern ``none``: cycles where ``o__valid`` was not the input handshake delayed by
+    the latency), ``missing`` (vectors whose output never came), ``extra`` (outputs nobody asked for),
+    ``protocol_errors`` (an output offered, not taken, then changed or withdrawn), ``patterns`` (the stimulus of
+    each chunk), ``cycles`` (clock cycles of the chunks), ``stalled`` / ``starved`` (cycles an output / an input
+    waited for ready), ``rtl`` (the output codes, when the run dumped them), ``seconds`` (wall time of the check: model, files and simulation, the HDL build
     excluded), ``vectors_per_second``, ``sim_seconds`` (inside the simulator, from the first chunk to the last,
     waiting for the model included), ``sim_cpu_seconds`` (CPU time of the simulator process meanwhile: on a
     loaded machine the rate it gives, ``vectors / sim_cpu_seconds``, is the one to compare), ``build_seconds``,
@@ -500,16 +409,19 @@ class StreamResult(dict):
 
     @property
     def ok(self) -> bool:
-        """Every vector compared, none differed, and the valid protocol held on every cycle."""
+        """Every vector compared exactly once, none differed, and the handshake held on every cycle."""
         return (self["mismatches"] == 0 and self["valid_errors"] == 0 and self["missing"] == 0
+                and self["extra"] == 0 and self["protocol_errors"] == 0
                 and self["vectors"] == self["expected_vectors"])
 
     def describe(self) -> str:
         lines = [f"{self['unit']} [{self['simulator']}]: {self['vectors']:,} vectors, {self['mismatches']:,} "
                  f"mismatches, {self['seconds']:.1f} s, {self['vectors_per_second']:,.0f} vectors/s"]
-        if self["valid_errors"] or self["missing"]:
-            lines.append(f"  valid protocol broken: {self['valid_errors']} cycles with o_valid != i_valid delayed "
-                         f"by the latency, {self['missing']} vectors without output")
+        if self["valid_errors"] or self["missing"] or self["extra"] or self["protocol_errors"]:
+            lines.append(f"  stream protocol broken: {self['valid_errors']} cycles with o_valid != the input "
+                         f"handshake delayed by the latency (no stalls), {self['missing']} vectors without output, "
+                         f"{self['extra']} outputs without input, {self['protocol_errors']} outputs changed "
+                         "while waiting")
         if self["vectors"] != self["expected_vectors"]:
             lines.append(f"  only {self['vectors']:,} outputs compared of {self['expected_vectors']:,} vectors")
         for f in self["first"]:
@@ -546,7 +458,7 @@ def _build(params, rtl_params, variant: str, sim: str, keep: int, waves: bool) -
         if not src.exists():
             from rtl import verilog_text
             # as cosim.harness: a Yosys-optimized netlist for event-driven Icarus, Amaranth's Verilog for Verilator
-            (bdir / f"{dut}.v.tmp").write_text(verilog_text(rtl_params, dut, optimize=(sim == "icarus"), flat=True))
+            (bdir / f"{dut}.v.tmp").write_text(verilog_text(rtl_params, dut, optimize=(sim == "icarus")))
             os.replace(bdir / f"{dut}.v.tmp", src)
         text = wrapper_verilog(params, top, dut, keep=keep, clock=clock_style(src.read_text(), waves))
         wrapper = bdir / f"{top}.v"
@@ -622,7 +534,8 @@ def _decode(params, rec: dict, lo: int, space: Space, counter: bool) -> dict:
 
 def run_stream(params, space=None, *, sim: str | None = None, lo: int = 0, hi: int | None = None,
                shard=None, chunk: int = CHUNK, keep: int = 8, rtl_params=None, variant: str = "",
-               progress=None, tag: str | None = None, waves: bool | None = None) -> StreamResult:
+               progress=None, tag: str | None = None, waves: bool | None = None, pattern="none", seed: int = 1,
+               dump: bool = False) -> StreamResult:
     """Stream rows ``lo..hi`` of ``space`` through the unit's RTL and compare every output with ``params.compute``.
 
     Parameters
@@ -653,6 +566,13 @@ def run_stream(params, space=None, *, sim: str | None = None, lo: int = 0, hi: i
         unless the simulation failed or waveforms were dumped).
     waves : bool
         Dump waveforms (default: ``WAVES`` environment variable).
+    pattern : str or sequence of str
+        Gaps on the input valid and backpressure on the output ready (:data:`PATTERNS`); a sequence gives chunk
+        ``k`` pattern ``k mod len``.
+    seed : int
+        Seed of the wrapper's pattern generators (chunk ``k`` uses ``seed + k``).
+    dump : bool
+        Also write out every output code: ``result.rtl`` (codes ``(vectors, outputs)``).
 
     Returns
     -------
@@ -691,6 +611,11 @@ def run_stream(params, space=None, *, sim: str | None = None, lo: int = 0, hi: i
     if n == 0:
         raise ValueError(f"empty range [{lo}, {hi}): nothing to check")
     chunks = [(s, min(s + chunk, n)) for s in range(0, n, chunk)]
+    patterns = [pattern] if isinstance(pattern, str) else list(pattern)
+    bad = [p for p in patterns if p not in PATTERNS]
+    if bad or not patterns:
+        raise ValueError(f"pattern={pattern!r}: one or more of {', '.join(PATTERNS)}")
+    patterns = [patterns[k % len(patterns)] for k in range(len(chunks))]
 
     bld = _build(params, rtl_params, variant, sim, keep, waves)
     job = bld.bdir / (tag or f"job_{os.getpid()}_{threading.get_native_id()}")
@@ -705,8 +630,9 @@ def run_stream(params, space=None, *, sim: str | None = None, lo: int = 0, hi: i
     # the whole input space in order: the wrapper counts the inputs itself and reads only the expected outputs
     counter = isinstance(space, FullSpace) and iw <= 64
     meta = {"chunks": [e - s for s, e in chunks], "bases": [lo + s for s, _ in chunks], "counter": counter,
-            "keep": keep, "timeout": CHUNK_TIMEOUT, "period_ns": PERIOD_NS,
-            "iw": iw, "ow": sum(p.fmt.width for p in params.outputs)}
+            "keep": keep, "timeout": CHUNK_TIMEOUT, "period_ns": PERIOD_NS, "dump": bool(dump),
+            "patterns": [PATTERNS[p][0] | PATTERNS[p][1] << 2 for p in patterns],
+            "seeds": [(seed + k) & 0xFFFFFFFF for k in range(len(chunks))], "iw": iw, "ow": sum(p.fmt.width for p in params.outputs)}
     (job / "meta.json").write_text(json.dumps(meta))
 
     stop, errors = threading.Event(), []
@@ -733,6 +659,7 @@ def run_stream(params, space=None, *, sim: str | None = None, lo: int = 0, hi: i
             watcher.join()
         for f in job.glob("chunk_*"):
             f.unlink()
+    rtl = _read_dump(params, job, len(chunks)) if dump and not errors and failure is None else None
     seconds = time.perf_counter() - t0
     if errors:
         raise RuntimeError(f"generating the vectors of {params.NAME} failed: {errors[0]!r}") from errors[0]
@@ -743,12 +670,15 @@ def run_stream(params, space=None, *, sim: str | None = None, lo: int = 0, hi: i
                            f"{res.get('error') or failure}; log: {log}\n{_tail(log)}")
     result = StreamResult(
         unit=params.NAME, simulator=sim, vectors=res["checked"], expected_vectors=n, mismatches=res["mismatches"],
-        valid_errors=res["valid_errors"], missing=res["missing"],
+        valid_errors=res["valid_errors"], missing=res["missing"], extra=res["extra"],
+        protocol_errors=res["protocol_errors"], patterns=sorted(set(patterns)), cycles=res["cycles"],
+        stalled=res["stalled"], starved=res["starved"],
         first=[_decode(params, r, lo, space, counter) for r in res["records"]], seconds=round(seconds, 3),
         vectors_per_second=res["checked"] / seconds, sim_seconds=round(res["sim_seconds"], 3),
         sim_cpu_seconds=round(res["sim_cpu_seconds"], 3),
         build_seconds=round(bld.seconds, 2), space=space.describe(), range=[lo, hi], chunks=len(chunks),
         variant=variant or None, started=started, finished=time.time())
+    result.rtl = rtl                                    # not part of the JSON report
     if waves:
         dumps = sorted(list(bld.bdir.glob("*.fst")) + list(bld.bdir.glob("*.vcd")) + list(job.glob("*.vcd"))
                        + list(job.glob("*.fst")), key=lambda f: f.stat().st_mtime)
@@ -756,6 +686,22 @@ def run_stream(params, space=None, *, sim: str | None = None, lo: int = 0, hi: i
     if not waves and not tag:                          # the result holds all it found; logs stay on errors only
         shutil.rmtree(job, ignore_errors=True)
     return result
+
+
+def _read_dump(params, job: Path, chunks: int) -> np.ndarray:
+    """The output codes the wrapper wrote (``out_<k>.hex``, one hex word of the outputs a line, first output at
+    the top), ``(vectors, outputs)``."""
+    words = []
+    for k in range(chunks):
+        path = job / f"out_{k}.hex"
+        text = path.read_text().split() if path.exists() else []
+        words += [int(w, 16) if set(w) <= set("0123456789abcdef") else -1 for w in text]
+    lay = layout(_fields(params)[len(params.inputs):])
+    words = np.array(words, dtype=object)
+    if (words == -1).any():
+        raise RuntimeError(f"{params.NAME}: the RTL wrote outputs with x/z bits ({job})")
+    cols = [fmt.from_bits(((words >> lsb) & ((1 << fmt.width) - 1)).astype(np.int64)) for _, fmt, _, lsb in lay]
+    return np.stack(cols, axis=1) if len(words) else np.zeros((0, len(lay)), dtype=np.int64)
 
 
 def _progress(job: Path, chunks: list, desc: str, progress, stop: threading.Event):
@@ -793,12 +739,14 @@ def _progress(job: Path, chunks: list, desc: str, progress, stop: threading.Even
 
 
 def measure_throughput(params, sim: str | None = None, vectors: int | None = None, seed: int = 0,
-                       inputs: str = "random") -> float:
+                       inputs: str = "random", pattern: str = "none") -> StreamResult:
     """Streaming co-simulation throughput in vectors/s, for ``make bench`` beside the per-vector figure.
 
     ``inputs="random"``: the unit's hard cases and random inputs (uniform over every input's codes), read from
     the vector files; ``"exhaustive"``: the first ``vectors`` rows of the whole input space, counted by the wrapper
-    (how ``make exhaustive`` runs). ``vectors`` defaults to 2**22 on Verilator and 2**18 on Icarus. Every output
+    (how ``make exhaustive`` runs). ``pattern``: the stimulus (:data:`PATTERNS`; ``random`` puts backpressure in
+    the loop). Returns the run's :class:`StreamResult` (``vectors_per_second`` on the wall clock,
+    ``sim_cpu_seconds`` for the rate on a loaded machine). ``vectors`` defaults to 2**22 on Verilator and 2**18 on Icarus. Every output
     is checked bit for bit; the time counts the model, the vector files and the simulation, not the HDL build
     (done first). Raises ``AssertionError`` if the RTL does not match, ``ValueError`` for a bad argument.
     """
@@ -807,10 +755,12 @@ def measure_throughput(params, sim: str | None = None, vectors: int | None = Non
     if inputs == "random":
         rng = np.random.default_rng(seed)
         codes = np.concatenate([params.hard_cases(), params.random_inputs(rng, vectors)])[:vectors]
-        result = run_stream(params, ArraySpace(codes, "hard cases and random vectors"), sim=sim, progress=False)
+        result = run_stream(params, ArraySpace(codes, "hard cases and random vectors"), sim=sim, progress=False,
+                            pattern=pattern)
     elif inputs == "exhaustive":
-        result = run_stream(params, sim=sim, hi=min(vectors, params.input_space()), progress=False)
+        result = run_stream(params, sim=sim, hi=min(vectors, params.input_space()), progress=False,
+                            pattern=pattern)
     else:
         raise ValueError(f"inputs={inputs!r}: 'random' or 'exhaustive'")
     assert result.ok, result.describe()
-    return result["vectors_per_second"]
+    return result

@@ -4,7 +4,8 @@ The job folder named by ``STREAM_JOB`` holds ``meta.json`` (chunk lengths, misma
 receives ``chunk_<k>.hex`` files from the model. For each chunk this test waits for its file, hands it to the
 wrapper (``chunk_len``, then ``load_seq = k + 1``), waits until the wrapper raises ``done_seq`` to ``k + 1``,
 deletes the file and records progress. At the end it reads the wrapper's counters and first mismatch records and
-writes ``result.json``; the caller judges them. The clock runs inside the wrapper: Python wakes once a chunk.
+writes ``result.json``; the caller judges them. Each chunk has its own stimulus pattern and seed (gaps on the
+input valid, backpressure on the output ready), generated inside the wrapper. The clock runs inside the wrapper: Python wakes once a chunk.
 """
 
 from __future__ import annotations
@@ -62,6 +63,9 @@ async def stream(dut):
         dut.chunk_len.value = 0
         dut.chunk_base.value = 0
         dut.counter.value = int(meta["counter"])
+        dut.pattern.value = 0
+        dut.seed.value = 1
+        dut.dump.value = int(meta["dump"])
         await Timer(3 * meta["period_ns"], unit="ns")
         dut.rst.value = 0
         await Timer(meta["period_ns"], unit="ns")
@@ -71,6 +75,8 @@ async def stream(dut):
             _wait_for(path, job, meta["timeout"])
             dut.chunk_len.value = n
             dut.chunk_base.value = meta["bases"][k]
+            dut.pattern.value = meta["patterns"][k]
+            dut.seed.value = meta["seeds"][k]
             dut.load_seq.value = k + 1
             while int(dut.done_seq.value) != k + 1:
                 await dut.done_seq.value_change
@@ -79,7 +85,8 @@ async def stream(dut):
         result["sim_seconds"] = time.perf_counter() - t0
         result["sim_cpu_seconds"] = time.process_time() - c0       # the simulator process: HDL and cocotb
         keep, w = meta["keep"], meta["iw"] + meta["ow"]
-        for name in ("checked", "mismatches", "valid_errors", "missing"):
+        for name in ("checked", "mismatches", "valid_errors", "missing", "extra", "protocol_errors", "cycles",
+                     "stalled", "starved"):
             result[name] = int(getattr(dut, name).value)
         stored = min(keep, result["mismatches"])
         index = _slots(dut.rec_index.value, 64, keep)

@@ -2,9 +2,9 @@
 right first mismatch, and covers exactly the vectors it claims; input spaces, shards and report merging.
 
 Quick tier (``make test``): the reciprocal ``small`` preset over all 2**16 inputs, true and broken (inputs
-counted by the wrapper and read from the vector files), on ``SIM``; the divider, and two other units of unlike
-port shapes, on hard cases and random vectors (the slow tier: every registered unit). The exhaustive run's own
-tests (shard merging, every target) are ``tests/test_exhaustive.py``.
+counted by the wrapper and read from the vector files), on ``SIM`` (every unit and preset under stalls:
+``cosim/test_stress.py``). The exhaustive run's own tests (shard merging, every target) are
+``tests/test_exhaustive.py``.
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ import pytest
 
 from cosim.stream import (ArraySpace, ConcatSpace, ProductSpace, full_space, grid_space, measure_throughput,
                           parse_shard, run_stream, shard_range, wrapper_verilog)
-from fxmodel.unit import preset, preset_names, units
+from fxmodel.unit import preset
 
 
 def broken_recip(params, entry: int, delta: int = 1):
@@ -76,39 +76,29 @@ def test_broken_variant_in_a_shard_reports_space_indices(sim, given):
                                 "model": want[r].tolist()} for r in inside[:2]]
 
 
-def test_divide_hard_and_random(sim):
-    params = preset("divide", "default")
-    rng = np.random.default_rng(6)
-    vectors = np.concatenate([params.hard_cases(), params.random_inputs(rng, 30_000)])
-    result = run_stream(params, vectors, sim=sim)
-    assert result["vectors"] == len(vectors)
-    assert result.ok, result.describe()
-
-
-#: Units with unlike port shapes for the quick tier (many inputs and words above 64 bits; unsigned and 3-bit
-#: fields); the slow tier runs every registered unit.
-QUICK_UNITS = ("bump", "cube")
-
-
-@pytest.mark.parametrize("unit", [pytest.param(u, marks=() if u in QUICK_UNITS else pytest.mark.slow)
-                                  for u in units() if u not in ("recip", "divide")])
-def test_every_unit_streams(sim, unit):
-    """The wrapper is generated from the parameter object alone: every registered unit runs unchanged."""
-    params = preset(unit, "small" if "small" in preset_names(unit) else "default")
-    rng = np.random.default_rng(1)
-    vectors = np.concatenate([params.hard_cases(), params.random_inputs(rng, 300)])[:600]
-    result = run_stream(params, vectors, sim=sim)
-    assert result["vectors"] == len(vectors)
-    assert result.ok, result.describe()
-
-
 # -- spaces, shards, reports (no simulator) -------------------------------------------------------------------
-def test_wrapper_connects_every_port_by_name():
+def test_wrapper_connects_every_payload_field_by_its_offset():
+    """Each port's field of the stream payload (rtl.streams layouts) meets its slice of the vector word."""
+    from fxmodel.vectors import layout
+    from rtl.streams import input_layout, output_layout
     params = preset("divide", "default")
     text = wrapper_verilog(params, "stream_divide", "divide_dut")
-    for p in params.inputs + params.outputs:
-        assert f".{p.name}(" in text
-    assert "LATENCY = %d" % params.latency in text
+    lay = {name: (msb, lsb) for name, _, msb, lsb in layout([(p.name, p.fmt) for p in params.inputs + params.outputs])}
+    ow = sum(p.fmt.width for p in params.outputs)
+    for name, field in input_layout(params):
+        msb, lsb = lay[name]
+        assert f"i_payload[{field.offset + field.width - 1}:{field.offset}] = in_word[{msb - ow}:{lsb - ow}];" in text
+    for name, field in output_layout(params):
+        msb, lsb = lay[name]
+        assert f"got[{msb}:{lsb}] = o_payload[{field.offset + field.width - 1}:{field.offset}];" in text
+    assert "LATENCY = %d" % params.latency in text and "divide_dut dut (" in text
+
+
+def test_wrapper_template_refuses_an_undefined_name(tmp_path):
+    from cosim.stream import render
+    (tmp_path / "t.j2").write_text("module {{ top }}; {{ missing }}")
+    with pytest.raises(Exception, match="missing"):
+        render(tmp_path / "t.j2", top="x")
 
 
 def test_spaces_enumerate_as_documented():
@@ -157,4 +147,5 @@ def test_run_rejects_bad_arguments():
 
 def test_measure_throughput(sim):
     """The figure ``make bench`` reports beside the per-vector harness's (a positive rate of a bit-exact run)."""
-    assert measure_throughput(preset("recip", "small"), sim, vectors=5000) > 0
+    res = measure_throughput(preset("recip", "small"), sim, vectors=5000, pattern="random")
+    assert res["vectors"] == 5000 and res["vectors_per_second"] > 0 and res["stalled"] > 0

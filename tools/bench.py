@@ -2,9 +2,13 @@
 
 Model: whole-array ``compute`` over every input of the 24-bit reciprocal (2**24 codes) and over 10**6 random
 divider inputs, median of ``--repeat`` runs, one core. Co-simulation: vectors per second of the per-vector
-cocotb harness and of the streaming harness (``cosim/stream.py``: vectors from memory files, compared in HDL)
-on each available simulator (build time excluded). Machines here are shared and noisy: the
-figures are medians, and the ratios between them mean more than any one number.
+cocotb harness and of the streaming harness (``cosim/stream.py``: the stream version of the unit, vectors from
+memory files, compared in HDL) on each available simulator (build time excluded), the streaming harness without
+stalls (the whole input space counted by the wrapper, as ``make exhaustive`` runs) and with backpressure in the
+loop (random inputs from vector files, pattern ``random``: input valid and output ready each high half the time).
+Machines here are shared and noisy: the figures are medians, the ratios between them mean more than any one
+number, and the streaming rows also give vectors per CPU second of the simulator process (what a loaded machine
+changes least).
 
 Writes ``build/bench/bench.json`` and prints a Markdown table. Second phase (skip with ``--no-sweep``): the
 design-space sweep, speed against error of the reciprocal, the other units' widths and pipeline presets
@@ -59,17 +63,23 @@ def main(argv=None) -> int:
             ("model", "divide", "default", "10^6 random")]
     sims = [s for s, tool in (("icarus", "iverilog"), ("verilator", "verilator")) if shutil.which(tool)]
     jobs += [("cosim", "recip", "default", sim) for sim in sims]
-    jobs += [("stream", "recip", "default", sim) for sim in sims]
+    jobs += [(f"stream-{pattern}", "recip", "default", sim) for sim in sims for pattern in ("none", "random")]
     for kind, unit, name, what in tqdm(jobs, desc="bench", unit="job"):
         params = preset(unit, name)
         if kind == "model":
             inputs = params.all_inputs() if params.input_space() <= 1 << 24 else params.random_inputs(rng, 10 ** 6)
             rate = model_rate(params, inputs, args.repeat)
             rows.append({"what": f"model {unit} ({name})", "workload": what, "per_second": rate})
-        elif kind == "stream":
+        elif kind.startswith("stream"):
             from cosim.stream import measure_throughput
-            rate = measure_throughput(params, what, inputs="exhaustive")
-            rows.append({"what": f"co-simulation {unit} ({name}), streaming", "workload": what, "per_second": rate})
+            pattern = kind.split("-")[1]
+            res = measure_throughput(params, what, inputs="exhaustive" if pattern == "none" else "random",
+                                     pattern=pattern)
+            label = "no stalls" if pattern == "none" else "random gaps and backpressure"
+            rows.append({"what": f"co-simulation {unit} ({name}), streaming, {label}", "workload": what,
+                         "per_second": res["vectors_per_second"],
+                         "per_cpu_second": res["vectors"] / res["sim_cpu_seconds"], "cycles": res["cycles"],
+                         "vectors": res["vectors"]})
         else:
             vectors = params.random_inputs(rng, args.cosim_vectors)
             res = run(params, vectors, sim=what, tag="bench")
@@ -81,9 +91,10 @@ def main(argv=None) -> int:
     out.mkdir(parents=True, exist_ok=True)
     meta = {"machine": platform.platform(), "python": platform.python_version(), "repeat": args.repeat}
     (out / "bench.json").write_text(json.dumps({"meta": meta, "results": rows}, indent=2))
-    print("\n| measurement | workload | per second |\n|---|---|---:|")
+    print("\n| measurement | workload | per second | per CPU second |\n|---|---|---:|---:|")
     for r in rows:
-        print(f"| {r['what']} | {r['workload']} | {r['per_second']:,.0f} |")
+        cpu = f"{r['per_cpu_second']:,.0f}" if "per_cpu_second" in r else ""
+        print(f"| {r['what']} | {r['workload']} | {r['per_second']:,.0f} | {cpu} |")
     print(f"\n(written to {out / 'bench.json'})")
     if args.no_sweep:
         return 0

@@ -4,8 +4,10 @@
 
 The model side prepares the frame (scene file, front end, maps and reflectance cubes quantized into the
 pipeline's memories, fragments quantized to its input formats: ``fxmodel.render.prepare``); the fragment codes
-stream through the RTL of ``rtl/pipeline.py`` in cocotb, one per clock; every output byte and flag is compared
-with the bit-exact model. Writes ``build/sim/<scene>/``: ``rtl.png``, ``model.png``, ``float.png``,
+stream through the stream version of ``rtl/pipeline.py`` (``rtl/streams.py``) in the streaming harness
+(``cosim/stream.py``: vector files read by the HDL wrapper, no Python per clock), one per clock, or with gaps and
+backpressure (``--pattern``); every output byte and flag is compared with the bit-exact model in the simulation,
+and written out (``rtl.png``, compared again here). Writes ``build/sim/<scene>/``: ``rtl.png``, ``model.png``, ``float.png``,
 ``ideal.png``, ``diff.png`` (amplified differences of the model from the two float references), ``compare.png``
 and ``report.json``; prints a summary table; exits non-zero on any mismatch. ``WAVES=1`` dumps a waveform.
 
@@ -16,13 +18,28 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import sys
 import time
 
 import numpy as np
 
-from .harness import ROOT, run, simulator
+from .harness import ROOT, simulator
+from .stream import PATTERNS, ArraySpace, FullSpace, Space, run_stream
+
+#: Fragments per vector file: the progress bar moves once a chunk.
+CHUNK = 4096
+#: Largest run whose outputs are written out (beyond, they are only compared in the simulation).
+DUMP_MAX = 1 << 22
+
+
+def _stream(params, space, args, tag: str, what: str):
+    """Stream ``space`` (codes or a :class:`~cosim.stream.Space`) through the unit's RTL with the outputs written
+    out (``result.rtl``); a tqdm bar counting ``what``."""
+    from tqdm import tqdm
+    space = space if isinstance(space, Space) else ArraySpace(space, what)
+    with tqdm(total=len(space), desc=f"RTL {args.sim}", unit=what, unit_scale=True) as bar:
+        return run_stream(params, space, sim=args.sim, chunk=CHUNK, pattern=args.pattern, tag=tag,
+                          dump=len(space) <= DUMP_MAX, progress=bar)
 
 
 def _table(rows) -> str:
@@ -48,13 +65,18 @@ def sim_scene(args) -> int:
     print(f"{name}: {len(frame.codes)} fragments, {frame.scene.width}x{frame.scene.height}, RTL on {args.sim}")
     report = render(frame, out_dir)
     model = report.pop("_model_bytes")
-    os.environ.setdefault("COSIM_PROGRESS", "1")
-    result = run(frame.params, frame.codes, sim=args.sim, tag=f"scene_{name}")
+    result = _stream(frame.params, frame.codes, args, f"scene_{name}", "px")
     wall = time.perf_counter() - t0
     # the harness compared every output (bytes and flags) with the model; this is what the RTL drew
-    save_png(out_dir / "rtl.png", frame.image(result.rtl[:, :3].astype(np.uint8)))
+    # the wrapper compared every output in the simulation; the outputs it wrote out are compared again here
+    complete = result.rtl is not None and len(result.rtl) == len(frame.codes)
+    mismatches = result["mismatches"]
+    if complete:
+        save_png(out_dir / "rtl.png", frame.image(result.rtl[:, :3].astype(np.uint8)))
+        mismatches = max(mismatches, int(np.any(result.rtl != frame.params.compute(frame.codes), axis=1).sum()))
     del model
-    report.update({"simulator": args.sim, "preset": args.preset, "mismatches": result["mismatches"],
+    report.update({"simulator": args.sim, "preset": args.preset, "pattern": args.pattern,
+                   "mismatches": mismatches, "stream_ok": result.ok,
                    "first_mismatches": result["first"], "rtl_seconds": result["seconds"],
                    "build_seconds": result["build_seconds"], "wall_seconds": round(wall, 2),
                    "pixels_per_second": round(len(frame.codes) / result["seconds"]) if result["seconds"] else None,
@@ -67,7 +89,7 @@ def sim_scene(args) -> int:
         ("PSNR vs ideal", f"{report['psnr_db_vs_ideal']} dB (max {report['max_lsb_vs_ideal']} LSB)"),
         ("RTL pixels/s", f"{report['pixels_per_second']:,}"), ("wall seconds", f"{wall:.1f}"),
         ("output", str(out_dir))]))
-    if result["mismatches"]:
+    if mismatches or not result.ok:
         print(result.describe(), file=sys.stderr)
         return 1
     print("  RTL == model on every pixel")
@@ -79,17 +101,16 @@ def sim_unit(args) -> int:
 
     params = preset(args.unit, args.preset)
     rng = np.random.default_rng(args.seed)
-    vectors = params.all_inputs() if args.exhaustive else \
-        np.concatenate([params.hard_cases(), params.random_inputs(rng, args.vectors)])
-    os.environ.setdefault("COSIM_PROGRESS", "1")
-    result = run(params, vectors, sim=args.sim, tag="sim")
+    vectors = FullSpace(params) if args.exhaustive else ArraySpace(
+        np.concatenate([params.hard_cases(), params.random_inputs(rng, args.vectors)]), "hard cases and random")
+    result = _stream(params, vectors, args, "sim", "vec")
     out = ROOT / "build" / "sim" / f"{args.unit}_{args.preset}"
     out.mkdir(parents=True, exist_ok=True)
     (out / "report.json").write_text(json.dumps({"unit": args.unit, "preset": args.preset, **result}, indent=2))
     print(_table([("unit", f"{args.unit} ({args.preset})"), ("simulator", args.sim),
                   ("vectors", f"{result['vectors']:,}"), ("mismatches", str(result["mismatches"])),
                   ("vectors/s", f"{result['vectors_per_second']:,.0f}"), ("report", str(out / "report.json"))]))
-    if result["mismatches"]:
+    if not result.ok:
         print(result.describe(), file=sys.stderr)
         return 1
     return 0
@@ -107,6 +128,8 @@ def main(argv=None) -> int:
     ap.add_argument("--vectors", type=int, default=100_000, help="random vectors besides the hard cases (--unit)")
     ap.add_argument("--exhaustive", action="store_true", help="the unit's whole input space (--unit)")
     ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--pattern", default="none", choices=list(PATTERNS),
+                    help="gaps on the input valid and backpressure on the output ready (default: %(default)s)")
     args = ap.parse_args(argv)
     try:
         args.sim = simulator(args.sim)

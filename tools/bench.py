@@ -5,7 +5,9 @@ divider inputs, median of ``--repeat`` runs, one core. Co-simulation: vectors pe
 cocotb harness and of the streaming harness (``cosim/stream.py``: the stream version of the unit, vectors from
 memory files, compared in HDL) on each available simulator (build time excluded), the streaming harness without
 stalls (the whole input space counted by the wrapper, as ``make exhaustive`` runs) and with backpressure in the
-loop (random inputs from vector files, pattern ``random``: input valid and output ready each high half the time).
+loop (random inputs from vector files, pattern ``random``: input valid and output ready each high half the time),
+and the same two runs through a one-register stand-in with the unit's ports (``stand_in_verilog``): what the
+harness itself costs, the floor under the unit's rate.
 Machines here are shared and noisy: the figures are medians, the ratios between them mean more than any one
 number, and the streaming rows also give vectors per CPU second of the simulator process (what a loaded machine
 changes least).
@@ -64,19 +66,22 @@ def main(argv=None) -> int:
     sims = [s for s, tool in (("icarus", "iverilog"), ("verilator", "verilator")) if shutil.which(tool)]
     jobs += [("cosim", "recip", "default", sim) for sim in sims]
     jobs += [(f"stream-{pattern}", "recip", "default", sim) for sim in sims for pattern in ("none", "random")]
+    jobs += [(f"floor-{pattern}", "recip", "default", sim) for sim in sims for pattern in ("none", "random")]
     for kind, unit, name, what in tqdm(jobs, desc="bench", unit="job"):
         params = preset(unit, name)
         if kind == "model":
             inputs = params.all_inputs() if params.input_space() <= 1 << 24 else params.random_inputs(rng, 10 ** 6)
             rate = model_rate(params, inputs, args.repeat)
             rows.append({"what": f"model {unit} ({name})", "workload": what, "per_second": rate})
-        elif kind.startswith("stream"):
+        elif kind.startswith(("stream", "floor")):
             from cosim.stream import measure_throughput
-            pattern = kind.split("-")[1]
+            pattern, floor = kind.split("-")[1], kind.startswith("floor")
             res = measure_throughput(params, what, inputs="exhaustive" if pattern == "none" else "random",
-                                     pattern=pattern)
+                                     pattern=pattern, stand_in=floor)
             label = "no stalls" if pattern == "none" else "random gaps and backpressure"
-            rows.append({"what": f"co-simulation {unit} ({name}), streaming, {label}", "workload": what,
+            head = f"streaming harness alone (a one-register stand-in with {unit}'s ports)" if floor else \
+                f"co-simulation {unit} ({name}), streaming"
+            rows.append({"what": f"{head}, {label}", "workload": what,
                          "per_second": res["vectors_per_second"],
                          "per_cpu_second": res["vectors"] / res["sim_cpu_seconds"], "cycles": res["cycles"],
                          "vectors": res["vectors"]})

@@ -78,6 +78,7 @@ def sim_scene(args) -> int:
     report.update({"simulator": args.sim, "preset": args.preset, "pattern": args.pattern,
                    "mismatches": mismatches, "stream_ok": result.ok,
                    "first_mismatches": result["first"], "rtl_seconds": result["seconds"],
+                   "rtl_cpu_seconds": result["sim_cpu_seconds"], "cycles": result["cycles"],
                    "build_seconds": result["build_seconds"], "wall_seconds": round(wall, 2),
                    "pixels_per_second": round(len(frame.codes) / result["seconds"]) if result["seconds"] else None,
                    "pipeline_latency": frame.params.latency})

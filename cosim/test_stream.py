@@ -9,6 +9,8 @@ counted by the wrapper and read from the vector files), on ``SIM`` (every unit a
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 
@@ -149,3 +151,14 @@ def test_measure_throughput(sim):
     """The figure ``make bench`` reports beside the per-vector harness's (a positive rate of a bit-exact run)."""
     res = measure_throughput(preset("recip", "small"), sim, vectors=5000, pattern="random")
     assert res["vectors"] == 5000 and res["vectors_per_second"] > 0 and res["stalled"] > 0
+
+
+def test_sim_command_streams_a_unit_with_backpressure(sim):
+    """``python -m cosim.sim --unit``: the streaming harness under a stall pattern, the report written, exit 0."""
+    from cosim.sim import main
+    from cosim.harness import ROOT
+    assert main(["--unit", "recip", "--preset", "small", "--vectors", "500", "--pattern", "stalls",
+                 "--sim", sim]) == 0
+    report = json.loads((ROOT / "build" / "sim" / "recip_small" / "report.json").read_text())
+    assert report["vectors"] == len(preset("recip", "small").hard_cases()) + 500
+    assert report["mismatches"] == 0 and report["missing"] == 0 and report["stalled"] > 0

@@ -8,7 +8,7 @@ narrowings its model calls, with the same :class:`~fxmodel.rounding.Rounding` an
 
 from __future__ import annotations
 
-from amaranth.hdl import Const, Mux, Shape, Value, signed, unsigned
+from amaranth.hdl import Cat, Const, Mux, Shape, Value, signed, unsigned
 
 from fxmodel.fixed import Fmt
 from fxmodel.rounding import Overflow, Rounding
@@ -19,6 +19,18 @@ __all__ = ["shape", "shift_round", "saturate", "narrow", "const_mul"]
 def shape(fmt: Fmt) -> Shape:
     """Amaranth shape of a format's code."""
     return signed(fmt.width) if fmt.signed else unsigned(fmt.width)
+
+
+def _extend(x: Value, width: int) -> Value:
+    """``x`` with at least ``width`` bits, extended by its own signedness (same value).
+
+    Slicing ``x[:width]`` stops at ``len(x)``: without this a remainder or a low-bits view of a narrow word would
+    lose its sign, or read an unsigned word's top bit as one (4 in u3 would become -4 in s5).
+    """
+    if len(x) >= width:
+        return x
+    pad = width - len(x)
+    return Cat(x, x[-1].replicate(pad)).as_signed() if x.shape().signed else Cat(x, Const(0, pad))
 
 
 def shift_round(x: Value, shift, rounding: Rounding) -> Value:
@@ -34,6 +46,7 @@ def shift_round(x: Value, shift, rounding: Rounding) -> Value:
             return x >> shift
         if rounding is Rounding.HALF_UP:
             return (x + (1 << (shift - 1))) >> shift
+        x = _extend(x, shift)                   # the remainder x mod 2**shift needs shift bits of x
         q = x >> shift
         r = x[:shift]
         half = 1 << (shift - 1)
@@ -54,7 +67,8 @@ def saturate(x: Value, fmt: Fmt, overflow: Overflow):
     """
     x = Value.cast(x)
     if overflow is Overflow.PROVEN:
-        return x.as_signed()[:fmt.width].as_signed() if fmt.signed else x[:fmt.width], Const(0, 1)
+        value = _extend(x, fmt.width)[:fmt.width]
+        return value.as_signed() if fmt.signed else value, Const(0, 1)
     hi = x > fmt.max_code
     lo = x < fmt.min_code
     value = Mux(hi, Const(fmt.max_code, shape(fmt)), Mux(lo, Const(fmt.min_code, shape(fmt)), x))[:fmt.width]

@@ -15,7 +15,39 @@ from fractions import Fraction
 
 import numpy as np
 
-__all__ = ["recip_error_ulp", "divide_error", "wrapped_error", "bump_error", "recip_monotone", "as_float", "within"]
+from .fixed import Fmt
+from .rounding import Overflow, Rounding
+
+__all__ = ["round_exact", "narrow_exact", "recip_error_ulp", "divide_error", "wrapped_error", "bump_error", "recip_monotone", "as_float", "within"]
+
+
+def round_exact(x, rounding: Rounding) -> int:
+    """The rational ``x`` (an ``int`` or a :class:`~fractions.Fraction`) rounded to an integer by ``rounding``.
+
+    The oracle of :func:`fxmodel.rounding.shift_round` and :func:`~fxmodel.rounding.quantize`, written from the
+    definitions (floor; nearest with ties up; nearest with ties to the even integer), with no shift or mask.
+    """
+    x = Fraction(x)
+    q, r = divmod(x.numerator, x.denominator)        # x = q + r / den, 0 <= r < den
+    if rounding is Rounding.TRUNC or r == 0:
+        return q
+    if rounding is Rounding.HALF_UP:
+        return q + (2 * r >= x.denominator)
+    return q + (2 * r > x.denominator or (2 * r == x.denominator and q % 2 == 1))
+
+
+def narrow_exact(x: int, from_frac: int, fmt: Fmt, rounding: Rounding, overflow: Overflow):
+    """The oracle of :func:`fxmodel.rounding.narrow` for one code: ``(code, flag, fits)``.
+
+    ``fits`` says whether the rounded value lies in ``fmt``'s range. Out of range, ``SATURATE`` clamps and flags;
+    ``PROVEN`` keeps the low ``fmt.width`` bits, which is what the RTL does (the model raises instead).
+    """
+    y = round_exact(Fraction(x) / Fraction(2) ** (from_frac - fmt.frac_bits), rounding)
+    fits = fmt.min_code <= y <= fmt.max_code
+    if overflow is Overflow.SATURATE:
+        return min(max(y, fmt.min_code), fmt.max_code), not fits, fits
+    low = y & ((1 << fmt.width) - 1)
+    return (low - (1 << fmt.width) if fmt.signed and low >> (fmt.width - 1) else low), False, fits
 
 
 def _ints(a, big: bool):

@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 from hypothesis import given, strategies as st
 
+from fxmodel.exact import round_exact
 from fxmodel.fixed import Fmt
 from fxmodel.rounding import Overflow, Rounding, narrow, saturate, shift_round
 
@@ -57,23 +58,11 @@ def test_from_real_names_the_first_bad_row():
         f.from_real([float("nan")])
 
 
-def _exact_round(x: Fraction, mode: Rounding) -> int:
-    if mode is Rounding.TRUNC:
-        return math.floor(x)
-    if mode is Rounding.HALF_UP:
-        return math.floor(x + Fraction(1, 2))
-    lo = math.floor(x)
-    frac = x - lo
-    if frac != Fraction(1, 2):
-        return math.floor(x + Fraction(1, 2))
-    return lo if lo % 2 == 0 else lo + 1
-
-
 @given(st.lists(st.integers(-(1 << 40), 1 << 40), min_size=1, max_size=30), st.integers(-5, 20),
        st.sampled_from(list(Rounding)))
 def test_shift_round_matches_exact_rounding(xs, shift, mode):
     got = shift_round(np.array(xs, dtype=np.int64), shift, mode)
-    want = [_exact_round(Fraction(x, 1) / Fraction(2) ** shift, mode) for x in xs]
+    want = [round_exact(Fraction(x, 1) / Fraction(2) ** shift, mode) for x in xs]
     assert got.tolist() == want
 
 
@@ -83,7 +72,7 @@ def test_data_dependent_shift_matches_exact_rounding(pairs, mode):
     xs = np.array([p[0] for p in pairs], dtype=np.int64)
     sh = np.array([p[1] for p in pairs], dtype=np.int64)
     got = shift_round(xs, sh, mode)
-    assert got.tolist() == [_exact_round(Fraction(x, 1 << s), mode) for x, s in pairs]
+    assert got.tolist() == [round_exact(Fraction(x, 1 << s), mode) for x, s in pairs]
 
 
 def test_saturate_flags_and_clamps():
@@ -119,7 +108,7 @@ def test_quantize_matches_exact_rounding_and_saturates(values, mode):
     f = Fmt(True, 8, 6)
     codes, flag = quantize(np.array(values), f, mode, Overflow.SATURATE)
     for v, c, fl in zip(values, codes.tolist(), flag.tolist()):
-        want = _exact_round(Fraction(v) * 64, mode)
+        want = round_exact(Fraction(v) * 64, mode)
         assert c == min(max(want, f.min_code), f.max_code) and fl == (want != c)
 
 

@@ -12,12 +12,14 @@ expected value comes from exact integer math, so a failure says which side (RTL 
 from __future__ import annotations
 
 import itertools
+from fractions import Fraction
 
 import numpy as np
 import pytest
 from amaranth.hdl import Module, Signal, signed, unsigned
 from amaranth.sim import Simulator
 
+from fxmodel.exact import narrow_exact, round_exact
 from fxmodel.fixed import Fmt
 from fxmodel.rounding import Overflow, Rounding, narrow, shift_round
 from rtl import fixed as rfixed
@@ -42,31 +44,6 @@ PAIRS = [
 ]
 MODES = list(itertools.product(Rounding, Overflow))
 RANDOM = 160
-
-
-def exact_round(x: int, shift: int, rounding: Rounding) -> int:
-    """``x / 2**shift`` rounded by ``rounding``, in Python integers (floor division is exact)."""
-    if shift <= 0:
-        return x << -shift
-    q, r = divmod(x, 1 << shift)                    # x = q 2**shift + r, 0 <= r < 2**shift
-    half = 1 << (shift - 1)
-    if rounding is Rounding.TRUNC:
-        return q
-    if rounding is Rounding.HALF_UP:
-        return q + (r >= half)
-    return q + (r > half or (r == half and q % 2 == 1))
-
-
-def exact_narrow(x: int, src: Fmt, dst: Fmt, rounding: Rounding, overflow: Overflow):
-    """``(code, flag, fits)``: the exact narrowing; PROVEN out of range keeps the low bits (what the RTL does)."""
-    y = exact_round(x, src.frac_bits - dst.frac_bits, rounding)
-    fits = dst.min_code <= y <= dst.max_code
-    if overflow is Overflow.SATURATE:
-        return min(max(y, dst.min_code), dst.max_code), not fits, fits
-    low = y & ((1 << dst.width) - 1)
-    if dst.signed and low >> (dst.width - 1):
-        low -= 1 << dst.width
-    return low, False, fits
 
 
 def hard_codes(src: Fmt, dst: Fmt) -> list[int]:
@@ -136,7 +113,7 @@ def test_narrow_every_mode_and_pair_matches_model_and_exact_math():
     got = run_lanes(lanes, steps)
     for i, (src, dst, rounding, overflow, codes) in enumerate(cases):
         codes = [codes[s % len(codes)] for s in range(steps)]
-        want = [exact_narrow(c, src, dst, rounding, overflow) for c in codes]
+        want = [narrow_exact(c, src.frac_bits, dst, rounding, overflow) for c in codes]
         tag = f"{src}->{dst} {rounding.name}+{overflow.name}"
         for c, (v, f, _fits), rv, rf in zip(codes, want, got[i]["value"], got[i]["flag"]):
             assert (rv, rf) == (v, f), f"RTL {tag}: code {c}: got {(rv, rf)}, exact {(v, f)}"
@@ -173,7 +150,7 @@ def test_data_dependent_shift_matches_model_and_exact_math(src_text):
     got = run_lanes(lanes, len(pairs))
     xs, shifts = np.array([c for c, _ in pairs]), np.array([s for _, s in pairs])
     for i, rounding in enumerate(modes):
-        want = [exact_round(c, s, rounding) for c, s in pairs]
+        want = [round_exact(Fraction(c, 1 << s), rounding) for c, s in pairs]
         assert got[i]["value"] == want, f"RTL {src} {rounding.name}"
         assert shift_round(xs, shifts, rounding).tolist() == want, f"model {src} {rounding.name}"
     with pytest.raises(NotImplementedError):

@@ -12,6 +12,10 @@ Machines here are shared and noisy: the figures are medians, the ratios between 
 number, and the streaming rows also give vectors per CPU second of the simulator process (what a loaded machine
 changes least).
 
+Fixed-point core: the project's own narrowing (:mod:`fxmodel.rounding`) against apytypes'
+(:mod:`fxmodel.apy_oracle`) on ``--core-products`` random products, one core each, so the choice of an own core
+stays measured (``--core-only`` runs just this).
+
 Writes ``build/bench/bench.json`` and prints a Markdown table. Second phase (skip with ``--no-sweep``): the
 design-space sweep, speed against error of the reciprocal, the other units' widths and pipeline presets
 (:mod:`tools.sweep`: ``build/bench/speed_vs_error.{json,md}``, ``build/bench/pareto.png`` and
@@ -36,20 +40,64 @@ from fxmodel.unit import preset
 from cosim.harness import ROOT, run
 
 
-def model_rate(params, inputs, repeat: int) -> float:
-    params.compute(inputs[:1000])                       # build tables and cached formats outside the timing
+def median_seconds(fn, repeat: int, warm_up=None) -> float:
+    """Median wall time of ``fn()`` over ``repeat`` runs, after one untimed ``warm_up()`` (default ``fn``)."""
+    (warm_up or fn)()
     times = []
     for _ in range(repeat):
         t0 = time.perf_counter()
-        params.compute(inputs)
+        fn()
         times.append(time.perf_counter() - t0)
-    return len(inputs) / statistics.median(times)
+    return statistics.median(times)
+
+
+def model_rate(params, inputs, repeat: int) -> float:
+    # build tables and cached formats outside the timing
+    return len(inputs) / median_seconds(lambda: params.compute(inputs), repeat, lambda: params.compute(inputs[:1000]))
+
+
+def core_rates(n: int, repeat: int, rng: np.random.Generator) -> list[dict]:
+    """The project's fixed-point core (:mod:`fxmodel.rounding`) against apytypes on the same narrowing: ``n``
+    random products of two s2.16 arrays narrowed to s2.14, half-up and saturating, one core each (apytypes' thread
+    pool set to one thread). The product is part of the timed work on both sides; the inputs are each side's own
+    array type. Refuses to report a speed if the two results are not bit-identical."""
+    import apytypes
+
+    from fxmodel.apy_oracle import QUANTIZATION, OVERFLOW, codes_of, narrow_apy, to_apy
+    from fxmodel.fixed import Fmt
+    from fxmodel.rounding import Overflow, Rounding, narrow
+
+    src, dst, rounding, overflow = Fmt.parse("s2.16"), Fmt.parse("s2.14"), Rounding.HALF_UP, Overflow.SATURATE
+    a = rng.integers(src.min_code, src.max_code, n, endpoint=True)
+    b = rng.integers(src.min_code, src.max_code, n, endpoint=True)
+    A, B = to_apy(a, src), to_apy(b, src)
+    threads = apytypes.n_threads()
+    apytypes.reset_thread_pool(1)
+    try:
+        own = narrow(a * b, 2 * src.frac_bits, dst, rounding, overflow)
+        apy = narrow_apy(A * B, dst, rounding, overflow)
+        if not (np.array_equal(own[0], apy[0]) and np.array_equal(own[1], apy[1])):
+            raise SystemExit("fxmodel.rounding and apytypes differ on the bench's narrowing: run "
+                             "pytest tests/test_apy_oracle.py to see where")
+        cast = dict(int_bits=dst.int_bits, frac_bits=dst.frac_bits, quantization=QUANTIZATION[rounding],
+                    overflow=OVERFLOW[overflow])
+        runs = [("fxmodel.rounding.narrow (own core): codes and flag",
+                 lambda: narrow(a * b, 2 * src.frac_bits, dst, rounding, overflow)),
+                ("apytypes APyFixedArray.cast (RND, SAT): codes", lambda: codes_of((A * B).cast(**cast))),
+                ("apytypes, codes and flag (a second cast)", lambda: narrow_apy(A * B, dst, rounding, overflow))]
+        what = f"{n / 1e6:g} M random s2.16 * s2.16 -> s2.14 half-up, saturate"
+        return [{"what": name, "workload": what, "per_second": n / median_seconds(fn, repeat)} for name, fn in runs]
+    finally:
+        apytypes.reset_thread_pool(threads)
 
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(prog="python -m tools.bench", description=__doc__.split("\n")[0])
     ap.add_argument("--repeat", type=int, default=5)
     ap.add_argument("--cosim-vectors", type=int, default=30_000)
+    ap.add_argument("--core-products", type=int, default=4_000_000,
+                    help="random products narrowed by the own fixed-point core and by apytypes (0 skips)")
+    ap.add_argument("--core-only", action="store_true", help="only the fixed-point core comparison (no sweep)")
     ap.add_argument("--no-sweep", action="store_true", help="skip the design-space sweep (tools.sweep)")
     ap.add_argument("--no-fpga", action="store_true", help="sweep without the ECP5 flow")
     ap.add_argument("--fpga-points", type=int, default=6, help="sweep points placed and routed (0 to 6, cached)")
@@ -67,6 +115,10 @@ def main(argv=None) -> int:
     jobs += [("cosim", "recip", "default", sim) for sim in sims]
     jobs += [(f"stream-{pattern}", "recip", "default", sim) for sim in sims for pattern in ("none", "random")]
     jobs += [(f"floor-{pattern}", "recip", "default", sim) for sim in sims for pattern in ("none", "random")]
+    if args.core_products:
+        rows += core_rates(args.core_products, args.repeat, np.random.default_rng(2))
+    if args.core_only:
+        jobs = []
     for kind, unit, name, what in tqdm(jobs, desc="bench", unit="job"):
         params = preset(unit, name)
         if kind == "model":
@@ -101,7 +153,7 @@ def main(argv=None) -> int:
         cpu = f"{r['per_cpu_second']:,.0f}" if "per_cpu_second" in r else ""
         print(f"| {r['what']} | {r['workload']} | {r['per_second']:,.0f} | {cpu} |")
     print(f"\n(written to {out / 'bench.json'})")
-    if args.no_sweep:
+    if args.no_sweep or args.core_only:
         return 0
     from . import sweep
     sweep_argv = (["--no-fpga"] if args.no_fpga else ["--fpga-points", str(args.fpga_points)]) + [

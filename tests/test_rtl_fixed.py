@@ -26,7 +26,7 @@ from rtl import fixed as rfixed
 
 # (input format, output format): the narrowing reads the input's code with input.frac_bits fraction bits
 PAIRS = [
-    ("s4.32", "s2.14"),     # a product of two s2.16 narrowed as the units do: fraction and integer bits
+    ("s4.32", "s2.14"),     # the bench's product narrowed as the units do: fraction and integer bits
     ("s2.16", "s2.14"),     # fraction only
     ("s8.8", "s4.8"),       # integer bits only (shift 0)
     ("s3.4", "s3.6"),       # widening the fraction (left shift)

@@ -32,9 +32,13 @@ import shutil
 import statistics
 import time
 
+import apytypes
 import numpy as np
 from tqdm import tqdm
 
+from fxmodel.apy_oracle import OVERFLOW, QUANTIZATION, codes_of, narrow_apy, to_apy
+from fxmodel.fixed import Fmt
+from fxmodel.rounding import Overflow, Rounding, narrow
 from fxmodel.unit import preset
 
 from cosim.harness import ROOT, run
@@ -56,18 +60,16 @@ def model_rate(params, inputs, repeat: int) -> float:
     return len(inputs) / median_seconds(lambda: params.compute(inputs), repeat, lambda: params.compute(inputs[:1000]))
 
 
+#: The fixed-point core comparison: products of two :data:`CORE_SRC` words narrowed to :data:`CORE_DST`.
+CORE_SRC, CORE_DST = Fmt.parse("s2.16"), Fmt.parse("s2.14")
+
+
 def core_rates(n: int, repeat: int, rng: np.random.Generator) -> list[dict]:
     """The project's fixed-point core (:mod:`fxmodel.rounding`) against apytypes on the same narrowing: ``n``
-    random products of two s2.16 arrays narrowed to s2.14, half-up and saturating, one core each (apytypes' thread
-    pool set to one thread). The product is part of the timed work on both sides; the inputs are each side's own
-    array type. Refuses to report a speed if the two results are not bit-identical."""
-    import apytypes
-
-    from fxmodel.apy_oracle import QUANTIZATION, OVERFLOW, codes_of, narrow_apy, to_apy
-    from fxmodel.fixed import Fmt
-    from fxmodel.rounding import Overflow, Rounding, narrow
-
-    src, dst, rounding, overflow = Fmt.parse("s2.16"), Fmt.parse("s2.14"), Rounding.HALF_UP, Overflow.SATURATE
+    random products of two :data:`CORE_SRC` arrays narrowed to :data:`CORE_DST`, half-up and saturating, one core
+    each (apytypes' thread pool set to one thread). The product is part of the timed work on both sides; the inputs
+    are each side's own array type. Refuses to report a speed if the two results are not bit-identical."""
+    src, dst, rounding, overflow = CORE_SRC, CORE_DST, Rounding.HALF_UP, Overflow.SATURATE
     a = rng.integers(src.min_code, src.max_code, n, endpoint=True)
     b = rng.integers(src.min_code, src.max_code, n, endpoint=True)
     A, B = to_apy(a, src), to_apy(b, src)
@@ -85,7 +87,7 @@ def core_rates(n: int, repeat: int, rng: np.random.Generator) -> list[dict]:
                  lambda: narrow(a * b, 2 * src.frac_bits, dst, rounding, overflow)),
                 ("apytypes APyFixedArray.cast (RND, SAT): codes", lambda: codes_of((A * B).cast(**cast))),
                 ("apytypes, codes and flag (a second cast)", lambda: narrow_apy(A * B, dst, rounding, overflow))]
-        what = f"{n / 1e6:g} M random s2.16 * s2.16 -> s2.14 half-up, saturate"
+        what = f"{n / 1e6:g} M random {src} * {src} -> {dst} half-up, saturate"
         return [{"what": name, "workload": what, "per_second": n / median_seconds(fn, repeat)} for name, fn in runs]
     finally:
         apytypes.reset_thread_pool(threads)
@@ -119,7 +121,7 @@ def main(argv=None) -> int:
         rows += core_rates(args.core_products, args.repeat, np.random.default_rng(2))
     if args.core_only:
         jobs = []
-    for kind, unit, name, what in tqdm(jobs, desc="bench", unit="job"):
+    for kind, unit, name, what in tqdm(jobs, desc="bench", unit="job", disable=not jobs):
         params = preset(unit, name)
         if kind == "model":
             inputs = params.all_inputs() if params.input_space() <= 1 << 24 else params.random_inputs(rng, 10 ** 6)

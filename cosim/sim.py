@@ -9,7 +9,9 @@ stream through the stream version of ``rtl/pipeline.py`` (``rtl/streams.py``) in
 backpressure (``--pattern``); every output byte and flag is compared with the bit-exact model in the simulation,
 and written out (``rtl.png``, compared again here). Writes ``build/sim/<scene>/``: ``rtl.png``, ``model.png``, ``float.png``,
 ``ideal.png``, ``diff.png`` (amplified differences of the model from the two float references), ``compare.png``
-and ``report.json``; prints a summary table; exits non-zero on any mismatch. ``WAVES=1`` dumps a waveform.
+and ``report.json`` (with the ``verdict``); prints a summary table; exits non-zero on any mismatch, on a frame
+farther than ``--max-lsb`` (default: the documented scene bound) from reference (a), and on a fragment input the
+preset cannot hold (unless ``--allow-clamp``): ``fxmodel.render.judge``. ``WAVES=1`` dumps a waveform.
 
 ``--unit U [--preset P]`` co-simulates a single unit on its hard cases and random vectors instead.
 """
@@ -48,12 +50,13 @@ def _table(rows) -> str:
 
 
 def sim_scene(args) -> int:
-    from fxmodel.render import prepare, render, save_png
+    from fxmodel.render import judge, prepare, render, save_png, tell
     from fxmodel.scene import SceneError, scene_path
 
     t0 = time.perf_counter()
     try:
-        frame = prepare(scene_path(args.scene), size=args.size, preset=args.preset, cube_size=args.cube_size)
+        frame = prepare(scene_path(args.scene), size=args.size, preset=args.preset, cube_size=args.cube_size,
+                        allow_clamp=args.allow_clamp)
     except (SceneError, ValueError, OSError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
@@ -82,19 +85,21 @@ def sim_scene(args) -> int:
                    "build_seconds": result["build_seconds"], "wall_seconds": round(wall, 2),
                    "pixels_per_second": round(len(frame.codes) / result["seconds"]) if result["seconds"] else None,
                    "pipeline_latency": frame.params.latency})
+    judge(report, args.max_lsb)
     (out_dir / "report.json").write_text(json.dumps(report, indent=2))
     print(_table([
         ("scene", name), ("simulator", args.sim), ("pixels", f"{report['pixels']:,}"),
         ("mismatches", str(report["mismatches"])),
         ("PSNR vs float", f"{report['psnr_db_vs_float']} dB (max {report['max_lsb_vs_float']} LSB)"),
         ("PSNR vs ideal", f"{report['psnr_db_vs_ideal']} dB (max {report['max_lsb_vs_ideal']} LSB)"),
+        ("verdict", f"{'pass' if report['verdict']['pass'] else 'FAIL'} (bound {args.max_lsb} LSB from (a))"),
         ("RTL pixels/s", f"{report['pixels_per_second']:,}"), ("wall seconds", f"{wall:.1f}"),
         ("output", str(out_dir))]))
     if mismatches or not result.ok:
         print(result.describe(), file=sys.stderr)
         return 1
     print("  RTL == model on every pixel")
-    return 0
+    return tell(report, name)
 
 
 def sim_unit(args) -> int:
@@ -118,12 +123,14 @@ def sim_unit(args) -> int:
 
 
 def main(argv=None) -> int:
+    from fxmodel.render import bound_args
     ap = argparse.ArgumentParser(prog="python -m cosim.sim", description=__doc__.split("\n")[0])
     ap.add_argument("--scene", default="tin-plane", help="scene name in scenes/ or a .toml path")
     ap.add_argument("--size", type=int, default=None, help="override the image size (square)")
     ap.add_argument("--cube-size", type=int, help="texels per reflectance-cube face edge (default: the preset's, 64 "
                    "unless a preset file sets it)")
     ap.add_argument("--preset", default="default")
+    bound_args(ap)
     ap.add_argument("--sim", default=None, help="icarus or verilator (default: $SIM or icarus)")
     ap.add_argument("--unit", help="co-simulate one unit instead of a scene")
     ap.add_argument("--vectors", type=int, default=100_000, help="random vectors besides the hard cases (--unit)")

@@ -3,8 +3,14 @@
 :func:`prepare` turns a scene file into everything the pipeline needs: the front end's fragments (model side,
 float), the maps and reflectance cubes quantized once into the pipeline's memories (a
 :class:`~fxmodel.pipeline.PipelineParams`), and the fragments quantized once to the pipeline's input formats
-(half-up, saturating; the count of clamped values is reported). :func:`render` runs the model and the references
-and writes the images; ``make sim`` (``cosim/sim.py``) sends the same fragment codes through the RTL.
+(half-up, saturating). :func:`render` runs the model and the references and writes the images; ``make sim``
+(``cosim/sim.py``) sends the same fragment codes through the RTL.
+
+No silent degradation (one code path for ``render``, ``make sim`` and ``fit``): a fragment input that the
+preset's format cannot hold is a :class:`ClampError` naming the input, how many fragments, the range the scene
+needs and the range the preset holds, and what to do (:func:`prepare`, unless ``allow_clamp``); and
+:func:`judge` gives the verdict of a rendered frame against the documented scene bound :data:`SCENE_BOUND_LSB`
+(or a ``--max-lsb``): the command lines exit non-zero when it fails and ``report.json`` records it.
 
 Images: ``model.png`` (bit-exact), ``float.png`` (reference (a), same algorithm in float), ``ideal.png``
 (reference (b), ideal per-pixel Phong), ``diff.png`` (|model - float| and |model - ideal|, amplified, side by
@@ -28,9 +34,86 @@ from .reference import float_pipeline, ideal_phong, max_lsb, psnr
 from .rounding import Overflow, Rounding, quantize
 from .scene import load_scene, scene_path
 
-__all__ = ["Frame", "prepare", "pipeline_params", "render", "save_png", "compose"]
+__all__ = ["Frame", "prepare", "pipeline_params", "render", "save_png", "compose", "ClampError", "SCENE_BOUND_LSB",
+           "judge", "tell", "bound_args", "INPUT_KNOBS"]
 
 DIFF_GAIN = 16
+
+#: The documented bound of a frame of an accepted scene: the largest per-channel distance, in 8-bit steps, of the
+#: bit-exact frame from reference (a) on every pixel (README, "Which scenes the hardware draws"). ``render`` and
+#: ``make sim`` exit non-zero beyond it (``--max-lsb`` changes it).
+SCENE_BOUND_LSB = 2
+
+#: Where each fragment input's format lives in a preset file (what to widen when a scene needs more range).
+INPUT_KNOBS = {**{n: "persp.uv_fmt" for n in ("U", "V", "Uc", "Vc")}, "W": "persp.recip.in_fmt",
+               **{f"N{c}": "bump.n_fmt" for c in "xyz"}, **{f"E{c}": "reflect.e_fmt" for c in "xyz"},
+               **{f"A{i}{j}": "bump.a_fmt" for i in range(3) for j in range(2)}}
+
+
+class ClampError(ValueError):
+    """Fragment inputs outside the preset's input formats (they would be clamped): the message names each input,
+    how many fragments, the range the scene needs and the range the preset holds, and what to do.
+
+    Attributes
+    ----------
+    clamped : dict
+        Per input: ``count``, ``needs`` ``[lo, hi]``, ``holds`` ``[lo, hi]``, ``fmt``, ``knob``.
+    """
+
+    def __init__(self, where: str, clamped: dict, preset: str):
+        self.clamped = clamped
+        lines = [f"{where}: {len(clamped)} fragment input(s) do not fit preset {preset!r} and would be clamped:"]
+        for name, c in clamped.items():
+            lines.append(f"  {name}: {c['count']} fragments; the scene needs [{c['needs'][0]:.6g}, "
+                         f"{c['needs'][1]:.6g}], {c['fmt']} ({c['knob']}) holds [{c['holds'][0]:.6g}, "
+                         f"{c['holds'][1]:.6g}]")
+        lines.append(f"  what to do: `python -m fxmodel fit {where}` finds a preset that holds the scene; or widen "
+                     f"{', '.join(sorted({c['knob'] for c in clamped.values()}))} in a preset file "
+                     f"(presets/<name>.toml, then --preset <name>); or pass --allow-clamp to draw it clamped")
+        super().__init__("\n".join(lines))
+
+
+def bound_args(parser) -> None:
+    """Add ``--max-lsb`` and ``--allow-clamp`` to an ``argparse`` parser: ``render`` and ``make sim`` take both
+    (and pass them to :func:`prepare` and :func:`judge`)."""
+    parser.add_argument("--max-lsb", type=int, default=SCENE_BOUND_LSB, help="exit 1 when the frame is farther "
+                        "than this from reference (a) on some pixel, in 8-bit steps (default: the documented scene "
+                        "bound, %(default)s)")
+    parser.add_argument("--allow-clamp", action="store_true", help="draw fragment inputs that do not fit the "
+                        "preset's formats clamped (the counts are printed) instead of refusing the scene")
+
+
+def tell(report: dict, where: str) -> int:
+    """Print a judged report's clamped counts and problems (stderr) and return the exit status: 1 when the
+    verdict (:func:`judge`) failed, else 0."""
+    import sys
+    v = report["verdict"]
+    if v["clamped_fragment_inputs"]:
+        print(f"warning: {where}: clamped fragment inputs (--allow-clamp): "
+              + ", ".join(f"{k} {n}" for k, n in v["clamped_fragment_inputs"].items()), file=sys.stderr)
+    for line in v["problems"]:
+        print(f"error: {where}: {line}", file=sys.stderr)
+    return 0 if v["pass"] else 1
+
+
+def judge(report: dict, max_lsb: int = SCENE_BOUND_LSB) -> list[str]:
+    """The verdict of a rendered frame (a :func:`render` report with references): records ``report["verdict"]``
+    (``pass``, ``bound_lsb``, ``max_lsb_vs_float``, ``clamped_fragment_inputs``, ``problems``) and returns the
+    problems, one line each (empty when the frame passes). A frame fails when it is farther than ``max_lsb``
+    from reference (a) on some pixel; clamped inputs (only present with ``allow_clamp``) are listed, not
+    failed."""
+    if "max_lsb_vs_float" not in report:
+        raise ValueError("judge: the report has no reference (a) figures (render with references=True)")
+    problems = []
+    if report["max_lsb_vs_float"] > max_lsb:
+        over = sum(report.get("pixels_by_lsb_vs_float", [])[max_lsb + 1:]) or "some"
+        problems.append(f"the frame is {report['max_lsb_vs_float']} LSB from reference (a) ({over} pixels), over "
+                        f"the bound of {max_lsb} LSB (--max-lsb); `python -m fxmodel fit SCENE --max-lsb "
+                        f"{max_lsb}` searches a preset that meets it")
+    clamped = report.get("clamped_fragment_inputs", {})
+    report["verdict"] = {"pass": not problems, "bound_lsb": max_lsb, "max_lsb_vs_float": report["max_lsb_vs_float"],
+                         "clamped_fragment_inputs": clamped, "problems": problems}
+    return problems
 
 
 @dataclass
@@ -77,7 +160,8 @@ class Frame:
         return a, b
 
 
-def prepare(scene, *, size=None, preset: str | dict = "default", cube_size: int | None = None) -> Frame:
+def prepare(scene, *, size=None, preset: str | dict = "default", cube_size: int | None = None,
+            allow_clamp: bool = False) -> Frame:
     """Load (if a path), rasterize and quantize a scene for a pipeline preset.
 
     Parameters
@@ -92,11 +176,16 @@ def prepare(scene, *, size=None, preset: str | dict = "default", cube_size: int 
     cube_size : int, optional
         Texels per reflectance-cube face edge; ``None``: the preset's ``cube_size`` (64 unless a preset file,
         e.g. one written by ``fit``, sets it).
+    allow_clamp : bool
+        Quantize fragment inputs outside the preset's formats by saturation (counted in
+        ``stats["clamped_fragment_inputs"]``) instead of raising :class:`ClampError`.
 
     Raises
     ------
     SceneError
         A missing or malformed scene file (naming it).
+    ClampError
+        Some fragment input does not fit its format (unless ``allow_clamp``).
     ValueError, TypeError
         An unknown or bad preset (see :func:`fxmodel.presets.preset_units`), or a frame whose visible
         fragments use more than one material.
@@ -130,13 +219,18 @@ def prepare(scene, *, size=None, preset: str | dict = "default", cube_size: int 
     values |= {f"A{i}{j}": A[:, i, j] for i in range(3) for j in range(2)}
     cols, clamped = [], {}
     for port in params.inputs:
-        c, flag = quantize(values[port.name], port.fmt, Rounding.HALF_UP, Overflow.SATURATE, f"fragment {port.name}")
+        v = values[port.name]
+        c, flag = quantize(v, port.fmt, Rounding.HALF_UP, Overflow.SATURATE, f"fragment {port.name}")
         cols.append(c)
         if flag.any():
-            clamped[port.name] = int(flag.sum())
+            clamped[port.name] = {"count": int(flag.sum()), "needs": [float(v.min()), float(v.max())],
+                                  "holds": [float(port.fmt.min_value), float(port.fmt.max_value)],
+                                  "fmt": str(port.fmt), "knob": INPUT_KNOBS[port.name]}
+    if clamped and not allow_clamp:
+        raise ClampError(str(scene.path or scene.name), clamped, preset if isinstance(preset, str) else "(units)")
     codes = np.stack(cols, 1) if cols and len(frags) else np.zeros((0, len(params.inputs)), np.int64)
     stats = {"fragments": len(frags), "material": mat.name, "cube_size": cube_size,
-             "clamped_fragment_inputs": clamped, **cube_info,
+             "clamped_fragment_inputs": {k: c["count"] for k, c in clamped.items()}, **cube_info,
              "bump_map_saturated": mm.bump.n_saturated if mm.bump is not None else 0,
              "seconds_front_end": round(t1 - t0, 3), "seconds_tables": round(t2 - t1, 3),
              "seconds_quantize": round(time.perf_counter() - t2, 3)}
@@ -200,6 +294,8 @@ def render(frame: Frame, out_dir=None, *, references: bool = True) -> dict:
     if references:
         a, b = frame.references()
         report.update(metrics(model, a, b))
+        per_pixel = np.abs(model.astype(np.int64) - a.astype(np.int64)).max(1) if len(model) else np.zeros(0, int)
+        report["pixels_by_lsb_vs_float"] = np.bincount(per_pixel, minlength=1).tolist()   # [0 LSB, 1 LSB, ...]
         images["float"] = frame.image(a)
         images["ideal"] = frame.image(b)
         images["diff"] = compose(frame.image(diff_image(model, a)), frame.image(diff_image(model, b)))

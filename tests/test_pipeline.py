@@ -74,7 +74,7 @@ def test_render_command_writes_png_and_report(tmp_path, capsys):
     rep = json.loads(capsys.readouterr().out)
     from PIL import Image
     img = np.asarray(Image.open(out))
-    assert img.shape == (40, 40, 3) and rep["pixels"] > 0 and "psnr_db_vs_float" not in rep
+    assert img.shape == (40, 40, 3) and rep["pixels"] > 0 and rep["verdict"]["pass"]
 
 
 def test_bad_scene_is_one_clear_error(tmp_path):

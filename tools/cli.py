@@ -12,8 +12,11 @@
     Measures the preset's error against exact math: exhaustively if the input space has at most 2**26 vectors,
     else over ``--random`` vectors plus the hard cases. Prints JSON (worst, mean, bound, faithful, monotone).
 ``render SCENE.toml OUT.png``
-    Renders a scene through the bit-exact pipeline model (no simulator); ``--refs DIR`` also writes the two float
-    references and reports PSNR and the largest per-channel difference against each.
+    Renders a scene through the bit-exact pipeline model (no simulator) and the two float references, and prints
+    JSON with PSNR and the largest per-channel difference against each and the ``verdict``; ``--refs DIR`` also
+    writes the references' images. Exits 1 when the frame is farther than ``--max-lsb`` (default: the documented
+    scene bound, ``fxmodel.render.SCENE_BOUND_LSB``) from reference (a), and 2 when a fragment input does not fit
+    the preset (it would be clamped; ``--allow-clamp`` draws it clamped and prints the counts).
 ``presets [UNIT]``
     Lists units and their presets.
 ``fit SCENE.toml --max-lsb 1``
@@ -106,16 +109,18 @@ def cmd_errors(args) -> int:
 
 
 def cmd_render(args) -> int:
-    from fxmodel.render import prepare, render, save_png
+    from fxmodel.render import judge, prepare, render, save_png, tell
     from fxmodel.scene import SceneError
     try:
-        frame = prepare(args.scene, size=args.size, preset=args.preset, cube_size=args.cube_size)
+        frame = prepare(args.scene, size=args.size, preset=args.preset, cube_size=args.cube_size,
+                        allow_clamp=args.allow_clamp)
     except (SceneError, OSError) as exc:
         raise SystemExit(f"error: {exc}")
-    report = render(frame, args.refs, references=bool(args.refs))
+    report = render(frame, args.refs)
     save_png(args.output, frame.image(report.pop("_model_bytes")))
+    judge(report, args.max_lsb)
     print(json.dumps(report, indent=2))
-    return 0
+    return tell(report, args.scene)
 
 
 def cmd_fit(args) -> int:
@@ -124,7 +129,8 @@ def cmd_fit(args) -> int:
     try:
         report = fit(args.scene, max_lsb=args.max_lsb, size=args.size or None, cube_size=args.cube_size,
                      name=args.name, directory=args.out, progress=not args.quiet, passes=args.passes,
-                     scene_size=args.scene_size, jobs=args.jobs, scheduler=args.scheduler)
+                     scene_size=args.scene_size, jobs=args.jobs, scheduler=args.scheduler,
+                     allow_clamp=args.allow_clamp)
     except (SceneError, OSError) as exc:
         raise SystemExit(f"error: {exc}")
     print(json.dumps(report, indent=2))
@@ -167,7 +173,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--preset", default="default", help="pipeline preset (default: %(default)s)")
     p.add_argument("--cube-size", type=int, help="texels per reflectance-cube face edge (default: the preset's, 64 "
                    "unless a preset file sets it)")
-    p.add_argument("--refs", metavar="DIR", help="also render the float references into DIR, report PSNR")
+    p.add_argument("--refs", metavar="DIR", help="also write the float references' images (and diff.png) into DIR")
+    from fxmodel.render import bound_args
+    bound_args(p)
     p.set_defaults(fn=cmd_render)
     p = sub.add_parser("fit", help="scene-driven word lengths: the smallest preset within --max-lsb of float")
     p.add_argument("scene", help="scene file (TOML)")
@@ -181,6 +189,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--scene-size", type=int, help="render the scene at this square size instead of its own")
     p.add_argument("--passes", type=int, default=2, help="passes over the knobs (default: %(default)s)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--allow-clamp", action="store_true", help="fit a scene whose inputs the default preset clamps")
     from .jobs import add_arguments
     add_arguments(p, what="candidate presets rendered")
     p.set_defaults(fn=cmd_fit)

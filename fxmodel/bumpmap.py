@@ -41,7 +41,7 @@ from .fixed import Fmt
 from .rounding import Overflow, Rounding, narrow
 from .scene import BumpSpec, ColorSpec, Material, Scene
 
-__all__ = ["bump_rgb", "mexican_hat", "heights_from_image", "chiselled_text", "height_field", "perturbations", "BumpCodes",
+__all__ = ["block_exponent", "bump_rgb", "mexican_hat", "heights_from_image", "chiselled_text", "height_field", "perturbations", "BumpCodes",
            "quantize", "tangent_frame", "triangle_matrix", "graffiti", "checker", "color_texture",
            "MaterialMaps", "material_maps", "scene_maps", "bump_gain", "periodic_noise"]
 
@@ -385,6 +385,68 @@ def triangle_matrix(positions, uvs, strength: float, scale: float) -> np.ndarray
     T, B, _ = tangent_frame(positions, uvs)
     k = np.asarray(strength, dtype=np.float64) * np.asarray(scale, dtype=np.float64)
     return np.stack([T, B], axis=-1) * k[..., None, None]
+
+
+def _support(points: np.ndarray, dirs: np.ndarray) -> np.ndarray:
+    """``max_p |dirs . p|`` for each row of ``dirs`` ``(..., 2)`` over the points ``(P, 2)`` (their convex hull's
+    vertices suffice: a bilinear blend of texels lies in it)."""
+    pts = np.unique(points, axis=0)
+    if len(pts) > 64:                                  # Andrew's monotone chain: the hull's vertices only
+        def half(seq):
+            out = []
+            for p in seq:
+                while len(out) >= 2 and ((out[-1][0] - out[-2][0]) * (p[1] - out[-2][1])
+                                         - (out[-1][1] - out[-2][1]) * (p[0] - out[-2][0])) <= 0:
+                    out.pop()
+                out.append(p)
+            return out[:-1]
+        seq = [tuple(p) for p in pts.tolist()]
+        pts = np.array(half(seq) + half(seq[::-1]) or seq, dtype=np.float64)
+    flat = dirs.reshape(-1, 2)
+    best = np.zeros(len(flat))
+    for lo in range(0, len(flat), 4096):
+        best[lo:lo + 4096] = np.abs(flat[lo:lo + 4096] @ pts.T).max(axis=1)
+    return best.reshape(dirs.shape[:-1])
+
+
+def block_exponent(A, n_max, duv, a_fmt: Fmt, out_fmt: Fmt, e_max: int) -> np.ndarray:
+    """The per-triangle shared exponent ``e`` of the bump matrix (block floating point, triangle set-up).
+
+    The bump engine computes ``N' = N 2**-e + du A0' + dv A1'`` with ``A' = A 2**-e`` (the cube lookups need the
+    direction only). ``e`` is the smallest integer in ``[0, e_max]`` for which ``A 2**-e`` fits ``a_fmt`` (after
+    its half-up rounding) and ``N'`` cannot saturate ``out_fmt``: ``2**-e (n_max_i + max |du A_i0 + dv A_i1|)``
+    below ``out_fmt``'s largest value, with the maximum over the map's texels (a bilinear blend lies in their convex
+    hull) and a margin of ``2**-10`` relative plus one ``out_fmt`` ulp for the roundings of ``A'`` and ``N'``.
+    ``e = 0`` keeps ``N`` unscaled (the paper's engine); where no ``e <= e_max`` works, ``e_max`` (then
+    ``A'`` clamps, which :func:`fxmodel.render.prepare` refuses).
+
+    Parameters
+    ----------
+    A : ndarray, shape (T, 3, 2)
+        The triangles' matrices (:func:`triangle_matrix`).
+    n_max : ndarray, shape (T, 3)
+        Per triangle and component, the largest ``|N_i|`` of its vertex normals (the interpolated normal stays in
+        their convex hull).
+    duv : ndarray, shape (P, 2)
+        The bump map's perturbations ``(du, dv)`` in real units (the codes' values).
+    a_fmt, out_fmt : Fmt
+        ``BumpParams.a_fmt`` and ``out_fmt``.
+    e_max : int
+        ``BumpParams.e_max``.
+
+    Returns
+    -------
+    ndarray, shape (T,), int64
+    """
+    A = np.asarray(A, dtype=np.float64)
+    a_lim = float(a_fmt.max_value) + float(a_fmt.ulp) / 4          # half-up rounding stays within a_fmt below this
+    need_a = np.abs(A).max(axis=(1, 2), initial=0.0) / a_lim
+    pert = _support(np.asarray(duv, dtype=np.float64).reshape(-1, 2), A) if len(A) else np.zeros((0, 3))
+    worst = (np.asarray(n_max, dtype=np.float64) + pert).max(axis=1, initial=0.0) * (1 + 2.0 ** -10)
+    need_n = (worst + float(out_fmt.ulp)) / float(out_fmt.max_value)
+    need = np.maximum(need_a, need_n)
+    e = np.ceil(np.log2(np.maximum(need, 1.0)))
+    return np.minimum(e, e_max).astype(np.int64)
 
 
 # ------------------------------------------------------------------------------------------------------------

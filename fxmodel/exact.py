@@ -125,14 +125,17 @@ def wrapped_error(n, d, c, num_frac: int, den_frac: int, out_frac: int):
     return np.where(zero, 0, num), np.where(zero, 1, period)
 
 
-def bump_error(N, du, dv, A0, A1, out, n_frac: int, d_frac: int, a_frac: int, out_frac: int):
-    """``|out - (N + du A0 + dv A1)|`` per component (real units) as ``(num, den)``, ``num`` of shape ``(K, 3)``:
-    every term aligned to ``F = max(n_frac, d_frac + a_frac, out_frac)`` fraction bits, ``den = 2**F``."""
-    F = max(n_frac, d_frac + a_frac, out_frac)
+def bump_error(N, du, dv, A0, A1, out, n_frac: int, d_frac: int, a_frac: int, out_frac: int, e=None):
+    """``|out - (N 2**-e + du A0 + dv A1)|`` per component (real units) as ``(num, den)``, ``num`` of shape
+    ``(K, 3)``: every term aligned to ``F = max(n_frac + max(e), d_frac + a_frac, out_frac)`` fraction bits,
+    ``den = 2**F``. ``e``: the block exponents (``(K,)``, default 0)."""
+    e = np.zeros(len(N), dtype=np.int64) if e is None else np.asarray(e, dtype=np.int64)
+    F = max(n_frac + int(e.max(initial=0)), d_frac + a_frac, out_frac)
     N, A0, A1, out = (np.asarray(a, dtype=object) for a in (N, A0, A1, out))
     du = np.asarray(du, dtype=object)[:, None]
     dv = np.asarray(dv, dtype=object)[:, None]
-    exact = N * (1 << (F - n_frac)) + (du * A0 + dv * A1) * (1 << (F - d_frac - a_frac))
+    nscale = np.array([1 << (F - n_frac - int(k)) for k in e], dtype=object)[:, None]
+    exact = N * nscale + (du * A0 + dv * A1) * (1 << (F - d_frac - a_frac))
     return np.abs(out * (1 << (F - out_frac)) - exact), 1 << F
 
 
@@ -252,13 +255,13 @@ def measure_persp(params, rows, out, s_abs: int = 16) -> dict:
 
 
 def measure_bump(params, rows, out) -> dict:
-    """Worst and mean component error of unsaturated bump outputs against the exact ``N + du A0 + dv A1``."""
+    """Worst and mean component error of unsaturated bump outputs against the exact ``N 2**-e + du A0 + dv A1``."""
     rows = np.asarray(rows, dtype=np.int64)
     keep = out[:, 3] == 0
     r = rows[keep]
     num, den = bump_error(r[:, 0:3], r[:, 3], r[:, 4], r[:, 5:8], r[:, 8:11], out[keep, :3],
                           params.n_fmt.frac_bits, params.d_fmt.frac_bits, params.a_fmt.frac_bits,
-                          params.out_fmt.frac_bits)
+                          params.out_fmt.frac_bits, r[:, 11] if params.exp_bits else None)
     worst_num = int(num.max(initial=0)) if num.size else 0
     worst = Fraction(worst_num, den)
     err = as_float(num.ravel(), np.full(num.size, den, dtype=object)) if num.size else np.zeros(0)

@@ -35,14 +35,17 @@ Steps
 
 Output conventions (see :class:`Fragments`)
 -------------------------------------------
-``U = k u_b / w_c``, ``V = k v_b / w_c``, ``W = k / w_c`` with ``(u_b, v_b) = (u ru, v rv)`` the bump-map
-address (the material's bump ``repeat`` applied; one tile per unit) and ``k`` one constant per rasterized
-triangle, the smallest ``w_c`` of its three vertices: the triangle's largest ``W`` is exactly 1 and
-``W`` lies in ``(0, 1]`` (to rounding), while ``s = U / W`` is unchanged by ``k``. ``Uc, Vc`` are the same for
-the color texture's repeat (equal to ``U, V`` when both repeats agree). The pipeline takes ``W`` in
-``persp.recip.in_fmt`` and ``U, V`` in ``persp.uv_fmt`` (``python -m fxmodel info persp`` prints them):
-``|U| <= |s|`` as ``W <= 1``, so every ``|s|`` within the range of ``uv_fmt`` fits, and ``W`` is small only for a
-triangle spanning a large depth range (``W >= w_min / w_max`` over the triangle).
+``U = k (u_b - tile_u) / w_c``, ``V = k (v_b - tile_v) / w_c``, ``W = k / w_c`` with ``(u_b, v_b) = (u ru,
+v rv)`` the bump-map address (the material's bump ``repeat`` applied; one tile per unit), ``k`` one constant per
+rasterized triangle, the smallest ``w_c`` of its three vertices (the triangle's largest ``W`` is exactly 1 and
+``W`` lies in ``(0, 1]``, to rounding, while ``U / W`` is unchanged by ``k``), and ``(tile_u, tile_v)`` the
+triangle's integer **tile offset** (range normalization in the triangle set-up, free because the pipeline wraps
+``s = U / W`` to ``[0, 1)``: ``U / W`` stays within half the triangle's span in texture space of 0, whatever the
+repeat and wherever the triangle lies in texture space). ``Uc, Vc`` are the same for the color texture's repeat
+(equal to ``U, V`` when both repeats agree). The pipeline takes ``W`` in ``persp.recip.in_fmt`` and ``U, V`` in
+``persp.uv_fmt`` (``python -m fxmodel info persp`` prints them): ``|U| <= |s - tile|`` as ``W <= 1``, so a
+triangle spanning up to twice the range of ``uv_fmt`` in tiles fits, and ``W`` is small only for a triangle
+spanning a large depth range (``W >= w_min / w_max`` over the triangle).
 """
 
 from __future__ import annotations
@@ -256,10 +259,15 @@ class Fragments:
     front : ndarray (K,), bool
         False for a back face of a two-sided mesh (its ``N`` and ``A`` are negated here).
     U, V, W : ndarray (K,)
-        Screen-linear homogeneous bump address ``k u_b / w_c``, ``k v_b / w_c``, ``k / w_c`` (bump repeat
-        applied; ``k`` per rasterized triangle makes its largest vertex ``W`` equal to 1).
+        Screen-linear homogeneous bump address ``k (u_b - tile_u) / w_c``, ``k (v_b - tile_v) / w_c``,
+        ``k / w_c`` (bump repeat applied; ``k`` per rasterized triangle makes its largest vertex ``W`` equal to 1;
+        the tile offset is free with the repeat wrap and keeps ``U / W`` near 0).
     Uc, Vc : ndarray (K,)
-        The same for the color texture (color repeat applied); share ``W``.
+        The same for the color texture (color repeat, ``tile_c``); share ``W``.
+    tile, tile_c : ndarray (K, 2)
+        The rasterized triangle's integer tile offsets of the bump and color addresses: the middle of its vertices'
+        address range, rounded to the nearest integer (triangle set-up; ``U = (s - tile_u) W``), so
+        ``|U / W| <= span / 2 + 1 / 2``.
     wscale : ndarray (K,)
         ``k`` (world units): ``1 / w_c = W / k``.
     s, t : ndarray (K,)
@@ -297,6 +305,8 @@ class Fragments:
     W: np.ndarray = field(repr=False)
     Uc: np.ndarray = field(repr=False)
     Vc: np.ndarray = field(repr=False)
+    tile: np.ndarray = field(repr=False)
+    tile_c: np.ndarray = field(repr=False)
     wscale: np.ndarray = field(repr=False)
     s: np.ndarray = field(repr=False)
     t: np.ndarray = field(repr=False)
@@ -437,6 +447,11 @@ def rasterize(scene: Scene, maps=None) -> Fragments:
     Wf = invw * wscale
     st = uv * bump_rep[mat]
     stc = st if np.array_equal(bump_rep, color_rep) else uv * color_rep[mat]
+    # per-triangle integer tile offsets (free with the repeat wrap): the middle of the vertices' address range
+    sub_mat = tris.material[src]
+    sub_uv = (sub[..., 9:11].min(axis=1) + sub[..., 9:11].max(axis=1)) / 2          # (S, 2)
+    tile_b = np.rint(sub_uv * bump_rep[sub_mat])[k]
+    tile_c = np.rint(sub_uv * color_rep[sub_mat])[k]
     E_ = np.asarray(scene.camera.position, dtype=np.float64) - P
     E_ /= np.sqrt(np.einsum("ki,ki->k", E_, E_))[:, None]
     clock.append(time.perf_counter())
@@ -446,7 +461,8 @@ def rasterize(scene: Scene, maps=None) -> Fragments:
                                  (float(x) for x in np.diff(clock))))}
     return Fragments(
         width=W_, height=H_, x=xs.astype(np.int64), y=ys.astype(np.int64), tri=src[k], material=mat,
-        front=front[k], U=st[:, 0] * Wf, V=st[:, 1] * Wf, W=Wf, Uc=stc[:, 0] * Wf, Vc=stc[:, 1] * Wf,
+        front=front[k], U=(st[:, 0] - tile_b[:, 0]) * Wf, V=(st[:, 1] - tile_b[:, 1]) * Wf, W=Wf,
+        Uc=(stc[:, 0] - tile_c[:, 0]) * Wf, Vc=(stc[:, 1] - tile_c[:, 1]) * Wf, tile=tile_b, tile_c=tile_c,
         wscale=wscale, s=st[:, 0], t=st[:, 1], sc=stc[:, 0], tc=stc[:, 1], uv=uv, N=N, E=E_, P=P,
         depth=1.0 / invw, A=tri_A[src[k]] * sign[:, None, None], tri_A=tri_A, stats=stats)
 

@@ -25,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .bumpmap import perturbations, scene_maps
+from .bumpmap import block_exponent, perturbations, scene_maps
 from .frontend import rasterize
 from .lighting import Light, Lighting, face_directions
 from .pipeline import FLAG_BITS, PipelineParams
@@ -47,30 +47,81 @@ SCENE_BOUND_LSB = 2
 #: Where each fragment input's format lives in a preset file (what to widen when a scene needs more range).
 INPUT_KNOBS = {**{n: "persp.uv_fmt" for n in ("U", "V", "Uc", "Vc")}, "W": "persp.recip.in_fmt",
                **{f"N{c}": "bump.n_fmt" for c in "xyz"}, **{f"E{c}": "reflect.e_fmt" for c in "xyz"},
-               **{f"A{i}{j}": "bump.a_fmt" for i in range(3) for j in range(2)}}
+               **{f"A{i}{j}": "bump.a_fmt" for i in range(3) for j in range(2)}, "Ae": "bump.exp_bits"}
+
+
+#: The largest texture-address error (texels) a fragment may have before the scene is refused: about half a step
+#: of an 8-bit texel jump under bilinear filtering (a full-scale edge moves by 255 / 512 LSB).
+ADDRESS_LIMIT_TEXELS = 1 / 512
 
 
 class ClampError(ValueError):
-    """Fragment inputs outside the preset's input formats (they would be clamped): the message names each input,
+    """A scene the preset cannot draw: fragment inputs outside the preset's input formats (they would be clamped),
+    or texture addresses the formats cannot resolve (:data:`ADDRESS_LIMIT_TEXELS`). The message names each input,
     how many fragments, the range the scene needs and the range the preset holds, and what to do.
 
     Attributes
     ----------
     clamped : dict
         Per input: ``count``, ``needs`` ``[lo, hi]``, ``holds`` ``[lo, hi]``, ``fmt``, ``knob``.
+    imprecise : dict
+        Per texture address (``U, V`` bump map, ``Uc, Vc`` color texture): ``count``, ``texels`` (the largest
+        address error), ``limit``, ``min_W``, ``knob``.
     """
 
-    def __init__(self, where: str, clamped: dict, preset: str):
+    def __init__(self, where: str, clamped: dict, preset: str, imprecise: dict | None = None):
         self.clamped = clamped
-        lines = [f"{where}: {len(clamped)} fragment input(s) do not fit preset {preset!r} and would be clamped:"]
+        self.imprecise = imprecise = imprecise or {}
+        lines = [f"{where}: preset {preset!r} cannot draw this scene:"]
         for name, c in clamped.items():
-            lines.append(f"  {name}: {c['count']} fragments; the scene needs [{c['needs'][0]:.6g}, "
+            lines.append(f"  {name}: {c['count']} fragments would be clamped; the scene needs [{c['needs'][0]:.6g}, "
                          f"{c['needs'][1]:.6g}], {c['fmt']} ({c['knob']}) holds [{c['holds'][0]:.6g}, "
                          f"{c['holds'][1]:.6g}]")
-        lines.append(f"  what to do: `python -m fxmodel fit {where}` finds a preset that holds the scene; or widen "
-                     f"{', '.join(sorted({c['knob'] for c in clamped.values()}))} in a preset file "
-                     f"(presets/<name>.toml, then --preset <name>); or pass --allow-clamp to draw it clamped")
+        for name, c in imprecise.items():
+            lines.append(f"  {name}: {c['count']} fragments (W down to {c['min_W']:.3g}) are addressed only to "
+                         f"{c['texels']:.3g} texel, the limit is {c['limit']:.3g} texel ({c['knob']}: more "
+                         f"fraction bits)")
+        knobs = sorted({k for c in (*clamped.values(), *imprecise.values()) for k in c["knob"].split(", ")})
+        lines.append(f"  what to do: `python -m fxmodel fit {where}` finds a preset that draws the scene; or widen "
+                     f"{', '.join(knobs)} in a preset file (presets/<name>.toml, then --preset <name>); or pass "
+                     f"--allow-clamp to draw it anyway")
         super().__init__("\n".join(lines))
+
+
+def address_errors(frags, persp, shapes: dict) -> dict:
+    """The texture-address errors the pipeline's input formats allow, per fragment, in texels.
+
+    ``s = U / W`` from ``U`` and ``W`` rounded half-up to their formats: ``|s_q - s| <= (ulp_U / 2 + |s|
+    ulp_W / 2) / W`` to first order, plus the perspective unit's own bound (:meth:`PerspParams.error_bound`,
+    the reciprocal's error times ``|s|`` and the rounding of ``s``), times the map's size in texels.
+
+    Parameters
+    ----------
+    frags : Fragments
+    persp : PerspParams
+    shapes : dict
+        ``{"U": (height, width) of the bump map, "Uc": ... of the color texture}``; a map left out (or of one
+        texel) is not addressed.
+
+    Returns
+    -------
+    dict
+        ``{"U": (K,), "Uc": (K,)}``: the larger of the ``s`` and ``t`` errors, in texels.
+    """
+    ulp_u, ulp_w = float(persp.uv_fmt.ulp), float(persp.recip.in_fmt.ulp)
+    W = np.maximum(np.asarray(frags.W), np.finfo(float).tiny)
+    out = {}
+    for name, (uu, vv) in (("U", (frags.U, frags.V)), ("Uc", (frags.Uc, frags.Vc))):
+        h, w = shapes.get(name, (1, 1))
+        if h * w <= 1:
+            continue
+        worst = np.zeros(len(W))
+        for num, size in ((uu, w), (vv, h)):
+            s = np.abs(np.asarray(num)) / W
+            own = s * float(persp.recip.error_bound_ulp / (1 << persp.recip.fo)) + 2.0 ** -(persp.coord_bits + 1)
+            worst = np.maximum(worst, ((ulp_u / 2 + s * ulp_w / 2) / W + own) * size)
+        out[name] = worst
+    return out
 
 
 def bound_args(parser) -> None:
@@ -214,23 +265,49 @@ def prepare(scene, *, size=None, preset: str | dict = "default", cube_size: int 
                                                 cube_face=cube_size, preset=units)
     t2 = time.perf_counter()
     N, E, A = np.asarray(frags.N), np.asarray(frags.E), np.asarray(frags.A)
+    # triangle set-up, per scene triangle: the block exponent of A (bumpmap.block_exponent)
+    bp = params.bump
+    e_tri = np.zeros(len(frags.tri_A), np.int64)
+    if bp.exp_bits and len(frags.tri_A):
+        tri_n = np.abs(scene.triangles().normals).max(axis=1)
+        e_tri = block_exponent(frags.tri_A, tri_n, bump.reshape(-1, 2) * float(bp.d_fmt.ulp), bp.a_fmt, bp.out_fmt,
+                               bp.e_max)
+    e = e_tri[frags.tri] if len(frags) else np.zeros(0, np.int64)
     values = {"U": frags.U, "V": frags.V, "Uc": frags.Uc, "Vc": frags.Vc, "W": frags.W,
-              "Nx": N[:, 0], "Ny": N[:, 1], "Nz": N[:, 2], "Ex": E[:, 0], "Ey": E[:, 1], "Ez": E[:, 2]}
-    values |= {f"A{i}{j}": A[:, i, j] for i in range(3) for j in range(2)}
+              "Nx": N[:, 0], "Ny": N[:, 1], "Nz": N[:, 2], "Ex": E[:, 0], "Ey": E[:, 1], "Ez": E[:, 2],
+              "Ae": e.astype(np.float64)}
+    values |= {f"A{i}{j}": np.ldexp(A[:, i, j], -e) for i in range(3) for j in range(2)}
+    # what a format holds, in the scene's units (A: with the largest block exponent)
+    unit = {f"A{i}{j}": 2.0 ** bp.e_max for i in range(3) for j in range(2)}
     cols, clamped = [], {}
     for port in params.inputs:
         v = values[port.name]
         c, flag = quantize(v, port.fmt, Rounding.HALF_UP, Overflow.SATURATE, f"fragment {port.name}")
         cols.append(c)
         if flag.any():
-            clamped[port.name] = {"count": int(flag.sum()), "needs": [float(v.min()), float(v.max())],
-                                  "holds": [float(port.fmt.min_value), float(port.fmt.max_value)],
-                                  "fmt": str(port.fmt), "knob": INPUT_KNOBS[port.name]}
-    if clamped and not allow_clamp:
-        raise ClampError(str(scene.path or scene.name), clamped, preset if isinstance(preset, str) else "(units)")
+            real = A[:, int(port.name[1]), int(port.name[2])] if port.name in unit else v
+            k = unit.get(port.name, 1.0)
+            clamped[port.name] = {"count": int(flag.sum()), "needs": [float(real.min()), float(real.max())],
+                                  "holds": [float(port.fmt.min_value) * k, float(port.fmt.max_value) * k],
+                                  "fmt": str(port.fmt) + (f" x 2^e, e <= {bp.e_max}" if port.name in unit else ""),
+                                  "knob": INPUT_KNOBS[port.name]}
+    shapes = {"U": bump.shape[:2] if np.ptp(bump) else (1, 1), "Uc": mm.color.shape[:2] if np.ptp(mm.color) else (1, 1)}
+    imprecise = {}
+    for name, err in address_errors(frags, params.persp, shapes).items():
+        bad = err > ADDRESS_LIMIT_TEXELS
+        if bad.any():
+            label = "U, V (bump-map address)" if name == "U" else "Uc, Vc (color-texture address)"
+            imprecise[label] = {"count": int(bad.sum()), "texels": float(err.max()), "limit": ADDRESS_LIMIT_TEXELS,
+                                "min_W": float(np.asarray(frags.W)[bad].min()),
+                                "knob": "persp.uv_fmt, persp.recip.in_fmt"}
+    if (clamped or imprecise) and not allow_clamp:
+        raise ClampError(str(scene.path or scene.name), clamped, preset if isinstance(preset, str) else "(units)",
+                         imprecise)
     codes = np.stack(cols, 1) if cols and len(frags) else np.zeros((0, len(params.inputs)), np.int64)
     stats = {"fragments": len(frags), "material": mat.name, "cube_size": cube_size,
-             "clamped_fragment_inputs": {k: c["count"] for k, c in clamped.items()}, **cube_info,
+             "block_exponents": np.bincount(e, minlength=1).tolist(),                 # fragments with e = 0, 1, ...
+             "clamped_fragment_inputs": {k: c["count"] for k, c in clamped.items()},
+             "imprecise_fragments": {k: c["count"] for k, c in imprecise.items()}, **cube_info,
              "bump_map_saturated": mm.bump.n_saturated if mm.bump is not None else 0,
              "seconds_front_end": round(t1 - t0, 3), "seconds_tables": round(t2 - t1, 3),
              "seconds_quantize": round(time.perf_counter() - t2, 3)}
@@ -246,7 +323,7 @@ def pipeline_params(scene, preset: str | dict = "default", *, cube_size: int | N
     ``preset`` as :func:`prepare`. The scene is prepared at its own size (a fraction of a second for the shipped
     scenes), so the tables, including which material is visible, are exactly those of the rendered frame.
     """
-    return prepare(scene_path(scene), preset=preset, cube_size=cube_size).params
+    return prepare(scene_path(scene), preset=preset, cube_size=cube_size, allow_clamp=True).params
 
 
 def save_png(path, img: np.ndarray) -> Path:

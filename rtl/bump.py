@@ -1,4 +1,4 @@
-"""RTL of the bump engine ``N' = N + du A[:,0] + dv A[:,1]`` (paper section 3.2, Fig. 6), from ``BumpParams``."""
+"""RTL of the bump engine ``N' = N 2^-e + du A[:,0] + dv A[:,1]`` (paper section 3.2, Fig. 6), from ``BumpParams``."""
 
 from __future__ import annotations
 
@@ -22,12 +22,15 @@ class Bump(UnitComponent):
     i_valid : Signal(1), in
     Nx, Ny, Nz : Signal(signed), in -- ``n_fmt``
     du, dv : Signal(signed), in -- ``d_fmt``
-    A00, A10, A20, A01, A11, A21 : Signal(signed), in -- ``a_fmt``
+    A00, A10, A20, A01, A11, A21 : Signal(signed), in -- ``a_fmt``: ``A 2^-e``
+    Ae : Signal(unsigned), in -- ``e_fmt``, the triangle's block exponent; absent if ``exp_bits = 0``
     o_valid : Signal(1), out
     Npx, Npy, Npz : Signal(signed), out -- ``out_fmt``, rounded by ``rounding``, saturated
     saturated : Signal(1), out -- some component was clamped
 
-    Latency: 2 (products | sum, round, saturate).
+    ``N 2^-e`` is an arithmetic right shift of ``N`` aligned to the sum's ``frac`` bits: exact.
+
+    Latency: 2 (products and the shift of N | sum, round, saturate).
     """
 
     def elaborate(self, platform):
@@ -35,16 +38,17 @@ class Bump(UnitComponent):
         m = Module()
         pipe = Pipe(m)
         terms = {}
+        sn = P.frac - P.n_fmt.frac_bits
         for i, c in enumerate(AXES):
-            terms[f"n{c}"] = getattr(self, f"N{c}")
+            aligned = getattr(self, f"N{c}") << sn
+            terms[f"n{c}"] = aligned >> self.Ae if P.exp_bits else aligned
             terms[f"pu{c}"] = self.du * getattr(self, f"A{i}0")
             terms[f"pv{c}"] = self.dv * getattr(self, f"A{i}1")
         s = pipe.stage(**terms)
-        sn = P.frac - P.n_fmt.frac_bits
         sp = P.frac - P.prod_fmt.frac_bits
         outs, flags = {}, []
         for c in AXES:
-            exact = (getattr(s, f"n{c}") << sn) + ((getattr(s, f"pu{c}") + getattr(s, f"pv{c}")) << sp)
+            exact = getattr(s, f"n{c}") + ((getattr(s, f"pu{c}") + getattr(s, f"pv{c}")) << sp)
             value, flag = narrow(exact, P.frac, P.out_fmt, P.rounding, Overflow.SATURATE)
             outs[f"Np{c}"] = value
             flags.append(flag)

@@ -23,11 +23,13 @@ class Pipeline(UnitComponent):
     Ports (formats from the stages' parameter objects)
     -------------------------------------------------
     i_valid : Signal(1), in
-    U, V, Uc, Vc : Signal(signed), in -- ``persp.uv_fmt``: bump and color numerators
+    U, V, Uc, Vc : Signal(signed), in -- ``persp.uv_fmt``: bump and color numerators, less the triangle's integer
+        tile offset times ``W``
     W : Signal(signed), in -- ``persp.recip.in_fmt``
     Nx, Ny, Nz : Signal(signed), in -- ``bump.n_fmt``
     Ex, Ey, Ez : Signal(signed), in -- ``reflect.e_fmt``
-    A00, A10, A20, A01, A11, A21 : Signal(signed), in -- ``bump.a_fmt``
+    A00, A10, A20, A01, A11, A21 : Signal(signed), in -- ``bump.a_fmt``: the triangle's ``A 2^-e``
+    Ae : Signal(unsigned), in -- ``bump.e_fmt``: the triangle's block exponent ``e`` (if ``bump.exp_bits``)
     o_valid : Signal(1), out
     r, g, b : Signal(unsigned(8)), out -- the pixel's color
     flags : Signal(unsigned(4)), out -- see ``fxmodel.pipeline.FLAG_BITS``

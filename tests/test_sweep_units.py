@@ -141,11 +141,11 @@ def test_bump_error_against_fractions():
     rows = np.concatenate([P.hard_cases(), P.random_inputs(np.random.default_rng(4), 300)])
     out = P.compute(rows)
     num, den = bump_error(rows[:, 0:3], rows[:, 3], rows[:, 4], rows[:, 5:8], rows[:, 8:11], out[:, :3],
-                          P.n_fmt.frac_bits, P.d_fmt.frac_bits, P.a_fmt.frac_bits, P.out_fmt.frac_bits)
+                          P.n_fmt.frac_bits, P.d_fmt.frac_bits, P.a_fmt.frac_bits, P.out_fmt.frac_bits, rows[:, 11])
     n, d, a, o = P.n_fmt, P.d_fmt, P.a_fmt, P.out_fmt
     for row, res, nums in zip(rows.tolist(), out.tolist(), num.tolist()):
         for i in range(3):
-            want = (n.to_fraction(row[i]) + d.to_fraction(row[3]) * a.to_fraction(row[5 + i])
+            want = (n.to_fraction(row[i]) / 2 ** row[11] + d.to_fraction(row[3]) * a.to_fraction(row[5 + i])
                     + d.to_fraction(row[4]) * a.to_fraction(row[8 + i]))
             assert Fraction(int(nums[i]), den) == abs(o.to_fraction(res[i]) - want)
             if not res[3]:

@@ -11,41 +11,42 @@ from fxmodel.cli import main
 from fxmodel.render import SCENE_BOUND_LSB, ClampError, judge, prepare, render
 
 ROOT = Path(__file__).resolve().parents[1]
-STEEP = ROOT / "tests" / "scenes" / "steep-bumps.toml"          # A about 5.3: beyond s2.14
+STEEP = ROOT / "tests" / "scenes" / "steep-bumps.toml"          # A about 5.3: beyond s2.14 without the exponent
+WIDE = ROOT / "tests" / "scenes" / "wide-span.toml"             # U / W about 60: beyond s6.20
 TIN = ROOT / "scenes" / "tin-plane.toml"
 
 
 def test_clamped_input_is_one_clear_error_naming_input_count_ranges_and_remedy():
     with pytest.raises(ClampError) as info:
-        prepare(STEEP, size=24)
+        prepare(WIDE, size=32)
     msg = str(info.value)
-    assert "steep-bumps.toml" in msg and "A00" in msg and "A21" in msg and "s2.14" in msg and "bump.a_fmt" in msg
+    assert "wide-span.toml" in msg and "U:" in msg and "V:" in msg and "s6.20" in msg and "persp.uv_fmt" in msg
     assert "fit" in msg and "--allow-clamp" in msg
-    c = info.value.clamped["A00"]
-    assert c["count"] > 0 and c["needs"][1] > c["holds"][1] == 2 - 2 ** -14
+    c = info.value.clamped["U"]
+    assert c["count"] > 0 and c["needs"][1] > c["holds"][1] == 32 - 2 ** -20
 
 
 def test_allow_clamp_proceeds_and_counts():
-    frame = prepare(STEEP, size=24, allow_clamp=True)
-    assert frame.stats["clamped_fragment_inputs"]["A00"] == len(frame.codes) > 0
+    frame = prepare(WIDE, size=32, allow_clamp=True)
+    assert 0 < frame.stats["clamped_fragment_inputs"]["U"] < len(frame.codes)
 
 
 def test_judge_fails_a_frame_over_the_bound_and_records_the_verdict():
-    frame = prepare(STEEP, size=24, allow_clamp=True)
+    frame = prepare(WIDE, size=32, allow_clamp=True)
     rep = render(frame)
-    assert rep["max_lsb_vs_float"] > SCENE_BOUND_LSB                        # clamping A ruins the frame
+    assert rep["max_lsb_vs_float"] > SCENE_BOUND_LSB                        # clamping U ruins the frame
     problems = judge(rep)
     assert problems and "over the bound" in problems[0] and not rep["verdict"]["pass"]
-    assert rep["verdict"]["bound_lsb"] == SCENE_BOUND_LSB and rep["verdict"]["clamped_fragment_inputs"]["A00"] > 0
+    assert rep["verdict"]["bound_lsb"] == SCENE_BOUND_LSB and rep["verdict"]["clamped_fragment_inputs"]["U"] > 0
     assert judge(rep, max_lsb=rep["max_lsb_vs_float"]) == [] and rep["verdict"]["pass"]
     assert sum(rep["pixels_by_lsb_vs_float"]) == rep["pixels"]
 
 
 def test_render_command_exit_codes(tmp_path, capsys):
     out = str(tmp_path / "x.png")
-    assert main(["render", str(STEEP), out, "--size", "24"]) == 2                 # refused: would clamp
-    assert "A00" in capsys.readouterr().err and not Path(out).exists()
-    assert main(["render", str(STEEP), out, "--size", "24", "--allow-clamp"]) == 1    # drawn, but over the bound
+    assert main(["render", str(WIDE), out, "--size", "32"]) == 2                  # refused: would clamp
+    assert "persp.uv_fmt" in capsys.readouterr().err and not Path(out).exists()
+    assert main(["render", str(WIDE), out, "--size", "32", "--allow-clamp"]) == 1     # drawn, but over the bound
     err = capsys.readouterr().err
     assert "clamped fragment inputs" in err and "over the bound" in err
     assert main(["render", str(TIN), out, "--size", "24"]) == 0
@@ -53,10 +54,15 @@ def test_render_command_exit_codes(tmp_path, capsys):
     assert rep["verdict"]["pass"] and rep["verdict"]["bound_lsb"] == SCENE_BOUND_LSB
 
 
-def test_fit_refuses_a_clamped_scene(tmp_path):
+def test_fit_widens_a_preset_for_a_scene_the_default_refuses(tmp_path, monkeypatch):
+    """fit widens as well as narrows: U / W about 60 needs another integer bit (and the addresses then more
+    fraction bits); the written preset draws the scene within the bound, with no clamped input."""
     from fxmodel.fit import fit
-    with pytest.raises(ClampError, match="A00"):
-        fit(STEEP, size=None, scene_size=16, directory=tmp_path, progress=False)
+    rep = fit(WIDE, size=None, scene_size=24, directory=tmp_path, progress=False, passes=1, name="wide")
+    assert [s[0] for s in rep["widened"]][0] == "uv_int" and rep["final"]["max_lsb_vs_float"] <= 1
+    monkeypatch.setenv("FXMODEL_PRESETS", str(tmp_path))
+    frame = prepare(WIDE, size=24, preset="wide")                       # no ClampError
+    assert judge(render(frame), 1) == []
 
 
 def test_make_sim_refuses_clamped_inputs_and_fails_a_frame_over_the_bound(monkeypatch, tmp_path, capsys):
@@ -72,10 +78,26 @@ def test_make_sim_refuses_clamped_inputs_and_fails_a_frame_over_the_bound(monkey
 
     monkeypatch.setattr(sim, "run", fake_run)
     monkeypatch.setattr(sim, "ROOT", tmp_path)
-    args = ["--scene", str(STEEP), "--size", "16", "--cube-size", "4", "--sim", "icarus"]
-    assert sim.main(args) == 2 and "A00" in capsys.readouterr().err
+    args = ["--scene", str(WIDE), "--size", "32", "--cube-size", "4", "--sim", "icarus"]
+    assert sim.main(args) == 2 and "persp.uv_fmt" in capsys.readouterr().err
     assert sim.main(args + ["--allow-clamp", "--max-lsb", "0"]) == 1
     assert "over the bound of 0 LSB" in capsys.readouterr().err
-    rep = json.loads((tmp_path / "build" / "sim" / "steep-bumps" / "report.json").read_text())
+    rep = json.loads((tmp_path / "build" / "sim" / "wide-span" / "report.json").read_text())
     assert rep["verdict"]["bound_lsb"] == 0 and not rep["verdict"]["pass"]
-    assert rep["verdict"]["clamped_fragment_inputs"]["A00"] > 0
+    assert rep["verdict"]["clamped_fragment_inputs"]["U"] > 0
+
+
+def test_block_exponent_draws_a_steep_bump_map_within_the_bound():
+    """Regression: A about 5.3 (beyond s2.14) was clamped on every fragment; the per-triangle exponent holds it."""
+    frame = prepare(STEEP, size=48)
+    rep = render(frame)
+    assert frame.stats["block_exponents"][0] == 0 and sum(frame.stats["block_exponents"]) == len(frame.codes)
+    assert judge(rep) == [] and rep["flags"]["bump_saturated"] == 0
+
+
+def test_grazing_floor_is_refused_for_its_texture_addresses():
+    """Regression: a floor running to W = 0.0013 was drawn 8-13 LSB from (a); its addresses are not resolved."""
+    with pytest.raises(ClampError) as info:
+        prepare(ROOT / "tests" / "scenes" / "grazing-floor.toml", size=48)
+    assert not info.value.clamped and "U, V (bump-map address)" in info.value.imprecise
+    assert "more fraction bits" in str(info.value)

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from fxmodel.cli import main
+from tools.cli import main
 from fxmodel.render import SCENE_BOUND_LSB, ClampError, judge, prepare, render
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -57,7 +57,7 @@ def test_render_command_exit_codes(tmp_path, capsys):
 def test_fit_widens_a_preset_for_a_scene_the_default_refuses(tmp_path, monkeypatch):
     """fit widens as well as narrows: U / W about 60 needs another integer bit (and the addresses then more
     fraction bits); the written preset draws the scene within the bound, with no clamped input."""
-    from fxmodel.fit import fit
+    from tools.fit import fit
     rep = fit(WIDE, size=None, scene_size=24, directory=tmp_path, progress=False, passes=1, name="wide")
     assert [s[0] for s in rep["widened"]][0] == "uv_int" and rep["final"]["max_lsb_vs_float"] <= 1
     monkeypatch.setenv("FXMODEL_PRESETS", str(tmp_path))

@@ -22,7 +22,7 @@ fraction bits (``e_max = 2**exp_bits - 1``): ``N_i 2**-e`` is an arithmetic righ
 perturbed normal too long for ``out_fmt`` is clamped per component (its direction then changes, which the flag
 reports), it never wraps.
 
-Widths (:meth:`BumpParams.widths`): each product has ``d_fmt.width + a_fmt.width`` bits (12 + 16 for ``default``,
+Widths (:meth:`BumpParams.widths`): each product has ``d_fmt.width + a_fmt.width`` bits (14 + 16 for ``default``,
 within one 18 x 18 DSP block); the sum of the aligned ``N`` and two products needs two more bits than the widest
 term; all exact in ``int64``.
 
@@ -74,7 +74,7 @@ class BumpParams(Unit):
     NAME = "bump"
 
     n_fmt: Fmt = Fmt(True, 2, 16)
-    d_fmt: Fmt = Fmt(True, 1, 11)
+    d_fmt: Fmt = Fmt(True, 1, 13)           # 12 bits left 0.07 degree of N' at strength 8: 2 LSB at a highlight
     a_fmt: Fmt = Fmt(True, 2, 14)
     out_fmt: Fmt = Fmt(True, 2, 16)
     rounding: Rounding = Rounding.HALF_UP

@@ -182,10 +182,11 @@ class PipelineParams(Unit):
         """A pipeline from a scene's tables: the bump map codes ``(H, W, 2)`` in ``bump.d_fmt``, the texture
         bytes ``(H, W, 3)``, the lighting (baked into cubes of ``cube_face`` texels) and the units' preset.
 
-        ``weight_bits`` of the bump-map and texture bilinear weights: 10 keeps a hard texture edge (a jump of up
-        to 255) within a quarter step of the exact blend; the cube lookups' lighting is smooth, 8 bits there.
-        ``None``: the preset's ``weight_bits`` (10 unless a preset file sets it). ``preset`` is a preset name or
-        a units dict (see :func:`fxmodel.presets.preset_units`)."""
+        ``weight_bits`` of the bump-map and texture bilinear weights: 10 keep a hard texture edge (a jump of up
+        to 255) within a quarter step of the exact blend; 12 (the default) also keep a steep bump map (strength
+        up to 8) from moving ``N'`` enough to shift a highlight by a step; the cube lookups' lighting is smooth,
+        8 bits there. ``None``: the preset's ``weight_bits`` (12 unless a preset file sets it). ``preset`` is a
+        preset name or a units dict (see :func:`fxmodel.presets.preset_units`)."""
         units = preset_units(preset)
         if weight_bits is None:
             weight_bits = top_value(units, "weight_bits")

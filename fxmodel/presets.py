@@ -43,7 +43,7 @@ __all__ = ["TOP_KEYS", "UNIT_KEYS", "UNIT_TYPES", "BUILTIN_PRESET_UNITS", "PRESE
 #: The integer keys of a pipeline preset beside its units: ``(default, smallest, largest)``. ``weight_bits``: the
 #: bump-map and texture bilinear weights; ``cube_size``: texels per reflectance-cube face edge (6 faces of
 #: ``(edge + 2)**2`` words each).
-TOP_KEYS = {"weight_bits": (10, 1, 16), "cube_size": (64, 1, 1024)}
+TOP_KEYS = {"weight_bits": (12, 1, 16), "cube_size": (64, 1, 1024)}
 
 #: The parameter class of each unit in a pipeline preset's units dict.
 UNIT_TYPES = {"persp": PerspParams, "bump": BumpParams, "reflect": ReflectParams, "cube": CubeParams,
@@ -104,7 +104,7 @@ def preset_units(preset: str | dict) -> dict:
         A name: built in (:data:`BUILTIN_PRESET_UNITS`) or a preset file ``presets/<name>.toml`` (see
         :func:`load_preset`). Or a units dict of the same shape as ``BUILTIN_PRESET_UNITS["default"]``: ``persp``,
         ``bump``, ``reflect``, ``cube``, ``shade`` (parameter objects, see :data:`UNIT_TYPES`) and optionally
-        the :data:`TOP_KEYS` (``weight_bits``, ``cube_size``; defaults 10 and 64); returned as given, nothing is
+        the :data:`TOP_KEYS` (``weight_bits``, ``cube_size``; defaults 12 and 64); returned as given, nothing is
         registered anywhere.
 
     Raises

@@ -30,12 +30,13 @@ from .frontend import rasterize
 from .lighting import Light, Lighting, face_directions
 from .pipeline import FLAG_BITS, PipelineParams
 from .presets import preset_units, top_value
-from .reference import float_pipeline, ideal_phong, max_lsb, psnr
+from .reference import _perturbed, float_pipeline, ideal_phong, max_lsb, psnr
 from .rounding import Overflow, Rounding, quantize
 from .scene import load_scene, scene_path
 
 __all__ = ["Frame", "prepare", "pipeline_params", "render", "save_png", "compose", "ClampError", "SCENE_BOUND_LSB",
-           "judge", "tell", "bound_args", "INPUT_KNOBS"]
+           "judge", "tell", "bound_args", "INPUT_KNOBS", "ILL_CONDITIONED", "ADDRESS_LIMIT_TEXELS",
+           "address_errors"]
 
 DIFF_GAIN = 16
 
@@ -43,6 +44,9 @@ DIFF_GAIN = 16
 #: bit-exact frame from reference (a) on every pixel (README, "Which scenes the hardware draws"). ``render`` and
 #: ``make sim`` exit non-zero beyond it (``--max-lsb`` changes it).
 SCENE_BOUND_LSB = 2
+
+#: A pixel whose float perturbed normal is shorter than this is ill-conditioned (:meth:`Frame.condition`).
+ILL_CONDITIONED = 0.25
 
 #: Where each fragment input's format lives in a preset file (what to widen when a scene needs more range).
 INPUT_KNOBS = {**{n: "persp.uv_fmt" for n in ("U", "V", "Uc", "Vc")}, "W": "persp.recip.in_fmt",
@@ -149,20 +153,25 @@ def tell(report: dict, where: str) -> int:
 
 def judge(report: dict, max_lsb: int = SCENE_BOUND_LSB) -> list[str]:
     """The verdict of a rendered frame (a :func:`render` report with references): records ``report["verdict"]``
-    (``pass``, ``bound_lsb``, ``max_lsb_vs_float``, ``clamped_fragment_inputs``, ``problems``) and returns the
-    problems, one line each (empty when the frame passes). A frame fails when it is farther than ``max_lsb``
-    from reference (a) on some pixel; clamped inputs (only present with ``allow_clamp``) are listed, not
-    failed."""
+    (``pass``, ``bound_lsb``, ``max_lsb_vs_float`` and the same on well- and ill-conditioned pixels, the count
+    of ill-conditioned pixels, ``clamped_fragment_inputs``, ``problems``) and returns the problems, one line
+    each (empty when the frame passes). A frame fails when it is farther than ``max_lsb`` from reference (a) on
+    some well-conditioned pixel (:data:`ILL_CONDITIONED`; the ill-conditioned ones are counted and their
+    largest difference recorded); clamped inputs (only present with ``allow_clamp``) are listed, not failed."""
     if "max_lsb_vs_float" not in report:
         raise ValueError("judge: the report has no reference (a) figures (render with references=True)")
     problems = []
-    if report["max_lsb_vs_float"] > max_lsb:
-        over = sum(report.get("pixels_by_lsb_vs_float", [])[max_lsb + 1:]) or "some"
-        problems.append(f"the frame is {report['max_lsb_vs_float']} LSB from reference (a) ({over} pixels), over "
-                        f"the bound of {max_lsb} LSB (--max-lsb); `python -m fxmodel fit SCENE --max-lsb "
+    worst = report["max_lsb_vs_float_well_conditioned"]
+    if worst > max_lsb:
+        over = sum(report["pixels_by_lsb_vs_float"][max_lsb + 1:])
+        problems.append(f"the frame is {worst} LSB from reference (a) on well-conditioned pixels ({over} pixels), "
+                        f"over the bound of {max_lsb} LSB (--max-lsb); `python -m fxmodel fit SCENE --max-lsb "
                         f"{max_lsb}` searches a preset that meets it")
     clamped = report.get("clamped_fragment_inputs", {})
     report["verdict"] = {"pass": not problems, "bound_lsb": max_lsb, "max_lsb_vs_float": report["max_lsb_vs_float"],
+                         "max_lsb_vs_float_well_conditioned": worst,
+                         "ill_conditioned_pixels": report["ill_conditioned_pixels"],
+                         "max_lsb_vs_float_ill_conditioned": report["max_lsb_vs_float_ill_conditioned"],
                          "clamped_fragment_inputs": clamped, "problems": problems}
     return problems
 
@@ -192,16 +201,29 @@ class Frame:
         return {"U": f.U, "s": f.s, "t": f.t, "sc": f.sc, "tc": f.tc, "N": np.asarray(f.N), "E": np.asarray(f.E),
                 "A": np.asarray(f.A)}
 
+    def bump_float(self) -> np.ndarray:
+        """The unquantized perturbations ``(H, W, 2)`` in the units ``A`` expects (``du / scale``, the codes'
+        real values); one zero texel without a bump map."""
+        maps = self.maps
+        if maps.bump is None:
+            return np.zeros((1, 1, 2))
+        pu, pv = perturbations(maps.heights)
+        scale = maps.bump.scale or 1.0
+        return np.stack([pu / scale, pv / scale], -1)
+
+    def condition(self) -> np.ndarray:
+        """``|N'|`` of reference (a) per fragment: the length of the float perturbed normal
+        ``N + du A0 + dv A1`` (1 for a unit vertex normal and no perturbation). The directions of ``N'`` and of the
+        reflection vector ``R`` (``|R| = |N'|^2 |E|``) move by about ``1 / |N'|`` times any error of the inputs:
+        a pixel with ``|N'| < ILL_CONDITIONED`` (interpolated vertex normals nearly cancelling, or a perturbation
+        nearly opposite the normal) is **ill-conditioned**; the scene bound is stated for the others."""
+        n = _perturbed(self.float_inputs(), self.bump_float(), self.params.bump_map.filter)
+        return np.sqrt(np.einsum("ki,ki->k", n, n))
+
     def references(self):
         """Bytes ``(K, 3)`` of reference (a) and (b)."""
         p, maps = self.params, self.maps
-        if maps.bump is not None:
-            # the unquantized perturbations in the units A expects (du / scale, the codes' real values)
-            pu, pv = perturbations(maps.heights)
-            scale = maps.bump.scale or 1.0
-            bump_float = np.stack([pu / scale, pv / scale], -1)
-        else:
-            bump_float = np.zeros((1, 1, 2))
+        bump_float = self.bump_float()
         dirs = face_directions(p.diffuse.width, p.diffuse.border)
         common = dict(bump_float=bump_float, texture=maps.color, bump_filter=p.bump_map.filter,
                       texture_filter=p.texture.filter)
@@ -372,7 +394,11 @@ def render(frame: Frame, out_dir=None, *, references: bool = True) -> dict:
         a, b = frame.references()
         report.update(metrics(model, a, b))
         per_pixel = np.abs(model.astype(np.int64) - a.astype(np.int64)).max(1) if len(model) else np.zeros(0, int)
-        report["pixels_by_lsb_vs_float"] = np.bincount(per_pixel, minlength=1).tolist()   # [0 LSB, 1 LSB, ...]
+        ill = frame.condition() < ILL_CONDITIONED if len(model) else np.zeros(0, bool)
+        report["pixels_by_lsb_vs_float"] = np.bincount(per_pixel[~ill], minlength=1).tolist()  # [0 LSB, 1 LSB, ..]
+        report["ill_conditioned_pixels"] = int(ill.sum())
+        report["max_lsb_vs_float_ill_conditioned"] = int(per_pixel[ill].max(initial=0))
+        report["max_lsb_vs_float_well_conditioned"] = int(per_pixel[~ill].max(initial=0))
         images["float"] = frame.image(a)
         images["ideal"] = frame.image(b)
         images["diff"] = compose(frame.image(diff_image(model, a)), frame.image(diff_image(model, b)))

@@ -11,7 +11,7 @@ from tools import cli
 from fxmodel.presets import PresetError, load_preset, preset_path, write_preset
 from tools.fit import KNOB_STEPS, fit, knobs_of, units_of
 from fxmodel.fixed import Fmt
-from fxmodel.presets import BUILTIN_PRESET_UNITS, PRESET_UNITS, preset_units
+from fxmodel.presets import BUILTIN_PRESET_UNITS, PRESET_UNITS, TOP_KEYS, preset_units
 from fxmodel.reference import max_lsb
 from fxmodel.render import prepare, render
 
@@ -78,7 +78,7 @@ def test_missing_fields_keep_default(presets):
     (presets / "part.toml").write_text('[persp]\ncoord_bits = 20\n')
     units = load_preset("part")
     assert units["persp"] == dataclasses.replace(DEFAULT["persp"], coord_bits=20)
-    assert units["bump"] == DEFAULT["bump"] and units["weight_bits"] == 10
+    assert units["bump"] == DEFAULT["bump"] and units["weight_bits"] == TOP_KEYS["weight_bits"][0]
 
 
 @pytest.mark.parametrize("text, key", [

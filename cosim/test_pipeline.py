@@ -45,7 +45,7 @@ def _random_frames(first: int, count: int, size: int):
 
 
 def test_random_scene_rtl_equals_model(sim):
-    """A random scene (issue 12: block exponents, tile offsets, lights along axes) through the RTL, bit for bit."""
+    """A random scene (block exponents, tile offsets, lights along axes) through the RTL, bit for bit."""
     for seed, frame in _random_frames(7, 1, 10):
         assert_bit_exact(run(frame.params, frame.codes, sim=sim, tag=f"random_{seed}"))
 

@@ -41,8 +41,8 @@ __all__ = ["Frame", "prepare", "pipeline_params", "render", "save_png", "compose
 DIFF_GAIN = 16
 
 #: The documented bound of a frame of an accepted scene: the largest per-channel distance, in 8-bit steps, of the
-#: bit-exact frame from reference (a) on every pixel (README, "Which scenes the hardware draws"). ``render`` and
-#: ``make sim`` exit non-zero beyond it (``--max-lsb`` changes it).
+#: bit-exact frame from reference (a) on every well-conditioned pixel (README, "Which scenes the hardware draws,
+#: and how well"). ``render`` and ``make sim`` exit non-zero beyond it (``--max-lsb`` changes it).
 SCENE_BOUND_LSB = 2
 
 #: A pixel whose float perturbed normal is shorter than this is ill-conditioned (:meth:`Frame.condition`).
@@ -79,8 +79,8 @@ class ClampError(ValueError):
         lines = [f"{where}: preset {preset!r} cannot draw this scene:"]
         for name, c in clamped.items():
             lines.append(f"  {name}: {c['count']} fragments would be clamped; the scene needs [{c['needs'][0]:.6g}, "
-                         f"{c['needs'][1]:.6g}], {c['fmt']} ({c['knob']}) holds [{c['holds'][0]:.6g}, "
-                         f"{c['holds'][1]:.6g}]")
+                         f"{c['needs'][1]:.6g}], {c['knob']} holds [{c['holds'][0]:.6g}, {c['holds'][1]:.6g}] "
+                         f"({c['fmt']})")
         for name, c in imprecise.items():
             lines.append(f"  {name}: {c['count']} fragments (W down to {c['min_W']:.3g}) are addressed only to "
                          f"{c['texels']:.3g} texel, the limit is {c['limit']:.3g} texel ({c['knob']}: more "

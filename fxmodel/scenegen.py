@@ -1,4 +1,4 @@
-r"""Random valid scenes, for the scene-level properties of the pipeline (paper sections 3.2-5; issue 12).
+r"""Random valid scenes, for the scene-level properties of the pipeline (paper sections 3.2-5).
 
 :func:`random_scene` draws one scene file (TOML text, parsed by :func:`fxmodel.scene.parse_scene`) from a numpy
 random generator: the tests turn a hypothesis-drawn seed into a scene (``tests/test_scenes.py``), and

@@ -1,4 +1,4 @@
-"""No silent degradation (issue 12, item 2): one code path (``fxmodel.render.prepare`` and ``judge``) makes
+"""No silent degradation: one code path (``fxmodel.render.prepare`` and ``judge``) makes
 ``render``, ``make sim`` and ``fit`` refuse a scene whose fragment inputs the preset would clamp, and fail a frame
 farther from reference (a) than the documented bound."""
 
@@ -11,8 +11,8 @@ from tools.cli import main
 from fxmodel.render import SCENE_BOUND_LSB, ClampError, judge, prepare, render
 
 ROOT = Path(__file__).resolve().parents[1]
-STEEP = ROOT / "tests" / "scenes" / "steep-bumps.toml"          # A about 5.3: beyond s2.14 without the exponent
-WIDE = ROOT / "tests" / "scenes" / "wide-span.toml"             # U / W about 60: beyond s6.20
+STEEP = ROOT / "tests" / "scenes" / "steep-bumps.toml"          # A about 5.3: beyond bump.a_fmt without the exponent
+WIDE = ROOT / "tests" / "scenes" / "wide-span.toml"             # U / W about 60: beyond persp.uv_fmt
 TIN = ROOT / "scenes" / "tin-plane.toml"
 
 
@@ -88,7 +88,7 @@ def test_make_sim_refuses_clamped_inputs_and_fails_a_frame_over_the_bound(monkey
 
 
 def test_block_exponent_draws_a_steep_bump_map_within_the_bound():
-    """Regression: A about 5.3 (beyond s2.14) was clamped on every fragment; the per-triangle exponent holds it."""
+    """Regression: A about 5.3 (beyond bump.a_fmt) was clamped on every fragment; the per-triangle exponent holds it."""
     frame = prepare(STEEP, size=48)
     rep = render(frame)
     assert frame.stats["block_exponents"][0] == 0 and sum(frame.stats["block_exponents"]) == len(frame.codes)

@@ -1,4 +1,4 @@
-"""Scene-level properties (issue 12, item 4): every random valid scene (fxmodel.scenegen) is either drawn by the
+"""Scene-level properties: every random valid scene (fxmodel.scenegen) is either drawn by the
 default preset within the documented bound of reference (a) on every well-conditioned pixel, or refused with the
 one clear error (fxmodel.render.ClampError) -- never anything else. Reference (a) is an independent float64
 implementation of the same algorithm (fxmodel.reference). The regression scenes in tests/scenes/ are frames

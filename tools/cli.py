@@ -21,10 +21,11 @@
     Lists units and their presets.
 ``fit SCENE.toml --max-lsb 1``
     Measures the ranges the scene produces and searches the smallest formats and table sizes for which the
-    bit-exact frame stays within ``--max-lsb`` of the float reference (a) on every pixel; writes the pipeline
-    preset ``presets/<name>.toml`` (``--name``, default ``<scene>-fit``; folder ``--out`` or ``$FXMODEL_PRESETS``)
-    that ``--preset`` and ``make sim PRESET=<name>`` accept, and prints JSON: the knobs, the ranges, the final
-    error at full size and the hardware estimate against ``default``.
+    bit-exact frame stays within ``--max-lsb`` of the float reference (a) on every well-conditioned pixel
+    (widening first a preset that cannot draw the scene); writes the pipeline preset ``presets/<name>.toml``
+    (``--name``, default ``<scene>-fit``; folder ``--out`` or ``$FXMODEL_PRESETS``) that ``--preset`` and
+    ``make sim PRESET=<name>`` accept, and prints JSON: the knobs, the ranges, the final error at full size and
+    the hardware estimate against ``default``.
 """
 
 from __future__ import annotations

@@ -19,7 +19,8 @@ import numpy as np
 
 from .cube import FLIP_S, FLIP_T, CubeParams
 
-__all__ = ["sample_float", "cube_address_float", "float_pipeline", "ideal_phong", "to_bytes", "psnr", "max_lsb"]
+__all__ = ["sample_float", "cube_address_float", "perturbed", "float_pipeline", "ideal_phong", "to_bytes", "psnr",
+           "max_lsb"]
 
 
 def sample_float(texels: np.ndarray, face, s, t, filter: str, edge: str) -> np.ndarray:
@@ -72,7 +73,9 @@ def to_bytes(x: np.ndarray) -> np.ndarray:
     return np.clip(np.floor(x + 0.5), 0, 255).astype(np.uint8)
 
 
-def _perturbed(frags, bump_float, bump_filter):
+def perturbed(frags, bump_float, bump_filter):
+    """The float perturbed normal ``N + du A0 + dv A1`` ``(K, 3)`` of reference (a) and (b): ``frags`` as
+    :func:`float_pipeline` takes them, the bump map sampled at the exact ``s, t``."""
     duv = sample_float(bump_float[None], np.zeros(len(frags["U"]), np.int64), frags["s"], frags["t"], bump_filter,
                        "repeat")
     A = frags["A"]
@@ -87,7 +90,7 @@ def float_pipeline(frags: dict, *, bump_float, texture, diffuse_cube, specular_c
     ``A (K, 3, 2)``; ``bump_float (H, W, 2)`` the unquantized perturbations in the units ``A`` expects;
     ``texture (H, W, 3)`` bytes; the cubes ``(6, F, F, 3)`` unquantized lighting at texel centres.
     """
-    n = _perturbed(frags, bump_float, bump_filter)
+    n = perturbed(frags, bump_float, bump_filter)
     E = frags["E"]
     R = 2 * n * np.sum(n * E, 1, keepdims=True) - E * np.sum(n * n, 1, keepdims=True)
     fd, sd, td = cube_address_float(n)
@@ -102,7 +105,7 @@ def float_pipeline(frags: dict, *, bump_float, texture, diffuse_cube, specular_c
 def ideal_phong(frags: dict, *, bump_float, texture, lighting, bump_filter="bilinear",
                 texture_filter="bilinear") -> np.ndarray:
     """Reference (b): bytes ``(K, 3)`` from normalized vectors and exact lighting (see the module docstring)."""
-    n = _perturbed(frags, bump_float, bump_filter)
+    n = perturbed(frags, bump_float, bump_filter)
     n = n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
     e = frags["E"] / np.maximum(np.linalg.norm(frags["E"], axis=1, keepdims=True), 1e-300)
     r = 2 * n * np.sum(n * e, 1, keepdims=True) - e

@@ -30,7 +30,7 @@ from .frontend import rasterize
 from .lighting import Light, Lighting, face_directions
 from .pipeline import FLAG_BITS, PipelineParams
 from .presets import preset_units, top_value
-from .reference import _perturbed, float_pipeline, ideal_phong, max_lsb, psnr
+from .reference import float_pipeline, ideal_phong, max_lsb, perturbed, psnr
 from .rounding import Overflow, Rounding, quantize
 from .scene import load_scene, scene_path
 
@@ -217,7 +217,7 @@ class Frame:
         reflection vector ``R`` (``|R| = |N'|^2 |E|``) move by about ``1 / |N'|`` times any error of the inputs:
         a pixel with ``|N'| < ILL_CONDITIONED`` (interpolated vertex normals nearly cancelling, or a perturbation
         nearly opposite the normal) is **ill-conditioned**; the scene bound is stated for the others."""
-        n = _perturbed(self.float_inputs(), self.bump_float(), self.params.bump_map.filter)
+        n = perturbed(self.float_inputs(), self.bump_float(), self.params.bump_map.filter)
         return np.sqrt(np.einsum("ki,ki->k", n, n))
 
     def references(self):

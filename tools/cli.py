@@ -130,8 +130,7 @@ def cmd_fit(args) -> int:
     try:
         report = fit(args.scene, max_lsb=args.max_lsb, size=args.size or None, cube_size=args.cube_size,
                      name=args.name, directory=args.out, progress=not args.quiet, passes=args.passes,
-                     scene_size=args.scene_size, jobs=args.jobs, scheduler=args.scheduler,
-                     allow_clamp=args.allow_clamp)
+                     scene_size=args.scene_size, jobs=args.jobs, scheduler=args.scheduler)
     except (SceneError, OSError) as exc:
         raise SystemExit(f"error: {exc}")
     print(json.dumps(report, indent=2))
@@ -190,7 +189,6 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--scene-size", type=int, help="render the scene at this square size instead of its own")
     p.add_argument("--passes", type=int, default=2, help="passes over the knobs (default: %(default)s)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
-    p.add_argument("--allow-clamp", action="store_true", help="fit a scene whose inputs the default preset clamps")
     from .jobs import add_arguments
     add_arguments(p, what="candidate presets rendered")
     p.set_defaults(fn=cmd_fit)

@@ -2,7 +2,8 @@
 
 :func:`fit` measures the ranges a scene produces and searches, by greedy coordinate descent from ``default``,
 the smallest formats and table sizes (:data:`KNOB_STEPS`) for which the bit-exact frame stays within
-``max_lsb`` of the float reference (a) on every pixel (candidates go to ``prepare`` as units dicts, nothing
+``max_lsb`` of the float reference (a) on every well-conditioned pixel, first widening a preset that cannot draw
+the scene (:func:`widen`; candidates go to ``prepare`` as units dicts, nothing
 is registered globally); it writes the result as a preset file that ``prepare(..., preset=NAME)``,
 ``python -m fxmodel render --preset NAME``, ``make sim PRESET=NAME`` and, with a scene, ``make verilog`` and
 ``make fpga`` accept, and reports a hardware estimate (:func:`hardware`) against ``default``.
@@ -152,6 +153,90 @@ def bram_blocks(sampler) -> int:
     return total
 
 
+def _refused(frame) -> int:
+    """Fragment inputs a frame clamps plus fragments whose texture addresses its preset does not resolve (what
+    :func:`fxmodel.render.prepare` refuses without ``allow_clamp``)."""
+    return sum(frame.stats["clamped_fragment_inputs"].values()) + sum(frame.stats["imprecise_fragments"].values())
+
+
+#: What the widening phase of :func:`fit` may raise, and by how much per step.
+WIDEN_STEPS = {"word": 2, "persp_p": 2, "persp_b": 2, "coord_bits": 2, "uv_frac": 2, "w_frac": 2, "n_frac": 2,
+               "a_frac": 2, "e_frac": 2, "d_frac": 1, "weight_bits": 1, "diffuse_frac": 1, "specular_frac": 1,
+               "cube_p": 2, "cube_b": 2, "persp_m": 1, "cube_m": 1, "cube_size": 32}
+#: Which integer knob holds each fragment input (:data:`fxmodel.render.INPUT_KNOBS` as fit knobs).
+INT_KNOB = {**{n: "uv_int" for n in ("U", "V", "Uc", "Vc")}, **{f"E{c}": "e_int" for c in "xyz"},
+            **{f"A{i}{j}": "a_int" for i in range(3) for j in range(2)}}
+WIDEN_LIMIT = 24
+
+
+def widen(k: dict, base: dict, sizes: list, max_lsb: int, run) -> tuple[dict, list]:
+    """The first phase of :func:`fit`: from knobs ``k``, the knobs of a preset that draws the scene (no clamped
+    input, every texture address resolved) within ``max_lsb`` of reference (a) at every size in ``sizes``.
+
+    Each step fixes the first problem found: a clamped input gets one more integer bit (:data:`INT_KNOB`);
+    unresolved texture addresses get one more fraction bit of ``U, V`` and of ``W``; a frame over ``max_lsb``
+    gets the one widening of :data:`WIDEN_STEPS` (wider words, more reciprocal table entries and precision, a
+    larger cube face, ...) that brings the screening frame closest (fewest pixels over ``max_lsb``, then the
+    smallest maximum). ``run(units, at)`` renders (see :func:`fit`).
+
+    Returns
+    -------
+    (dict, list)
+        The knobs, and the steps taken (``[knob, new value, why]``).
+
+    Raises
+    ------
+    ValueError
+        If the scene needs an input the pipeline cannot widen (``W``, ``N``), or no widening helps within
+        :data:`WIDEN_LIMIT` steps.
+    """
+    steps = []
+
+    def problems(kk, at):
+        frame, rep = run(units_of(kk, base), at)
+        over = sum(rep["pixels_by_lsb_vs_float"][max_lsb + 1:])
+        return frame, rep, over
+
+    for _ in range(WIDEN_LIMIT):
+        for at in sizes:
+            frame, rep, over = problems(k, at)
+            clamped = frame.stats["clamped_fragment_inputs"]
+            if clamped or frame.stats["imprecise_fragments"] or over:
+                break
+        else:
+            return k, steps
+        if clamped:
+            for name in clamped:
+                if name not in INT_KNOB:
+                    raise ValueError(f"fit: fragment input {name} does not fit, and no preset knob widens it")
+            for knob in sorted({INT_KNOB[n] for n in clamped}):
+                k = {**k, knob: k[knob] + 1}
+                steps.append([knob, k[knob], f"clamped {', '.join(sorted(clamped))}"])
+            continue
+        if frame.stats["imprecise_fragments"]:
+            k = {**k, "uv_frac": k["uv_frac"] + 1, "w_frac": k["w_frac"] + 1}
+            steps.append(["uv_frac, w_frac", [k["uv_frac"], k["w_frac"]], "texture addresses not resolved"])
+            continue
+        best = None
+        for knob, step in WIDEN_STEPS.items():
+            cand = {**k, knob: k[knob] + step}
+            try:
+                f2, r2, o2 = problems(cand, sizes[0])
+            except (ValueError, TypeError):
+                continue
+            score = (o2 + _refused(f2) * 10**6, r2["max_lsb_vs_float_well_conditioned"])
+            if best is None or score < best[0]:
+                best = (score, knob, cand)
+        f0, r0, o0 = problems(k, sizes[0])
+        now = (o0 + _refused(f0) * 10**6, r0["max_lsb_vs_float_well_conditioned"])
+        if best is None or best[0] >= now and at == sizes[0]:
+            raise ValueError(f"fit: the frame is {rep['max_lsb_vs_float']} LSB from reference (a) at "
+                             f"{at or 'full size'} and no single widening of {', '.join(WIDEN_STEPS)} helps")
+        k = best[2]
+        steps.append([best[1], k[best[1]], f"{over} pixels over {max_lsb} LSB"])
+    raise ValueError(f"fit: no preset within --max-lsb {max_lsb} after {WIDEN_LIMIT} widening steps: {steps}")
+
+
 def _savings(new: dict, old: dict) -> dict:
     return {k: {"default": old[k], "fit": new[k], "saved": old[k] - new[k],
                 "saved_pct": round(100 * (old[k] - new[k]) / old[k], 1) if old[k] else 0.0}
@@ -166,7 +251,7 @@ class Candidate:
     knobs: tuple                    # sorted (knob, value) pairs
     base: tuple                     # sorted (unit, params) pairs of the starting preset
     sizes: tuple                    # square sizes of the renders ((w, h) or None for the scene's own)
-    ref: tuple                      # per size: (max LSB vs (a), clamped inputs, max LSB vs (b)) of the start
+    ref: tuple                      # per size: (max LSB vs (a), refused fragments, max LSB vs (b)) of the start
     max_lsb: int
 
     def describe(self) -> str:
@@ -174,9 +259,10 @@ class Candidate:
 
 
 def check_candidate(c: Candidate) -> dict:
-    """``{"ok", "renders"}``: whether the candidate stays within ``max_lsb`` of reference (a) on every pixel, no
-    more than ``max_lsb`` further from reference (b) than the start, and clamps no more fragment inputs than the
-    start, at every size (stopping at the first size that fails). A candidate that makes an invalid unit
+    """``{"ok", "renders"}``: whether the candidate stays within ``max_lsb`` of reference (a) on every
+    well-conditioned pixel, no more than ``max_lsb`` further from reference (b) than the start, and clamps no more
+    fragment inputs and leaves no more texture addresses unresolved than the start (:func:`_refused`), at every
+    size (stopping at the first size that fails). A candidate that makes an invalid unit
     (``ValueError``, ``TypeError``) is not ok."""
     from fxmodel.render import prepare, render
 
@@ -185,10 +271,10 @@ def check_candidate(c: Candidate) -> dict:
         units = units_of(dict(c.knobs), dict(c.base))
         for at, (lsb_a, clamped_ref, lsb_b) in zip(c.sizes, c.ref):
             renders += 1
-            frame = prepare(c.scene if at is None else c.scene.with_size(*at), preset=units)
+            frame = prepare(c.scene if at is None else c.scene.with_size(*at), preset=units, allow_clamp=True)
             rep = render(frame)
-            clamped = sum(frame.stats["clamped_fragment_inputs"].values())
-            if rep["max_lsb_vs_float"] > c.max_lsb or clamped > clamped_ref or rep["max_lsb_vs_ideal"] > lsb_b + c.max_lsb:
+            if (rep["max_lsb_vs_float_well_conditioned"] > c.max_lsb or _refused(frame) > clamped_ref
+                    or rep["max_lsb_vs_ideal"] > lsb_b + c.max_lsb):
                 return {"ok": False, "renders": renders}
     except (ValueError, TypeError):
         return {"ok": False, "renders": renders}
@@ -228,14 +314,16 @@ def _speculate(value: int, step: int, low: int, verdict, width: int) -> list[int
     return out
 
 
-def _search(base, ranges, ok, judge, verdicts, width: int, passes: int, progress: bool, name: str, renders):
+def _search(base, ranges, ok, judge, verdicts, width: int, passes: int, progress: bool, name: str, renders,
+            initial: dict | None = None):
     """The greedy coordinate descent of :func:`fit` (its docstring); ``judge`` evaluates up to ``width``
     speculative candidates of a knob's descent at once (:func:`_speculate`), ``verdicts`` holds every answer, so
-    the path taken, and the result, is the same for any ``width``."""
+    the path taken, and the result, is the same for any ``width``. The descent starts from the knobs ``initial``
+    (default: ``base``'s; :func:`fit` passes the widened ones)."""
     from tqdm import tqdm
 
     start = knobs_of(base)
-    k = dict(start)
+    k = dict(initial if initial is not None else start)
     # integer bits from the measured ranges (only where that narrows; the render check decides)
     for knob, rng in (("uv_int", ranges["max_abs_uv"]), ("a_int", ranges["max_abs_A"]),
                       ("e_int", ranges["max_abs_E"])):
@@ -269,10 +357,12 @@ def fit(scene, *, max_lsb: int = 1, size: int | None = 64, cube_size: int | None
         scheduler: str | None = None, speculate: int | None = None) -> dict:
     """Search the smallest formats and table sizes for which ``scene`` stays within ``max_lsb`` of reference (a).
 
-    Greedy coordinate descent from the ``default`` preset over :data:`KNOB_STEPS`: each step lowers one knob
-    (by its step, halved down to 1 bit on failure) and keeps the change if the bit-exact frame stays within
-    ``max_lsb`` of reference (a) on every pixel, no more than ``max_lsb`` further from the ideal reference (b)
-    than ``default`` is, and clamps no more fragment inputs than ``default``, first at the screening ``size``,
+    First :func:`widen`: from ``default``, the knobs of a preset that draws the scene (no clamped input, every
+    texture address resolved) within ``max_lsb`` of reference (a) on every well-conditioned pixel. Then greedy
+    coordinate descent from there over :data:`KNOB_STEPS`: each step lowers one knob (by its step, halved down to
+    1 bit on failure) and keeps the change if the bit-exact frame stays within ``max_lsb`` of reference (a) on
+    every well-conditioned pixel, no more than ``max_lsb`` further from the ideal reference (b) than the widened
+    preset is, and clamps no more inputs and leaves no more addresses unresolved, first at the screening ``size``,
     then at the scene's own size (so the result holds at full size). The check against (b) is what holds the
     reflectance cubes' face size: reference (a) samples the same cubes in float, so their resolution error is
     invisible to it (without it the search shrank the tin plane's cubes to 2 texels, 1 LSB from (a) and 112
@@ -315,7 +405,7 @@ def fit(scene, *, max_lsb: int = 1, size: int | None = 64, cube_size: int | None
     Raises
     ------
     ValueError
-        If the ``default`` preset itself misses ``max_lsb`` on this scene.
+        If no widening brings the scene within ``max_lsb`` (:func:`widen`).
     """
     import time
     from contextlib import nullcontext
@@ -343,17 +433,15 @@ def fit(scene, *, max_lsb: int = 1, size: int | None = 64, cube_size: int | None
         nonlocal renders
         renders += 1
         sc = scene if at is None else scene.with_size(*at)
-        frame = prepare(sc, preset=units)                # the cube size is the units' (a knob)
+        frame = prepare(sc, preset=units, allow_clamp=True)      # the cube size is the units' (a knob)
         return frame, render(frame)
 
+    k0, widened = widen(knobs_of(base), base, sizes, max_lsb, run)
+    wide = units_of(k0, base)
     ref = {}
     for at in sizes:
-        frame, rep = run(base, at)
-        ref[at] = (rep["max_lsb_vs_float"], sum(frame.stats["clamped_fragment_inputs"].values()),
-                   rep["max_lsb_vs_ideal"])
-        if rep["max_lsb_vs_float"] > max_lsb:
-            raise ValueError(f"{scene.name}: the default preset is already {rep['max_lsb_vs_float']} LSB from "
-                             f"reference (a) at {at or 'full size'}; nothing to fit under --max-lsb {max_lsb}")
+        frame, rep = run(wide, at)
+        ref[at] = (rep["max_lsb_vs_float_well_conditioned"], _refused(frame), rep["max_lsb_vs_ideal"])
     full_frame, _ = run(base, None)
     ranges = measure_ranges(full_frame)
     default_hw = hardware(base, full_frame.params)
@@ -380,15 +468,17 @@ def fit(scene, *, max_lsb: int = 1, size: int | None = 64, cube_size: int | None
     cluster = jobrunner.cluster(jobs, scheduler) if remote else nullcontext()
     with cluster as client:
         k, start, order = _search(base, ranges, ok, judge, verdicts, width, passes, progress, scene.name,
-                                  lambda: renders)
+                                  lambda: renders, initial=k0)
     k = dict(k)
     units = units_of(k, base)
     frame, rep = run(units, None)
-    if rep["max_lsb_vs_float"] > max_lsb:              # cannot happen: every accepted step was checked at full size
-        raise RuntimeError(f"fit: the final preset is {rep['max_lsb_vs_float']} LSB from reference (a)")
+    if rep["max_lsb_vs_float_well_conditioned"] > max_lsb:   # cannot happen: every step was checked at full size
+        raise RuntimeError(f"fit: the final preset is {rep['max_lsb_vs_float_well_conditioned']} LSB from (a)")
     fit_hw = hardware(units, frame.params)
     name = name or f"{scene.name}-fit"
     final = {"max_lsb_vs_float": rep["max_lsb_vs_float"], "psnr_db_vs_float": rep["psnr_db_vs_float"],
+             "max_lsb_vs_float_well_conditioned": rep["max_lsb_vs_float_well_conditioned"],
+             "ill_conditioned_pixels": rep["ill_conditioned_pixels"],
              "max_lsb_vs_ideal": rep["max_lsb_vs_ideal"], "psnr_db_vs_ideal": rep["psnr_db_vs_ideal"],
              "pixels": rep["pixels"], "width": scene.width, "height": scene.height}
     meta = {"scene": scene.name, "max_lsb": max_lsb, "screen_size": size or 0, "start_cube_size": base["cube_size"],
@@ -397,7 +487,7 @@ def fit(scene, *, max_lsb: int = 1, size: int | None = 64, cube_size: int | None
                         comment=f"Written by `python -m fxmodel fit` for scene {scene.name} (--max-lsb {max_lsb}).\n"
                                 f"Use: make sim PRESET={name} SCENE={scene.name}")
     return {"preset": name, "path": str(path), "scene": scene.name, "max_lsb": max_lsb,
-            "knobs": {kn: {"default": start[kn], "fit": k[kn]} for kn in order},
+            "knobs": {kn: {"default": start[kn], "fit": k[kn]} for kn in order}, "widened": widened,
             "ranges": ranges, "final": final,
             "hardware": {"fit": fit_hw, "default": default_hw, "savings": _savings(fit_hw, default_hw)},
             "renders": renders, "seconds": round(time.perf_counter() - t0, 1)}

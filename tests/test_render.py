@@ -69,14 +69,20 @@ def test_make_sim_refuses_clamped_inputs_and_fails_a_frame_over_the_bound(monkey
     """``make sim`` (cosim.sim) goes through the same prepare/judge path; the RTL run itself is replaced by the
     model's output here (the co-simulation tests run the RTL)."""
     import cosim.sim as sim
-    from cosim.harness import CosimResult
 
-    def fake_run(params, codes, **kw):
-        res = CosimResult(vectors=len(codes), mismatches=0, first=[], seconds=1.0, build_seconds=0.0)
+    class FakeResult(dict):
+        ok = True
+
+        def describe(self):
+            return ""
+
+    def fake_stream(params, codes, *args):
+        res = FakeResult(mismatches=0, first=[], seconds=1.0, sim_cpu_seconds=1.0, cycles=len(codes),
+                         build_seconds=0.0)
         res.rtl = params.compute(codes)
         return res
 
-    monkeypatch.setattr(sim, "run", fake_run)
+    monkeypatch.setattr(sim, "_stream", fake_stream)
     monkeypatch.setattr(sim, "ROOT", tmp_path)
     args = ["--scene", str(WIDE), "--size", "32", "--cube-size", "4", "--sim", "icarus"]
     assert sim.main(args) == 2 and "persp.uv_fmt" in capsys.readouterr().err

@@ -32,7 +32,7 @@ binary point, and the result is invariant under scaling the vector by a power of
    only the choice of ``>=`` over ``>`` in them: it costs nothing.
 2. **Quotients with the signed major.** ``q_s = a / ma`` and ``q_t = b / ma`` with ``(a, b)`` = ``(z, y)`` for an
    x face, ``(x, z)`` for y and ``(x, y)`` for z, through the reciprocal unit's divider
-   (:class:`~fxmodel.recip.DivideParams`: ``recip(ma)`` once, ``a * mant`` and ``b * mant`` shifted, rounded
+   (:class:`~fxmodel.divide.DivideParams`: ``recip(ma)`` once, ``a * mant`` and ``b * mant`` shifted, rounded
    half-up to ``s2.fq``). Dividing by the signed ``ma`` (the reciprocal handles the sign) instead of ``|ma|``
    needs no negation of an input, so the most negative code needs no extra bit. From the table,
    ``s_c / |ma| = -q_s`` on faces +x, -x, -y and ``+q_s`` otherwise; ``t_c / |ma| = -q_t`` on faces +x, +z and
@@ -79,7 +79,8 @@ from functools import cached_property
 import numpy as np
 
 from .fixed import Fmt
-from .recip import DivideParams, RecipParams
+from .divide import DivideParams
+from .recip import RecipParams
 
 from .unit import Port, Unit, register, require
 

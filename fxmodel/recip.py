@@ -1,4 +1,5 @@
-r"""Reciprocal unit 1/w by table lookup and Taylor series (paper, section 4.1), and a divider built on it.
+r"""Reciprocal unit 1/w by table lookup and Taylor series (paper, section 4.1); the divider built on it is
+:mod:`fxmodel.divide`.
 
 Algorithm (bit-exact; ``rtl/recip.py`` builds the same datapath from the same :class:`RecipParams`)
 --------------------------------------------------------------------------------------------------------
@@ -50,34 +51,8 @@ choices, both free in hardware:
 Outputs: ``mant`` (``s2.(p-1)``, magnitude in ``[1, 2)``), ``exp`` (integer, ``[F - n, F]``) and ``dbz``;
 ``1/w = mant * 2**exp``. ``w = 0`` gives the largest magnitude, ``mant = 2 - 2**-(p-1)``, ``exp = F``, ``dbz = 1``.
 
-Error bound (``RecipParams.error_bound_ulp``), in ulps of the result (``2**-(p-1)`` of the mantissa)
----------------------------------------------------------------------------------------------------
-``round`` mode (the shipped ``default`` and ``small`` presets; their bias and results predate the other modes).
-For interval ``i`` with ``B0 = 1/w_h``, table error ``eps = B - B0``, ``delta = 2**-m - 2**-n`` (largest ``d``):
-
-* Taylor truncation, in ``[-tau_i, 0]``, ``tau_i = (delta/w_h)**t / (w_h - delta)`` (worst at ``d = delta``);
-* table rounding, ``eps * dT/dB`` with ``1 <= dT/dB <= S = sum_k (k+1) (Bmax delta)**k``: in ``[0, eps S]`` if
-  ``eps >= 0``, else in ``[-|eps| S, 0]``;
-* datapath truncations, all downward (every operand is non-negative): ``d`` loses ``< 2**-fd`` (weight
-  ``Bmax**2 S1``), ``q`` loses ``< 2**-fq`` (weight ``Bmax S1``), each of the ``t - 2`` Horner steps loses
-  ``< 2**-fq`` (weight ``Bmax S0``), with ``S1 = sum_(k=1)^(t-1) k Q**(k-1)``, ``S0 = sum_(j=0)^(t-3) Q**j``,
-  ``Q = Bmax delta``;
-* final half-up rounding, in ``(-1/2, 1/2]`` ulp.
-
-The bound is the largest magnitude of the sum of the lower (resp. upper) ends over all intervals. All terms are
-computed exactly with fractions from the actual table, so the bound also holds for tables not made by rounding.
-
-Other modes (general form, :meth:`RecipParams._entry_error`, :meth:`RecipParams._datapath_error`). The table and
-series error ``E(d) = T(B, d) - 1/(c - d)`` of each interval is bounded as a whole (the ``round`` form above
-would count ``eps`` and ``tau`` separately, which is loose by ``|eps|`` once ``B`` is chosen to centre them):
-``E = f1 + f2`` with ``f1 = T(B, d) - T(B0, d)`` and ``f2 = T(B0, d) - 1/(c - d)``, each monotone on each side
-of ``d = 0`` (``f1``'s monotonicity for ``d < 0`` is checked exactly, with a cruder bound as fallback), so on
-each of a few pieces of the interval ``min f1 + min f2 <= E <= max f1 + max f2`` with all four ends evaluated
-exactly. The datapath terms keep their weights with ``Q = Bmax max|d| + 2**-fq``; with a signed ``d`` three
-of them can point upward: ``B`` truncated to ``bq`` bits raises ``Bh d`` and ``Bh g`` where ``d, g < 0``
-(``<= e_bh |d_lo|`` and ``<= e_bh gmax``), and a Horner floor carried by an odd power of a negative ``q`` flips
-sign. Every other truncation floors a quantity whose effect on the result has a positive weight
-(``dT/dd = B**2 G'(B d)``, ``G'(u) = 1 + 2u + 3u**2 > 0``), so it stays downward.
+Error bound: ``RecipParams.error_bound_ulp`` (ulps of the result), proved from the actual table with exact
+fractions in :mod:`fxmodel.recip_bound` (its docstring derives every term).
 
 Hard cases (each has a test): ``w = 0.5``; ``w = 1 - ulp``; every table boundary and one ulp either side, in
 every binade, both signs; for the ``midpoint`` modes also every interval centre (``d = 0``) and one ulp either
@@ -94,11 +69,12 @@ from functools import cached_property
 
 import numpy as np
 
+from . import recip_bound
 from .fixed import INT64_SAFE_BITS, Fmt
 from .rounding import Overflow, Rounding, narrow, saturate, shift_round
 from .unit import Port, Unit, register, require
 
-__all__ = ["RecipParams", "DivideParams", "TABLE_MODES"]
+__all__ = ["RecipParams", "TABLE_MODES"]
 
 #: How table entries are chosen and where the series is expanded (module docstring, "Table modes"):
 #: ``round`` is the paper's ``round(1/w_h)`` about the top ``w_h`` of each interval; ``minimax`` expands about
@@ -534,110 +510,19 @@ class RecipParams(Unit):
         codes = np.unique(codes[(codes >= fmt.min_code) & (codes <= fmt.max_code)])
         return codes[:, None]
 
-    # -- documented error bound ---------------------------------------------------------------------------
+    # -- documented error bound (derived and computed in fxmodel/recip_bound.py) --------------------------------
     @cached_property
     def _raw_error(self) -> tuple[Fraction, Fraction]:
         """``(L, H)``: the exact sum ``B + B g`` (before bias and final rounding) minus ``1/x`` lies in
-        ``[L, H]`` for every input; see the module docstring for each term."""
-        if self.table != "round":
-            lo, hi = self.approx_error
-            down, up = self._datapath_error()
-            return lo - down, hi + up
-        n, m, t = self.n, self.m, self.t
-        delta = Fraction(1, 1 << m) - Fraction(1, 1 << n)
-        bmax = max(Fraction(int(c), 1 << (self.b - 1)) for c in self.table_codes)
-        Q = bmax * delta
-        S = sum((k + 1) * Q ** k for k in range(t))
-        datapath = Fraction(0)
-        if t >= 2:
-            S1 = sum(k * Q ** (k - 1) for k in range(1, t))
-            S0 = sum(Q ** j for j in range(t - 2))
-            gmax = sum(Q ** k for k in range(1, t))
-            e_bh = Fraction(1, 1 << (self.bq - 1)) if self.bq < self.b else Fraction(0)
-            e_d = Fraction(1, 1 << self.fd) if self.fd < n else Fraction(0)
-            ulp_q = Fraction(1, 1 << self.fq)
-            e_q = (ulp_q if self.bq - 1 + self.fd > self.fq else 0) + e_bh * delta
-            e_bg = (ulp_q if self.bq - 1 > 0 else 0) + e_bh * gmax
-            datapath = e_d * bmax * bmax * S1 + e_q * bmax * S1 + ulp_q * bmax * S0 + e_bg
-        lo_worst, hi_worst = Fraction(0), Fraction(0)
-        for i, c in enumerate(self.table_codes):
-            wh = Fraction(((1 << (m - 1)) + i + 1) * (1 << (n - m)) - 1, 1 << n)
-            eps = Fraction(int(c), 1 << (self.b - 1)) - 1 / wh
-            tau = (delta / wh) ** t / (wh - delta)
-            lo_worst = min(lo_worst, -tau - (abs(eps) * S if eps < 0 else 0) - datapath)
-            hi_worst = max(hi_worst, eps * S if eps > 0 else Fraction(0))
-        return lo_worst, hi_worst
-
-    def _entry_error(self, center: int, code: int, pieces: int = 4, splits: int = 64) -> tuple[Fraction, Fraction]:
-        """Rigorous ``(min, max)`` of ``E(d) = T(B, d) - 1/(c - d)`` over ``d`` in :attr:`d_range`, exactly.
-
-        ``E = f1 + f2`` with ``f1 = T(B, d) - T(B0, d)`` (``B0 = 1/c``; coefficients ``B**(k+1) - B0**(k+1)``,
-        all of the sign of ``B - B0``) and ``f2 = T(B0, d) - 1/(c - d) = -B0 (B0 d)**t / (1 - B0 d)``. ``f2`` is
-        monotone on each side of ``d = 0`` (its derivative has the sign of ``d**(t-1)`` as ``B0 d < 1``); ``f1`` is
-        monotone for ``d >= 0`` and, for ``d < 0``, when ``|a1| > sum_(k>=2) k |a_k| |d|**(k-1)`` (checked; else
-        it is bounded by ``|a0| + sum |a_k| |d|**k``). On a piece ``[u, v]`` where both are monotone,
-        ``min f1 + min f2 <= E <= max f1 + max f2`` with the four ends evaluated exactly. Each side starts as
-        ``pieces`` equal pieces; up to ``splits`` times, the piece with the worst end bound is halved while that
-        bound exceeds the largest (resp. smallest) ``E`` evaluated so far by more than 1/256 of the band.
-        """
-        import heapq
-
-        t = self.t
-        c = Fraction(center, 1 << self.n)
-        B = Fraction(code, 1 << (self.b - 1))
-        B0 = 1 / c
-        a = [B ** (k + 1) - B0 ** (k + 1) for k in range(t)]
-        lo, hi = self.d_range
-        neg_monotone = t < 2 or abs(a[1]) > sum(k * abs(a[k]) * (-lo) ** (k - 1) for k in range(2, t))
-        memo = {}
-
-        def at(d):
-            """``(f1(d), f2(d))``, exact."""
-            if d not in memo:
-                acc = Fraction(0)
-                for coef in reversed(a):
-                    acc = acc * d + coef
-                memo[d] = acc, -B0 * (B0 * d) ** t / (1 - B0 * d)
-            return memo[d]
-
-        def bounds(u, v):
-            (f1u, f2u), (f1v, f2v) = at(u), at(v)
-            if u >= 0 or neg_monotone:
-                F1 = (min(f1u, f1v), max(f1u, f1v))
-            else:
-                r = sum(abs(a[k]) * max(-u, abs(v)) ** k for k in range(1, t))
-                F1 = (a[0] - r, a[0] + r)
-            return F1[0] + min(f2u, f2v), F1[1] + max(f2u, f2v)
-
-        sides = [(lo, Fraction(0)), (Fraction(0), hi)] if lo < 0 < hi else [(lo, hi)]
-        segs = [(u0 + (v0 - u0) * j / pieces, u0 + (v0 - u0) * (j + 1) / pieces)
-                for u0, v0 in sides for j in range(pieces)]
-        result = []
-        for sign in (1, -1):                       # the upper end, then the lower end (as a max of -E)
-            heap = []
-            for u, v in segs:
-                e_lo, e_hi = bounds(u, v)
-                heapq.heappush(heap, (-(e_hi if sign > 0 else -e_lo), u, v))
-            for _ in range(splits):
-                known = [sign * (f1 + f2) for f1, f2 in memo.values()]
-                band = max(known) - min(known)
-                worst, u, v = heap[0]
-                if -worst - max(known) <= band / 256:
-                    break
-                heapq.heappop(heap)
-                mid = (u + v) / 2
-                for uu, vv in ((u, mid), (mid, v)):
-                    e_lo, e_hi = bounds(uu, vv)
-                    heapq.heappush(heap, (-(e_hi if sign > 0 else -e_lo), uu, vv))
-            result.append(sign * -heap[0][0])
-        return result[1], result[0]
+        ``[L, H]`` for every input (:func:`fxmodel.recip_bound.raw_error`)."""
+        return recip_bound.raw_error(self)
 
     @cached_property
     def approx_error(self) -> tuple[Fraction, Fraction]:
         """Rigorous ``(min, max)`` over all intervals of the approximation error ``T(B, d) - 1/x`` of the table
-        and the truncated series alone (exact ``d``, no datapath rounding, no bias), from the actual table."""
-        ranges = [self._entry_error(c, int(code)) for c, code in zip(self.centers, self.table_codes)]
-        return min(r[0] for r in ranges), max(r[1] for r in ranges)
+        and the truncated series alone (exact ``d``, no datapath rounding, no bias), from the actual table
+        (:func:`fxmodel.recip_bound.approx_error`)."""
+        return recip_bound.approx_error(self)
 
     @property
     def approx_bits(self) -> float:
@@ -645,32 +530,6 @@ class RecipParams(Unit):
         worst ``|error|`` of the mantissa in ``[1, 2)`` once a constant centres it)."""
         lo, hi = self.approx_error
         return -math.log2(float(hi - lo) / 2)
-
-    def _datapath_error(self) -> tuple[Fraction, Fraction]:
-        """``(down, up)`` >= 0: the datapath's truncations move ``B + B g`` by at most ``down`` below and ``up``
-        above the exact ``T(B, d)`` (module docstring, "Error bound", general form)."""
-        t = self.t
-        if t < 2:
-            return Fraction(0), Fraction(0)
-        dlo, dhi = self.d_range
-        D, Dneg = max(-dlo, dhi), -dlo
-        bmax = max(Fraction(int(c), 1 << (self.b - 1)) for c in self.table_codes)
-        ulp_q = Fraction(1, 1 << self.fq)
-        Q = bmax * D + ulp_q                                   # bounds |q| (the floor may add an ulp below)
-        S1 = sum(k * Q ** (k - 1) for k in range(1, t))        # bounds dG/dq, G(q) = q + ... + q**(t-1); > 0
-        S0 = sum(Q ** j for j in range(t - 2))                 # Horner floors, carried by q**j
-        S0_odd = sum(Q ** j for j in range(1, t - 2, 2))       # ... those whose sign flips when q < 0
-        gmax = sum(Q ** k for k in range(1, t)) + S0 * ulp_q  # bounds |g|
-        e_bh = Fraction(1, 1 << (self.bq - 1)) if self.bq < self.b else Fraction(0)
-        e_d = Fraction(1, 1 << self.fd) if self.fd < self.n else Fraction(0)
-        q_floor = ulp_q if self.bq - 1 + self.fd > self.fq else Fraction(0)
-        bg_floor = ulp_q if self.bq - 1 > 0 else Fraction(0)
-        down = (e_d * bmax * bmax * S1 + (q_floor + e_bh * dhi) * bmax * S1 + ulp_q * bmax * S0
-                + bg_floor + e_bh * gmax)
-        up = Fraction(0)
-        if Dneg > 0:      # B truncated to Bh raises Bh d and Bh g where d, g < 0; Horner floors flip with q < 0
-            up = e_bh * Dneg * bmax * S1 + ulp_q * bmax * S0_odd + e_bh * gmax
-        return down, up
 
     @cached_property
     def bias_code(self) -> int:
@@ -726,124 +585,3 @@ RecipParams.PRESETS = {
     "rcp32": RecipParams(in_fmt=Fmt(True, 16, 16), m=7, b=25, t=4, p=24, guard=5, table="midpoint"),
 }
 register(RecipParams)
-
-
-@dataclass(frozen=True)
-class DivideParams(Unit):
-    """Parameters of the divider ``q = n / d``: ``n`` times the reciprocal unit's ``1/d``.
-
-    Algorithm: ``(mant, exp, dbz) = recip(d)``; the exact product ``n * mant`` is shifted by the
-    data-dependent amount ``exp`` (a barrel shifter), rounded half-up to ``out_fmt`` and saturated with the
-    ``ovf`` flag. ``d = 0`` gives ``dbz``, ``q = 0`` for ``n = 0`` and the saturated end of the sign of ``n``
-    otherwise (``ovf`` set).
-
-    Error bound: for an unsaturated result, ``|q - n/d| <= |n/d| * E * 2**-(p-1) + 2**-(out_fmt.frac_bits+1)``
-    with ``E = recip.error_bound_ulp`` (the reciprocal's relative error is at most ``E`` ulps of a mantissa
-    ``>= 1``). :attr:`max_error` evaluates it at ``|n/d| <= quotient_limit``.
-
-    Parameters
-    ----------
-    recip : RecipParams
-        The reciprocal unit; its ``in_fmt`` is the format of ``d``.
-    num_fmt : Fmt
-        Signed format of ``n``.
-    out_fmt : Fmt
-        Signed format of ``q``.
-    quotient_limit : int
-        Largest ``|n/d|`` the user promises (the cube unit's minor/major is at most 1); used for the bound only.
-    """
-
-    NAME = "divide"
-
-    recip: RecipParams = RecipParams(in_fmt=Fmt(True, 2, 14), m=6, b=13, t=2, p=12, guard=2)
-    num_fmt: Fmt = Fmt(True, 2, 14)
-    out_fmt: Fmt = Fmt(True, 2, 12)
-    quotient_limit: int = 1
-
-    def __post_init__(self):
-        require(isinstance(self.recip, RecipParams), "recip", self.recip, "must be a RecipParams")
-        for name in ("num_fmt", "out_fmt"):
-            fmt = getattr(self, name)
-            require(isinstance(fmt, Fmt) and fmt.signed, name, fmt, "must be a signed Fmt")
-        require(isinstance(self.quotient_limit, int) and self.quotient_limit >= 1, "quotient_limit",
-                 self.quotient_limit, "must be an int >= 1")
-        bits = self.prod_fmt.width + self.pre_shift
-        require(bits <= INT64_SAFE_BITS, "out_fmt", str(self.out_fmt), f"needs a {bits}-bit shifter (> 62)")
-
-    @property
-    def prod_fmt(self) -> Fmt:
-        """Exact ``n * mant``: ``|mant| < 2``."""
-        r = self.recip
-        return Fmt(True, self.num_fmt.int_bits + 1, self.num_fmt.frac_bits + r.fo)
-
-    @property
-    def shift_range(self) -> tuple[int, int]:
-        """Right shift ``prod_frac - out_frac - exp`` over the reciprocal's exponent range."""
-        r = self.recip
-        base = self.prod_fmt.frac_bits - self.out_fmt.frac_bits
-        return base - r.exp_fmt.max_code, base - r.exp_fmt.min_code
-
-    @property
-    def pre_shift(self) -> int:
-        """Left shift applied first so that every data-dependent shift is a right shift."""
-        return self.recip.shift_plan(self.prod_fmt.frac_bits, self.out_fmt.frac_bits)[0]
-
-    @property
-    def inputs(self):
-        return (Port("n", self.num_fmt, "numerator"), Port("d", self.recip.in_fmt, "denominator"))
-
-    @property
-    def outputs(self):
-        return (Port("q", self.out_fmt, "n / d"), Port("dbz", Fmt(False, 1, 0), "d was zero"),
-                Port("ovf", Fmt(False, 1, 0), "q saturated"))
-
-    @property
-    def latency(self) -> int:
-        """The reciprocal's latency, one stage for ``n * mant`` (two when split into partial products,
-        :meth:`RecipParams.times_split`), one for the shift, one to round and saturate."""
-        return self.recip.latency + 3 + self.recip.times_split(self.num_fmt.width)
-
-    def _compute(self, cols):
-        n, d = cols
-        mant, exp, dbz = self.recip.recip_codes(d)
-        y = self.recip.scale(n * mant, self.prod_fmt.frac_bits, exp, self.out_fmt.frac_bits, Rounding.HALF_UP)
-        q, ovf = saturate(y, self.out_fmt, Overflow.SATURATE)
-        dz = dbz.astype(bool)
-        q = np.where(dz, np.sign(n) * np.where(n > 0, self.out_fmt.max_code, -self.out_fmt.min_code), q)
-        ovf = np.where(dz, n != 0, ovf)
-        return [q, dbz, ovf.astype(np.int64)]
-
-    def hard_cases(self) -> np.ndarray:
-        rd = self.recip.hard_cases()[:, 0]
-        nf = self.num_fmt
-        nums = np.unique(np.array([0, 1, -1, nf.max_code, nf.min_code, 1 << nf.frac_bits,
-                                   -(1 << nf.frac_bits)], dtype=np.int64).clip(nf.min_code, nf.max_code))
-        grid = np.array(np.meshgrid(nums, rd, indexing="ij")).reshape(2, -1).T
-        # n = +-d (quotient exactly +-1) and n = d/2, where representable
-        for k in (1, -1):
-            nn = k * rd
-            ok = (nn >= nf.min_code) & (nn <= nf.max_code)
-            grid = np.concatenate([grid, np.stack([nn[ok], rd[ok]], 1), np.stack([nn[ok] // 2, rd[ok]], 1)])
-        return np.unique(grid, axis=0)
-
-    def error_bound(self, quotient: Fraction) -> Fraction:
-        """Bound on ``|q - n/d|`` (real units) for an unsaturated result with ``|n/d| <= quotient``."""
-        r = self.recip
-        return quotient * r.error_bound_ulp / (1 << r.fo) + Fraction(1, 1 << (self.out_fmt.frac_bits + 1))
-
-    @property
-    def max_error(self) -> Fraction:
-        return self.error_bound(Fraction(self.quotient_limit))
-
-    def _info(self):
-        return {"precision_bits": self.recip.p, "table_entries": self.recip.entries, "terms": self.recip.t,
-                "recip_max_error_ulp": float(self.recip.error_bound_ulp),
-                "quotient_limit": self.quotient_limit,
-                "max_error": float(self.max_error),
-                "max_error_ulp": float(self.max_error / self.out_fmt.ulp)}
-
-
-DivideParams.PRESETS = {
-    "default": DivideParams(),
-}
-register(DivideParams)

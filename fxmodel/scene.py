@@ -124,8 +124,10 @@ from typing import Any, Callable, NamedTuple
 
 import numpy as np
 
+from .meshes import frozen_array, quad_mesh, sphere_mesh
+
 __all__ = ["SceneError", "Camera", "Light", "ColorSpec", "BumpSpec", "Material", "Mesh", "Scene", "Triangles",
-           "SCENES", "scene_path", "load_scene", "parse_scene", "quad_mesh", "sphere_mesh", "SCHEMA_EXAMPLE",
+           "SCENES", "scene_path", "load_scene", "parse_scene", "SCHEMA_EXAMPLE",
            "MAX_IMAGE_SIZE", "COLOR_PROCEDURALS", "BUMP_PROCEDURALS"]
 
 MAX_IMAGE_SIZE = 8192
@@ -356,99 +358,6 @@ class Scene:
             np.repeat(np.array([m.material for m in self.meshes], np.int64), counts),
             np.repeat(np.array([m.two_sided for m in self.meshes], bool), counts),
             np.repeat(np.arange(len(self.meshes), dtype=np.int64), counts))
-
-
-# ------------------------------------------------------------------------------------------------------------
-# mesh generators
-# ------------------------------------------------------------------------------------------------------------
-def _frozen(a) -> np.ndarray:
-    a = np.ascontiguousarray(a, dtype=np.float64)
-    a.setflags(write=False)
-    return a
-
-
-def quad_mesh(origin, edge_u, edge_v, uv=((0.0, 0.0), (1.0, 1.0)), divisions=(1, 1)):
-    """A planar parallelogram split into ``2 * nu * nv`` triangles.
-
-    Parameters
-    ----------
-    origin, edge_u, edge_v : array_like, shape (3,)
-        The corner where ``(u, v) = uv[0]`` and the two edge vectors (along ``u`` and along ``v``).
-    uv : ((u0, v0), (u1, v1))
-        Texture coordinates at ``origin`` and at ``origin + edge_u + edge_v``.
-    divisions : (nu, nv)
-        Cells along ``u`` and ``v``.
-
-    Returns
-    -------
-    positions, normals, uvs : ndarray, shapes (T, 3, 3), (T, 3, 3), (T, 3, 2)
-        The front normal is ``normalize(edge_v x edge_u)`` (``u`` right, ``v`` down seen from the front); each
-        triangle is counter-clockwise about it. Cells are split along the diagonal from ``(0, 0)`` to ``(1, 1)``.
-    """
-    o, eu, ev = (np.asarray(x, np.float64) for x in (origin, edge_u, edge_v))
-    n = np.cross(ev, eu)
-    n = n / np.linalg.norm(n)
-    (u0, v0), (u1, v1) = uv
-    nu, nv = divisions
-    # one grid of vertices: a vertex shared by neighbouring cells is computed once (bit-identical, no cracks)
-    a = np.arange(nu + 1) / nu
-    b = np.arange(nv + 1) / nv
-    grid_p = o + a[:, None, None] * eu + b[None, :, None] * ev                    # (nu + 1, nv + 1, 3)
-    grid_uv = np.stack(np.broadcast_arrays(u0 + a[:, None] * (u1 - u0), v0 + b[None, :] * (v1 - v0)), -1)
-    i, j = (x.ravel() for x in np.meshgrid(np.arange(nu), np.arange(nv), indexing="xy"))
-    # corners of cell (i, j): c00, c10, c11, c01 (first index along u); counter-clockwise about
-    # n = ev x eu is c00 -> c11 -> c10, and c00 -> c01 -> c11
-    corner = {"00": (i, j), "10": (i + 1, j), "11": (i + 1, j + 1), "01": (i, j + 1)}
-    tris = [("00", "11", "10"), ("00", "01", "11")]
-    P = np.concatenate([np.stack([grid_p[corner[c]] for c in t], axis=1) for t in tris])
-    UV = np.concatenate([np.stack([grid_uv[corner[c]] for c in t], axis=1) for t in tris])
-    N = np.broadcast_to(n, P.shape)
-    return _frozen(P), _frozen(N), _frozen(UV)
-
-
-def sphere_mesh(center, radius, segments=32, rings=16):
-    """A tessellated UV sphere about the +y axis with analytic (exact, unit) vertex normals.
-
-    ``u = phi / (2 pi)`` with longitude ``phi`` measured from +z toward +x, ``v = theta / pi`` with colatitude
-    ``theta`` from the +y pole; seen from outside, ``u`` goes right and ``v`` down. Each pole row is a fan of
-    ``segments`` triangles whose pole vertex sits at the middle of its segment's ``u`` range; the other rows have
-    two triangles per cell. Triangles are counter-clockwise seen from outside.
-
-    Returns
-    -------
-    positions, normals, uvs : ndarray, shapes (T, 3, 3), (T, 3, 3), (T, 3, 2), ``T = 2 segments (rings - 1)``
-    """
-    c = np.asarray(center, np.float64)
-    # vertex grid by integer indices: ring i (0 .. rings), meridian j (0 .. segments); meridian `segments` is
-    # meridian 0 again (same position and normal, bit for bit: no crack at the seam) but with u = 1
-    i = np.arange(rings + 1)[:, None]
-    j = np.arange(segments + 1)[None, :]
-    phi = 2 * np.pi * (j % segments) / segments
-    theta = np.pi * i / rings
-    st = np.where((i == 0) | (i == rings), 0.0, np.sin(theta))       # exact poles: sin(pi) != 0 in floats
-    ct = np.where(i == 0, 1.0, np.where(i == rings, -1.0, np.cos(theta)))
-    d = np.stack(np.broadcast_arrays(st * np.sin(phi), ct, st * np.cos(phi)), -1)
-    d = d / np.linalg.norm(d, axis=-1, keepdims=True)                 # (rings + 1, segments + 1, 3)
-    uvg = np.stack(np.broadcast_arrays(j / segments, i / rings), -1).astype(np.float64)
-    pole_uv = lambda v: np.stack([(np.arange(segments) + 0.5) / segments, np.full(segments, float(v))], -1)
-    js = np.arange(segments)
-    tris_d, tris_uv = [], []
-    for r in range(rings):
-        a, b = (r, js), (r, js + 1)                  # ring r, meridians j and j + 1
-        cc, dd = (r + 1, js), (r + 1, js + 1)        # ring r + 1
-        if r == 0:
-            tris_d.append(np.stack([d[0, js], d[cc], d[dd]], 1))
-            tris_uv.append(np.stack([pole_uv(0.0), uvg[cc], uvg[dd]], 1))
-        elif r == rings - 1:
-            tris_d.append(np.stack([d[a], d[rings, js], d[b]], 1))
-            tris_uv.append(np.stack([uvg[a], pole_uv(1.0), uvg[b]], 1))
-        else:
-            tris_d += [np.stack([d[a], d[cc], d[dd]], 1), np.stack([d[a], d[dd], d[b]], 1)]
-            tris_uv += [np.stack([uvg[a], uvg[cc], uvg[dd]], 1), np.stack([uvg[a], uvg[dd], uvg[b]], 1)]
-    N = np.concatenate(tris_d)
-    UV = np.concatenate(tris_uv)
-    P = c + radius * N
-    return _frozen(P), _frozen(N), _frozen(UV)
 
 
 # ------------------------------------------------------------------------------------------------------------
@@ -849,7 +758,7 @@ def _mesh(r: _Reader, t, key: str, names: dict, n_mat: int) -> Mesh:
             i = int(np.flatnonzero(area == 0)[0])
             r.fail(f"{key}.{'indices' if 'indices' in t else 'positions'}", f"triangle {i} has zero area")
         N = nrm[idx] if nrm is not None else np.repeat((cross / area[:, None])[:, None], 3, axis=1)
-        P, N, UV = _frozen(P), _frozen(N), _frozen(UV)
+        P, N, UV = frozen_array(P), frozen_array(N), frozen_array(UV)
     elif kind == "quad":
         o = r.vector(t["origin"], f"{key}.origin", 3)
         eu = r.vector(t["edge_u"], f"{key}.edge_u", 3, nonzero=True)

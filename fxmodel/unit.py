@@ -165,7 +165,7 @@ def register(cls):
 
 
 #: File stems of the units, the same in ``fxmodel/``, ``rtl/``, ``cosim/`` and ``tests/`` (importing registers).
-UNIT_MODULES = ("recip", "persp", "reflect", "cube", "bump", "sampler", "shade", "pipeline")
+UNIT_MODULES = ("recip", "divide", "persp", "reflect", "cube", "bump", "sampler", "shade", "pipeline")
 
 
 def _load_all():

@@ -1,4 +1,6 @@
-"""RTL of the reciprocal unit and the divider (paper section 4.1), built from ``fxmodel.recip``'s parameters.
+"""RTL of the reciprocal unit (paper section 4.1), built from ``fxmodel.recip``'s parameters; its helpers
+(:func:`times_reciprocal`, :func:`scale_stages`) also serve the divider (``rtl/divide.py``) and the perspective
+and cube units.
 
 The datapath is the model's, stage for stage (see ``fxmodel/recip.py`` for the algorithm and error bound); the
 table ROM contents come from ``RecipParams.rom``. Fully pipelined, one result per clock.
@@ -9,13 +11,13 @@ from __future__ import annotations
 from amaranth.hdl import Cat, Const, Module, Mux, Value
 from amaranth.lib.memory import Memory
 
-from fxmodel.recip import DivideParams, RecipParams
+from fxmodel.recip import RecipParams
 from fxmodel.rounding import Overflow, Rounding
 
 from .fixed import narrow, saturate, shift_round
 from .unit import Pipe, UnitComponent, register
 
-__all__ = ["Recip", "Divide", "scale", "scale_stages", "times_reciprocal", "leading_zeros", "pieces", "split_product",
+__all__ = ["Recip", "scale", "scale_stages", "times_reciprocal", "leading_zeros", "pieces", "split_product",
            "split_products"]
 
 
@@ -230,42 +232,5 @@ class Recip(UnitComponent):
             "mant": Mux(flags["zero"], P.mant_fmt.max_code, mant),
             "exp": Mux(flags["zero"], F, exp),
             "dbz": flags["zero"],
-        })
-        return m
-
-
-@register(DivideParams)
-class Divide(UnitComponent):
-    """Divider ``q = n / d`` on the reciprocal unit.
-
-    Ports (formats from :class:`~fxmodel.recip.DivideParams`)
-    --------------------------------------------------------
-    i_valid : Signal(1), in
-    n : Signal(signed), in -- ``num_fmt``
-    d : Signal(signed), in -- ``recip.in_fmt``
-    o_valid : Signal(1), out
-    q : Signal(signed), out -- ``out_fmt``, rounded half-up, saturated
-    dbz : Signal(1), out -- ``d`` was zero
-    ovf : Signal(1), out -- ``q`` saturated
-
-    Latency: ``params.latency`` = ``recip.latency + 3``: the reciprocal, ``n * mant`` (two stages when split
-    into partial products), the shift, then round and saturate.
-    """
-
-    def elaborate(self, platform):
-        P = self.params
-        R = P.recip
-        m = Module()
-        pipe = Pipe(m)
-        s = times_reciprocal(m, pipe, R, self.d, self.i_valid, {"n": self.n})
-        y, s = scale_stages(pipe, {"q": s.p_n}, P.prod_fmt.frac_bits, s.exp, R, P.out_fmt.frac_bits,
-                            carry={"dbz": s.dbz, "n": s.n})
-        q, ovf = saturate(y["q"], P.out_fmt, Overflow.SATURATE)
-        fmt = P.out_fmt
-        q_dbz = Mux(s.n > 0, fmt.max_code, Mux(s.n < 0, fmt.min_code, 0))
-        self.finish(m, pipe, {
-            "q": Mux(s.dbz, q_dbz, q),
-            "dbz": s.dbz,
-            "ovf": Mux(s.dbz, s.n != 0, ovf),
         })
         return m

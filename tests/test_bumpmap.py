@@ -14,7 +14,8 @@ from fxmodel.bumpmap import (checker, chiselled_text, color_texture, graffiti, h
                              mexican_hat, perturbations, quantize, scene_maps, tangent_frame, triangle_matrix)
 from fxmodel.fixed import Fmt
 from fxmodel.rounding import Overflow, Rounding
-from fxmodel.scene import ColorSpec, load_scene, quad_mesh
+from fxmodel.meshes import quad_mesh
+from fxmodel.scene import ColorSpec, load_scene
 
 D = BumpParams().d_fmt                       # the bump engine's default
 SCENES = Path(__file__).resolve().parent.parent / "scenes"

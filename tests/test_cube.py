@@ -17,7 +17,8 @@ from fxmodel import exact
 from tools import cli
 from fxmodel.cube import FLIP_S, FLIP_T, CubeParams
 from fxmodel.fixed import Fmt
-from fxmodel.recip import DivideParams, RecipParams
+from fxmodel.divide import DivideParams
+from fxmodel.recip import RecipParams
 from fxmodel.unit import preset
 
 PRESETS = ["default", "small"]

@@ -1,4 +1,4 @@
-"""Reciprocal and divider golden model (fxmodel.recip) against exact rational / integer math.
+"""Reciprocal golden model (fxmodel.recip, its bound fxmodel.recip_bound) against exact rational / integer math.
 
 The exhaustive test covers all 2**24 inputs of ``default``; hypothesis draws whole parameter sets and checks
 every input of each against the documented bound; each hard case named in the module docstring has a test.
@@ -12,7 +12,8 @@ from hypothesis import assume, given, strategies as st
 
 from fxmodel import exact
 from fxmodel.fixed import Fmt
-from fxmodel.recip import TABLE_MODES, DivideParams, RecipParams
+from fxmodel import recip_bound
+from fxmodel.recip import TABLE_MODES, RecipParams
 from fxmodel.unit import preset
 
 DEFAULT = preset("recip", "default")
@@ -184,51 +185,6 @@ def test_out_of_range_input_code_is_refused():
         DEFAULT.compute(np.array([0, 1 << 23]))
 
 
-# -- divider ---------------------------------------------------------------------------------------------------------
-DIV = preset("divide", "default")
-
-
-@given(st.lists(st.tuples(st.integers(DIV.num_fmt.min_code, DIV.num_fmt.max_code),
-                          st.integers(DIV.recip.in_fmt.min_code, DIV.recip.in_fmt.max_code)), min_size=1, max_size=50))
-def test_divide_within_bound_or_saturated(pairs):
-    nd = np.array(pairs, dtype=np.int64)
-    out = DIV.compute(nd)
-    nf, df, of = DIV.num_fmt, DIV.recip.in_fmt, DIV.out_fmt
-    for (n, d), (q, dbz, ovf) in zip(nd.tolist(), out.tolist()):
-        if d == 0:
-            assert dbz == 1 and q == (of.max_code if n > 0 else of.min_code if n < 0 else 0) and ovf == (n != 0)
-            continue
-        ratio = Fraction(n, 1 << nf.frac_bits) / Fraction(d, 1 << df.frac_bits)
-        got = Fraction(q, 1 << of.frac_bits)
-        if ovf:      # saturated: only when the exact quotient (within the bound) leaves the format
-            assert got in (of.max_value, of.min_value) and (ratio > of.max_value - DIV.error_bound(abs(ratio))
-                                                          or ratio < of.min_value + DIV.error_bound(abs(ratio)))
-            assert (got > 0) == (ratio > 0)
-        else:
-            assert abs(got - ratio) <= DIV.error_bound(abs(ratio))
-
-
-def test_divide_exact_quotients_of_one():
-    d = np.array([1, 5, 1000, 1 << 13, -(1 << 14), DIV.recip.in_fmt.max_code], dtype=np.int64)
-    out = DIV.compute(np.stack([d, d], 1))
-    err = [abs(Fraction(int(q), 1 << DIV.out_fmt.frac_bits) - 1) for q in out[:, 0]]
-    assert max(err) <= DIV.error_bound(Fraction(1)) and not out[:, 1:].any()
-
-
-def test_divide_measure_reports_within_bound():
-    rng = np.random.default_rng(3)
-    nd = np.concatenate([DIV.hard_cases(), DIV.random_inputs(rng, 50_000)])
-    rep = exact.MEASURES["divide"](DIV, nd, DIV.compute(nd))
-    assert rep["vectors"] > 10_000 and rep["within_bound"] and rep["max_error"] <= rep["bound"]
-
-
-def test_divide_invalid_parameters():
-    with pytest.raises(ValueError, match="num_fmt="):
-        DivideParams(num_fmt=Fmt(False, 2, 14))
-    with pytest.raises(ValueError, match="quotient_limit="):
-        DivideParams(quotient_limit=0)
-
-
 # -- table modes (module docstring, "Table modes") ------------------------------------------------------------------
 def test_midpoint_words_are_rounded_reciprocals_of_the_centres():
     P = DEFAULT.replace(table="midpoint")
@@ -243,7 +199,7 @@ def _off_centre(P):
     """Largest ``|lo + hi| / 2`` over the intervals' exact error bands."""
     worst = Fraction(0)
     for c, code in zip(P.centers, P.table_codes):
-        lo, hi = P._entry_error(c, int(code), pieces=16)
+        lo, hi = recip_bound.entry_error(P, c, int(code), pieces=16)
         worst = max(worst, abs(lo + hi) / 2)
     return worst
 

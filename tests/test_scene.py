@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from fxmodel.scene import (SCHEMA_EXAMPLE, SceneError, load_scene, parse_scene, quad_mesh, sphere_mesh)
+from fxmodel.meshes import quad_mesh, sphere_mesh
+from fxmodel.scene import SCHEMA_EXAMPLE, SceneError, load_scene, parse_scene
 
 SCENES = Path(__file__).resolve().parent.parent / "scenes"
 SHIPPED = ["tin-plane", "berlin-wall", "sphere"]

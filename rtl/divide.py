@@ -1,0 +1,54 @@
+"""RTL of the divider ``q = n / d`` (paper section 4.1), built from ``fxmodel.divide``'s parameters: the reciprocal
+unit's datapath (``rtl/recip.py``), ``n * mant``, a barrel shift, rounding and saturation, stage for stage as the
+model (``fxmodel/divide.py``). Fully pipelined, one result per clock.
+"""
+
+from __future__ import annotations
+
+from amaranth.hdl import Module, Mux
+
+from fxmodel.divide import DivideParams
+from fxmodel.rounding import Overflow
+
+from .fixed import saturate
+from .recip import scale_stages, times_reciprocal
+from .unit import Pipe, UnitComponent, register
+
+__all__ = ["Divide"]
+
+
+@register(DivideParams)
+class Divide(UnitComponent):
+    """Divider ``q = n / d`` on the reciprocal unit.
+
+    Ports (formats from :class:`~fxmodel.divide.DivideParams`)
+    --------------------------------------------------------
+    i_valid : Signal(1), in
+    n : Signal(signed), in -- ``num_fmt``
+    d : Signal(signed), in -- ``recip.in_fmt``
+    o_valid : Signal(1), out
+    q : Signal(signed), out -- ``out_fmt``, rounded half-up, saturated
+    dbz : Signal(1), out -- ``d`` was zero
+    ovf : Signal(1), out -- ``q`` saturated
+
+    Latency: ``params.latency`` = ``recip.latency + 3``: the reciprocal, ``n * mant`` (two stages when split
+    into partial products), the shift, then round and saturate.
+    """
+
+    def elaborate(self, platform):
+        P = self.params
+        R = P.recip
+        m = Module()
+        pipe = Pipe(m)
+        s = times_reciprocal(m, pipe, R, self.d, self.i_valid, {"n": self.n})
+        y, s = scale_stages(pipe, {"q": s.p_n}, P.prod_fmt.frac_bits, s.exp, R, P.out_fmt.frac_bits,
+                            carry={"dbz": s.dbz, "n": s.n})
+        q, ovf = saturate(y["q"], P.out_fmt, Overflow.SATURATE)
+        fmt = P.out_fmt
+        q_dbz = Mux(s.n > 0, fmt.max_code, Mux(s.n < 0, fmt.min_code, 0))
+        self.finish(m, pipe, {
+            "q": Mux(s.dbz, q_dbz, q),
+            "dbz": s.dbz,
+            "ovf": Mux(s.dbz, s.n != 0, ovf),
+        })
+        return m

@@ -123,13 +123,19 @@ def test_bump_units_narrowing_is_apytypes(name, rounding):
     params = preset("bump", name).replace(rounding=rounding)
     rows = _unit_rows(params, np.random.default_rng(7))
     out = params.compute(rows)
-    cols = {p.name: to_apy(rows[:, i], p.fmt) for i, p in enumerate(params.inputs)}
+    names = [p.name for p in params.inputs]
+    e_col = rows[:, names.index("Ae")] if "Ae" in names else np.zeros(len(rows), dtype=np.int64)
     flags = np.zeros(len(rows), dtype=bool)
-    for i, c in enumerate("xyz"):                   # N' = N + du A[:,0] + dv A[:,1], one narrowing
-        exact = cols[f"N{c}"] + cols["du"] * cols[f"A{i}0"] + cols["dv"] * cols[f"A{i}1"]
-        codes, flag = narrow_apy(exact, params.out_fmt, rounding, Overflow.SATURATE)
-        assert out[:, i].tolist() == codes.tolist(), f"bump {name} N'{c}"
-        flags |= flag
+    for e in np.unique(e_col):                      # N' = N 2**-e + du A[:,0] + dv A[:,1], one narrowing
+        sel = e_col == e
+        cols = {p.name: to_apy(rows[sel, i], p.fmt) for i, p in enumerate(params.inputs)}
+        n_fmt = params.n_fmt
+        for i, c in enumerate("xyz"):               # N 2**-e exactly: the same codes read with e more fraction bits
+            n = to_apy(rows[sel, names.index(f"N{c}")], Fmt(True, n_fmt.int_bits - int(e), n_fmt.frac_bits + int(e)))
+            exact = n + cols["du"] * cols[f"A{i}0"] + cols["dv"] * cols[f"A{i}1"]
+            codes, flag = narrow_apy(exact, params.out_fmt, rounding, Overflow.SATURATE)
+            assert out[sel, i].tolist() == codes.tolist(), f"bump {name} N'{c} (e = {e})"
+            flags[sel] |= flag
     assert out[:, 3].tolist() == flags.astype(int).tolist()
 
 

@@ -31,7 +31,9 @@ Color textures
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
+from fractions import Fraction
 from pathlib import Path
 
 import numpy as np
@@ -275,6 +277,27 @@ def _round_to_codes(x: np.ndarray, fmt: Fmt, what: str):
     return narrow(xi, g, fmt, Rounding.HALF_UP, Overflow.SATURATE, what)
 
 
+def _quotient_codes(d: np.ndarray, scale: float, fmt: Fmt, what: str):
+    """``_round_to_codes`` of the exact quotient ``d / scale`` (not of its float64 rounding).
+
+    The float division errs by half a float ulp, which can move a quotient onto or across a rounding point of
+    ``fmt`` (the half-way points between codes, the saturation thresholds among them). Rows whose float quotient
+    lies within a few float ulps of such a point are decided again in exact rational arithmetic; every other row's
+    rounding is that of the exact quotient already.
+    """
+    y = d / scale
+    codes, flags = _round_to_codes(y, fmt, what)
+    t = np.ldexp(y, fmt.frac_bits)                                   # the quotient in ulps of fmt (exact scaling)
+    near = np.abs(t - np.floor(t) - 0.5) <= 8 * np.spacing(np.abs(t)) + 8 * np.finfo(np.float64).tiny
+    if np.any(near):
+        q = Fraction(scale)
+        for i in zip(*np.nonzero(near)):
+            c = math.floor(Fraction(float(d[i])) / q * (1 << fmt.frac_bits) + Fraction(1, 2))    # HALF_UP
+            codes[i] = min(max(c, fmt.min_code), fmt.max_code)                                   # SATURATE
+            flags[i] = not fmt.min_code <= c <= fmt.max_code
+    return codes, flags
+
+
 def quantize(du, dv, fmt: Fmt = DEFAULT_D_FMT, scale: float | None = None) -> BumpCodes:
     """Quantize perturbations once to the signed ``fmt`` (the bump engine's ``d_fmt``).
 
@@ -293,7 +316,7 @@ def quantize(du, dv, fmt: Fmt = DEFAULT_D_FMT, scale: float | None = None) -> Bu
     Returns
     -------
     BumpCodes
-        ``code = round_half_up(d / scale / ulp)`` (:attr:`Rounding.HALF_UP`, ties toward plus infinity),
+        ``code = round_half_up(d / scale / ulp)`` of the exact quotient (:attr:`Rounding.HALF_UP`, ties toward plus infinity),
         clamped to ``[min_code, max_code]`` (:attr:`Overflow.SATURATE`, flagged per texel).
     """
     du = np.asarray(du, dtype=np.float64)
@@ -312,8 +335,8 @@ def quantize(du, dv, fmt: Fmt = DEFAULT_D_FMT, scale: float | None = None) -> Bu
     if scale == 0.0:
         z = np.zeros(du.shape, np.int64)
         return BumpCodes(z, z.copy(), 0.0, fmt, Rounding.HALF_UP, Overflow.SATURATE, np.zeros(du.shape, bool))
-    cu, fu = _round_to_codes(du / scale, fmt, "bump du")
-    cv, fv = _round_to_codes(dv / scale, fmt, "bump dv")
+    cu, fu = _quotient_codes(du, scale, fmt, "bump du")
+    cv, fv = _quotient_codes(dv, scale, fmt, "bump dv")
     return BumpCodes(cu, cv, scale, fmt, Rounding.HALF_UP, Overflow.SATURATE, fu | fv)
 
 

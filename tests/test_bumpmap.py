@@ -130,6 +130,21 @@ def test_quantize_is_half_up_and_saturates_with_flag(vals, scale, fmt):
     assert q.n_saturated == sum(q.saturated)
 
 
+def test_quantize_rounds_the_exact_quotient_near_ties():
+    """Values a few float ulps from a half-way point of ``d / scale``: the float quotient can land on or across
+    the tie; the codes must be those of the exact quotient (a case hypothesis found once at random)."""
+    rng = np.random.default_rng(7)
+    for _ in range(200):
+        scale = float(rng.uniform(0.1, 3.0))
+        k = rng.integers(D.min_code - 2, D.max_code + 2, size=64)
+        x = (k + 0.5) * float(D.ulp) * scale
+        x = x + np.spacing(x) * rng.integers(-3, 4, size=64)
+        q = quantize(x, np.zeros_like(x), D, scale)
+        for xi, c, sat in zip(x, q.du, q.saturated):
+            want, want_sat = exact_code(Fraction(float(xi)) / Fraction(scale), D)
+            assert (c, bool(sat)) == (want, want_sat), (xi, scale)
+
+
 def test_quantize_ties_round_up_and_extremes():
     u = D.ulp
     vals = np.array([2.5 * float(u), -2.5 * float(u), 0.5 * float(u), -0.5 * float(u), 10.0, -10.0])

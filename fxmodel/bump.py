@@ -42,6 +42,7 @@ from functools import cached_property
 
 import numpy as np
 
+from .cost import Product
 from .fixed import INT64_SAFE_BITS, Fmt
 from .rounding import Overflow, Rounding, narrow
 from .unit import Port, Unit, register
@@ -127,8 +128,13 @@ class BumpParams(Unit):
         return Fmt(True, f.int_bits - self.frac, self.frac)
 
     def widths(self) -> dict:
-        return {"product": self.prod_fmt.width, "sum": self.sum_fmt.width, "multipliers": 6,
+        return {"product": self.prod_fmt.width, "sum": self.sum_fmt.width,
                 "multiplier": f"{self.d_fmt.width}x{self.a_fmt.width}"}
+
+    def products(self) -> tuple:
+        """``du A[i,0]`` and ``dv A[i,1]`` for each axis: six products."""
+        d, a = self.d_fmt, self.a_fmt
+        return (Product(d.width, a.width, d.signed, a.signed, count=2 * len(AXES), name="d*A"),)
 
     @property
     def max_error(self) -> Fraction:

@@ -163,6 +163,14 @@ class CubeParams(Unit):
                 Port("t", self.st_fmt, "face coordinate in [0, 1]"),
                 Port("degenerate", Fmt(False, 1, 0), "the zero vector (face +Z, s = t = 1/2)"))
 
+    def products(self) -> tuple:
+        """One reciprocal of the major component and ``a * mant``, ``b * mant`` (``rtl/cube.py``)."""
+        r = self.divide.recip
+        return (*r.products(), r.times_product(self.in_fmt.width, "minor*mant", count=2))
+
+    def memories(self) -> tuple:
+        return self.divide.recip.memories()
+
     @property
     def latency(self) -> int:
         """Stages: magnitudes, comparisons and face select | the divider (reciprocal, products, shift and

@@ -78,6 +78,13 @@ class DivideParams(Unit):
         """Left shift applied first so that every data-dependent shift is a right shift."""
         return self.recip.shift_plan(self.prod_fmt.frac_bits, self.out_fmt.frac_bits)[0]
 
+    def products(self) -> tuple:
+        """The reciprocal's products and ``n * mant``."""
+        return (*self.recip.products(), self.recip.times_product(self.num_fmt.width, "n*mant"))
+
+    def memories(self) -> tuple:
+        return self.recip.memories()
+
     @property
     def inputs(self):
         return (Port("n", self.num_fmt, "numerator"), Port("d", self.recip.in_fmt, "denominator"))

@@ -97,6 +97,14 @@ class PerspParams(Unit):
         return (tuple(Port(o, self.coord_fmt, f"{i} / W, repeat-wrapped") for i, o in self.numerators)
                 + (Port("dbz", Fmt(False, 1, 0), "W was zero"),))
 
+    def products(self) -> tuple:
+        """The reciprocal's products and ``numerator * mant`` for each coordinate."""
+        return (*self.recip.products(),
+                self.recip.times_product(self.uv_fmt.width, "numerator*mant", count=len(self.numerators)))
+
+    def memories(self) -> tuple:
+        return self.recip.memories()
+
     @property
     def latency(self) -> int:
         """The reciprocal, the products (two stages when split into partial products,

@@ -121,6 +121,17 @@ class PipelineParams(Unit):
     def latency(self) -> int:
         return self.stage_latency["out"]
 
+    #: The stages in RTL order (``cube`` twice: the normal's and the reflection's address units).
+    STAGES = ("persp", "bump_map", "texture", "bump", "reflect", "cube", "cube", "diffuse", "specular", "shade")
+
+    def products(self) -> tuple:
+        """Every stage's products (:data:`STAGES`), the samplers' blends included."""
+        return tuple(p for name in self.STAGES for p in getattr(self, name).products())
+
+    def memories(self) -> tuple:
+        """Every stage's memories: the reciprocal tables and the four texel memories."""
+        return tuple(m for name in self.STAGES for m in getattr(self, name).memories())
+
     def _info(self):
         mems = {n: getattr(self, n).info()["texels"] for n in ("bump_map", "texture", "diffuse", "specular")}
         return {"stage_ready_cycle": self.stage_latency, "memories": mems,

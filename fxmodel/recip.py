@@ -70,6 +70,7 @@ from functools import cached_property
 import numpy as np
 
 from . import recip_bound
+from .cost import Memory, Product
 from .fixed import INT64_SAFE_BITS, Fmt
 from .rounding import Overflow, Rounding, narrow, saturate, shift_round
 from .unit import Port, Unit, register, require
@@ -240,15 +241,33 @@ class RecipParams(Unit):
     #: Widest operand of one ECP5 multiplier block (MULT18X18D); wider products are split (:attr:`split_products`).
     DSP_BITS = 18
 
-    def product_operands(self) -> list[tuple[str, int, int]]:
-        """``(name, width, width)`` of the operands of every multiplier in datapath order (``t >= 2``): ``B*d``,
-        the Horner steps (``q*q`` first, then ``q*g``) and ``B*g``."""
+    def products(self) -> tuple:
+        """The multipliers of the datapath in order (``t >= 2``), each split into registered partial products
+        when an operand is wider than :attr:`DSP_BITS` (:class:`fxmodel.cost.Product`): ``B*d`` (``B``
+        truncated to :attr:`bq` bits, unsigned), the Horner steps (``q*q`` first, then ``q*g``) and ``B*g``
+        (``g = q`` when ``t = 2``)."""
         if self.t < 2:
-            return []
-        steps = [("q*q", self.q_fmt.width, self.q_fmt.width)] + \
-            [("q*g", self.q_fmt.width, self.g_fmt.width)] * (self.t - 3)
-        return ([("B*d", self.bq, self.d_fmt.width)] + steps[:self.t - 2]
-                + [("B*g", self.bq, self.g_fmt.width)])
+            return ()
+        q, g = self.q_fmt, self.g_fmt
+        steps = [Product(q.width, q.width, q.signed, q.signed, split=True, square=True, name="q*q")] + \
+            [Product(q.width, g.width, q.signed, g.signed, split=True, name="q*g")] * (self.t - 3)
+        last = g if self.t > 2 else q
+        return (Product(self.bq, self.d_fmt.width, False, self.d_fmt.signed, split=True, name="B*d"),
+                *steps[:self.t - 2],
+                Product(self.bq, last.width, False, last.signed, split=True, name="B*g"))
+
+    def memories(self) -> tuple:
+        """The table ROM: :attr:`entries` words of :attr:`rom_bits` (the leading 1 is implicit)."""
+        return (Memory(self.entries, self.rom_bits, name="table 1/w"),)
+
+    def product_operands(self) -> list[tuple[str, int, int]]:
+        """``(name, width, width)`` of the operands of every multiplier in datapath order (:meth:`products`)."""
+        return [(p.name, p.a_bits, p.b_bits) for p in self.products()]
+
+    def times_product(self, width: int, name: str = "x*mant", count: int = 1) -> Product:
+        """``x * mant`` for a signed ``width``-bit ``x`` (the users of ``1/w``), split like the unit's own
+        products (``rtl.recip.times_reciprocal``)."""
+        return Product(width, self.mant_fmt.width, True, self.mant_fmt.signed, count=count, split=True, name=name)
 
     @property
     def split_products(self) -> int:

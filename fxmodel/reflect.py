@@ -78,6 +78,7 @@ from functools import cached_property
 
 import numpy as np
 
+from .cost import Product
 from .fixed import INT64_SAFE_BITS, Fmt
 from .rounding import Overflow, Rounding, narrow, saturate
 from .unit import Port, Unit, register, require
@@ -127,6 +128,13 @@ class ReflectParams(Unit):
     """
 
     NAME = "reflect"
+
+    #: Digit size of the wide second-level operands ``N.E``, ``N.N``: a 17-bit unsigned digit is an 18-bit
+    #: signed operand of one ECP5 multiplier block.
+    DIGIT_BITS = 17
+    #: A top digit of at most this many bits (sign included) is multiplied by shifts and adds (logic), not by a
+    #: multiplier block.
+    LUT_DIGIT_BITS = 4
 
     n_fmt: Fmt = Fmt(True, 2, 16)
     e_fmt: Fmt = Fmt(True, 2, 16)
@@ -195,6 +203,28 @@ class ReflectParams(Unit):
         w = self.widths()
         return {"N_i*E_i": (self.n_fmt.width, self.e_fmt.width), "N_i*N_i": (self.n_fmt.width, self.n_fmt.width),
                 "N_i*(N.E)": (self.n_fmt.width, w["N.E"].width), "E_i*(N.N)": (self.e_fmt.width, w["N.N"].width)}
+
+    def digits(self, key: str) -> list[tuple[int, int, int]]:
+        """How the RTL cuts the second-level operand ``key`` (``"N.E"`` or ``"N.N"``) into signed digits:
+        ``[(low bit, high bit, digit width)]`` with the operand ``= sum_j d_j 2**low_j``. Every digit but the
+        top one is :attr:`DIGIT_BITS` bits zero-extended (one bit more); the top one keeps the sign of a signed
+        operand (an unsigned one is zero-extended too)."""
+        fmt = self.widths()[key]
+        out = []
+        for lo in range(0, fmt.width, self.DIGIT_BITS):
+            hi = min(lo + self.DIGIT_BITS, fmt.width)
+            out.append((lo, hi, hi - lo + (0 if hi == fmt.width and fmt.signed else 1)))
+        return out
+
+    def products(self) -> tuple:
+        """First level ``N_i E_i``, ``N_i N_i``; second level ``N_i`` times each digit of ``p = N.E`` and
+        ``E_i`` times each digit of ``q = N.N`` (:meth:`digits`) wider than :attr:`LUT_DIGIT_BITS`."""
+        nN, nE = self.n_fmt.width, self.e_fmt.width
+        out = [Product(nN, nE, count=3, name="N_i*E_i"), Product(nN, nN, count=3, name="N_i*N_i")]
+        for key, width, name in (("N.E", nN, "N_i*digit(N.E)"), ("N.N", nE, "E_i*digit(N.N)")):
+            out += [Product(width, bits, count=3, name=name) for _, _, bits in self.digits(key)
+                    if bits > self.LUT_DIGIT_BITS]
+        return tuple(out)
 
     # -- ports --------------------------------------------------------------------------------------------
     @property

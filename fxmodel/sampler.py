@@ -42,6 +42,7 @@ from functools import cached_property
 
 import numpy as np
 
+from .cost import Memory, Product, pieces
 from .fixed import Fmt
 from .rounding import Overflow, Rounding, narrow
 from .unit import Port, Unit, register, require
@@ -213,12 +214,32 @@ class SamplerParams(Unit):
         padded[:, :h, :w] = self.texels.codes
         return [self._pack(padded[:, py::2, px::2]) for py in (0, 1) for px in (0, 1)]
 
-    @property
     def memories(self) -> tuple:
-        """The physical texel memories the RTL instantiates: ``(words, bits, read ports)`` each."""
+        """The physical texel memories the RTL instantiates (:class:`fxmodel.cost.Memory`): four banks of one
+        read port when :attr:`banked`, else one memory with a read port per corner."""
         if self.banked:
-            return ((int(np.prod(self.bank_shape)), self.word_bits, 1),) * 4
-        return ((self.depth, self.word_bits, 4 if self.bilinear else 1),)
+            return (Memory(int(np.prod(self.bank_shape)), self.word_bits, 1, count=4, kind="texels",
+                           name="texel bank"),)
+        return (Memory(self.depth, self.word_bits, 4 if self.bilinear else 1, kind="texels", name="texels"),)
+
+    def products(self) -> tuple:
+        """The bilinear blend's products per channel (``rtl/sampler.py``): ``fx (b - a)``, ``fx (d - c)``, then
+        ``fy (bot - top)``, each split into registered partial products when an operand is wider than one
+        multiplier block. Operand widths follow the RTL's expressions (Amaranth's shape rules: :func:`_add`,
+        :func:`_sub`, :func:`_shl`); none for nearest filtering."""
+        if not self.bilinear:
+            return ()
+        B = self.weight_bits
+        weight = (B, False)
+        texels = [(fmt.width, fmt.signed) for fmt in self.channels]
+        first = [Product(*_interleave(weight, _sub(t, t)), count=2, split=True, name="f*texel difference")
+                 for t in texels]                                       # fx (b - a), fx (d - c)
+        cut = any(_is_split(p) for p in first)                          # one split_products call for all
+        out = []
+        for t, p in zip(texels, first):
+            top = _add(_shl(t, B), _product_shape(p, cut))              # top = (a << B) + fx (b - a)
+            out += [p, Product(*_interleave(weight, _sub(top, top)), split=True, name="f*row difference")]
+        return tuple(out)
 
     @property
     def word_bits(self) -> int:
@@ -329,6 +350,55 @@ class SamplerParams(Unit):
                 "weight_bits": self.weight_bits, "memory_bits": self.depth * self.word_bits, "banked": self.banked,
                 "max_error": {n: float(f.ulp / 2) if self.bilinear else 0.0
                               for n, f in zip(self.out_names, self.channels)}}
+
+
+def _unify(a: tuple, b: tuple) -> tuple:
+    """Amaranth's common shape ``(width, signed)`` of two operands: an unsigned one gains a bit next to a signed
+    one."""
+    if a[1] == b[1]:
+        return max(a[0], b[0]), a[1]
+    return max(a[0] + (not a[1]), b[0] + (not b[1])), True
+
+
+def _add(a: tuple, b: tuple) -> tuple:
+    """Shape of an Amaranth sum ``a + b``."""
+    w, s = _unify(a, b)
+    return w + 1, s
+
+
+def _sub(a: tuple, b: tuple) -> tuple:
+    """Shape of an Amaranth difference ``a - b`` (always signed)."""
+    return _unify(a, b)[0] + 1, True
+
+
+def _shl(a: tuple, c: int) -> tuple:
+    """Shape of an Amaranth shift ``a << c`` by a constant: the constant is a ``Const`` of ``bit_length(c)``
+    bits, and the shape allows its largest value, ``2**bits - 1`` (wider than ``c`` itself; Yosys trims the
+    constant-zero bits)."""
+    return a[0] + (1 << max(1, c.bit_length())) - 1, a[1]
+
+
+def _interleave(a: tuple, b: tuple) -> tuple:
+    """``(a_bits, b_bits, a_signed, b_signed)`` of two shapes (the order of :class:`~fxmodel.cost.Product`)."""
+    return a[0], b[0], a[1], b[1]
+
+
+def _is_split(p: Product) -> bool:
+    """Whether ``p`` has an operand of more than one :func:`~fxmodel.cost.pieces`."""
+    return len(pieces(p.a_bits, p.a_signed)) > 1 or len(pieces(p.b_bits, p.b_signed)) > 1
+
+
+def _product_shape(p: Product, cut: bool) -> tuple:
+    """Shape of one product ``p`` as the RTL forms it: the registered product, or, when its
+    ``rtl.recip.split_products`` call cuts (``cut``: some product of the call is wider than one block), the
+    sum ``0 + sum(partial << shift)`` of its registered partial products."""
+    if not cut:
+        return p.a_bits + p.b_bits, p.a_signed or p.b_signed
+    total = (1, False)                                                  # Python's sum starts from 0
+    for lo_a, wa, sa in pieces(p.a_bits, p.a_signed):
+        for lo_b, wb, sb in pieces(p.b_bits, p.b_signed):
+            total = _add(total, _shl((wa + wb, sa or sb), lo_a + lo_b))
+    return total
 
 
 def _demo_texels() -> Texels:

@@ -21,6 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .cost import Product
 from .fixed import Fmt
 from .rounding import Overflow, Rounding, narrow
 from .unit import Port, Unit, register
@@ -74,6 +75,11 @@ class ShadeParams(Unit):
     def outputs(self):
         return (tuple(Port(c, self.out_fmt, "output byte") for c in RGB)
                 + (Port("saturated", Fmt(False, 1, 0), "some channel clipped at 255"),))
+
+    def products(self) -> tuple:
+        """``t D`` per channel."""
+        t, d = self.tex_fmt, self.diffuse_fmt
+        return (Product(t.width, d.width, t.signed, d.signed, count=len(RGB), name="t*D"),)
 
     @property
     def latency(self) -> int:

@@ -17,6 +17,7 @@ from typing import ClassVar
 
 import numpy as np
 
+from . import cost as _cost
 from .fixed import Fmt, as_codes
 
 __all__ = ["require", "Port", "Unit", "register", "units", "unit_class", "preset", "preset_names"]
@@ -42,7 +43,8 @@ class Unit:
     """Mixin for a unit's frozen parameter dataclass.
 
     A subclass sets ``NAME`` (the unit's file stem, e.g. ``"recip"``) and implements :attr:`inputs`,
-    :attr:`outputs`, :attr:`latency`, :meth:`_compute`, :meth:`hard_cases` and :meth:`_info`.
+    :attr:`outputs`, :attr:`latency`, :meth:`_compute`, :meth:`hard_cases` and :meth:`_info`, and declares its
+    hardware for the cost model (:meth:`products`, :meth:`memories`; :mod:`fxmodel.cost`).
     """
 
     NAME: ClassVar[str] = ""
@@ -75,6 +77,21 @@ class Unit:
 
     def _info(self) -> dict:
         return {}
+
+    def products(self) -> tuple:
+        """The products the unit's RTL computes (:class:`fxmodel.cost.Product`: operand widths, signedness, how
+        many, whether split into registered partial products); none by default."""
+        return ()
+
+    def memories(self) -> tuple:
+        """The memories the unit's RTL holds (:class:`fxmodel.cost.Memory`: words x bits, read ports); none by
+        default."""
+        return ()
+
+    def cost(self) -> dict:
+        """The hardware estimate of :func:`fxmodel.cost.estimate`: MULT18X18D and DP16KD blocks, multipliers,
+        table and memory bits."""
+        return _cost.estimate(self)
 
     # -- shared behaviour ---------------------------------------------------------------------------------
     def replace(self, **changes):
@@ -133,6 +150,7 @@ class Unit:
             "inputs": [p.fmt.describe(p.name) for p in self.inputs],
             "outputs": [p.fmt.describe(p.name) for p in self.outputs],
             "latency": self.latency,
+            "cost": self.cost(),
             **self._info(),
         }
 

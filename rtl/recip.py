@@ -11,6 +11,7 @@ from __future__ import annotations
 from amaranth.hdl import Cat, Const, Module, Mux, Value
 from amaranth.lib.memory import Memory
 
+from fxmodel import cost
 from fxmodel.recip import RecipParams
 from fxmodel.rounding import Overflow, Rounding
 
@@ -22,19 +23,15 @@ __all__ = ["Recip", "scale", "scale_stages", "times_reciprocal", "leading_zeros"
 
 
 def pieces(x, limit: int = RecipParams.DSP_BITS) -> list[tuple[Value, int]]:
-    """``x`` as ``[(piece, shift)]`` with ``x = sum(piece << shift)``: unchanged if ``len(x) <= limit``, else
-    ``limit - 1``-bit unsigned pieces from the bottom and a top piece of at most ``limit`` bits that keeps the
-    sign. Every product of two pieces fits one ``limit x limit`` multiplier block."""
+    """``x`` as ``[(piece, shift)]`` with ``x = sum(piece << shift)``, cut where :func:`fxmodel.cost.pieces`
+    says (the cost model counts the same pieces): unchanged if ``len(x) <= limit``, else ``limit - 1``-bit
+    unsigned pieces from the bottom and a top piece of at most ``limit`` bits that keeps the sign. Every product
+    of two pieces fits one ``limit x limit`` multiplier block."""
     x = Value.cast(x)
-    if len(x) <= limit:
+    cut = cost.pieces(len(x), x.shape().signed, limit)
+    if len(cut) == 1:
         return [(x, 0)]
-    out, lo = [], 0
-    while len(x) - lo > limit:
-        out.append((x[lo:lo + limit - 1], lo))
-        lo += limit - 1
-    top = x[lo:]
-    out.append((top.as_signed() if x.shape().signed else top, lo))
-    return out
+    return [(x[lo:lo + bits].as_signed() if signed else x[lo:lo + bits], lo) for lo, bits, signed in cut]
 
 
 def split_products(pipe: Pipe, products: dict, carry: dict, name: str = "pp"):

@@ -18,29 +18,27 @@ from .unit import Pipe, UnitComponent, register
 
 __all__ = ["Reflect", "DIGIT_BITS", "LUT_DIGIT_BITS"]
 
-#: Digit size of the wide second-level operands: a 17-bit unsigned digit is an 18-bit signed DSP operand (ECP5).
-DIGIT_BITS = 17
-#: A top digit of at most this many bits is multiplied by shifts and adds (LUTs) instead of a whole DSP tile.
-LUT_DIGIT_BITS = 4
+#: The digit split of the wide second-level operands (:attr:`ReflectParams.DIGIT_BITS`, ``LUT_DIGIT_BITS``; the
+#: cost model counts the same digits).
+DIGIT_BITS = ReflectParams.DIGIT_BITS
+LUT_DIGIT_BITS = ReflectParams.LUT_DIGIT_BITS
 
-
-def _digits(x, signed: bool) -> list:
-    """``x`` (signed or unsigned) as signed digits ``d_j`` with ``x = sum_j d_j 2**(17 j)``: every digit but the
-    top one is 17 bits zero-extended (non-negative); the top one carries the sign of a signed ``x``."""
+def _digits(P: ReflectParams, key: str, x) -> list:
+    """The signal ``x`` of the second-level operand ``key`` as the signed digits of ``P.digits(key)``:
+    ``x = sum_j d_j 2**low_j``; every digit but the top one is zero-extended (non-negative), the top one carries
+    the sign of a signed ``x``."""
     x = Value.cast(x)
     out = []
-    for lo in range(0, len(x), DIGIT_BITS):
-        hi = min(lo + DIGIT_BITS, len(x))
-        if hi == len(x) and signed:
-            out.append(x[lo:].as_signed())
-        else:
-            out.append(Cat(x[lo:hi], Const(0, 1)).as_signed())
+    for lo, hi, bits in P.digits(key):
+        digit = x[lo:hi] if bits == hi - lo else Cat(x[lo:hi], Const(0, 1))
+        out.append(digit.as_signed())
     return out
 
 
-def _mul(a, d):
-    """``a * d`` for signed ``a`` and a signed digit ``d``: a DSP product, or shifts and adds for a narrow ``d``."""
-    if len(d) > LUT_DIGIT_BITS:
+def _mul(P: ReflectParams, a, d):
+    """``a * d`` for signed ``a`` and a signed digit ``d``: a DSP product, or shifts and adds for a digit of at
+    most ``P.LUT_DIGIT_BITS`` bits."""
+    if len(d) > P.LUT_DIGIT_BITS:
         return a * d
     total = 0
     for b in range(len(d)):
@@ -100,14 +98,14 @@ class Reflect(UnitComponent):
 
         # 3: second-level partial products: p and q cut into 17-bit digits (18-bit signed DSP operands), so each
         #    wide product N_i p, E_i q is a few 18x18 tiles whose sum is left to the next stages
-        pp, qp = _digits(s2.p, True), _digits(s2.q, False)
+        pp, qp = _digits(P, "N.E", s2.p), _digits(P, "N.N", s2.q)
         st = {"zero": s2.zero}
         for i in range(3):
             Ni, Ei = getattr(s2, f"N{i}"), getattr(s2, f"E{i}")
             for j, d in enumerate(pp):
-                st[f"np{i}{j}"] = _mul(Ni, d)
+                st[f"np{i}{j}"] = _mul(P, Ni, d)
             for j, d in enumerate(qp):
-                st[f"eq{i}{j}"] = _mul(Ei, d)
+                st[f"eq{i}{j}"] = _mul(P, Ei, d)
         s3 = pipe.stage(**st)
 
         # 4: per digit position j, A_j = 2 N_i p_j - E_i q_j
@@ -124,7 +122,7 @@ class Reflect(UnitComponent):
         for i in range(3):
             total = 0
             for j in range(max(len(pp), len(qp))):
-                total = total + (getattr(s4, f"A{i}{j}") << (DIGIT_BITS * j))
+                total = total + (getattr(s4, f"A{i}{j}") << (P.DIGIT_BITS * j))
             st[f"R{i}"] = saturate(total, P.exact_fmt, Overflow.PROVEN)[0]
         s5 = pipe.stage(**st)
         R = [getattr(s5, f"R{i}") for i in range(3)]

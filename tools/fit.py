@@ -145,12 +145,8 @@ def bram_blocks(sampler) -> int:
     an unbanked bilinear memory has four); none for a memory of at most :data:`DISTRIBUTED_WORDS` words (Yosys
     puts those in LUT RAM: the demo pipeline's 64-word bump map did). ``python -m tools.fpga`` measures the real
     count."""
-    import math
-    total = 0
-    for depth, bits, ports in sampler.memories:
-        if depth > DISTRIBUTED_WORDS:
-            total += min(math.ceil(depth / d) * math.ceil(bits / w) for d, w in DP16KD_SHAPES) * math.ceil(ports / 2)
-    return total
+    from .cost import blocks_in_bram
+    return sum(m.count * blocks_in_bram(m) for m in sampler.memories() if m.words > DISTRIBUTED_WORDS)
 
 
 def _refused(frame) -> int:

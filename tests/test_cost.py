@@ -1,0 +1,164 @@
+"""The cost model (``fxmodel/cost.py``): the declared products and memories are the ones the RTL builds, the
+tiling reassembles every operand exactly, and the estimate matches the recorded ECP5 counts."""
+
+from __future__ import annotations
+
+from collections import Counter
+from contextlib import contextmanager
+
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from fxmodel import cost
+from fxmodel.cost import Memory, Product
+from fxmodel.unit import preset, preset_names, units
+
+UNIT_PRESETS = [(u, n) for u in units() if u != "pipeline" for n in preset_names(u)]
+
+
+@contextmanager
+def census():
+    """Record the operand shapes of every Amaranth product and every memory built inside the block."""
+    from amaranth.hdl import Value
+    from amaranth.lib import memory
+
+    seen = {"products": [], "memories": []}
+    mul, rmul = Value.__mul__, Value.__rmul__
+    mem_init, read_port = memory.Memory.__init__, memory.Memory.read_port
+
+    def key(a, b):
+        sa, sb = Value.cast(a).shape(), Value.cast(b).shape()
+        return tuple(sorted([(sa.width, sa.signed), (sb.width, sb.signed)]))
+
+    def mul_(self, other):
+        if isinstance(other, Value):
+            seen["products"].append(key(self, other))
+        return mul(self, other)
+
+    def rmul_(self, other):
+        if isinstance(other, Value):
+            seen["products"].append(key(other, self))
+        return rmul(self, other)
+
+    def init_(self, *args, **kwargs):
+        seen["memories"].append(self)
+        self._census_ports = 0
+        mem_init(self, *args, **kwargs)
+
+    def read_port_(self, *args, **kwargs):
+        self._census_ports += 1
+        return read_port(self, *args, **kwargs)
+
+    Value.__mul__, Value.__rmul__ = mul_, rmul_
+    memory.Memory.__init__, memory.Memory.read_port = init_, read_port_
+    try:
+        yield seen
+    finally:
+        Value.__mul__, Value.__rmul__ = mul, rmul
+        memory.Memory.__init__, memory.Memory.read_port = mem_init, read_port
+
+
+def built(params):
+    """``(products, memories)`` the RTL of ``params`` builds: Counters of operand-shape pairs and of
+    ``(words, bits, read ports)``."""
+    from amaranth.hdl import Fragment, Shape
+
+    from rtl.unit import build
+
+    with census() as seen:
+        Fragment.get(build(params), None)
+    mems = Counter((m.depth, Shape.cast(m.shape).width, m._census_ports) for m in seen["memories"])
+    return Counter(seen["products"]), mems
+
+
+def declared(params):
+    """The same Counters from the parameter object's declarations (every piece product the RTL writes, the
+    cross products of a split square twice)."""
+    prods = Counter()
+    for p in params.products():
+        pairs = ([(wa, sa, wb, sb) for _, wa, sa in cost.pieces(p.a_bits, p.a_signed)
+                  for _, wb, sb in cost.pieces(p.b_bits, p.b_signed)] if p.split
+                 else [(p.a_bits, p.a_signed, p.b_bits, p.b_signed)])
+        for wa, sa, wb, sb in pairs:
+            prods[tuple(sorted([(wa, sa), (wb, sb)]))] += p.count
+    mems = Counter()
+    for m in params.memories():
+        mems[(m.words, m.bits, m.read_ports)] += m.count
+    return prods, mems
+
+
+@pytest.mark.parametrize("unit, name", UNIT_PRESETS)
+def test_declared_products_and_memories_are_what_the_rtl_builds(unit, name):
+    params = preset(unit, name)
+    assert built(params) == declared(params)
+
+
+def test_pipeline_declares_every_stage_sampler_blends_included():
+    P = preset("pipeline")
+    assert built(P) == declared(P)
+    stages = [P.persp, P.bump_map, P.texture, P.bump, P.reflect, P.cube, P.cube, P.diffuse, P.specular, P.shade]
+    assert P.cost()["dsp"] == sum(s.cost()["dsp"] for s in stages)
+    assert any(p.name.startswith("f*") for p in P.products())           # the blends are in
+
+
+@given(st.integers(1, 80), st.booleans(), st.data())
+def test_pieces_reassemble_every_operand(width, signed, data):
+    """Exact integers: the pieces of any code sum back to it; each fits an 18-bit operand, and all but the top
+    one are 17-bit unsigned (18-bit signed operands)."""
+    lo_code = -(1 << (width - 1)) if signed else 0
+    hi_code = (1 << (width - 1)) - 1 if signed else (1 << width) - 1
+    x = data.draw(st.integers(lo_code, hi_code))
+    total = 0
+    cut = cost.pieces(width, signed)
+    for lo, bits, piece_signed in cut:
+        value = (x >> lo) & ((1 << bits) - 1)
+        if piece_signed and value >> (bits - 1):
+            value -= 1 << bits
+        total += value << lo
+        assert bits <= cost.DSP_BITS
+        if lo + bits < width:
+            assert bits == cost.DSP_BITS - 1 and not piece_signed
+    assert total == x
+    assert sum(bits for _, bits, _ in cut) == width
+
+
+@pytest.mark.parametrize("a, b, blocks", [
+    ((18, True), (18, True), 1), ((17, False), (18, True), 1),          # 17u becomes 18s: one block
+    ((18, False), (18, True), 1),                                       # 19s: its top bit a one-bit slice (logic)
+    ((20, True), (18, True), 2), ((36, True), (36, True), 4), ((37, True), (36, True), 4),
+    ((1, True), (9, True), 0), ((8, False), (1, False), 0), ((4, True), (4, True), 1)])
+def test_yosys_mapping_of_one_product(a, b, blocks):
+    assert cost.mult_blocks([Product(a[0], b[0], a[1], b[1])]) == blocks
+
+
+def test_split_square_merges_signed_cross_products_only():
+    signed = Product(21, 21, True, True, split=True, square=True)
+    unsigned = Product(20, 20, False, False, split=True, square=True)
+    assert cost.mult_blocks([signed]) == 3 and cost.mult_blocks([unsigned]) == 4
+
+
+def test_memories_in_logic_or_block_ram():
+    assert cost.bram_blocks([Memory(64, 19)]) == 0                     # a reciprocal table: logic
+    assert cost.bram_blocks([Memory(1024, 18)]) == 1
+    assert cost.bram_blocks([Memory(1024, 18, read_ports=4)]) == 2     # two copies of two read ports
+    assert cost.bram_blocks([Memory(4096, 36, count=4)]) == 4 * 8
+
+
+@pytest.mark.parametrize("field, value", [("a_bits", 0), ("count", -1)])
+def test_bad_product_is_refused(field, value):
+    args = {"a_bits": 4, "b_bits": 4, field: value}
+    with pytest.raises(ValueError, match=field):
+        Product(**args)
+
+
+def test_bad_memory_is_refused():
+    with pytest.raises(ValueError, match="kind"):
+        Memory(4, 4, kind="rom")
+    with pytest.raises(ValueError, match="read_ports"):
+        Memory(4, 4, read_ports=0)
+
+
+def test_info_shows_the_estimate():
+    info = preset("recip", "rcp24").info()
+    assert info["cost"]["dsp"] == 13 and info["cost"]["table_bits"] == preset("recip", "rcp24").table_bits

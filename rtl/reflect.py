@@ -16,12 +16,7 @@ from .fixed import narrow, saturate
 from .recip import leading_zeros
 from .unit import Pipe, UnitComponent, register
 
-__all__ = ["Reflect", "DIGIT_BITS", "LUT_DIGIT_BITS"]
-
-#: The digit split of the wide second-level operands (:attr:`ReflectParams.DIGIT_BITS`, ``LUT_DIGIT_BITS``; the
-#: cost model counts the same digits).
-DIGIT_BITS = ReflectParams.DIGIT_BITS
-LUT_DIGIT_BITS = ReflectParams.LUT_DIGIT_BITS
+__all__ = ["Reflect"]
 
 def _digits(P: ReflectParams, key: str, x) -> list:
     """The signal ``x`` of the second-level operand ``key`` as the signed digits of ``P.digits(key)``:

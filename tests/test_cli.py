@@ -30,6 +30,17 @@ def test_info_recip_reports_formats_and_bound():
     assert info["max_error_ulp"] == pytest.approx(float(P.error_bound_ulp)) and info["max_error_ulp"] < 1
 
 
+def test_info_shows_the_cost_estimate_also_with_a_scene(capsys):
+    assert main(["info", "pipeline"]) == 0
+    demo = json.loads(capsys.readouterr().out)["cost"]
+    assert demo == preset("pipeline").cost() and demo["dsp"] > 0
+    assert main(["info", "pipeline", "--scene", "tin-plane", "--preset", "tin-plane-fit"]) == 0
+    fitted = json.loads(capsys.readouterr().out)
+    assert fitted["scene"] == "tin-plane" and fitted["cost"]["memory_bits"] != demo["memory_bits"]
+    with pytest.raises(SystemExit, match="pipeline only"):
+        main(["info", "recip", "--scene", "tin-plane"])
+
+
 def test_info_small_preset_has_16_bit_input(capsys):
     assert main(["info", "recip", "--preset", "small"]) == 0
     info = json.loads(capsys.readouterr().out)

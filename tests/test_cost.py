@@ -162,3 +162,33 @@ def test_bad_memory_is_refused():
 def test_info_shows_the_estimate():
     info = preset("recip", "rcp24").info()
     assert info["cost"]["dsp"] == 13 and info["cost"]["table_bits"] == preset("recip", "rcp24").table_bits
+
+
+def test_bram_estimate_counts_blocks_copies_and_memories_in_logic():
+    """DP16KD estimate against hand counts. A bordered 64-texel cube map is banked by texel parity: four banks of
+    6 x 33 x 33 = 6534 words of 36 bits, 13 blocks of 512 x 36 each; nearest filtering, one memory of 26136
+    words, 52 blocks. A 41 x 40 two-channel 12-bit repeat map (odd width: not banked) is 1640 words of 24 bits,
+    3 blocks of 2048 x 9 per copy, two copies for four read ports; at 40 x 40 it is banked, four banks of 400
+    words, one 512 x 36 block each. An 8 x 8 map, four banks of 16 words, stays in logic."""
+    import dataclasses
+
+    import numpy as np
+
+    from fxmodel.fixed import Fmt
+    from fxmodel.sampler import SamplerParams, Texels
+
+    def blocks(sampler):
+        return cost.bram_blocks(sampler.memories())
+
+    u2 = Fmt(False, 2, 10)
+    cube = SamplerParams(texels=Texels(np.zeros((6, 66, 66, 3), np.int64)), channels=(u2,) * 3,
+                         coord_fmt=Fmt(False, 1, 16), edge="border")
+    assert cube.banked and blocks(cube) == 4 * 13
+    assert blocks(dataclasses.replace(cube, filter="nearest")) == 52
+    s12 = Fmt(True, 1, 11)
+    odd = SamplerParams(texels=Texels(np.zeros((1, 40, 41, 2), np.int64)), channels=(s12,) * 2)
+    assert not odd.banked and blocks(odd) == 3 * 2
+    even = SamplerParams(texels=Texels(np.zeros((1, 40, 40, 2), np.int64)), channels=(s12,) * 2)
+    assert even.banked and blocks(even) == 4
+    tiny = SamplerParams(texels=Texels(np.zeros((1, 8, 8, 2), np.int64)), channels=(s12,) * 2)
+    assert blocks(tiny) == 0

@@ -149,7 +149,7 @@ def test_fit_cli_writes_preset_and_json(presets, capsys):
     out = json.loads(capsys.readouterr().out)
     assert out["path"] == str(preset_path("c", presets / "out"))
     assert out["final"]["max_lsb_vs_float"] <= 4
-    assert {"table_bits", "memory_bits", "dsp18_tiles"} <= set(out["hardware"]["savings"])
+    assert {"table_bits", "memory_bits", "dsp", "bram"} <= set(out["hardware"]["savings"])
     assert out["ranges"]["max_abs_uv"] > 0 and 0 < out["ranges"]["min_W"] <= out["ranges"]["max_W"] <= 1
 
 
@@ -159,29 +159,6 @@ def test_units_of_rejects_invalid_knobs():
     with pytest.raises(ValueError):
         units_of({**k, "persp_b": k["persp_p"] - 1}, DEFAULT)        # table word narrower than the result
     assert Fmt.parse(str(units_of(k, DEFAULT)["bump"].out_fmt)).width == k["word"]
-
-
-def test_bram_estimate_counts_blocks_copies_and_distributed_memories():
-    """DP16KD estimate against hand counts. A bordered 64-texel cube map is banked by texel parity: four banks of
-    6 x 33 x 33 = 6534 words of 36 bits, 13 blocks of 512 x 36 each; nearest filtering, one memory of 26136
-    words, 52 blocks. A 41 x 40 two-channel 12-bit repeat map (odd width: not banked) is 1640 words of 24 bits,
-    3 blocks of 2048 x 9 per copy, two copies for four read ports; at 40 x 40 it is banked, four banks of 400
-    words, one 512 x 36 block each. A 64-word memory is distributed RAM."""
-    import numpy as np
-    from tools.fit import bram_blocks
-    from fxmodel.sampler import SamplerParams, Texels
-    u2 = Fmt(False, 2, 10)
-    cube = SamplerParams(texels=Texels(np.zeros((6, 66, 66, 3), np.int64)), channels=(u2,) * 3,
-                         coord_fmt=Fmt(False, 1, 16), edge="border")
-    assert cube.banked and bram_blocks(cube) == 4 * 13
-    assert bram_blocks(dataclasses.replace(cube, filter="nearest")) == 52
-    s12 = Fmt(True, 1, 11)
-    odd = SamplerParams(texels=Texels(np.zeros((1, 40, 41, 2), np.int64)), channels=(s12,) * 2)
-    assert not odd.banked and bram_blocks(odd) == 3 * 2
-    even = SamplerParams(texels=Texels(np.zeros((1, 40, 40, 2), np.int64)), channels=(s12,) * 2)
-    assert even.banked and bram_blocks(even) == 4
-    tiny = SamplerParams(texels=Texels(np.zeros((1, 8, 8, 2), np.int64)), channels=(s12,) * 2)
-    assert bram_blocks(tiny) == 0
 
 
 def test_speculative_search_takes_the_same_path_as_the_sequential_one(presets):

@@ -87,8 +87,9 @@ def test_faithful_p_is_widest():
 def test_dsp_estimate_and_grid():
     from fxmodel.unit import preset
 
-    assert su.dsp_blocks(preset("recip", "default")) == 3          # every product within 18x18
-    assert su.dsp_blocks(preset("recip", "rcp24")) == 14           # 23x18, 21x21, 21x22, 23x22 split in pieces
+    rec = sw.measure_point("rcp24", "preset", preset("recip", "rcp24"), exhaustive_limit=1, samples=100)
+    assert rec["dsp_blocks_est"] == preset("recip", "rcp24").cost()["dsp"] == 13     # the one cost model
+    assert rec["cost"] == rec["table_bits"] + 1024 * rec["dsp_blocks_est"]
     assert sw.PAPER.entries == 128 and sw.PAPER.t == 3 and not sw.PAPER.center and sw.PAPER.table == "round"
 
 

@@ -53,6 +53,7 @@ def test_unit_records_fields_and_consistency(result):
         table = {"persp": lambda: P.recip.table_bits, "cube": lambda: P.divide.recip.table_bits}.get(P.NAME)
         assert r["table_bits"] == (table() if table else 0)
         assert r["cost"] == r["table_bits"] + 1024 * r["dsp_blocks_est"]
+        assert r["dsp_blocks_est"] == P.cost()["dsp"] and r["multipliers"] == P.cost()["multipliers"]
         assert r["within_bound"] and 0 < r["mean"] <= r["worst"] <= float(_bound(P)) * (1 + 1e-12)
         assert r["bound"] == pytest.approx(float(_bound(P)), rel=1e-12)
         assert r["correct_bits_worst"] == pytest.approx(-math.log2(r["worst"]), abs=1e-3)
@@ -158,13 +159,11 @@ def test_dsp_estimate_matches_the_placed_presets():
               ("cube", "small"): 5, ("reflect", "default"): 18, ("reflect", "small"): 18, ("bump", "default"): 6,
               ("bump", "small"): 6}
     for (unit, name), dsp in placed.items():
-        assert su.unit_cost(preset(unit, name))[2] == dsp, (unit, name)
-    with pytest.raises(ValueError, match="shade"):
-        su.unit_cost(preset("shade"))
+        assert preset(unit, name).cost()["dsp"] == dsp, (unit, name)
 
 
 def test_pipeline_points(result):
-    from tools.fit import hardware, knobs_of, units_of
+    from tools.fit import knobs_of, units_of
     from fxmodel.presets import BUILTIN_PRESET_UNITS
 
     pipe = result["pipeline"]
@@ -175,15 +174,20 @@ def test_pipeline_points(result):
     assert narrow["preset"] is None and narrow["changes"] == {"word": [knobs_of(default)["word"], 12]}
     for p in (base, narrow):
         assert p["width"] == p["height"] == 32 and p["pixels"] > 0 and p["cube_size"] == 64
-        assert p["cost"] == p["hardware"]["table_bits"] + 1024 * p["hardware"]["dsp18_tiles"]
+        assert p["cost"] == p["hardware"]["table_bits"] + 1024 * p["hardware"]["dsp"]
         # MSE <= max_lsb**2, so PSNR >= 20 log10(255 / max_lsb); identical frames have infinite PSNR
         for ref in ("float", "ideal"):
             lsb, db = p[f"max_lsb_vs_{ref}"], p[f"psnr_db_vs_{ref}"]
             assert (db == math.inf) if lsb == 0 else db >= 20 * math.log10(255 / lsb) - 0.01
-    assert base["hardware"]["table_bits"] == (default["persp"].recip.table_bits
-                                              + default["cube"].divide.recip.table_bits)
+    assert base["hardware"]["table_bits"] == (default["persp"].recip.table_bits       # two cube units: two tables
+                                              + 2 * default["cube"].divide.recip.table_bits)
     units = units_of({**knobs_of(default), "word": 12}, default)
-    assert narrow["hardware"]["dsp18_tiles"] == hardware(units)["dsp18_tiles"] < base["hardware"]["dsp18_tiles"]
+    assert base["hardware"]["dsp"] == preset("pipeline").cost()["dsp"]
+    # 18 -> 12 bits: every one of those products still takes one block (narrower, not fewer)
+    assert narrow["hardware"]["multiplier_bit_products"] < base["hardware"]["multiplier_bit_products"]
+    narrowed = sum(units[k].cost()["dsp"] - default[k].cost()["dsp"] for k in ("bump", "reflect"))
+    narrowed += 2 * (units["cube"].cost()["dsp"] - default["cube"].cost()["dsp"])
+    assert narrow["hardware"]["dsp"] - base["hardware"]["dsp"] == narrowed      # only those units changed
     assert set(pipe["pareto"]) <= {"default", "word 12"} and pipe["pareto"]
 
 

@@ -2,7 +2,9 @@
 
 ``info UNIT``
     JSON: the unit's inputs and outputs (``name, signed, int_bits, frac_bits``; ``int_bits`` counts the sign),
-    latency, parameters and documented error bounds, for ``--preset NAME`` (default ``default``).
+    latency, parameters, documented error bounds and the hardware estimate (``cost``: MULT18X18D and DP16KD
+    blocks, multipliers, table and memory bits, :mod:`fxmodel.cost`), for ``--preset NAME`` (default
+    ``default``). ``info pipeline --scene SCENE --preset P``: the pipeline with the scene's tables.
 ``eval UNIT IN.npy OUT.npy``
     Reads real input values (float64, shape ``(K,)`` or ``(K, inputs)``), which must be exactly representable in
     the input formats (else an error naming the file, column and first bad row, and nothing is written); writes
@@ -51,6 +53,16 @@ def _params(args):
 
 
 def cmd_info(args) -> int:
+    if args.scene is not None:
+        if args.unit != "pipeline":
+            raise SystemExit(f"error: --scene sets the tables of the pipeline only, not of {args.unit!r}")
+        from fxmodel.render import pipeline_params
+        try:
+            params = pipeline_params(args.scene, args.preset)
+        except (ValueError, KeyError) as exc:
+            raise SystemExit(f"error: {exc}")
+        print(json.dumps({"preset": args.preset, "scene": args.scene, **params.info()}, indent=2))
+        return 0
     params = _params(args)
     print(json.dumps({"preset": args.preset, **params.info()}, indent=2))
     return 0
@@ -152,8 +164,10 @@ def build_parser() -> argparse.ArgumentParser:
         p.add_argument("unit", help=f"one of: {', '.join(units())}")
         p.add_argument("--preset", default="default", help="named parameter set (default: %(default)s)")
 
-    p = sub.add_parser("info", help="ports, formats, latency and error bound of a unit (JSON)")
+    p = sub.add_parser("info", help="ports, formats, latency, error bound and cost estimate of a unit (JSON)")
     unit_arg(p)
+    p.add_argument("--scene", help="pipeline only: with this scene's tables (name in scenes/ or a .toml file); "
+                   "--preset may then name a preset file (presets/<name>.toml)")
     p.set_defaults(fn=cmd_info)
     p = sub.add_parser("eval", help="run the golden model on real values from a .npy file")
     unit_arg(p)

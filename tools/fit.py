@@ -6,7 +6,8 @@ the smallest formats and table sizes (:data:`KNOB_STEPS`) for which the bit-exac
 the scene (:func:`widen`; candidates go to ``prepare`` as units dicts, nothing
 is registered globally); it writes the result as a preset file that ``prepare(..., preset=NAME)``,
 ``python -m fxmodel render --preset NAME``, ``make sim PRESET=NAME`` and, with a scene, ``make verilog`` and
-``make fpga`` accept, and reports a hardware estimate (:func:`hardware`) against ``default``.
+``make fpga`` accept, and reports a hardware estimate (:func:`hardware`, the one cost model :mod:`fxmodel.cost`)
+against ``default``.
 
 The preset files themselves (reading, writing, the built-in ``default``) are :mod:`fxmodel.presets`.
 """
@@ -19,7 +20,7 @@ from fxmodel.cube import cube_divider
 from fxmodel.fixed import Fmt
 from fxmodel.presets import BUILTIN_PRESET_UNITS, UNIT_KEYS, top_value, write_preset
 
-__all__ = ["KNOB_STEPS", "KNOB_MIN", "knobs_of", "units_of", "measure_ranges", "hardware", "bram_blocks", "fit"]
+__all__ = ["KNOB_STEPS", "KNOB_MIN", "knobs_of", "units_of", "measure_ranges", "hardware", "fit"]
 
 # -- scene-driven word lengths: ``python -m fxmodel fit`` ---------------------------------------------------
 #: The knobs the search reduces, in search order (widest savings first), with the starting step in bits.
@@ -102,51 +103,12 @@ def measure_ranges(frame) -> dict:
     return out
 
 
-def hardware(units: dict, params=None) -> dict:
-    """A hardware estimate of a pipeline preset: table bits, multipliers (count, sum of operand-width products
-    and 18x18 DSP tiles), memory bits and block RAMs (with the assembled ``params``, :func:`bram_blocks`) and
-    the sum of the units' port widths."""
-    import math
-    persp, bump, reflect, cube = (units[k] for k in ("persp", "bump", "reflect", "cube"))
-    mults = []
-    for r in (persp.recip, cube.divide.recip):
-        mults += [(a, b) for _, a, b in r.product_operands()]
-    mults += [(persp.uv_fmt.width, persp.recip.mant_fmt.width)] * len(persp.numerators)
-    mults += [(cube.in_fmt.width, cube.divide.recip.mant_fmt.width)] * 2
-    mults += [(bump.d_fmt.width, bump.a_fmt.width)] * 6
-    w = reflect.widths()
-    nN, nE = reflect.n_fmt.width, reflect.e_fmt.width
-    mults += [(nN, nE)] * 3 + [(nN, nN)] * 3 + [(nN, w["N.E"].width)] * 3 + [(nE, w["N.N"].width)] * 3
-    tile = 17
-    out = {"table_bits": persp.recip.table_bits + cube.divide.recip.table_bits,
-           "multipliers": len(mults), "multiplier_bit_products": sum(a * b for a, b in mults),
-           "dsp18_tiles": sum(math.ceil(a / tile) * math.ceil(b / tile) for a, b in mults),
-           "widest_multiplier": "x".join(map(str, max(mults, key=lambda ab: ab[0] * ab[1]))),
-           "datapath_port_bits": sum(p.fmt.width for u in (units[k] for k in UNIT_KEYS)
-                                     for p in u.inputs + u.outputs)}
-    if params is not None:
-        out["memory_bits"] = params.info()["memory_bits"]
-        out["bram_blocks"] = sum(bram_blocks(smp) for smp in (params.bump_map, params.texture, params.diffuse,
-                                                               params.specular))
-    return out
-
-
-#: ECP5 DP16KD block RAM shapes (words x bits) usable as a read port of a ROM.
-DP16KD_SHAPES = ((16384, 1), (8192, 2), (4096, 4), (2048, 9), (1024, 18), (512, 36))
-
-
-#: Memories up to this many words are estimated as distributed (LUT) RAM.
-DISTRIBUTED_WORDS = 64
-
-
-def bram_blocks(sampler) -> int:
-    """Estimated ECP5 DP16KD blocks of a sampler's texel memories (:attr:`SamplerParams.memories`): for each,
-    the cheapest block shape for its depth and word width, one copy for each two read ports (a DP16KD has two;
-    an unbanked bilinear memory has four); none for a memory of at most :data:`DISTRIBUTED_WORDS` words (Yosys
-    puts those in LUT RAM: the demo pipeline's 64-word bump map did). ``python -m tools.fpga`` measures the real
-    count."""
-    from .cost import blocks_in_bram
-    return sum(m.count * blocks_in_bram(m) for m in sampler.memories() if m.words > DISTRIBUTED_WORDS)
+def hardware(units: dict, params) -> dict:
+    """The hardware estimate of a pipeline preset: ``params.cost()`` (:func:`fxmodel.cost.estimate` of the
+    assembled :class:`~fxmodel.pipeline.PipelineParams`: MULT18X18D blocks ``dsp`` with the sampler blends, DP16KD
+    blocks ``bram``, multipliers, table and memory bits) and the sum of the units' port widths."""
+    return {**params.cost(),
+            "datapath_port_bits": sum(p.fmt.width for u in (units[k] for k in UNIT_KEYS) for p in u.inputs + u.outputs)}
 
 
 def _refused(frame) -> int:

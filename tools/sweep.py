@@ -26,12 +26,14 @@ Every point but ``rcp24`` has the 24-bit input ``s8.16`` (``small``: ``s4.12``).
 output against the exact ``1/w`` comes from :func:`fxmodel.exact.recip_error_ulp` (exact integers). Recorded:
 worst and mean error in ulps of the result, correct bits ``p - 1 - log2(error)`` (relative error of a mantissa in
 ``[1, 2)``; worst and mean), the documented bound, table bits, multipliers, estimated MULT18X18D blocks
-(:func:`tools.sweep_units.dsp_blocks`), latency, model throughput (one timing of the whole ``compute`` call, one core), and, for at
+(:func:`fxmodel.cost.estimate`, the one cost model), latency, model throughput (one timing of the whole ``compute`` call, one core), and, for at
 most ``--fpga-points`` points (the four named ones first, then Pareto points spread evenly inside the front), the
 ECP5 results of :func:`tools.fpga.run_designs` (LUT4, FF, DSP, block RAM, Fmax; cached under ``build/fpga``).
 
 Cost and Pareto front. Without place and route for every point, the cost is a proxy:
-``table_bits + dsp_weight * dsp_blocks`` (``--dsp-weight``, default 1024 ROM bits per 18x18 multiplier block).
+``table_bits + dsp_weight * dsp`` (``--dsp-weight``, default 1024 ROM bits per 18x18 multiplier block), both from
+:func:`fxmodel.cost.estimate` (its MULT18X18D count equals the synthesized one of every preset,
+``docs/fpga/resources.json``).
 A point is on the front when no other point has at least as many worst-case correct bits at no more cost
 (and is better in one). Published anchors on the plot: NVIDIA's SFU reciprocal (Oberman & Siu 2005: 128 entries
 of quadratic-interpolation coefficients, about 6.5 Kbit, two multipliers, at most 1 ulp at 24 bits, drawn at 23
@@ -62,7 +64,7 @@ from fxmodel.fixed import Fmt
 from fxmodel.recip import RecipParams
 from fxmodel.unit import preset
 
-from .sweep_units import dsp_blocks, unique_points
+from .sweep_units import unique_points
 
 __all__ = ["PAPER", "ANCHORS", "faithful_p", "default_grid",
            "measure_point", "pareto_front", "sweep", "markdown", "plot", "plot_units", "write_outputs", "main"]
@@ -161,7 +163,8 @@ def measure_point(name: str, family: str, params: RecipParams, *, exhaustive_lim
             worst, worst_w = cand, int(w[lo + i])
     mean = total / len(w)
     bound = params.error_bound_ulp
-    dsp = dsp_blocks(params)
+    est = params.cost()
+    dsp = est["dsp"]
 
     def bits(e):
         return round(params.p - 1 - math.log2(e), 3) if e > 0 else None
@@ -170,13 +173,13 @@ def measure_point(name: str, family: str, params: RecipParams, *, exhaustive_lim
         "name": name, "family": family, "unit": "recip",
         "params": {"in_fmt": str(params.in_fmt), "m": params.m, "b": params.b, "t": params.t, "p": params.p,
                    "guard": params.guard, "table": params.table, "center": params.center},
-        "entries": params.entries, "table_bits": params.table_bits, "multipliers": params.multipliers,
+        "entries": params.entries, "table_bits": est["table_bits"], "multipliers": est["multipliers"],
         "dsp_blocks_est": dsp, "latency": params.latency,
         "bound_ulp": float(bound), "worst_ulp": float(worst), "mean_ulp": mean,
         "worst_input_code": worst_w, "within_bound": bool(worst <= bound), "faithful": bool(worst < 1),
         "correct_bits_worst": bits(float(worst)), "correct_bits_mean": bits(mean),
         "vectors": int(len(w)), "exhaustive": exhaustive, "model_per_second": rate,
-        "cost": params.table_bits + dsp_weight * dsp, "fpga": None,
+        "cost": est["table_bits"] + dsp_weight * dsp, "fpga": None,
     }
 
 
@@ -320,7 +323,8 @@ def sweep(grid=None, *, pipeline=None, scene=None, scene_size: int | None = None
     meta = {"machine": platform.platform(), "python": platform.python_version(), "dsp_weight": dsp_weight,
             "exhaustive_limit": exhaustive_limit, "samples": samples, "unit_samples": unit_samples,
             "seconds": round(time.perf_counter() - t0, 1),
-            "cost": "table_bits + dsp_weight * dsp_blocks_est (pipeline: fit's dsp18_tiles)",
+            "cost": "table_bits + dsp_weight * dsp_blocks_est (fxmodel.cost.estimate; pipeline: hardware.dsp, "
+                    "sampler blends included)",
             "unit_errors": {u: {"error": e["what"], "ulp": e["ulp_name"]} for u, e in su.UNIT_ERRORS.items()},
             "anchors": [{"name": a, "table_bits": tb, "multipliers": mu, "correct_bits": cb}
                         for a, tb, mu, cb in ANCHORS]}
@@ -381,8 +385,9 @@ def _unit_table(result: dict, unit: str) -> list[str]:
 def _pipeline_table(result: dict) -> list[str]:
     pipe = result.get("pipeline") or {}
     lines = ["| point | changes from default | max LSB / PSNR dB vs float (a) | vs ideal (b) | table bits "
-             "| multipliers | DSP18 tiles | multiplier bit products | cube edge | memory bits | cost | model Mpixel/s |",
-             "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
+             "| multipliers | DSP est. | DP16KD est. | multiplier bit products | cube edge | memory bits | cost "
+             "| model Mpixel/s |",
+             "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
     for r in sorted(pipe.get("points", []), key=lambda r: (r["cost"], r["name"])):
         hw = r["hardware"]
         name = f"**{r['name']}**" if r.get("pareto") else r["name"]
@@ -391,7 +396,7 @@ def _pipeline_table(result: dict) -> list[str]:
         lines.append(
             f"| {name} | {ch} | {r['max_lsb_vs_float']} / {r['psnr_db_vs_float']:.2f} "
             f"| {r['max_lsb_vs_ideal']} / {r['psnr_db_vs_ideal']:.2f} | {hw['table_bits']} | {hw['multipliers']} "
-            f"| {hw['dsp18_tiles']} | {hw['multiplier_bit_products']} | {r.get('cube_size', '')} "
+            f"| {hw['dsp']} | {hw['bram']} | {hw['multiplier_bit_products']} | {r.get('cube_size', '')} "
             f"| {hw.get('memory_bits', '')} "
             f"| {r['cost']:.0f} | {_fmt(rate and rate / 1e6, '.2f')} |")
     return lines
@@ -416,7 +421,8 @@ def markdown(result: dict) -> str:
         lines += ["", f"## Pipeline ({p0['scene']}, {p0['width']}×{p0['height']}, bit-exact model)", ""]
         lines += _pipeline_table(result)
         lines += ["", "Bold: Pareto front of PSNR against reference (a) over cost = table bits + "
-                  f"{meta['dsp_weight']:g} × DSP18 tiles (`tools.fit.hardware`). Memory bits: maps, texture and "
+                  f"{meta['dsp_weight']:g} × estimated MULT18X18D blocks (`fxmodel.cost`, the sampler blends "
+                  "included). Memory bits: maps, texture and "
                   "reflectance cubes."]
     return "\n".join(lines)
 
@@ -560,7 +566,7 @@ def plot_units(result: dict, path: Path) -> None:
                 c="k", lw=1, zorder=1)
         ax.set_title(f"pipeline, {pipe[0]['scene']} {pipe[0]['width']}×{pipe[0]['height']} (bit-exact model)",
                      fontsize=8.5)
-        ax.set_xlabel(f"cost: table bits + {w:g} × DSP18 tiles (fit's estimate)", fontsize=8)
+        ax.set_xlabel(f"cost: table bits + {w:g} × MULT18X18D (est.)", fontsize=8)
         ax.set_ylabel("PSNR against float reference (a), dB", fontsize=8)
         ax.grid(True, alpha=0.3)
         ax.margins(x=0.35, y=0.12)

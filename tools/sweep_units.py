@@ -29,8 +29,9 @@ draws ``W`` uniformly over its non-zero codes and ``U``, ``V`` uniformly within 
 bound's domain), ``bump`` twice as many (about half of uniform inputs saturate, and only unsaturated outputs have a
 bound). Correct bits: ``-log2`` of the worst error (real units; radians for ``reflect``).
 
-Cost, as for the reciprocal: table bits + ``dsp_weight`` x estimated MULT18X18D blocks (:func:`unit_cost`; the
-estimate equals the placed ECP5 count of every unit preset). Placed and routed (cached): each unit's default preset
+Cost, as for the reciprocal: table bits + ``dsp_weight`` x estimated MULT18X18D blocks (the unit's
+:meth:`~fxmodel.unit.Unit.cost`, :mod:`fxmodel.cost`; the estimate equals the synthesized ECP5 count of every unit
+preset, ``docs/fpga/resources.json``). Placed and routed (cached): each unit's default preset
 and the cheapest point of its front (``--unit-fpga-points 3``: also the middle of the front).
 
 Pipeline points (:data:`PIPELINE_POINTS`): the ``default`` preset, the fitted ``presets/tin-plane-fit.toml`` and
@@ -38,8 +39,9 @@ variants of ``default`` that narrow one unit's widths (:func:`tools.fit.units_of
 fxmodel fit``). Each renders a shipped scene (``scenes/tin-plane.toml`` at its own 256 x 256) through the bit-exact
 model only, as ``fit`` evaluates a candidate (:func:`fxmodel.render.prepare` with a preset name or a units dict,
 then :func:`fxmodel.render.render`), and records PSNR and the largest per-channel difference against the float
-reference (a) and the ideal Phong reference (b), and ``fit``'s hardware estimate (:func:`tools.fit.hardware`:
-table bits, multipliers, 18x18 DSP tiles, memory bits); cost = table bits + ``dsp_weight`` x DSP tiles.
+reference (a) and the ideal Phong reference (b), and the hardware estimate (:func:`tools.fit.hardware`: the
+pipeline's :mod:`fxmodel.cost` estimate, sampler blends included: table bits, multipliers, MULT18X18D and DP16KD
+blocks, memory bits); cost = table bits + ``dsp_weight`` x MULT18X18D blocks.
 """
 
 from __future__ import annotations
@@ -56,7 +58,7 @@ from fxmodel.fixed import Fmt
 from fxmodel.recip import RecipParams
 from fxmodel.unit import preset
 
-__all__ = ["dsp_pieces", "dsp_blocks", "unique_points", "S_ABS", "UNIT_ERRORS", "PIPELINE_POINTS", "SCENE", "smallest_faithful", "unit_cost", "knobs",
+__all__ = ["unique_points", "S_ABS", "UNIT_ERRORS", "PIPELINE_POINTS", "SCENE", "smallest_faithful", "knobs",
            "default_unit_grid", "unit_inputs", "measure_unit_point", "pipeline_grid", "measure_pipeline_point"]
 
 #: Largest ``|U/W|`` of the perspective unit's measured domain (its documented bound's ``s_abs``).
@@ -91,20 +93,6 @@ PIPELINE_POINTS = [
 ]
 
 
-def dsp_pieces(a: int, b: int) -> int:
-    """Estimated MULT18X18D blocks of one ``a x b`` product: one if both operands fit 18 bits, else the number of
-    partial products of ``rtl.recip.pieces`` (17-bit pieces and a top piece of at most 18 bits per operand)."""
-    def npieces(w):
-        d = RecipParams.DSP_BITS
-        return 1 if w <= d else 1 + math.ceil((w - d) / (d - 1))
-    return npieces(a) * npieces(b)
-
-
-def dsp_blocks(params: RecipParams) -> int:
-    """Estimated MULT18X18D blocks of a reciprocal: :func:`dsp_pieces` of each of its products."""
-    return sum(dsp_pieces(a, b) for _, a, b in params.product_operands())
-
-
 def unique_points(grid) -> list[tuple[str, str, object]]:
     """``grid`` of ``(name, family, params)`` without repeated parameter objects (the first name kept)."""
     seen, out = set(), []
@@ -126,42 +114,6 @@ def smallest_faithful(in_fmt: Fmt, p: int, t: int, guard: int = 4, table: str = 
         if P.error_bound_ulp < 1:
             return P
     return None
-
-
-def _rtl_reflect_digits():
-    from rtl.reflect import DIGIT_BITS, LUT_DIGIT_BITS  # the RTL's digit split of the wide second-level products
-    return DIGIT_BITS, LUT_DIGIT_BITS
-
-
-def unit_cost(params) -> tuple[int, int, int]:
-    """``(table_bits, multipliers, estimated MULT18X18D blocks)`` of a ``persp``, ``cube``, ``reflect`` or
-    ``bump`` parameter object. Products are split as the RTL splits them: :func:`tools.sweep.dsp_pieces` (the
-    reciprocal's pieces) for ``persp`` and ``cube``; for ``reflect`` the second-level operands ``N.E`` and
-    ``N.N`` cut into 17-bit digits, a top digit of at most 4 bits made of adds (``rtl/reflect.py``)."""
-    name = params.NAME
-    if name == "persp":
-        r = params.recip
-        k = len(params.numerators)
-        return r.table_bits, r.multipliers + k, dsp_blocks(r) + k * dsp_pieces(params.uv_fmt.width, r.mant_fmt.width)
-    if name == "cube":
-        r = params.divide.recip
-        return (r.table_bits, r.multipliers + 2,
-                dsp_blocks(r) + 2 * dsp_pieces(params.in_fmt.width, r.mant_fmt.width))
-    if name == "reflect":
-        digit, lut_digit = _rtl_reflect_digits()
-        sizes = params.multiplier_sizes()
-
-        def tiles(width, signed):
-            n = math.ceil(width / digit)
-            top = width - digit * (n - 1) + (0 if signed else 1)
-            return n - 1 + (top > lut_digit)
-        first = 3 * dsp_pieces(*sizes["N_i*E_i"]) + 3 * dsp_pieces(*sizes["N_i*N_i"])
-        w = params.widths()
-        second = 3 * sum(tiles(w[k].width, w[k].signed) for k in ("N.E", "N.N"))
-        return 0, 12, first + second
-    if name == "bump":
-        return 0, 6, 6 * dsp_pieces(params.d_fmt.width, params.a_fmt.width)
-    raise ValueError(f"unit_cost: no cost model for unit {name!r}")
 
 
 def knobs(params) -> str:
@@ -247,7 +199,8 @@ def measure_unit_point(name: str, family: str, params, *, samples: int = 10 ** 6
     m = exact.MEASURES[unit](params, x, out)
     worst, mean, bound = m[spec["worst"]], m[spec["mean"]], m[spec["bound"]]
     ulp = float(spec["ulp"](params))
-    table_bits, mults, dsp = unit_cost(params)
+    est = params.cost()
+    table_bits, mults, dsp = est["table_bits"], est["multipliers"], est["dsp"]
 
     def bits(e):
         return round(-math.log2(e), 3) if e > 0 else None
@@ -286,7 +239,7 @@ def pipeline_grid(points=None) -> list[tuple[str, object, dict]]:
 def measure_pipeline_point(name: str, units, changes: dict, *, scene=SCENE, size: int | None = None,
                            cube_size: int | None = None, dsp_weight: float = 1024.0) -> dict:
     """Render ``scene`` with the bit-exact model for one pipeline preset (name or units dict); PSNR and the
-    largest per-channel difference against references (a) and (b), and ``fit``'s hardware estimate.
+    largest per-channel difference against references (a) and (b), and the hardware estimate.
     ``cube_size``: reflectance-cube face edge (``None``: ``prepare``'s default, the preset's own)."""
     from tools.fit import hardware
     from fxmodel.presets import preset_units
@@ -308,6 +261,6 @@ def measure_pipeline_point(name: str, units, changes: dict, *, scene=SCENE, size
         **{k: rep[k] for k in ("psnr_db_vs_float", "max_lsb_vs_float", "psnr_db_vs_ideal", "max_lsb_vs_ideal")},
         "clamped_fragment_inputs": sum(rep["clamped_fragment_inputs"].values()),
         "flags": rep["flags"], "hardware": hw,
-        "cost": hw["table_bits"] + dsp_weight * hw["dsp18_tiles"],
+        "cost": hw["table_bits"] + dsp_weight * hw["dsp"],
         "model_pixels_per_second": rep["model_pixels_per_second"], "seconds": round(time.perf_counter() - t0, 2),
     }

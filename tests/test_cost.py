@@ -192,3 +192,40 @@ def test_bram_estimate_counts_blocks_copies_and_memories_in_logic():
     assert even.banked and blocks(even) == 4
     tiny = SamplerParams(texels=Texels(np.zeros((1, 8, 8, 2), np.int64)), channels=(s12,) * 2)
     assert blocks(tiny) == 0
+
+
+# -- the estimate against the recorded ECP5 counts (docs/fpga/resources.json, `python -m tools.fpga --record`) --
+#: Largest relative difference allowed when the record states a reason.
+TOLERANCE = 0.10
+
+
+def recorded_designs():
+    """Every unit preset (``make fpga``) and the pipeline presets ``make fpga`` places with a scene."""
+    from tools.fpga import design_list
+    return design_list() + design_list(None, ["tin-plane-fit"], scene="tin-plane")
+
+
+@pytest.fixture(scope="module")
+def resources():
+    import json
+
+    from tools.fpga import RESOURCES, design_key
+    return {design_key(d): d for d in json.loads(RESOURCES.read_text())["designs"]}
+
+
+@pytest.mark.parametrize("label, params", recorded_designs(),
+                         ids=lambda x: "/".join(str(v) for v in x.values()) if isinstance(x, dict) else "")
+def test_estimate_matches_the_synthesized_count(label, params, resources):
+    from tools.fpga import design_key, params_digest
+
+    rerun = ("re-record: python -m tools.fpga --synth-only --record docs/fpga/resources.json"
+             + (f" --scene {label['scene']} --preset {label['preset']}" if "scene" in label else ""))
+    rec = resources.get(design_key(label))
+    assert rec is not None, f"{label}: no recorded count; {rerun}"
+    assert rec["params_digest"] == params_digest(params), f"{label}: the parameters changed since the record; {rerun}"
+    est = params.cost()
+    for kind, key in (("DSP", "dsp"), ("BRAM", "bram")):
+        if est[key] != rec[kind]:
+            assert rec.get("reason"), f"{label}: {kind} estimate {est[key]} != recorded {rec[kind]}, no reason given"
+            assert abs(est[key] - rec[kind]) <= TOLERANCE * rec[kind], \
+                f"{label}: {kind} estimate {est[key]} is more than 10 % from recorded {rec[kind]} ({rec['reason']})"

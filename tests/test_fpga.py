@@ -64,12 +64,12 @@ def _record(fmax, target=150.0):
     res = fpga.parse_results(dict(REPORT, fmax={CLK: {"achieved": fmax}}), STAT)
     return {"unit": "recip", "preset": "default", **{k: res[k] for k in ("LUT4", "FF", "DSP", "BRAM")},
             "fmax_mhz": fmax, "target_mhz": target, "met": fmax >= target, "latency": 10,
-            "critical_path": res["critical_path"]}
+            "critical_path": res["critical_path"], "estimate": {"DSP": 3, "BRAM": 0}}
 
 
 def test_markdown_names_the_critical_path_only_when_the_target_is_missed():
     missed, met = fpga.markdown_table([_record(143.25)]), fpga.markdown_table([_record(170.0)])
-    assert "| recip | default | 632 | 261 | 3 | 1 | 143.25 | 150 | no | 10 | s4_q → s5_g: 6.2 ns" in missed
+    assert "| recip | default | 632 | 261 | 3 / 3 | 1 / 0 | 143.25 | 150 | no | 10 | s4_q → s5_g: 6.2 ns" in missed
     assert "| 170.0 | 150 | yes | 10 |  |" in met and "s4_q" not in met
 
 
@@ -111,6 +111,33 @@ def test_cli_rejects_unknown_units_and_writes_both_reports(tmp_path, monkeypatch
     (rec,) = report["designs"]
     assert rec["unit"] == "recip" and rec["preset"] == "small" and rec["LUT4"] == 632 and rec["met"] is False
     assert "| recip | small |" in (tmp_path / "report.md").read_text()
+
+
+def test_synth_only_records_counts_beside_the_estimate(tmp_path, monkeypatch, capsys):
+    """``--synth-only --record``: yosys' counts with the estimate and the parameter digest, merged into the file;
+    a count that differs from the estimate gets its known reason, or ``None``."""
+    counts = {"recip": 3}
+
+    def fake_yosys(rdir, top, settings, synth_only=False):
+        assert synth_only
+        return {"DSP": counts[top], "BRAM": 0, "yosys": {"MULT18X18D": counts[top]}, "synth_only": True}
+
+    monkeypatch.setattr(fpga, "_run_tools", fake_yosys)
+    out, record = tmp_path / "out", tmp_path / "resources.json"
+    assert fpga.main(["--unit", "recip", "--preset", "small", "--synth-only", "--record", str(record),
+                      "--out", str(out)]) == 0
+    (rec,) = json.loads((out / "report.json").read_text())["designs"]
+    small = preset("recip", "small")
+    assert rec["DSP"] == 3 and rec["estimate"] == {"DSP": small.cost()["dsp"], "BRAM": 0} and rec["met"] is None
+    assert "| recip | small | | | 3 / 3 | 0 / 0 | | 150 | synthesized only |" in (out / "report.md").read_text()
+    counts["recip"] = 2                                              # a count that disagrees, another design
+    assert fpga.main(["--unit", "recip", "--preset", "rcp24", "--synth-only", "--record", str(record),
+                      "--out", str(out)]) == 0
+    assert "without a known reason: recip/rcp24" in capsys.readouterr().out
+    designs = {fpga.design_key(d): d for d in json.loads(record.read_text())["designs"]}
+    assert designs[("recip", "small", None)]["params_digest"] == fpga.params_digest(small)
+    assert "reason" not in designs[("recip", "small", None)]                # equal: no reason needed
+    assert designs[("recip", "rcp24", None)]["DSP"] == 2 and designs[("recip", "rcp24", None)]["reason"] is None
 
 
 def test_a_failed_tool_is_reported_not_cached(tmp_path, monkeypatch):

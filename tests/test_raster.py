@@ -1,0 +1,216 @@
+"""Triangle set-up, scan conversion and interpolators (fxmodel/raster.py) against the float front end's coverage
+and against exact rational plane equations."""
+
+import json
+from fractions import Fraction
+
+import numpy as np
+import pytest
+from hypothesis import assume, given
+from hypothesis import strategies as st
+
+from fxmodel import frontend
+from fxmodel.fixed import Fmt
+from fxmodel.raster import RasterParams, scan, setup
+from fxmodel.scene import load_scene
+
+P = RasterParams.PRESETS["default"]
+S = P.S
+
+
+def exact_value(X, Y, v, x, y) -> Fraction:
+    """The plane through the three vertex values ``v`` at pixel centre ``(x, y)``: barycentrics from the vertex
+    coordinates (determinants), independent of the edge set-up under test."""
+    px, py = Fraction((2 * x + 1) * S, 2), Fraction((2 * y + 1) * S, 2)
+
+    def cross(i, j):                           # twice the area of (vertex i, vertex j, p)
+        return (X[i] - px) * (Y[j] - py) - (X[j] - px) * (Y[i] - py)
+
+    total = (X[1] - X[0]) * (Y[2] - Y[0]) - (X[2] - X[0]) * (Y[1] - Y[0])
+    lam = [cross(1, 2), cross(2, 0), cross(0, 1)]
+    return sum(Fraction(lam[e]) * Fraction(float(v[e])) for e in range(3)) / total
+
+
+def check_triangle(params, X, Y, values, width, height, sample=300, rng=None):
+    """Coverage == the front end's; every sampled fragment within the documented bounds of the exact plane."""
+    X, Y = np.asarray(X, np.int64), np.asarray(Y, np.int64)
+    recs = setup(params, X[None], Y[None], {n: np.asarray(v, float)[None] for n, v in values.items()}, width,
+                 height)
+    res = scan(params, recs)
+    px, py, _, _ = frontend.scan_triangle(X, Y, width, height)
+    got = np.sort(res.codes["y"] * width + res.codes["x"])
+    assert np.array_equal(got, np.sort(py * width + px)), "coverage differs from the front end"
+    assert not np.any(np.diff(got) == 0)
+    if not len(res):
+        return res, 0.0
+    # the clock count: one per covered pixel, one per empty row
+    assert res.clocks.sum() >= len(res)
+    rec = {k: int(v[0]) for k, v in recs.codes.items()}
+    nx, ny = res.codes["x"] - rec["x0"], res.codes["y"] - rec["y0"]
+    rng = rng or np.random.default_rng(0)
+    pick = np.unique(np.concatenate([np.argsort(nx + ny)[-20:], np.argsort(nx + ny)[:5],
+                                     rng.integers(0, len(res), min(sample, len(res)))]))
+    worst = 0.0
+    for name, v in values.items():
+        out, acc = params.out_fmt(name), params.acc_fmt(name)
+        bound = params.error_bound(name)
+        for k in pick:
+            x, y = int(res.codes["x"][k]), int(res.codes["y"][k])
+            ex = exact_value(X.tolist(), Y.tolist(), v, x, y)
+            err_acc = abs(Fraction(int(res.acc[name][k])) * acc.ulp - ex)
+            assert err_acc <= params.accumulated_bound(name, int(nx[k]), int(ny[k])), (name, x, y)
+            err = abs(Fraction(int(res.codes[name][k])) * out.ulp - ex)
+            assert err <= bound, (name, x, y, float(err / out.ulp))
+            worst = max(worst, float(err_acc / out.ulp))
+    return res, worst
+
+
+coord = st.integers(-40 * S, 72 * S)
+on_grid = st.integers(-4, 70).map(lambda i: i * S // 2)          # pixel centres and pixel edges
+
+
+@st.composite
+def triangles(draw, width=64, height=48):
+    kind = draw(st.sampled_from(["random", "grid", "sliver", "tiny", "long"]))
+    if kind == "grid":
+        X = [draw(on_grid) for _ in range(3)]
+        Y = [draw(on_grid) for _ in range(3)]
+    elif kind == "tiny":
+        x, y = draw(st.integers(0, width * S)), draw(st.integers(0, height * S))
+        X = [x + draw(st.integers(-S, S)) for _ in range(3)]
+        Y = [y + draw(st.integers(-S, S)) for _ in range(3)]
+    elif kind == "sliver":
+        x0, y0, x1, y1 = (draw(coord) for _ in range(4))
+        X = [x0, x1, x1 + draw(st.integers(-2, 2))]
+        Y = [y0, y1, y1 + draw(st.integers(-2, 2))]
+    elif kind == "long":
+        X = [-3 * S, (width + 3) * S, draw(coord)]
+        Y = [draw(st.integers(0, height * S)), draw(st.integers(0, height * S)), draw(coord)]
+    else:
+        X = [draw(coord) for _ in range(3)]
+        Y = [draw(coord) for _ in range(3)]
+    return X, Y
+
+
+small = RasterParams.PRESETS["small"]
+
+
+def attr_values(draw, params, low_w=False):
+    vals = {}
+    for name, fmt in params.attrs:
+        lim = float(fmt.max_value) * 0.99
+        vals[name] = [draw(st.floats(-lim, lim, allow_nan=False)) for _ in range(3)]
+    if low_w and "W" in vals:
+        ulp = float(params.out_fmt("W").ulp)
+        vals["W"] = [draw(st.floats(ulp, 8 * ulp)) for _ in range(3)]
+    return vals
+
+
+@given(triangles(), st.data())
+def test_coverage_and_interpolation_on_random_triangles(tri, data):
+    X, Y = tri
+    vals = attr_values(data.draw, P, low_w=data.draw(st.booleans()))
+    vals = {n: vals[n] for n in ("U", "W", "Nx", "A21")}
+    params = RasterParams(attrs=tuple((n, P.out_fmt(n)) for n in vals))
+    check_triangle(params, X, Y, vals, 64, 48, sample=40)
+
+
+def test_spans_of_2048_pixels_stay_within_the_bound():
+    """A triangle across the whole 2048 x 2048 viewport: the most additions of each increment the preset allows."""
+    rng = np.random.default_rng(3)
+    X = [-S // 2, 2048 * S + 37, -3]
+    Y = [-5, 13, 2048 * S + 101]
+    names = ("U", "W", "Nx", "Ex", "A00", "Z")
+    params = RasterParams(attrs=tuple((n, P.out_fmt(n)) for n in names))
+    vals = {n: rng.uniform(-0.9, 0.9, 3) * float(params.out_fmt(n).max_value) for n in names}
+    vals["W"] = np.array([1.0, 2.0 ** -18, 0.5])
+    res, worst = check_triangle(params, X, Y, vals, 2048, 2048, sample=200, rng=rng)
+    assert len(res) > 2_000_000 and (res.codes["x"].max(), res.codes["y"].max()) == (2047, 2047)
+
+
+def test_pixel_centres_on_edges_and_shared_edges_cover_once():
+    """A jittered grid mesh with vertices on pixel centres and pixel edges: each pixel of the union exactly once."""
+    rng = np.random.default_rng(7)
+    n, step = 9, 8
+    gx, gy = np.meshgrid(np.arange(n + 1) * step * S, np.arange(n + 1) * step * S)
+    jit = rng.integers(-6, 7, gx.shape) * (S // 2)
+    gx, gy = gx + jit, gy + rng.integers(-6, 7, gy.shape) * (S // 2)
+    Xs, Ys = [], []
+    for i in range(n):
+        for j in range(n):
+            a, b, c, d = (i, j), (i, j + 1), (i + 1, j + 1), (i + 1, j)
+            for t in ((a, b, c), (a, c, d)):
+                Xs.append([gx[v] for v in t])
+                Ys.append([gy[v] for v in t])
+    vals = {"U": np.zeros((len(Xs), 3)), "W": np.ones((len(Xs), 3))}
+    recs = setup(small, np.array(Xs), np.array(Ys), vals, 64, 64)
+    res = scan(small, recs)
+    hits = np.zeros((64, 64), int)
+    np.add.at(hits, (res.codes["y"], res.codes["x"]), 1)
+    assert hits.max() == 1
+    union = np.zeros((64, 64), bool)
+    for X, Y in zip(Xs, Ys):
+        px, py, _, _ = frontend.scan_triangle(X, Y, 64, 64)
+        union[py, px] = True
+    assert np.array_equal(hits == 1, union) and union.sum() > 3000
+
+
+@pytest.mark.parametrize("X, Y, pixels", [
+    ([S // 2, S // 2 + S, S // 2], [S // 2, S // 2, S // 2 + S], 1),      # a right triangle on pixel centres
+    ([10, 20, 15], [10, 10, 30], 0),                                       # inside one pixel, misses its centre
+    ([S // 2, S // 2 + 1, S // 2], [S // 2, S // 2, S // 2 + 1], 1),      # a tiny triangle at a centre (top-left)
+    ([S // 2 + 1, S // 2, S // 2 + 1], [S // 2, S // 2 + 1, S // 2 + 1], 0),  # its mirror: bottom-right edge
+])
+def test_tiny_triangles(X, Y, pixels):
+    vals = {"U": [0.5, 0.25, -1.0], "W": [1.0, 0.5, 0.25]}
+    res, _ = check_triangle(small, X, Y, vals, 16, 16)
+    assert len(res) == pixels
+
+
+def test_shipped_scenes_match_the_front_end_and_take_about_a_clock_per_pixel():
+    for name in ("tin-plane", "berlin-wall", "sphere"):
+        scene = load_scene(f"scenes/{name}.toml")
+        recs, tri, _ = frontend.triangle_records(scene, P)
+        res = scan(P, recs)
+        fr = frontend.rasterize(scene)
+        got = list(zip(res.codes["x"].tolist(), res.codes["y"].tolist(), tri[res.record].tolist()))
+        assert len(got) == len(set(got)) == len(fr)
+        assert set(got) == set(zip(fr.x.tolist(), fr.y.tolist(), fr.tri.tolist())), name
+        assert res.clocks.sum() <= 1.25 * len(res), name
+        assert not res.codes["flags"].any()
+
+
+def test_default_formats_are_the_pipeline_inputs():
+    from fxmodel.pipeline import BUILTIN_PRESET_UNITS, PipelineParams  # noqa: F401
+    units = BUILTIN_PRESET_UNITS["default"]
+    assert RasterParams.for_pipeline(units).attrs == P.attrs
+    assert P.subpixel_bits == frontend.SUBPIXEL_BITS and P.guard_pixels == frontend.GUARD_PIXELS
+    assert P.max_size >= 2048 and P.guard_bits == 13
+
+
+@pytest.mark.parametrize("change, message", [
+    (dict(max_size=1), "max_size=1"), (dict(subpixel_bits=0), "subpixel_bits=0"),
+    (dict(attrs=(("U", Fmt(False, 4, 4)),)), "attrs="), (dict(attrs=()), "attrs=()"),
+    (dict(extra_guard=-1), "extra_guard=-1"), (dict(attrs=(("U", Fmt(True, 30, 40)),)), "too wide"),
+])
+def test_bad_parameters_are_named(change, message):
+    with pytest.raises(ValueError, match=message.replace("(", r"\(").replace(")", r"\)")):
+        RasterParams(**{"attrs": small.attrs, **change})
+
+
+def test_a_vertex_value_outside_its_format_is_refused_naming_the_triangle():
+    X, Y = np.array([[0, 5 * S, 0], [0, 0, 0]]), np.array([[0, 0, 5 * S], [0, 0, 0]])
+    vals = {"U": np.array([[0.0, 9.0, 0.0], [0, 0, 0]]), "W": np.ones((2, 3))}
+    with pytest.raises(ValueError, match="triangle 0: attribute U .* outside its format s4.12"):
+        setup(small, X, Y, vals, 16, 16)
+    with pytest.raises(ValueError, match="viewport"):
+        setup(small, X, Y, vals, 300, 16)
+
+
+def test_cli_info_prints_the_formats(capsys):
+    from fxmodel.cli import main
+    assert main(["info", "raster"]) == 0
+    info = json.loads(capsys.readouterr().out)
+    assert info["params"]["guard_bits"] == 13
+    assert info["attributes"]["U"] == {"out": "s6.20", "start_and_increments": "s7.33",
+                                       "max_error_out_ulp": pytest.approx(0.5 + 4095 / 2 ** 14)}

@@ -8,6 +8,7 @@ STAMP    := $(VENV)/.installed
 SIM      ?= icarus
 PRESET   ?= default
 SCENE    ?= tin-plane
+INPUT    ?= fragments
 JOBS     ?= 2
 # nextpnr router of `make fpga` (router1: the README's figures; router2: quick checks of the pipeline)
 ROUTER   ?= router1
@@ -21,6 +22,7 @@ export SIM
 
 help:
 	@echo "make sim        render SCENE (default tin-plane) through the RTL pipeline, bit-exact check (SIM=icarus|verilator)"
+	@echo "                INPUT=triangles: from triangle records through the scan converter and interpolators"
 	@echo "make render     render SCENE through the bit-exact model only, with the float references"
 	@echo "make test       the test suite (model properties, RTL build, co-simulation on \$$SIM)"
 	@echo "make verilog    write build/verilog/<unit>_<preset>.v for every unit and preset;"
@@ -60,7 +62,7 @@ verilog: setup
 	$(PY) -m rtl verilog --out build/verilog $(SCENE_ARGS)
 
 sim: setup
-	$(PY) -m cosim.sim --scene $(SCENE) --preset $(PRESET) --sim $(SIM)
+	$(PY) -m cosim.sim --scene $(SCENE) --preset $(PRESET) --sim $(SIM) --input $(INPUT)
 
 render: setup
 	$(PY) -m fxmodel render scenes/$(SCENE).toml build/render/$(SCENE)/model.png --preset $(PRESET) --refs build/render/$(SCENE)

@@ -70,6 +70,20 @@ def _verilog(params, bdir: Path, top: str, sim: str) -> Path:
     return path
 
 
+def build_folder(params, sim: str, tag: str = ""):
+    """``(top, build folder, Verilog source, job folder)`` of a design named ``params.NAME``: the folder is keyed
+    by the parameters and the sources, the Verilog written once (under a lock: parallel workers share it)."""
+    top = params.NAME
+    bdir = BUILD / sim / f"{top}_{params_key(params)}"
+    bdir.mkdir(parents=True, exist_ok=True)
+    with open(bdir / ".build.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        src = _verilog(params, bdir, top, sim)
+    job = bdir / (f"job_{tag}" if tag else "job")
+    job.mkdir(exist_ok=True)
+    return top, bdir, src, job
+
+
 def run(params, inputs: np.ndarray, *, sim: str | None = None, waves: bool | None = None,
         tag: str = "", keep_first: int = 8) -> CosimResult:
     """Stream ``inputs`` (codes ``(K, inputs)``) through the unit's RTL and compare with the model."""
@@ -81,14 +95,7 @@ def run(params, inputs: np.ndarray, *, sim: str | None = None, waves: bool | Non
     if inputs.ndim == 1:
         inputs = inputs[:, None]
     expected = params.compute(inputs)
-    top = params.NAME
-    bdir = BUILD / sim / f"{params.NAME}_{params_key(params)}"
-    bdir.mkdir(parents=True, exist_ok=True)
-    with open(bdir / ".build.lock", "w") as lock:
-        fcntl.flock(lock, fcntl.LOCK_EX)
-        src = _verilog(params, bdir, top, sim)
-    job = bdir / (f"job_{tag}" if tag else "job")
-    job.mkdir(exist_ok=True)
+    top, bdir, src, job = build_folder(params, sim, tag)
     in_bits = np.stack([p.fmt.to_bits(inputs[:, i]) for i, p in enumerate(params.inputs)], axis=1)
     np.save(job / "inputs.npy", in_bits.astype(np.uint64))
     meta = {"inputs": [p.name for p in params.inputs], "outputs": [p.name for p in params.outputs],

@@ -529,7 +529,8 @@ def rasterize(scene: Scene, maps=None) -> Fragments:
 
 
 def main(argv=None) -> int:
-    """``python -m fxmodel.frontend SCENE.toml [--size W [H]] [--repeat R]``: rasterize, print stats and timing."""
+    """``python -m fxmodel.frontend SCENE.toml [--size W [H]] [--repeat R]``: rasterize, print stats and timing
+    (and the scan converter's clocks per covered pixel on the same triangles)."""
     import argparse
     import json
 
@@ -558,6 +559,12 @@ def main(argv=None) -> int:
         times.append(time.perf_counter() - t0)
     stats = dict(fr.stats)
     stats["seconds"] = {k: round(float(v), 4) for k, v in stats["seconds"].items()}
+    # the scan converter's traversal of the same scene (fxmodel/raster.py): clocks per covered pixel
+    from .raster import RasterParams, scan
+    recs, _, _ = triangle_records(scene, RasterParams.PRESETS["default"], maps)
+    res = scan(recs.params, recs)
+    stats["raster"] = {"records": len(recs), "fragments": len(res), "clocks": int(res.clocks.sum()),
+                       "clocks_per_fragment": round(float(res.clocks.sum()) / max(1, len(res)), 4)}
     print(json.dumps({"scene": str(args.scene), "width": scene.width, "height": scene.height, **stats,
                       "W_range": [float(fr.W.min()), float(fr.W.max())] if len(fr) else None,
                       "max_abs_UV": float(np.abs(np.r_[fr.U, fr.V]).max()) if len(fr) else None,

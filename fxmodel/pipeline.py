@@ -24,6 +24,7 @@ saturated, bit 2 degenerate reflection (``N' = 0`` or ``E = 0``), bit 3 ``W = 0`
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import ClassVar
 from functools import cached_property
 
 import numpy as np
@@ -34,12 +35,13 @@ from .fixed import Fmt
 from .lighting import Light, Lighting, bake_cubes
 from .persp import PerspParams
 from .presets import preset_units, top_value
+from .raster import RasterParams, scan
 from .reflect import ReflectParams
 from .sampler import SamplerParams, Texels
 from .shade import ShadeParams
-from .unit import Port, Unit, register
+from .unit import Port, Unit, register, require
 
-__all__ = ["PipelineParams", "FLAG_BITS"]
+__all__ = ["PipelineParams", "TrianglePipelineParams", "FLAG_BITS"]
 
 FLAG_BITS = {"bump_saturated": 0, "shade_saturated": 1, "degenerate": 2, "w_zero": 3}
 
@@ -236,3 +238,57 @@ def _demo() -> PipelineParams:
 
 PipelineParams.PRESETS = {"default": _demo()}
 register(PipelineParams)
+
+
+@dataclass(frozen=True)
+class TrianglePipelineParams:
+    """The engine from the triangle (paper Fig. 5): the scan converter and interpolators (:mod:`fxmodel.raster`)
+    feeding the pixel pipeline. Triangle records in; per fragment ``x``, ``y``, ``r, g, b`` and ``flags`` out
+    (the pipeline's flags, plus :data:`RASTER_SATURATED_FLAG` when an interpolated attribute saturated).
+
+    Parameters
+    ----------
+    raster : RasterParams
+        Its attributes must include every pipeline input with the same format (``Z`` and others ride along).
+    pipeline : PipelineParams
+    """
+
+    NAME: ClassVar[str] = "raster_pipeline"
+
+    raster: RasterParams
+    pipeline: PipelineParams
+
+    def __post_init__(self):
+        require(isinstance(self.raster, RasterParams), "raster", type(self.raster).__name__, "must be RasterParams")
+        require(isinstance(self.pipeline, PipelineParams), "pipeline", type(self.pipeline).__name__,
+                "must be PipelineParams")
+        attrs = dict(self.raster.attrs)
+        for p in self.pipeline.inputs:
+            require(attrs.get(p.name) == p.fmt, f"raster.attrs[{p.name!r}]", str(attrs.get(p.name)),
+                    f"must be the pipeline's input format {p.fmt}")
+
+    @property
+    def outputs(self) -> tuple:
+        pf = self.raster.pixel_fmt
+        return ((Port("x", pf), Port("y", pf)) + self.pipeline.outputs[:3]
+                + (Port("flags", Fmt(False, len(FLAG_BITS) + 1, 0), str(FLAG_BITS | {"raster_saturated": 4})),))
+
+    @property
+    def latency(self) -> int:
+        """Cycles from a fragment leaving the scan converter to its color on the outputs."""
+        return self.pipeline.latency
+
+    def compute(self, records):
+        """``(out, scan)``: output codes ``(K, outputs)`` in the order the hardware draws, and the
+        :class:`~fxmodel.raster.ScanResult` (fragments, clocks)."""
+        res = scan(self.raster, records)
+        codes = np.stack([res.codes[p.name] for p in self.pipeline.inputs], axis=1) if len(res) else \
+            np.zeros((0, len(self.pipeline.inputs)), np.int64)
+        col = self.pipeline.compute(codes) if len(res) else np.zeros((0, 4), np.int64)
+        flags = col[:, 3] | (res.codes["flags"] << RASTER_SATURATED_FLAG)
+        out = np.column_stack([res.codes["x"], res.codes["y"], col[:, :3], flags]).astype(np.int64)
+        return out, res
+
+
+#: Bit of :attr:`TrianglePipelineParams.outputs` ``flags`` set when the scan converter saturated an attribute.
+RASTER_SATURATED_FLAG = len(FLAG_BITS)

@@ -22,21 +22,23 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 
-from .bumpmap import block_exponent, perturbations, scene_maps
-from .frontend import rasterize
+from .bumpmap import block_exponent, bump_gain, perturbations, scene_maps
+from .frontend import rasterize, triangle_records
 from .lighting import Light, Lighting, face_directions
-from .pipeline import FLAG_BITS, PipelineParams
+from .pipeline import FLAG_BITS, PipelineParams, TrianglePipelineParams
 from .presets import preset_units, top_value
+from .raster import RasterParams, Records
 from .reference import float_pipeline, ideal_phong, max_lsb, perturbed, psnr
 from .rounding import Overflow, Rounding, quantize
 from .scene import load_scene, scene_path
 
 __all__ = ["Frame", "prepare", "pipeline_params", "render", "save_png", "compose", "ClampError", "SCENE_BOUND_LSB",
            "judge", "tell", "bound_args", "INPUT_KNOBS", "ILL_CONDITIONED", "ADDRESS_LIMIT_TEXELS",
-           "address_errors"]
+           "address_errors", "TriangleFrame", "from_triangles", "render_triangles"]
 
 DIFF_GAIN = 16
 
@@ -407,4 +409,87 @@ def render(frame: Frame, out_dir=None, *, references: bool = True) -> dict:
         for name, img in images.items():
             save_png(Path(out_dir) / f"{name}.png", img)
     report["_model_bytes"] = model
+    return report
+
+
+@dataclass
+class TriangleFrame:
+    """A prepared frame drawn from triangles (:func:`from_triangles`): the engine's parameters, the triangle
+    records, the bit-exact outputs ``out`` (``x, y, r, g, b, flags`` per fragment, in drawing order) and the scan
+    (fragments, clocks)."""
+
+    frame: Frame
+    params: TrianglePipelineParams
+    records: Records
+    out: np.ndarray = field(repr=False)
+    scan: object = field(repr=False)
+    stats: dict = field(default_factory=dict)
+
+    def image(self, rgb: np.ndarray) -> np.ndarray:
+        sc = self.frame.scene
+        img = np.empty((sc.height, sc.width, 3), dtype=np.uint8)
+        img[...] = np.floor(np.asarray(sc.background) * 255 + 0.5).astype(np.uint8)
+        img[self.out[:, 1], self.out[:, 0]] = rgb
+        return img
+
+
+def from_triangles(frame: Frame, raster: RasterParams | None = None) -> TriangleFrame:
+    """The frame drawn by the engine from triangles: the host's set-up (:func:`fxmodel.frontend.triangle_records`)
+    into records, the scan converter and interpolators, then the same pixel pipeline (``frame.params``).
+
+    ``raster``: default the pipeline's input formats at the default sizes (:meth:`RasterParams.for_pipeline`).
+    Records of other materials than the frame's are dropped (the pipeline holds one material's maps; the frame
+    shows none of their pixels, :func:`prepare` checked). Raises ``ValueError`` when the covered pixels differ
+    from the front end's visible fragments (overlapping geometry needs the depth test of the frame-buffer issue).
+    """
+    p = frame.params
+    if raster is None:
+        raster = RasterParams.for_pipeline({"persp": p.persp, "bump": p.bump, "reflect": p.reflect})
+    params = TrianglePipelineParams(raster=raster, pipeline=p)
+    scene = frame.scene
+    mi = int(frame.frags.material[0]) if len(frame.frags) else 0
+    gains = [frame.maps if i == mi else SimpleNamespace(a_gain=bump_gain(m)) for i, m in enumerate(scene.materials)]
+    t0 = time.perf_counter()
+    recs, tri, mat = triangle_records(scene, raster, gains)
+    keep = np.flatnonzero(mat == mi)
+    recs = Records(params=raster, codes={k: v[keep] for k, v in recs.codes.items()}, source=recs.source[keep],
+                   dropped=recs.dropped)
+    t1 = time.perf_counter()
+    out, res = params.compute(recs)
+    t2 = time.perf_counter()
+    mine = np.sort(out[:, 1] * scene.width + out[:, 0])
+    theirs = np.sort(np.asarray(frame.frags.index))
+    if not np.array_equal(mine, theirs):
+        raise ValueError(f"{scene.name}: the scan converter covers {len(mine)} pixels, the front end shows "
+                         f"{len(theirs)} visible fragments: overlapping geometry needs a depth test")
+    clocks = int(res.clocks.sum())
+    stats = {"input": "triangles", "triangles": len(recs), "triangles_dropped": int(recs.dropped),
+             "fragments": len(res), "raster_clocks": clocks,
+             "clocks_per_fragment": round(clocks / len(res), 4) if len(res) else None,
+             "raster_saturated": int(res.codes["flags"].sum()),
+             "record_bits": sum(q.fmt.width for q in raster.record), "raster_guard_bits": raster.guard_bits,
+             "seconds_setup": round(t1 - t0, 3), "seconds_model": round(t2 - t1, 3)}
+    return TriangleFrame(frame=frame, params=params, records=recs, out=out, scan=res, stats=stats)
+
+
+def render_triangles(tframe: TriangleFrame, out_dir=None) -> dict:
+    """Render from fragments (:func:`render`, with the references) and from triangles; report both against
+    reference (a), so that the interpolators' share of the error shows (images ``model.png`` from fragments,
+    ``triangles.png`` from triangles, ``diff_triangles.png`` amplified against (a))."""
+    frame = tframe.frame
+    report = render(frame, out_dir)
+    frag_img = frame.image(report.pop("_model_bytes"))
+    a, b = frame.references()
+    a_img, b_img = frame.image(a), frame.image(b)
+    tri_img = tframe.image(tframe.out[:, 2:5].astype(np.uint8))
+    report.update(tframe.stats)
+    report["triangles_vs_fragments"] = {"max_lsb_vs_float": max_lsb(tri_img, a_img),
+                                        "psnr_db_vs_float": round(psnr(tri_img, a_img), 2),
+                                        "max_lsb_vs_ideal": max_lsb(tri_img, b_img),
+                                        "max_lsb_vs_fragments": max_lsb(tri_img, frag_img),
+                                        "pixels_differing_from_fragments": int(np.any(tri_img != frag_img, -1).sum())}
+    if out_dir is not None:
+        save_png(Path(out_dir) / "triangles.png", tri_img)
+        save_png(Path(out_dir) / "diff_triangles.png", diff_image(tri_img, a_img))
+    report["_triangle_bytes"] = tframe.out
     return report

@@ -8,12 +8,16 @@ the earlier inputs wait in shift registers, and the two cube address units finis
 from __future__ import annotations
 
 from amaranth.hdl import Cat, Module
+from amaranth.lib import stream, wiring
+from amaranth.lib.wiring import In, Out
 
-from fxmodel.pipeline import FLAG_BITS, PipelineParams
+from fxmodel.pipeline import FLAG_BITS, PipelineParams, TrianglePipelineParams
 
+from .fixed import shape
+from .raster import Raster, record_layout
 from .unit import Pipe, UnitComponent, build, register
 
-__all__ = ["Pipeline"]
+__all__ = ["Pipeline", "TrianglePipeline"]
 
 
 @register(PipelineParams)
@@ -93,4 +97,46 @@ class Pipeline(UnitComponent):
         bits[FLAG_BITS["w_zero"]] = late(persp.dbz, t0, tsh, "f_dbz")
         pipe.depth = tsh
         self.finish(m, pipe, {"r": shade.r, "g": shade.g, "b": shade.b, "flags": Cat(*bits)})
+        return m
+
+
+@register(TrianglePipelineParams)
+class TrianglePipeline(wiring.Component):
+    """The engine from the triangle: the scan converter (``rtl/raster.py``) feeding the pixel pipeline.
+
+    Ports (formats from :class:`~fxmodel.pipeline.TrianglePipelineParams`)
+    ---------------------------------------------------------------------
+    i : In(stream.Signature(record_layout(params.raster))) -- triangle records
+    o_valid : Signal(1), out
+    x, y : Signal(unsigned), out -- ``raster.pixel_fmt``: the fragment's pixel
+    r, g, b : Signal(unsigned(8)), out -- its color
+    flags : Signal(unsigned(5)), out -- the pipeline's ``FLAG_BITS``, bit 4 an interpolated attribute saturated
+    busy : Signal(1), out -- the scan converter is traversing a triangle
+
+    The pixel pipeline has no stall input yet (the stream issue), so the scan converter's output is always
+    ready and ``o_valid`` follows its fragments by ``params.latency`` cycles; the record input honours
+    ``ready``.
+    """
+
+    def __init__(self, params: TrianglePipelineParams):
+        self.params = params
+        members = {"i": In(stream.Signature(record_layout(params.raster))), "o_valid": Out(1)}
+        members |= {p.name: Out(shape(p.fmt)) for p in params.outputs}
+        members["busy"] = Out(1)
+        super().__init__(members)
+
+    def elaborate(self, platform):
+        P = self.params
+        m = Module()
+        m.submodules.raster = ras = Raster(P.raster)
+        m.submodules.pipeline = pix = Pipeline(P.pipeline)
+        wiring.connect(m, wiring.flipped(self.i), ras.i)
+        m.d.comb += [ras.o.ready.eq(1), pix.i_valid.eq(ras.o.valid), self.busy.eq(ras.busy)]
+        m.d.comb += [getattr(pix, p.name).eq(ras.o.payload[p.name]) for p in P.pipeline.inputs]
+        pipe = Pipe(m, "side_")
+        x = pipe.delay(ras.o.payload.x, P.latency, "x")
+        y = pipe.delay(ras.o.payload.y, P.latency, "y")
+        sat = pipe.delay(ras.o.payload.flags, P.latency, "rsat")
+        m.d.comb += [self.o_valid.eq(pix.o_valid), self.x.eq(x), self.y.eq(y), self.r.eq(pix.r), self.g.eq(pix.g),
+                     self.b.eq(pix.b), self.flags.eq(Cat(pix.flags, sat))]
         return m

@@ -214,3 +214,31 @@ def test_cli_info_prints_the_formats(capsys):
     assert info["params"]["guard_bits"] == 13
     assert info["attributes"]["U"] == {"out": "s6.20", "start_and_increments": "s7.33",
                                        "max_error_out_ulp": pytest.approx(0.5 + 4095 / 2 ** 14)}
+
+
+def test_measured_error_stays_within_the_proof_on_full_viewport_spans():
+    from fxmodel.raster import measure
+    rep = measure(small, triangles=2, seed=4)
+    assert rep["fragments"] > 40_000
+    assert rep["accumulator_worst_ulp"] <= rep["accumulator_bound_ulp"]
+    assert rep["output_worst_ulp"] <= rep["output_bound_ulp"]
+
+
+@pytest.mark.parametrize("name", ["tin-plane", "berlin-wall", "sphere"])
+def test_shipped_scenes_from_triangles_within_one_lsb_of_reference_a(name):
+    from fxmodel.render import from_triangles, prepare, render_triangles
+    tframe = from_triangles(prepare(f"scenes/{name}.toml", size=64, cube_size=16))
+    report = render_triangles(tframe)
+    assert report["input"] == "triangles" and report["fragments"] == len(tframe.frame.frags) > 1000
+    assert report["triangles_vs_fragments"]["max_lsb_vs_float"] <= 1
+    assert report["clocks_per_fragment"] <= 1.25 and report["raster_saturated"] == 0
+
+
+def test_engine_parameters_check_the_formats():
+    from fxmodel.pipeline import PipelineParams, TrianglePipelineParams
+    pipe = PipelineParams.PRESETS["default"]
+    with pytest.raises(ValueError, match=r"raster.attrs\['U'\]"):
+        TrianglePipelineParams(raster=small, pipeline=pipe)
+    ok = TrianglePipelineParams(raster=RasterParams.for_pipeline(
+        {"persp": pipe.persp, "bump": pipe.bump, "reflect": pipe.reflect}), pipeline=pipe)
+    assert [p.name for p in ok.outputs] == ["x", "y", "r", "g", "b", "flags"]

@@ -1,0 +1,102 @@
+"""Co-simulation harness of the scan converter: records from :func:`fxmodel.raster.setup` through
+``rtl/raster.py`` (cocotb testbench ``cosim.raster_tb``), fragments compared with :func:`fxmodel.raster.scan` bit
+for bit, and the clock count with the model's."""
+
+from __future__ import annotations
+
+import fcntl
+import json
+import os
+import time
+
+import numpy as np
+
+from fxmodel.raster import RasterParams, scan
+
+from .harness import ROOT, build_folder, simulator, verilator_env
+
+__all__ = ["run", "pack", "unpack"]
+
+
+def pack(ports, rows) -> list[int]:
+    """Codes ``(K, ports)`` -> one integer per row, the first port in the low bits (a StructLayout's order)."""
+    out = []
+    for row in np.asarray(rows, dtype=np.int64).tolist():
+        word, shift = 0, 0
+        for p, c in zip(ports, row):
+            word |= (int(c) & ((1 << p.fmt.width) - 1)) << shift
+            shift += p.fmt.width
+        out.append(word)
+    return out
+
+
+def unpack(ports, words) -> np.ndarray:
+    """The inverse of :func:`pack`: codes ``(K, ports)`` (signed fields sign-extended)."""
+    rows = []
+    for word in words:
+        row, shift = [], 0
+        for p in ports:
+            bits = (word >> shift) & ((1 << p.fmt.width) - 1)
+            if p.fmt.signed and bits >> (p.fmt.width - 1):
+                bits -= 1 << p.fmt.width
+            row.append(bits)
+            shift += p.fmt.width
+        rows.append(row)
+    return np.array(rows, dtype=np.int64).reshape(-1, len(ports))
+
+
+def run(params, records, *, p_valid: float = 1.0, p_ready: float = 1.0, seed: int = 1,
+        sim: str | None = None, tag: str = "") -> dict:
+    """Simulate ``records`` (a :class:`~fxmodel.raster.Records` or codes ``(T, fields)``) through the scan
+    converter (``params`` a :class:`RasterParams`) or the engine from the triangle (a
+    :class:`~fxmodel.pipeline.TrianglePipelineParams`: ``p_ready`` is then 1, its pixel pipeline cannot stall);
+    return a report with ``mismatches`` (outputs differing from the model, or a different count), the RTL's
+    ``busy_cycles`` and the model's ``clocks``; ``report["rtl"]`` holds the RTL's output codes."""
+    from cocotb_tools.runner import get_runner
+
+    sim = simulator(sim)
+    mat = records.matrix() if hasattr(records, "matrix") else np.asarray(records, dtype=np.int64)
+    engine = not isinstance(params, RasterParams)
+    raster = params.raster if engine else params
+    if engine:
+        want, expected = params.compute(mat)
+        ports = params.outputs
+    else:
+        expected = scan(params, mat)
+        want = expected.matrix(params)
+        ports = params.fragment
+    top, bdir, src, job = build_folder(params, sim, tag)
+    out = job / "fragments.json"
+    if out.exists():
+        out.unlink()
+    budget = int(expected.clocks.sum() / max(min(p_valid, p_ready), 0.05) * 4) + 1000 + 2 * len(mat)
+    meta = {"records": [format(w, "x") for w in pack(raster.record, mat)], "p_valid": p_valid,
+            "p_ready": p_ready, "seed": seed, "max_cycles": budget,
+            "expected": int(len(want))}
+    if engine:
+        meta |= {"outputs": [p.name for p in ports], "drain": params.latency + 4}
+    (job / "job.json").write_text(json.dumps(meta))
+    runner = get_runner(sim)
+    if sim == "verilator":
+        verilator_env()
+    t0 = time.perf_counter()
+    with open(bdir / ".build.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        runner.build(sources=[src], hdl_toplevel=top, build_dir=bdir, timescale=("1ns", "1ps"),
+                     build_args=["-Wno-fatal", "-Wno-WIDTH", "-O3"] if sim == "verilator" else [])
+    t1 = time.perf_counter()
+    env = {"COSIM_JOB": str(job), "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])}
+    runner.test(hdl_toplevel=top, test_module="cosim.raster_tb", build_dir=bdir, test_dir=job, extra_env=env,
+                results_xml=str(job / "results.xml"))
+    if not out.exists():
+        raise RuntimeError(f"the testbench wrote no results ({out}); see the simulator log above")
+    res = json.loads(out.read_text())
+    got = np.array(res["fragments"], dtype=np.int64).reshape(-1, len(ports)) if engine else \
+        unpack(ports, [int(w, 16) for w in res["fragments"]])
+    n = min(len(got), len(want))
+    bad = np.flatnonzero(np.any(got[:n] != want[:n], axis=1))
+    first = [{"row": int(r), "rtl": got[r].tolist(), "model": want[r].tolist()} for r in bad[:5]]
+    return {"rtl": got, "simulator": sim, "records": int(len(mat)), "fragments": int(len(got)), "expected": int(len(want)),
+            "mismatches": int(len(bad)) + abs(len(got) - len(want)), "first": first,
+            "busy_cycles": res["busy_cycles"], "clocks": int(expected.clocks.sum()), "cycles": res["cycles"],
+            "build_seconds": round(t1 - t0, 2), "seconds": round(time.perf_counter() - t1, 2)}

@@ -59,9 +59,11 @@ def test_raster_rtl_matches_the_model(sim, preset, p_valid, p_ready, size, n):
         assert res["busy_cycles"] == res["clocks"], res
 
 
+@pytest.mark.slow
 def test_make_sim_from_triangles(sim):
     """``make sim INPUT=triangles`` on a small sphere: the engine's RTL equals the model on every output and
-    clock, and the report says it started from triangles."""
+    clock, and the report says it started from triangles. Slow (``make exhaustive``): Yosys spends minutes on the
+    whole pipeline's netlist."""
     import json
 
     from cosim.harness import ROOT

@@ -208,7 +208,7 @@ def test_a_vertex_value_outside_its_format_is_refused_naming_the_triangle():
 
 
 def test_cli_info_prints_the_formats(capsys):
-    from fxmodel.cli import main
+    from tools.cli import main
     assert main(["info", "raster"]) == 0
     info = json.loads(capsys.readouterr().out)
     assert info["params"]["guard_bits"] == 13

@@ -49,7 +49,7 @@ def run(params, records, *, p_valid: float = 1.0, p_ready: float = 1.0, seed: in
         sim: str | None = None, tag: str = "") -> dict:
     """Simulate ``records`` (a :class:`~fxmodel.raster.Records` or codes ``(T, fields)``) through the scan
     converter (``params`` a :class:`RasterParams`) or the engine from the triangle (a
-    :class:`~fxmodel.pipeline.TrianglePipelineParams`: ``p_ready`` is then 1, its pixel pipeline cannot stall);
+    :class:`~fxmodel.pipeline.TrianglePipelineParams`, through the pixel pipeline's stream interface);
     return a report with ``mismatches`` (outputs differing from the model, or a different count), the RTL's
     ``busy_cycles`` and the model's ``clocks``; ``report["rtl"]`` holds the RTL's output codes."""
     from cocotb_tools.runner import get_runner
@@ -74,7 +74,7 @@ def run(params, records, *, p_valid: float = 1.0, p_ready: float = 1.0, seed: in
             "p_ready": p_ready, "seed": seed, "max_cycles": budget,
             "expected": int(len(want))}
     if engine:
-        meta |= {"outputs": [p.name for p in ports], "drain": params.latency + 4}
+        meta["drain"] = params.latency + 8
     (job / "job.json").write_text(json.dumps(meta))
     runner = get_runner(sim)
     if sim == "verilator":
@@ -91,8 +91,7 @@ def run(params, records, *, p_valid: float = 1.0, p_ready: float = 1.0, seed: in
     if not out.exists():
         raise RuntimeError(f"the testbench wrote no results ({out}); see the simulator log above")
     res = json.loads(out.read_text())
-    got = np.array(res["fragments"], dtype=np.int64).reshape(-1, len(ports)) if engine else \
-        unpack(ports, [int(w, 16) for w in res["fragments"]])
+    got = unpack(ports, [int(w, 16) for w in res["fragments"]])
     n = min(len(got), len(want))
     bad = np.flatnonzero(np.any(got[:n] != want[:n], axis=1))
     first = [{"row": int(r), "rtl": got[r].tolist(), "model": want[r].tolist()} for r in bad[:5]]

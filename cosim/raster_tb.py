@@ -7,8 +7,8 @@ a cycle and the probability that the sink is ready. Each cycle the testbench set
 ``o.ready`` on the falling edge, waits for the read-only phase, and counts a transfer on each side where
 ``valid & ready`` (taken at the next rising edge); a record once offered stays offered until taken (the stream
 rule). It writes the packed fragments and the number of cycles with ``busy`` high (``fragments.json``).
-With ``outputs`` in ``job.json`` (the engine from the triangle, ``rtl/pipeline.py``'s ``TrianglePipeline``, whose
-pixel pipeline cannot stall) the outputs are the flat ports of those names, taken whenever ``o_valid`` is high.
+For the engine from the triangle (``rtl/pipeline.py``'s ``TrianglePipeline``) ``drain`` in ``job.json`` is the
+pipeline's latency: the testbench waits that long after the last fragment left the scan converter.
 A hand-written driver rather than cocotbext-axi's AXI-Stream source/sink: the payloads are single words of
 hundreds to thousands of bits with no byte lanes, which the AXI-Stream classes would split into ``tdata`` bytes.
 """
@@ -41,9 +41,7 @@ async def raster(dut):
     for _ in range(2):
         await FallingEdge(dut.clk)
     dut.rst.value = 0
-    flat = meta.get("outputs")
-    outs = [getattr(dut, n) for n in flat] if flat else None
-    o_valid = dut.o_valid if flat else dut.o__valid
+    o_valid = dut.o__valid
     frags, busy, k, offered, idle, cycles = [], 0, 0, False, 0, 0
     bar = tqdm(total=meta.get("expected", 0), desc=f"{dut._name} RTL", unit="px", mininterval=1.0,
                disable=os.environ.get("COSIM_PROGRESS", "0") == "0")
@@ -56,16 +54,12 @@ async def raster(dut):
             if offered:
                 dut.i__payload.value = records[k]
         dut.i__valid.value = int(offered)
-        if not flat:
-            dut.o__ready.value = int(rng.random() < p_ready)
+        dut.o__ready.value = int(rng.random() < p_ready)
         await ReadOnly()
         if offered and int(dut.i__ready.value):
             k += 1
             offered = False
-        if flat:
-            if int(o_valid.value):
-                frags.append([int(o.value) for o in outs])
-        elif int(o_valid.value) and int(dut.o__ready.value):
+        if int(o_valid.value) and int(dut.o__ready.value):
             frags.append(format(int(dut.o__payload.value), "x"))
         busy += int(dut.busy.value)
         if cycles % 4096 == 0:

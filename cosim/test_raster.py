@@ -73,3 +73,19 @@ def test_make_sim_from_triangles(sim):
     report = json.loads((ROOT / "build" / "sim" / "sphere-triangles" / "report.json").read_text())
     assert report["input"] == "triangles" and report["mismatches"] == 0 and report["rtl_clocks_match_model"]
     assert report["triangles"] > 100 and report["fragments"] > 200
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("p_valid, p_ready", [(1.0, 1.0), (0.6, 0.3)])
+def test_engine_from_triangles_with_backpressure(sim, p_valid, p_ready):
+    """The engine (scan converter -> pixel pipeline stream) on random triangles of the demo pipeline, with gaps
+    on the records and backpressure on the colors: every output bit equal to the model, none lost or repeated."""
+    from fxmodel.pipeline import PipelineParams, TrianglePipelineParams
+    pipe = PipelineParams.PRESETS["default"]
+    raster = RasterParams.for_pipeline({"persp": pipe.persp, "bump": pipe.bump, "reflect": pipe.reflect})
+    recs = hard_and_random(raster, 16, 12, 6, seed=5)
+    res = run(TrianglePipelineParams(raster=raster, pipeline=pipe), recs, p_valid=p_valid, p_ready=p_ready,
+              sim=sim, tag=f"engine_{p_valid}_{p_ready}")
+    assert res["expected"] > 100 and res["mismatches"] == 0, res
+    if p_valid == p_ready == 1.0:
+        assert res["busy_cycles"] == res["clocks"], res

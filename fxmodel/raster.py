@@ -527,7 +527,8 @@ def _pipeline_attrs() -> tuple:
     return RasterParams.for_pipeline(units).attrs
 
 
-#: ``default``: the default pixel pipeline's input formats (its units' default presets) and ``Z`` in ``s2.22``;
+#: ``default``: the default pixel pipeline's input formats (its units' default presets) and ``Z`` in the format
+#: :meth:`RasterParams.for_pipeline` gives it;
 #: ``small``: two attributes for quick RTL tests.
 RasterParams.PRESETS = {
     "default": RasterParams(attrs=_pipeline_attrs()),

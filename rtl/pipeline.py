@@ -8,13 +8,14 @@ the earlier inputs wait in shift registers, and the two cube address units finis
 from __future__ import annotations
 
 from amaranth.hdl import Cat, Module
-from amaranth.lib import stream, wiring
+from amaranth.lib import data, stream, wiring
 from amaranth.lib.wiring import In, Out
 
 from fxmodel.pipeline import FLAG_BITS, PipelineParams, TrianglePipelineParams
 
 from .fixed import shape
 from .raster import Raster, record_layout
+from .streams import StreamUnit, payload_layout
 from .unit import Pipe, UnitComponent, build, register
 
 __all__ = ["Pipeline", "TrianglePipeline"]
@@ -102,41 +103,40 @@ class Pipeline(UnitComponent):
 
 @register(TrianglePipelineParams)
 class TrianglePipeline(wiring.Component):
-    """The engine from the triangle: the scan converter (``rtl/raster.py``) feeding the pixel pipeline.
+    """The engine from the triangle: the scan converter (``rtl/raster.py``) feeding the pixel pipeline through its
+    stream interface (``rtl/streams.py``), the fragment's pixel riding the pipeline's sideband.
 
     Ports (formats from :class:`~fxmodel.pipeline.TrianglePipelineParams`)
     ---------------------------------------------------------------------
     i : In(stream.Signature(record_layout(params.raster))) -- triangle records
-    o_valid : Signal(1), out
-    x, y : Signal(unsigned), out -- ``raster.pixel_fmt``: the fragment's pixel
-    r, g, b : Signal(unsigned(8)), out -- its color
-    flags : Signal(unsigned(5)), out -- the pipeline's ``FLAG_BITS``, bit 4 an interpolated attribute saturated
-    busy : Signal(1), out -- the scan converter is traversing a triangle
+    o : Out(stream.Signature(payload_layout(params.outputs))) -- per fragment ``x``, ``y`` (``raster.pixel_fmt``),
+        ``r, g, b`` and ``flags`` (the pipeline's ``FLAG_BITS``, bit 4 an interpolated attribute saturated)
+    busy : Out(1) -- the scan converter is traversing a triangle
 
-    The pixel pipeline has no stall input yet (the stream issue), so the scan converter's output is always
-    ready and ``o_valid`` follows its fragments by ``params.latency`` cycles; the record input honours
-    ``ready``.
+    Backpressure on ``o`` holds the pixel pipeline (its stage enable), which holds the scan converter, which
+    stops taking records. Without stalls a fragment's color leaves ``params.latency`` cycles after it left the
+    scan converter.
     """
 
     def __init__(self, params: TrianglePipelineParams):
         self.params = params
-        members = {"i": In(stream.Signature(record_layout(params.raster))), "o_valid": Out(1)}
-        members |= {p.name: Out(shape(p.fmt)) for p in params.outputs}
-        members["busy"] = Out(1)
-        super().__init__(members)
+        super().__init__({"i": In(stream.Signature(record_layout(params.raster))),
+                          "o": Out(stream.Signature(payload_layout(params.outputs))), "busy": Out(1)})
 
     def elaborate(self, platform):
         P = self.params
         m = Module()
+        pf = P.raster.pixel_fmt
+        side = data.StructLayout({"x": shape(pf), "y": shape(pf), "rsat": 1})
         m.submodules.raster = ras = Raster(P.raster)
-        m.submodules.pipeline = pix = Pipeline(P.pipeline)
+        m.submodules.pipeline = pix = StreamUnit(P.pipeline, side)
         wiring.connect(m, wiring.flipped(self.i), ras.i)
-        m.d.comb += [ras.o.ready.eq(1), pix.i_valid.eq(ras.o.valid), self.busy.eq(ras.busy)]
-        m.d.comb += [getattr(pix, p.name).eq(ras.o.payload[p.name]) for p in P.pipeline.inputs]
-        pipe = Pipe(m, "side_")
-        x = pipe.delay(ras.o.payload.x, P.latency, "x")
-        y = pipe.delay(ras.o.payload.y, P.latency, "y")
-        sat = pipe.delay(ras.o.payload.flags, P.latency, "rsat")
-        m.d.comb += [self.o_valid.eq(pix.o_valid), self.x.eq(x), self.y.eq(y), self.r.eq(pix.r), self.g.eq(pix.g),
-                     self.b.eq(pix.b), self.flags.eq(Cat(pix.flags, sat))]
+        m.d.comb += [pix.i.valid.eq(ras.o.valid), ras.o.ready.eq(pix.i.ready), self.busy.eq(ras.busy)]
+        m.d.comb += [pix.i.payload[p.name].eq(ras.o.payload[p.name]) for p in P.pipeline.inputs]
+        m.d.comb += [pix.i.payload.side.x.eq(ras.o.payload.x), pix.i.payload.side.y.eq(ras.o.payload.y),
+                     pix.i.payload.side.rsat.eq(ras.o.payload.flags)]
+        out, res = self.o.payload, pix.o.payload
+        m.d.comb += [self.o.valid.eq(pix.o.valid), pix.o.ready.eq(self.o.ready),
+                     out.x.eq(res.side.x), out.y.eq(res.side.y), out.r.eq(res.r), out.g.eq(res.g),
+                     out.b.eq(res.b), out.flags.eq(Cat(res.flags, res.side.rsat))]
         return m

@@ -29,23 +29,20 @@ from fxmodel.raster import EDGE_LEFT, EDGE_RIGHT, RasterParams
 from fxmodel.rounding import Overflow, Rounding
 
 from .fixed import narrow, shape
+from .streams import payload_layout
 from .unit import register
 
 __all__ = ["Raster", "record_layout", "fragment_layout"]
 
 
-def _layout(ports) -> data.StructLayout:
-    return data.StructLayout({p.name: shape(p.fmt) for p in ports})
-
-
 def record_layout(params: RasterParams) -> data.StructLayout:
     """The input payload: one field per :attr:`RasterParams.record` entry (first field in the low bits)."""
-    return _layout(params.record)
+    return payload_layout(params.record)
 
 
 def fragment_layout(params: RasterParams) -> data.StructLayout:
     """The output payload: one field per :attr:`RasterParams.fragment` entry."""
-    return _layout(params.fragment)
+    return payload_layout(params.fragment)
 
 
 @register(RasterParams)

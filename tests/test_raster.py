@@ -181,7 +181,7 @@ def test_shipped_scenes_match_the_front_end_and_take_about_a_clock_per_pixel():
 
 
 def test_default_formats_are_the_pipeline_inputs():
-    from fxmodel.pipeline import BUILTIN_PRESET_UNITS, PipelineParams  # noqa: F401
+    from fxmodel.presets import BUILTIN_PRESET_UNITS
     units = BUILTIN_PRESET_UNITS["default"]
     assert RasterParams.for_pipeline(units).attrs == P.attrs
     assert P.subpixel_bits == frontend.SUBPIXEL_BITS and P.guard_pixels == frontend.GUARD_PIXELS

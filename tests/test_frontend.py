@@ -232,35 +232,22 @@ def test_tile_offset_keeps_the_address_near_zero_whatever_the_repeat():
     """Range normalization in the set-up: a triangle far out in texture space (uv offset by 1000 tiles, repeat
     37) gets U / W within half its span (plus rounding) of 0, and the same wrapped address."""
     from fxmodel.scene import parse_scene
-    text = TILED.replace("REPEAT", "37")
-    fr = rasterize(parse_scene(text))
+    fr = rasterize(parse_scene(TILED))
     span = 37 / 2 + 0.5
     assert len(fr) > 100 and np.abs(fr.U / fr.W).max() <= span and np.abs(fr.V / fr.W).max() <= span
     assert np.abs(fr.s).max() > 1000 and np.allclose(np.mod(fr.U / fr.W, 1), np.mod(fr.s, 1), atol=1e-9)
 
 
-TILED = """
-[image]
-width = 32
-height = 32
-[camera]
-position = [0.0, 0.0, 3.0]
-target = [0.0, 0.0, 0.0]
-up = [0.0, 1.0, 0.0]
-fov = 60.0
-near = 0.1
-far = 10.0
-[[materials]]
-name = "m"
-color = [0.5, 0.5, 0.5]
+#: A quad far out in texture space (uv offset by 1000 tiles), bump-mapped with repeat 37, in front of CAMERA.
+TILED = CAMERA.format(w=32, h=32, near=0.1) + """
 [materials.bump]
 procedural = "mexican-hat"
 size = [8, 8]
-repeat = [REPEAT, REPEAT]
+repeat = [37, 37]
 [[meshes]]
 kind = "quad"
 material = "m"
-origin = [-1.0, -1.0, 0.0]
+origin = [-1.0, -1.0, -1.5]
 edge_u = [2.0, 0.0, 0.0]
 edge_v = [0.0, 2.0, 0.0]
 uv = [[1000.0, 1000.0], [1001.0, 1001.0]]

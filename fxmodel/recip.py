@@ -70,7 +70,7 @@ from functools import cached_property
 import numpy as np
 
 from . import recip_bound
-from .cost import Memory, Product
+from .cost import DSP_BITS, Memory, Product
 from .fixed import INT64_SAFE_BITS, Fmt
 from .rounding import Overflow, Rounding, narrow, saturate, shift_round
 from .unit import Port, Unit, register, require
@@ -238,8 +238,9 @@ class RecipParams(Unit):
             "B+Bg": 2 + self.fr,
         }
 
-    #: Widest operand of one ECP5 multiplier block (MULT18X18D); wider products are split (:attr:`split_products`).
-    DSP_BITS = 18
+    #: Widest operand of one ECP5 multiplier block (MULT18X18D, :data:`fxmodel.cost.DSP_BITS`); wider products are
+    #: split (:attr:`split_products`).
+    DSP_BITS = DSP_BITS
 
     def products(self) -> tuple:
         """The multipliers of the datapath in order (``t >= 2``), each split into registered partial products

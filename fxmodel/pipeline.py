@@ -46,11 +46,6 @@ __all__ = ["PipelineParams", "TrianglePipelineParams", "FLAG_BITS"]
 FLAG_BITS = {"bump_saturated": 0, "shade_saturated": 1, "degenerate": 2, "w_zero": 3}
 
 
-def _require(cond, param, why):
-    if not cond:
-        raise ValueError(f"{param}: {why}")
-
-
 @dataclass(frozen=True)
 class PipelineParams(Unit):
     """Parameters of the pixel pipeline: one parameter object per stage (see the module docstring).
@@ -76,23 +71,30 @@ class PipelineParams(Unit):
     shade: ShadeParams
 
     def __post_init__(self):
-        _require(self.persp.color, "persp", "must have color=True (separate color texture address)")
-        _require(self.bump_map.coord_fmt == self.persp.coord_fmt and self.texture.coord_fmt == self.persp.coord_fmt,
-                 "bump_map/texture", f"coord_fmt must be persp's {self.persp.coord_fmt}")
-        _require(self.bump_map.channels == (self.bump.d_fmt,) * 2 and self.bump_map.faces == 1, "bump_map",
-                 f"must be one face of two {self.bump.d_fmt} channels (du, dv)")
-        _require(self.texture.channels == (self.shade.tex_fmt,) * 3 and self.texture.faces == 1, "texture",
-                 f"must be one face of three {self.shade.tex_fmt} channels")
-        _require(self.reflect.n_fmt == self.bump.out_fmt, "reflect.n_fmt", f"must be bump.out_fmt {self.bump.out_fmt}")
+        require(self.persp.color, "persp.color", self.persp.color,
+                "must be True (separate color texture address)")
+        require(self.bump_map.coord_fmt == self.persp.coord_fmt and self.texture.coord_fmt == self.persp.coord_fmt,
+                "bump_map/texture.coord_fmt", (self.bump_map.coord_fmt, self.texture.coord_fmt),
+                f"must be persp's coord_fmt {self.persp.coord_fmt}")
+        require(self.bump_map.channels == (self.bump.d_fmt,) * 2 and self.bump_map.faces == 1,
+                "bump_map.channels/faces", (self.bump_map.channels, self.bump_map.faces),
+                f"must be one face of two {self.bump.d_fmt} channels (du, dv)")
+        require(self.texture.channels == (self.shade.tex_fmt,) * 3 and self.texture.faces == 1,
+                "texture.channels/faces", (self.texture.channels, self.texture.faces),
+                f"must be one face of three {self.shade.tex_fmt} channels")
+        require(self.reflect.n_fmt == self.bump.out_fmt, "reflect.n_fmt", self.reflect.n_fmt,
+                f"must be bump.out_fmt {self.bump.out_fmt}")
         cube_bits = self.cube.in_fmt.width
-        _require(self.bump.out_fmt.width == cube_bits, "cube", f"input width {cube_bits} must equal N' width "
-                 f"{self.bump.out_fmt.width} (the codes are wired directly)")
-        _require(self.reflect.r_fmt.width == cube_bits, "cube", f"input width {cube_bits} must equal R width "
-                 f"{self.reflect.r_fmt.width}")
+        require(self.bump.out_fmt.width == cube_bits, "cube.in_fmt", self.cube.in_fmt,
+                f"its width {cube_bits} must equal N' width {self.bump.out_fmt.width} (the codes are wired directly)")
+        require(self.reflect.r_fmt.width == cube_bits, "cube.in_fmt", self.cube.in_fmt,
+                f"its width {cube_bits} must equal R width {self.reflect.r_fmt.width}")
         for name, fmt in (("diffuse", self.shade.diffuse_fmt), ("specular", self.shade.specular_fmt)):
             smp = getattr(self, name)
-            _require(smp.faces == 6 and smp.channels == (fmt,) * 3, name, f"must be a cube of three {fmt} channels")
-            _require(smp.coord_fmt == self.cube.st_fmt, name, f"coord_fmt must be the cube unit's {self.cube.st_fmt}")
+            require(smp.faces == 6 and smp.channels == (fmt,) * 3, f"{name}.channels/faces", (smp.channels, smp.faces),
+                    f"must be a cube of three {fmt} channels")
+            require(smp.coord_fmt == self.cube.st_fmt, f"{name}.coord_fmt", smp.coord_fmt,
+                    f"must be the cube unit's st_fmt {self.cube.st_fmt}")
 
     # -- ports --------------------------------------------------------------------------------------------
     @property

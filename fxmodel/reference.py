@@ -117,7 +117,10 @@ def ideal_phong(frags: dict, *, bump_float, texture, lighting, bump_filter="bili
 
 
 def psnr(a: np.ndarray, b: np.ndarray) -> float:
-    """Peak signal-to-noise ratio in dB between byte arrays (``inf`` when identical)."""
+    """Peak signal-to-noise ratio in dB between byte arrays (``inf`` when identical, empty arrays included: a frame
+    with no covered pixel has nothing that differs)."""
+    if np.size(a) == 0 and np.size(b) == 0:
+        return float("inf")
     mse = np.mean((np.asarray(a, dtype=np.float64) - np.asarray(b, dtype=np.float64)) ** 2)
     return float("inf") if mse == 0 else float(10 * np.log10(255.0 ** 2 / mse))
 

@@ -69,6 +69,36 @@ perspective-correct directions with no divider. The factor must be common: scali
 instead of a per-pixel divide). ``E_h`` scales ``R = 2 N'(N'.E) - E (N'.N')`` by ``|E_h|``, harmless for the cube
 lookup; ``c`` per triangle makes the largest vertex ``|E_h|`` equal to 1 (its smallest is ``cos`` of the view
 angle). The price: ``N W`` and ``A W`` lose ``log2(1/W)`` bits of relative precision where ``W`` is small.
+
+Depth: which quantity, and its precision
+----------------------------------------
+**Why ``Z = near / w_c``.** The depth test needs a quantity that orders the surfaces at a pixel and that the
+interpolators produce exactly, i.e. one linear in screen space. ``1 / w_c`` is (the same reason ``W`` is), and it
+is monotonic in the view distance (larger = nearer). OpenGL's ``z_c / w_c`` is screen-linear too, but it is the
+affine map ``a + b / w_c`` with ``a`` and ``b`` set by the near **and** far planes: it orders exactly like ``1 /
+w_c`` and only adds a dependence on ``far`` (and, in fixed point, spends its codes on the near range in the same
+way). The scale ``near`` maps the visible range ``near <= w_c`` to ``Z`` in ``(0, 1]``, a fixed format for every
+scene; ``Z`` needs no far plane and the far clip keeps ``Z >= near / far > 0``. The front end's float z-buffer
+compares the same quantity (``1 / w_c``; ties: first drawn wins), so model and reference differ only by rounding.
+
+**Precision (the proof above, applied to ``Z``).** At a covered pixel ``|code ulp - Z| <= b`` with ``b =``
+:meth:`RasterParams.error_bound` ``("Z")`` (``(1/2 + (2 max_size - 1) 2**-(g + 1))`` ulp of ``Z``'s format: 0.74994
+ulp for the default preset, whose ``Z`` (:meth:`RasterParams.for_pipeline`'s ``z_fmt``) has 22 fraction bits). For two surfaces with exact depths ``Z_1 >
+Z_2`` at one pixel:
+
+* ``Z_1 - Z_2 > 2 b`` (:meth:`RasterParams.depth_precision`): ``code_1 ulp >= Z_1 - b > Z_2 + b >= code_2 ulp``,
+  so ``code_1 > code_2`` and the depth test keeps the nearer surface whatever the drawing order. This is the
+  **documented depth precision**: about 1.5 ulp of ``Z``, ``3.58e-7`` for the default preset;
+* ``2 b - ulp < Z_1 - Z_2 <= 2 b`` (between 0.5 and 1.5 ulp): the codes may be equal, and then the fragment drawn
+  first wins (a reversal needs ``code_2 >= code_1 + 1``, i.e. a gap of at most ``2 b - ulp``);
+* ``Z_1 - Z_2 <= 2 b - ulp`` (below 0.5 ulp): the codes may order the two surfaces the other way.
+
+In view distance: ``Z_1 - Z_2 = near (w_2 - w_1) / (w_1 w_2)``, so two surfaces at distance ``w`` are ordered
+right when they are more than ``Δw = 2 b w**2 / near`` apart, a relative gap ``Δw / w = 2 b w / near``
+(:meth:`RasterParams.depth_gap`): for ``near = 0.1`` and the default ``Z``, ``1.1e-5`` at ``w = 3`` (33 µ of a
+unit), ``1.8e-4`` at ``w = 50``. The float reference compares float64 ``1 / w_c`` (relative rounding about
+``1e-16``), so where the float z-buffer and the fixed-point depth test keep different surfaces at a pixel, the
+two surfaces' float depths differ by at most ``2 b`` plus that rounding (:data:`FLOAT_DEPTH_SLACK`).
 """
 
 from __future__ import annotations
@@ -84,11 +114,16 @@ from .fixed import Fmt
 from .rounding import Overflow, Rounding, narrow
 from .unit import Port, require
 
-__all__ = ["RasterParams", "ATTRIBUTES", "edge_setup", "area2", "Records", "setup", "scan", "ScanResult"]
+__all__ = ["RasterParams", "ATTRIBUTES", "FLOAT_DEPTH_SLACK", "edge_setup", "area2", "Records", "setup", "scan", "ScanResult"]
 
 #: Attribute names in record / fragment order.
 ATTRIBUTES = ("U", "V", "Uc", "Vc", "W", "Z", "Nx", "Ny", "Nz", "Ex", "Ey", "Ez",
               "A00", "A01", "A10", "A11", "A20", "A21")
+
+#: Slack for the float reference's own rounding when comparing float depths with :meth:`RasterParams.depth_precision`
+#: (relative, of ``Z``): the front end's float64 ``1 / w_c`` at a pixel is three products and a division away from
+#: exact, a few units of ``2**-53``; this allows for 64 of them.
+FLOAT_DEPTH_SLACK = 64 * 2.0 ** -53
 
 #: Edge kinds in the record.
 EDGE_OFF, EDGE_LEFT, EDGE_RIGHT = 0, 1, 2
@@ -257,6 +292,16 @@ class RasterParams:
         acc = Fraction(2 * self.max_size - 1, 1 << (self.acc_fmt(name).frac_bits + 1))
         return acc + Fraction(1, 1 << (out.frac_bits + 1))
 
+    def depth_precision(self, name: str = "Z") -> Fraction:
+        """The documented depth precision (module docstring, "Depth"): two surfaces whose exact depths at a covered
+        pixel differ by more than this (``2 error_bound``, in units of ``Z``) get codes ordered the same way."""
+        return 2 * self.error_bound(name)
+
+    def depth_gap(self, w: float, near: float, name: str = "Z") -> float:
+        """The relative view-distance gap ``Δw / w = depth_precision w / near`` above which two surfaces at view
+        distance ``w`` (``Z = near / w``) are always ordered right by the fixed-point depth."""
+        return float(self.depth_precision(name)) * w / near
+
     def accumulated_bound(self, name: str, nx: int, ny: int) -> Fraction:
         """Bound on the accumulator's distance from the exact plane after ``nx`` and ``ny`` increments."""
         return Fraction(1 + nx + ny, 1 << (self.acc_fmt(name).frac_bits + 1))
@@ -272,7 +317,10 @@ class RasterParams:
                 "attributes": {n: {"out": str(f), "start_and_increments": str(self.acc_fmt(n)),
                                    "max_error_out_ulp": float(self.error_bound(n) / f.ulp)}
                                for n, f in self.attrs},
-                "clocks": "sum over rows of max(1, covered pixels in the row), per triangle"}
+                "clocks": "sum over rows of max(1, covered pixels in the row), per triangle",
+                **({"depth_precision": float(self.depth_precision()),
+                    "depth_precision_ulp": float(self.depth_precision() / self.out_fmt("Z").ulp)}
+                   if "Z" in self.names else {})}
 
     @classmethod
     def for_pipeline(cls, pipeline_units: dict, z_fmt: Fmt = Fmt(True, 2, 22), **kw) -> "RasterParams":

@@ -1,7 +1,7 @@
 """cocotb side of the streaming co-simulation (:mod:`cosim.stream`): orchestration only, no vector in Python.
 
 The job folder named by ``STREAM_JOB`` holds ``meta.json`` (chunk lengths, mismatch records kept, widths) and
-receives ``chunk_<k>.hex`` files from the model. For each chunk this test waits for its file, hands it to the
+receives ``chunk_<k>.bin`` files from the model (binary words for ``$fread``). For each chunk this test waits for its file, hands it to the
 wrapper (``chunk_len``, then ``load_seq = k + 1``), waits until the wrapper raises ``done_seq`` to ``k + 1``,
 deletes the file and records progress. At the end it reads the wrapper's counters and first mismatch records and
 writes ``result.json``; the caller judges them. Each chunk has its own stimulus pattern and seed (gaps on the
@@ -71,7 +71,7 @@ async def stream(dut):
         await Timer(meta["period_ns"], unit="ns")
         t0, c0 = time.perf_counter(), time.process_time()
         for k, n in enumerate(meta["chunks"]):
-            path = job / f"chunk_{k}.hex"
+            path = job / f"chunk_{k}.bin"
             _wait_for(path, job, meta["timeout"])
             dut.chunk_len.value = n
             dut.chunk_base.value = meta["bases"][k]

@@ -121,6 +121,22 @@ def test_exhaustive_pieces_merge_to_the_whole_and_resume(tmp_path, monkeypatch):
     assert "within bound" in exhaustive.table([rec])
 
 
+def test_a_partial_run_covers_the_selected_pieces_and_the_whole_run_resumes_from_them(tmp_path, monkeypatch):
+    from tools import exhaustive
+
+    monkeypatch.setattr(exhaustive, "CACHE", tmp_path)
+    t = exhaustive.target("recip:small")
+    part = exhaustive.run_dask(t, "exact", count=4, progress=False, select=(2, 3))
+    assert part["pieces"] == [2, 3] and part["shards"] == 4 and part["range"] == [1 << 14, 3 << 14]
+    assert part["vectors"] == 1 << 15 and part["fraction"] == 0.5 and part["ok"]
+    assert "partial: pieces 2..3 of 4, 50.0 %" in exhaustive.table([part])
+    whole = exhaustive.run_dask(t, "exact", count=4, progress=False)
+    assert whole["resumed"] == 2 and whole["vectors"] == 1 << 16 and "pieces" not in whole
+    with pytest.raises(ValueError, match="pieces 1..4"):
+        exhaustive.run_dask(t, "exact", count=4, progress=False, select=(3, 5))
+    assert exhaustive.main(["--sim", "exact", "--only", "recip:small", "--select", "2"]) == 2
+
+
 def test_exact_failures_name_the_input_the_output_and_the_bound():
     from tools import exhaustive
 

@@ -65,7 +65,7 @@ from typing import Callable
 from fxmodel.unit import preset
 
 from cosim.harness import ROOT, simulator
-from cosim.stream import Space, full_space, grid_space, parse_shard, run_stream, shard_range
+from cosim.stream import AHEAD, Space, full_space, grid_space, parse_shard, run_stream, shard_range
 from rtl.digest import params_key
 
 from . import jobs as jobrunner
@@ -170,15 +170,19 @@ _EXACT_KEYS = ("max_error_ulp", "worst_index", "unfaithful", "bound_ulp")
 
 
 def check(t: Target, sim: str, space: Space, lo: int, hi: int, *, shard: tuple[int, int] | None = None,
-          full: bool = False, progress=None, chunk: int | None = None) -> dict:
+          full: bool = False, progress=None, chunk: int | None = None, ahead: int = AHEAD) -> dict:
     """The record of rows ``lo..hi`` of ``space`` of target ``t``: streamed through the RTL on ``sim`` against the
-    model, or (``sim == "exact"``) the model against exact math."""
+    model, or (``sim == "exact"``) the model against exact math. ``cpu_seconds`` is the CPU time of this
+    process and of the simulator meanwhile; ``ahead`` as :func:`cosim.stream.run_stream` (1: one core)."""
+    c0 = jobrunner.cpu_seconds()
     if sim == EXACT:
         result = check_range(t.params(), space, lo, hi)
     else:
         kwargs = {"chunk": chunk} if chunk else {}
-        result = run_stream(t.params(), space, sim=sim, lo=lo, hi=hi, progress=progress, **kwargs)
-    return _record(t, result, shard, full)
+        result = run_stream(t.params(), space, sim=sim, lo=lo, hi=hi, progress=progress, ahead=ahead, **kwargs)
+    rec = _record(t, result, shard, full)
+    rec["cpu_seconds"] = round(jobrunner.cpu_seconds() - c0, 3)
+    return rec
 
 
 def run_target(t: Target, sim: str, *, shard: tuple[int, int] | None = None, full: bool = False,
@@ -205,6 +209,8 @@ class Piece:
     shard: tuple[int, int]
     full: bool = False
     chunk: int | None = None
+    #: Chunk files ahead of the simulator (:func:`cosim.stream.run_stream`): 1, one core a task, on Dask.
+    ahead: int = 1
 
     def key(self) -> str:
         """What the piece checks: unit, parameter object, simulator, RTL digest, input space and range."""
@@ -220,11 +226,11 @@ class Piece:
 def run_piece(piece: Piece) -> dict:
     """The record of one piece (runs on a Dask worker)."""
     return check(piece.target, piece.sim, piece.space, piece.lo, piece.hi, shard=piece.shard, full=piece.full,
-                 progress=False, chunk=piece.chunk)
+                 progress=False, chunk=piece.chunk, ahead=piece.ahead)
 
 
 def pieces(t: Target, sim: str, *, workers: int = 1, count: int | None = None, full: bool = False,
-           chunk: int | None = None, lo: int = 0, hi: int | None = None) -> list[Piece]:
+           chunk: int | None = None, lo: int = 0, hi: int | None = None, ahead: int = 1) -> list[Piece]:
     """Rows ``lo..hi`` (default: all) of the target cut into ``count`` pieces (default: pieces of at most
     :data:`PIECE` vectors, a multiple of ``workers``)."""
     space = t.make_space(full)
@@ -234,17 +240,20 @@ def pieces(t: Target, sim: str, *, workers: int = 1, count: int | None = None, f
         count = -(-n // PIECE[sim])
         count = workers * -(-count // workers)
     count = max(1, min(count, n))
-    return [Piece(t, sim, space, lo + a, lo + b, (i, count), full, chunk)
+    return [Piece(t, sim, space, lo + a, lo + b, (i, count), full, chunk, ahead)
             for i, (a, b) in enumerate((shard_range(n, (i, count)) for i in range(1, count + 1)), 1)]
 
 
-def merge_records(recs: list[dict]) -> dict:
-    """One record from the records of all shards of a run (see the module docstring)."""
+def merge_records(recs: list[dict], partial: bool = False) -> dict:
+    """One record from the records of all shards of a run (see the module docstring); ``partial``: of a
+    contiguous run of shards ``a..b`` of ``N`` (``pieces`` in the record), not necessarily all."""
     recs = sorted(recs, key=lambda r: r["range"][0])
     n = recs[0]["shard"][1]
-    if sorted(r["shard"][0] for r in recs) != list(range(1, n + 1)):
+    numbers = [r["shard"][0] for r in recs]
+    first_shard = numbers[0] if partial else 1
+    if numbers != list(range(first_shard, first_shard + (len(recs) if partial else n))):
         raise ValueError(f"{recs[0]['unit']}:{recs[0]['preset']} on {recs[0]['simulator']}: shards "
-                         f"{sorted(r['shard'][0] for r in recs)} are not exactly 1..{n}")
+                         f"{numbers} are not exactly {first_shard}..{numbers[-1] if partial else n}")
     for a, b in zip(recs, recs[1:]):
         if a["range"][1] != b["range"][0] or a["space"] != b["space"]:
             raise ValueError(f"{a['unit']}:{a['preset']}: shard ranges {a['range']} and {b['range']} do not join "
@@ -265,7 +274,10 @@ def merge_records(recs: list[dict]) -> dict:
             "build_seconds": max(r["build_seconds"] for r in recs),
             "sim_cpu_seconds": round(sum(r.get("sim_cpu_seconds", 0.0) for r in recs), 3),
             "started": started, "finished": finished,
-            "wall_seconds": round(finished - started, 3), "shards": n, **_merge_exact(recs)}
+            "wall_seconds": round(finished - started, 3), "shards": n, **_merge_exact(recs),
+            **({"cpu_seconds": round(sum(r["cpu_seconds"] for r in recs), 3)}
+               if all("cpu_seconds" in r for r in recs) else {}),
+            **({"pieces": [numbers[0], numbers[-1]]} if partial else {})}
 
 
 def _merge_exact(recs: list[dict]) -> dict:
@@ -319,10 +331,19 @@ def update_report(records: list[dict], path: Path = REPORT) -> list[dict]:
 
 
 def table(records: list[dict]) -> str:
-    head = ("unit", "preset", "simulator", "vectors", "mismatches", "seconds", "vectors/s", "wall s", "result")
+    head = ("unit", "preset", "simulator", "vectors", "mismatches", "seconds", "vectors/s", "wall s", "cpu s",
+            "result")
+
+    def result(r):
+        verdict = ("within bound" if r["simulator"] == EXACT else "bit-exact") if r["ok"] else "FAIL"
+        if "pieces" in r:
+            verdict += (f" (partial: pieces {r['pieces'][0]}..{r['pieces'][1]} of {r['shards']}, "
+                        f"{100 * r.get('fraction', 0):.1f} % of the space)")
+        return verdict
+
     rows = [(r["unit"], r["preset"], r["simulator"], f"{r['vectors']:,}", f"{r['mismatches']:,}",
              f"{r['seconds']:.1f}", f"{r['vectors_per_second']:,.0f}", f"{r['wall_seconds']:.1f}",
-             ("within bound" if r["simulator"] == EXACT else "bit-exact") if r["ok"] else "FAIL") for r in records]
+             f"{r['cpu_seconds']:.1f}" if "cpu_seconds" in r else "-", result(r)) for r in records]
     widths = [max(len(str(x)) for x in col) for col in zip(head, *rows)]
     fmt = lambda row: "  ".join(str(x).rjust(w) if i >= 3 else str(x).ljust(w)  # noqa: E731
                                 for i, (x, w) in enumerate(zip(row, widths)))
@@ -345,63 +366,134 @@ def _failures(records: list[dict]) -> str:
 
 def run_dask(t: Target, sim: str, *, jobs: int = 1, scheduler: str | None = None, full: bool = False,
              chunk: int | None = None, count: int | None = None, resume: bool = True, client=None,
-             progress: bool = True) -> dict:
+             progress: bool = True, select: tuple[int, int] | None = None) -> dict:
     """Run a whole target as Dask tasks (:mod:`tools.jobs`) and merge the pieces' records; ``seconds`` is the
-    wall time of this run (``resumed`` counts the pieces taken from the cache of an earlier run)."""
-    ps = pieces(t, sim, workers=jobs, count=count, full=full, chunk=chunk)
-    done = []
+    wall time of this run (``resumed`` counts the pieces taken from the cache of an earlier run).
+
+    ``select=(a, b)`` runs only pieces ``a..b`` (1-based) of the whole run's pieces: a partial run, whose record
+    says which pieces (``pieces``) and what ``fraction`` of the space it covers; the whole run later resumes
+    from them. Once the first ``jobs`` pieces of this run have finished, their median rate is the per-worker
+    rate, and ``projection`` records the wall time it projects for this run's vectors on ``jobs`` workers, and
+    the wall time the run then took (``ratio``: taken / projected)."""
+    in_process = client is None and jobs == 1 and not jobrunner.scheduler_address(scheduler)
+    # a Dask task takes one core (the model and the simulator take turns); in this process they may overlap
+    ps = pieces(t, sim, workers=jobs, count=count, full=full, chunk=chunk, ahead=AHEAD if in_process else 1)
+    if select is not None:
+        a, b = select
+        if not 1 <= a <= b <= len(ps):
+            raise ValueError(f"--select {a}:{b}: {t.name} on {sim} has pieces 1..{len(ps)}")
+        ps = ps[a - 1:b]
+    done, projection = [], {}
+    todo_vectors = None
+
+    def arrived(i, rec):
+        done.append((i, rec))
+        if len(done) == jobs and todo_vectors and len(ps) > jobs:     # a projection needs pieces left to run
+            rates = sorted(r["vectors"] / r["seconds"] for _, r in done if r["seconds"])
+            rate = rates[len(rates) // 2]
+            projection.update({"workers": jobs, "per_worker_rate": round(rate, 1), "from_pieces": jobs,
+                               "vectors": todo_vectors, "projected_seconds": round(todo_vectors / (rate * jobs), 3),
+                               "load_average": round(os.getloadavg()[0], 2)})
+            msg = (f"{t.name} {sim}: per-worker rate {rate:,.0f} vectors/s from the first {jobs} piece(s); "
+                   f"{todo_vectors:,} vectors on {jobs} worker(s) projected to take "
+                   f"{projection['projected_seconds'] / 60:,.1f} min")
+            from tqdm import tqdm
+            tqdm.write(msg)
+
+    if resume:
+        # the vectors still to check (pieces not in the cache), for the projection
+        todo_vectors = sum(p.hi - p.lo for p in ps if not (CACHE / f"{p.key()}.json").exists())
+    else:
+        todo_vectors = sum(p.hi - p.lo for p in ps)
     t0 = time.perf_counter()
     recs = jobrunner.run_pieces(run_piece, ps, jobs=jobs, scheduler=scheduler, key=Piece.key if resume else None,
                                 cache=CACHE if resume else None, vectors=lambda p: p.hi - p.lo,
                                 describe=Piece.describe, desc=f"{t.name} {sim}", progress=progress,
-                                callback=lambda i, r: done.append(i), client=client)
+                                callback=arrived, client=client)
     wall = time.perf_counter() - t0
-    rec = merge_records(recs)
+    rec = merge_records(recs, partial=select is not None)
     rec["resumed"] = len(ps) - len(done)
     rec["workers"] = jobs if client is None and not jobrunner.scheduler_address(scheduler) else None
     # the pieces ran side by side: the run took the wall time
     rec["seconds"] = round(wall, 3)
     rec["vectors_per_second"] = rec["vectors"] / wall if wall else 0.0
+    if select is not None:
+        rec["fraction"] = rec["vectors"] / len(ps[0].space)
+    if projection:
+        projection["actual_seconds"] = round(wall, 1)
+        projection["ratio"] = round(wall / max(projection["projected_seconds"], 1e-3), 3)
+        rec["projection"] = projection
     return rec
 
 
-def throughput(t: Target, sim: str, vectors: int, *, workers=(1, 2), full: bool = False, lo: int | None = None,
-               progress: bool = True) -> dict:
-    """Per-worker rate of ``sim`` on ``vectors`` rows of target ``t`` (from the middle of its space unless
-    ``lo``) with each count of local ``workers``, one after the other in this run, each on a cluster started
-    (and warmed up: imports, build) before the clock starts; the same ``2 * max(workers)`` pieces each time.
-    Returns the rates, the speed-up over the first count and the projected wall time of the whole space."""
+def throughput(t: Target, sim: str, vectors: int, *, workers=(1, 2), repeat: int = 3, full: bool = False,
+               lo: int | None = None, progress: bool = True) -> dict:
+    """Rate of ``sim`` on ``vectors`` rows of target ``t`` (from the middle of its space unless ``lo``) on each
+    count of ``workers``, in one run: one local cluster of ``max(workers)`` single-threaded workers, every
+    worker warmed up (imports, simulation build) before any clock starts, then ``repeat`` rounds, each running
+    the same ``2 * max(workers)`` pieces (one core each: the Dask tasks' setting) on the first 1, then 2, ...
+    workers, alternating so that a change of the machine's load hits every count alike.
+
+    Returns every run (wall and CPU seconds, rate), and per worker count the medians over the rounds: rate,
+    speed-up over the first count (median of the rounds' ratios), per-worker rate. The projections of the
+    whole space: at the median per-worker rate of the largest count (what this machine gave), and on free
+    cores from the CPU time (model, vector files and simulator together: what a worker with a core to itself
+    would do)."""
+    from statistics import median
+
+    if repeat < 1:
+        raise ValueError(f"--repeat {repeat}: must be >= 1")
     space = t.make_space(full)
     lo = (len(space) - vectors) // 2 if lo is None else lo
     count = 2 * max(workers)
+    ps = pieces(t, sim, count=count, full=full, lo=lo, hi=lo + vectors)
     runs = []
+    with jobrunner.cluster(max(workers)) as client:
+        addresses = sorted(client.scheduler_info()["workers"])
+        warm = pieces(t, sim, count=len(addresses), full=full, lo=lo, hi=lo + 1024 * len(addresses))
+        for address, piece in zip(addresses, warm):
+            jobrunner.run_pieces(run_piece, [piece], client=client, workers=[address], progress=False)
+        for r in range(repeat):
+            for n in workers:
+                t0 = time.perf_counter()
+                recs = jobrunner.run_pieces(run_piece, ps, client=client, workers=addresses[:n], progress=progress,
+                                            desc=f"round {r + 1}, {n} worker(s)", vectors=lambda p: p.hi - p.lo)
+                wall = time.perf_counter() - t0
+                cpu = sum(x["cpu_seconds"] for x in recs)
+                runs.append({"round": r + 1, "workers": n, "vectors": vectors, "seconds": round(wall, 3),
+                             "vectors_per_second": vectors / wall, "cpu_seconds": round(cpu, 3),
+                             "per_cpu_second": vectors / cpu if cpu else None,
+                             "ok": all(x["ok"] for x in recs), "load_average": round(os.getloadavg()[0], 2)})
+    by = {n: [x for x in runs if x["workers"] == n] for n in workers}
+    base = workers[0]
+    summary = []
     for n in workers:
-        with jobrunner.cluster(n) as client:
-            warm = pieces(t, sim, workers=n, count=n, full=full, lo=lo, hi=lo + 1024 * n)
-            jobrunner.run_pieces(run_piece, warm, client=client, progress=False)
-            ps = pieces(t, sim, count=count, full=full, lo=lo, hi=lo + vectors)
-            t0 = time.perf_counter()
-            recs = jobrunner.run_pieces(run_piece, ps, client=client, progress=progress, desc=f"{n} worker(s)",
-                                        vectors=lambda p: p.hi - p.lo)
-            wall = time.perf_counter() - t0
-        ok = all(r["ok"] for r in recs)
-        cpu = sum(r["sim_cpu_seconds"] for r in recs)
-        runs.append({"workers": n, "vectors": vectors, "seconds": round(wall, 3), "vectors_per_second": vectors / wall,
-                     "per_worker": vectors / wall / n, "ok": ok, "cpu_seconds": round(cpu, 3),
-                     "per_cpu_second": vectors / cpu if cpu else None})
-    base = runs[0]["vectors_per_second"]
-    for r in runs:
-        r["speedup"] = round(r["vectors_per_second"] / base, 3)
-    rate = max(r["per_worker"] for r in runs)   # the per-worker rate the machine gave (the best of the runs)
-    free = max((r["per_cpu_second"] or 0) for r in runs)
+        ratios = [x["vectors_per_second"] / y["vectors_per_second"] for x, y in zip(by[n], by[base])]
+        rate = median(x["vectors_per_second"] for x in by[n])
+        summary.append({"workers": n, "vectors_per_second": round(rate, 1), "per_worker": round(rate / n, 1),
+                        "speedup": round(median(ratios), 3),
+                        "per_cpu_second": round(median(x["per_cpu_second"] or 0 for x in by[n]), 1)})
+    rate = summary[-1]["per_worker"]
+    free = median(x["per_cpu_second"] or 0 for x in runs)
+    counts = (1, 2, 8, 32, 128)
     return {"unit": t.unit, "preset": t.preset, "simulator": sim, "space": len(space), "range": [lo, lo + vectors],
-            "pieces": count, "runs": runs, "per_worker_rate": rate, "load_average": os.getloadavg()[0],
-            "projected_seconds": {str(n): round(len(space) / (rate * n), 1) for n in (1, 2, 8, 32, 128)},
-            # a worker with a core to itself: the CPU time of the checking process (the model for `exact`; the
-            # simulator alone for an HDL simulator, whose model and file writing run beside it)
+            "pieces": count, "repeat": repeat, "runs": runs, "summary": summary, "per_worker_rate": rate,
+            "load_average": os.getloadavg()[0],
+            "projected_seconds": {str(n): round(len(space) / (rate * n), 1) for n in counts},
             "per_cpu_second": free or None,
-            "projected_seconds_free_cores": {str(n): round(len(space) / (free * n), 1) for n in (1, 2, 8, 32, 128)}
+            "projected_seconds_free_cores": {str(n): round(len(space) / (free * n), 1) for n in counts}
             if free else None}
+
+
+def parse_select(text: str) -> tuple[int, int]:
+    """``"A:B"`` (1-based, ``1 <= A <= B``) to ``(A, B)``; ``ValueError`` naming the bad text."""
+    try:
+        a, b = (int(x) for x in str(text).split(":"))
+    except ValueError:
+        raise ValueError(f"--select {text!r}: expected A:B with integers, e.g. 1:16") from None
+    if not 1 <= a <= b:
+        raise ValueError(f"--select {text!r}: need 1 <= A <= B (pieces are numbered from 1)")
+    return a, b
 
 
 def main(argv=None) -> int:
@@ -418,9 +510,14 @@ def main(argv=None) -> int:
     ap.add_argument("--no-resume", action="store_true", help="recheck pieces stored by an earlier run")
     ap.add_argument("--throughput", type=int, metavar="N",
                     help="measure the rate on N inputs of each target with 1 and 2 local workers, and project")
+    ap.add_argument("--repeat", type=int, default=3,
+                    help="rounds of --throughput (1 worker, then 2, each round; medians) (default: %(default)s)")
+    ap.add_argument("--select", metavar="A:B",
+                    help="run only pieces A..B (1-based) of each target's pieces: a partial run, which the whole "
+                         "run later resumes from")
     ap.add_argument("--merge", action="store_true", help="only merge complete sets of shard files into the report")
     ap.add_argument("--full", action="store_true", help="every input of every target, not a documented subset")
-    ap.add_argument("--chunk", type=int, help="vectors per $readmemh chunk (default: cosim.stream.CHUNK)")
+    ap.add_argument("--chunk", type=int, help="vectors per chunk file (default: cosim.stream.CHUNK)")
     ap.add_argument("--list", action="store_true", help="list the targets and their input spaces")
     args = ap.parse_args(argv)
     try:
@@ -439,19 +536,23 @@ def main(argv=None) -> int:
                                       for s in args.sim.split(",") if s.strip()]
         if args.pieces is not None and args.pieces < 1:
             raise ValueError(f"--pieces {args.pieces}: must be >= 1")
+        select = parse_select(args.select) if args.select else None
+        if select and shard:
+            raise ValueError("--select does not combine with --shard: select pieces of a Dask run")
     except (ValueError, RuntimeError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
     if args.throughput:
-        out = [throughput(t, sim, args.throughput, full=args.full) for t in targets for sim in sims]
+        out = [throughput(t, sim, args.throughput, full=args.full, repeat=args.repeat) for t in targets
+               for sim in sims]
         OUT.mkdir(parents=True, exist_ok=True)
         (OUT / "throughput.json").write_text(json.dumps(out, indent=1))
         for r in out:
-            runs = ", ".join(f"{x['workers']} worker(s) {x['vectors_per_second']:,.0f} vectors/s "
-                             f"({x['seconds']:.1f} s, x{x['speedup']:.2f})" for x in r["runs"])
+            runs = ", ".join(f"{x['workers']} worker(s) {x['vectors_per_second']:,.0f} vectors/s (x{x['speedup']:.2f})"
+                             for x in r["summary"])
             proj = ", ".join(f"{n}: {s / 60:,.1f} min" for n, s in r["projected_seconds"].items())
-            print(f"{r['unit']}:{r['preset']} {r['simulator']}: {runs} (load average {r['load_average']:.1f}); "
-                  f"all {r['space']:,} inputs projected (workers: time) {proj}"
+            print(f"{r['unit']}:{r['preset']} {r['simulator']}, medians of {r['repeat']} rounds: {runs} (load "
+                  f"average {r['load_average']:.1f}); all {r['space']:,} inputs projected (workers: time) {proj}"
                   + ("" if all(x["ok"] for x in r["runs"]) else "  FAIL"))
             if r["projected_seconds_free_cores"]:
                 free = ", ".join(f"{n}: {s / 60:,.1f} min" for n, s in r["projected_seconds_free_cores"].items())
@@ -471,8 +572,13 @@ def main(argv=None) -> int:
                     print(f"{t.name} on {sim}: shard {shard[0]}/{shard[1]}", flush=True)
                     run_target(t, sim, shard=shard, full=args.full, progress=True, chunk=args.chunk)
                 else:
-                    records.append(run_dask(t, sim, jobs=args.jobs, scheduler=args.scheduler, full=args.full,
-                                            chunk=args.chunk, count=args.pieces, resume=not args.no_resume))
+                    try:
+                        records.append(run_dask(t, sim, jobs=args.jobs, scheduler=args.scheduler, full=args.full,
+                                                chunk=args.chunk, count=args.pieces, resume=not args.no_resume,
+                                                select=select))
+                    except ValueError as exc:
+                        print(f"error: {exc}", file=sys.stderr)
+                        return 2
         if shard:
             records = merge_shards()
             if not records:
@@ -481,6 +587,12 @@ def main(argv=None) -> int:
                 return 0
     update_report(records)
     print(table(records))
+    for r in records:
+        if "projection" in r:
+            x = r["projection"]
+            print(f"{r['unit']}:{r['preset']} on {r['simulator']}: projected {x['projected_seconds'] / 60:,.1f} min "
+                  f"({x['vectors']:,} vectors / {x['per_worker_rate']:,.0f} vectors/s a worker / {x['workers']} "
+                  f"workers), took {x['actual_seconds'] / 60:,.1f} min: {x['ratio']:.3f} of the projection")
     print(f"(report: {REPORT})")
     bad = _failures(records)
     if bad:

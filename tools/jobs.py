@@ -60,7 +60,7 @@ ALLOWED_FAILURES = 3
 CODE = ("fxmodel", "rtl", "cosim", "tools")
 
 __all__ = ["RETRIES", "ALLOWED_FAILURES", "CACHE", "add_arguments", "scheduler_address", "cluster",
-           "run_pieces", "content_key", "code_digest", "JobError"]
+           "run_pieces", "content_key", "code_digest", "cpu_seconds", "JobError"]
 
 
 class JobError(RuntimeError):
@@ -128,6 +128,13 @@ def cluster(jobs: int = 1, scheduler: str | None = None):
             yield client
 
 
+def cpu_seconds() -> float:
+    """CPU seconds (user and system) of this process and of its finished child processes (a simulator)."""
+    import resource
+    own, children = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
+    return own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime
+
+
 def _call(fn: Callable, piece):
     """Run one piece on a worker: its result, the worker's code digest, host and process, and seconds."""
     t0 = time.perf_counter()
@@ -146,7 +153,8 @@ def _check(out: dict, describe: str):
 def run_pieces(fn: Callable, pieces: Sequence, *, jobs: int = 1, scheduler: str | None = None,
                retries: int = RETRIES, key: Callable | None = None, cache: Path | str | None = None,
                vectors: Callable | None = None, describe: Callable = repr, desc: str = "pieces",
-               progress: bool = True, callback: Callable | None = None, client=None) -> list:
+               progress: bool = True, callback: Callable | None = None, client=None,
+               workers: Sequence[str] | None = None) -> list:
     """Run ``fn(piece)`` for every piece, on Dask (see the module docstring), and return the results in order.
 
     Parameters
@@ -175,6 +183,9 @@ def run_pieces(fn: Callable, pieces: Sequence, *, jobs: int = 1, scheduler: str 
         ``callback(index, result)`` as each result arrives (after it is stored).
     client : distributed.Client
         Use this client instead of starting one (``jobs`` and ``scheduler`` are then ignored).
+    workers : sequence of str
+        With ``client``: run the pieces on these workers (addresses) only, e.g. to measure one worker of a
+        cluster against two.
 
     Raises
     ------
@@ -229,7 +240,7 @@ def run_pieces(fn: Callable, pieces: Sequence, *, jobs: int = 1, scheduler: str 
                 finish(i, _run_local(fn, pieces[i], retries, describe))
             return results
         if client is not None:
-            _run_dask(client, fn, pieces, todo, retries, describe, finish)
+            _run_dask(client, fn, pieces, todo, retries, describe, finish, workers)
         else:
             with cluster(jobs, scheduler) as c:
                 _run_dask(c, fn, pieces, todo, retries, describe, finish)
@@ -247,10 +258,11 @@ def _run_local(fn, piece, retries, describe):
                 raise JobError(f"{describe(piece)} failed after {retries} retries: {exc!r}") from exc
 
 
-def _run_dask(client, fn, pieces, todo, retries, describe, finish):
+def _run_dask(client, fn, pieces, todo, retries, describe, finish, workers=None):
     from distributed import as_completed
 
-    futures = client.map(_call, [fn] * len(todo), [pieces[i] for i in todo], retries=retries, pure=False)
+    where = {"workers": list(workers), "allow_other_workers": False} if workers else {}
+    futures = client.map(_call, [fn] * len(todo), [pieces[i] for i in todo], retries=retries, pure=False, **where)
     index = {f.key: i for f, i in zip(futures, todo)}
     try:
         for future in as_completed(futures):

@@ -78,9 +78,10 @@ exhaustive: setup
 	$(PY) -m tools.exhaustive --sim verilator
 	$(PY) -m tools.exhaustive --sim icarus --jobs $(JOBS)
 
-# The 2^32 inputs of the 32-bit reciprocal (README, "Long runs on a cluster"): hours on one machine.
+# The 2^32 inputs of the 32-bit reciprocal (README, "Long runs on a cluster"): hours on one machine, so at
+# nice 10; WIDE_ARGS="--select A:B" checks pieces A..B only (a rerun without it resumes from them).
 exhaustive-wide: setup
-	$(PY) -m tools.exhaustive --sim exact,verilator --only recip:rcp32 --jobs $(JOBS)
+	nice -n 10 $(PY) -m tools.exhaustive --sim exact,verilator --only recip:rcp32 --jobs $(JOBS) $(WIDE_ARGS)
 
 clean:
 	rm -rf build sim_build .pytest_cache .hypothesis

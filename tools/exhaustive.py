@@ -28,8 +28,11 @@ piece is reported with its vectors as a single-process run reports it.
 
 ``--sim exact`` is the model side of a proof: the bit-exact model against exact math over the same pieces
 (:mod:`tools.prove`; a *mismatch* is then an output outside the unit's documented error bound).
-``--throughput N`` measures the per-worker rate on ``N`` inputs of each target with 1 and with 2 local workers in
-one run (``build/exhaustive/throughput.json``) and projects the whole space for more workers.
+``--throughput N`` measures the rate on ``N`` inputs of each target with 1 and with 2 local workers in one run
+(``--repeat`` alternating rounds, medians; ``build/exhaustive/throughput.json``) and projects the whole space for
+more workers. ``--select A:B`` checks pieces ``A..B`` of a run only (a partial record: ``pieces``, ``fraction``);
+the whole run resumes from them. ``--record FILE`` also enters the records in ``FILE``: the committed figures of
+``docs/exhaustive/``.
 
 ``seconds`` is the time the check took. For a run on one machine (``--jobs N`` included) that is the wall time; for
 shards merged from their files (``--shard``, perhaps run on several machines at different times) it is the sum of
@@ -81,7 +84,7 @@ KEEP = 8
 #: Largest input space a target may check whole without naming a subset (``--full`` overrides).
 FULL_LIMIT = 1 << 32
 #: Most vectors in one Dask task, per simulator (a Verilator piece takes about a minute on a free core).
-PIECE = {"verilator": 1 << 26, "icarus": 1 << 22, "exact": 1 << 25}
+PIECE = {"verilator": 1 << 25, "icarus": 1 << 22, "exact": 1 << 25}
 #: Results of finished pieces (resume).
 CACHE = jobrunner.CACHE / "exhaustive"
 #: The model against exact math (tools.prove), beside the HDL simulators.
@@ -315,7 +318,8 @@ def merge_shards(folder: Path = SHARDS, remove: bool = True) -> list[dict]:
 def update_report(records: list[dict], path: Path = REPORT) -> list[dict]:
     """Enter ``records`` in the report (replacing those of the same unit, preset and simulator); return it all."""
     path.parent.mkdir(parents=True, exist_ok=True)
-    with open(path.with_suffix(".lock"), "w") as lock:
+    OUT.mkdir(parents=True, exist_ok=True)
+    with open(OUT / f"{path.stem}.lock", "w") as lock:                 # (not beside a committed record file)
         fcntl.flock(lock, fcntl.LOCK_EX)
         try:
             old = json.loads(path.read_text()) if path.exists() else []
@@ -519,6 +523,9 @@ def main(argv=None) -> int:
     ap.add_argument("--full", action="store_true", help="every input of every target, not a documented subset")
     ap.add_argument("--chunk", type=int, help="vectors per chunk file (default: cosim.stream.CHUNK)")
     ap.add_argument("--list", action="store_true", help="list the targets and their input spaces")
+    ap.add_argument("--record", metavar="FILE",
+                    help="also enter the records in FILE (as the report), or with --throughput write them there: "
+                         "the committed figures (docs/exhaustive/)")
     args = ap.parse_args(argv)
     try:
         targets = [target(x.strip()) for x in args.only.split(",") if x.strip()] or list(TARGETS)
@@ -547,6 +554,9 @@ def main(argv=None) -> int:
                for sim in sims]
         OUT.mkdir(parents=True, exist_ok=True)
         (OUT / "throughput.json").write_text(json.dumps(out, indent=1))
+        if args.record:
+            Path(args.record).parent.mkdir(parents=True, exist_ok=True)
+            Path(args.record).write_text(json.dumps(out, indent=1) + "\n")
         for r in out:
             runs = ", ".join(f"{x['workers']} worker(s) {x['vectors_per_second']:,.0f} vectors/s (x{x['speedup']:.2f})"
                              for x in r["summary"])
@@ -586,6 +596,8 @@ def main(argv=None) -> int:
                       f"{shard[1]} shards are there (or run --merge)")
                 return 0
     update_report(records)
+    if args.record:
+        update_report(records, Path(args.record))
     print(table(records))
     for r in records:
         if "projection" in r:

@@ -26,7 +26,7 @@ ROOT = Path(__file__).resolve().parents[1]
 BUILD = ROOT / "build" / "cosim"
 SIMULATORS = ("icarus", "verilator")
 
-__all__ = ["run", "simulator", "CosimResult", "SIMULATORS"]
+__all__ = ["run", "simulator", "build_and_test", "CosimResult", "SIMULATORS"]
 
 
 def simulator(sim: str | None = None) -> str:
@@ -82,6 +82,26 @@ def build_folder(params, sim: str, tag: str = ""):
     job = bdir / (f"job_{tag}" if tag else "job")
     job.mkdir(exist_ok=True)
     return top, bdir, src, job
+
+
+def build_and_test(sim: str, src, top: str, bdir: Path, job: Path, test_module: str) -> tuple[float, float]:
+    """Compile ``src`` (top ``top``) in ``bdir`` under its lock (parallel workers share a build folder) and run
+    the cocotb ``test_module`` with ``COSIM_JOB=job``; return ``(build seconds, test seconds)``."""
+    from cocotb_tools.runner import get_runner
+
+    runner = get_runner(sim)
+    if sim == "verilator":
+        verilator_env()
+    t0 = time.perf_counter()
+    with open(bdir / ".build.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        runner.build(sources=[src], hdl_toplevel=top, build_dir=bdir, timescale=("1ns", "1ps"),
+                     build_args=["-Wno-fatal", "-Wno-WIDTH", "-O3"] if sim == "verilator" else [])
+    t1 = time.perf_counter()
+    env = {"COSIM_JOB": str(job), "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])}
+    runner.test(hdl_toplevel=top, test_module=test_module, build_dir=bdir, test_dir=job, extra_env=env,
+                results_xml=str(job / "results.xml"))
+    return round(t1 - t0, 2), round(time.perf_counter() - t1, 2)
 
 
 def run(params, inputs: np.ndarray, *, sim: str | None = None, waves: bool | None = None,

@@ -4,16 +4,13 @@ for bit, and the clock count with the model's."""
 
 from __future__ import annotations
 
-import fcntl
 import json
-import os
-import time
 
 import numpy as np
 
 from fxmodel.raster import RasterParams, scan
 
-from .harness import ROOT, build_folder, simulator, verilator_env
+from .harness import build_and_test, build_folder, simulator
 
 __all__ = ["run", "pack", "unpack"]
 
@@ -52,8 +49,6 @@ def run(params, records, *, p_valid: float = 1.0, p_ready: float = 1.0, seed: in
     :class:`~fxmodel.pipeline.TrianglePipelineParams`, through the pixel pipeline's stream interface);
     return a report with ``mismatches`` (outputs differing from the model, or a different count), the RTL's
     ``busy_cycles`` and the model's ``clocks``; ``report["rtl"]`` holds the RTL's output codes."""
-    from cocotb_tools.runner import get_runner
-
     sim = simulator(sim)
     mat = records.matrix() if hasattr(records, "matrix") else np.asarray(records, dtype=np.int64)
     engine = not isinstance(params, RasterParams)
@@ -76,18 +71,7 @@ def run(params, records, *, p_valid: float = 1.0, p_ready: float = 1.0, seed: in
     if engine:
         meta["drain"] = params.latency + 8
     (job / "job.json").write_text(json.dumps(meta))
-    runner = get_runner(sim)
-    if sim == "verilator":
-        verilator_env()
-    t0 = time.perf_counter()
-    with open(bdir / ".build.lock", "w") as lock:
-        fcntl.flock(lock, fcntl.LOCK_EX)
-        runner.build(sources=[src], hdl_toplevel=top, build_dir=bdir, timescale=("1ns", "1ps"),
-                     build_args=["-Wno-fatal", "-Wno-WIDTH", "-O3"] if sim == "verilator" else [])
-    t1 = time.perf_counter()
-    env = {"COSIM_JOB": str(job), "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])}
-    runner.test(hdl_toplevel=top, test_module="cosim.raster_tb", build_dir=bdir, test_dir=job, extra_env=env,
-                results_xml=str(job / "results.xml"))
+    build_seconds, seconds = build_and_test(sim, src, top, bdir, job, "cosim.raster_tb")
     if not out.exists():
         raise RuntimeError(f"the testbench wrote no results ({out}); see the simulator log above")
     res = json.loads(out.read_text())
@@ -98,4 +82,4 @@ def run(params, records, *, p_valid: float = 1.0, p_ready: float = 1.0, seed: in
     return {"rtl": got, "simulator": sim, "records": int(len(mat)), "fragments": int(len(got)), "expected": int(len(want)),
             "mismatches": int(len(bad)) + abs(len(got) - len(want)), "first": first,
             "busy_cycles": res["busy_cycles"], "clocks": int(expected.clocks.sum()), "cycles": res["cycles"],
-            "build_seconds": round(t1 - t0, 2), "seconds": round(time.perf_counter() - t1, 2)}
+            "build_seconds": build_seconds, "seconds": seconds}

@@ -35,7 +35,7 @@ __all__ = ["DSP_BITS", "DP16KD_SHAPES", "LOGIC_ROM_BITS_PER_BLOCK", "MEMORY_KIND
 DSP_BITS = 18
 
 #: What a :class:`Memory` holds.
-MEMORY_KINDS = ("table", "texels")
+MEMORY_KINDS = ("table", "texels", "frame")
 
 #: ECP5 DP16KD block RAM shapes (words x bits) of one read port.
 DP16KD_SHAPES = ((16384, 1), (8192, 2), (4096, 4), (2048, 9), (1024, 18), (512, 36))
@@ -111,8 +111,8 @@ class Memory:
     count : int
         How many such memories.
     kind : str
-        ``table`` (a unit's own table, such as the reciprocal's, counted in ``table_bits``) or ``texels`` (a
-        scene's map, counted in ``memory_bits``).
+        ``table`` (a unit's own table, such as the reciprocal's, counted in ``table_bits``), ``texels`` (a
+        scene's map, counted in ``memory_bits``) or ``frame`` (an on-chip frame buffer, ``frame_bits``).
     name : str
         What it holds (for reports).
     """
@@ -223,8 +223,9 @@ def estimate(params) -> dict:
     dict
         ``dsp`` (MULT18X18D blocks), ``bram`` (DP16KD blocks), ``multipliers`` (products, each counted once
         however it is split), ``multiplier_bit_products`` (sum of operand-width products), ``table_bits``
-        (bits of the memories that are not texel memories: the reciprocal tables), ``memory_bits`` (the texel
-        memories' bits, each stored once), ``logic_rom_bits`` (memory bits Yosys keeps in logic).
+        (bits of the ``table`` memories: the reciprocal tables), ``memory_bits`` (the texel
+        memories' bits, each stored once), ``frame_bits`` (on-chip frame buffers), ``logic_rom_bits`` (memory
+        bits Yosys keeps in logic).
     """
     products = tuple(params.products())
     memories = tuple(params.memories())
@@ -237,5 +238,6 @@ def estimate(params) -> dict:
         "multiplier_bit_products": sum(p.count * p.a_bits * p.b_bits for p in products),
         "table_bits": sum(m.count * m.words * m.bits for m in tables),
         "memory_bits": sum(m.count * m.words * m.bits for m in texels),
+        "frame_bits": sum(m.count * m.words * m.bits for m in memories if m.kind == "frame"),
         "logic_rom_bits": sum(m.count * m.words * m.bits for m in memories if in_logic(m)),
     }

@@ -188,7 +188,7 @@ UNIT_MODULES = ("recip", "divide", "persp", "reflect", "cube", "bump", "sampler"
 
 #: Blocks with a parameter object and presets but not a unit's one-result-per-input contract (a variable number of
 #: outputs per input): ``info`` and ``presets`` know them; the per-unit tests, harnesses and sweeps do not.
-BLOCK_MODULES = ("raster",)
+BLOCK_MODULES = ("raster", "rop")
 
 
 def _load_all():

@@ -10,7 +10,7 @@ from pathlib import Path
 from .streams import StreamUnit
 from .unit import build
 
-__all__ = ["verilog_text", "write_verilog"]
+__all__ = ["verilog_text", "write_verilog", "component_verilog"]
 
 
 def verilog_text(params, name: str, optimize: bool = False, flat: bool = False) -> str:
@@ -22,7 +22,13 @@ def verilog_text(params, name: str, optimize: bool = False, flat: bool = False) 
     before writing: the same design (Yosys' equivalence-preserving passes, as any synthesis flow runs them), in a
     form event-driven simulators evaluate far faster. Measured on the reflection unit: Icarus 18 times faster.
     """
-    comp = build(params) if flat else StreamUnit(params)
+    return component_verilog(build(params) if flat else StreamUnit(params), name, optimize)
+
+
+def component_verilog(comp, name: str, optimize: bool = False, rename: bool = False) -> str:
+    """Verilog of any Amaranth component as module ``name`` (optionally optimized: :func:`verilog_text`).
+    ``rename=True`` lets Yosys give its internal names plain identifiers: Icarus cannot read the functions
+    ``write_verilog -norename`` writes for a parallel multiplexer (``$pmux``) under their ``$`` names."""
     if not optimize:
         from amaranth.back import verilog
         return verilog.convert(comp, name=name, emit_src=False)
@@ -30,7 +36,7 @@ def verilog_text(params, name: str, optimize: bool = False, flat: bool = False) 
     from amaranth.back import rtlil
     text = rtlil.convert(comp, name=name, emit_src=False)
     script = [f"read_rtlil <<rtlil\n{text}\nrtlil", "proc", "flatten", "opt -full", "wreduce",
-              "opt_clean", "memory_collect", "write_verilog -norename -noattr"]
+              "opt_clean", "memory_collect", "write_verilog -noattr" + ("" if rename else " -norename")]
     return find_yosys(lambda ver: ver >= (0, 40)).run(["-q", "-"], "\n".join(script), ignore_warnings=True)
 
 

@@ -229,3 +229,13 @@ def test_estimate_matches_the_synthesized_count(label, params, resources):
             assert rec.get("reason"), f"{label}: {kind} estimate {est[key]} != recorded {rec[kind]}, no reason given"
             assert abs(est[key] - rec[kind]) <= TOLERANCE * rec[kind], \
                 f"{label}: {kind} estimate {est[key]} is more than 10 % from recorded {rec[kind]} ({rec['reason']})"
+
+
+@pytest.mark.parametrize("name", ["default", "on_chip", "small"])
+def test_rop_declares_what_its_rtl_builds(name):
+    """The raster-operations unit: no product (the pixel address is shifted copies of ``y``); on chip, the frame
+    buffer memory."""
+    from fxmodel.rop import RopParams
+    P = RopParams.PRESETS[name]
+    assert built(P) == declared(P)
+    assert bool(P.memories()) == P.on_chip

@@ -1,0 +1,93 @@
+"""cocotb testbench of the raster-operations unit (``rtl/rop.py``), driven by :func:`cosim.rop.run`.
+
+``job.json`` in the folder named by ``COSIM_JOB`` holds the packed fragments (hex, first field in the low bits),
+the probability ``p_valid`` that the source offers a fragment in a cycle (a fragment once offered stays offered
+until taken: the stream rule), the wait-state probability ``p_pause`` of every AXI channel, the bench's latency
+``lat`` and the frame's initial memory image. Behind the port the memory is cocotbext-axi's ``AxiRam`` with a
+pause generator on each of its five channels; the testbench counts ``AR`` and ``AW`` transfers. When every
+fragment is taken and ``busy`` has been low for a few cycles it writes the memory image of the frame (or, on
+chip, the words read out through ``fb``) and the counts into ``frame.json``.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import os
+import random
+from pathlib import Path
+
+import cocotb
+from cocotb.clock import Clock
+from cocotb.triggers import FallingEdge, ReadOnly
+
+
+def _pauses(rng: random.Random, p: float):
+    while True:
+        yield rng.random() < p
+
+
+@cocotb.test()
+async def rop(dut):
+    job = Path(os.environ["COSIM_JOB"])
+    meta = json.loads((job / "job.json").read_text())
+    frags = [int(f, 16) for f in meta["fragments"]]
+    rng = random.Random(meta["seed"])
+    cocotb.start_soon(Clock(dut.clk, 10, unit="ns").start())
+    on_chip = meta["on_chip"]
+    dut.rst.value = 1
+    dut.i__valid.value = 0
+    dut.i__payload.value = 0
+    ram = None
+    if on_chip:
+        dut.fb__read.value = 0
+        dut.fb__addr.value = 0
+    else:
+        from cocotbext.axi import AxiBus, AxiRam
+        dut.lat.value = meta["latency"]
+        size = 1 << max(12, (meta["base"] + meta["frame_bytes"] - 1).bit_length())
+        ram = AxiRam(AxiBus.from_prefix(dut, "mem_"), dut.clk, dut.rst, size=size)
+        ram.write(meta["base"], bytes.fromhex(meta["init"]))
+        for side in (ram.write_if, ram.read_if):
+            side.log.setLevel(logging.WARNING)           # one line per transfer otherwise
+        for k, ch in enumerate((ram.write_if.aw_channel, ram.write_if.w_channel, ram.write_if.b_channel,
+                                ram.read_if.ar_channel, ram.read_if.r_channel)):
+            if meta["p_pause"] > 0:
+                ch.set_pause_generator(_pauses(random.Random(meta["seed"] * 7 + k), meta["p_pause"]))
+    for _ in range(3):
+        await FallingEdge(dut.clk)
+    dut.rst.value = 0
+    k, offered, idle, cycles, reads, writes, accept_cycles = 0, False, 0, 0, 0, 0, 0
+    while idle < 4:
+        await FallingEdge(dut.clk)
+        cycles += 1
+        assert cycles < meta["max_cycles"], f"no progress after {cycles} cycles ({k} of {len(frags)} fragments)"
+        if k < len(frags) and not offered:
+            offered = rng.random() < meta["p_valid"]
+            if offered:
+                dut.i__payload.value = frags[k]
+        dut.i__valid.value = int(offered)
+        await ReadOnly()
+        if offered and int(dut.i__ready.value):
+            k += 1
+            offered = False
+            accept_cycles = cycles
+        if not on_chip:
+            reads += int(dut.mem__arvalid.value) & int(dut.mem__arready.value)
+            writes += int(dut.mem__awvalid.value) & int(dut.mem__awready.value)
+        done = k == len(frags) and not offered
+        idle = idle + 1 if done and not int(dut.busy.value) else 0
+    status = int(dut.status.value)
+    result = {"cycles": cycles, "accept_cycles": accept_cycles, "reads": reads, "writes": writes, "status": status}
+    if on_chip:
+        words = []
+        await FallingEdge(dut.clk)                       # out of the read-only phase
+        dut.fb__read.value = 1
+        for a in range(meta["pixels"]):              # the word of the address set one clock edge earlier
+            dut.fb__addr.value = a
+            await FallingEdge(dut.clk)
+            words.append(format(int(dut.fb__data.value), "x"))
+        result["words"] = words
+    else:
+        result["image"] = ram.read(meta["base"], meta["frame_bytes"]).hex()
+    (job / "frame.json").write_text(json.dumps(result))

@@ -1,0 +1,119 @@
+"""Co-simulation of the raster-operations unit (``rtl/rop.py``) against :func:`fxmodel.rop.draw`: the final frame
+decoded from the memory model's image, bit for bit, and the bus traffic, with random fragment gaps, memory
+latency from 1 to 20 cycles and random wait states on every AXI channel; the same-pixel hazard provoked in every
+order; and proof that these tests can fail (the hazard check disabled gives a different frame)."""
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from cosim.rop import run
+from fxmodel.rop import STATUS_BITS, RopParams
+
+SMALL = RopParams.PRESETS["small"]
+
+
+def random_fragments(params, k, seed, hot=6):
+    """``k`` fragments, most on ``hot`` pixels (overdraw, so that depth decides), some anywhere in the frame,
+    the frame's corners, a few outside it (dropped and flagged) and depths at both ends of ``z_in`` (negative:
+    saturates to infinitely far)."""
+    rng = np.random.default_rng(seed)
+    P = params
+    px = rng.integers(0, P.pixels, hot)
+    idx = np.where(rng.random(k) < 0.7, px[rng.integers(0, hot, k)], rng.integers(0, P.pixels, k))
+    x, y = idx % P.width, idx // P.width
+    z = rng.integers(0, 1 << P.z_in.frac_bits, k)
+    z[rng.random(k) < 0.1] = z[0]                                        # equal depths: ties
+    corners = [(0, 0), (P.width - 1, 0), (0, P.height - 1), (P.width - 1, P.height - 1)]
+    outside = [(P.width, 0), (0, P.height), (P.pixel_fmt.max_code, P.pixel_fmt.max_code)]
+    for j, (cx, cy) in enumerate(corners + outside):
+        x[5 + 7 * j], y[5 + 7 * j] = cx, cy
+    z[3], z[11] = P.z_in.min_code, P.z_in.max_code
+    rgbf = rng.integers(0, 256, (k, 3)), rng.integers(0, 1 << P.flag_bits, (k, 1))
+    return np.column_stack([x, y, z, *rgbf])
+
+
+def hazard_pairs(params, order, gap=0):
+    """Pairs of fragments on one pixel back to back (``gap`` other fragments between them), each pair on a fresh
+    pixel: ``order`` ``nearer_first``, ``farther_first`` or ``equal`` depths; different colors."""
+    P = params
+    rows = []
+    for i in range(min(P.pixels // (gap + 1), 40)):
+        base = 1000 + 997 * i
+        a, b = {"nearer_first": (base + 600, base), "farther_first": (base, base + 600),
+                "equal": (base, base)}[order]
+        x, y = i % P.width, i // P.width
+        rows.append([x, y, a << 7, 10, 20, 30, 1])
+        for g in range(gap):
+            j = P.pixels - 1 - (i * gap + g)
+            rows.append([j % P.width, j // P.width, 5 << 7, 1, 2, 3, 0])
+        rows.append([x, y, b << 7, 40, 50, 60, 2])
+    return np.array(rows, dtype=np.int64)
+
+
+@pytest.mark.parametrize("latency, p_valid, p_pause", [(1, 1.0, 0.0), (3, 0.6, 0.3), (20, 0.9, 0.2)])
+def test_rop_rtl_matches_the_model(sim, latency, p_valid, p_pause):
+    frags = random_fragments(SMALL, 300, seed=latency)
+    res = run(SMALL, frags, latency=latency, p_valid=p_valid, p_pause=p_pause, seed=latency, sim=sim,
+              tag=f"random_{latency}")
+    model = res["model"]
+    assert res["mismatches"] == 0, res["first"]
+    assert model["passed"] > 20 and model["failed"] > 100 and model["outside"] == 3 and model["z_saturated"] >= 1
+    assert (res["rtl_bytes_read"], res["rtl_bytes_written"]) == (model["bytes_read"], model["bytes_written"])
+    assert res["status"] == (1 << STATUS_BITS["outside"]) | (1 << STATUS_BITS["z_saturated"])
+
+
+@pytest.mark.parametrize("order", ["nearer_first", "farther_first", "equal"])
+@pytest.mark.parametrize("latency", [1, 20])
+def test_same_pixel_in_flight_gives_the_sequential_frame(sim, order, latency):
+    """Two fragments of one pixel back to back, and with two others between them: the second is accepted while
+    the first's read or write is still in flight. Every order of their depths gives the model's frame; the pass
+    and fail counts show that the second one was decided against the first one's write."""
+    frags = np.concatenate([hazard_pairs(SMALL, order), hazard_pairs(SMALL, order, gap=2)[:60]])
+    res = run(SMALL, frags, latency=latency, sim=sim, tag=f"hazard_{order}_{latency}")
+    assert res["mismatches"] == 0, res["first"]
+    pairs = len(frags) // 2
+    assert res["model"]["passed"] >= (2 if order == "farther_first" else 1) * (pairs // 3)
+    assert (res["rtl_bytes_read"], res["rtl_bytes_written"]) == (res["model"]["bytes_read"],
+                                                                 res["model"]["bytes_written"])
+
+
+@pytest.mark.parametrize("on_chip", [False, True])
+def test_the_hazard_test_can_fail(sim, on_chip):
+    """Without the scoreboard (port) or the forwarding (on chip) the second fragment of a pair reads the depth
+    from before the first one's write: the nearer-first and equal pairs then overwrite the winner."""
+    P = dataclasses.replace(RopParams.PRESETS["on_chip"] if on_chip else SMALL, hazard=False)
+    frags = np.concatenate([hazard_pairs(P, "nearer_first"), hazard_pairs(P, "equal")])
+    res = run(P, frags, latency=5, sim=sim, tag="nohazard")
+    assert res["mismatches"] >= 20
+
+
+def test_on_chip_frame_buffer(sim):
+    P = RopParams.PRESETS["on_chip"]
+    frags = np.concatenate([random_fragments(P, 300, seed=3, hot=4), hazard_pairs(P, "nearer_first"),
+                            hazard_pairs(P, "equal")])
+    res = run(P, frags, p_valid=0.8, sim=sim, tag="onchip")
+    assert res["mismatches"] == 0, res["first"]
+    assert res["status"] == (1 << STATUS_BITS["outside"]) | (1 << STATUS_BITS["z_saturated"])
+
+
+def test_wide_bus_lanes_and_base(sim):
+    """A 128-bit bus (two pixel words per beat: the depth read and the write strobes select the lane) and a
+    frame based at an odd pixel word, over memory with older contents."""
+    P = dataclasses.replace(SMALL, data_bits=128, base=8 * 13, outstanding=8)
+    rng = np.random.default_rng(9)
+    fb = (rng.integers(0, 1 << 10, (P.height, P.width)), rng.integers(0, 256, (P.height, P.width, 4)) & 0x1F)
+    res = run(P, random_fragments(P, 200, seed=4), latency=4, p_pause=0.2, sim=sim, tag="wide", fb=fb)
+    assert res["mismatches"] == 0, res["first"]
+
+
+def test_one_fragment_per_clock_when_the_memory_keeps_up(sim):
+    """Distinct pixels, no gaps, no wait states, latency 5, 16 slots: every fragment is accepted in its own
+    clock."""
+    P = dataclasses.replace(SMALL, outstanding=16)
+    k = 150
+    i = np.arange(k)
+    frags = np.stack([i % P.width, i // P.width, i * 1000 + 5, i % 256, i % 256, i % 256, i % 32], 1)
+    res = run(P, frags, latency=5, sim=sim, tag="rate")
+    assert res["mismatches"] == 0 and res["accept_cycles"] == k

@@ -1,0 +1,299 @@
+"""RTL of the raster-operations unit (``fxmodel/rop.py``): per fragment read the pixel's stored depth, compare,
+and on pass write depth and color; the frame buffer behind an AXI4 master port or in block RAM (paper, section 4
+and Fig. 5: the engine's colors go to a frame buffer). Bit-exact with :func:`fxmodel.rop.draw`.
+
+Why AXI4 and not Wishbone B4: AXI4 is what FPGA memory controllers (DDR, HBM) and interconnects speak, and its
+independent read and write channels let depth reads of later fragments run while earlier writes are in flight,
+several transactions outstanding on each, which a one-fragment-per-clock read-modify-write needs when the memory
+takes tens of cycles. Wishbone's pipelined mode has one request channel for reads and writes. cocotbext-axi's
+``AxiRam`` is the memory model in co-simulation.
+
+Memory port (:class:`Rop`, ``on_chip=False``). Three stages, all transfers with ID 0 (in order):
+
+1. **Accept**: the fragment's depth narrowed (``z_in`` -> ``z_fmt``: TRUNC, SATURATE, as the model), the pixel
+   index ``y width + x`` (shifted copies of ``y``, no multiplier) into a register; a fragment outside the frame
+   is dropped there (``status`` bit ``outside``): no address outside the frame is formed, and the largest index,
+   ``width height - 1``, gives ``base + 8 (width height - 1)``, inside ``2**addr_bits`` (checked by
+   ``RopParams``).
+2. **Read**: ``AR`` (4 bytes, ``ARSIZE = 2``) is issued from that register into a free **slot** of the
+   scoreboard (``outstanding`` slots, allocated in a ring). A slot holds the fragment (pixel index, depth,
+   color) from its read until its fate is sealed: until the compare if it fails, until the write's ``B``
+   response if it passes (AXI4 orders a read after a write to the same address only once the write is
+   acknowledged).
+3. **Compare and write**: ``R`` beats return in order, so the next slot of the ring owns each beat; the fragment
+   passes iff its depth is strictly greater than the stored one (ties: the first drawn wins) and then enters a
+   two-entry write queue that issues ``AW`` and ``W`` (8 bytes, ``AWSIZE = 3``); the queue's slot numbers wait
+   in a ring for the ``B`` responses, which free the slots.
+
+**Hazard**: two fragments of one pixel in flight would read the same stored depth and both write. The
+scoreboard compares the accepted fragment's pixel index with every busy slot's and holds ``AR`` (and so ``i``)
+while one matches, so a fragment's read is issued only after the earlier fragment of its pixel failed or had its
+write acknowledged: the result is the model's sequential one. It costs a stall only when a pixel recurs within
+the round-trip time (small or overlapping triangles drawn back to back). ``hazard=False`` removes the check (for
+the test that shows the test can fail).
+
+Throughput: one fragment per clock while a slot is free and the memory keeps up; ``outstanding`` slots cover a
+round trip (read latency + write latency) of that many clocks. ``AR``/``AW``/``W`` valid never wait for their
+ready; ``R.ready`` and ``B.ready`` come from registers (``B`` is always taken).
+
+On chip (:class:`Rop`, ``on_chip=True``): the same read-compare-write on one Amaranth ``Memory`` of ``width
+height`` words (``z_fmt`` depth, r, g, b, flags, from the low bits), initialised to the clear value: the read port
+is addressed by the accepted fragment, the next cycle compares and writes. The read port is transparent for the
+write port, which forwards the write of the fragment just before to a fragment of the same pixel right behind
+it (the only overlap: a fragment is written one cycle after its read). ``i.ready`` is always 1, except while the
+frame is read out through ``fb`` (``fb.read``: the read port takes ``fb.addr``; ``fb.data`` holds the word one
+cycle later).
+"""
+
+from __future__ import annotations
+
+from amaranth.hdl import Array, Cat, Const, Module, Mux, Signal
+from amaranth.lib import memory, stream, wiring
+from amaranth.lib.wiring import In, Out
+
+from fxmodel.rop import DEPTH_BYTES, PIXEL_BYTES, STATUS_BITS, Z_OVERFLOW, Z_ROUNDING, RopParams, clear_frame
+
+from .fixed import const_mul, narrow
+from .streams import payload_layout
+from .unit import register
+
+__all__ = ["Rop", "axi_signature", "ring_next", "WRITE_QUEUE"]
+
+#: Entries of the write queue between the compare and the ``AW``/``W`` channels: one being issued, one arriving,
+#: so that ``R.ready`` is a register and one fragment per clock passes.
+WRITE_QUEUE = 2
+
+
+def axi_signature(addr_bits: int, data_bits: int, id_bits: int = 1) -> wiring.Signature:
+    """An AXI4 manager port (the AMBA names, lower case, without the ``m_axi_`` prefix): ``AW``, ``W``, ``B``,
+    ``AR``, ``R`` with ID, length, size and burst; no lock, cache, prot, QoS, region or user signals (the
+    defaults). Out members are driven by the manager."""
+    return wiring.Signature({
+        "awid": Out(id_bits), "awaddr": Out(addr_bits), "awlen": Out(8), "awsize": Out(3), "awburst": Out(2),
+        "awvalid": Out(1), "awready": In(1),
+        "wdata": Out(data_bits), "wstrb": Out(data_bits // 8), "wlast": Out(1), "wvalid": Out(1), "wready": In(1),
+        "bid": In(id_bits), "bresp": In(2), "bvalid": In(1), "bready": Out(1),
+        "arid": Out(id_bits), "araddr": Out(addr_bits), "arlen": Out(8), "arsize": Out(3), "arburst": Out(2),
+        "arvalid": Out(1), "arready": In(1),
+        "rid": In(id_bits), "rdata": In(data_bits), "rresp": In(2), "rlast": In(1), "rvalid": In(1),
+        "rready": Out(1)})
+
+
+def _readout_signature(params: RopParams) -> wiring.Signature:
+    return wiring.Signature({"read": In(1), "addr": In(range(params.pixels)), "data": Out(params.word_bits)})
+
+
+def _index(params: RopParams, x, y):
+    """``(inside, y width + x)``: the pixel index of an inside fragment (shifted copies of ``y``)."""
+    inside = (x < params.width) & (y < params.height)
+    return inside, (const_mul(y, params.width) + x)[:_index_bits(params)]
+
+
+def _index_bits(params: RopParams) -> int:
+    return max(1, (params.pixels - 1).bit_length())
+
+
+def ring_next(ptr, n: int):
+    """The pointer after ``ptr`` in a ring of ``n`` slots (any ``n``)."""
+    return Mux(ptr == n - 1, 0, ptr + 1)
+
+
+class _Ring:
+    """A pointer over ``n`` slots, stepping with wrap-around."""
+
+    def __init__(self, n: int, name: str):
+        self.n = n
+        self.ptr = Signal(range(n), name=name)
+
+    def next(self):
+        return ring_next(self.ptr, self.n)
+
+
+@register(RopParams)
+class Rop(wiring.Component):
+    """Raster operations: depth test and frame buffer.
+
+    Ports
+    -----
+    i : In(stream.Signature(payload_layout(params.inputs))) -- fragments ``x, y`` (``pixel_fmt``), ``z``
+        (``z_in``), ``r, g, b`` (u8.0), ``flags`` (``flags_fmt``)
+    axi : Out(axi_signature(addr_bits, data_bits)) -- the AXI4 manager port (``on_chip=False`` only)
+    fb : the frame read-out (``on_chip=True`` only): ``read`` In(1), ``addr`` In (pixel index ``y width + x``),
+        ``data`` Out(``word_bits``): the word of the address given one cycle earlier
+    busy : Out(1) -- a fragment accepted and not yet finished (its write not acknowledged, or it failed)
+    status : Out(3) -- sticky: bit 0 a fragment outside the frame was dropped, bit 1 a depth saturated (the
+        narrowing to ``z_fmt``), bit 2 an AXI error response (``fxmodel.rop.STATUS_BITS``)
+    """
+
+    def __init__(self, params: RopParams):
+        self.params = params
+        members = {"i": In(stream.Signature(payload_layout(params.inputs))), "busy": Out(1),
+                   "status": Out(len(STATUS_BITS))}
+        if params.on_chip:
+            members["fb"] = Out(_readout_signature(params))
+        else:
+            members["axi"] = Out(axi_signature(params.addr_bits, params.data_bits))
+        super().__init__(members)
+
+    # -- shared: the accepted fragment --------------------------------------------------------------------
+    def _accept(self, m):
+        P = self.params
+        f = self.i.payload
+        zc, zsat = narrow(f.z, P.z_in.frac_bits, P.z_fmt, Z_ROUNDING, Z_OVERFLOW)
+        inside, index = _index(P, f.x, f.y)
+        color = Cat(f.r, f.g, f.b, f.flags)
+        return zc, zsat, inside, index, color
+
+    def elaborate(self, platform):
+        return self._on_chip() if self.params.on_chip else self._port()
+
+    # -- on chip ------------------------------------------------------------------------------------------
+    def _on_chip(self):
+        P = self.params
+        m = Module()
+        depth, color = clear_frame(P)
+        clear = int(depth[0, 0]) | sum(int(c) << (P.z_fmt.width + 8 * k) for k, c in enumerate(color[0, 0]))
+        m.submodules.frame = mem = memory.Memory(shape=P.word_bits, depth=P.pixels, init=[clear] * P.pixels)
+        wp = mem.write_port()
+        rp = mem.read_port(transparent_for=(wp,) if P.hazard else ())
+        zc, zsat, inside, index, color = self._accept(m)
+        m.d.comb += self.i.ready.eq(~self.fb.read)
+        take = self.i.valid & self.i.ready
+        s_valid = Signal()
+        s_z = Signal(P.z_fmt.width)
+        s_color = Signal(24 + P.flag_bits)
+        s_index = Signal.like(wp.addr)
+        m.d.sync += [s_valid.eq(take & inside), s_z.eq(zc), s_color.eq(color), s_index.eq(index)]
+        m.d.comb += [rp.addr.eq(Mux(self.fb.read, self.fb.addr, index)), rp.en.eq(1), self.fb.data.eq(rp.data)]
+        stored = rp.data[:P.z_fmt.width]
+        m.d.comb += [wp.addr.eq(s_index), wp.data.eq(Cat(s_z, s_color)), wp.en.eq(s_valid & (s_z > stored))]
+        m.d.comb += self.busy.eq(s_valid)
+        self._sticky(m, take & ~inside, take & inside & zsat, Const(0))
+        return m
+
+    def _sticky(self, m, outside, zsat, bus_error):
+        bits = [None] * len(STATUS_BITS)
+        bits[STATUS_BITS["outside"]], bits[STATUS_BITS["z_saturated"]] = outside, zsat
+        bits[STATUS_BITS["bus_error"]] = bus_error
+        with m.If(Cat(*bits).any()):
+            m.d.sync += self.status.eq(self.status | Cat(*bits))
+
+    # -- behind the AXI4 port -----------------------------------------------------------------------------
+    def _port(self):
+        P = self.params
+        m = Module()
+        axi = self.axi
+        N = P.outstanding
+        lanes = P.data_bits // 64                        # 64-bit pixel words per bus beat
+        zc, zsat, inside, index, color = self._accept(m)
+
+        # stage 1: the accepted fragment
+        s_valid = Signal()
+        s_index = Signal(_index_bits(P))
+        s_z = Signal(P.z_fmt.width)
+        s_color = Signal(24 + P.flag_bits)
+
+        # the scoreboard: slots in a ring
+        busy = Signal(N, name="slot_busy")
+        slot_index = Array(Signal.like(s_index, name=f"slot{k}_index") for k in range(N))
+        slot_z = Array(Signal.like(s_z, name=f"slot{k}_z") for k in range(N))
+        slot_color = Array(Signal.like(s_color, name=f"slot{k}_color") for k in range(N))
+        tail, rd = _Ring(N, "alloc"), _Ring(N, "rd")
+
+        conflict = Signal()
+        if P.hazard:
+            m.d.comb += conflict.eq(Cat(busy[k] & (slot_index[k] == s_index) for k in range(N)).any())
+        free = ~busy.bit_select(tail.ptr, 1)
+        ar_go = Signal()
+
+        def address(index):
+            return Const(P.base, P.addr_bits) + (index << 3)
+
+        m.d.comb += [axi.arvalid.eq(s_valid & free & ~conflict), axi.araddr.eq(address(s_index)),
+                     axi.arsize.eq((DEPTH_BYTES - 1).bit_length()), axi.arlen.eq(0), axi.arburst.eq(1),
+                     axi.arid.eq(0), ar_go.eq(axi.arvalid & axi.arready)]
+        m.d.comb += self.i.ready.eq(~s_valid | ar_go)
+        take = self.i.valid & self.i.ready
+        with m.If(take):
+            m.d.sync += [s_valid.eq(inside), s_index.eq(index), s_z.eq(zc), s_color.eq(color)]
+        with m.Elif(ar_go):
+            m.d.sync += s_valid.eq(0)
+        self._sticky(m, take & ~inside, take & inside & zsat, (axi.rvalid & axi.rready & axi.rresp.any())
+                     | (axi.bvalid & axi.bready & axi.bresp.any()))
+
+        # write queue: index, depth, color, slot
+        q_index = [Signal.like(s_index, name=f"wq{k}_index") for k in range(WRITE_QUEUE)]
+        q_z = [Signal.like(s_z, name=f"wq{k}_z") for k in range(WRITE_QUEUE)]
+        q_color = [Signal.like(s_color, name=f"wq{k}_color") for k in range(WRITE_QUEUE)]
+        q_slot = [Signal(range(N), name=f"wq{k}_slot") for k in range(WRITE_QUEUE)]
+        q_count = Signal(range(WRITE_QUEUE + 1))
+        aw_done, w_done = Signal(), Signal()
+
+        # compare: the R beat belongs to slot rd
+        r_go = Signal()
+        m.d.comb += [axi.rready.eq(q_count < WRITE_QUEUE), r_go.eq(axi.rvalid & axi.rready)]
+        r_index = slot_index[rd.ptr]
+        if lanes > 1:
+            lane = (r_index + P.base // PIXEL_BYTES)[:(lanes - 1).bit_length()]
+            word = axi.rdata.word_select(lane, 64)
+        else:
+            word = axi.rdata
+        stored = word[:8 * DEPTH_BYTES]
+        passes = slot_z[rd.ptr] > stored
+
+        # write issue from the queue's head
+        head = Signal()
+        m.d.comb += head.eq(q_count != 0)
+        data = Cat(q_z[0], Const(0, 8 * DEPTH_BYTES - P.z_fmt.width), q_color[0],
+                   Const(0, 8 - P.flag_bits))
+        m.d.comb += [axi.awvalid.eq(head & ~aw_done), axi.awaddr.eq(address(q_index[0])),
+                     axi.awsize.eq((PIXEL_BYTES - 1).bit_length()), axi.awlen.eq(0), axi.awburst.eq(1),
+                     axi.awid.eq(0),
+                     axi.wvalid.eq(head & ~w_done), axi.wdata.eq(data.replicate(lanes)), axi.wlast.eq(1)]
+        if lanes > 1:
+            wlane = (q_index[0] + P.base // PIXEL_BYTES)[:(lanes - 1).bit_length()]
+            m.d.comb += axi.wstrb.eq(Const(0xFF, P.data_bits // 8) << (wlane << 3))
+        else:
+            m.d.comb += axi.wstrb.eq(0xFF)
+        aw_now = axi.awvalid & axi.awready
+        w_now = axi.wvalid & axi.wready
+        issued = head & (aw_done | aw_now) & (w_done | w_now)
+        with m.If(issued):
+            m.d.sync += [aw_done.eq(0), w_done.eq(0)]
+        with m.Else():
+            m.d.sync += [aw_done.eq(aw_done | aw_now), w_done.eq(w_done | w_now)]
+        push = r_go & passes
+        m.d.sync += q_count.eq(q_count + push - issued)
+        with m.If(issued):
+            m.d.sync += [q_index[0].eq(q_index[1]), q_z[0].eq(q_z[1]), q_color[0].eq(q_color[1]),
+                         q_slot[0].eq(q_slot[1])]
+        with m.If(push):
+            at = q_count - issued
+            for k in range(WRITE_QUEUE):
+                with m.If(at == k):
+                    m.d.sync += [q_index[k].eq(r_index), q_z[k].eq(slot_z[rd.ptr]),
+                                 q_color[k].eq(slot_color[rd.ptr]), q_slot[k].eq(rd.ptr)]
+
+        # slots waiting for B, in issue order
+        b_slot = Array(Signal(range(N), name=f"b{k}_slot") for k in range(N))
+        b_head, b_tail = _Ring(N, "b_head"), _Ring(N, "b_tail")
+        b_go = Signal()
+        m.d.comb += [axi.bready.eq(1), b_go.eq(axi.bvalid)]
+        with m.If(issued):
+            m.d.sync += [b_slot[b_tail.ptr].eq(q_slot[0]), b_tail.ptr.eq(b_tail.next())]
+        with m.If(b_go):
+            m.d.sync += b_head.ptr.eq(b_head.next())
+
+        # slot bookkeeping: allocate at AR, free at a failed compare or at B
+        with m.If(ar_go):
+            m.d.sync += [slot_index[tail.ptr].eq(s_index), slot_z[tail.ptr].eq(s_z),
+                         slot_color[tail.ptr].eq(s_color), tail.ptr.eq(tail.next())]
+        with m.If(r_go):
+            m.d.sync += rd.ptr.eq(rd.next())
+        set_ = Signal(N)
+        clr = Signal(N)
+        m.d.comb += set_.eq(Mux(ar_go, Const(1, N) << tail.ptr, 0))
+        m.d.comb += clr.eq(Mux(r_go & ~passes, Const(1, N) << rd.ptr, 0) | Mux(b_go, Const(1, N) << b_slot[b_head.ptr], 0))
+        m.d.sync += busy.eq((busy & ~clr) | set_)
+        m.d.comb += self.busy.eq(s_valid | busy.any() | head)
+        return m

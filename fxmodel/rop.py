@@ -16,10 +16,10 @@ writes nothing. Before the first fragment every pixel holds ``clear_depth`` and 
 
 Depth word
 ----------
-The scan converter's ``Z`` (``z_in``, a signed format, e.g. s2.22) is in ``[0, 1]`` at every covered pixel (a
+The scan converter's ``Z`` (``z_in``, a signed format: the raster's ``out_fmt("Z")``) is in ``[0, 1]`` at every covered pixel (a
 convex combination of vertex values in ``(0, 1]``, within the interpolators' proven 3/4 ulp, and rounded
 half-up, so never below 0). The stored word ``z_fmt`` is unsigned; by default ``z_in`` without its sign bit
-(u1.22: exact, every code of ``[0, 2)``). The narrowing from ``z_in`` to ``z_fmt`` is named: **rounding TRUNC**
+(exact: every code of ``[0, 2)``). The narrowing from ``z_in`` to ``z_fmt`` is named: **rounding TRUNC**
 (floor, monotone, so the order of two depths is kept or becomes a tie, never reversed) and **overflow
 SATURATE**: a negative ``Z`` becomes 0 (infinitely far) and one above the format's top its largest code, each
 counted (``stats["z_saturated"]``) and raised on the RTL's sticky ``status`` bit. A narrower ``z_fmt`` (fewer
@@ -318,9 +318,9 @@ def read_frame(params: RopParams, image) -> tuple:
     return depth, color
 
 
-#: ``default``: a 256 x 256 frame behind the AXI4 port (the raster's default Z, s2.22, stored as u1.22);
-#: ``on_chip``: a 64 x 64 frame in block RAM; ``small``: 16 x 12 behind the port with 16-bit depth (u1.15) and
-#: 4 slots, for quick RTL tests.
+#: ``default``: a 256 x 256 frame behind the AXI4 port (the raster's default ``Z``, stored without its sign bit);
+#: ``on_chip``: a 64 x 64 frame in block RAM; ``small``: 16 x 12 behind the port with a 16-bit depth word (7
+#: fraction bits dropped) and 4 slots, for quick RTL tests.
 RopParams.PRESETS = {
     "default": RopParams(),
     "on_chip": RopParams(width=64, height=64, on_chip=True),

@@ -116,7 +116,7 @@ class Rop(wiring.Component):
     Ports
     -----
     i : In(stream.Signature(payload_layout(params.inputs))) -- fragments ``x, y`` (``pixel_fmt``), ``z``
-        (``z_in``), ``r, g, b`` (u8.0), ``flags`` (``flags_fmt``)
+        (``z_in``), ``r, g, b`` (bytes), ``flags`` (``flags_fmt``)
     axi : Out(axi_signature(addr_bits, data_bits)) -- the AXI4 manager port (``on_chip=False`` only)
     fb : the frame read-out (``on_chip=True`` only): ``read`` In(1), ``addr`` In (pixel index ``y width + x``),
         ``data`` Out(``word_bits``): the word of the address given one cycle earlier

@@ -101,7 +101,7 @@ def test_memory_image_round_trips_and_refuses_bad_images():
     with pytest.raises(ValueError, match="image"):
         read_frame(SMALL, img[:-1])
     bad = bytearray(img)
-    bad[8 * 5 + 2] = 0xFF                                   # pixel 5's depth beyond u1.15
+    bad[8 * 5 + 2] = 0xFF                                   # pixel 5's depth beyond z_fmt
     with pytest.raises(ValueError, match="pixel"):
         read_frame(SMALL, bytes(bad))
 

@@ -82,6 +82,9 @@ KNOWN_DIFFERENCES: dict[tuple, str] = {
 #: Pins of the CABGA381 package usable as IO (nextpnr's TRELLIS_IO count); a design needing more is placed
 #: out of context.
 PACKAGE_IO = 365
+#: Blocks (not units: no one-result-per-input contract) that ``make fpga`` synthesizes beside every unit: the
+#: raster-operations unit (depth test, frame buffer port), as its own component.
+FPGA_BLOCKS = ("rop",)
 
 
 @dataclass(frozen=True)
@@ -252,6 +255,13 @@ def parse_results(report: dict, stat: dict | None = None) -> dict:
 # -- running ------------------------------------------------------------------------------------------------------
 
 def _port_bits(params) -> int:
+    if not hasattr(params, "outputs"):                 # a block with its own ports (the ROP: a memory port)
+        from amaranth.hdl import Value
+
+        from rtl.unit import build
+        comp = build(params)
+        comp._MustUse__silence = True                  # only counting its ports
+        return sum(len(Value.cast(v)) for _, _, v in comp.signature.flatten(comp)) + 2    # + clk, rst
     return sum(p.fmt.width for p in params.inputs + params.outputs) + 6      # + clk, rst, valid and ready of i, o
 
 
@@ -489,7 +499,7 @@ def design_list(unit_names=None, preset_list=None, scene=None) -> list[tuple[dic
         return [({"unit": "pipeline", "preset": name, "scene": stem}, pipeline_params(scene, name))
                 for name in preset_list or ["default"]]
     out = []
-    for unit in unit_names or units():
+    for unit in unit_names or units() + list(FPGA_BLOCKS):
         for name in preset_list or preset_names(unit):
             if preset_list and name not in preset_names(unit):
                 continue

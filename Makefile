@@ -8,7 +8,7 @@ STAMP    := $(VENV)/.installed
 SIM      ?= icarus
 PRESET   ?= default
 SCENE    ?= tin-plane
-INPUT    ?= fragments
+INPUT    ?= triangles
 JOBS     ?= 2
 # nextpnr router of `make fpga` (router1: the README's figures; router2: quick checks of the pipeline)
 ROUTER   ?= router1
@@ -21,8 +21,8 @@ export SIM
 .PHONY: setup test verilog sim render bench fpga exhaustive exhaustive-wide clean help
 
 help:
-	@echo "make sim        render SCENE (default tin-plane) through the RTL pipeline, bit-exact check (SIM=icarus|verilator)"
-	@echo "                INPUT=triangles: from triangle records through the scan converter and interpolators"
+	@echo "make sim        draw SCENE (default tin-plane) from triangles through the RTL engine, bit-exact check"
+	@echo "                (SIM=icarus|verilator); INPUT=fragments: from the front end's fragments through the pixel pipeline"
 	@echo "make render     render SCENE through the bit-exact model only, with the float references"
 	@echo "make test       the test suite (model properties, RTL build, co-simulation on \$$SIM)"
 	@echo "make verilog    write build/verilog/<unit>_<preset>.v for every unit and preset;"

@@ -60,8 +60,8 @@ from fxmodel.vectors import layout, write_words
 from .harness import ROOT, params_key, simulator, verilator_env
 
 __all__ = ["PATTERNS", "render", "Space", "FullSpace", "ProductSpace", "ArraySpace", "ConcatSpace", "full_space", "grid_space",
-           "edge_codes", "as_space", "shard_range", "parse_shard", "wrapper_verilog", "run_stream",
-           "measure_throughput", "StreamResult", "DEPTH", "CHUNK", "AHEAD", "BUILD"]
+           "edge_codes", "as_space", "shard_range", "parse_shard", "wrapper_verilog", "run_stream", "run_records",
+           "measure_throughput", "StreamResult", "DEPTH", "CHUNK", "AHEAD", "BUILD", "RECORD_DEPTH"]
 
 BUILD = ROOT / "build" / "stream"
 #: Words of the wrapper's vector memory (the largest chunk); fixed so every run reuses one build per unit.
@@ -337,7 +337,8 @@ def render(template: Path, **values) -> str:
     return env.from_string(template.read_text()).render(**values)
 
 
-def wrapper_verilog(params, top: str, dut: str, *, depth: int = DEPTH, keep: int = 8, clock: str = "pulse") -> str:
+def wrapper_verilog(params, top: str, dut: str, *, depth: int = DEPTH, keep: int = 8, clock: str = "pulse",
+                    expand: bool = False, busy: bool = False) -> str:
     """Verilog of the streaming testbench wrapper ``top`` around the stream version of the unit, module ``dut``
     (:class:`rtl.streams.StreamUnit`: ``clk``, ``rst``, ``i__valid``, ``i__ready``, ``i__payload``,
     ``o__valid``, ``o__ready``, ``o__payload``; payload fields at the offsets of ``rtl.streams.input_layout``
@@ -359,6 +360,15 @@ def wrapper_verilog(params, top: str, dut: str, *, depth: int = DEPTH, keep: int
     counter mode) and ``rec_got`` (the unit's outputs), slot ``s`` at bits ``[s*width +: width]``. The
     ``depth``-word vector memory is the submodule ``<top>_mem``; ``clock`` is a key of ``_CLOCKS`` (see
     :func:`clock_style`).
+
+    ``expand=True``: a design whose inputs give any number of outputs each (triangle records in, fragments out:
+    :func:`run_records`). The memory word is the inputs only; two more ports, ``out_len`` (the outputs the
+    chunk's inputs give, the model's count) and ``limit`` (cycles after which an unfinished chunk ends), and no
+    comparison inside: every output taken is written to ``out_<k>.hex`` (``dump``) for the caller to compare, and
+    ``missing`` / ``extra`` count against ``out_len``; no fixed-latency check. ``busy=True``: the design has an
+    output ``busy`` (working on an input): the counter ``busy_cycles`` counts its cycles. In ``expand`` mode a
+    chunk ends once every input was taken and no output came for ``latency + 8`` cycles with ``o.ready`` high
+    (and ``busy`` low), or after ``limit`` cycles.
     """
     from rtl.streams import input_layout, output_layout
 
@@ -387,7 +397,7 @@ def wrapper_verilog(params, top: str, dut: str, *, depth: int = DEPTH, keep: int
     return render(TEMPLATE, unit=params.NAME, top=top, dut=dut, dut_id=_vid(dut), fields=rows,
                   inputs=rows[:n_in], outputs=rows[n_in:], iw=iw, ow=ow, depth=depth, keep=keep, latency=lat,
                   sign_mask=sign_mask, clock=_CLOCKS[clock], pw_in=lin.size, pw_out=lout.size,
-                  max_path=MAX_PATH,
+                  max_path=MAX_PATH, expand=expand, busy=busy,
                   vpipe_next="take_in" if lat == 1 else f"{{vpipe[{lat - 2}:0], take_in}}")
 
 
@@ -439,6 +449,7 @@ class _Build:
     bdir: Path
     top: str
     seconds: float
+    busy: bool = False
 
 
 def stand_in_verilog(params, name: str) -> str:
@@ -468,16 +479,24 @@ def stand_in_verilog(params, name: str) -> str:
     return verilog.convert(StandIn(), name=name, emit_src=False)
 
 
-def _build(params, rtl_params, variant: str, sim: str, keep: int, waves: bool, stand_in: bool = False) -> _Build:
+def _build(params, rtl_params, variant: str, sim: str, keep: int, waves: bool, stand_in: bool = False,
+           expand: bool = False, depth: int = DEPTH, optimize: bool | None = None) -> _Build:
     """Generate the unit's Verilog (from ``rtl_params``) and the wrapper, and build the simulation once per
     content: the build folder is keyed by :func:`cosim.harness.params_key` (parameters and sources) and the
     variant; a stamp of the Verilog texts and build options skips rebuilding. Concurrent runs (pytest-xdist)
-    serialize on a lock file."""
+    serialize on a lock file. ``expand``: the wrapper's ``expand`` mode for a design whose inputs give any number
+    of outputs (with stream ports of its own, ``rtl.unit.stream_native``: the engine from the triangle) (:func:`wrapper_verilog`), with its ``busy`` output
+    counted if the design has one (``_Build.busy``). ``optimize``: the Yosys-optimized netlist (default: for
+    Icarus; slow to make for a big design, so a short run may do without: its variant name says so)."""
     from cocotb_tools.runner import get_runner
 
     # one folder per distinct build, so that concurrent runs never rebuild a simulation another one is using
+    default = sim == "icarus"
+    optimize = default if optimize is None else bool(optimize)
     key = params_key(rtl_params) + "".join(f"-{x}" for x in (variant, f"keep{keep}" if keep != 8 else "",
-                                                              "waves" if waves else "") if x)
+                                                              "waves" if waves else "",
+                                                              "" if optimize == default else
+                                                              ("opt" if optimize else "plain")) if x)
     bdir = BUILD / sim / f"{params.NAME}_{key}"
     bdir.mkdir(parents=True, exist_ok=True)
     dut = f"{params.NAME}_dut"
@@ -490,9 +509,12 @@ def _build(params, rtl_params, variant: str, sim: str, keep: int, waves: bool, s
             from rtl import verilog_text
             # as cosim.harness: a Yosys-optimized netlist for event-driven Icarus, Amaranth's Verilog for Verilator
             (bdir / f"{dut}.v.tmp").write_text(stand_in_verilog(params, dut) if stand_in else
-                                               verilog_text(rtl_params, dut, optimize=(sim == "icarus")))
+                                               verilog_text(rtl_params, dut, optimize=optimize))
             os.replace(bdir / f"{dut}.v.tmp", src)
-        text = wrapper_verilog(params, top, dut, keep=keep, clock=clock_style(src.read_text(), waves))
+        dut_text = src.read_text()
+        busy = expand and re.search(r"^\s*output\s+busy\s*;", dut_text, re.M) is not None
+        text = wrapper_verilog(params, top, dut, keep=keep, clock=clock_style(dut_text, waves),
+                               expand=expand, busy=busy, depth=depth)
         wrapper = bdir / f"{top}.v"
         if not wrapper.exists() or wrapper.read_text() != text:
             wrapper.write_text(text)
@@ -512,7 +534,7 @@ def _build(params, rtl_params, variant: str, sim: str, keep: int, waves: bool, s
                 raise RuntimeError(f"building the {sim} simulation of {params.NAME} failed ({exc}); "
                                    f"log: {log}\n{_tail(log)}") from None
             stamp.write_text(digest)
-    return _Build(sim, bdir, top, time.perf_counter() - t0)
+    return _Build(sim, bdir, top, time.perf_counter() - t0, busy)
 
 
 def _verbose() -> bool:
@@ -726,6 +748,160 @@ def run_stream(params, space=None, *, sim: str | None = None, lo: int = 0, hi: i
                        + list(job.glob("*.fst")), key=lambda f: f.stat().st_mtime)
         result["waves"] = str(dumps[-1]) if dumps else None
     if not waves and not tag:                          # the result holds all it found; logs stay on errors only
+        shutil.rmtree(job, ignore_errors=True)
+    return result
+
+
+#: Inputs the wrapper's memory holds in ``expand`` mode (:func:`run_records`): triangle records are wide (some
+#: thousand bits), so a chunk holds at most this many, and as many as give about ``chunk`` outputs.
+RECORD_DEPTH = 1 << 12
+
+
+def _record_chunks(counts: np.ndarray, chunk: int, depth: int) -> list[tuple[int, int]]:
+    """Consecutive input ranges ``[a, b)``, each of at most ``depth`` inputs and, where an input allows, about
+    ``chunk`` outputs (an input is never split)."""
+    out, a, n = [], 0, 0
+    for i, c in enumerate(np.asarray(counts, dtype=np.int64).tolist()):
+        if i > a and (n + c > chunk or i - a >= depth):
+            out.append((a, i))
+            a, n = i, 0
+        n += c
+    if a < len(counts):
+        out.append((a, len(counts)))
+    return out
+
+
+def run_records(params, inputs, expected, counts, *, clocks=None, sim: str | None = None, pattern="none",
+                seed: int = 1, chunk: int = 4096, depth: int = RECORD_DEPTH, keep: int = 8, tag: str | None = None,
+                waves: bool | None = None, progress=None, optimize: bool | None = None) -> StreamResult:
+    """Stream inputs that give any number of outputs each (triangle records in, fragments out) through a design
+    with stream ports of its own, and compare every output with the model's, in order.
+
+    The mechanism of :func:`run_stream`, in the wrapper's ``expand`` mode (:func:`wrapper_verilog`): the inputs
+    go to the design from ``$readmemh`` chunk files, at most ``depth`` and about ``chunk`` outputs' worth a
+    chunk; the clock, the gaps on the input valid and the backpressure on the output ready (:data:`PATTERNS`)
+    are made inside the wrapper; every output taken is written to a file, and here compared bit for bit with
+    ``expected``, counted (none lost, none extra) and kept in order. The outputs are decoded generically, one
+    column per ``params.outputs`` field: a field added to the design's output payload comes through as it is.
+
+    Parameters
+    ----------
+    params
+        The design's parameter object: ``NAME``, ``inputs`` and ``outputs`` (ports: the input and output
+        payloads' fields, first field in the low bits), ``latency`` (cycles from the last input's work to its
+        last output, for the idle rule); ``rtl.build(params)`` is a component with ``i`` and ``o`` stream ports
+        (and optionally ``busy``, an output high while the design works on an input: its cycles are counted).
+    inputs : array_like, shape (T, len(params.inputs))
+        Input codes.
+    expected : array_like, shape (K, len(params.outputs))
+        The model's outputs in the order the design gives them.
+    counts : array_like, shape (T,)
+        Outputs of each input (sum ``K``).
+    clocks : array_like, shape (T,), optional
+        The model's cycles per input: sets each chunk's cycle limit (default: the outputs).
+    sim, pattern, seed, keep, tag, waves, progress
+        As :func:`run_stream` (a sequence of patterns gives chunk ``k`` pattern ``k mod len``; ``progress``
+        counts outputs).
+    optimize : bool, optional
+        Simulate the Yosys-optimized netlist (default: on Icarus, as :func:`run_stream`). Yosys takes about a
+        minute on the whole engine; a run of a few thousand fragments is done sooner on Amaranth's own Verilog.
+
+    Returns
+    -------
+    StreamResult
+        As :func:`run_stream` (``vectors`` the outputs compared, ``expected_vectors`` ``K``), plus ``inputs``, and
+        ``busy_cycles`` when the design has ``busy``; ``result.rtl`` the output codes ``(K', outputs)``.
+    """
+    from cocotb_tools.runner import get_runner
+
+    sim = simulator(sim)
+    waves = os.environ.get("WAVES", "0") not in ("", "0") if waves is None else bool(waves)
+    inputs = np.asarray(inputs, dtype=np.int64).reshape(-1, len(params.inputs))
+    expected = np.asarray(expected, dtype=np.int64).reshape(-1, len(params.outputs))
+    counts = np.asarray(counts, dtype=np.int64)
+    if counts.shape != (len(inputs),) or int(counts.sum()) != len(expected):
+        raise ValueError(f"counts: {counts.shape} entries summing to {int(counts.sum())}, for {len(inputs)} inputs "
+                         f"and {len(expected)} expected outputs")
+    patterns = [pattern] if isinstance(pattern, str) else list(pattern)
+    if not patterns or any(p not in PATTERNS for p in patterns):
+        raise ValueError(f"pattern={pattern!r}: one or more of {', '.join(PATTERNS)}")
+    if not len(inputs):
+        raise ValueError("no inputs: nothing to check")
+    clocks = counts if clocks is None else np.asarray(clocks, dtype=np.int64)
+    bld = _build(params, params, "", sim, keep, waves, expand=True, depth=depth, optimize=optimize)
+    has_busy = bld.busy
+    job = bld.bdir / (tag or f"job_{os.getpid()}_{threading.get_native_id()}")
+    if len(str(job)) + 32 > MAX_PATH:
+        raise ValueError(f"job folder path too long for the wrapper's file-name register: {job}")
+    job.mkdir(exist_ok=True)
+    for old in job.iterdir():
+        if old.is_file():
+            old.unlink()
+    ranges = _record_chunks(counts, chunk, depth)
+    ends = np.cumsum([int(counts[a:b].sum()) for a, b in ranges]).tolist()
+    outs = [(e - int(counts[a:b].sum()), e) for (a, b), e in zip(ranges, ends)]
+    iw = sum(p.fmt.width for p in params.inputs)
+    ins = [(p.name, p.fmt) for p in params.inputs]
+    for k, (a, b) in enumerate(ranges):
+        write_readmemh(job / f"chunk_{k}.hex", ins, inputs[a:b])
+    limits = [min(32 * int(clocks[a:b].sum() + counts[a:b].sum() + b - a) + 20000 + 64 * params.latency,
+                  (1 << 32) - 1) for a, b in ranges]
+    meta = {"chunks": [b - a for a, b in ranges], "bases": [0] * len(ranges), "counter": False, "keep": keep,
+            "timeout": CHUNK_TIMEOUT, "period_ns": PERIOD_NS, "dump": True,
+            "patterns": [PATTERNS[patterns[k % len(patterns)]][0] | PATTERNS[patterns[k % len(patterns)]][1] << 2
+                         for k in range(len(ranges))],
+            "seeds": [(seed + k) & 0xFFFFFFFF for k in range(len(ranges))], "iw": iw,
+            "ow": sum(p.fmt.width for p in params.outputs), "out_lens": [b - a for a, b in outs],
+            "limits": limits, "busy": has_busy}
+    (job / "meta.json").write_text(json.dumps(meta))
+    stop = threading.Event()
+    started = time.time()
+    t0 = time.perf_counter()
+    watcher = _progress(job, outs, f"{params.NAME} {sim}", progress, stop)
+    env = {"STREAM_JOB": str(job), "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])}
+    log = job / "sim.log"
+    failure = None
+    try:
+        get_runner(sim).test(hdl_toplevel=bld.top, hdl_toplevel_lang="verilog", test_module=TESTBENCH,
+                             build_dir=bld.bdir, test_dir=job, extra_env=env, waves=waves,
+                             plusargs=[f"+STREAM_DIR={job}"], results_xml=str(job / "results.xml"),
+                             log_file=None if _verbose() else log)
+    except (Exception, SystemExit) as exc:              # judged below, with the testbench's own report
+        failure = exc
+    finally:
+        stop.set()
+        if watcher is not None:
+            watcher.join()
+    seconds = time.perf_counter() - t0
+    result_file = job / "result.json"
+    res = json.loads(result_file.read_text()) if result_file.exists() else {"error": f"no {result_file}"}
+    if res.get("error") or failure is not None:
+        raise RuntimeError(f"the streaming simulation of {params.NAME} on {sim} failed: "
+                           f"{res.get('error') or failure}; log: {log}\n{_tail(log)}")
+    rtl = _read_dump(params, job, len(ranges))
+    n = min(len(rtl), len(expected))
+    bad = np.flatnonzero(np.any(rtl[:n] != expected[:n], axis=1))
+    source = np.repeat(np.arange(len(inputs)), counts)
+    first = [{"index": int(r), "inputs": f"input {int(source[r])}", "rtl": rtl[r].tolist(),
+              "model": expected[r].tolist()} for r in bad[:keep]]
+    result = StreamResult(
+        unit=params.NAME, simulator=sim, vectors=len(rtl), expected_vectors=len(expected),
+        mismatches=int(len(bad)) + abs(len(rtl) - len(expected)), valid_errors=0, missing=res["missing"],
+        extra=res["extra"], protocol_errors=res["protocol_errors"], cycles=res["cycles"],
+        patterns=sorted({patterns[k % len(patterns)] for k in range(len(ranges))}),
+        stalled=res["stalled"], starved=res["starved"], first=first, seconds=round(seconds, 3),
+        vectors_per_second=len(rtl) / seconds, sim_seconds=round(res["sim_seconds"], 3),
+        sim_cpu_seconds=round(res["sim_cpu_seconds"], 3), build_seconds=round(bld.seconds, 2),
+        space=f"{len(inputs)} inputs giving {len(expected)} outputs", range=[0, len(inputs)], chunks=len(ranges),
+        variant=None, started=started, finished=time.time(), inputs=len(inputs))
+    if has_busy:
+        result["busy_cycles"] = res["busy_cycles"]
+    result.rtl = rtl
+    if waves:
+        dumps = sorted(list(bld.bdir.glob("*.fst")) + list(bld.bdir.glob("*.vcd")) + list(job.glob("*.vcd"))
+                       + list(job.glob("*.fst")), key=lambda f: f.stat().st_mtime)
+        result["waves"] = str(dumps[-1]) if dumps else None
+    if not waves and not tag:
         shutil.rmtree(job, ignore_errors=True)
     return result
 

@@ -6,6 +6,8 @@ wrapper (``chunk_len``, then ``load_seq = k + 1``), waits until the wrapper rais
 deletes the file and records progress. At the end it reads the wrapper's counters and first mismatch records and
 writes ``result.json``; the caller judges them. Each chunk has its own stimulus pattern and seed (gaps on the
 input valid, backpressure on the output ready), generated inside the wrapper. The clock runs inside the wrapper: Python wakes once a chunk.
+In the wrapper's ``expand`` mode (:func:`cosim.stream.run_records`) ``meta.json`` also gives each chunk's output
+count (``out_lens``) and cycle limit (``limits``).
 """
 
 from __future__ import annotations
@@ -77,6 +79,9 @@ async def stream(dut):
             dut.chunk_base.value = meta["bases"][k]
             dut.pattern.value = meta["patterns"][k]
             dut.seed.value = meta["seeds"][k]
+            if "out_lens" in meta:
+                dut.out_len.value = meta["out_lens"][k]
+                dut.limit.value = meta["limits"][k]
             dut.load_seq.value = k + 1
             while int(dut.done_seq.value) != k + 1:
                 await dut.done_seq.value_change
@@ -86,12 +91,13 @@ async def stream(dut):
         result["sim_cpu_seconds"] = time.process_time() - c0       # the simulator process: HDL and cocotb
         keep, w = meta["keep"], meta["iw"] + meta["ow"]
         for name in ("checked", "mismatches", "valid_errors", "missing", "extra", "protocol_errors", "cycles",
-                     "stalled", "starved"):
+                     "stalled", "starved") + (("busy_cycles",) if meta.get("busy") else ()):
             result[name] = int(getattr(dut, name).value)
-        stored = min(keep, result["mismatches"])
-        index = _slots(dut.rec_index.value, 64, keep)
-        vector = _slots(dut.rec_vector.value, w, keep)
-        got = _slots(dut.rec_got.value, meta["ow"], keep)
+        stored = min(keep, result["mismatches"])              # (expand mode: none, the caller compares)
+        if stored:
+            index = _slots(dut.rec_index.value, 64, keep)
+            vector = _slots(dut.rec_vector.value, w, keep)
+            got = _slots(dut.rec_got.value, meta["ow"], keep)
         result["records"] = [{"index": index[s], "vector": vector[s], "got": got[s]} for s in range(stored)]
     except BaseException as exc:
         result["error"] = f"{type(exc).__name__}: {exc}"

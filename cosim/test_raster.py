@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 from cosim.raster import pack, run, unpack
-from fxmodel.raster import RasterParams, setup
+from cosim.stream import PATTERNS, run_records
+from fxmodel.raster import RasterParams, scan, setup
 
 S = 256
 
@@ -89,3 +90,74 @@ def test_engine_from_triangles_with_backpressure(sim, p_valid, p_ready):
     assert res["expected"] > 100 and res["mismatches"] == 0, res
     if p_valid == p_ready == 1.0:
         assert res["busy_cycles"] == res["clocks"], res
+
+
+def stream_records(params, records, **kw):
+    """:func:`cosim.stream.run_records` of the model's records, outputs, counts and clocks (``params`` a
+    :class:`RasterParams` or a :class:`~fxmodel.pipeline.TrianglePipelineParams`)."""
+    mat = records.matrix()
+    if isinstance(params, RasterParams):
+        res = scan(params, mat)
+        out = res.matrix(params)
+    else:
+        out, res = params.compute(mat)
+    counts = np.bincount(res.record, minlength=len(mat))
+    return run_records(params, mat, out, counts, clocks=res.clocks, **kw), out, counts, res
+
+
+def test_streaming_harness_draws_every_pattern(sim):
+    """The streaming harness (records from files, clock and stimulus inside the wrapper) on the scan converter:
+    every fragment equal to the model, in order, none lost or extra, under every stimulus pattern; without stalls
+    the busy cycles are the model's clocks."""
+    params = RasterParams.PRESETS["small"]
+    recs = hard_and_random(params, 48, 40, 24, seed=3)
+    for pattern in PATTERNS:
+        result, out, _, res = stream_records(params, recs, sim=sim, pattern=pattern, chunk=300)
+        assert result.ok and result["vectors"] == len(out) > 5000 and result["chunks"] > 10, result.describe()
+        assert np.array_equal(result.rtl, out)
+        if pattern == "none":
+            assert result["busy_cycles"] == res.clocks.sum() and result["stalled"] == 0
+        else:
+            assert result["stalled"] > 0
+
+
+def test_streaming_harness_counts_changed_missing_and_extra_outputs(sim):
+    """The harness fails a run whose outputs differ from what it was told to expect: a changed fragment, one
+    fragment fewer expected (the design's last one is extra), one more expected (missing)."""
+    params = RasterParams.PRESETS["small"]
+    recs = hard_and_random(params, 20, 16, 4, seed=7)
+    mat = recs.matrix()
+    res = scan(params, mat)
+    out = res.matrix(params)
+    counts = np.bincount(res.record, minlength=len(mat))
+    changed = out.copy()
+    changed[len(out) // 2, 2] += 1
+    bad = run_records(params, mat, changed, counts, sim=sim)
+    assert not bad.ok and bad["mismatches"] == 1 and bad["first"][0]["index"] == len(out) // 2
+    last = int(np.flatnonzero(counts)[-1])
+    fewer = counts.copy()
+    fewer[last] -= 1
+    bad = run_records(params, mat, out[:-1], fewer, sim=sim)
+    assert not bad.ok and bad["extra"] == 1
+    more = counts.copy()
+    more[last] += 1
+    bad = run_records(params, mat, np.concatenate([out, out[-1:]]), more, sim=sim)
+    assert not bad.ok and bad["missing"] == 1
+
+
+def test_engine_from_triangles_whole_path(sim):
+    """The whole engine (``TrianglePipeline``: scan converter and interpolators -> pixel pipeline) on a small
+    scene from triangles with a steep bump map (every triangle's block exponent ``Ae = 2``), in the streaming
+    harness without stalls and under the stall patterns: every output (``x, y``, bytes, flags) equal to the model,
+    in order, none lost or extra; without stalls the scan converter is busy exactly the model's clocks."""
+    from fxmodel.render import from_triangles, prepare
+    tframe = from_triangles(prepare("tests/scenes/steep-sphere.toml", cube_size=8))
+    assert tframe.records.codes["Ae"].min() == 2
+    for pattern in ("none", ("bursts", "random", "stalls")):          # the second: one pattern a chunk
+        result, out, _, res = stream_records(tframe.params, tframe.records, sim=sim, pattern=pattern, chunk=128)
+        assert result.ok and result["vectors"] == len(out) > 400 and result["chunks"] >= 3, result.describe()
+        assert np.array_equal(result.rtl, tframe.out)
+        if pattern == "none":
+            assert result["busy_cycles"] == res.clocks.sum()
+        else:
+            assert result["stalled"] > 100 and result["cycles"] > 1.5 * len(out)

@@ -393,10 +393,12 @@ def _gains(scene: Scene, maps) -> np.ndarray:
     return np.array([m.a_gain for m in maps], dtype=np.float64)
 
 
-def vertex_attributes(scene: Scene, st: ScreenTriangles) -> dict:
+def vertex_attributes(scene: Scene, st: ScreenTriangles, exponent=None) -> dict:
     """The per-vertex values ``(S, 3)`` of every attribute the scan converter interpolates (see
     :mod:`fxmodel.raster`: ``U, V, Uc, Vc, W`` with a per-triangle tile offset, ``Z = near / w_c``, ``N W``,
-    ``E_h = c (eye - P) / w_c``, ``A W``), for the triangles of :func:`screen_triangles`."""
+    ``E_h = c (eye - P) / w_c``, ``A W 2**-e``), for the triangles of :func:`screen_triangles`, and the
+    per-triangle block exponent ``Ae`` ``(S,)``: ``exponent[scene triangle]`` (:func:`fxmodel.bumpmap.block_exponent`;
+    default 0)."""
     sub = st.sub
     invw = 1.0 / sub[..., 2]                                               # (S, 3)
     Wv = np.min(sub[..., 2], axis=1)[:, None] * invw
@@ -414,22 +416,26 @@ def vertex_attributes(scene: Scene, st: ScreenTriangles) -> dict:
     eye /= np.sqrt(np.einsum("svi,svi->sv", eye, eye)).max(axis=1)[:, None, None]
     for i, c in enumerate("xyz"):
         out[f"E{c}"] = eye[..., i]
-    A = st.tri_A[st.src] * sign[:, :, None]                               # (S, 3, 2)
+    e = np.zeros(len(st.src), np.int64) if exponent is None else np.asarray(exponent, np.int64)[st.src]
+    out["Ae"] = e
+    A = np.ldexp(st.tri_A[st.src] * sign[:, :, None], -e[:, None, None])     # (S, 3, 2): A 2^-e
     for i in range(3):
         for j in range(2):
             out[f"A{i}{j}"] = A[:, None, i, j] * Wv
     return out
 
 
-def triangle_records(scene: Scene, params: RasterParams, maps=None):
+def triangle_records(scene: Scene, params: RasterParams, maps=None, exponent=None):
     """The scene as triangle records for the scan converter (the host's set-up, :func:`fxmodel.raster.setup`).
 
     Returns ``(records, tri, material)``: the :class:`~fxmodel.raster.Records`, and per record the scene triangle
-    and material index. ``maps`` as :func:`rasterize`. Raises ``ValueError`` for a triangle the preset cannot draw.
+    and material index. ``maps`` as :func:`rasterize`; ``exponent`` the block exponent of ``A`` per scene triangle
+    (as :func:`vertex_attributes`). Raises ``ValueError`` for a triangle the preset cannot draw.
     """
     st = screen_triangles(scene, _gains(scene, maps))
-    values = vertex_attributes(scene, st)
-    recs = setup(params, st.X, st.Y, {n: values[n] for n in params.names}, scene.width, scene.height)
+    values = vertex_attributes(scene, st, exponent)
+    names = params.names + tuple(n for n, _ in params.consts)
+    recs = setup(params, st.X, st.Y, {n: values[n] for n in names}, scene.width, scene.height)
     tri = st.src[recs.source]
     return recs, tri, st.tris.material[tri]
 

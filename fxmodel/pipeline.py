@@ -30,6 +30,7 @@ from functools import cached_property
 import numpy as np
 
 from .bump import BumpParams
+from .cost import estimate
 from .cube import CubeParams
 from .fixed import Fmt
 from .lighting import Light, Lighting, bake_cubes
@@ -251,8 +252,8 @@ class TrianglePipelineParams:
     Parameters
     ----------
     raster : RasterParams
-        Its attributes must include every pipeline input with the same format (``Z`` and others ride along),
-        except :data:`ZERO_INPUTS`, held at 0.
+        Its attributes and per-triangle constants must include every pipeline input with the same format (``Z``
+        and others ride along): the block exponent ``Ae`` of the bump engine is a per-triangle constant.
     pipeline : PipelineParams
     """
 
@@ -265,12 +266,26 @@ class TrianglePipelineParams:
         require(isinstance(self.raster, RasterParams), "raster", type(self.raster).__name__, "must be RasterParams")
         require(isinstance(self.pipeline, PipelineParams), "pipeline", type(self.pipeline).__name__,
                 "must be PipelineParams")
-        attrs = dict(self.raster.attrs)
+        attrs = dict(self.raster.attrs + self.raster.consts)
         for p in self.pipeline.inputs:
-            if p.name in ZERO_INPUTS:
-                continue
             require(attrs.get(p.name) == p.fmt, f"raster.attrs[{p.name!r}]", str(attrs.get(p.name)),
                     f"must be the pipeline's input format {p.fmt}")
+
+    @property
+    def inputs(self) -> tuple:
+        """The triangle record (:attr:`RasterParams.record`), the design's input payload."""
+        return self.raster.record
+
+    def products(self) -> tuple:
+        """The scan converter's and the pixel pipeline's products (``fxmodel/cost.py``)."""
+        return self.raster.products() + self.pipeline.products()
+
+    def memories(self) -> tuple:
+        return self.raster.memories() + self.pipeline.memories()
+
+    def cost(self) -> dict:
+        """:func:`fxmodel.cost.estimate` of the whole engine."""
+        return estimate(self)
 
     @property
     def outputs(self) -> tuple:
@@ -287,19 +302,13 @@ class TrianglePipelineParams:
         """``(out, scan)``: output codes ``(K, outputs)`` in the order the hardware draws, and the
         :class:`~fxmodel.raster.ScanResult` (fragments, clocks)."""
         res = scan(self.raster, records)
-        codes = np.stack([res.codes[p.name] if p.name not in ZERO_INPUTS else np.zeros(len(res), np.int64)
-                          for p in self.pipeline.inputs], axis=1) if len(res) else \
+        codes = np.stack([res.codes[p.name] for p in self.pipeline.inputs], axis=1) if len(res) else \
             np.zeros((0, len(self.pipeline.inputs)), np.int64)
         col = self.pipeline.compute(codes) if len(res) else np.zeros((0, 4), np.int64)
         flags = col[:, 3] | (res.codes["flags"] << RASTER_SATURATED_FLAG)
         out = np.column_stack([res.codes["x"], res.codes["y"], col[:, :3], flags]).astype(np.int64)
         return out, res
 
-
-#: Pipeline inputs the engine from the triangle holds at 0: ``Ae``, A's block exponent (``N' = N 2^-Ae + du A0 +
-#: dv A1``); the triangle path does not use it yet, so its ``A W`` must fit the bump unit's format (the set-up
-#: refuses a triangle whose values do not).
-ZERO_INPUTS = ("Ae",)
 
 #: Bit of :attr:`TrianglePipelineParams.outputs` ``flags`` set when the scan converter saturated an attribute.
 RASTER_SATURATED_FLAG = len(FLAG_BITS)

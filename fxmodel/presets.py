@@ -42,8 +42,10 @@ __all__ = ["TOP_KEYS", "UNIT_KEYS", "UNIT_TYPES", "BUILTIN_PRESET_UNITS", "PRESE
 
 #: The integer keys of a pipeline preset beside its units: ``(default, smallest, largest)``. ``weight_bits``: the
 #: bump-map and texture bilinear weights; ``cube_size``: texels per reflectance-cube face edge (6 faces of
-#: ``(edge + 2)**2`` words each).
-TOP_KEYS = {"weight_bits": (12, 1, 16), "cube_size": (64, 1, 1024)}
+#: ``(edge + 2)**2`` words each); ``raster_guard``: the scan converter's interpolators' guard bits beyond the
+#: proof's minimum (:class:`fxmodel.raster.RasterParams` ``extra_guard``: 1 keeps the accumulated error within a
+#: quarter of an output ulp).
+TOP_KEYS = {"weight_bits": (12, 1, 16), "cube_size": (64, 1, 1024), "raster_guard": (1, 0, 8)}
 
 #: The parameter class of each unit in a pipeline preset's units dict.
 UNIT_TYPES = {"persp": PerspParams, "bump": BumpParams, "reflect": ReflectParams, "cube": CubeParams,

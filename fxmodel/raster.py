@@ -99,6 +99,14 @@ right when they are more than ``Δw = 2 b w**2 / near`` apart, a relative gap ``
 unit), ``1.8e-4`` at ``w = 50``. The float reference compares float64 ``1 / w_c`` (relative rounding about
 ``1e-16``), so where the float z-buffer and the fixed-point depth test keep different surfaces at a pixel, the
 two surfaces' float depths differ by at most ``2 b`` plus that rounding (:data:`FLOAT_DEPTH_SLACK`).
+
+Per-triangle constants (:attr:`RasterParams.consts`)
+-----------------------------------------------------
+A value that is the same on every pixel of a triangle is not interpolated: the record carries it once and every
+fragment of the triangle carries it unchanged. The engine has one, ``Ae``: the block exponent ``e`` of the bump
+matrix (:func:`fxmodel.bumpmap.block_exponent`, the same per scene triangle as on the fragment path), so the
+set-up sends ``A W 2**-e`` and the bump engine scales ``N W`` by ``2**-e`` (``fxmodel/bump.py``): a steep bump map
+(``A`` beyond ``bump.a_fmt``) draws from triangles as it does from fragments.
 """
 
 from __future__ import annotations
@@ -110,6 +118,7 @@ from typing import ClassVar
 
 import numpy as np
 
+from .cost import Product, estimate
 from .fixed import Fmt
 from .rounding import Overflow, Rounding, narrow
 from .unit import Port, require
@@ -174,6 +183,9 @@ class RasterParams:
         The front end's clipping guard band: vertices lie within ``guard_pixels`` outside the viewport.
     extra_guard : int
         Guard bits beyond the proof's minimum ``ceil(log2(2 max_size - 1))`` (each halves the accumulated error).
+    consts : tuple of (str, Fmt)
+        Per-triangle constants (integer formats): carried by the record and passed to every fragment of the
+        triangle unchanged (the bump engine's block exponent ``Ae``).
     """
 
     NAME: ClassVar[str] = "raster"
@@ -184,6 +196,7 @@ class RasterParams:
     subpixel_bits: int = 8
     guard_pixels: int = 4096
     extra_guard: int = 1
+    consts: tuple = ()
 
     def __post_init__(self):
         require(isinstance(self.attrs, tuple) and len(self.attrs) > 0, "attrs", self.attrs,
@@ -194,7 +207,13 @@ class RasterParams:
                     and isinstance(item[1], Fmt) and item[1].signed, "attrs", item,
                     "each entry must be (name, signed Fmt)")
             names.append(item[0])
-        require(len(set(names)) == len(names), "attrs", names, "names must be unique")
+        require(isinstance(self.consts, tuple), "consts", self.consts, "must be a tuple of (name, Fmt) pairs")
+        for item in self.consts:
+            require(isinstance(item, tuple) and len(item) == 2 and isinstance(item[0], str)
+                    and isinstance(item[1], Fmt) and item[1].frac_bits == 0 and item[1].width <= 32, "consts",
+                    item, "each entry must be (name, integer Fmt of at most 32 bits)")
+            names.append(item[0])
+        require(len(set(names)) == len(names), "attrs", names, "names (attrs and consts) must be unique")
         for name in ("max_size", "subpixel_bits", "guard_pixels", "extra_guard"):
             value = getattr(self, name)
             require(isinstance(value, int) and not isinstance(value, bool), name, value, "must be an int")
@@ -273,6 +292,7 @@ class RasterParams:
                  "bounding box in the viewport (attribute origin)"), Port("x1", pf, "last column")]
         for e in range(3):
             ports += [Port(f"e{e}_{k}", f, f"edge {e}: {k}") for k, f in self.edge_fmts.items()]
+        ports += [Port(name, f, "per-triangle constant") for name, f in self.consts]
         for name, _ in self.attrs:
             f = self.acc_fmt(name)
             ports += [Port(f"{name}_0", f, f"{name} at (x0, y0)"), Port(f"{name}_dx", f, f"d{name}/dx"),
@@ -281,10 +301,42 @@ class RasterParams:
 
     @property
     def fragment(self) -> tuple:
-        """The fragment (the RTL's output payload): ``x``, ``y``, the attributes, ``flags`` (bit 0: an attribute
-        saturated at the output rounding)."""
+        """The fragment (the RTL's output payload): ``x``, ``y``, the attributes, the triangle's constants,
+        ``flags`` (bit 0: an attribute saturated at the output rounding)."""
         return ((Port("x", self.pixel_fmt), Port("y", self.pixel_fmt))
-                + tuple(Port(n, f) for n, f in self.attrs) + (Port("flags", Fmt(False, 1, 0)),))
+                + tuple(Port(n, f) for n, f in self.attrs + self.consts) + (Port("flags", Fmt(False, 1, 0)),))
+
+    # the design's stream payloads under the names every streaming harness reads (cosim/stream.py)
+    @property
+    def inputs(self) -> tuple:
+        """:attr:`record`."""
+        return self.record
+
+    @property
+    def outputs(self) -> tuple:
+        """:attr:`fragment`."""
+        return self.fragment
+
+    @property
+    def latency(self) -> int:
+        """The fragment register: a fragment leaves one clock after the scan converter reaches its pixel."""
+        return 1
+
+    # -- cost (fxmodel/cost.py, the one cost model) ---------------------------------------------------------
+    def products(self) -> tuple:
+        """One product per attribute: the span start ``a(x0, y) + (L - x0) a_x`` (the increment, ``acc_fmt``
+        signed, times the unsigned column offset, ``pixel_fmt``)."""
+        pw = self.pixel_fmt.width
+        return tuple(Product(self.acc_fmt(n).width, pw, True, False, name=f"{n}_dx*offset")
+                     for n in self.names)
+
+    def memories(self) -> tuple:
+        """None: the scan converter holds only registers."""
+        return ()
+
+    def cost(self) -> dict:
+        """:func:`fxmodel.cost.estimate` of :meth:`products` and :meth:`memories`."""
+        return estimate(self)
 
     def error_bound(self, name: str) -> Fraction:
         """Largest distance of an output code from the exact plane at a covered pixel (real units)."""
@@ -311,6 +363,7 @@ class RasterParams:
                 "params": {"max_size": self.max_size, "subpixel_bits": self.subpixel_bits,
                            "guard_pixels": self.guard_pixels, "extra_guard": self.extra_guard,
                            "guard_bits": self.guard_bits},
+                "consts": {n: str(f) for n, f in self.consts},
                 "record": [p.fmt.describe(p.name) for p in self.record],
                 "record_bits": sum(p.fmt.width for p in self.record),
                 "fragment": [p.fmt.describe(p.name) for p in self.fragment],
@@ -320,12 +373,15 @@ class RasterParams:
                 "clocks": "sum over rows of max(1, covered pixels in the row), per triangle",
                 **({"depth_precision": float(self.depth_precision()),
                     "depth_precision_ulp": float(self.depth_precision() / self.out_fmt("Z").ulp)}
-                   if "Z" in self.names else {})}
+                   if "Z" in self.names else {}),
+                "cost": self.cost()}
 
     @classmethod
     def for_pipeline(cls, pipeline_units: dict, z_fmt: Fmt = Fmt(True, 2, 22), **kw) -> "RasterParams":
-        """The attributes in the formats of a pipeline preset's units (``persp``, ``bump``, ``reflect``)."""
+        """The attributes in the formats of a pipeline preset's units (``persp``, ``bump``, ``reflect``), and the
+        bump engine's block exponent ``Ae`` as a per-triangle constant (if it has one)."""
         persp, bump, reflect = pipeline_units["persp"], pipeline_units["bump"], pipeline_units["reflect"]
+        kw.setdefault("consts", (("Ae", bump.e_fmt),) if bump.exp_bits else ())
         fm = {"U": persp.uv_fmt, "V": persp.uv_fmt, "Uc": persp.uv_fmt, "Vc": persp.uv_fmt,
               "W": persp.recip.in_fmt, "Z": z_fmt}
         fm |= {f"N{c}": bump.n_fmt for c in "xyz"} | {f"E{c}": reflect.e_fmt for c in "xyz"}
@@ -381,7 +437,7 @@ def setup(params: RasterParams, X, Y, values: dict, width: int, height: int) -> 
         Snapped vertex coordinates (``subpixel_bits`` fraction bits), either winding, any area.
     values : dict
         For every attribute of ``params`` an array ``(T, 3)`` of vertex values (float64, within the attribute's
-        output format).
+        output format); for every per-triangle constant (:attr:`RasterParams.consts`) an integer array ``(T,)``.
     width, height : int
         The viewport, at most ``max_size`` each.
 
@@ -403,9 +459,17 @@ def setup(params: RasterParams, X, Y, values: dict, width: int, height: int) -> 
     X = np.asarray(X, dtype=np.int64).reshape(-1, 3)
     Y = np.asarray(Y, dtype=np.int64).reshape(-1, 3)
     T = X.shape[0]
-    missing = [n for n in P.names if n not in values]
+    missing = [n for n in P.names + tuple(n for n, _ in P.consts) if n not in values]
     require(not missing, "values", sorted(values), f"missing attributes {missing}")
     vals = {n: np.asarray(values[n], dtype=np.float64).reshape(T, 3) for n in P.names}
+    consts = {n: np.asarray(values[n]).reshape(T) for n, _ in P.consts}
+    for n, fmt in P.consts:
+        c = consts[n]
+        bad = np.flatnonzero((c != np.round(c)) | (c < fmt.min_code) | (c > fmt.max_code))
+        if len(bad):
+            raise ValueError(f"triangle {int(bad[0])}: constant {n} = {c[bad[0]]} is not an integer code of its "
+                             f"format {fmt}")
+        consts[n] = c.astype(np.int64)
     lo_c, hi_c = -(P.guard_pixels + 1) * P.S, None
     S, half = P.S, P.S // 2
     fields = {p.name: [] for p in P.record}
@@ -461,6 +525,8 @@ def setup(params: RasterParams, X, Y, values: dict, width: int, height: int) -> 
         fields["rows"].append(y1 - y0)
         fields["x0"].append(x0)
         fields["x1"].append(x1)
+        for n, _ in P.consts:
+            fields[n].append(int(consts[n][t]))
         # the exact planes: a(x, y) = sum_e v_e F_e(x, y) / area2, F_e at the pixel centre
         F0 = [A[e] * (S * x0 + half) + B[e] * (S * y0 + half) + C[e] for e in range(3)]
         for name in P.names:
@@ -562,6 +628,8 @@ def scan(params: RasterParams, records) -> ScanResult:
         out, sat = narrow(word, fa.frac_bits, fo, Rounding.HALF_UP, Overflow.SATURATE, f"raster {name}")
         codes[name] = out
         flags |= sat.astype(np.int64)
+    for name, _ in P.consts:                          # per triangle: every fragment carries the record's code
+        codes[name] = mat[:, names.index(name)][rec_idx]
     codes["flags"] = flags
     return ScanResult(codes=codes, record=rec_idx, acc=acc, clocks=clocks)
 

@@ -38,7 +38,7 @@ from .scene import load_scene, scene_path
 
 __all__ = ["Frame", "prepare", "pipeline_params", "render", "save_png", "compose", "ClampError", "SCENE_BOUND_LSB",
            "judge", "tell", "bound_args", "INPUT_KNOBS", "ILL_CONDITIONED", "ADDRESS_LIMIT_TEXELS",
-           "address_errors", "TriangleFrame", "from_triangles", "render_triangles"]
+           "address_errors", "TriangleFrame", "from_triangles", "render_triangles", "raster_params", "engine_params"]
 
 DIFF_GAIN = 16
 
@@ -189,13 +189,19 @@ class Frame:
     lighting: Lighting
     maps: object
     stats: dict = field(default_factory=dict)
+    #: The block exponent ``e`` of ``A`` per scene triangle (:func:`fxmodel.bumpmap.block_exponent`).
+    exponent: np.ndarray = field(default=None, repr=False)
+    #: The preset's units (:func:`fxmodel.presets.preset_units`): the scan converter's knobs among them.
+    units: dict = field(default=None, repr=False)
 
-    def image(self, rgb: np.ndarray) -> np.ndarray:
-        """A full frame (background where no fragment) from per-fragment bytes ``(K, 3)``."""
+    def image(self, rgb: np.ndarray, xy=None) -> np.ndarray:
+        """A full frame (background where no fragment) from per-fragment bytes ``(K, 3)``, at the front end's
+        fragments or at pixels ``xy = (x, y)`` (two arrays ``(K,)``)."""
         sc = self.scene
         img = np.empty((sc.height, sc.width, 3), dtype=np.uint8)
         img[...] = np.floor(np.asarray(sc.background) * 255 + 0.5).astype(np.uint8)
-        img[self.frags.y, self.frags.x] = rgb
+        x, y = (self.frags.x, self.frags.y) if xy is None else xy
+        img[y, x] = rgb
         return img
 
     def float_inputs(self) -> dict:
@@ -223,7 +229,12 @@ class Frame:
         return np.sqrt(np.einsum("ki,ki->k", n, n))
 
     def references(self):
-        """Bytes ``(K, 3)`` of reference (a) and (b)."""
+        """Bytes ``(K, 3)`` of reference (a) and (b) (computed once, then kept)."""
+        if getattr(self, "_references", None) is None:
+            self._references = self._compute_references()
+        return self._references
+
+    def _compute_references(self):
         p, maps = self.params, self.maps
         bump_float = self.bump_float()
         dirs = face_directions(p.diffuse.width, p.diffuse.border)
@@ -335,7 +346,8 @@ def prepare(scene, *, size=None, preset: str | dict = "default", cube_size: int 
              "bump_map_saturated": mm.bump.n_saturated if mm.bump is not None else 0,
              "seconds_front_end": round(t1 - t0, 3), "seconds_tables": round(t2 - t1, 3),
              "seconds_quantize": round(time.perf_counter() - t2, 3)}
-    return Frame(scene=scene, params=params, frags=frags, codes=codes, lighting=lighting, maps=mm, stats=stats)
+    return Frame(scene=scene, params=params, frags=frags, codes=codes, lighting=lighting, maps=mm, stats=stats,
+                 exponent=e_tri, units=units)
 
 
 def pipeline_params(scene, preset: str | dict = "default", *, cube_size: int | None = None) -> PipelineParams:
@@ -348,6 +360,19 @@ def pipeline_params(scene, preset: str | dict = "default", *, cube_size: int | N
     scenes), so the tables, including which material is visible, are exactly those of the rendered frame.
     """
     return prepare(scene_path(scene), preset=preset, cube_size=cube_size, allow_clamp=True).params
+
+
+def raster_params(units: dict) -> RasterParams:
+    """The scan converter and interpolators of a pipeline preset's units: the pixel pipeline's input formats
+    (:meth:`RasterParams.for_pipeline`) and the preset's ``raster_guard`` (``extra_guard``)."""
+    return RasterParams.for_pipeline(units, extra_guard=top_value(units, "raster_guard"))
+
+
+def engine_params(scene, preset: str | dict = "default", *, cube_size: int | None = None) -> TrianglePipelineParams:
+    """The engine from the triangle that draws ``scene``: :func:`raster_params` of ``preset`` feeding
+    :func:`pipeline_params` (for ``make fpga``)."""
+    frame = prepare(scene_path(scene), preset=preset, cube_size=cube_size, allow_clamp=True)
+    return TrianglePipelineParams(raster=raster_params(frame.units), pipeline=frame.params)
 
 
 def save_png(path, img: np.ndarray) -> Path:
@@ -380,10 +405,17 @@ def metrics(model: np.ndarray, float_a: np.ndarray, ideal_b: np.ndarray) -> dict
             "psnr_db_float_vs_ideal": round(psnr(float_a, ideal_b), 2)}
 
 
-def render(frame: Frame, out_dir=None, *, references: bool = True) -> dict:
-    """Run the bit-exact model (and the references) on a prepared frame; write the images if ``out_dir``."""
+def render(frame: Frame, out_dir=None, *, references: bool = True, model=None) -> dict:
+    """Run the bit-exact model (and the references) on a prepared frame; write the images if ``out_dir``.
+
+    ``model``: the frame's outputs ``(K, 4)`` (``r, g, b, flags`` per fragment of ``frame.frags``) when they come
+    from elsewhere (the engine from the triangle, :func:`render_triangles`) instead of the pipeline's model on
+    ``frame.codes``."""
     t0 = time.perf_counter()
-    out = frame.params.compute(frame.codes) if len(frame.codes) else np.zeros((0, 4), np.int64)
+    if model is not None:
+        out = np.asarray(model, dtype=np.int64)
+    else:
+        out = frame.params.compute(frame.codes) if len(frame.codes) else np.zeros((0, 4), np.int64)
     seconds = time.perf_counter() - t0
     model = out[:, :3].astype(np.uint8)
     report = {"scene": frame.scene.name, "width": frame.scene.width, "height": frame.scene.height,
@@ -425,32 +457,41 @@ class TriangleFrame:
     scan: object = field(repr=False)
     stats: dict = field(default_factory=dict)
 
+    def in_frame_order(self) -> np.ndarray:
+        """The engine's ``r, g, b, flags`` ``(K, 4)`` in the front end's fragment order (``frame.frags``;
+        :func:`from_triangles` checked that the pixels are the same)."""
+        frame = self.frame
+        pos = np.empty(frame.scene.width * frame.scene.height, dtype=np.int64)
+        pos[np.asarray(frame.frags.index)] = np.arange(len(frame.frags))
+        model = np.zeros((len(frame.frags), 4), dtype=np.int64)
+        model[pos[self.out[:, 1] * frame.scene.width + self.out[:, 0]]] = self.out[:, 2:6]
+        return model
+
     def image(self, rgb: np.ndarray) -> np.ndarray:
-        sc = self.frame.scene
-        img = np.empty((sc.height, sc.width, 3), dtype=np.uint8)
-        img[...] = np.floor(np.asarray(sc.background) * 255 + 0.5).astype(np.uint8)
-        img[self.out[:, 1], self.out[:, 0]] = rgb
-        return img
+        """A full frame from bytes ``(K, 3)`` in drawing order (at the pixels of :attr:`out`)."""
+        return self.frame.image(rgb, (self.out[:, 0], self.out[:, 1]))
 
 
 def from_triangles(frame: Frame, raster: RasterParams | None = None) -> TriangleFrame:
     """The frame drawn by the engine from triangles: the host's set-up (:func:`fxmodel.frontend.triangle_records`)
-    into records, the scan converter and interpolators, then the same pixel pipeline (``frame.params``).
+    into records, the scan converter and interpolators, then the same pixel pipeline (``frame.params``), with the
+    same block exponent of ``A`` per scene triangle as the fragments (``frame.exponent``).
 
-    ``raster``: default the pipeline's input formats at the default sizes (:meth:`RasterParams.for_pipeline`).
+    ``raster``: default :func:`raster_params` of the frame's preset (the pipeline's input formats).
     Records of other materials than the frame's are dropped (the pipeline holds one material's maps; the frame
     shows none of their pixels, :func:`prepare` checked). Raises ``ValueError`` when the covered pixels differ
     from the front end's visible fragments (overlapping geometry needs the depth test of the frame-buffer issue).
     """
     p = frame.params
     if raster is None:
-        raster = RasterParams.for_pipeline({"persp": p.persp, "bump": p.bump, "reflect": p.reflect})
+        raster = raster_params(frame.units) if frame.units is not None else \
+            RasterParams.for_pipeline({"persp": p.persp, "bump": p.bump, "reflect": p.reflect})
     params = TrianglePipelineParams(raster=raster, pipeline=p)
     scene = frame.scene
     mi = int(frame.frags.material[0]) if len(frame.frags) else 0
     gains = [frame.maps if i == mi else SimpleNamespace(a_gain=bump_gain(m)) for i, m in enumerate(scene.materials)]
     t0 = time.perf_counter()
-    recs, tri, mat = triangle_records(scene, raster, gains)
+    recs, tri, mat = triangle_records(scene, raster, gains, frame.exponent)
     keep = np.flatnonzero(mat == mi)
     recs = Records(params=raster, codes={k: v[keep] for k, v in recs.codes.items()}, source=recs.source[keep],
                    dropped=recs.dropped)
@@ -473,23 +514,28 @@ def from_triangles(frame: Frame, raster: RasterParams | None = None) -> Triangle
 
 
 def render_triangles(tframe: TriangleFrame, out_dir=None) -> dict:
-    """Render from fragments (:func:`render`, with the references) and from triangles; report both against
-    reference (a), so that the interpolators' share of the error shows (images ``model.png`` from fragments,
-    ``triangles.png`` from triangles, ``diff_triangles.png`` amplified against (a))."""
+    """Render from triangles: the report and images of :func:`render` are those of the frame the engine from the
+    triangle draws (``model.png``; its distance from reference (a) is what :func:`judge` judges), with the frame
+    from float-interpolated fragments beside it, so that the interpolators' share of the error shows:
+    ``from_fragments`` (its figures against the references), ``triangles_vs_fragments`` and the image
+    ``fragments.png``."""
     frame = tframe.frame
-    report = render(frame, out_dir)
-    frag_img = frame.image(report.pop("_model_bytes"))
-    a, b = frame.references()
-    a_img, b_img = frame.image(a), frame.image(b)
-    tri_img = tframe.image(tframe.out[:, 2:5].astype(np.uint8))
+    frag = render(frame)
+    frag_bytes = frag.pop("_model_bytes")
+    report = render(frame, out_dir, model=tframe.in_frame_order())
+    tri_bytes = report.pop("_model_bytes")
+    report.pop("model_pixels_per_second")
+    report["model_seconds"] = tframe.stats["seconds_model"]
     report.update(tframe.stats)
-    report["triangles_vs_fragments"] = {"max_lsb_vs_float": max_lsb(tri_img, a_img),
-                                        "psnr_db_vs_float": round(psnr(tri_img, a_img), 2),
-                                        "max_lsb_vs_ideal": max_lsb(tri_img, b_img),
-                                        "max_lsb_vs_fragments": max_lsb(tri_img, frag_img),
-                                        "pixels_differing_from_fragments": int(np.any(tri_img != frag_img, -1).sum())}
+    report["from_fragments"] = {k: frag[k] for k in ("psnr_db_vs_float", "max_lsb_vs_float", "psnr_db_vs_ideal",
+                                                     "max_lsb_vs_ideal", "max_lsb_vs_float_well_conditioned")}
+    report["triangles_vs_fragments"] = {"max_lsb_vs_float": report["max_lsb_vs_float"],
+                                        "psnr_db_vs_float": report["psnr_db_vs_float"],
+                                        "max_lsb_vs_ideal": report["max_lsb_vs_ideal"],
+                                        "max_lsb_vs_fragments": max_lsb(tri_bytes, frag_bytes),
+                                        "pixels_differing_from_fragments":
+                                            int(np.any(tri_bytes != frag_bytes, -1).sum())}
     if out_dir is not None:
-        save_png(Path(out_dir) / "triangles.png", tri_img)
-        save_png(Path(out_dir) / "diff_triangles.png", diff_image(tri_img, a_img))
+        save_png(Path(out_dir) / "fragments.png", frame.image(frag_bytes))
     report["_triangle_bytes"] = tframe.out
     return report

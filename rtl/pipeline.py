@@ -11,7 +11,7 @@ from amaranth.hdl import Cat, Module
 from amaranth.lib import data, stream, wiring
 from amaranth.lib.wiring import In, Out
 
-from fxmodel.pipeline import FLAG_BITS, ZERO_INPUTS, PipelineParams, TrianglePipelineParams
+from fxmodel.pipeline import FLAG_BITS, PipelineParams, TrianglePipelineParams
 
 from .fixed import shape
 from .raster import Raster, record_layout
@@ -132,8 +132,7 @@ class TrianglePipeline(wiring.Component):
         m.submodules.pipeline = pix = StreamUnit(P.pipeline, side)
         wiring.connect(m, wiring.flipped(self.i), ras.i)
         m.d.comb += [pix.i.valid.eq(ras.o.valid), ras.o.ready.eq(pix.i.ready), self.busy.eq(ras.busy)]
-        m.d.comb += [pix.i.payload[p.name].eq(ras.o.payload[p.name] if p.name not in ZERO_INPUTS else 0)
-                     for p in P.pipeline.inputs]
+        m.d.comb += [pix.i.payload[p.name].eq(ras.o.payload[p.name]) for p in P.pipeline.inputs]
         m.d.comb += [pix.i.payload.side.x.eq(ras.o.payload.x), pix.i.payload.side.y.eq(ras.o.payload.y),
                      pix.i.payload.side.rsat.eq(ras.o.payload.flags)]
         out, res = self.o.payload, pix.o.payload

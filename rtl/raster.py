@@ -11,6 +11,8 @@ Structure (see the model's docstring for the arithmetic and its proof):
   (``r >= |a|``: ``r -= |a|; p += 1``), ``a(x0, y + 1) = a(x0, y) + a_y``. Its input is either the record being
   accepted or the registered state of the current triangle.
 - **Pixel Calculator**: ``x += 1``, ``a += a_x`` per pixel of the current span.
+- **Per-triangle constants** (``params.consts``, the bump engine's block exponent ``Ae``): a register loaded with
+  the record, copied into every fragment of the triangle.
 - **Output**: one registered fragment (``x``, ``y``, each attribute rounded half-up and saturated to its output
   format, ``flags``) under ``advance = ~o.valid | o.ready``: every register holds while the consumer does not
   take the fragment, so nothing is lost or repeated.
@@ -53,7 +55,8 @@ class Raster(wiring.Component):
     -----
     i : In(stream.Signature(record_layout(params))) -- triangle records (:attr:`RasterParams.record`)
     o : Out(stream.Signature(fragment_layout(params))) -- fragments (:attr:`RasterParams.fragment`): ``x``, ``y``
-        (``pixel_fmt``), every attribute in its output format, ``flags`` (bit 0: an attribute saturated)
+        (``pixel_fmt``), every attribute in its output format, the triangle's constants (``consts``, e.g. ``Ae``
+        in ``bump.e_fmt``), ``flags`` (bit 0: an attribute saturated)
     busy : Out(1) -- a row of a triangle is being traversed (count it for the clock figure)
     """
 
@@ -78,6 +81,7 @@ class Raster(wiring.Component):
         k_edge = [{k: sig(ef[k], f"k_e{e}_{k}") for k in ("kind", "q", "m", "d")} for e in range(3)]
         k_dx = {n: sig(P.acc_fmt(n), f"k_{n}_dx") for n in P.names}
         k_dy = {n: sig(P.acc_fmt(n), f"k_{n}_dy") for n in P.names}
+        k_c = {n: sig(f, f"k_{n}") for n, f in P.consts}
         # -- the next row's state ----------------------------------------------------------------------------
         s_p = [sig(ef["p"], f"s_e{e}_p") for e in range(3)]
         s_r = [sig(ef["r"], f"s_e{e}_r") for e in range(3)]
@@ -154,6 +158,7 @@ class Raster(wiring.Component):
                 m.d.sync += self.o.payload[n].eq(code)
                 flags.append(sat)
             m.d.sync += self.o.payload.flags.eq(Cat(*flags).any())
+            m.d.sync += [self.o.payload[n].eq(k_c[n]) for n in k_c]
             with m.If(~done_row):
                 m.d.sync += cx.eq(cx + 1)
                 m.d.sync += [acc[n].eq((acc[n] + k_dx[n])[:P.acc_fmt(n).width]) for n in P.names]
@@ -171,6 +176,7 @@ class Raster(wiring.Component):
                         m.d.sync += [k_edge[e][k].eq(rec[f"e{e}_{k}"]) for k in ("kind", "q", "m", "d")]
                     m.d.sync += [k_dx[n].eq(rec[f"{n}_dx"]) for n in P.names]
                     m.d.sync += [k_dy[n].eq(rec[f"{n}_dy"]) for n in P.names]
+                    m.d.sync += [k_c[n].eq(rec[n]) for n in k_c]
             with m.Else():
                 m.d.sync += busy.eq(0)
         return m

@@ -19,7 +19,7 @@ from amaranth.lib.wiring import In, Out
 
 from .fixed import shape
 
-__all__ = ["unit_signature", "Pipe", "register", "build"]
+__all__ = ["unit_signature", "Pipe", "register", "build", "stream_native", "component_class"]
 
 
 def unit_signature(params) -> wiring.Signature:
@@ -90,6 +90,18 @@ def register(params_cls):
 
 def build(params) -> wiring.Component:
     """The RTL component of a parameter object."""
+    return component_class(params)(params)
+
+
+def stream_native(params) -> bool:
+    """Whether the RTL of ``params`` has stream ports of its own (``i``, ``o``: the scan converter, the engine
+    from the triangle) rather than being a flat :class:`UnitComponent` that :class:`rtl.streams.StreamUnit`
+    wraps."""
+    return not issubclass(component_class(params), UnitComponent)
+
+
+def component_class(params) -> type:
+    """The registered RTL component class of a parameter object (``ValueError`` if it has none)."""
     import importlib
 
     # the RTL of a unit lives under its model's file stem: fxmodel/recip.py -> rtl/recip.py
@@ -100,6 +112,6 @@ def build(params) -> wiring.Component:
         if exc.name != f"{__package__}.{stem}":       # a broken import inside the unit's RTL: say so
             raise
     try:
-        return _COMPONENTS[type(params)](params)
+        return _COMPONENTS[type(params)]
     except KeyError:
         raise ValueError(f"no RTL for {type(params).__name__}") from None

@@ -8,7 +8,7 @@ import re
 from pathlib import Path
 
 from .streams import StreamUnit
-from .unit import build
+from .unit import build, stream_native
 
 __all__ = ["verilog_text", "write_verilog", "component_verilog"]
 
@@ -17,13 +17,15 @@ def verilog_text(params, name: str, optimize: bool = False, flat: bool = False) 
     """Verilog of the unit as module ``name``: its stream version (:class:`rtl.streams.StreamUnit`, what
     ``make verilog`` and ``make fpga`` write), or with ``flat=True`` the flat pipeline of :func:`build`
     (``i_valid``, one port per input, ``o_valid``, one port per output: the per-vector co-simulation drives it).
+    A design with stream ports of its own (:func:`rtl.unit.stream_native`: the scan converter, the engine from the
+    triangle) is written as it is.
 
     ``optimize=True`` flattens the hierarchy and runs Yosys' logic optimizations (``opt -full``, ``wreduce``)
     before writing: the same design (Yosys' equivalence-preserving passes, as any synthesis flow runs them), in a
     form event-driven simulators evaluate far faster. Measured on the reflection unit: Icarus 18 times faster.
     """
-    # a block without ``outputs`` (the ROP) is its own stream component
-    stream = flat or not hasattr(params, "outputs")
+    # a design with stream ports of its own (the ROP, the scan converter, the engine from the triangle)
+    stream = flat or stream_native(params)
     return component_verilog(build(params) if stream else StreamUnit(params), name, optimize)
 
 

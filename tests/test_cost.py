@@ -239,3 +239,18 @@ def test_rop_declares_what_its_rtl_builds(name):
     P = RopParams.PRESETS[name]
     assert built(P) == declared(P)
     assert bool(P.memories()) == P.on_chip
+
+
+def test_scan_converter_and_engine_declare_what_the_rtl_builds():
+    """The scan converter's span-start products (one per attribute), and the engine from the triangle's whole
+    count (scan converter plus pixel pipeline), through the same census as every unit."""
+    from fxmodel.pipeline import TrianglePipelineParams
+    from fxmodel.raster import RasterParams
+    for name in RasterParams.PRESETS:
+        R = RasterParams.PRESETS[name]
+        assert built(R) == declared(R) and R.cost()["dsp"] > 0 and R.cost()["bram"] == 0
+    P = preset("pipeline")
+    E = TrianglePipelineParams(raster=RasterParams.for_pipeline(
+        {"persp": P.persp, "bump": P.bump, "reflect": P.reflect}), pipeline=P)
+    assert built(E) == declared(E)
+    assert E.cost()["dsp"] == E.raster.cost()["dsp"] + P.cost()["dsp"]

@@ -13,7 +13,7 @@ from tools.fit import KNOB_STEPS, fit, knobs_of, units_of
 from fxmodel.fixed import Fmt
 from fxmodel.presets import BUILTIN_PRESET_UNITS, PRESET_UNITS, TOP_KEYS, preset_units
 from fxmodel.reference import max_lsb
-from fxmodel.render import prepare, render
+from fxmodel.render import from_triangles, prepare, render
 
 SCENE = "scenes/tin-plane.toml"
 DEFAULT = BUILTIN_PRESET_UNITS["default"]
@@ -128,9 +128,11 @@ def test_fit_small_scene_stays_within_bound_and_shrinks(presets, monkeypatch):
     assert all(k[n] <= default[n] for n in k), {n: (k[n], default[n]) for n in k if k[n] > default[n]}
     assert sum(k.values()) < sum(default.values())               # it found something to save
     assert report["hardware"]["fit"]["table_bits"] <= report["hardware"]["default"]["table_bits"]
-    # the written preset, rendered on its own, is within the bound of reference (a) on every pixel
+    # the written preset, drawn on its own as the engine draws it (from triangles, its raster_guard included), is
+    # within the bound of reference (a) on every pixel
+    assert report["judged_from"] == "triangles"
     frame = prepare(SCENE, size=48, preset="tiny")
-    rep = render(frame)
+    rep = render(frame, model=from_triangles(frame).in_frame_order())
     a, _ = frame.references()
     assert max_lsb(rep["_model_bytes"], a) <= 3
     assert rep["max_lsb_vs_float"] == report["final"]["max_lsb_vs_float"] <= 3

@@ -242,3 +242,25 @@ def test_engine_parameters_check_the_formats():
     ok = TrianglePipelineParams(raster=RasterParams.for_pipeline(
         {"persp": pipe.persp, "bump": pipe.bump, "reflect": pipe.reflect}), pipeline=pipe)
     assert [p.name for p in ok.outputs] == ["x", "y", "r", "g", "b", "flags"]
+
+
+@pytest.mark.parametrize("scene", ["steep-bumps", "steep-sphere"])
+def test_steep_bump_maps_draw_from_triangles_with_the_block_exponent(scene):
+    """``A`` beyond ``bump.a_fmt``: the set-up refuses the triangles with ``e`` held at 0 (``A W`` does not fit);
+    with the per-triangle block exponent (the record's constant ``Ae``, the fragment path's ``e`` per scene
+    triangle) every fragment of a triangle carries it, and the frame from triangles is within 1 LSB of (a)."""
+    from fxmodel.render import from_triangles, prepare, render_triangles
+    frame = prepare(f"tests/scenes/{scene}.toml", size=48, cube_size=8)
+    tframe = from_triangles(frame)
+    raster = tframe.params.raster
+    assert ("Ae", frame.params.bump.e_fmt) in raster.consts
+    with pytest.raises(ValueError, match=r"attribute A\d\d .* outside its format"):
+        frontend.triangle_records(frame.scene, raster, [frame.maps])
+    recs, tri, _ = frontend.triangle_records(frame.scene, raster, [frame.maps], frame.exponent)
+    assert np.array_equal(recs.codes["Ae"], frame.exponent[tri])          # the fragment path's e per scene triangle
+    e = tframe.records.codes["Ae"]
+    assert e.min() >= 1
+    assert np.array_equal(tframe.scan.codes["Ae"], e[tframe.scan.record])
+    report = render_triangles(tframe)
+    assert report["max_lsb_vs_float_well_conditioned"] <= 1 and report["raster_saturated"] == 0
+    assert report["triangles_vs_fragments"]["max_lsb_vs_fragments"] <= 1

@@ -29,11 +29,11 @@ KNOB_STEPS = {
     "coord_bits": 2, "persp_p": 2, "persp_b": 2, "persp_guard": 1, "persp_m": 1, "persp_t": 1,
     "uv_frac": 2, "w_frac": 2, "n_frac": 2, "a_frac": 2, "e_frac": 2, "d_frac": 1,
     "weight_bits": 1, "diffuse_frac": 1, "specular_frac": 1,
-    "uv_int": 1, "a_int": 1, "e_int": 1,
+    "uv_int": 1, "a_int": 1, "e_int": 1, "raster_guard": 1,
 }
 #: Smallest value tried for each knob (the parameter objects reject what does not work anyway).
 KNOB_MIN = {"cube_size": 2, "cube_t": 1, "persp_t": 1, "cube_m": 2, "persp_m": 2, "weight_bits": 1, "word": 4,
-            "uv_int": 1, "a_int": 1, "e_int": 1}
+            "uv_int": 1, "a_int": 1, "e_int": 1, "raster_guard": 0}
 
 
 def knobs_of(units: dict) -> dict:
@@ -47,7 +47,8 @@ def knobs_of(units: dict) -> dict:
             "e_frac": reflect.e_fmt.frac_bits, "d_frac": bump.d_fmt.frac_bits,
             "weight_bits": top_value(units, "weight_bits"), "diffuse_frac": shade.diffuse_fmt.frac_bits,
             "specular_frac": shade.specular_fmt.frac_bits, "uv_int": persp.uv_fmt.int_bits,
-            "a_int": bump.a_fmt.int_bits, "e_int": reflect.e_fmt.int_bits}
+            "a_int": bump.a_fmt.int_bits, "e_int": reflect.e_fmt.int_bits,
+            "raster_guard": top_value(units, "raster_guard")}
 
 
 def units_of(k: dict, base: dict) -> dict:
@@ -78,6 +79,7 @@ def units_of(k: dict, base: dict) -> dict:
                                      specular_fmt=Fmt(False, shade.specular_fmt.int_bits, k["specular_frac"])),
         "weight_bits": k["weight_bits"],
         "cube_size": k["cube_size"],
+        "raster_guard": k["raster_guard"],
     }
 
 
@@ -106,9 +108,23 @@ def measure_ranges(frame) -> dict:
 def hardware(units: dict, params) -> dict:
     """The hardware estimate of a pipeline preset: ``params.cost()`` (:func:`fxmodel.cost.estimate` of the
     assembled :class:`~fxmodel.pipeline.PipelineParams`: MULT18X18D blocks ``dsp`` with the sampler blends, DP16KD
-    blocks ``bram``, multipliers, table and memory bits) and the sum of the units' port widths."""
+    blocks ``bram``, multipliers, table and memory bits), the sum of the units' port widths, and the scan
+    converter in front of it (:func:`fxmodel.render.raster_params`): its blocks and its record's and
+    accumulators' bits (the interpolators' registers)."""
+    from fxmodel.render import raster_params
+    raster = raster_params(units)
     return {**params.cost(),
-            "datapath_port_bits": sum(p.fmt.width for u in (units[k] for k in UNIT_KEYS) for p in u.inputs + u.outputs)}
+            "datapath_port_bits": sum(p.fmt.width for u in (units[k] for k in UNIT_KEYS) for p in u.inputs + u.outputs),
+            "raster_dsp": raster.cost()["dsp"], "raster_record_bits": sum(p.fmt.width for p in raster.record),
+            "raster_accumulator_bits": sum(raster.acc_fmt(n).width for n in raster.names)}
+
+
+def _render(frame, triangles: bool) -> dict:
+    """The render report of ``frame`` as the hardware draws it: from triangles (the scan converter and
+    interpolators of the frame's preset, ``raster_guard`` included: :func:`fxmodel.render.from_triangles`) or
+    from the front end's fragments. A triangle the preset's set-up cannot draw raises ``ValueError``."""
+    from fxmodel.render import from_triangles, render
+    return render(frame, model=from_triangles(frame).in_frame_order() if triangles else None)
 
 
 def _refused(frame) -> int:
@@ -211,6 +227,7 @@ class Candidate:
     sizes: tuple                    # square sizes of the renders ((w, h) or None for the scene's own)
     ref: tuple                      # per size: (max LSB vs (a), refused fragments, max LSB vs (b)) of the start
     max_lsb: int
+    triangles: bool = False         # judge the frame drawn from triangles (else from fragments)
 
     def describe(self) -> str:
         return f"fit candidate {dict(self.knobs)}"
@@ -220,9 +237,10 @@ def check_candidate(c: Candidate) -> dict:
     """``{"ok", "renders"}``: whether the candidate stays within ``max_lsb`` of reference (a) on every
     well-conditioned pixel, no more than ``max_lsb`` further from reference (b) than the start, and clamps no more
     fragment inputs and leaves no more texture addresses unresolved than the start (:func:`_refused`), at every
-    size (stopping at the first size that fails). A candidate that makes an invalid unit
-    (``ValueError``, ``TypeError``) is not ok."""
-    from fxmodel.render import prepare, render
+    size (stopping at the first size that fails), drawn from triangles when ``c.triangles`` (:func:`_render`). A
+    candidate that makes an invalid unit or a triangle the set-up cannot draw (``ValueError``, ``TypeError``) is
+    not ok."""
+    from fxmodel.render import prepare
 
     renders = 0
     try:
@@ -230,7 +248,7 @@ def check_candidate(c: Candidate) -> dict:
         for at, (lsb_a, clamped_ref, lsb_b) in zip(c.sizes, c.ref):
             renders += 1
             frame = prepare(c.scene if at is None else c.scene.with_size(*at), preset=units, allow_clamp=True)
-            rep = render(frame)
+            rep = _render(frame, c.triangles)
             if (rep["max_lsb_vs_float_well_conditioned"] > c.max_lsb or _refused(frame) > clamped_ref
                     or rep["max_lsb_vs_ideal"] > lsb_b + c.max_lsb):
                 return {"ok": False, "renders": renders}
@@ -368,7 +386,7 @@ def fit(scene, *, max_lsb: int = 1, size: int | None = 64, cube_size: int | None
     import time
     from contextlib import nullcontext
 
-    from fxmodel.render import prepare, render
+    from fxmodel.render import prepare
     from fxmodel.scene import load_scene
 
     from . import jobs as jobrunner
@@ -385,6 +403,7 @@ def fit(scene, *, max_lsb: int = 1, size: int | None = 64, cube_size: int | None
     if size is None:
         sizes = [None]
     renders = 0
+    triangles = False                   # the widening judges the fragments' frame; the descent, what is drawn
 
     def run(units, at):
         """Frame and render report of candidate ``units`` (a units dict) at size ``at`` (None: full size)."""
@@ -392,15 +411,21 @@ def fit(scene, *, max_lsb: int = 1, size: int | None = 64, cube_size: int | None
         renders += 1
         sc = scene if at is None else scene.with_size(*at)
         frame = prepare(sc, preset=units, allow_clamp=True)      # the cube size is the units' (a knob)
-        return frame, render(frame)
+        return frame, _render(frame, triangles)
 
     k0, widened = widen(knobs_of(base), base, sizes, max_lsb, run)
     wide = units_of(k0, base)
+    try:                                # the engine draws from triangles: judge that frame (raster_guard a knob)
+        triangles = True
+        for at in sizes:
+            run(wide, at)
+    except ValueError:                  # a scene the scan converter cannot draw (overlapping geometry, a
+        triangles = False               # vertex value beyond a format): judged from fragments, raster_guard kept
     ref = {}
     for at in sizes:
         frame, rep = run(wide, at)
         ref[at] = (rep["max_lsb_vs_float_well_conditioned"], _refused(frame), rep["max_lsb_vs_ideal"])
-    full_frame, _ = run(base, None)
+    full_frame = prepare(scene, preset=base, allow_clamp=True)
     ranges = measure_ranges(full_frame)
     default_hw = hardware(base, full_frame.params)
 
@@ -413,7 +438,7 @@ def fit(scene, *, max_lsb: int = 1, size: int | None = 64, cube_size: int | None
         nonlocal renders
         todo = [c for c in {tuple(sorted(c.items())): c for c in cands} if c not in verdicts]
         pieces = [Candidate(scene, c, tuple(sorted(base.items())), tuple(sizes), tuple(ref[at] for at in sizes),
-                            max_lsb) for c in todo]
+                            max_lsb, triangles) for c in todo]
         for c, out in zip(todo, jobrunner.run_pieces(check_candidate, pieces, client=client, progress=False,
                                                      describe=Candidate.describe)):
             verdicts[c] = out["ok"]
@@ -440,7 +465,7 @@ def fit(scene, *, max_lsb: int = 1, size: int | None = 64, cube_size: int | None
              "max_lsb_vs_ideal": rep["max_lsb_vs_ideal"], "psnr_db_vs_ideal": rep["psnr_db_vs_ideal"],
              "pixels": rep["pixels"], "width": scene.width, "height": scene.height}
     meta = {"scene": scene.name, "max_lsb": max_lsb, "screen_size": size or 0, "start_cube_size": base["cube_size"],
-            "final": final, "ranges": ranges, "knobs": k}
+            "judged_from": "triangles" if triangles else "fragments", "final": final, "ranges": ranges, "knobs": k}
     path = write_preset(name, units, directory, meta=meta,
                         comment=f"Written by `python -m fxmodel fit` for scene {scene.name} (--max-lsb {max_lsb}).\n"
                                 f"Use: make sim PRESET={name} SCENE={scene.name}")
@@ -448,4 +473,4 @@ def fit(scene, *, max_lsb: int = 1, size: int | None = 64, cube_size: int | None
             "knobs": {kn: {"default": start[kn], "fit": k[kn]} for kn in order}, "widened": widened,
             "ranges": ranges, "final": final,
             "hardware": {"fit": fit_hw, "default": default_hw, "savings": _savings(fit_hw, default_hw)},
-            "renders": renders, "seconds": round(time.perf_counter() - t0, 1)}
+            "judged_from": meta["judged_from"], "renders": renders, "seconds": round(time.perf_counter() - t0, 1)}

@@ -476,29 +476,45 @@ def design_list(unit_names=None, preset_list=None, scene=None) -> list[tuple[dic
 
     With ``scene`` (a name in ``scenes/`` or a scene file): the pixel pipeline with that scene's memories, once
     per pipeline preset in ``preset_list`` (built in or ``presets/<name>.toml``; default ``["default"]``),
-    labelled ``{"unit": "pipeline", "preset": P, "scene": <file stem>}`` (:func:`fxmodel.render.pipeline_params`).
+    labelled ``{"unit": "pipeline", "preset": P, "scene": <file stem>}`` (:func:`fxmodel.render.pipeline_params`),
+    and the engine from the triangle that feeds it (the scan converter and interpolators in front:
+    ``{"unit": "raster_pipeline", ...}``, :func:`fxmodel.render.engine_params`); ``unit_names`` picks one of the
+    two. The unit ``raster`` (the scan converter alone, :data:`fxmodel.raster.RasterParams.PRESETS`) is named
+    explicitly.
 
     Raises
     ------
     ValueError
         An unknown unit or pipeline preset, a missing or malformed scene file (each named), or ``scene`` with a
-        unit other than ``pipeline``.
+        unit other than ``pipeline`` or ``raster_pipeline``.
     """
     from fxmodel.unit import preset, preset_names, units
 
     from rtl.unit import build as build_rtl
 
     if scene is not None:
-        from fxmodel.render import pipeline_params
+        from fxmodel.render import engine_params
         from fxmodel.scene import scene_path
 
-        if unit_names and set(unit_names) != {"pipeline"}:
+        kinds = ("pipeline", "raster_pipeline")
+        if unit_names and not set(unit_names) <= set(kinds):
             raise ValueError(f"unit={unit_names!r}: a scene sets the tables of the pipeline only "
-                             "(drop --unit or use --unit pipeline)")
+                             "(drop --unit or use --unit pipeline or --unit raster_pipeline)")
         stem = scene_path(scene).stem
-        return [({"unit": "pipeline", "preset": name, "scene": stem}, pipeline_params(scene, name))
-                for name in preset_list or ["default"]]
+        out = []
+        for name in preset_list or ["default"]:
+            engine = engine_params(scene, name)
+            out += [({"unit": kind, "preset": name, "scene": stem}, engine if kind == kinds[1] else engine.pipeline)
+                    for kind in kinds if not unit_names or kind in unit_names]
+        return out
     out = []
+    if unit_names and "raster" in unit_names:
+        from fxmodel.raster import RasterParams
+        out += [({"unit": "raster", "preset": name}, params) for name, params in RasterParams.PRESETS.items()
+                if not preset_list or name in preset_list]
+        unit_names = [u for u in unit_names if u != "raster"]
+        if not unit_names:
+            return out
     for unit in unit_names or units() + list(FPGA_BLOCKS):
         for name in preset_list or preset_names(unit):
             if preset_list and name not in preset_names(unit):

@@ -1,7 +1,8 @@
 r"""Design-space sweep: speed against error of the reciprocal, the other units' widths and the pipeline.
 
 ``python -m tools.sweep [--no-fpga] [--fpga-points N] [--unit-fpga-points N] [--unit-samples K] [--no-units]
-[--no-pipeline] [--jobs J] [--scheduler ADDRESS] [--docs]`` (second phase of ``make bench``) measures the reciprocal grid below, the
+[--only UNIT] [--no-pipeline] [--jobs J] [--scheduler ADDRESS] [--docs]`` (second phase of ``make bench``) measures
+the reciprocal grid below, the
 unit-width families and pipeline points of :mod:`tools.sweep_units` (perspective, cube, reflection and bump units:
 error against exact math, cost, latency, throughput, ECP5 results for each unit's default preset and the cheapest
 point of its front; pipeline presets rendered through the bit-exact model: PSNR and largest error against the float
@@ -246,7 +247,8 @@ def measure_sweep_point(point: SweepPoint) -> dict:
     """The record of one sweep point (runs on a Dask worker)."""
     from . import sweep_units as su
 
-    fn = {"recip": measure_point, "unit": su.measure_unit_point, "pipeline": su.measure_pipeline_point}[point.kind]
+    fn = {"recip": measure_point, "unit": su.measure_unit_point, "pipeline": su.measure_pipeline_point,
+          "raster": su.measure_raster_point}[point.kind]
     return fn(*point.args, **dict(point.kwargs))
 
 
@@ -296,6 +298,8 @@ def sweep(grid=None, *, pipeline=None, scene=None, scene_size: int | None = None
         if params.NAME == "recip":
             points.append(SweepPoint("recip", (name, family, params), (
                 ("exhaustive_limit", exhaustive_limit), ("samples", samples), ("dsp_weight", dsp_weight))))
+        elif params.NAME == "raster":
+            points.append(SweepPoint("raster", (name, family, params), (("dsp_weight", dsp_weight),)))
         else:
             points.append(SweepPoint("unit", (name, family, params), (
                 ("samples", unit_samples), ("dsp_weight", dsp_weight), ("exhaustive_limit", exhaustive_limit))))
@@ -615,6 +619,9 @@ def main(argv=None) -> int:
     ap.add_argument("--unit-samples", type=int,
                     help="random inputs of the other units (default: --samples; fewer for a quick look)")
     ap.add_argument("--no-units", action="store_true", help="only the reciprocal and the pipeline points")
+    ap.add_argument("--only", action="append", metavar="UNIT", help="only this unit's points (repeatable: recip, "
+                    "persp, cube, reflect, bump, raster); with --no-pipeline e.g. the scan converter's guard bits "
+                    "alone")
     ap.add_argument("--no-pipeline", action="store_true", help="no pipeline points (no scene renders)")
     ap.add_argument("--scene", help="scene of the pipeline points (default: scenes/tin-plane.toml)")
     ap.add_argument("--scene-size", type=int, help="render the pipeline points at this square size "
@@ -634,6 +641,8 @@ def main(argv=None) -> int:
         return 2
     from . import sweep_units as su
     grid = default_grid() + ([] if args.no_units else su.default_unit_grid())
+    if args.only:
+        grid = [g for g in grid if g[2].NAME in args.only]
     result = sweep(grid, pipeline=[] if args.no_pipeline else su.PIPELINE_POINTS, scene=args.scene,
                    scene_size=args.scene_size, exhaustive_limit=args.exhaustive_limit, samples=args.samples,
                    unit_samples=args.unit_samples, dsp_weight=args.dsp_weight,

@@ -16,6 +16,10 @@ reflect  ``word``: ``N``, ``E`` in ``s2.(w - 2)``, ``r_bits = w``,   angle betwe
          ``w`` 8 to 20 (the exact ``R`` must fit 62 bits)            (:func:`~fxmodel.exact.measure_reflect`)
 bump     ``out``: ``N'`` in ``s2.f``, ``f`` 6 to 16                  ``|N'_i - (N + du A0 + dv A1)_i|``, unsaturated
                                                                      (:func:`~fxmodel.exact.measure_bump`)
+raster   ``guard``: the interpolators' guard bits ``g`` (``extra_      distance of each output code from the exact
+         guard`` 0 to 3 beyond the proof's minimum) and the          rational plane, in output ulps, over triangles
+         ``small`` preset                                            spanning the whole ``max_size`` viewport
+                                                                     (:func:`fxmodel.raster.measure`)
 =======  ==========================================================  =================================================
 
 The reciprocal of ``persp`` and ``cube`` is the smallest faithful table at that ``p``: the fewest index bits ``m``
@@ -59,7 +63,8 @@ from fxmodel.recip import RecipParams
 from fxmodel.unit import preset
 
 __all__ = ["unique_points", "S_ABS", "UNIT_ERRORS", "PIPELINE_POINTS", "SCENE", "smallest_faithful", "knobs",
-           "default_unit_grid", "unit_inputs", "measure_unit_point", "pipeline_grid", "measure_pipeline_point"]
+           "default_unit_grid", "unit_inputs", "measure_unit_point", "pipeline_grid", "measure_pipeline_point",
+           "RASTER_TRIANGLES", "raster_grid", "measure_raster_point"]
 
 #: Largest ``|U/W|`` of the perspective unit's measured domain (its documented bound's ``s_abs``).
 S_ABS = 16
@@ -76,7 +81,13 @@ UNIT_ERRORS = {
                 "ulp_name": "ulp of R (rad per ulp)"},
     "bump": {"what": "|N'_i - (N + du A0 + dv A1)_i|, unsaturated", "worst": "max_error", "mean": "mean_error",
              "bound": "bound", "ulp": lambda P: P.out_fmt.ulp, "ulp_name": "ulp of N'"},
+    "raster": {"what": "|output code - exact plane| over full-viewport triangles, output ulps (the 'mean' column: "
+                       "the accumulators' worst, before the output rounding)",
+               "ulp_name": "output ulps (each attribute's own)"},
 }
+
+#: Triangles spanning the whole viewport that measure each scan-converter point (:func:`fxmodel.raster.measure`).
+RASTER_TRIANGLES = 2
 
 #: The scene of the pipeline points.
 SCENE = "scenes/tin-plane.toml"
@@ -163,7 +174,50 @@ def default_unit_grid() -> list[tuple[str, str, object]]:
     bump = preset("bump")
     for f in (6, 8, 10, 12, 14, 16):
         grid.append((f"bump out s2.{f}", "out", bump.replace(out_fmt=Fmt(True, 2, f))))
-    return unique_points(grid)
+    return unique_points(grid + raster_grid())
+
+
+def raster_grid() -> list[tuple[str, str, object]]:
+    """The scan converter's points: its presets, and the default with 0 to 3 guard bits beyond the proof's
+    minimum (``extra_guard``)."""
+    import dataclasses
+
+    from fxmodel.raster import RasterParams
+    base = RasterParams.PRESETS["default"]
+    grid = [(f"raster preset {n}", "preset", P) for n, P in RasterParams.PRESETS.items()]
+    grid += [(f"raster g{dataclasses.replace(base, extra_guard=g).guard_bits}", "guard",
+              dataclasses.replace(base, extra_guard=g)) for g in range(4)]
+    return grid
+
+
+def measure_raster_point(name: str, family: str, params, *, dsp_weight: float = 1024.0,
+                         triangles: int = RASTER_TRIANGLES, seed: int = 1, **_) -> dict:
+    """The scan converter's worst interpolation error against the exact planes (:func:`fxmodel.raster.measure`:
+    triangles spanning the whole ``max_size`` viewport, output ulps of each attribute) beside its bound and cost
+    (:func:`fxmodel.cost.estimate`; its registers: the record's and the accumulators' bits), one JSON record in the
+    form of :func:`measure_unit_point`'s."""
+    from fxmodel.raster import measure
+    t0 = time.perf_counter()
+    m = measure(params, triangles, seed)
+    rate = m["fragments"] / (time.perf_counter() - t0)
+    est = params.cost()
+    worst, bound = m["output_worst_ulp"], m["output_bound_ulp"]
+    regs = sum(p.fmt.width for p in params.record) + sum(params.acc_fmt(n).width for n in params.names)
+    return {
+        "name": name, "family": family, "unit": "raster",
+        "knobs": f"g={params.guard_bits} (extra {params.extra_guard}), max_size {params.max_size}, "
+                 f"{regs} record + accumulator bits",
+        "params": params.info()["params"], "table_bits": 0, "multipliers": est["multipliers"],
+        "dsp_blocks_est": est["dsp"], "latency": params.latency, "error": UNIT_ERRORS["raster"]["what"],
+        "bound": bound, "worst": worst, "mean": m["accumulator_worst_ulp"], "ulp": 1.0, "bound_ulp": bound,
+        "worst_ulp": worst, "mean_ulp": m["accumulator_worst_ulp"], "worst_input_codes": None,
+        "within_bound": worst <= bound, "correct_bits_worst": round(-math.log2(worst), 3) if worst > 0 else None,
+        "correct_bits_mean": None, "vectors": m["fragments"], "drawn": m["fragments"], "exhaustive": False,
+        "model_per_second": rate, "cost": dsp_weight * est["dsp"], "fpga": None,
+        "measure": {"accumulator_worst_ulp": m["accumulator_worst_ulp"],
+                    "accumulator_bound_ulp": m["accumulator_bound_ulp"], "guard_bits": m["guard_bits"],
+                    "register_bits": regs, "triangles": triangles},
+    }
 
 
 def unit_inputs(params, samples: int, rng, exhaustive_limit: int = 1 << 24) -> tuple[np.ndarray, bool]:

@@ -647,8 +647,6 @@ def run_stream(params, space=None, *, sim: str | None = None, lo: int = 0, hi: i
         For a bad argument. ``RuntimeError`` if the build, the vector generation or the simulation failed
         (the message names the log file).
     """
-    from cocotb_tools.runner import get_runner
-
     sim = simulator(sim)
     waves = os.environ.get("WAVES", "0") not in ("", "0") if waves is None else bool(waves)
     if rtl_params is None:
@@ -706,16 +704,8 @@ def run_stream(params, space=None, *, sim: str | None = None, lo: int = 0, hi: i
                                                         ahead), daemon=True)
     producer.start()
     watcher = _progress(job, chunks, f"{params.NAME} {sim}", progress, stop)
-    env = {"STREAM_JOB": str(job), "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])}
-    log = job / "sim.log"
-    failure = None
     try:
-        get_runner(sim).test(hdl_toplevel=bld.top, hdl_toplevel_lang="verilog", test_module=TESTBENCH,
-                             build_dir=bld.bdir, test_dir=job, extra_env=env, waves=waves,
-                             plusargs=[f"+STREAM_DIR={job}"], results_xml=str(job / "results.xml"),
-                             log_file=None if _verbose() else log)
-    except (Exception, SystemExit) as exc:              # judged below, with the testbench's own report
-        failure = exc
+        failure, log = _testbench(bld, job, sim, waves)
     finally:
         stop.set()
         producer.join()
@@ -727,11 +717,7 @@ def run_stream(params, space=None, *, sim: str | None = None, lo: int = 0, hi: i
     seconds = time.perf_counter() - t0
     if errors:
         raise RuntimeError(f"generating the vectors of {params.NAME} failed: {errors[0]!r}") from errors[0]
-    result_file = job / "result.json"
-    res = json.loads(result_file.read_text()) if result_file.exists() else {"error": f"no {result_file}"}
-    if res.get("error") or failure is not None:
-        raise RuntimeError(f"the streaming simulation of {params.NAME} on {sim} failed: "
-                           f"{res.get('error') or failure}; log: {log}\n{_tail(log)}")
+    res = _testbench_result(params, job, sim, failure, log)
     result = StreamResult(
         unit=params.NAME, simulator=sim, vectors=res["checked"], expected_vectors=n, mismatches=res["mismatches"],
         valid_errors=res["valid_errors"], missing=res["missing"], extra=res["extra"],
@@ -744,9 +730,7 @@ def run_stream(params, space=None, *, sim: str | None = None, lo: int = 0, hi: i
         variant=variant or None, started=started, finished=time.time())
     result.rtl = rtl                                    # not part of the JSON report
     if waves:
-        dumps = sorted(list(bld.bdir.glob("*.fst")) + list(bld.bdir.glob("*.vcd")) + list(job.glob("*.vcd"))
-                       + list(job.glob("*.fst")), key=lambda f: f.stat().st_mtime)
-        result["waves"] = str(dumps[-1]) if dumps else None
+        result["waves"] = _waves_file(bld, job)
     if not waves and not tag:                          # the result holds all it found; logs stay on errors only
         shutil.rmtree(job, ignore_errors=True)
     return result
@@ -812,8 +796,6 @@ def run_records(params, inputs, expected, counts, *, clocks=None, sim: str | Non
         As :func:`run_stream` (``vectors`` the outputs compared, ``expected_vectors`` ``K``), plus ``inputs``, and
         ``busy_cycles`` when the design has ``busy``; ``result.rtl`` the output codes ``(K', outputs)``.
     """
-    from cocotb_tools.runner import get_runner
-
     sim = simulator(sim)
     waves = os.environ.get("WAVES", "0") not in ("", "0") if waves is None else bool(waves)
     inputs = np.asarray(inputs, dtype=np.int64).reshape(-1, len(params.inputs))
@@ -858,26 +840,14 @@ def run_records(params, inputs, expected, counts, *, clocks=None, sim: str | Non
     started = time.time()
     t0 = time.perf_counter()
     watcher = _progress(job, outs, f"{params.NAME} {sim}", progress, stop)
-    env = {"STREAM_JOB": str(job), "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])}
-    log = job / "sim.log"
-    failure = None
     try:
-        get_runner(sim).test(hdl_toplevel=bld.top, hdl_toplevel_lang="verilog", test_module=TESTBENCH,
-                             build_dir=bld.bdir, test_dir=job, extra_env=env, waves=waves,
-                             plusargs=[f"+STREAM_DIR={job}"], results_xml=str(job / "results.xml"),
-                             log_file=None if _verbose() else log)
-    except (Exception, SystemExit) as exc:              # judged below, with the testbench's own report
-        failure = exc
+        failure, log = _testbench(bld, job, sim, waves)
     finally:
         stop.set()
         if watcher is not None:
             watcher.join()
     seconds = time.perf_counter() - t0
-    result_file = job / "result.json"
-    res = json.loads(result_file.read_text()) if result_file.exists() else {"error": f"no {result_file}"}
-    if res.get("error") or failure is not None:
-        raise RuntimeError(f"the streaming simulation of {params.NAME} on {sim} failed: "
-                           f"{res.get('error') or failure}; log: {log}\n{_tail(log)}")
+    res = _testbench_result(params, job, sim, failure, log)
     rtl = _read_dump(params, job, len(ranges))
     n = min(len(rtl), len(expected))
     bad = np.flatnonzero(np.any(rtl[:n] != expected[:n], axis=1))
@@ -898,12 +868,44 @@ def run_records(params, inputs, expected, counts, *, clocks=None, sim: str | Non
         result["busy_cycles"] = res["busy_cycles"]
     result.rtl = rtl
     if waves:
-        dumps = sorted(list(bld.bdir.glob("*.fst")) + list(bld.bdir.glob("*.vcd")) + list(job.glob("*.vcd"))
-                       + list(job.glob("*.fst")), key=lambda f: f.stat().st_mtime)
-        result["waves"] = str(dumps[-1]) if dumps else None
+        result["waves"] = _waves_file(bld, job)
     if not waves and not tag:
         shutil.rmtree(job, ignore_errors=True)
     return result
+
+
+def _testbench(bld: _Build, job: Path, sim: str, waves: bool):
+    """Run the cocotb side (:data:`TESTBENCH`) on the built wrapper with the job folder ``job``: ``(failure, log)``,
+    the exception the run raised (``None``) and the simulator's log file."""
+    from cocotb_tools.runner import get_runner
+
+    env = {"STREAM_JOB": str(job), "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])}
+    log = job / "sim.log"
+    try:
+        get_runner(sim).test(hdl_toplevel=bld.top, hdl_toplevel_lang="verilog", test_module=TESTBENCH,
+                             build_dir=bld.bdir, test_dir=job, extra_env=env, waves=waves,
+                             plusargs=[f"+STREAM_DIR={job}"], results_xml=str(job / "results.xml"),
+                             log_file=None if _verbose() else log)
+    except (Exception, SystemExit) as exc:              # judged with the testbench's own report
+        return exc, log
+    return None, log
+
+
+def _testbench_result(params, job: Path, sim: str, failure, log: Path) -> dict:
+    """The testbench's ``result.json``; ``RuntimeError`` naming the log if the run failed."""
+    result_file = job / "result.json"
+    res = json.loads(result_file.read_text()) if result_file.exists() else {"error": f"no {result_file}"}
+    if res.get("error") or failure is not None:
+        raise RuntimeError(f"the streaming simulation of {params.NAME} on {sim} failed: "
+                           f"{res.get('error') or failure}; log: {log}\n{_tail(log)}")
+    return res
+
+
+def _waves_file(bld: _Build, job: Path) -> str | None:
+    """The newest waveform dump of a run."""
+    dumps = sorted(list(bld.bdir.glob("*.fst")) + list(bld.bdir.glob("*.vcd")) + list(job.glob("*.vcd"))
+                   + list(job.glob("*.fst")), key=lambda f: f.stat().st_mtime)
+    return str(dumps[-1]) if dumps else None
 
 
 def _read_dump(params, job: Path, chunks: int) -> np.ndarray:

@@ -36,6 +36,8 @@ def hard_and_random(params, width, height, n_random, seed):
     for name, fmt in params.attrs:
         lim = float(fmt.max_value) * 0.999
         vals[name] = rng.uniform(-lim, lim, X.shape)
+    for name, fmt in params.consts:                                                  # e.g. Ae
+        vals[name] = rng.integers(fmt.min_code, fmt.max_code, X.shape[0], endpoint=True)
     if "W" in vals:
         vals["W"][-4:] = rng.uniform(0, 3, (4, 3)) * float(params.out_fmt("W").ulp)  # W at the bottom
         vals["W"][0] = float(params.out_fmt("W").max_value)
@@ -62,7 +64,7 @@ def test_raster_rtl_matches_the_model(sim, preset, p_valid, p_ready, size, n):
 
 @pytest.mark.slow
 def test_make_sim_from_triangles(sim):
-    """``make sim INPUT=triangles`` on a small sphere: the engine's RTL equals the model on every output and
+    """``make sim`` (from triangles) on a small sphere: the engine's RTL equals the model on every output and
     clock, and the report says it started from triangles. Slow (``make exhaustive``): Yosys spends minutes on the
     whole pipeline's netlist."""
     import json

@@ -634,20 +634,20 @@ def scan(params: RasterParams, records) -> ScanResult:
     return ScanResult(codes=codes, record=rec_idx, acc=acc, clocks=clocks)
 
 
-def _pipeline_attrs() -> tuple:
+def _pipeline_raster() -> "RasterParams":
     from .bump import BumpParams
     from .persp import PerspParams
     from .reflect import ReflectParams
     units = {"persp": PerspParams.PRESETS["color"], "bump": BumpParams.PRESETS["default"],
              "reflect": ReflectParams.PRESETS["default"]}
-    return RasterParams.for_pipeline(units).attrs
+    return RasterParams.for_pipeline(units)
 
 
-#: ``default``: the default pixel pipeline's input formats (its units' default presets) and ``Z`` in the format
-#: :meth:`RasterParams.for_pipeline` gives it;
+#: ``default``: the default pixel pipeline's input formats (its units' default presets), ``Z`` in the format
+#: :meth:`RasterParams.for_pipeline` gives it, and the bump engine's block exponent ``Ae`` as a constant;
 #: ``small``: two attributes for quick RTL tests.
 RasterParams.PRESETS = {
-    "default": RasterParams(attrs=_pipeline_attrs()),
+    "default": _pipeline_raster(),
     "small": RasterParams(attrs=(("U", Fmt(True, 4, 12)), ("W", Fmt(True, 2, 12))), max_size=256,
                           guard_pixels=256, extra_guard=0),
 }
@@ -673,7 +673,8 @@ def measure(params: RasterParams, triangles: int = 4, seed: int = 1) -> dict:
         if k % 2:
             X = n * S - X
         vals = {name: rng.uniform(-0.95, 0.95, 3) * float(fmt.max_value) for name, fmt in params.attrs}
-        recs = setup(params, X[None], Y[None], {m: v[None] for m, v in vals.items()}, n, n)
+        consts = {m: np.array([f.max_code]) for m, f in params.consts}       # carried, not interpolated
+        recs = setup(params, X[None], Y[None], {m: v[None] for m, v in vals.items()} | consts, n, n)
         res = scan(params, recs)
         pixels += len(res)
         y, x = res.codes["y"], res.codes["x"]

@@ -152,7 +152,7 @@ def test_design_list_with_a_scene_is_the_pipeline_of_that_preset_and_scene():
     from fxmodel.presets import PRESET_UNITS
     from fxmodel.render import pipeline_params, prepare
 
-    (fit_design, default_design) = fpga.design_list(None, ["tin-plane-fit", "default"], scene="tin-plane")
+    (fit_design, default_design) = fpga.design_list(["pipeline"], ["tin-plane-fit", "default"], scene="tin-plane")
     label, params = fit_design
     assert label == {"unit": "pipeline", "preset": "tin-plane-fit", "scene": "tin-plane"}
     units = PRESET_UNITS["tin-plane-fit"]
@@ -162,6 +162,13 @@ def test_design_list_with_a_scene_is_the_pipeline_of_that_preset_and_scene():
     assert default_design[1] == pipeline_params("scenes/tin-plane.toml")
     assert default_design[1].persp == PRESET_UNITS["default"]["persp"] != params.persp
     assert fpga.design_list(["pipeline"], None, scene="tin-plane")[0][0]["preset"] == "default"
+    # without --unit: the pipeline and the engine from the triangle in front of it (its scan converter from the
+    # preset's units, raster_guard included)
+    from fxmodel.render import raster_params
+    both = fpga.design_list(None, ["tin-plane-fit"], scene="tin-plane")
+    assert [d[0]["unit"] for d in both] == ["pipeline", "raster_pipeline"]
+    engine = both[1][1]
+    assert engine.pipeline == params and engine.raster == raster_params(units)
 
 
 @pytest.mark.parametrize("args, message", [
@@ -185,8 +192,8 @@ def test_cli_measures_the_pipeline_of_a_fitted_preset_and_scene(tmp_path, monkey
 
     monkeypatch.setattr(fpga, "_run_tools", fake_tools)
     assert fpga.main(["--scene", "tin-plane", "--preset", "tin-plane-fit", "--out", str(tmp_path)]) == 0
-    (rec,) = json.loads((tmp_path / "report.json").read_text())["designs"]
-    assert tops == ["pipeline"]
+    rec, engine = json.loads((tmp_path / "report.json").read_text())["designs"]
+    assert tops == ["pipeline", "raster_pipeline"] and engine["unit"] == "raster_pipeline"
     assert (rec["unit"], rec["preset"], rec["scene"]) == ("pipeline", "tin-plane-fit", "tin-plane")
     md = (tmp_path / "report.md").read_text()
     assert "| unit | preset | scene | LUT4 |" in md and "| pipeline | tin-plane-fit | tin-plane | 632 |" in md

@@ -85,6 +85,10 @@ def test_make_sim_refuses_clamped_inputs_and_fails_a_frame_over_the_bound(monkey
     monkeypatch.setattr(sim, "_stream", fake_stream)
     monkeypatch.setattr(sim, "ROOT", tmp_path)
     args = ["--scene", str(WIDE), "--size", "32", "--cube-size", "4", "--sim", "icarus"]
+    assert sim.main(args) == 2 and "persp.uv_fmt" in capsys.readouterr().err      # from triangles (the default)
+    assert sim.main(args + ["--allow-clamp"]) == 2                                 # the set-up refuses by name
+    assert "attribute U" in capsys.readouterr().err
+    args += ["--input", "fragments"]
     assert sim.main(args) == 2 and "persp.uv_fmt" in capsys.readouterr().err
     assert sim.main(args + ["--allow-clamp", "--max-lsb", "0"]) == 1
     assert "over the bound of 0 LSB" in capsys.readouterr().err

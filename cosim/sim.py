@@ -8,7 +8,7 @@ By default (``--input triangles``) the host's set-up turns the scene into triang
 bump matrix's block exponent per triangle), and the RTL of the engine from the triangle (``rtl/pipeline.py``'s
 ``TrianglePipeline``: the scan converter and interpolators of ``rtl/raster.py`` feeding the stream version of the
 pixel pipeline) draws them, in the streaming harness (``cosim/stream.py``, ``run_records``: records from
-``$readmemh`` files, the clock and the stimulus inside the HDL wrapper, no Python per clock); every output
+binary chunk files (``$fread``), the clock and the stimulus inside the HDL wrapper, no Python per clock); every output
 (``x, y``, the bytes, the flags) is compared with the bit-exact model, in order, none lost and none extra, and the
 scan converter's busy cycles with the model's clock count. ``--input fragments`` starts at the fragment instead:
 the front end's fragments, quantized to the pipeline's inputs (``fxmodel.render.prepare``), stream through the

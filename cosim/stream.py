@@ -762,7 +762,7 @@ def run_records(params, inputs, expected, counts, *, clocks=None, sim: str | Non
     with stream ports of its own, and compare every output with the model's, in order.
 
     The mechanism of :func:`run_stream`, in the wrapper's ``expand`` mode (:func:`wrapper_verilog`): the inputs
-    go to the design from ``$readmemh`` chunk files, at most ``depth`` and about ``chunk`` outputs' worth a
+    go to the design from binary chunk files (``$fread``), at most ``depth`` and about ``chunk`` outputs' worth a
     chunk; the clock, the gaps on the input valid and the backpressure on the output ready (:data:`PATTERNS`)
     are made inside the wrapper; every output taken is written to a file, and here compared bit for bit with
     ``expected``, counted (none lost, none extra) and kept in order. The outputs are decoded generically, one
@@ -825,7 +825,7 @@ def run_records(params, inputs, expected, counts, *, clocks=None, sim: str | Non
     iw = sum(p.fmt.width for p in params.inputs)
     ins = [(p.name, p.fmt) for p in params.inputs]
     for k, (a, b) in enumerate(ranges):
-        write_readmemh(job / f"chunk_{k}.hex", ins, inputs[a:b])
+        write_words(job / f"chunk_{k}.bin", ins, inputs[a:b])
     limits = [min(32 * int(clocks[a:b].sum() + counts[a:b].sum() + b - a) + 20000 + 64 * params.latency,
                   (1 << 32) - 1) for a, b in ranges]
     meta = {"chunks": [b - a for a, b in ranges], "bases": [0] * len(ranges), "counter": False, "keep": keep,

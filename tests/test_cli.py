@@ -119,3 +119,13 @@ def test_readmemh_round_trip(tmp_path_factory, rows):
     lines = [l for l in path.read_text().splitlines() if not l.startswith("//")]
     assert len(lines) == len(rows) and all(len(l) == (24 + 3 + 42 + 3) // 4 for l in lines)
     assert np.array_equal(read_readmemh(path, fields), codes)
+
+
+def test_render_from_triangles(tmp_path, capsys):
+    """``python -m fxmodel render --triangles``: the frame the engine draws, judged, with the fragments' beside it."""
+    from tools.cli import main
+    assert main(["render", "tests/scenes/steep-sphere.toml", str(tmp_path / "t.png"), "--triangles",
+                 "--cube-size", "8"]) == 0
+    rep = json.loads(capsys.readouterr().out)
+    assert rep["input"] == "triangles" and rep["verdict"]["pass"] and rep["from_fragments"]["max_lsb_vs_float"] <= 1
+    assert (tmp_path / "t.png").stat().st_size > 0

@@ -122,15 +122,20 @@ def cmd_errors(args) -> int:
 
 
 def cmd_render(args) -> int:
-    from fxmodel.render import judge, prepare, render, save_png, tell
+    from fxmodel.render import from_triangles, judge, prepare, render, render_triangles, save_png, tell
     from fxmodel.scene import SceneError
     try:
         frame = prepare(args.scene, size=args.size, preset=args.preset, cube_size=args.cube_size,
                         allow_clamp=args.allow_clamp)
+        tframe = from_triangles(frame) if args.triangles else None
     except (SceneError, OSError) as exc:
         raise SystemExit(f"error: {exc}")
-    report = render(frame, args.refs)
-    save_png(args.output, frame.image(report.pop("_model_bytes")))
+    if tframe is not None:
+        report = render_triangles(tframe, args.refs)
+        save_png(args.output, tframe.image(report.pop("_triangle_bytes")[:, 2:5].astype("uint8")))
+    else:
+        report = render(frame, args.refs)
+        save_png(args.output, frame.image(report.pop("_model_bytes")))
     judge(report, args.max_lsb)
     print(json.dumps(report, indent=2))
     return tell(report, args.scene)
@@ -188,6 +193,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--cube-size", type=int, help="texels per reflectance-cube face edge (default: the preset's, 64 "
                    "unless a preset file sets it)")
     p.add_argument("--refs", metavar="DIR", help="also write the float references' images (and diff.png) into DIR")
+    p.add_argument("--triangles", action="store_true", help="draw from triangles (the engine's set-up, scan "
+                   "converter and interpolators; the report adds the frame from fragments beside it)")
     from fxmodel.render import bound_args
     bound_args(p)
     p.set_defaults(fn=cmd_render)

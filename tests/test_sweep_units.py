@@ -207,3 +207,18 @@ def test_outputs(result, tmp_path):
 def test_bad_arguments():
     assert sw.main(["--unit-fpga-points", "4"]) == 2
     assert sw.main(["--unit-samples", "0"]) == 2
+
+
+def test_raster_guard_points_measure_the_interpolators_against_their_bound():
+    """The scan converter's sweep points: the worst output error over full-viewport triangles within the proof's
+    bound, which shrinks with each guard bit, at the cost model's multiplier count."""
+    import dataclasses
+
+    from fxmodel.raster import RasterParams
+    from tools.sweep_units import measure_raster_point
+    small = RasterParams.PRESETS["small"]
+    recs = [measure_raster_point(f"g{g}", "guard", dataclasses.replace(small, extra_guard=g), triangles=1)
+            for g in (0, 2)]
+    assert all(r["within_bound"] and r["worst_ulp"] <= r["bound_ulp"] for r in recs)
+    assert recs[1]["bound_ulp"] < recs[0]["bound_ulp"] and recs[0]["vectors"] > 30_000
+    assert recs[0]["dsp_blocks_est"] == small.cost()["dsp"] > 0 and recs[0]["unit"] == "raster"

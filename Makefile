@@ -9,6 +9,8 @@ SIM      ?= icarus
 PRESET   ?= default
 SCENE    ?= tin-plane
 INPUT    ?= triangles
+# DEPTH=1 (with INPUT=triangles): the depth test and the frame buffer behind the AXI4 port, frame read from memory
+DEPTH    ?=
 JOBS     ?= 2
 # nextpnr router of `make fpga` (router1: the README's figures; router2: quick checks of the pipeline)
 ROUTER   ?= router1
@@ -23,6 +25,7 @@ export SIM
 help:
 	@echo "make sim        draw SCENE (default tin-plane) from triangles through the RTL engine, bit-exact check"
 	@echo "                (SIM=icarus|verilator); INPUT=fragments: from the front end's fragments through the pixel pipeline"
+	@echo "                DEPTH=1: with the depth test and the frame buffer behind an AXI4 port (triangles only)"
 	@echo "make render     render SCENE through the bit-exact model only, with the float references"
 	@echo "make test       the test suite (model properties, RTL build, co-simulation on \$$SIM)"
 	@echo "make verilog    write build/verilog/<unit>_<preset>.v for every unit and preset;"
@@ -62,7 +65,7 @@ verilog: setup
 	$(PY) -m rtl verilog --out build/verilog $(SCENE_ARGS)
 
 sim: setup
-	$(PY) -m cosim.sim --scene $(SCENE) --preset $(PRESET) --sim $(SIM) --input $(INPUT)
+	$(PY) -m cosim.sim --scene $(SCENE) --preset $(PRESET) --sim $(SIM) --input $(INPUT) $(if $(DEPTH),--depth)
 
 render: setup
 	$(PY) -m fxmodel render scenes/$(SCENE).toml build/render/$(SCENE)/model.png --preset $(PRESET) --refs build/render/$(SCENE)

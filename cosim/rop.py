@@ -32,7 +32,7 @@ from rtl.verilog import component_verilog
 from .harness import BUILD, build_and_test, simulator
 from .raster import pack
 
-__all__ = ["RopBench", "run", "DELAY_DEPTH", "LATENCY_BITS"]
+__all__ = ["RopBench", "run", "run_engine", "DELAY_DEPTH", "LATENCY_BITS"]
 
 #: Transfers a delay queue holds: full throughput up to this latency.
 DELAY_DEPTH = 24
@@ -46,21 +46,26 @@ _RESPONSES = ("bid", "bresp", "bvalid", "rid", "rdata", "rresp", "rlast", "rvali
 
 
 class RopBench(wiring.Component):
-    """Simulation top: the ROP, delay queues on its ``AR``, ``AW`` and ``W`` channels, the AXI4 port ``mem`` to
-    the memory model. Ports: ``i`` (the ROP's), ``mem`` (``axi_signature``), ``lat`` In(:data:`LATENCY_BITS`),
-    ``busy``, ``status`` (the ROP's); on chip: ``i``, ``fb``, ``busy``, ``status`` (the ROP itself)."""
+    """Simulation top: the ROP (``params`` a :class:`RopParams`) or the engine with its depth test (a
+    :class:`~fxmodel.pipeline.TrianglePipelineParams` with ``rop``), delay queues on the ``AR``, ``AW`` and ``W``
+    channels, the AXI4 port ``mem`` to the memory model. Ports: ``i`` (the design's: fragments or triangle
+    records), ``mem`` (``axi_signature``), ``lat`` In(:data:`LATENCY_BITS`), ``busy`` (the design's, the ROP's
+    too for the engine), ``status`` (the ROP's)."""
 
-    def __init__(self, params: RopParams):
+    def __init__(self, params):
         self.params = params
-        super().__init__({"i": In(stream.Signature(payload_layout(params.inputs))),
-                          "mem": Out(axi_signature(params.addr_bits, params.data_bits)),
+        self.inner = _design(params)
+        rop = _rop_params(params)
+        super().__init__({"i": In(stream.Signature(self.inner.i.payload.shape())),
+                          "mem": Out(axi_signature(rop.addr_bits, rop.data_bits)),
                           "lat": In(LATENCY_BITS), "busy": Out(1), "status": Out(3)})
 
     def elaborate(self, platform):
         m = Module()
-        m.submodules.rop = rop = Rop(self.params)
+        m.submodules.design = rop = self.inner
         wiring.connect(m, wiring.flipped(self.i), rop.i)
-        m.d.comb += [self.busy.eq(rop.busy), self.status.eq(rop.status)]
+        busy = rop.busy | rop.rop_busy if hasattr(rop, "rop_busy") else rop.busy
+        m.d.comb += [self.busy.eq(busy), self.status.eq(rop.status)]
         now = Signal(32)
         m.d.sync += now.eq(now + 1)
         src, dst = rop.axi, self.mem
@@ -105,8 +110,21 @@ class _DelayQueue(wiring.Component):
         return m
 
 
-def _build(params: RopParams, sim: str):
-    """``(top, build folder)``: the bench's Verilog written once per parameters (under a lock)."""
+def _rop_params(params) -> RopParams:
+    return params if isinstance(params, RopParams) else params.rop
+
+
+def _design(params):
+    """The ROP, or the engine from the triangle with its depth test."""
+    if isinstance(params, RopParams):
+        return Rop(params)
+    from rtl.pipeline import TrianglePipeline
+    return TrianglePipeline(params)
+
+
+def _build(params, sim: str):
+    """``(top, build folder)``: the bench's Verilog written once per parameters (under a lock); on chip the
+    design itself."""
     top = "rop_bench"
     bdir = BUILD / sim / f"{top}_{params_key(params)}"
     bdir.mkdir(parents=True, exist_ok=True)
@@ -114,7 +132,7 @@ def _build(params: RopParams, sim: str):
     with open(bdir / ".build.lock", "w") as lock:
         fcntl.flock(lock, fcntl.LOCK_EX)
         if not src.exists():
-            comp = Rop(params) if params.on_chip else RopBench(params)
+            comp = _design(params) if _rop_params(params).on_chip else RopBench(params)
             src.write_text(component_verilog(comp, top, optimize=(sim == "icarus"), rename=True))
     return top, bdir, src
 
@@ -142,37 +160,63 @@ def run(params: RopParams, frags, *, latency: int = 1, p_valid: float = 1.0, p_p
         ``rtl_bytes_written`` (4 per ``AR``, 8 per ``AW`` transfer), ``status``, ``cycles``, ``first`` (a few
         differing pixels); ``depth`` and ``color`` the RTL's frame.
     """
-    sim = simulator(sim)
-    if not 0 <= latency <= DELAY_DEPTH:
-        raise ValueError(f"latency={latency}: must be in 0..{DELAY_DEPTH} (DELAY_DEPTH)")
     frags = np.asarray(frags, dtype=np.int64).reshape(-1, len(params.inputs))
     want_d, want_c, stats = draw(params, frags, fb)
+    res = _simulate(params, pack(params.inputs, frags), (want_d, want_c), fb, latency=latency, p_valid=p_valid,
+                    p_pause=p_pause, seed=seed, sim=sim, tag=tag, drain=4)
+    res["model"] = stats
+    return res
+
+
+def run_engine(params, records, *, latency: int = 1, p_valid: float = 1.0, p_pause: float = 0.0, seed: int = 1,
+               sim: str | None = None, tag: str = "", fb=None) -> dict:
+    """Draw triangle ``records`` (:class:`~fxmodel.raster.Records` or codes) through the engine with its depth
+    test (``params`` a :class:`~fxmodel.pipeline.TrianglePipelineParams` with ``rop``) and compare the frame read
+    from the memory model with :meth:`~fxmodel.pipeline.TrianglePipelineParams.draw`; arguments and report as
+    :func:`run` (``model`` the model's depth-test stats, plus ``raster_clocks``)."""
+    mat = records.matrix() if hasattr(records, "matrix") else np.asarray(records, dtype=np.int64)
+    want_d, want_c, stats, out, scan = params.draw(mat, fb)
+    res = _simulate(params, pack(params.raster.record, mat), (want_d, want_c), fb, latency=latency,
+                    p_valid=p_valid, p_pause=p_pause, seed=seed, sim=sim, tag=tag, drain=params.latency + 8,
+                    expected=len(out))
+    res["model"] = stats
+    res["raster_clocks"] = int(scan.clocks.sum())
+    return res
+
+
+def _simulate(params, words, want, fb, *, latency, p_valid, p_pause, seed, sim, tag, drain, expected=None):
+    sim = simulator(sim)
+    P = _rop_params(params)
+    if not 0 <= latency <= DELAY_DEPTH:
+        raise ValueError(f"latency={latency}: must be in 0..{DELAY_DEPTH} (DELAY_DEPTH)")
     top, bdir, src = _build(params, sim)
     job = bdir / (f"job_{tag}" if tag else "job")
     job.mkdir(exist_ok=True)
     out = job / "frame.json"
     if out.exists():
         out.unlink()
-    init = write_frame(params, *(fb if fb is not None else clear_frame(params)))
-    budget = int(len(frags) * (latency + 8) / max(min(p_valid, 1 - p_pause), 0.05)) * 4 + 4000
-    meta = {"fragments": [format(w, "x") for w in pack(params.inputs, frags)], "p_valid": p_valid,
+    init = write_frame(P, *(fb if fb is not None else clear_frame(P)))
+    work = max(len(words), expected or 0)
+    budget = int(work * (latency + 8) / max(min(p_valid, 1 - p_pause), 0.05)) * 4 + 4000 + 64 * len(words)
+    meta = {"words": [format(w, "x") for w in words], "p_valid": p_valid, "drain": drain,
             "p_pause": p_pause, "seed": seed, "latency": latency, "max_cycles": budget,
-            "on_chip": params.on_chip, "base": params.base, "frame_bytes": params.frame_bytes,
-            "pixels": params.pixels, "word_bits": params.word_bits, "init": init.hex()}
+            "on_chip": P.on_chip, "base": P.base, "frame_bytes": P.frame_bytes,
+            "pixels": P.pixels, "init": init.hex(), "engine": not isinstance(params, RopParams)}
     (job / "job.json").write_text(json.dumps(meta))
     build_seconds, seconds = build_and_test(sim, src, top, bdir, job, "cosim.rop_tb")
     if not out.exists():
         raise RuntimeError(f"the testbench wrote no results ({out}); see the simulator log above")
     res = json.loads(out.read_text())
-    if params.on_chip:
-        depth, color = _unpack_words(params, [int(w, 16) for w in res["words"]])
+    if P.on_chip:
+        depth, color = _unpack_words(P, [int(w, 16) for w in res["words"]])
     else:
-        depth, color = read_frame(params, bytes.fromhex(res["image"]))
+        depth, color = read_frame(P, bytes.fromhex(res["image"]))
+    want_d, want_c = want
     bad = np.argwhere((depth != want_d) | np.any(color != want_c, axis=-1))
     first = [{"x": int(x), "y": int(y), "rtl": [int(depth[y, x])] + color[y, x].tolist(),
               "model": [int(want_d[y, x])] + want_c[y, x].tolist()} for y, x in bad[:5]]
-    return {"depth": depth, "color": color, "simulator": sim, "fragments": int(len(frags)),
-            "mismatches": int(len(bad)), "first": first, "model": stats,
+    return {"depth": depth, "color": color, "simulator": sim, "inputs": len(words),
+            "mismatches": int(len(bad)), "first": first,
             "rtl_bytes_read": DEPTH_BYTES * res["reads"], "rtl_bytes_written": PIXEL_BYTES * res["writes"],
             "status": res["status"], "cycles": res["cycles"], "accept_cycles": res["accept_cycles"],
             "build_seconds": build_seconds, "seconds": seconds}
@@ -185,3 +229,36 @@ def _unpack_words(params: RopParams, words):
     color = np.array([[(v >> (zb + 8 * k)) & 0xFF for k in range(3)] + [v >> (zb + 24)] for v in words],
                      dtype=np.int64)
     return depth.reshape(params.height, params.width), color.reshape(params.height, params.width, 4)
+
+
+def throughput(latencies=(1, 5, 10, 20), slots=(8, 16, 32), k: int = 400, sim: str | None = None) -> list[dict]:
+    """Fragments accepted per clock against memory latency and scoreboard slots (``outstanding``): ``k``
+    fragments on distinct pixels of a 32 x 16 frame (no hazard stalls), no gaps, no wait states."""
+    rows = []
+    for n in slots:
+        P = RopParams(width=32, height=16, max_size=256, outstanding=n)
+        i = np.arange(k) % P.pixels
+        frags = np.stack([i % P.width, i // P.width, np.arange(k) + 1, i % 256, i % 256, i % 256, i % 32], 1)
+        for lat in latencies:
+            res = run(P, frags, latency=lat, sim=sim, tag=f"rate_{lat}")
+            rows.append({"outstanding": n, "latency": lat, "mismatches": res["mismatches"],
+                         "fragments_per_clock": round(k / res["accept_cycles"], 3)})
+    return rows
+
+
+def main(argv=None) -> int:
+    """``python -m cosim.rop --throughput``: the ROP's fragments per clock against memory latency and slots."""
+    import argparse
+    ap = argparse.ArgumentParser(prog="python -m cosim.rop", description=main.__doc__)
+    ap.add_argument("--throughput", action="store_true", required=True)
+    ap.add_argument("--sim", default=None)
+    args = ap.parse_args(argv)
+    rows = throughput(sim=args.sim)
+    print("| slots | latency (added cycles) | fragments / clock |\n|---:|---:|---:|")
+    for r in rows:
+        print(f"| {r['outstanding']} | {r['latency']} | {r['fragments_per_clock']} |")
+    return 1 if any(r["mismatches"] for r in rows) else 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -31,7 +31,7 @@ def _pauses(rng: random.Random, p: float):
 async def rop(dut):
     job = Path(os.environ["COSIM_JOB"])
     meta = json.loads((job / "job.json").read_text())
-    frags = [int(f, 16) for f in meta["fragments"]]
+    frags = [int(f, 16) for f in meta["words"]]
     rng = random.Random(meta["seed"])
     cocotb.start_soon(Clock(dut.clk, 10, unit="ns").start())
     on_chip = meta["on_chip"]
@@ -57,8 +57,9 @@ async def rop(dut):
     for _ in range(3):
         await FallingEdge(dut.clk)
     dut.rst.value = 0
+    busy = [dut.busy] + ([dut.rop_busy] if meta["on_chip"] and meta["engine"] else [])
     k, offered, idle, cycles, reads, writes, accept_cycles = 0, False, 0, 0, 0, 0, 0
-    while idle < 4:
+    while idle < meta["drain"]:
         await FallingEdge(dut.clk)
         cycles += 1
         assert cycles < meta["max_cycles"], f"no progress after {cycles} cycles ({k} of {len(frags)} fragments)"
@@ -76,7 +77,7 @@ async def rop(dut):
             reads += int(dut.mem__arvalid.value) & int(dut.mem__arready.value)
             writes += int(dut.mem__awvalid.value) & int(dut.mem__awready.value)
         done = k == len(frags) and not offered
-        idle = idle + 1 if done and not int(dut.busy.value) else 0
+        idle = idle + 1 if done and not any(int(b.value) for b in busy) else 0
     status = int(dut.status.value)
     result = {"cycles": cycles, "accept_cycles": accept_cycles, "reads": reads, "writes": writes, "status": status}
     if on_chip:

@@ -23,6 +23,11 @@ the error); prints a summary table; exits 1 on any mismatch and on a frame farth
 the documented scene bound) from reference (a), 2 on a scene the preset cannot draw (unless ``--allow-clamp``,
 fragments only): ``fxmodel.render.judge``. ``WAVES=1`` dumps a waveform (short runs).
 
+``--input triangles --depth`` adds the depth test and the frame buffer behind the ROP's AXI4 port
+(``cosim/rop.py``: the memory model with ``--latency`` cycles): overlapping geometry is drawn, the frame is read
+from the memory model at the end and compared with the model's; ``build/sim/<scene>-depth/report.json`` has the
+memory traffic (``depth_test``: bytes read and written per pixel).
+
 ``--unit U [--preset P]`` co-simulates a single unit on its hard cases and random vectors instead.
 """
 
@@ -30,6 +35,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 import time
 
@@ -73,12 +79,12 @@ def _draw(args):
     try:
         frame = prepare(scene_path(args.scene), size=args.size, preset=args.preset, cube_size=args.cube_size,
                         allow_clamp=args.allow_clamp)
-        tframe = from_triangles(frame) if triangles else None
+        tframe = from_triangles(frame, depth=args.depth) if triangles else None
     except (SceneError, ValueError, OSError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
     name = frame.scene.name
-    out_dir = ROOT / "build" / "sim" / (f"{name}-triangles" if triangles else name)
+    out_dir = ROOT / "build" / "sim" / (f"{name}-depth" if args.depth else f"{name}-triangles" if triangles else name)
     out_dir.mkdir(parents=True, exist_ok=True)
     for stale in ("report.json", "rtl.png"):                # never leave an old result looking current
         (out_dir / stale).unlink(missing_ok=True)
@@ -103,6 +109,8 @@ def sim_scene(args) -> int:
     if isinstance(drawn, int):
         return drawn
     name, frame, tframe, report, out_dir = drawn
+    if args.depth:
+        return sim_depth(args, tframe, report, out_dir, t0)
     if tframe is not None:                                  # records in, fragments out: compared here, in order
         counts = np.bincount(tframe.scan.record, minlength=len(tframe.records))
         with _bar(len(tframe.out), args, "px") as bar:
@@ -167,6 +175,48 @@ def sim_scene(args) -> int:
     return tell(report, name)
 
 
+def sim_depth(args, tframe, report, out_dir, t0) -> int:
+    """``--depth``: the engine with its depth test; the frame is read from the memory model behind the ROP's
+    AXI4 port at the end (``cosim.rop.run_engine``) and compared with the model's."""
+    from fxmodel.render import save_png
+
+    from .rop import run_engine
+
+    name = tframe.frame.scene.name
+    rop = tframe.params.rop
+    print(f"{name}: depth test and frame buffer behind AXI4 (latency {args.latency}), {rop.width}x{rop.height}")
+    os.environ.setdefault("COSIM_PROGRESS", "1")
+    result = run_engine(tframe.params, tframe.records, latency=args.latency, sim=args.sim, tag=f"scene_{name}")
+    wall = time.perf_counter() - t0
+    save_png(out_dir / "rtl.png", result["color"][..., :3].astype(np.uint8))
+    dt = report["depth_test"]
+    traffic_ok = (result["rtl_bytes_read"], result["rtl_bytes_written"]) == (dt["bytes_read"], dt["bytes_written"])
+    report.update({"simulator": args.sim, "preset": args.preset, "mismatches": result["mismatches"],
+                   "first_mismatches": result["first"], "memory_latency": args.latency,
+                   "rtl_bytes_read": result["rtl_bytes_read"], "rtl_bytes_written": result["rtl_bytes_written"],
+                   "rtl_traffic_matches_model": traffic_ok, "rtl_status": result["status"],
+                   "rtl_cycles": result["cycles"], "rtl_seconds": result["seconds"],
+                   "build_seconds": result["build_seconds"], "wall_seconds": round(wall, 2)})
+    (out_dir / "report.json").write_text(json.dumps(report, indent=2))
+    tv = report["triangles_vs_fragments"]
+    print(_table([
+        ("scene", name), ("input", f"{report['triangles']} triangles -> {report['fragments']:,} fragments "
+                                   f"({dt['fragments_per_covered_pixel']} per covered pixel)"),
+        ("simulator", args.sim), ("mismatches", f"{result['mismatches']} pixels (frame read from memory)"),
+        ("depth test", f"{dt['passed']:,} passed, {dt['failed']:,} failed"),
+        ("memory traffic", f"{dt['bytes_read_per_pixel']} B read, {dt['bytes_written_per_pixel']} B written per "
+                           f"pixel (RTL {result['rtl_bytes_read']:,} / {result['rtl_bytes_written']:,} B)"),
+        ("from triangles vs float", f"{tv['psnr_db_vs_float']} dB (max {tv['max_lsb_vs_float']} LSB)"),
+        ("wall seconds", f"{wall:.1f}"), ("output", str(out_dir))]))
+    if result["mismatches"] or not traffic_ok or result["status"]:
+        print(f"RTL differs from the model: {result['mismatches']} pixels, traffic {result['rtl_bytes_read']} / "
+              f"{result['rtl_bytes_written']} B, status {result['status']}; first: {result['first']}",
+              file=sys.stderr)
+        return 1
+    print("  RTL == model on every pixel of the frame in memory")
+    return 0
+
+
 def sim_unit(args) -> int:
     from fxmodel.unit import preset
 
@@ -200,6 +250,10 @@ def main(argv=None) -> int:
     ap.add_argument("--input", choices=("triangles", "fragments"), default="triangles",
                     help="what the RTL starts from: the front end's fragments, or triangle records through the scan "
                          "converter (default: %(default)s)")
+    ap.add_argument("--depth", action="store_true",
+                    help="with --input triangles: the engine with its depth test and frame buffer behind an AXI4 port "
+                         "(cosim/rop.py); the frame is read from the memory model (build/sim/<scene>-depth/)")
+    ap.add_argument("--latency", type=int, default=4, help="memory latency added by the bench (--depth; 0..24)")
     ap.add_argument("--unit", help="co-simulate one unit instead of a scene")
     ap.add_argument("--vectors", type=int, default=100_000, help="random vectors besides the hard cases (--unit)")
     ap.add_argument("--exhaustive", action="store_true", help="the unit's whole input space (--unit)")
@@ -211,6 +265,9 @@ def main(argv=None) -> int:
         args.sim = simulator(args.sim)
     except (ValueError, RuntimeError) as exc:
         print(f"error: {exc}", file=sys.stderr)
+        return 2
+    if args.depth and args.input != "triangles":
+        print("error: --depth draws from triangles: add --input triangles", file=sys.stderr)
         return 2
     if args.unit:
         return sim_unit(args)

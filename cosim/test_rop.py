@@ -117,3 +117,46 @@ def test_one_fragment_per_clock_when_the_memory_keeps_up(sim):
     frags = np.stack([i % P.width, i // P.width, i * 1000 + 5, i % 256, i % 256, i % 256, i % 32], 1)
     res = run(P, frags, latency=5, sim=sim, tag="rate")
     assert res["mismatches"] == 0 and res["accept_cycles"] == k
+
+
+def overlapping_records(raster, width, height, n, seed):
+    """``n`` random triangles over a ``width x height`` viewport, overlapping each other (some drawn twice, so
+    that equal depths meet), with ``Z`` and ``W`` in ``(0, 1]`` and the other attributes anywhere in their
+    formats."""
+    from fxmodel.raster import setup
+    rng = np.random.default_rng(seed)
+    S = raster.S
+    X = rng.integers(-S, (width + 1) * S, (n, 3))
+    Y = rng.integers(-S, (height + 1) * S, (n, 3))
+    vals = {name: rng.uniform(-0.9, 0.9, (n, 3)) * float(fmt.max_value) for name, fmt in raster.attrs}
+    vals["Z"] = rng.uniform(0.05, 1.0, (n, 3))
+    vals["W"] = rng.uniform(0.2, 1.0, (n, 3))
+    X[-2:], Y[-2:] = X[:2], Y[:2]                                     # two triangles again: equal depths
+    for name in vals:
+        vals[name][-2:] = vals[name][:2]
+    return setup(raster, X, Y, vals, width, height)
+
+
+def engine_params(width, height, **rop):
+    from fxmodel.pipeline import PipelineParams, TrianglePipelineParams
+    from fxmodel.raster import RasterParams
+    pipe = PipelineParams.PRESETS["default"]
+    raster = RasterParams.for_pipeline({"persp": pipe.persp, "bump": pipe.bump, "reflect": pipe.reflect})
+    return TrianglePipelineParams(raster=raster, pipeline=pipe, rop=RopParams(
+        width=width, height=height, max_size=raster.max_size, z_in=raster.out_fmt("Z"), **rop))
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("latency, p_valid, p_pause", [(1, 1.0, 0.0), (20, 0.7, 0.3)])
+def test_engine_with_depth_draws_the_models_frame(sim, latency, p_valid, p_pause):
+    """The engine from the triangle with its depth test behind the memory port, on overlapping random triangles:
+    the frame read from the memory model equals the model's, and so does the bus traffic. Slow (``make
+    exhaustive``): Yosys spends minutes on the whole pipeline's netlist."""
+    from cosim.rop import run_engine
+    params = engine_params(16, 12)
+    recs = overlapping_records(params.raster, 16, 12, 10, seed=latency)
+    res = run_engine(params, recs, latency=latency, p_valid=p_valid, p_pause=p_pause, sim=sim, tag=f"engine_{latency}")
+    assert res["mismatches"] == 0, res["first"]
+    assert res["model"]["failed"] > 20 and res["model"]["passed"] > 100
+    assert (res["rtl_bytes_read"], res["rtl_bytes_written"]) == (res["model"]["bytes_read"],
+                                                                 res["model"]["bytes_written"])

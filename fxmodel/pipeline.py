@@ -38,6 +38,8 @@ from .persp import PerspParams
 from .presets import preset_units, top_value
 from .raster import RasterParams, scan
 from .reflect import ReflectParams
+from .rop import RopParams
+from .rop import draw as rop_draw
 from .sampler import SamplerParams, Texels
 from .shade import ShadeParams
 from .unit import Port, Unit, register, require
@@ -249,18 +251,26 @@ class TrianglePipelineParams:
     feeding the pixel pipeline. Triangle records in; per fragment ``x``, ``y``, ``r, g, b`` and ``flags`` out
     (the pipeline's flags, plus :data:`RASTER_SATURATED_FLAG` when an interpolated attribute saturated).
 
+    With ``rop`` (:class:`~fxmodel.rop.RopParams`) the fragments' colors go through the depth test into the frame
+    buffer instead (:meth:`draw`; ``rtl/pipeline.py``'s engine then has the ROP's memory port instead of ``o``):
+    the scan converter's ``Z`` rides the pixel pipeline's sideband beside ``x``, ``y``.
+
     Parameters
     ----------
     raster : RasterParams
         Its attributes and per-triangle constants must include every pipeline input with the same format (``Z``
         and others ride along): the block exponent ``Ae`` of the bump engine is a per-triangle constant.
     pipeline : PipelineParams
+    rop : RopParams, optional
+        ``max_size`` the raster's, ``z_in`` the raster's ``Z`` format, ``flag_bits`` the width of the outputs'
+        ``flags``.
     """
 
     NAME: ClassVar[str] = "raster_pipeline"
 
     raster: RasterParams
     pipeline: PipelineParams
+    rop: RopParams | None = None
 
     def __post_init__(self):
         require(isinstance(self.raster, RasterParams), "raster", type(self.raster).__name__, "must be RasterParams")
@@ -270,6 +280,14 @@ class TrianglePipelineParams:
         for p in self.pipeline.inputs:
             require(attrs.get(p.name) == p.fmt, f"raster.attrs[{p.name!r}]", str(attrs.get(p.name)),
                     f"must be the pipeline's input format {p.fmt}")
+        if self.rop is not None:
+            R = self.rop
+            require(isinstance(R, RopParams), "rop", type(R).__name__, "must be RopParams or None")
+            require(R.max_size == self.raster.max_size, "rop.max_size", R.max_size,
+                    f"must be the raster's max_size {self.raster.max_size}")
+            require(R.z_in == attrs.get("Z"), "rop.z_in", str(R.z_in), f"must be the raster's Z format {attrs.get('Z')}")
+            require(R.flag_bits == self.outputs[-1].fmt.width, "rop.flag_bits", R.flag_bits,
+                    f"must be the engine's flags width {self.outputs[-1].fmt.width}")
 
     @property
     def inputs(self) -> tuple:
@@ -308,6 +326,17 @@ class TrianglePipelineParams:
         flags = col[:, 3] | (res.codes["flags"] << RASTER_SATURATED_FLAG)
         out = np.column_stack([res.codes["x"], res.codes["y"], col[:, :3], flags]).astype(np.int64)
         return out, res
+
+    def draw(self, records, fb=None):
+        """The engine with its depth test (``rop`` set): ``(depth, color, stats, out, scan)``, the frame after
+        drawing ``records`` over ``fb`` (default: the clear frame) with :func:`fxmodel.rop.draw`, its traffic,
+        and :meth:`compute`'s per-fragment outputs and scan."""
+        require(self.rop is not None, "rop", None, "draw needs the engine's RopParams")
+        out, res = self.compute(records)
+        frags = np.column_stack([out[:, 0], out[:, 1], res.codes["Z"] if len(res) else np.zeros(0, np.int64),
+                                 out[:, 2:6]]) if len(out) else np.zeros((0, 7), np.int64)
+        depth, color, stats = rop_draw(self.rop, frags, fb)
+        return depth, color, stats, out, res
 
 
 #: Bit of :attr:`TrianglePipelineParams.outputs` ``flags`` set when the scan converter saturated an attribute.

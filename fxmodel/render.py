@@ -33,6 +33,7 @@ from .pipeline import FLAG_BITS, PipelineParams, TrianglePipelineParams
 from .presets import preset_units, top_value
 from .raster import RasterParams, Records
 from .reference import float_pipeline, ideal_phong, max_lsb, perturbed, psnr
+from .rop import RopParams
 from .rounding import Overflow, Rounding, quantize
 from .scene import load_scene, scene_path
 
@@ -456,11 +457,15 @@ class TriangleFrame:
     out: np.ndarray = field(repr=False)
     scan: object = field(repr=False)
     stats: dict = field(default_factory=dict)
+    #: With the depth test (``params.rop``): the model's frame ``(depth, color)`` after drawing, else ``None``.
+    fb: tuple | None = field(default=None, repr=False)
 
     def in_frame_order(self) -> np.ndarray:
         """The engine's ``r, g, b, flags`` ``(K, 4)`` in the front end's fragment order (``frame.frags``;
         :func:`from_triangles` checked that the pixels are the same)."""
         frame = self.frame
+        if self.fb is not None:                        # the depth test decided: the frame buffer's pixels
+            return self.fb[1].reshape(-1, 4)[np.asarray(frame.frags.index)]
         pos = np.empty(frame.scene.width * frame.scene.height, dtype=np.int64)
         pos[np.asarray(frame.frags.index)] = np.arange(len(frame.frags))
         model = np.zeros((len(frame.frags), 4), dtype=np.int64)
@@ -472,10 +477,14 @@ class TriangleFrame:
         return self.frame.image(rgb, (self.out[:, 0], self.out[:, 1]))
 
 
-def from_triangles(frame: Frame, raster: RasterParams | None = None) -> TriangleFrame:
+def from_triangles(frame: Frame, raster: RasterParams | None = None, depth: bool = False) -> TriangleFrame:
     """The frame drawn by the engine from triangles: the host's set-up (:func:`fxmodel.frontend.triangle_records`)
     into records, the scan converter and interpolators, then the same pixel pipeline (``frame.params``), with the
     same block exponent of ``A`` per scene triangle as the fragments (``frame.exponent``).
+
+    ``depth=True``: the engine with its depth test and frame buffer (:class:`~fxmodel.rop.RopParams` for the
+    scene's frame, cleared to its background): overlapping geometry is drawn, and ``fb`` holds the frame; the
+    pixels covered must then be the front end's visible ones.
 
     ``raster``: default :func:`raster_params` of the frame's preset (the pipeline's input formats).
     Records of other materials than the frame's are dropped (the pipeline holds one material's maps; the frame
@@ -486,8 +495,13 @@ def from_triangles(frame: Frame, raster: RasterParams | None = None) -> Triangle
     if raster is None:
         raster = raster_params(frame.units) if frame.units is not None else \
             RasterParams.for_pipeline({"persp": p.persp, "bump": p.bump, "reflect": p.reflect})
-    params = TrianglePipelineParams(raster=raster, pipeline=p)
     scene = frame.scene
+    rop = None
+    if depth:
+        clear = tuple(int(c) for c in np.floor(np.asarray(scene.background) * 255 + 0.5))
+        rop = RopParams(width=scene.width, height=scene.height, max_size=raster.max_size, z_in=raster.out_fmt("Z"),
+                        clear_color=clear)
+    params = TrianglePipelineParams(raster=raster, pipeline=p, rop=rop)
     mi = int(frame.frags.material[0]) if len(frame.frags) else 0
     gains = [frame.maps if i == mi else SimpleNamespace(a_gain=bump_gain(m)) for i, m in enumerate(scene.materials)]
     t0 = time.perf_counter()
@@ -496,13 +510,21 @@ def from_triangles(frame: Frame, raster: RasterParams | None = None) -> Triangle
     recs = Records(params=raster, codes={k: v[keep] for k, v in recs.codes.items()}, source=recs.source[keep],
                    dropped=recs.dropped)
     t1 = time.perf_counter()
-    out, res = params.compute(recs)
+    fb = None
+    if depth:
+        zbuf, color, rop_stats, out, res = params.draw(recs)
+        fb = (zbuf, color)
+    else:
+        out, res = params.compute(recs)
     t2 = time.perf_counter()
     mine = np.sort(out[:, 1] * scene.width + out[:, 0])
+    if depth:
+        mine = np.unique(mine)
     theirs = np.sort(np.asarray(frame.frags.index))
     if not np.array_equal(mine, theirs):
         raise ValueError(f"{scene.name}: the scan converter covers {len(mine)} pixels, the front end shows "
-                         f"{len(theirs)} visible fragments: overlapping geometry needs a depth test")
+                         f"{len(theirs)} visible fragments"
+                         + ("" if depth else ": overlapping geometry needs the depth test (depth=True)"))
     clocks = int(res.clocks.sum())
     stats = {"input": "triangles", "triangles": len(recs), "triangles_dropped": int(recs.dropped),
              "fragments": len(res), "raster_clocks": clocks,
@@ -510,7 +532,12 @@ def from_triangles(frame: Frame, raster: RasterParams | None = None) -> Triangle
              "raster_saturated": int(res.codes["flags"].sum()),
              "record_bits": sum(q.fmt.width for q in raster.record), "raster_guard_bits": raster.guard_bits,
              "seconds_setup": round(t1 - t0, 3), "seconds_model": round(t2 - t1, 3)}
-    return TriangleFrame(frame=frame, params=params, records=recs, out=out, scan=res, stats=stats)
+    if depth:
+        pixels = scene.width * scene.height
+        stats["depth_test"] = {**rop_stats, "bytes_read_per_pixel": round(rop_stats["bytes_read"] / pixels, 3),
+                               "bytes_written_per_pixel": round(rop_stats["bytes_written"] / pixels, 3),
+                               "fragments_per_covered_pixel": round(len(res) / max(1, len(mine)), 3)}
+    return TriangleFrame(frame=frame, params=params, records=recs, out=out, scan=res, stats=stats, fb=fb)
 
 
 def render_triangles(tframe: TriangleFrame, out_dir=None) -> dict:

@@ -116,18 +116,35 @@ class TrianglePipeline(wiring.Component):
     Backpressure on ``o`` holds the pixel pipeline (its stage enable), which holds the scan converter, which
     stops taking records. Without stalls a fragment's color leaves ``params.latency`` cycles after it left the
     scan converter.
+
+    With ``params.rop`` (the engine with its depth test) ``o`` is replaced by the raster-operations unit
+    (``rtl/rop.py``): the sideband also carries ``Z``, and the colors go through the depth test into the frame
+    buffer; ports ``axi`` (its AXI4 manager port) or ``fb`` (its read-out, on chip), ``status`` (its sticky
+    flags) and ``rop_busy`` (a fragment in the ROP not yet finished; fragments inside the pixel pipeline are not
+    counted: wait its ``latency`` after the last one left the scan converter).
     """
 
     def __init__(self, params: TrianglePipelineParams):
         self.params = params
-        super().__init__({"i": In(stream.Signature(record_layout(params.raster))),
-                          "o": Out(stream.Signature(payload_layout(params.outputs))), "busy": Out(1)})
+        members = {"i": In(stream.Signature(record_layout(params.raster))), "busy": Out(1)}
+        if params.rop is None:
+            members["o"] = Out(stream.Signature(payload_layout(params.outputs)))
+        else:
+            from .rop import Rop
+            self._rop = Rop(params.rop)
+            port = "fb" if params.rop.on_chip else "axi"
+            members |= {port: Out(self._rop.signature.members[port].signature),
+                        "status": Out(self._rop.status.shape()), "rop_busy": Out(1)}
+        super().__init__(members)
 
     def elaborate(self, platform):
         P = self.params
         m = Module()
         pf = P.raster.pixel_fmt
-        side = data.StructLayout({"x": shape(pf), "y": shape(pf), "rsat": 1})
+        fields = {"x": shape(pf), "y": shape(pf), "rsat": 1}
+        if P.rop is not None:
+            fields["z"] = shape(P.raster.out_fmt("Z"))
+        side = data.StructLayout(fields)
         m.submodules.raster = ras = Raster(P.raster)
         m.submodules.pipeline = pix = StreamUnit(P.pipeline, side)
         wiring.connect(m, wiring.flipped(self.i), ras.i)
@@ -135,8 +152,18 @@ class TrianglePipeline(wiring.Component):
         m.d.comb += [pix.i.payload[p.name].eq(ras.o.payload[p.name]) for p in P.pipeline.inputs]
         m.d.comb += [pix.i.payload.side.x.eq(ras.o.payload.x), pix.i.payload.side.y.eq(ras.o.payload.y),
                      pix.i.payload.side.rsat.eq(ras.o.payload.flags)]
-        out, res = self.o.payload, pix.o.payload
-        m.d.comb += [self.o.valid.eq(pix.o.valid), pix.o.ready.eq(self.o.ready),
+        res = pix.o.payload
+        if P.rop is None:
+            sink = self.o
+        else:
+            m.d.comb += pix.i.payload.side.z.eq(ras.o.payload.Z)
+            m.submodules.rop = rop = self._rop
+            port = "fb" if P.rop.on_chip else "axi"
+            wiring.connect(m, wiring.flipped(getattr(self, port)), getattr(rop, port))
+            m.d.comb += [self.status.eq(rop.status), self.rop_busy.eq(rop.busy), rop.i.payload.z.eq(res.side.z)]
+            sink = rop.i
+        out = sink.payload
+        m.d.comb += [sink.valid.eq(pix.o.valid), pix.o.ready.eq(sink.ready),
                      out.x.eq(res.side.x), out.y.eq(res.side.y), out.r.eq(res.r), out.g.eq(res.g),
                      out.b.eq(res.b), out.flags.eq(Cat(res.flags, res.side.rsat))]
         return m

@@ -160,3 +160,35 @@ def test_rtl_addresses_stay_in_the_frame_at_the_extremes():
     sim.run_until(60e-6)
     ar = sorted(set(seen["ar"]))
     assert ar == [P.base, P.base + 8 * (P.pixels - 1)] and seen["status"] & 1
+
+
+def test_engine_with_depth_draws_an_overlapping_scene():
+    """The model of the engine with its depth test on the overlapping shipped scene: every pixel the float front
+    end shows is written, the others keep the background, some fragments fail the test, and the frame is within
+    one LSB of the frame drawn from the front end's fragments except where the two surfaces cross."""
+    from fxmodel.render import from_triangles, prepare
+    from fxmodel.scene import scene_path
+    frame = prepare(scene_path("tin-sphere"), size=32, cube_size=8)
+    tf = from_triangles(frame, depth=True)
+    depth, color = tf.fb
+    dt = tf.stats["depth_test"]
+    visible = np.zeros(depth.shape, bool)
+    visible.ravel()[np.asarray(frame.frags.index)] = True
+    assert np.all(depth[visible] > 0) and np.all(depth[~visible] == 0)
+    bg = tf.params.rop.clear_color
+    assert np.all(color[~visible][:, :3] == bg)
+    assert dt["failed"] > 0 and dt["passed"] + dt["failed"] == dt["fragments"] == len(tf.out)
+    assert dt["bytes_read"] == 4 * dt["fragments"] and dt["bytes_written"] == 8 * dt["passed"]
+
+
+def test_engine_rop_must_match_the_raster():
+    from fxmodel.pipeline import PipelineParams, TrianglePipelineParams
+    from fxmodel.raster import RasterParams
+    pipe = PipelineParams.PRESETS["default"]
+    raster = RasterParams.for_pipeline({"persp": pipe.persp, "bump": pipe.bump, "reflect": pipe.reflect})
+    good = RopParams(width=16, height=16, max_size=raster.max_size, z_in=raster.out_fmt("Z"))
+    TrianglePipelineParams(raster=raster, pipeline=pipe, rop=good)
+    for change, name in (({"max_size": 1024}, "rop.max_size"), ({"flag_bits": 4}, "rop.flag_bits"),
+                         ({"z_in": Fmt(True, 3, 22)}, "rop.z_in")):
+        with pytest.raises(ValueError, match=name):
+            TrianglePipelineParams(raster=raster, pipeline=pipe, rop=dataclasses.replace(good, **change))

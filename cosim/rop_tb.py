@@ -1,12 +1,14 @@
-"""cocotb testbench of the raster-operations unit (``rtl/rop.py``), driven by :func:`cosim.rop.run`.
+"""cocotb testbench of the raster-operations unit (``rtl/rop.py``) and of the engine with its depth test, driven
+by :func:`cosim.rop.run` and :func:`cosim.rop.run_engine`.
 
-``job.json`` in the folder named by ``COSIM_JOB`` holds the packed fragments (hex, first field in the low bits),
-the probability ``p_valid`` that the source offers a fragment in a cycle (a fragment once offered stays offered
-until taken: the stream rule), the wait-state probability ``p_pause`` of every AXI channel, the bench's latency
-``lat`` and the frame's initial memory image. Behind the port the memory is cocotbext-axi's ``AxiRam`` with a
-pause generator on each of its five channels; the testbench counts ``AR`` and ``AW`` transfers. When every
-fragment is taken and ``busy`` has been low for a few cycles it writes the memory image of the frame (or, on
-chip, the words read out through ``fb``) and the counts into ``frame.json``.
+``job.json`` in the folder named by ``COSIM_JOB`` holds the packed input words (fragments, or triangle records for
+the engine; hex, first field in the low bits), the probability ``p_valid`` that the source offers a word in a
+cycle (a word once offered stays offered until taken: the stream rule), the wait-state probability ``p_pause`` of
+every AXI channel, the bench's latency ``lat``, the frame's initial memory image and ``drain``, the cycles
+``busy`` must stay low before the run ends (the engine's pixel pipeline holds fragments that ``busy`` does not
+see: its latency). Behind the port the memory is cocotbext-axi's ``AxiRam`` with a pause generator on each of
+its five channels; the testbench counts ``AR`` and ``AW`` transfers. At the end it writes the memory image of the
+frame (or, on chip, the words read out through ``fb``) and the counts into ``frame.json``.
 """
 
 from __future__ import annotations

@@ -61,7 +61,7 @@ from .scene import Scene
 
 __all__ = ["SUBPIXEL_BITS", "GUARD_PIXELS", "Fragments", "rasterize", "clip_space", "screen_space", "snap",
            "scan_triangle", "edge_setup", "clip_triangles",
-           "screen_triangles", "triangle_records"]
+           "screen_triangles", "triangle_records", "inverse_w"]
 
 #: Fraction bits of snapped screen coordinates (1/256 pixel).
 SUBPIXEL_BITS = 8
@@ -217,6 +217,30 @@ def scan_triangle(X, Y, width: int, height: int):
     inside = (E[0] >= bias[0]) & (E[1] >= bias[1]) & (E[2] >= bias[2])
     iy, ix = np.nonzero(inside)
     return ix + x0, iy + y0, np.stack([E[e][iy, ix] for e in range(3)]), order
+
+
+def inverse_w(X, Y, invw, px, py) -> np.ndarray:
+    """The z-buffer's depth ``1 / w_c`` at pixel centres: screen-linear interpolation of the vertex values ``invw``
+    with the exact integer edge functions, ``(E_0 invw_0 + E_1 invw_1 + E_2 invw_2) / area2``, in this order of
+    float64 operations (so every caller gets the same bits).
+
+    Parameters
+    ----------
+    X, Y : array_like, shape (3,) or (n, 3), int
+        Snapped vertices of a positively oriented triangle (:class:`ScreenTriangles`), one or one per pixel.
+    invw : array_like, shape (3,) or (n, 3)
+        ``1 / w_c`` at the vertices.
+    px, py : array_like, shape (n,), int
+        Pixels.
+    """
+    X, Y = np.asarray(X, np.int64), np.asarray(Y, np.int64)
+    invw = np.asarray(invw, np.float64)
+    cx = np.asarray(px, np.int64) * _ONE + _HALF
+    cy = np.asarray(py, np.int64) * _ONE + _HALF
+    E = [(X[..., (e + 2) % 3] - X[..., (e + 1) % 3]) * (cy - Y[..., (e + 1) % 3])
+         - (Y[..., (e + 2) % 3] - Y[..., (e + 1) % 3]) * (cx - X[..., (e + 1) % 3]) for e in range(3)]
+    area = area2(X, Y).astype(np.float64)
+    return (E[0] * invw[..., 0] + E[1] * invw[..., 1] + E[2] * invw[..., 2]) / area
 
 
 # ------------------------------------------------------------------------------------------------------------
@@ -474,7 +498,7 @@ def rasterize(scene: Scene, maps=None) -> Fragments:
         if px.size == 0:
             continue
         covered += px.size
-        iw = (E[0] * invw_v[k, 0] + E[1] * invw_v[k, 1] + E[2] * invw_v[k, 2]) / area[k]
+        iw = inverse_w(X[k], Y[k], invw_v[k], px, py)
         nearer = iw > zbuf[py, px]
         px, py = px[nearer], py[nearer]
         zbuf[py, px] = iw[nearer]

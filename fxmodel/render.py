@@ -36,6 +36,7 @@ from .reference import float_pipeline, ideal_phong, max_lsb, perturbed, psnr
 from .rop import RopParams
 from .rounding import Overflow, Rounding, quantize
 from .scene import load_scene, scene_path
+from .visibility import disagreement_picture, resolve
 
 __all__ = ["Frame", "prepare", "pipeline_params", "render", "save_png", "compose", "ClampError", "SCENE_BOUND_LSB",
            "judge", "tell", "bound_args", "INPUT_KNOBS", "ILL_CONDITIONED", "ADDRESS_LIMIT_TEXELS",
@@ -160,7 +161,10 @@ def judge(report: dict, max_lsb: int = SCENE_BOUND_LSB) -> list[str]:
     of ill-conditioned pixels, ``clamped_fragment_inputs``, ``problems``) and returns the problems, one line
     each (empty when the frame passes). A frame fails when it is farther than ``max_lsb`` from reference (a) on
     some well-conditioned pixel (:data:`ILL_CONDITIONED`; the ill-conditioned ones are counted and their
-    largest difference recorded); clamped inputs (only present with ``allow_clamp``) are listed, not failed."""
+    largest difference recorded); clamped inputs (only present with ``allow_clamp``) are listed, not failed.
+    A report of :func:`render_triangles` (its figures leave the depth disagreements out) also fails when a depth
+    disagreement is beyond the depth precision (``depth.problems``); the verdict then counts the disagreements
+    (``depth_disagreements``)."""
     if "max_lsb_vs_float" not in report:
         raise ValueError("judge: the report has no reference (a) figures (render with references=True)")
     problems = []
@@ -170,12 +174,14 @@ def judge(report: dict, max_lsb: int = SCENE_BOUND_LSB) -> list[str]:
         problems.append(f"the frame is {worst} LSB from reference (a) on well-conditioned pixels ({over} pixels), "
                         f"over the bound of {max_lsb} LSB (--max-lsb); `python -m fxmodel fit SCENE --max-lsb "
                         f"{max_lsb}` searches a preset that meets it")
+    problems += report.get("depth", {}).get("problems", [])
     clamped = report.get("clamped_fragment_inputs", {})
     report["verdict"] = {"pass": not problems, "bound_lsb": max_lsb, "max_lsb_vs_float": report["max_lsb_vs_float"],
                          "max_lsb_vs_float_well_conditioned": worst,
                          "ill_conditioned_pixels": report["ill_conditioned_pixels"],
                          "max_lsb_vs_float_ill_conditioned": report["max_lsb_vs_float_ill_conditioned"],
-                         "clamped_fragment_inputs": clamped, "problems": problems}
+                         "clamped_fragment_inputs": clamped, "problems": problems,
+                         **({"depth_disagreements": report["depth"]["disagreements"]} if "depth" in report else {})}
     return problems
 
 
@@ -406,12 +412,13 @@ def metrics(model: np.ndarray, float_a: np.ndarray, ideal_b: np.ndarray) -> dict
             "psnr_db_float_vs_ideal": round(psnr(float_a, ideal_b), 2)}
 
 
-def render(frame: Frame, out_dir=None, *, references: bool = True, model=None) -> dict:
+def render(frame: Frame, out_dir=None, *, references: bool = True, model=None, exclude=None) -> dict:
     """Run the bit-exact model (and the references) on a prepared frame; write the images if ``out_dir``.
 
     ``model``: the frame's outputs ``(K, 4)`` (``r, g, b, flags`` per fragment of ``frame.frags``) when they come
     from elsewhere (the engine from the triangle, :func:`render_triangles`) instead of the pipeline's model on
-    ``frame.codes``."""
+    ``frame.codes``. ``exclude``: a mask ``(K,)`` of fragments left out of the comparisons with the references
+    (the depth disagreements of :func:`render_triangles`, which show another surface than the references)."""
     t0 = time.perf_counter()
     if model is not None:
         out = np.asarray(model, dtype=np.int64)
@@ -427,9 +434,11 @@ def render(frame: Frame, out_dir=None, *, references: bool = True, model=None) -
     images = {"model": frame.image(model)}
     if references:
         a, b = frame.references()
-        report.update(metrics(model, a, b))
+        keep = np.ones(len(model), bool) if exclude is None else ~np.asarray(exclude, bool)
+        report.update(metrics(model[keep], a[keep], b[keep]))
         per_pixel = np.abs(model.astype(np.int64) - a.astype(np.int64)).max(1) if len(model) else np.zeros(0, int)
         ill = frame.condition() < ILL_CONDITIONED if len(model) else np.zeros(0, bool)
+        per_pixel, ill = per_pixel[keep], ill[keep]
         report["pixels_by_lsb_vs_float"] = np.bincount(per_pixel[~ill], minlength=1).tolist()  # [0 LSB, 1 LSB, ..]
         report["ill_conditioned_pixels"] = int(ill.sum())
         report["max_lsb_vs_float_ill_conditioned"] = int(per_pixel[ill].max(initial=0))
@@ -448,8 +457,9 @@ def render(frame: Frame, out_dir=None, *, references: bool = True, model=None) -
 @dataclass
 class TriangleFrame:
     """A prepared frame drawn from triangles (:func:`from_triangles`): the engine's parameters, the triangle
-    records, the bit-exact outputs ``out`` (``x, y, r, g, b, flags`` per fragment, in drawing order) and the scan
-    (fragments, clocks)."""
+    records and the scene triangle of each (``tri``), the bit-exact outputs ``out`` (``x, y, r, g, b, flags`` per
+    fragment, in drawing order), the scan (fragments, clocks) and the depth resolution ``vis``
+    (:func:`fxmodel.visibility.resolve`: which fragment each pixel keeps, against the float z-buffer)."""
 
     frame: Frame
     params: TrianglePipelineParams
@@ -459,22 +469,34 @@ class TriangleFrame:
     stats: dict = field(default_factory=dict)
     #: With the depth test (``params.rop``): the model's frame ``(depth, color)`` after drawing, else ``None``.
     fb: tuple | None = field(default=None, repr=False)
+    tri: np.ndarray = field(default=None, repr=False)
+    vis: object = field(default=None, repr=False)
 
     def in_frame_order(self) -> np.ndarray:
-        """The engine's ``r, g, b, flags`` ``(K, 4)`` in the front end's fragment order (``frame.frags``;
-        :func:`from_triangles` checked that the pixels are the same)."""
+        """The engine's ``r, g, b, flags`` ``(K, 4)`` of the fragments the depth test keeps, in the front end's
+        fragment order (``frame.frags``; :func:`fxmodel.visibility.resolve` checked that the pixels are the same)."""
         frame = self.frame
         if self.fb is not None:                        # the depth test decided: the frame buffer's pixels
             return self.fb[1].reshape(-1, 4)[np.asarray(frame.frags.index)]
-        pos = np.empty(frame.scene.width * frame.scene.height, dtype=np.int64)
+        pos = np.full(frame.scene.width * frame.scene.height, -1, dtype=np.int64)
         pos[np.asarray(frame.frags.index)] = np.arange(len(frame.frags))
         model = np.zeros((len(frame.frags), 4), dtype=np.int64)
-        model[pos[self.out[:, 1] * frame.scene.width + self.out[:, 0]]] = self.out[:, 2:6]
+        w = self.vis.winner
+        model[pos[self.out[w, 1] * frame.scene.width + self.out[w, 0]]] = self.out[w, 2:6]
         return model
 
+    def disagreements_in_frame_order(self) -> np.ndarray:
+        """Per fragment of ``frame.frags``: True at a depth disagreement (:mod:`fxmodel.visibility`)."""
+        frame, vis = self.frame, self.vis
+        bad = np.zeros(frame.scene.width * frame.scene.height, bool)
+        bad[vis.pixel[vis.disagree]] = True
+        return bad[np.asarray(frame.frags.index)]
+
     def image(self, rgb: np.ndarray) -> np.ndarray:
-        """A full frame from bytes ``(K, 3)`` in drawing order (at the pixels of :attr:`out`)."""
-        return self.frame.image(rgb, (self.out[:, 0], self.out[:, 1]))
+        """A full frame from bytes ``(K, 3)`` in drawing order: each pixel shows the fragment the depth test keeps
+        (:attr:`vis`; background where none)."""
+        w = self.vis.winner
+        return self.frame.image(np.asarray(rgb)[w], (self.out[w, 0], self.out[w, 1]))
 
 
 def from_triangles(frame: Frame, raster: RasterParams | None = None, depth: bool = False) -> TriangleFrame:
@@ -488,8 +510,9 @@ def from_triangles(frame: Frame, raster: RasterParams | None = None, depth: bool
 
     ``raster``: default :func:`raster_params` of the frame's preset (the pipeline's input formats).
     Records of other materials than the frame's are dropped (the pipeline holds one material's maps; the frame
-    shows none of their pixels, :func:`prepare` checked). Raises ``ValueError`` when the covered pixels differ
-    from the front end's visible fragments (overlapping geometry needs the depth test of the frame-buffer issue).
+    shows none of their pixels, :func:`prepare` checked). Overlapping triangles are resolved by the depth test
+    (:func:`fxmodel.visibility.resolve`, with the raster-operations unit's model); raises ``ValueError`` when the
+    float z-buffer over the scan converter's fragments keeps other fragments than the front end.
     """
     p = frame.params
     if raster is None:
@@ -517,14 +540,6 @@ def from_triangles(frame: Frame, raster: RasterParams | None = None, depth: bool
     else:
         out, res = params.compute(recs)
     t2 = time.perf_counter()
-    mine = np.sort(out[:, 1] * scene.width + out[:, 0])
-    if depth:
-        mine = np.unique(mine)
-    theirs = np.sort(np.asarray(frame.frags.index))
-    if not np.array_equal(mine, theirs):
-        raise ValueError(f"{scene.name}: the scan converter covers {len(mine)} pixels, the front end shows "
-                         f"{len(theirs)} visible fragments"
-                         + ("" if depth else ": overlapping geometry needs the depth test (depth=True)"))
     clocks = int(res.clocks.sum())
     stats = {"input": "triangles", "triangles": len(recs), "triangles_dropped": int(recs.dropped),
              "fragments": len(res), "raster_clocks": clocks,
@@ -532,12 +547,16 @@ def from_triangles(frame: Frame, raster: RasterParams | None = None, depth: bool
              "raster_saturated": int(res.codes["flags"].sum()),
              "record_bits": sum(q.fmt.width for q in raster.record), "raster_guard_bits": raster.guard_bits,
              "seconds_setup": round(t1 - t0, 3), "seconds_model": round(t2 - t1, 3)}
+    tframe = TriangleFrame(frame=frame, params=params, records=recs, out=out, scan=res, stats=stats, fb=fb,
+                           tri=tri[keep])
+    tframe.vis = resolve(tframe)
+    stats.update(tframe.vis.stats)
     if depth:
         pixels = scene.width * scene.height
         stats["depth_test"] = {**rop_stats, "bytes_read_per_pixel": round(rop_stats["bytes_read"] / pixels, 3),
                                "bytes_written_per_pixel": round(rop_stats["bytes_written"] / pixels, 3),
-                               "fragments_per_covered_pixel": round(len(res) / max(1, len(mine)), 3)}
-    return TriangleFrame(frame=frame, params=params, records=recs, out=out, scan=res, stats=stats, fb=fb)
+                               "fragments_per_covered_pixel": stats["depth"]["overdraw"]}
+    return tframe
 
 
 def render_triangles(tframe: TriangleFrame, out_dir=None) -> dict:
@@ -545,15 +564,23 @@ def render_triangles(tframe: TriangleFrame, out_dir=None) -> dict:
     triangle draws (``model.png``; its distance from reference (a) is what :func:`judge` judges), with the frame
     from float-interpolated fragments beside it, so that the interpolators' share of the error shows:
     ``from_fragments`` (its figures against the references), ``triangles_vs_fragments`` and the image
-    ``fragments.png``."""
+    ``fragments.png``.
+
+    Overlapping triangles: each pixel shows the fragment the depth test keeps. Pixels where it keeps another
+    triangle than reference (a)'s float z-buffer (depth disagreements, legitimate within the depth precision:
+    :mod:`fxmodel.visibility`) show another surface than (a); they are left out of the comparisons with the
+    references and counted (``depth.disagreements``), ``depth.problems`` lists disagreements beyond the precision
+    (:func:`judge` fails on them), and ``depth_disagreements.png`` marks them. The report gets ``depth`` and
+    ``memory`` (:func:`fxmodel.visibility.resolve`)."""
     frame = tframe.frame
     frag = render(frame)
     frag_bytes = frag.pop("_model_bytes")
-    report = render(frame, out_dir, model=tframe.in_frame_order())
+    report = render(frame, out_dir, model=tframe.in_frame_order(), exclude=tframe.disagreements_in_frame_order())
     tri_bytes = report.pop("_model_bytes")
     report.pop("model_pixels_per_second")
     report["model_seconds"] = tframe.stats["seconds_model"]
     report.update(tframe.stats)
+    report["depth"] = dict(report["depth"], problems=list(tframe.vis.problems))
     report["from_fragments"] = {k: frag[k] for k in ("psnr_db_vs_float", "max_lsb_vs_float", "psnr_db_vs_ideal",
                                                      "max_lsb_vs_ideal", "max_lsb_vs_float_well_conditioned")}
     report["triangles_vs_fragments"] = {"max_lsb_vs_float": report["max_lsb_vs_float"],
@@ -564,5 +591,7 @@ def render_triangles(tframe: TriangleFrame, out_dir=None) -> dict:
                                             int(np.any(tri_bytes != frag_bytes, -1).sum())}
     if out_dir is not None:
         save_png(Path(out_dir) / "fragments.png", frame.image(frag_bytes))
+        save_png(Path(out_dir) / "depth_disagreements.png",
+                 disagreement_picture(frame.image(tri_bytes), tframe.vis, frame.scene.width))
     report["_triangle_bytes"] = tframe.out
     return report

@@ -22,6 +22,11 @@ fragments beside it: ``fragments.png``, ``from_fragments``, ``triangles_vs_fragm
 the error); prints a summary table; exits 1 on any mismatch and on a frame farther than ``--max-lsb`` (default:
 the documented scene bound) from reference (a), 2 on a scene the preset cannot draw (unless ``--allow-clamp``,
 fragments only): ``fxmodel.render.judge``. ``WAVES=1`` dumps a waveform (short runs).
+From triangles, every pixel shows the fragment the depth test keeps (``fxmodel/visibility.py``, with the
+raster-operations unit's model); ``report.json`` gets ``depth`` (fragments, passed, failed, overdraw, the
+disagreements with reference (a)'s float z-buffer and their largest depth gap, the depth precision) and
+``memory`` (frame-buffer bytes read and written per covered pixel), ``depth_disagreements.png`` marks the
+disagreements, and the verdict fails on a disagreement beyond the depth precision.
 
 ``--input triangles --depth`` adds the depth test and the frame buffer behind the ROP's AXI4 port
 (``cosim/rop.py``: the memory model with ``--latency`` cycles): overlapping geometry is drawn, the frame is read
@@ -62,6 +67,17 @@ def _stream(params, space, args, tag: str, what: str):
     with _bar(len(space), args, what) as bar:
         return run_stream(params, space, sim=args.sim, chunk=CHUNK, pattern=args.pattern, tag=tag,
                           dump=len(space) <= DUMP_MAX, progress=bar)
+
+
+def depth_rows(report: dict) -> list:
+    """The summary table's rows of a frame drawn from triangles: overdraw, the depth test, the disagreements
+    with reference (a)'s float z-buffer, the frame-buffer traffic."""
+    d, m = report["depth"], report["memory"]
+    return [("overdraw", f"{d['overdraw']} fragments per pixel ({d['passed']:,} passed, {d['failed']:,} failed "
+                         f"the depth test)"),
+            ("depth disagreements", f"{d['disagreements']} pixels, largest gap {d['max_depth_gap_of_disagreements']:.3g}"
+                                    f" (precision {d['precision']:.3g})"),
+            ("memory / pixel", f"{m['bytes_read_per_pixel']} bytes read, {m['bytes_written_per_pixel']} written")]
 
 
 def _table(rows) -> str:
@@ -127,9 +143,9 @@ def sim_scene(args) -> int:
     mismatches = result["mismatches"]
     if complete:
         mismatches = max(mismatches, int(np.any(rtl != expected, axis=1).sum()) if pixels else 0)
-        if tframe is not None:                              # the RTL's own pixel addresses
+        if tframe is not None:                              # each pixel: the fragment the depth test keeps
             col = {p.name: rtl[:, i] for i, p in enumerate(tframe.params.outputs)}
-            img = frame.image(np.stack([col[c] for c in "rgb"], 1).astype(np.uint8), (col["x"], col["y"]))
+            img = tframe.image(np.stack([col[c] for c in "rgb"], 1).astype(np.uint8))
         else:
             img = frame.image(rtl[:, :3].astype(np.uint8))
         save_png(out_dir / "rtl.png", img)
@@ -158,7 +174,8 @@ def sim_scene(args) -> int:
              ("PSNR vs ideal", f"{report['psnr_db_vs_ideal']} dB (max {report['max_lsb_vs_ideal']} LSB)")]
     if tframe is not None:
         ff = report["from_fragments"]
-        rows += [("from fragments vs float", f"{ff['psnr_db_vs_float']} dB (max {ff['max_lsb_vs_float']} LSB)")]
+        rows += [("from fragments vs float", f"{ff['psnr_db_vs_float']} dB (max {ff['max_lsb_vs_float']} LSB)"),
+                 *depth_rows(report)]
     rows += [("verdict", f"{'pass' if report['verdict']['pass'] else 'FAIL'} (bound {args.max_lsb} LSB from (a))"),
              ("RTL pixels/s", f"{report['pixels_per_second']:,}"),
              ("seconds", f"{wall:.1f} wall, simulator {result['sim_cpu_seconds']:.1f} CPU, build "

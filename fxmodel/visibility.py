@@ -31,7 +31,7 @@ import numpy as np
 from .frontend import inverse_w, screen_triangles
 from .raster import FLOAT_DEPTH_SLACK
 
-__all__ = ["Visibility", "resolve", "first_max", "disagreement_picture"]
+__all__ = ["Visibility", "resolve", "first_max", "disagreement_picture", "draw_fragments", "rop_params"]
 
 
 def first_max(pixel: np.ndarray, value: np.ndarray) -> np.ndarray:
@@ -128,7 +128,7 @@ def resolve(tframe, out: np.ndarray | None = None) -> Visibility:
                          f"{len(set(mine) ^ set(theirs))} (pixel, triangle) pairs differ")
 
     # the fixed-point depth test: the raster-operations unit's draw, in drawing order
-    rop, zc, depth, color, rop_stats = _draw(tframe, x, y, z, out)
+    rop, zc, depth, color, rop_stats = draw_fragments(tframe, out=out)
     # the documented precision is Z's: the stored depth must hold Z exactly (a narrower one, TRUNC, would tie
     # codes up to one of its ulps apart and add that ulp to the precision)
     if rop.z_fmt.frac_bits != raster.out_fmt("Z").frac_bits:
@@ -181,13 +181,21 @@ def rop_params(tframe):
     return RopParams(width=scene.width, height=scene.height, max_size=raster.max_size, z_in=raster.out_fmt("Z"))
 
 
-def _draw(tframe, x, y, z, out):
-    """The raster-operations unit's model (:func:`fxmodel.rop.draw`) on the fragments in drawing order (``out``:
-    ``x, y, r, g, b, flags`` per fragment); returns its params, the stored depth codes of the fragments, and what
-    ``draw`` returns."""
+def draw_fragments(tframe, order=None, out=None):
+    """The raster-operations unit's model (:func:`fxmodel.rop.draw`, the model's depth test) on a frame's
+    fragments in drawing order, or in ``order`` (a permutation of the fragments, e.g. the triangles reversed).
+
+    ``out``: the engine's outputs ``x, y, r, g, b, flags`` per fragment (default the model's). Returns
+    ``(params, z, depth, color, stats)``: the :class:`~fxmodel.rop.RopParams`, the fragments' stored depth
+    codes (in ``order``), and what ``draw`` returns."""
     from .rop import draw
     params = rop_params(tframe)
-    frags = {"x": x, "y": y, "z": z, "r": out[:, 2], "g": out[:, 3], "b": out[:, 4], "flags": out[:, 5]}
+    out = np.asarray(tframe.out if out is None else out, np.int64)
+    z = np.asarray(tframe.scan.codes["Z"], np.int64)
+    if order is not None:
+        out, z = out[order], z[order]
+    frags = {"x": out[:, 0], "y": out[:, 1], "z": z, "r": out[:, 2], "g": out[:, 3], "b": out[:, 4],
+             "flags": out[:, 5]}
     zc, _ = params.depth_codes(z)
     return (params, zc) + draw(params, frags)
 

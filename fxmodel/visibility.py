@@ -174,9 +174,12 @@ def resolve(tframe, out: np.ndarray | None = None) -> Visibility:
 
 
 def rop_params(tframe):
-    """The raster-operations unit for a frame drawn from triangles: the frame's size, the scan converter's
-    viewport limit and ``Z`` format (stored exactly by default)."""
+    """The raster-operations unit for a frame drawn from triangles: the engine's own (``params.rop``) if it has
+    one, else one with the frame's size, the scan converter's viewport limit and ``Z`` format (stored exactly)."""
     from .rop import RopParams
+    own = getattr(tframe.params, "rop", None)
+    if own is not None:
+        return own
     scene, raster = tframe.frame.scene, tframe.params.raster
     return RopParams(width=scene.width, height=scene.height, max_size=raster.max_size, z_in=raster.out_fmt("Z"))
 

@@ -14,7 +14,7 @@ from fxmodel.raster import RasterParams, scan, setup
 
 DEFAULT = RasterParams.PRESETS["default"]
 #: The default preset's Z alone: the same format, viewport limit and guard bits, so the same bound.
-P = dataclasses.replace(DEFAULT, attrs=(("Z", DEFAULT.out_fmt("Z")),))
+P = dataclasses.replace(DEFAULT, attrs=(("Z", DEFAULT.out_fmt("Z")),), consts=())
 S = P.S
 ULP = P.out_fmt("Z").ulp
 WIDTH, HEIGHT = 48, 40

@@ -16,12 +16,19 @@ pipeline (section 4) takes one fragment per clock from the scan converter; whate
   is low), the sideband rides a shift register under the same enable, and a two-entry skid buffer sits at the
   output. ``en`` is a flip-flop: it is set for the next cycle only if the buffer will have room for one more
   result whatever the consumer does (``count' + 1 <= 2``), so the consumer's ``ready`` reaches one register and
-  the buffer, never the pipeline's clock enables, and Fmax is the flat unit's. ``i.ready`` is ``en`` (it does
-  not depend on ``i.valid``).
+  the buffer's counters, never the pipeline's clock enables, and Fmax is the flat unit's. ``i.ready`` is ``en``
+  (it does not depend on ``i.valid``).
+- The buffer is a two-slot ring (``rp`` the oldest slot, ``count`` results held, the free slot ``rp ^ count[0]``).
+  Whenever ``en`` is high the last stage's outputs are written into the free slot, whether or not they will be
+  kept: there is always one free (``en`` high means ``count <= 1``), and the slot's write enable is then a
+  function of three flip-flops (``en``, ``rp``, ``count[0]``), so neither the consumer's ``ready`` nor the last
+  stage's valid reaches the wide payload registers. (A shift register that moved slot 1 into slot 0 on every pop
+  put ``ready`` and ``valid`` on those enables: that path, routed to every payload bit, was the critical path of
+  the units with wide outputs.) A result is kept (``count`` counts it) only if it does not go straight out.
 - Timing: while the buffer is empty, the result in the pipeline's last stage goes straight to ``o`` (``o.valid =
   en & last stage valid``), so without stalls the latency is ``params.latency`` and one result flows per clock.
   A result leaves the last stage whenever ``en`` is high; if ``o`` does not take it in that cycle, or the buffer
-  holds older results, it enters the buffer (order kept). ``o.payload`` and ``o.valid`` never change while
+  holds older results, it is kept in the buffer (order kept). ``o.payload`` and ``o.valid`` never change while
   ``o.valid & ~o.ready`` (the AXI-Stream rule). After a stall the buffer may keep one result while results flow
   at one per clock; a gap in the input drains it.
 """
@@ -123,25 +130,24 @@ class StreamUnit(wiring.Component):
         m.submodules.core = core = EnableInserter({"sync": en})(_Core(self.params, self.side))
         m.d.comb += [core.i_valid.eq(self.i.valid), core.i_payload.eq(self.i.payload), self.i.ready.eq(en)]
 
-        # the skid buffer: `count` results in buf[0] (oldest), buf[1]
+        # the skid buffer: a two-slot ring, `count` results from slot `rp` on
         lay = output_layout(self.params, self.side)
         buf = [Signal(lay, name=f"skid{k}") for k in range(SKID_DEPTH)]
         count = Signal(range(SKID_DEPTH + 1))
+        rp = Signal(range(SKID_DEPTH))                       # the oldest result's slot
+        free = Signal(range(SKID_DEPTH))                     # the slot the last stage is written into
         leaving = Signal()                                   # the last stage's result leaves the pipeline
-        m.d.comb += leaving.eq(en & core.o_valid)
+        m.d.comb += [leaving.eq(en & core.o_valid), free.eq(rp ^ count[0])]
         m.d.comb += [self.o.valid.eq(Mux(count == 0, leaving, 1)),
-                     self.o.payload.eq(Mux(count == 0, core.o_payload.as_value(), buf[0].as_value()))]
-        # the leaving result waits in the buffer unless it goes straight out (buffer empty, consumer ready)
+                     self.o.payload.eq(Mux(count == 0, core.o_payload.as_value(),
+                                           Mux(rp, buf[1].as_value(), buf[0].as_value())))]
+        # the leaving result is kept unless it goes straight out (buffer empty, consumer ready)
         push = leaving & ~((count == 0) & self.o.ready)
         popped = self.o.valid & self.o.ready & (count != 0)  # the oldest buffered result goes out
         count_next = count + push - popped
-        m.d.sync += [count.eq(count_next), en.eq(count_next < SKID_DEPTH)]
-        # buffer contents: shift out the oldest on a pop, append the leaving result behind the rest
-        with m.If(popped):
-            m.d.sync += buf[0].eq(buf[1])
-        with m.If(push):
-            with m.Switch(count - popped):
-                for k in range(SKID_DEPTH):
-                    with m.Case(k):
-                        m.d.sync += buf[k].eq(core.o_payload)
+        m.d.sync += [count.eq(count_next), en.eq(count_next < SKID_DEPTH), rp.eq(rp ^ popped)]
+        # the free slot takes the last stage's outputs on every enabled cycle (kept or not: see the module notes)
+        for k in range(SKID_DEPTH):
+            with m.If(en & (free == k)):
+                m.d.sync += buf[k].eq(core.o_payload)
         return m

@@ -113,8 +113,8 @@ class TrianglePipeline(wiring.Component):
         ``r, g, b`` and ``flags`` (the pipeline's ``FLAG_BITS``, bit 4 an interpolated attribute saturated)
     busy : Out(1) -- the scan converter is traversing a triangle
 
-    Backpressure on ``o`` holds the pixel pipeline (its stage enable), which holds the scan converter, which
-    stops taking records. Without stalls a fragment's color leaves ``params.latency`` cycles after it left the
+    Backpressure on ``o`` fills the pixel pipeline's output FIFO (its ``i.ready`` falls), which holds the scan
+    converter, which stops taking records. Without stalls a fragment's color leaves ``params.latency`` cycles after it left the
     scan converter.
 
     With ``params.rop`` (the engine with its depth test) ``o`` is replaced by the raster-operations unit

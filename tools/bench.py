@@ -7,7 +7,8 @@ memory files, compared in HDL) on each available simulator (build time excluded)
 stalls (the whole input space counted by the wrapper, as ``make exhaustive`` runs) and with backpressure in the
 loop (random inputs from vector files, pattern ``random``: input valid and output ready each high half the time),
 and the same two runs through a one-register stand-in with the unit's ports (``stand_in_verilog``): what the
-harness itself costs, the floor under the unit's rate.
+harness itself costs, the floor under the unit's rate. Each streaming row is the median of ``--repeat`` runs
+(``--stream-only`` runs just those rows, ``--sim`` picks the simulators).
 Machines here are shared and noisy: the figures are medians, the ratios between them mean more than any one
 number, and the streaming rows also give vectors per CPU second of the simulator process (what a loaded machine
 changes least).
@@ -100,6 +101,10 @@ def main(argv=None) -> int:
     ap.add_argument("--core-products", type=int, default=4_000_000,
                     help="random products narrowed by the own fixed-point core and by apytypes (0 skips)")
     ap.add_argument("--core-only", action="store_true", help="only the fixed-point core comparison (no sweep)")
+    ap.add_argument("--stream-only", action="store_true",
+                    help="only the streaming co-simulation rows (medians of --repeat runs; no sweep)")
+    ap.add_argument("--sim", action="append", choices=("icarus", "verilator"),
+                    help="simulator of the co-simulation rows (repeatable; default: every one installed)")
     ap.add_argument("--no-sweep", action="store_true", help="skip the design-space sweep (tools.sweep)")
     ap.add_argument("--no-fpga", action="store_true", help="sweep without the ECP5 flow")
     ap.add_argument("--fpga-points", type=int, default=6, help="sweep points placed and routed (0 to 6, cached)")
@@ -113,11 +118,14 @@ def main(argv=None) -> int:
     rng = np.random.default_rng(1)
     jobs = [("model", "recip", "default", "all 2^24 inputs"), ("model", "recip", "small", "all 2^16 inputs"),
             ("model", "divide", "default", "10^6 random")]
-    sims = [s for s, tool in (("icarus", "iverilog"), ("verilator", "verilator")) if shutil.which(tool)]
+    sims = [s for s, tool in (("icarus", "iverilog"), ("verilator", "verilator"))
+            if shutil.which(tool) and (not args.sim or s in args.sim)]
     jobs += [("cosim", "recip", "default", sim) for sim in sims]
     jobs += [(f"stream-{pattern}", "recip", "default", sim) for sim in sims for pattern in ("none", "random")]
     jobs += [(f"floor-{pattern}", "recip", "default", sim) for sim in sims for pattern in ("none", "random")]
-    if args.core_products:
+    if args.stream_only:
+        jobs = [j for j in jobs if j[0].startswith(("stream", "floor"))]
+    if args.core_products and not args.stream_only:
         rows += core_rates(args.core_products, args.repeat, np.random.default_rng(2))
     if args.core_only:
         jobs = []
@@ -130,15 +138,16 @@ def main(argv=None) -> int:
         elif kind.startswith(("stream", "floor")):
             from cosim.stream import measure_throughput
             pattern, floor = kind.split("-")[1], kind.startswith("floor")
-            res = measure_throughput(params, what, inputs="exhaustive" if pattern == "none" else "random",
-                                     pattern=pattern, stand_in=floor)
+            runs = [measure_throughput(params, what, inputs="exhaustive" if pattern == "none" else "random",
+                                       pattern=pattern, stand_in=floor) for _ in range(args.repeat)]
+            res = runs[0]
             label = "no stalls" if pattern == "none" else "random gaps and backpressure"
             head = f"streaming harness alone (a one-register stand-in with {unit}'s ports)" if floor else \
                 f"co-simulation {unit} ({name}), streaming"
             rows.append({"what": f"{head}, {label}", "workload": what,
-                         "per_second": res["vectors_per_second"],
-                         "per_cpu_second": res["vectors"] / res["sim_cpu_seconds"], "cycles": res["cycles"],
-                         "vectors": res["vectors"]})
+                         "per_second": statistics.median(r["vectors_per_second"] for r in runs),
+                         "per_cpu_second": statistics.median(r["vectors"] / r["sim_cpu_seconds"] for r in runs),
+                         "cycles": res["cycles"], "vectors": res["vectors"], "runs": len(runs)})
         else:
             vectors = params.random_inputs(rng, args.cosim_vectors)
             res = run(params, vectors, sim=what, tag="bench")
@@ -155,7 +164,7 @@ def main(argv=None) -> int:
         cpu = f"{r['per_cpu_second']:,.0f}" if "per_cpu_second" in r else ""
         print(f"| {r['what']} | {r['workload']} | {r['per_second']:,.0f} | {cpu} |")
     print(f"\n(written to {out / 'bench.json'})")
-    if args.no_sweep or args.core_only:
+    if args.no_sweep or args.core_only or args.stream_only:
         return 0
     from . import sweep
     sweep_argv = (["--no-fpga"] if args.no_fpga else ["--fpga-points", str(args.fpga_points)]) + [

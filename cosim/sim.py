@@ -31,7 +31,7 @@ disagreements, and the verdict fails on a disagreement beyond the depth precisio
 ``--input triangles --depth`` adds the depth test and the frame buffer behind the ROP's AXI4 port
 (``cosim/rop.py``: the memory model with ``--latency`` cycles): overlapping geometry is drawn, the frame is read
 from the memory model at the end and compared with the model's; ``build/sim/<scene>-depth/report.json`` has the
-memory traffic (``depth_test``: bytes read and written per pixel).
+memory traffic (``depth_test``: bytes read and written per covered pixel).
 
 ``--unit U [--preset P]`` co-simulates a single unit on its hard cases and random vectors instead.
 """
@@ -201,15 +201,20 @@ def sim_depth(args, tframe, report, out_dir, t0) -> int:
 
     name = tframe.frame.scene.name
     rop = tframe.params.rop
-    print(f"{name}: depth test and frame buffer behind AXI4 (latency {args.latency}), {rop.width}x{rop.height}")
+    if not 0.0 <= args.wait_states < 1.0:
+        raise SystemExit(f"--wait-states={args.wait_states}: must be in [0, 1)")
+    print(f"{name}: depth test and frame buffer behind AXI4 (latency {args.latency}, wait states "
+          f"{args.wait_states:g}), {rop.width}x{rop.height}")
     os.environ.setdefault("COSIM_PROGRESS", "1")
-    result = run_engine(tframe.params, tframe.records, latency=args.latency, sim=args.sim, tag=f"scene_{name}")
+    result = run_engine(tframe.params, tframe.records, latency=args.latency, p_pause=args.wait_states,
+                        seed=args.seed, sim=args.sim, tag=f"scene_{name}")
     wall = time.perf_counter() - t0
     save_png(out_dir / "rtl.png", result["color"][..., :3].astype(np.uint8))
     dt = report["depth_test"]
     traffic_ok = (result["rtl_bytes_read"], result["rtl_bytes_written"]) == (dt["bytes_read"], dt["bytes_written"])
     report.update({"simulator": args.sim, "preset": args.preset, "mismatches": result["mismatches"],
                    "first_mismatches": result["first"], "memory_latency": args.latency,
+                   "memory_wait_states": args.wait_states,
                    "rtl_bytes_read": result["rtl_bytes_read"], "rtl_bytes_written": result["rtl_bytes_written"],
                    "rtl_traffic_matches_model": traffic_ok, "rtl_status": result["status"],
                    "rtl_cycles": result["cycles"], "rtl_seconds": result["seconds"],
@@ -222,7 +227,7 @@ def sim_depth(args, tframe, report, out_dir, t0) -> int:
         ("simulator", args.sim), ("mismatches", f"{result['mismatches']} pixels (frame read from memory)"),
         ("depth test", f"{dt['passed']:,} passed, {dt['failed']:,} failed"),
         ("memory traffic", f"{dt['bytes_read_per_pixel']} B read, {dt['bytes_written_per_pixel']} B written per "
-                           f"pixel (RTL {result['rtl_bytes_read']:,} / {result['rtl_bytes_written']:,} B)"),
+                           f"covered pixel (RTL {result['rtl_bytes_read']:,} / {result['rtl_bytes_written']:,} B)"),
         ("from triangles vs float", f"{tv['psnr_db_vs_float']} dB (max {tv['max_lsb_vs_float']} LSB)"),
         ("wall seconds", f"{wall:.1f}"), ("output", str(out_dir))]))
     if result["mismatches"] or not traffic_ok or result["status"]:
@@ -271,6 +276,9 @@ def main(argv=None) -> int:
                     help="with --input triangles: the engine with its depth test and frame buffer behind an AXI4 port "
                          "(cosim/rop.py); the frame is read from the memory model (build/sim/<scene>-depth/)")
     ap.add_argument("--latency", type=int, default=4, help="memory latency added by the bench (--depth; 0..24)")
+    ap.add_argument("--wait-states", type=float, default=0.0, metavar="P",
+                    help="--depth: probability that each AXI channel of the memory model pauses in a cycle "
+                         "(random wait states; default %(default)s)")
     ap.add_argument("--unit", help="co-simulate one unit instead of a scene")
     ap.add_argument("--vectors", type=int, default=100_000, help="random vectors besides the hard cases (--unit)")
     ap.add_argument("--exhaustive", action="store_true", help="the unit's whole input space (--unit)")

@@ -552,9 +552,8 @@ def from_triangles(frame: Frame, raster: RasterParams | None = None, depth: bool
     tframe.vis = resolve(tframe)
     stats.update(tframe.vis.stats)
     if depth:
-        pixels = scene.width * scene.height
-        stats["depth_test"] = {**rop_stats, "bytes_read_per_pixel": round(rop_stats["bytes_read"] / pixels, 3),
-                               "bytes_written_per_pixel": round(rop_stats["bytes_written"] / pixels, 3),
+        # bytes per covered pixel: the one definition, ``visibility``'s ``memory`` (same RopParams, same draw)
+        stats["depth_test"] = {**rop_stats, **{k: v for k, v in stats["memory"].items() if k.endswith("_per_pixel")},
                                "fragments_per_covered_pixel": stats["depth"]["overdraw"]}
     return tframe
 

@@ -179,6 +179,9 @@ def test_engine_with_depth_draws_an_overlapping_scene():
     assert np.all(color[~visible][:, :3] == bg)
     assert dt["failed"] > 0 and dt["passed"] + dt["failed"] == dt["fragments"] == len(tf.out)
     assert dt["bytes_read"] == 4 * dt["fragments"] and dt["bytes_written"] == 8 * dt["passed"]
+    covered = int(visible.sum())
+    assert dt["bytes_read_per_pixel"] == pytest.approx(dt["bytes_read"] / covered, abs=1e-3)
+    assert dt["bytes_written_per_pixel"] == pytest.approx(dt["bytes_written"] / covered, abs=1e-3)
 
 
 def test_engine_rop_must_match_the_raster():

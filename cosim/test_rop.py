@@ -131,6 +131,8 @@ def overlapping_records(raster, width, height, n, seed):
     vals = {name: rng.uniform(-0.9, 0.9, (n, 3)) * float(fmt.max_value) for name, fmt in raster.attrs}
     vals["Z"] = rng.uniform(0.05, 1.0, (n, 3))
     vals["W"] = rng.uniform(0.2, 1.0, (n, 3))
+    for name, fmt in raster.consts:                                   # per-triangle constants (the bump's Ae)
+        vals[name] = rng.integers(fmt.min_code, fmt.max_code + 1, n)
     X[-2:], Y[-2:] = X[:2], Y[:2]                                     # two triangles again: equal depths
     for name in vals:
         vals[name][-2:] = vals[name][:2]
@@ -146,12 +148,14 @@ def engine_params(width, height, **rop):
         width=width, height=height, max_size=raster.max_size, z_in=raster.out_fmt("Z"), **rop))
 
 
-@pytest.mark.slow
-@pytest.mark.parametrize("latency, p_valid, p_pause", [(1, 1.0, 0.0), (20, 0.7, 0.3)])
+@pytest.mark.parametrize("latency, p_valid, p_pause", [pytest.param(1, 1.0, 0.0, marks=pytest.mark.slow),
+                                                       (20, 0.7, 0.3)])
 def test_engine_with_depth_draws_the_models_frame(sim, latency, p_valid, p_pause):
     """The engine from the triangle with its depth test behind the memory port, on overlapping random triangles:
-    the frame read from the memory model equals the model's, and so does the bus traffic. Slow (``make
-    exhaustive``): Yosys spends minutes on the whole pipeline's netlist."""
+    the frame read from the memory model equals the model's, and so does the bus traffic. ``make test`` runs the
+    hard case (latency 20, input gaps, wait states on every channel); the netlist build (Yosys on the whole
+    pipeline) costs about a minute, once. The full-size overlapping scene: ``python -m cosim.sim --scene
+    tin-sphere --input triangles --depth --latency 20 --wait-states 0.3``."""
     from cosim.rop import run_engine
     params = engine_params(16, 12)
     recs = overlapping_records(params.raster, 16, 12, 10, seed=latency)

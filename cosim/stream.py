@@ -63,7 +63,7 @@ from fxmodel.vectors import layout, write_words
 from .harness import ROOT, params_key, simulator, verilator_env
 
 __all__ = ["PATTERNS", "render", "Space", "FullSpace", "ProductSpace", "ArraySpace", "ConcatSpace", "full_space", "grid_space",
-           "edge_codes", "as_space", "shard_range", "parse_shard", "wrapper_verilog", "run_stream", "run_records",
+           "edge_codes", "as_space", "shard_range", "parse_pair", "parse_shard", "wrapper_verilog", "run_stream", "run_records",
            "measure_throughput", "StreamResult", "DEPTH", "CHUNK", "AHEAD", "BUILD", "RECORD_DEPTH"]
 
 BUILD = ROOT / "build" / "stream"
@@ -260,15 +260,22 @@ def as_space(params, space) -> Space:
     return ArraySpace(space)
 
 
+def parse_pair(text: str, option: str, sep: str, names: str, example: str, what: str) -> tuple[int, int]:
+    """``"a<sep>b"`` (1-based, ``1 <= a <= b``) to ``(a, b)``; ``ValueError`` naming ``option`` and the bad text
+    (``names``: the two letters as the message spells them, e.g. ``"iN"``; ``what``: the things numbered)."""
+    a_, b_ = names
+    try:
+        a, b = (int(x) for x in str(text).split(sep))
+    except ValueError:
+        raise ValueError(f"{option} {text!r}: expected {a_}{sep}{b_} with integers, e.g. {example}") from None
+    if not 1 <= a <= b:
+        raise ValueError(f"{option} {text!r}: need 1 <= {a_} <= {b_} ({what} are numbered from 1)")
+    return a, b
+
+
 def parse_shard(text: str) -> tuple[int, int]:
     """``"i/N"`` (1-based, ``1 <= i <= N``) to ``(i, N)``; ``ValueError`` naming the bad text."""
-    try:
-        i, n = (int(x) for x in str(text).split("/"))
-    except ValueError:
-        raise ValueError(f"--shard {text!r}: expected i/N with integers, e.g. 1/4") from None
-    if not 1 <= i <= n:
-        raise ValueError(f"--shard {text!r}: need 1 <= i <= N (shards are numbered from 1)")
-    return i, n
+    return parse_pair(text, "--shard", "/", "iN", "1/4", "shards")
 
 
 def shard_range(size: int, shard: tuple[int, int] | str | None) -> tuple[int, int]:

@@ -68,7 +68,7 @@ from typing import Callable
 from fxmodel.unit import preset
 
 from cosim.harness import ROOT, simulator
-from cosim.stream import AHEAD, Space, full_space, grid_space, parse_shard, run_stream, shard_range
+from cosim.stream import AHEAD, Space, full_space, grid_space, parse_pair, parse_shard, run_stream, shard_range
 from rtl.digest import params_key
 
 from . import jobs as jobrunner
@@ -491,13 +491,7 @@ def throughput(t: Target, sim: str, vectors: int, *, workers=(1, 2), repeat: int
 
 def parse_select(text: str) -> tuple[int, int]:
     """``"A:B"`` (1-based, ``1 <= A <= B``) to ``(A, B)``; ``ValueError`` naming the bad text."""
-    try:
-        a, b = (int(x) for x in str(text).split(":"))
-    except ValueError:
-        raise ValueError(f"--select {text!r}: expected A:B with integers, e.g. 1:16") from None
-    if not 1 <= a <= b:
-        raise ValueError(f"--select {text!r}: need 1 <= A <= B (pieces are numbered from 1)")
-    return a, b
+    return parse_pair(text, "--select", ":", "AB", "1:16", "pieces")
 
 
 def main(argv=None) -> int:

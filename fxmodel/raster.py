@@ -161,10 +161,6 @@ def area2(X, Y):
     return (X[..., 1] - X[..., 0]) * (Y[..., 2] - Y[..., 0]) - (X[..., 2] - X[..., 0]) * (Y[..., 1] - Y[..., 0])
 
 
-def _ubits(n: int) -> int:
-    return max(1, int(n).bit_length())
-
-
 @dataclass(frozen=True)
 class RasterParams:
     """Parameters of the triangle set-up, scan converter and attribute interpolators.
@@ -253,7 +249,7 @@ class RasterParams:
     @property
     def pixel_fmt(self) -> Fmt:
         """Pixel coordinates ``x``, ``y`` in ``0 .. max_size - 1``."""
-        return Fmt(False, _ubits(self.max_size - 1), 0)
+        return Fmt.integer(0, self.max_size - 1)
 
     @property
     def offset_fmt(self) -> Fmt:
@@ -280,9 +276,9 @@ class RasterParams:
         """Record formats of one edge's fields: ``kind`` (0 off, 1 left, 2 right), ``p`` (bound at the row),
         ``r`` (remainder), ``q``, ``m`` (the row step ``b = q |a| + m``), ``d = |a|``."""
         b = self.edge_bounds
-        return {"kind": Fmt(False, 2, 0), "p": Fmt.integer(-b["p"], b["p"]), "r": Fmt(False, _ubits(b["d"]), 0),
-                "q": Fmt.integer(-b["q"], b["q"]), "m": Fmt(False, _ubits(b["m"]), 0),
-                "d": Fmt(False, _ubits(b["d"]), 0)}
+        return {"kind": Fmt(False, 2, 0), "p": Fmt.integer(-b["p"], b["p"]), "r": Fmt.integer(0, b["d"]),
+                "q": Fmt.integer(-b["q"], b["q"]), "m": Fmt.integer(0, b["m"]),
+                "d": Fmt.integer(0, b["d"])}
 
     @property
     def record(self) -> tuple:

@@ -65,10 +65,6 @@ PIXEL_BYTES, DEPTH_BYTES = 8, 4
 STATUS_BITS = {"outside": 0, "z_saturated": 1, "bus_error": 2}
 
 
-def _ubits(n: int) -> int:
-    return max(1, int(n).bit_length())
-
-
 @dataclass(frozen=True)
 class RopParams:
     """Parameters of the raster-operations unit (depth test and frame buffer).
@@ -160,7 +156,7 @@ class RopParams:
     @property
     def pixel_fmt(self) -> Fmt:
         """``x`` and ``y``: the scan converter's ``pixel_fmt`` for ``max_size``."""
-        return Fmt(False, _ubits(self.max_size - 1), 0)
+        return Fmt.integer(0, self.max_size - 1)
 
     @property
     def flags_fmt(self) -> Fmt:

@@ -5,10 +5,10 @@ thousand vectors a second. Here Python never touches a vector inside the simulat
 
 1. The golden model (``params.compute``) produces the expected outputs of a chunk of input vectors, and
    :func:`fxmodel.vectors.write_words` writes inputs and expected outputs as binary words for ``$fread``
-   (inputs then outputs, most significant field first, ``ceil(width / 8)`` bytes a word; the wrapper's header
-   comment documents the layout). When the run walks the whole input space in order (:class:`FullSpace`, inputs
-   up to 64 bits) the wrapper counts the inputs itself (row ``i`` is the bits of ``i``, each signed field's top
-   bit inverted) and the file's input fields are zero.
+   (the input payload then the output payload, each field where ``rtl.streams`` packs it, ``ceil(width / 8)``
+   bytes a word; the wrapper's header comment documents the layout). When the run walks the whole input space
+   in order (:class:`FullSpace`, inputs up to 64 bits) the wrapper counts the inputs itself (row ``i`` is the
+   bits of ``i``, each signed field's top bit inverted) and the file's input fields are zero.
 2. A wrapper generated from the parameter object (:func:`wrapper_verilog`) instantiates the unit's generated
    Verilog by its port names, loads a chunk with ``$fread``, streams it through the unit at one vector per
    clock, compares every output bit with ``!==`` (an ``x`` or ``z`` bit is a mismatch on Icarus) and counts the
@@ -313,7 +313,25 @@ def _vid(name: str) -> str:
 
 
 def _fields(params):
-    return [(p.name, p.fmt) for p in params.inputs + params.outputs]
+    """The fields of a memory word, most significant first: the input payload, then the output payload, each in
+    the field order of ``rtl.streams`` (first port at the lowest bits), so that the word's input part is
+    ``i__payload`` and its output part ``o__payload`` bit for bit."""
+    return [(p.name, p.fmt) for p in params.inputs[::-1] + params.outputs[::-1]]
+
+
+def _word_codes(inputs, expected) -> np.ndarray:
+    """Codes of inputs and expected outputs (port order) in :func:`_fields` order."""
+    return np.concatenate([inputs[:, ::-1], expected[:, ::-1]], axis=1)
+
+
+def _split(word: int, ports, lsb: int = 0) -> list:
+    """The codes of ``ports`` (in port order) in ``word``, packed as a payload (first port lowest) from bit
+    ``lsb``."""
+    out = []
+    for p in ports:
+        out.append(int(p.fmt.from_bits(np.array([(word >> lsb) & ((1 << p.fmt.width) - 1)], dtype=object))[0]))
+        lsb += p.fmt.width
+    return out
 
 
 _CLOCKS = {
@@ -357,7 +375,7 @@ def wrapper_verilog(params, top: str, dut: str, *, depth: int = DEPTH, keep: int
     The wrapper's own ports are written by cocotb: ``rst``, ``counter`` (inputs from the row counter
     ``chunk_base + position``, the file holding expected outputs only), ``chunk_base``, ``chunk_len`` (vectors in
     the chunk), ``pattern`` and ``seed`` (the chunk's stimulus, :data:`PATTERNS`), ``dump`` (write the outputs to
-    ``out_<k>.hex``) and ``load_seq`` (set to ``k + 1`` once ``chunk_<k>.hex`` is ready in the folder named by
+    ``out_<k>.hex``) and ``load_seq`` (set to ``k + 1`` once ``chunk_<k>.bin`` is ready in the folder named by
     the plusarg ``+STREAM_DIR=``); it answers by raising ``done_seq`` to ``k + 1`` once every output of chunk
     ``k`` has been compared.
 
@@ -385,8 +403,8 @@ def wrapper_verilog(params, top: str, dut: str, *, depth: int = DEPTH, keep: int
     fields = _fields(params)
     lay = layout(fields)
     n_in = len(params.inputs)
-    ow = sum(f.width for _, f in fields[n_in:])
-    iw = sum(f.width for _, f in fields[:n_in])
+    ow = sum(p.fmt.width for p in params.outputs)
+    iw = sum(p.fmt.width for p in params.inputs)
     lat = int(params.latency)
     if lat < 1:
         raise ValueError(f"{params.NAME}: latency {lat}: the streaming wrapper needs registered outputs "
@@ -397,16 +415,29 @@ def wrapper_verilog(params, top: str, dut: str, *, depth: int = DEPTH, keep: int
         raise ValueError(f"depth={depth}: must be a power of two")
     if clock not in _CLOCKS:
         raise ValueError(f"clock={clock!r}: one of {', '.join(_CLOCKS)}")
+    # the memory word's parts are the payloads: every field at its payload offset (rtl.streams layouts)
     lin, lout = input_layout(params), output_layout(params)
     offsets = {**{(0, n): f.offset for n, f in lin}, **{(1, n): f.offset for n, f in lout}}
-    rows = [{"name": name, "fmt": str(fmt), "msb": msb, "lsb": lsb, "width": fmt.width,
-             "offset": offsets[(int(k >= n_in), name)]} for k, (name, fmt, msb, lsb) in enumerate(lay)]
+    if lin.size != iw or lout.size != ow:
+        raise AssertionError(f"{params.NAME}: the payloads are {lin.size} and {lout.size} bits, the ports {iw} "
+                             f"and {ow}")
+    for k, (name, _, _, lsb) in enumerate(lay):
+        out = k >= n_in
+        if offsets[(int(out), name)] != (lsb if out else lsb - ow):
+            raise AssertionError(f"{params.NAME}: field {name} of the memory word is not at its payload offset")
+    rows = [{"name": name, "fmt": str(fmt), "msb": msb, "lsb": lsb} for name, fmt, msb, lsb in lay]
+    # expand mode: the memory word is the input payload alone
+    inputs = [{**r, "msb": r["msb"] - ow, "lsb": r["lsb"] - ow} for r in rows[:n_in]] if expand else rows[:n_in]
     # counter mode: row i of the whole input space is the bit pattern of i with each signed field's top bit
-    # inverted (code = min_code + digit, fields first port slowest; see Unit.all_inputs)
-    sign_mask = sum(1 << (msb - ow) for _, fmt, msb, _ in lay[:n_in] if fmt.signed)
+    # inverted (code = min_code + digit, first port slowest, i.e. most significant; see Unit.all_inputs), its
+    # fields then rearranged into the payload's order (first port lowest)
+    rows_lay = layout([(p.name, p.fmt) for p in params.inputs])
+    sign_mask = sum(1 << msb for _, fmt, msb, _ in rows_lay if fmt.signed)
+    counted = "row" if len(rows_lay) == 1 else \
+        "{" + ", ".join(f"row[{msb}:{lsb}]" for _, _, msb, lsb in rows_lay[::-1]) + "}"
     return render(TEMPLATE, unit=params.NAME, top=top, dut=dut, dut_id=_vid(dut), fields=rows,
-                  inputs=rows[:n_in], outputs=rows[n_in:], iw=iw, ow=ow, depth=depth, keep=keep, latency=lat,
-                  sign_mask=sign_mask, clock=_CLOCKS[clock], pw_in=lin.size, pw_out=lout.size,
+                  inputs=inputs, outputs=rows[n_in:], iw=iw, ow=ow, depth=depth, keep=keep, latency=lat,
+                  period=PERIOD_NS, sign_mask=sign_mask, counted=counted, clock=_CLOCKS[clock],
                   max_path=MAX_PATH, expand=expand, busy=busy,
                   vpipe_next="take_in" if lat == 1 else f"{{vpipe[{lat - 2}:0], take_in}}")
 
@@ -462,13 +493,13 @@ class _Build:
     busy: bool = False
 
 
-def stand_in_verilog(params, name: str) -> str:
+def stand_in_verilog(params, name: str, optimize: bool = False) -> str:
     """Verilog of a stand-in with the stream ports of ``params``' unit and none of its logic: one register from
     ``i`` to ``o`` that takes a new input whenever it is empty or ``o`` takes its output (the payload bits copied
     as far as they go). The streaming wrapper
     around it costs what the harness itself costs a cycle: the floor under any unit's rate
-    (:func:`measure_throughput` with ``stand_in=True``)."""
-    from amaranth.back import verilog
+    (:func:`measure_throughput` with ``stand_in=True``). ``optimize``: written as the units are for Icarus
+    (:func:`rtl.verilog.component_verilog`)."""
     from amaranth.hdl import Module
     from amaranth.lib import stream, wiring
     from amaranth.lib.wiring import In, Out
@@ -486,7 +517,8 @@ def stand_in_verilog(params, name: str) -> str:
                 m.d.sync += [self.o.valid.eq(self.i.valid),
                              self.o.payload.as_value().eq(self.i.payload.as_value())]
             return m
-    return verilog.convert(StandIn(), name=name, emit_src=False)
+    from rtl.verilog import component_verilog
+    return component_verilog(StandIn(), name, optimize)
 
 
 def _build(params, rtl_params, variant: str, sim: str, keep: int, waves: bool, stand_in: bool = False,
@@ -518,7 +550,7 @@ def _build(params, rtl_params, variant: str, sim: str, keep: int, waves: bool, s
         if stand_in or not src.exists():             # (the stand-in is cheap and keyed by nothing: rewrite it)
             from rtl import verilog_text
             # as cosim.harness: a Yosys-optimized netlist for event-driven Icarus, Amaranth's Verilog for Verilator
-            (bdir / f"{dut}.v.tmp").write_text(stand_in_verilog(params, dut) if stand_in else
+            (bdir / f"{dut}.v.tmp").write_text(stand_in_verilog(params, dut, optimize) if stand_in else
                                                verilog_text(rtl_params, dut, optimize=optimize))
             os.replace(bdir / f"{dut}.v.tmp", src)
         dut_text = src.read_text()
@@ -574,8 +606,7 @@ def _producer(params, space: Space, lo: int, chunks: list, counter: bool, job: P
             inputs = np.asarray(space.take(lo + a, lo + b), dtype=np.int64)
             if inputs.shape != (b - a, n_in):
                 raise RuntimeError(f"the input space gave shape {inputs.shape} for rows {lo + a}..{lo + b}")
-            expected = params.compute(inputs)
-            codes = np.concatenate([np.zeros_like(inputs) if counter else inputs, expected], axis=1)
+            codes = _word_codes(np.zeros_like(inputs) if counter else inputs, params.compute(inputs))
             os.replace(write_words(job / f"chunk_{k}.tmp", fields, codes), job / f"chunk_{k}.bin")
     except BaseException as exc:                        # the testbench sees ABORT and stops waiting
         errors.append(exc)
@@ -584,18 +615,12 @@ def _producer(params, space: Space, lo: int, chunks: list, counter: bool, job: P
 
 def _decode(params, rec: dict, lo: int, space: Space, counter: bool) -> dict:
     """A wrapper mismatch record (memory word, outputs) as codes; in counter mode the inputs are the row's."""
-    lay = layout(_fields(params))
-    n_in = len(params.inputs)
-
-    def split(word, parts):
-        return [int(fmt.from_bits(np.array([(word >> lsb) & ((1 << fmt.width) - 1)], dtype=object))[0])
-                for _, fmt, _, lsb in parts]
-
+    ow = sum(p.fmt.width for p in params.outputs)
     got, index = rec["got"], lo + rec["index"]
-    inputs = space.take(index, index + 1)[0].tolist() if counter else split(rec["vector"], lay[:n_in])
+    inputs = space.take(index, index + 1)[0].tolist() if counter else _split(rec["vector"], params.inputs, ow)
     return {"index": index, "inputs": inputs,
-            "rtl": split(got, lay[n_in:]) if isinstance(got, int) else f"x/z bits: {got}",
-            "model": split(rec["vector"], lay[n_in:])}
+            "rtl": _split(got, params.outputs) if isinstance(got, int) else f"x/z bits: {got}",
+            "model": _split(rec["vector"], params.outputs)}
 
 
 def run_stream(params, space=None, *, sim: str | None = None, lo: int = 0, hi: int | None = None,
@@ -833,9 +858,9 @@ def run_records(params, inputs, expected, counts, *, clocks=None, sim: str | Non
     ends = np.cumsum([int(counts[a:b].sum()) for a, b in ranges]).tolist()
     outs = [(e - int(counts[a:b].sum()), e) for (a, b), e in zip(ranges, ends)]
     iw = sum(p.fmt.width for p in params.inputs)
-    ins = [(p.name, p.fmt) for p in params.inputs]
+    ins = [(p.name, p.fmt) for p in params.inputs[::-1]]         # the input payload: first port lowest
     for k, (a, b) in enumerate(ranges):
-        write_words(job / f"chunk_{k}.bin", ins, inputs[a:b])
+        write_words(job / f"chunk_{k}.bin", ins, inputs[a:b, ::-1])
     limits = [min(32 * int(clocks[a:b].sum() + counts[a:b].sum() + b - a) + 20000 + 64 * params.latency,
                   (1 << 32) - 1) for a, b in ranges]
     meta = {"chunks": [b - a for a, b in ranges], "bases": [0] * len(ranges), "counter": False, "keep": keep,
@@ -919,19 +944,21 @@ def _waves_file(bld: _Build, job: Path) -> str | None:
 
 
 def _read_dump(params, job: Path, chunks: int) -> np.ndarray:
-    """The output codes the wrapper wrote (``out_<k>.hex``, one hex word of the outputs a line, first output at
-    the top), ``(vectors, outputs)``."""
+    """The output codes the wrapper wrote (``out_<k>.hex``, one hex word of the output payload a line, first
+    output lowest), ``(vectors, outputs)``."""
     words = []
     for k in range(chunks):
         path = job / f"out_{k}.hex"
         text = path.read_text().split() if path.exists() else []
         words += [int(w, 16) if set(w) <= set("0123456789abcdef") else -1 for w in text]
-    lay = layout(_fields(params)[len(params.inputs):])
     words = np.array(words, dtype=object)
     if (words == -1).any():
         raise RuntimeError(f"{params.NAME}: the RTL wrote outputs with x/z bits ({job})")
-    cols = [fmt.from_bits(((words >> lsb) & ((1 << fmt.width) - 1)).astype(np.int64)) for _, fmt, _, lsb in lay]
-    return np.stack(cols, axis=1) if len(words) else np.zeros((0, len(lay)), dtype=np.int64)
+    cols, lsb = [], 0
+    for p in params.outputs:                              # the output payload: first port lowest
+        cols.append(p.fmt.from_bits(((words >> lsb) & ((1 << p.fmt.width) - 1)).astype(np.int64)))
+        lsb += p.fmt.width
+    return np.stack(cols, axis=1) if len(words) else np.zeros((0, len(params.outputs)), dtype=np.int64)
 
 
 def _progress(job: Path, chunks: list, desc: str, progress, stop: threading.Event):

@@ -79,21 +79,32 @@ def test_broken_variant_in_a_shard_reports_space_indices(sim, given):
 
 
 # -- spaces, shards, reports (no simulator) -------------------------------------------------------------------
-def test_wrapper_connects_every_payload_field_by_its_offset():
-    """Each port's field of the stream payload (rtl.streams layouts) meets its slice of the vector word."""
-    from fxmodel.vectors import layout
+def test_memory_word_parts_are_the_payloads():
+    """The vector word (its layout as the wrapper's header lists it) is the input payload then the output payload,
+    every field at its offset in the rtl.streams layouts, so the wrapper connects both whole; the counted rows
+    (first port most significant) are rearranged into the payload's order."""
+    import re
     from rtl.streams import input_layout, output_layout
     params = preset("divide", "default")
     text = wrapper_verilog(params, "stream_divide", "divide_dut")
-    lay = {name: (msb, lsb) for name, _, msb, lsb in layout([(p.name, p.fmt) for p in params.inputs + params.outputs])}
-    ow = sum(p.fmt.width for p in params.outputs)
+    word = {m[3]: (int(m[1]), int(m[2])) for m in re.finditer(r"^//   \[(\d+):(\d+)\] (\w+) ", text, re.M)}
+    ow = output_layout(params).size
+    assert set(word) == {p.name for p in params.inputs + params.outputs}
     for name, field in input_layout(params):
-        msb, lsb = lay[name]
-        assert f"i_payload[{field.offset + field.width - 1}:{field.offset}] = in_word[{msb - ow}:{lsb - ow}];" in text
+        assert word[name] == (ow + field.offset + field.width - 1, ow + field.offset)
     for name, field in output_layout(params):
-        msb, lsb = lay[name]
-        assert f"got[{msb}:{lsb}] = o_payload[{field.offset + field.width - 1}:{field.offset}];" in text
+        assert word[name] == (field.offset + field.width - 1, field.offset)
+    assert ".i__payload(in_word)" in text and ".o__payload(got)" in text
+    n, d = (p.fmt.width for p in params.inputs)       # the row: n above d; the payload: d above n
+    assert f"{{row[{d - 1}:0], row[{n + d - 1}:{d}]}}" in text
     assert "LATENCY = %d" % params.latency in text and "divide_dut dut (" in text
+    # expand mode (triangle records): the word is the input payload alone, the dump the output payload
+    text = wrapper_verilog(params, "stream_divide", "divide_dut", expand=True)
+    word = {m[3]: (int(m[1]), int(m[2])) for m in re.finditer(r"^//   \[(\d+):(\d+)\] (\w+) ", text, re.M)}
+    for layout_, shift in ((input_layout(params), 0), (output_layout(params), 0)):
+        for name, field in layout_:
+            assert word[name] == (shift + field.offset + field.width - 1, shift + field.offset)
+    assert "in_word <= next;" in text
 
 
 def test_wrapper_template_refuses_an_undefined_name(tmp_path):

@@ -1,7 +1,7 @@
 """``make sim``: draw a scene from triangles through the RTL engine and prove it bit-identical to the golden model.
 
 ``python -m cosim.sim [--scene tin-plane] [--sim icarus|verilator] [--size N] [--preset default]
-[--input triangles|fragments] [--pattern none|random|bursts|stalls]``
+[--input triangles|fragments] [--pattern none|random|bursts|stalls] [--shards N]``
 
 By default (``--input triangles``) the host's set-up turns the scene into triangle records
 (``fxmodel.render.from_triangles``: snapped vertices, edge functions, each attribute's plane rounded once, the
@@ -10,7 +10,11 @@ bump matrix's block exponent per triangle), and the RTL of the engine from the t
 pixel pipeline) draws them, in the streaming harness (``cosim/stream.py``, ``run_records``: records from
 binary chunk files (``$fread``), the clock and the stimulus inside the HDL wrapper, no Python per clock); every output
 (``x, y``, the bytes, the flags) is compared with the bit-exact model, in order, none lost and none extra, and the
-scan converter's busy cycles with the model's clock count. ``--input fragments`` starts at the fragment instead:
+scan converter's busy cycles with the model's clock count. Without the depth test the triangles are independent,
+so they are simulated as ``--shards`` contiguous shards (default: one per usable core, at most one per triangle;
+one with ``WAVES=1``) in as many simulator processes at once (``run_records(shards=N)``), the fragments joined in
+order, and the clock count checked shard by shard (each shard starts from reset); the report says how many
+(``shards``, ``shard_triangles``). ``--input fragments`` starts at the fragment instead:
 the front end's fragments, quantized to the pipeline's inputs (``fxmodel.render.prepare``), stream through the
 stream version of ``rtl/pipeline.py`` (``run_stream``), every output compared in the simulation.
 
@@ -132,7 +136,7 @@ def sim_scene(args) -> int:
         with _bar(len(tframe.out), args, "px") as bar:
             result = run_records(tframe.params, tframe.records.matrix(), tframe.out, counts,
                                  clocks=tframe.scan.clocks, sim=args.sim, pattern=args.pattern,
-                                 tag=f"scene_{name}", progress=bar)
+                                 tag=f"scene_{name}", progress=bar, shards=args.shards)
         expected, pixels = tframe.out, len(tframe.out)
     else:                                                   # compared in the simulation, and again here
         result = _stream(frame.params, frame.codes, args, f"scene_{name}", "px")
@@ -157,14 +161,20 @@ def sim_scene(args) -> int:
                    "pixels_per_second": round(pixels / result["seconds"]) if result["seconds"] else None,
                    "pipeline_latency": frame.params.latency})
     clocks_ok = True
-    if tframe is not None:
-        clocks_ok = args.pattern != "none" or result["busy_cycles"] == report["raster_clocks"]
-        report.update({"rtl_busy_cycles": result["busy_cycles"], "rtl_clocks_match_model": clocks_ok})
+    if tframe is not None:                                  # clock for clock, shard by shard (each from reset)
+        model_clocks = [int(tframe.scan.clocks[a:b].sum()) for a, b in result["shards"]]
+        clocks_ok = args.pattern != "none" or (result["shard_busy_cycles"] == model_clocks
+                                               and result["busy_cycles"] == report["raster_clocks"])
+        report.update({"rtl_busy_cycles": result["busy_cycles"], "rtl_clocks_match_model": clocks_ok,
+                       "shards": len(result["shards"]), "shard_triangles": result["shards"],
+                       "rtl_shard_busy_cycles": result["shard_busy_cycles"], "model_shard_clocks": model_clocks})
     judge(report, args.max_lsb)
     (out_dir / "report.json").write_text(json.dumps(report, indent=2))
     rows = [("scene", name), ("simulator", args.sim)]
     if tframe is not None:
         rows += [("input", f"{report['triangles']} triangles -> {report['fragments']:,} fragments"),
+                 ("shards", f"{report['shards']} (simulated at once, triangles "
+                            f"{', '.join(f'{a}..{b - 1}' for a, b in report['shard_triangles'])})"),
                  ("clocks / fragment", f"{report['clocks_per_fragment']} (model {report['raster_clocks']:,}, RTL busy "
                                        f"{result['busy_cycles']:,}; {result['cycles']:,} cycles in all)")]
     else:
@@ -185,8 +195,8 @@ def sim_scene(args) -> int:
     if mismatches or not result.ok or not clocks_ok:
         print(result.describe(), file=sys.stderr)
         if not clocks_ok:
-            print(f"the scan converter was busy {result['busy_cycles']} cycles, the model counts "
-                  f"{report['raster_clocks']}", file=sys.stderr)
+            print(f"the scan converter was busy {result['shard_busy_cycles']} cycles (by shard), the model counts "
+                  f"{report['model_shard_clocks']}", file=sys.stderr)
         return 1
     print("  RTL == model on every pixel" + (", clock for clock" if tframe is not None else ""))
     return tell(report, name)
@@ -283,6 +293,10 @@ def main(argv=None) -> int:
     ap.add_argument("--vectors", type=int, default=100_000, help="random vectors besides the hard cases (--unit)")
     ap.add_argument("--exhaustive", action="store_true", help="the unit's whole input space (--unit)")
     ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--shards", type=int, default=None, metavar="N",
+                    help="from triangles (without --depth): simulate the triangles as N contiguous shards in N "
+                         "simulator processes at once (default: the usable cores, at most the triangles; one "
+                         "with WAVES=1)")
     ap.add_argument("--pattern", default="none", choices=list(PATTERNS),
                     help="gaps on the input valid and backpressure on the output ready (default: %(default)s)")
     args = ap.parse_args(argv)
@@ -293,6 +307,11 @@ def main(argv=None) -> int:
         return 2
     if args.depth and args.input != "triangles":
         print("error: --depth draws from triangles: add --input triangles", file=sys.stderr)
+        return 2
+    if args.shards is None:
+        args.shards = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+    if args.shards < 1:
+        print(f"error: --shards {args.shards}: must be >= 1", file=sys.stderr)
         return 2
     if args.unit:
         return sim_unit(args)

@@ -790,9 +790,41 @@ def _record_chunks(counts: np.ndarray, chunk: int, depth: int) -> list[tuple[int
     return out
 
 
+def shard_weights(weights, shards: int) -> list[tuple[int, int]]:
+    """``shards`` contiguous ranges ``[a, b)`` covering ``range(len(weights))``, each as close as whole items
+    allow to an equal share of the total weight (none empty: at most ``len(weights)`` ranges)."""
+    weights = np.asarray(weights, dtype=np.float64)
+    n = len(weights)
+    shards = max(1, min(int(shards), n))
+    cum = np.concatenate([[0.0], np.cumsum(weights)])
+    cuts = [0]
+    for k in range(1, shards):
+        # the boundary nearest k/shards of the weight, kept strictly inside and increasing
+        target = cum[-1] * k / shards
+        cut = int(np.searchsorted(cum, target, side="left"))
+        if cut > 0 and (cut > n or target - cum[cut - 1] <= cum[cut] - target):
+            cut -= 1
+        cut = min(max(cut, cuts[-1] + 1), n - (shards - k))
+        cuts.append(cut)
+    cuts.append(n)
+    return [(a, b) for a, b in zip(cuts[:-1], cuts[1:])]
+
+
+def _record_mismatches(rtl, expected, counts, keep: int, out0: int = 0, in0: int = 0) -> tuple[int, list]:
+    """Outputs of ``rtl`` that differ from ``expected`` (a missing or extra output counts as one) and the first
+    ``keep`` of them (``index`` the output's row, offset by ``out0``; its input's row offset by ``in0``)."""
+    n = min(len(rtl), len(expected))
+    bad = np.flatnonzero(np.any(rtl[:n] != expected[:n], axis=1))
+    source = np.repeat(np.arange(len(counts)), counts)
+    first = [{"index": int(r) + out0, "inputs": f"input {int(source[r]) + in0}", "rtl": rtl[r].tolist(),
+              "model": expected[r].tolist()} for r in bad[:keep]]
+    return int(len(bad)) + abs(len(rtl) - len(expected)), first
+
+
 def run_records(params, inputs, expected, counts, *, clocks=None, sim: str | None = None, pattern="none",
                 seed: int = 1, chunk: int = 4096, depth: int = RECORD_DEPTH, keep: int = 8, tag: str | None = None,
-                waves: bool | None = None, progress=None, optimize: bool | None = None) -> StreamResult:
+                waves: bool | None = None, progress=None, optimize: bool | None = None,
+                shards: int = 1) -> StreamResult:
     """Stream inputs that give any number of outputs each (triangle records in, fragments out) through a design
     with stream ports of its own, and compare every output with the model's, in order.
 
@@ -824,12 +856,20 @@ def run_records(params, inputs, expected, counts, *, clocks=None, sim: str | Non
     optimize : bool, optional
         Simulate the Yosys-optimized netlist (default: on Icarus, as :func:`run_stream`). Yosys takes about a
         minute on the whole engine; a run of a few thousand fragments is done sooner on Amaranth's own Verilog.
+    shards : int
+        Simulate the inputs as this many contiguous shards (:func:`shard_weights`, balanced by the model's clocks
+        and outputs), each in its own simulator process, all at once: valid when the inputs are independent
+        (triangles without the depth test), and as many times faster as there are free cores. Each shard starts
+        from reset, so each shard's ``busy`` cycles are the model's clocks of its inputs
+        (``shard_busy_cycles``); the outputs are joined in order. With waveforms, one shard (one file).
 
     Returns
     -------
     StreamResult
-        As :func:`run_stream` (``vectors`` the outputs compared, ``expected_vectors`` ``K``), plus ``inputs``, and
-        ``busy_cycles`` when the design has ``busy``; ``result.rtl`` the output codes ``(K', outputs)``.
+        As :func:`run_stream` (``vectors`` the outputs compared, ``expected_vectors`` ``K``), plus ``inputs``,
+        ``shards`` (the ranges of inputs ``[a, b)`` simulated apart) and, when the design has ``busy``,
+        ``busy_cycles`` and ``shard_busy_cycles`` (one per shard); ``result.rtl`` the output codes ``(K',
+        outputs)``. ``sim_cpu_seconds`` adds the shards' simulator CPU, ``sim_seconds`` is the longest shard's.
     """
     sim = simulator(sim)
     waves = os.environ.get("WAVES", "0") not in ("", "0") if waves is None else bool(waves)
@@ -845,7 +885,14 @@ def run_records(params, inputs, expected, counts, *, clocks=None, sim: str | Non
     if not len(inputs):
         raise ValueError("no inputs: nothing to check")
     clocks = counts if clocks is None else np.asarray(clocks, dtype=np.int64)
+    if not isinstance(shards, int) or shards < 1:
+        raise ValueError(f"shards={shards!r}: must be an int >= 1")
     bld = _build(params, params, "", sim, keep, waves, expand=True, depth=depth, optimize=optimize)
+    parts = shard_weights(clocks + counts, 1 if waves else shards)
+    if len(parts) > 1:
+        return _run_record_shards(params, inputs, expected, counts, clocks, parts, bld, sim=sim, pattern=pattern,
+                                  seed=seed, chunk=chunk, depth=depth, keep=keep, tag=tag, progress=progress,
+                                  optimize=optimize)
     has_busy = bld.busy
     job = bld.bdir / (tag or f"job_{os.getpid()}_{threading.get_native_id()}")
     if len(str(job)) + 32 > MAX_PATH:
@@ -884,28 +931,76 @@ def run_records(params, inputs, expected, counts, *, clocks=None, sim: str | Non
     seconds = time.perf_counter() - t0
     res = _testbench_result(params, job, sim, failure, log)
     rtl = _read_dump(params, job, len(ranges))
-    n = min(len(rtl), len(expected))
-    bad = np.flatnonzero(np.any(rtl[:n] != expected[:n], axis=1))
-    source = np.repeat(np.arange(len(inputs)), counts)
-    first = [{"index": int(r), "inputs": f"input {int(source[r])}", "rtl": rtl[r].tolist(),
-              "model": expected[r].tolist()} for r in bad[:keep]]
+    mismatches, first = _record_mismatches(rtl, expected, counts, keep)
     result = StreamResult(
         unit=params.NAME, simulator=sim, vectors=len(rtl), expected_vectors=len(expected),
-        mismatches=int(len(bad)) + abs(len(rtl) - len(expected)), valid_errors=0, missing=res["missing"],
+        mismatches=mismatches, valid_errors=0, missing=res["missing"],
         extra=res["extra"], protocol_errors=res["protocol_errors"], cycles=res["cycles"],
         patterns=sorted({patterns[k % len(patterns)] for k in range(len(ranges))}),
         stalled=res["stalled"], starved=res["starved"], first=first, seconds=round(seconds, 3),
         vectors_per_second=len(rtl) / seconds, sim_seconds=round(res["sim_seconds"], 3),
         sim_cpu_seconds=round(res["sim_cpu_seconds"], 3), build_seconds=round(bld.seconds, 2),
         space=f"{len(inputs)} inputs giving {len(expected)} outputs", range=[0, len(inputs)], chunks=len(ranges),
-        variant=None, started=started, finished=time.time(), inputs=len(inputs))
+        variant=None, started=started, finished=time.time(), inputs=len(inputs), shards=[[0, len(inputs)]])
     if has_busy:
         result["busy_cycles"] = res["busy_cycles"]
+        result["shard_busy_cycles"] = [res["busy_cycles"]]
     result.rtl = rtl
     if waves:
         result["waves"] = _waves_file(bld, job)
     if not waves and not tag:
         shutil.rmtree(job, ignore_errors=True)
+    return result
+
+
+def _run_record_shards(params, inputs, expected, counts, clocks, parts, bld: _Build, *, sim, tag, keep, progress,
+                       **kw) -> StreamResult:
+    """:func:`run_records` of each range of ``parts`` in a thread of its own (each thread waits on its own
+    simulator process), joined into one result in input order."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    ends = np.concatenate([[0], np.cumsum(counts)])
+    outs = [(int(ends[a]), int(ends[b])) for a, b in parts]
+    if progress is None:
+        progress = len(expected) > 4 * kw["chunk"]
+    bar = None
+    if progress is True:
+        from tqdm import tqdm
+        bar = progress = tqdm(total=len(expected), desc=f"{params.NAME} {sim}", unit="vec", unit_scale=True)
+    started = time.time()
+    t0 = time.perf_counter()
+    try:
+        with ThreadPoolExecutor(len(parts)) as pool:
+            futures = [pool.submit(run_records, params, inputs[a:b], expected[oa:ob], counts[a:b], clocks=clocks[a:b],
+                                   sim=sim, tag=tag and f"{tag}_shard{k + 1}", keep=keep,
+                                   progress=progress, waves=False, shards=1, **kw)
+                       for k, ((a, b), (oa, ob)) in enumerate(zip(parts, outs))]
+            results = [f.result() for f in futures]
+    finally:
+        if bar is not None:
+            bar.close()
+    seconds = time.perf_counter() - t0
+    mismatches, first = 0, []
+    for r, (a, b), (oa, ob) in zip(results, parts, outs):
+        n, f = _record_mismatches(r.rtl, expected[oa:ob], counts[a:b], keep, oa, a)
+        mismatches += n
+        first += f
+    rtl = np.concatenate([r.rtl for r in results])
+    total = {k: sum(r[k] for r in results) for k in ("missing", "extra", "protocol_errors", "cycles", "stalled",
+                                                      "starved")}
+    result = StreamResult(
+        unit=params.NAME, simulator=sim, vectors=len(rtl), expected_vectors=len(expected), mismatches=mismatches,
+        valid_errors=0, patterns=sorted({p for r in results for p in r["patterns"]}), first=first[:keep],
+        seconds=round(seconds, 3), vectors_per_second=len(rtl) / seconds,
+        sim_seconds=max(r["sim_seconds"] for r in results),
+        sim_cpu_seconds=round(sum(r["sim_cpu_seconds"] for r in results), 3), build_seconds=round(bld.seconds, 2),
+        space=f"{len(inputs)} inputs giving {len(expected)} outputs, in {len(parts)} shards", range=[0, len(inputs)],
+        chunks=sum(r["chunks"] for r in results), variant=None, started=started, finished=time.time(),
+        inputs=len(inputs), shards=[list(p) for p in parts], **total)
+    if bld.busy:
+        result["shard_busy_cycles"] = [r["busy_cycles"] for r in results]
+        result["busy_cycles"] = sum(result["shard_busy_cycles"])
+    result.rtl = rtl
     return result
 
 

@@ -145,6 +145,24 @@ def test_streaming_harness_counts_changed_missing_and_extra_outputs(sim):
     more[last] += 1
     bad = run_records(params, mat, np.concatenate([out, out[-1:]]), more, sim=sim)
     assert not bad.ok and bad["missing"] == 1
+    # in shards (make sim's way): the changed fragment is found at its row of the whole run
+    bad = run_records(params, mat, changed, counts, sim=sim, shards=3)
+    assert len(bad["shards"]) == 3 and not bad.ok and bad["mismatches"] == 1
+    assert bad["first"][0]["index"] == len(out) // 2
+
+
+def test_shards_draw_what_one_run_draws(sim):
+    """The records split into contiguous shards, simulated at once in separate simulator processes and joined:
+    the same fragments in the same order as one run, and each shard's busy cycles the model's clocks of its
+    records (each shard starts from reset)."""
+    params = RasterParams.PRESETS["small"]
+    recs = hard_and_random(params, 24, 20, 8, seed=11)
+    result, out, counts, res = stream_records(params, recs, sim=sim, shards=2, chunk=200)
+    parts = result["shards"]
+    assert len(parts) == 2 and parts[0][0] == 0 and parts[0][1] == parts[1][0] and parts[1][1] == len(counts)
+    assert result.ok and np.array_equal(result.rtl, out), result.describe()
+    assert result["shard_busy_cycles"] == [int(res.clocks[a:b].sum()) for a, b in parts]
+    assert result["busy_cycles"] == res.clocks.sum()
 
 
 def test_engine_from_triangles_whole_path(sim):

@@ -107,6 +107,23 @@ def test_memory_word_parts_are_the_payloads():
     assert "in_word <= next;" in text
 
 
+@pytest.mark.parametrize("weights, shards", [([5, 1, 1, 1, 1, 1], 2), ([1] * 7, 3), ([3, 0, 0, 9], 4),
+                                             ([2, 2], 5), ([0, 0, 0], 2), ([7], 1),
+                                             ([4, 4, 2], 2), ([1, 9], 2)])
+def test_shard_weights_cover_the_items_in_contiguous_balanced_ranges(weights, shards):
+    """Contiguous, none empty, covering every item in order, at most one per item; no boundary could move one
+    item and bring the heavier side of it closer to an equal share."""
+    from cosim.stream import shard_weights
+    parts = shard_weights(weights, shards)
+    assert len(parts) == min(shards, len(weights))
+    assert parts[0][0] == 0 and parts[-1][1] == len(weights)
+    assert all(a < b for a, b in parts) and all(p[1] == q[0] for p, q in zip(parts, parts[1:]))
+    if len(parts) == 2:
+        total, (_, cut) = sum(weights), parts[0]
+        share = lambda c: abs(sum(weights[:c]) - total / 2)       # noqa: E731
+        assert all(share(cut) <= share(c) for c in (cut - 1, cut + 1) if 0 < c < len(weights))
+
+
 def test_wrapper_template_refuses_an_undefined_name(tmp_path):
     from cosim.stream import render
     (tmp_path / "t.j2").write_text("module {{ top }}; {{ missing }}")

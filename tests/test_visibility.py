@@ -107,7 +107,8 @@ def test_make_sim_from_triangles_reports_depth_and_memory(monkeypatch, tmp_path,
 
     def fake_run_records(params, inputs, expected, counts, clocks=None, **kw):
         res = FakeResult(mismatches=0, first=[], seconds=1.0, sim_cpu_seconds=1.0, cycles=int(clocks.sum()),
-                         busy_cycles=int(clocks.sum()), build_seconds=0.0)
+                         busy_cycles=int(clocks.sum()), build_seconds=0.0, shards=[[0, len(counts)]],
+                         shard_busy_cycles=[int(clocks.sum())])
         res.rtl = np.asarray(expected)
         return res
 

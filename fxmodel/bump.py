@@ -158,8 +158,9 @@ class BumpParams(Unit):
 
     @property
     def latency(self) -> int:
-        """Two stages: the six products | sums, rounding and saturation."""
-        return 2
+        """Three stages: the six products | the exact sums | rounding and saturation (one carry chain or one
+        product a stage, for Fmax)."""
+        return 3
 
     # -- bit-exact model ----------------------------------------------------------------------------------
     def perturb(self, N, du, dv, A0, A1, e=0):

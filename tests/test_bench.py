@@ -22,3 +22,19 @@ def test_core_rates_refuses_to_time_results_that_differ(monkeypatch):
     monkeypatch.setattr(bench, "narrow_apy", off_by_one)
     with pytest.raises(SystemExit, match="differ"):
         bench.core_rates(3000, 1, np.random.default_rng(0))
+
+
+def test_callgrind_total_reads_the_summary_line(tmp_path):
+    out = tmp_path / "callgrind.out"
+    out.write_text("version: 1\ncmd: vvp sim.vvp\nevents: Ir\nfn=main\n12 7\nsummary: 123456789\ntotals: 123456789\n")
+    assert bench._callgrind_total(out) == 123456789
+    (tmp_path / "cut.out").write_text("events: Ir\nfn=main\n")
+    with pytest.raises(RuntimeError, match="no summary"):
+        bench._callgrind_total(tmp_path / "cut.out")
+
+
+def test_icarus_profile_says_what_it_needs(monkeypatch):
+    """Without valgrind the profile command stops with the package to install, before any simulation."""
+    monkeypatch.setattr(bench.shutil, "which", lambda tool: None)
+    with pytest.raises(SystemExit, match="valgrind"):
+        bench.main(["--icarus-profile", "recip"])

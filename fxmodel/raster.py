@@ -5,7 +5,7 @@ computes the relevant data at the start point of every new scanline, while the P
 coordinates and attributes within a scanline" (section 4). The host does the set-up once per triangle, in exact
 arithmetic on its float64 vertex data, and quantizes it once into a **triangle record** (:attr:`RasterParams.record`);
 the hardware (``rtl/raster.py``) turns records into fragments with adders, comparators and one small multiplier per
-attribute, one fragment per clock. This module is the bit-exact model of that hardware, clock count included.
+attribute (cut into registered partial products), one fragment per clock. This module is the bit-exact model of that hardware, clock count included.
 
 Coverage (the edge traverser)
 -----------------------------
@@ -24,10 +24,15 @@ if ``r_e >= |a_e|``: ``r_e -= |a_e|; p_e += 1``. The model uses the closed form 
 floor((r_e(y0) + i m_e) / |a_e|)``, the same integers.
 
 **Traversal**: rows ``y0 .. y0 + rows`` in order, each span left to right; a row costs ``max(1, span length)``
-clocks (an empty row one clock), and the next triangle is accepted in the last clock of the previous one, so a
-triangle costs exactly ``sum over its rows of max(1, n_row)`` clocks (:func:`scan` counts them; the RTL's count is
-checked against it). Triangles whose row or column range within the viewport is empty are dropped by the set-up
-(they cover no pixel) and cost nothing.
+clocks of the Pixel Calculator (an empty row one clock), so a triangle costs exactly ``sum over its rows of
+max(1, n_row)`` clocks (:func:`scan` counts them; the RTL's ``busy`` clocks are checked against the count). In
+the RTL only the row step feeds back: a row generator issues one row per clock into a pipeline that forms the
+span and the span starts (one carry chain or one product a stage) and a row FIFO in front of the Pixel
+Calculator; the generator takes the next triangle in the clock it issues the previous one's last row and runs up
+to :attr:`RasterParams.ROW_FIFO_DEPTH` rows ahead, so when the source never waits the rows follow one another
+with no clock between them, within and across triangles, and the only cost beyond the count is the fill latency
+(:attr:`RasterParams.latency`) once at the start. Triangles whose row or column range within the viewport is
+empty are dropped by the set-up (they cover no pixel) and cost nothing.
 
 Attributes (the interpolators)
 ------------------------------
@@ -118,7 +123,7 @@ from typing import ClassVar
 
 import numpy as np
 
-from .cost import Product, estimate
+from .cost import DSP_BITS, Product, estimate
 from .fixed import Fmt
 from .rounding import Overflow, Rounding, narrow
 from .unit import Port, require
@@ -186,6 +191,13 @@ class RasterParams:
 
     NAME: ClassVar[str] = "raster"
     PRESETS: ClassVar[dict]
+    #: Rows the RTL's row FIFO holds between the span pipeline and the Pixel Calculator (LUT RAM): the row
+    #: generator runs up to this many rows ahead, enough to cover the round trip of a row through the span
+    #: pipeline, so one-clock rows follow one another without a gap.
+    ROW_FIFO_DEPTH: ClassVar[int] = 16
+    #: Stages of the RTL's span pipeline from the row generator's state to the row FIFO (``rtl/raster.py``):
+    #: the edges' bounds, the span, the offset products, two adder levels of the span start.
+    SPAN_STAGES: ClassVar[int] = 5
 
     attrs: tuple = ()
     max_size: int = 2048
@@ -315,19 +327,37 @@ class RasterParams:
 
     @property
     def latency(self) -> int:
-        """The fragment register: a fragment leaves one clock after the scan converter reaches its pixel."""
-        return 1
+        """Clocks from an idle scan converter accepting a record to the record's first fragment on the output
+        (the fill latency): the row generator's load, the span pipeline (:attr:`SPAN_STAGES`, its last stage
+        writing the row FIFO), the FIFO's read, the Pixel Calculator, the rounding, the fragment register
+        (saturation). It does not add to :func:`scan`'s clocks: the rows that follow come one per ``max(1,
+        span)`` clocks with no gap."""
+        return 1 + self.SPAN_STAGES + 3
 
     # -- cost (fxmodel/cost.py, the one cost model) ---------------------------------------------------------
+    def dx_pieces(self, name: str) -> list:
+        """How the RTL cuts the increment ``a_x`` of attribute ``name`` for the span start's partial products:
+        ``[(low bit, bits, signed)]``, unsigned :data:`~fxmodel.cost.DSP_BITS`-bit pieces from the bottom and a
+        signed top piece with the rest. The other operand, the column offset, is unsigned, so an unsigned
+        18-bit piece fills one multiplier block (``fxmodel.cost.pieces`` cuts 17-bit pieces for a signed
+        partner); a one-bit top piece is a negation in logic, as Yosys maps a product with a one-bit slice."""
+        width, out, lo = self.acc_fmt(name).width, [], 0
+        while width - lo > DSP_BITS:
+            out.append((lo, DSP_BITS, False))
+            lo += DSP_BITS
+        return out + [(lo, width - lo, True)]
+
     def products(self) -> tuple:
-        """One product per attribute: the span start ``a(x0, y) + (L - x0) a_x`` (the increment, ``acc_fmt``
-        signed, times the unsigned column offset, ``pixel_fmt``)."""
+        """Per attribute, the span start ``a(x0, y) + (L - x0) a_x``: the increment (``acc_fmt``, signed) cut
+        into :meth:`dx_pieces`, each piece times the unsigned column offset (``pixel_fmt``), registered and
+        summed by the next two adder stages: one product per piece."""
         pw = self.pixel_fmt.width
-        return tuple(Product(self.acc_fmt(n).width, pw, True, False, name=f"{n}_dx*offset")
-                     for n in self.names)
+        return tuple(Product(bits, pw, signed, False, name=f"{n}_dx[{lo}:{lo + bits}]*offset")
+                     for n in self.names for lo, bits, signed in self.dx_pieces(n))
 
     def memories(self) -> tuple:
-        """None: the scan converter holds only registers."""
+        """None: the scan converter holds registers and its row FIFO (:attr:`ROW_FIFO_DEPTH` rows in LUT RAM,
+        ``amaranth.lib.fifo``: plumbing like the stream interface's FIFO, no block RAM)."""
         return ()
 
     def cost(self) -> dict:

@@ -111,7 +111,7 @@ class TrianglePipeline(wiring.Component):
     i : In(stream.Signature(record_layout(params.raster))) -- triangle records
     o : Out(stream.Signature(payload_layout(params.outputs))) -- per fragment ``x``, ``y`` (``raster.pixel_fmt``),
         ``r, g, b`` and ``flags`` (the pipeline's ``FLAG_BITS``, bit 4 an interpolated attribute saturated)
-    busy : Out(1) -- the scan converter is traversing a triangle
+    busy : Out(1) -- the scan converter's Pixel Calculator is on a row (its clocks are the model's ``clocks``)
 
     Backpressure on ``o`` fills the pixel pipeline's output FIFO (its ``i.ready`` falls), which holds the scan
     converter, which stops taking records. Without stalls a fragment's color leaves ``params.latency`` cycles after it left the

@@ -2,39 +2,64 @@
 :class:`fxmodel.raster.RasterParams`: triangle records in, one fragment per clock out, bit-exact with
 :func:`fxmodel.raster.scan`, clock count included.
 
-Structure (see the model's docstring for the arithmetic and its proof):
+Structure (see the model's docstring for the arithmetic and its proof). Every pipeline stage holds at most one
+carry chain or one product (the house rule of the pixel pipeline); only the row step feeds back.
 
-- **Row function** (the Scan Line Initializer): from the edge state of a row (``p_e``, ``r_e``) and each
-  attribute's value at ``(x0, y)``: the span ``L = max(x0, -p_left)``, ``R = min(x1, p_right)``, whether it is
-  empty, and each attribute at ``(L, y)``: ``a(x0, y) + (L - x0) a_x`` (one small multiplier per attribute,
-  modulo ``2**N``). Beside it the **row step** to ``y + 1``: ``r += m; p += q`` and the Bresenham carry
-  (``r >= |a|``: ``r -= |a|; p += 1``), ``a(x0, y + 1) = a(x0, y) + a_y``. Its input is either the record being
-  accepted or the registered state of the current triangle.
-- **Pixel Calculator**: ``x += 1``, ``a += a_x`` per pixel of the current span.
-- **Per-triangle constants** (``params.consts``, the bump engine's block exponent ``Ae``): a register loaded with
-  the record, copied into every fragment of the triangle.
-- **Output**: one registered fragment (``x``, ``y``, each attribute rounded half-up and saturated to its output
-  format, ``flags``) under ``advance = ~o.valid | o.ready``: every register holds while the consumer does not
-  take the fragment, so nothing is lost or repeated.
+- **Row generator** (the loop-carried part of the Scan Line Initializer): the state of the next row, ``p_e``
+  (kept as the bound ``v_e``: ``-p_e`` for a left edge, ``p_e`` for a right one), the Bresenham remainder
+  ``r_e``, each attribute at ``(x0, y)``, ``y`` and the rows left. It issues one row per clock and steps:
+  ``v += Q`` or ``v += Q'`` (``Q = ±q``, ``Q' = Q ± 1``, chosen by the carry ``r + m - |a| >= 0``, the two sums
+  side by side), ``r += m`` or ``r += m - |a|``, ``a(x0, y + 1) = a(x0, y) + a_y``. Loading a record computes
+  the per-triangle constants these sums need (``-p``, ``-q``, ``q + 1``, ``m - |a|``, ``x1 - x0``), one carry
+  chain from the input; the next record is taken in the clock the last row of the previous triangle is issued.
+  Its control is registered (``last``: this row is the triangle's last; ``room``: the FIFO has a place), so
+  the enables of its registers are one logic level from flip-flops.
+- **Span pipeline** (the rest of the Scan Line Initializer; :attr:`~fxmodel.raster.RasterParams.SPAN_STAGES`
+  stages, nothing fed back): (1) each edge's bound relative to ``x0``, clamped to ``[0, x1 - x0]``, and whether
+  it empties the row (``v - x0`` and ``v - x1 - 1`` side by side); (2) the span ``[L, R]`` (offsets from
+  ``x0``) as the largest left and smallest right bound, from the three pairwise comparisons at once; (3)
+  ``x0 + L``, ``R - L``, ``L <= R`` and, for every attribute, the partial products of ``a_x`` cut into
+  :meth:`~fxmodel.raster.RasterParams.dx_pieces` times ``L`` (one multiplier block each, registered before and
+  after); (4, 5)
+  the span start ``a(x0, y) + L a_x`` as two adder levels over the partial products, modulo ``2**N``.
+- **Row FIFO** (``amaranth.lib.fifo.SyncFIFO``, :attr:`~fxmodel.raster.RasterParams.ROW_FIFO_DEPTH` rows, LUT
+  RAM, :func:`row_layout`): ``y``, ``x0 + L``, ``R - L``, whether the row is empty or one clock, every
+  attribute's span start and ``a_x``, the triangle's constants. A credit counter (rows issued and not yet
+  taken) lets the generator issue a row only when the FIFO has its place, so the span pipeline runs free, with
+  no stage enable.
+- **Pixel Calculator**: takes a row from the FIFO in the last clock of the previous one; ``x += 1``,
+  ``a += a_x`` per pixel of the span, ``max(1, span)`` clocks a row; a down-counter of the pixels left gives
+  the row's last clock as a register.
+- **Per-triangle constants** (``params.consts``, the bump engine's block exponent ``Ae``): carried with every
+  row, copied into every fragment of the triangle.
+- **Output**: each attribute rounded half-up (one register stage) and saturated to its output format (the
+  fragment register: ``x``, ``y``, the attributes, ``flags``), under ``advance = ~o.valid | o.ready`` like the
+  Pixel Calculator: all three hold while the consumer does not take the fragment, so nothing is lost or
+  repeated.
 
-A row costs ``max(1, span)`` clocks; the next record is accepted in the last clock of the previous triangle, so
-``busy`` is high for exactly the model's ``clocks`` when the source never waits and the sink is always ready.
+``busy`` is high while the Pixel Calculator works on a row: a row costs ``max(1, span)`` busy clocks, so when
+the sink is always ready the busy clocks are the model's ``clocks``. The generator runs ahead of the Pixel
+Calculator (by up to the FIFO's depth), so when the source never waits the rows follow one another with no
+clock between them, within and across triangles: after the fill latency
+(:attr:`~fxmodel.raster.RasterParams.latency` clocks from the first record to the first fragment) ``busy`` stays
+high until the last row.
 """
 
 from __future__ import annotations
 
-from amaranth.hdl import Cat, Module, Mux, Signal, unsigned
+from amaranth.hdl import Cat, Const, Module, Mux, Signal, signed, unsigned
 from amaranth.lib import data, stream, wiring
+from amaranth.lib.fifo import SyncFIFO
 from amaranth.lib.wiring import In, Out
 
 from fxmodel.raster import EDGE_LEFT, EDGE_RIGHT, RasterParams
 from fxmodel.rounding import Overflow, Rounding
 
-from .fixed import narrow, shape
+from .fixed import saturate, shape, shift_round
 from .streams import payload_layout
-from .unit import register
+from .unit import Pipe, register
 
-__all__ = ["Raster", "record_layout", "fragment_layout"]
+__all__ = ["Raster", "record_layout", "fragment_layout", "row_layout"]
 
 
 def record_layout(params: RasterParams) -> data.StructLayout:
@@ -47,6 +72,36 @@ def fragment_layout(params: RasterParams) -> data.StructLayout:
     return payload_layout(params.fragment)
 
 
+def row_layout(params: RasterParams) -> data.StructLayout:
+    """A row FIFO entry: ``y``, the span's first column ``xl`` and length less one ``n``, ``nonempty``,
+    ``single`` (the row takes one clock: empty or one pixel), per attribute its span start ``<name>_start`` and
+    increment ``<name>_dx`` (``acc_fmt``), the triangle's constants."""
+    pf = shape(params.pixel_fmt)
+    fields = {"y": pf, "xl": pf, "n": pf, "nonempty": 1, "single": 1}
+    for n in params.names:
+        fields |= {f"{n}_start": shape(params.acc_fmt(n)), f"{n}_dx": shape(params.acc_fmt(n))}
+    return data.StructLayout(fields | {n: shape(f) for n, f in params.consts})
+
+
+def _tree(pipe: Pipe, terms: dict, levels: int, carry: dict) -> tuple[dict, dict]:
+    """Sums of ``terms`` (``{key: [(value, width)]}``, each sum modulo ``2**width``) in ``levels`` registered
+    stages, one adder level (one carry chain) each: adjacent terms paired per level; ``carry`` registered beside.
+    Returns the sums (the last level's expressions, not registered) and the last registers of ``carry``."""
+    for level in range(levels):
+        nxt = {}
+        for key, ts in terms.items():
+            nxt[key] = [((ts[i][0] + ts[i + 1][0])[:ts[i][1]] if i + 1 < len(ts) else ts[i][0], ts[i][1])
+                        for i in range(0, len(ts), 2)]
+        terms = nxt
+        if level < levels - 1:
+            regs = pipe.stage(**{f"{k}_{i}": v for k, ts in terms.items() for i, (v, _) in enumerate(ts)}, **carry)
+            terms = {k: [(getattr(regs, f"{k}_{i}"), w) for i, (_, w) in enumerate(ts)] for k, ts in terms.items()}
+            carry = {k: getattr(regs, k) for k in carry}
+    if any(len(ts) > 1 for ts in terms.values()):
+        raise ValueError("_tree: more terms than the levels can add")
+    return {k: ts[0][0] for k, ts in terms.items()}, carry
+
+
 @register(RasterParams)
 class Raster(wiring.Component):
     """Scan converter and interpolators.
@@ -57,7 +112,7 @@ class Raster(wiring.Component):
     o : Out(stream.Signature(fragment_layout(params))) -- fragments (:attr:`RasterParams.fragment`): ``x``, ``y``
         (``pixel_fmt``), every attribute in its output format, the triangle's constants (``consts``, e.g. ``Ae``
         in ``bump.e_fmt``), ``flags`` (bit 0: an attribute saturated)
-    busy : Out(1) -- a row of a triangle is being traversed (count it for the clock figure)
+    busy : Out(1) -- the Pixel Calculator is on a row (count it for the clock figure)
     """
 
     def __init__(self, params: RasterParams):
@@ -72,111 +127,168 @@ class Raster(wiring.Component):
         rec = self.i.payload
         ef = P.edge_fmts
         pf = P.pixel_fmt
+        w = pf.width
+        acc_w = {n: P.acc_fmt(n).width for n in P.names}
 
         def sig(fmt, name):
             return Signal(shape(fmt), name=name)
 
-        # -- per-triangle constants ------------------------------------------------------------------------
-        k_x0, k_x1 = sig(pf, "k_x0"), sig(pf, "k_x1")
-        k_edge = [{k: sig(ef[k], f"k_e{e}_{k}") for k in ("kind", "q", "m", "d")} for e in range(3)]
+        # -- row generator: per-triangle constants and the next row's state ----------------------------------
+        gv = Signal(name="gen_valid")
+        k_x0, k_x1, k_w = sig(pf, "k_x0"), sig(pf, "k_x1"), sig(pf, "k_w")
+        k_kind = [Signal(2, name=f"k_e{e}_kind") for e in range(3)]
+        qw = shape(ef["q"]).width + 1
+        k_q = [Signal(signed(qw), name=f"k_e{e}_Q") for e in range(3)]          # v += Q   (no carry)
+        k_q1 = [Signal(signed(qw), name=f"k_e{e}_Q1") for e in range(3)]        # v += Q'  (carry)
+        k_m = [sig(ef["m"], f"k_e{e}_m") for e in range(3)]
+        k_md = [Signal(signed(shape(ef["d"]).width + 1), name=f"k_e{e}_md") for e in range(3)]
         k_dx = {n: sig(P.acc_fmt(n), f"k_{n}_dx") for n in P.names}
         k_dy = {n: sig(P.acc_fmt(n), f"k_{n}_dy") for n in P.names}
         k_c = {n: sig(f, f"k_{n}") for n, f in P.consts}
-        # -- the next row's state ----------------------------------------------------------------------------
-        s_p = [sig(ef["p"], f"s_e{e}_p") for e in range(3)]
+        s_v = [sig(ef["p"], f"s_e{e}_v") for e in range(3)]
         s_r = [sig(ef["r"], f"s_e{e}_r") for e in range(3)]
         s_a = {n: sig(P.acc_fmt(n), f"s_{n}_row") for n in P.names}
-        s_y = sig(pf, "s_y")
-        s_rem = sig(pf, "s_rem")
-        # -- the current row ---------------------------------------------------------------------------------
+        s_y, s_rem = sig(pf, "s_y"), sig(pf, "s_rem")
+
+        depth = P.ROW_FIFO_DEPTH
+        m.submodules.rows = fifo = SyncFIFO(width=row_layout(P).size, depth=depth)
+        # the control is registered: whether the FIFO has room for one more row, whether this row is the last
+        inflight = Signal(range(depth + 1), name="rows_in_flight")      # issued, not yet taken from the FIFO
+        room = Signal(name="room", init=1)                               # inflight != depth
+        last = Signal(name="last_row")                                  # s_rem == 0
+        issue = Signal(name="issue")
+        take = Signal(name="take_row")
+        m.d.comb += issue.eq(gv & room)
+        can_accept = ~gv | (issue & last)
+        accept = Signal()
+        m.d.comb += [self.i.ready.eq(can_accept), accept.eq(can_accept & self.i.valid)]
+        next_inflight = inflight + issue - take
+        m.d.sync += [inflight.eq(next_inflight), room.eq(next_inflight != depth)]
+
+        with m.If(accept):
+            m.d.sync += [gv.eq(1), k_x0.eq(rec.x0), k_x1.eq(rec.x1), k_w.eq(rec.x1 - rec.x0),
+                         s_y.eq(rec.y0), s_rem.eq(rec.rows), last.eq(rec.rows == 0)]
+            for e in range(3):
+                left = rec[f"e{e}_kind"] == EDGE_LEFT
+                p, q = rec[f"e{e}_p"], rec[f"e{e}_q"]
+                m.d.sync += [k_kind[e].eq(rec[f"e{e}_kind"]), k_m[e].eq(rec[f"e{e}_m"]),
+                             k_md[e].eq(rec[f"e{e}_m"] - rec[f"e{e}_d"]), s_r[e].eq(rec[f"e{e}_r"]),
+                             s_v[e].eq(Mux(left, -p, p)), k_q[e].eq(Mux(left, -q, q)),
+                             k_q1[e].eq(Mux(left, ~q, q + 1))]
+            m.d.sync += [s_a[n].eq(rec[f"{n}_0"]) for n in P.names]
+            m.d.sync += [k_dx[n].eq(rec[f"{n}_dx"]) for n in P.names]
+            m.d.sync += [k_dy[n].eq(rec[f"{n}_dy"]) for n in P.names]
+            m.d.sync += [k_c[n].eq(rec[n]) for n in k_c]
+        with m.Elif(issue):
+            with m.If(last):
+                m.d.sync += gv.eq(0)
+            m.d.sync += [s_y.eq(s_y + 1), s_rem.eq(s_rem - 1), last.eq(s_rem == 1)]
+            m.d.sync += [s_a[n].eq((s_a[n] + k_dy[n])[:acc_w[n]]) for n in P.names]
+            for e in range(3):
+                t = Signal(signed(len(k_md[e]) + 1), name=f"rmd{e}")
+                m.d.comb += t.eq(s_r[e] + k_md[e])
+                carry = ~t[-1]                                           # r + m >= |a|
+                m.d.sync += [s_r[e].eq(Mux(carry, t, s_r[e] + k_m[e])),
+                             s_v[e].eq(Mux(carry, s_v[e] + k_q1[e], s_v[e] + k_q[e]))]
+
+        # -- span pipeline (free running: the credits keep a FIFO place for every row issued) ----------------
+        pipe = Pipe(m, "span_")
+        # (1) each edge's bound relative to x0, clamped to [0, x1 - x0], and whether it empties the row
+        nx1 = (~Cat(k_x1, Const(0, 1))).as_signed()                    # -x1 - 1
+        bounds = {}
+        for e in range(3):
+            a = Signal(signed(len(s_v[e]) + 2), name=f"v_x0_{e}")
+            b = Signal(signed(len(s_v[e]) + 2), name=f"v_x1_{e}")
+            m.d.comb += [a.eq(s_v[e] - k_x0), b.eq(s_v[e] + nx1)]
+            is_l, is_r = k_kind[e] == EDGE_LEFT, k_kind[e] == EDGE_RIGHT
+            bounds[f"lo{e}"] = Mux(is_l & ~a[-1], a[:w], 0)                 # left: x >= v
+            bounds[f"hi{e}"] = Mux(is_r & b[-1], a[:w], k_w)                # right: x <= v
+            bounds[f"empty{e}"] = (is_l & ~b[-1]) | (is_r & a[-1])          # v > x1, v < x0
+        per_tri = {"x0": k_x0, **{f"dx_{n}": k_dx[n] for n in P.names}, **{f"c_{n}": k_c[n] for n in k_c}}
+        s1 = pipe.stage(valid=issue, y=s_y, **bounds, **per_tri, **{f"a_{n}": s_a[n] for n in P.names})
+
+        def passing(s, names):
+            return {k: getattr(s, k) for k in names}
+        keep = ["valid", "y", *per_tri, *(f"a_{n}" for n in P.names)]
+
+        # (2) the span: the largest left bound, the smallest right bound (pairwise comparisons side by side)
+        def pick(v, better):
+            b01, b02, b12 = better(v[0], v[1]), better(v[0], v[2]), better(v[1], v[2])
+            return Mux(b01 & b02, v[0], Mux(b12, v[1], v[2]))
+        lo = [getattr(s1, f"lo{e}") for e in range(3)]
+        hi = [getattr(s1, f"hi{e}") for e in range(3)]
+        s2 = pipe.stage(L=pick(lo, lambda x, y: x >= y), R=pick(hi, lambda x, y: x <= y),
+                        empty=Cat(*(getattr(s1, f"empty{e}") for e in range(3))).any(), **passing(s1, keep))
+
+        # (3) the span's first column and length, whether it is empty or one clock, the partial products a_x L
+        parts, shifts = {}, {}
+        for n in P.names:
+            dx = getattr(s2, f"dx_{n}")
+            cut = [(dx[lo:lo + bits].as_signed() if signed else dx[lo:lo + bits], lo)
+                   for lo, bits, signed in P.dx_pieces(n)]
+            parts |= {f"pp_{n}_{k}": piece * s2.L for k, (piece, _) in enumerate(cut)}
+            shifts[n] = [shift for _, shift in cut]
+        keep3 = ["valid", "y", *(f"dx_{n}" for n in P.names), *(f"c_{n}" for n in k_c), *(f"a_{n}" for n in P.names)]
+        nonempty = ~s2.empty & (s2.L <= s2.R)
+        s3 = pipe.stage(xl=(s2.x0 + s2.L)[:w], n=(s2.R - s2.L)[:w], nonempty=nonempty,
+                        single=~nonempty | (s2.L == s2.R), **parts, **passing(s2, keep3))
+        terms = {n: [(getattr(s3, f"a_{n}"), acc_w[n])]
+                 + [((getattr(s3, f"pp_{n}_{k}") << sh)[:acc_w[n]], acc_w[n]) for k, sh in enumerate(shifts[n])]
+                 for n in P.names}
+        # (4, 5) the span start a(x0, y) + L a_x, modulo 2**N, two adder levels
+        carry = passing(s3, ["valid", "y", "xl", "n", "nonempty", "single", *(f"dx_{n}" for n in P.names),
+                             *(f"c_{n}" for n in k_c)])
+        start, carry = _tree(pipe, terms, P.SPAN_STAGES - 3, carry)
+        assert pipe.depth == P.SPAN_STAGES - 1                            # the last level writes the FIFO
+
+        row_in = data.View(row_layout(P), fifo.w_data)
+        m.d.comb += [fifo.w_en.eq(carry["valid"])]
+        m.d.comb += [row_in[k].eq(carry[k]) for k in ("y", "xl", "n", "nonempty", "single")]
+        m.d.comb += [row_in[f"{n}_start"].eq(start[n]) for n in P.names]
+        m.d.comb += [row_in[f"{n}_dx"].eq(carry[f"dx_{n}"]) for n in P.names]
+        m.d.comb += [row_in[n].eq(carry[f"c_{n}"]) for n in k_c]
+
+        # -- Pixel Calculator and the output register --------------------------------------------------------
+        row = data.View(row_layout(P), fifo.r_data)
         busy = Signal(name="busy_r")
         nonempty = Signal(name="nonempty")
-        more = Signal(name="more")
-        cx, cr, cy = sig(pf, "cx"), sig(pf, "cr"), sig(pf, "cy")
+        last_px = Signal(name="last_px")                  # the row's last clock (its last pixel, or it is empty)
+        cx, cy, npx = sig(pf, "cx"), sig(pf, "cy"), sig(pf, "px_left")
         acc = {n: sig(P.acc_fmt(n), f"acc_{n}") for n in P.names}
+        pdx = {n: sig(P.acc_fmt(n), f"pc_{n}_dx") for n in P.names}
+        pc_c = {n: sig(f, f"pc_{n}") for n, f in P.consts}
 
-        # -- the source of the row function: the record being accepted, or the current triangle's state ---
-        accept = Signal()
-        src = {
-            "x0": Mux(accept, rec.x0, k_x0), "x1": Mux(accept, rec.x1, k_x1),
-            "y": Mux(accept, rec.y0, s_y), "rem": Mux(accept, rec.rows, s_rem),
-        }
-        edges = []
-        for e in range(3):
-            edges.append({k: Mux(accept, rec[f"e{e}_{k}"], k_edge[e][k]) for k in ("kind", "q", "m", "d")}
-                         | {"p": Mux(accept, rec[f"e{e}_p"], s_p[e]), "r": Mux(accept, rec[f"e{e}_r"], s_r[e])})
-        arow = {n: Mux(accept, rec[f"{n}_0"], s_a[n]) for n in P.names}
-        dx = {n: Mux(accept, rec[f"{n}_dx"], k_dx[n]) for n in P.names}
-        dy = {n: Mux(accept, rec[f"{n}_dy"], k_dy[n]) for n in P.names}
-
-        # row function: the span
-        wide = ef["p"].width + 1
-        L = Signal(range(-(1 << (wide - 1)), 1 << (wide - 1)), name="L")
-        R = Signal(range(-(1 << (wide - 1)), 1 << (wide - 1)), name="R")
-        lv, rv = src["x0"], src["x1"]
-        for e, ed in enumerate(edges):
-            neg = Signal.like(L, name=f"neg_p{e}")
-            m.d.comb += neg.eq(-ed["p"])
-            lv_n = Signal.like(L, name=f"lmax{e}")
-            rv_n = Signal.like(R, name=f"rmin{e}")
-            m.d.comb += [lv_n.eq(Mux((ed["kind"] == EDGE_LEFT) & (neg > lv), neg, lv)),
-                         rv_n.eq(Mux((ed["kind"] == EDGE_RIGHT) & (ed["p"] < rv), ed["p"], rv))]
-            lv, rv = lv_n, rv_n
-        m.d.comb += [L.eq(lv), R.eq(rv)]
-        row_nonempty = L <= R
-        offset = Signal(unsigned(pf.width), name="offset")
-        m.d.comb += offset.eq((L - src["x0"])[:pf.width])
-        start = {}
-        for n in P.names:
-            w = P.acc_fmt(n).width
-            start[n] = Signal(shape(P.acc_fmt(n)), name=f"start_{n}")
-            m.d.comb += start[n].eq((arow[n] + dx[n] * offset)[:w])
-        # row step
-        step_p, step_r = [], []
-        for e, ed in enumerate(edges):
-            t = Signal(ef["r"].width + 1, name=f"rm{e}")
-            m.d.comb += t.eq(ed["r"] + ed["m"])
-            carry = t >= ed["d"]
-            step_r.append(Mux(carry, t - ed["d"], t))
-            step_p.append(ed["p"] + ed["q"] + carry)
-
-        # -- control ---------------------------------------------------------------------------------------
         advance = ~self.o.valid | self.o.ready
-        last_px = ~nonempty | (cx == cr)
         done_row = ~busy | last_px
-        next_row = advance & done_row & busy & more
-        can_accept = advance & done_row & ~(busy & more)
-        m.d.comb += [self.i.ready.eq(can_accept), accept.eq(can_accept & self.i.valid), self.busy.eq(busy)]
+        m.d.comb += [take.eq(advance & done_row & fifo.r_rdy), fifo.r_en.eq(take), self.busy.eq(busy)]
 
+        # the output narrowing in two registered steps (rounding, then saturation), both under ``advance``
+        rounded = {n: shift_round(acc[n], P.acc_fmt(n).frac_bits - P.out_fmt(n).frac_bits, Rounding.HALF_UP)
+                   for n in P.names}
+        r_valid, r_x, r_y = Signal(name="rnd_valid"), sig(pf, "rnd_x"), sig(pf, "rnd_y")
+        r_a = {n: Signal(rounded[n].shape(), name=f"rnd_{n}") for n in P.names}
+        r_c = {n: sig(f, f"rnd_{n}") for n, f in P.consts}
         with m.If(advance):
-            m.d.sync += self.o.valid.eq(busy & nonempty)
-            m.d.sync += [self.o.payload.x.eq(cx), self.o.payload.y.eq(cy)]
+            m.d.sync += [r_valid.eq(busy & nonempty), r_x.eq(cx), r_y.eq(cy)]
+            m.d.sync += [r_a[n].eq(rounded[n]) for n in P.names]
+            m.d.sync += [r_c[n].eq(pc_c[n]) for n in pc_c]
+            m.d.sync += [self.o.valid.eq(r_valid), self.o.payload.x.eq(r_x), self.o.payload.y.eq(r_y)]
             flags = []
             for n in P.names:
-                fa, fo = P.acc_fmt(n), P.out_fmt(n)
-                code, sat = narrow(acc[n], fa.frac_bits, fo, Rounding.HALF_UP, Overflow.SATURATE)
+                code, sat = saturate(r_a[n], P.out_fmt(n), Overflow.SATURATE)
                 m.d.sync += self.o.payload[n].eq(code)
                 flags.append(sat)
             m.d.sync += self.o.payload.flags.eq(Cat(*flags).any())
-            m.d.sync += [self.o.payload[n].eq(k_c[n]) for n in k_c]
+            m.d.sync += [self.o.payload[n].eq(r_c[n]) for n in r_c]
             with m.If(~done_row):
-                m.d.sync += cx.eq(cx + 1)
-                m.d.sync += [acc[n].eq((acc[n] + k_dx[n])[:P.acc_fmt(n).width]) for n in P.names]
-            with m.Elif(next_row | accept):
-                m.d.sync += [busy.eq(1), nonempty.eq(row_nonempty), more.eq(src["rem"] != 0),
-                             cx.eq(L[:pf.width]), cr.eq(R[:pf.width]), cy.eq(src["y"]),
-                             s_y.eq(src["y"] + 1), s_rem.eq(src["rem"] - 1)]
-                m.d.sync += [acc[n].eq(start[n]) for n in P.names]
-                m.d.sync += [s_a[n].eq((arow[n] + dy[n])[:P.acc_fmt(n).width]) for n in P.names]
-                for e in range(3):
-                    m.d.sync += [s_p[e].eq(step_p[e]), s_r[e].eq(step_r[e])]
-                with m.If(accept):
-                    m.d.sync += [k_x0.eq(rec.x0), k_x1.eq(rec.x1)]
-                    for e in range(3):
-                        m.d.sync += [k_edge[e][k].eq(rec[f"e{e}_{k}"]) for k in ("kind", "q", "m", "d")]
-                    m.d.sync += [k_dx[n].eq(rec[f"{n}_dx"]) for n in P.names]
-                    m.d.sync += [k_dy[n].eq(rec[f"{n}_dy"]) for n in P.names]
-                    m.d.sync += [k_c[n].eq(rec[n]) for n in k_c]
+                m.d.sync += [cx.eq(cx + 1), npx.eq(npx - 1), last_px.eq(npx == 1)]
+                m.d.sync += [acc[n].eq((acc[n] + pdx[n])[:acc_w[n]]) for n in P.names]
+            with m.Elif(take):
+                m.d.sync += [busy.eq(1), nonempty.eq(row.nonempty), cx.eq(row.xl), cy.eq(row.y), npx.eq(row.n),
+                             last_px.eq(row.single)]
+                m.d.sync += [acc[n].eq(row[f"{n}_start"]) for n in P.names]
+                m.d.sync += [pdx[n].eq(row[f"{n}_dx"]) for n in P.names]
+                m.d.sync += [pc_c[n].eq(row[n]) for n in pc_c]
             with m.Else():
                 m.d.sync += busy.eq(0)
         return m

@@ -5,7 +5,8 @@ computes the relevant data at the start point of every new scanline, while the P
 coordinates and attributes within a scanline" (section 4). The host does the set-up once per triangle, in exact
 arithmetic on its float64 vertex data, and quantizes it once into a **triangle record** (:attr:`RasterParams.record`);
 the hardware (``rtl/raster.py``) turns records into fragments with adders, comparators and one small multiplier per
-attribute (cut into registered partial products), one fragment per clock. This module is the bit-exact model of that hardware, clock count included.
+attribute (cut into registered partial products), one fragment per clock. This module is the bit-exact model of
+that hardware, clock count included.
 
 Coverage (the edge traverser)
 -----------------------------
@@ -198,6 +199,9 @@ class RasterParams:
     #: Stages of the RTL's span pipeline from the row generator's state to the row FIFO (``rtl/raster.py``):
     #: the edges' bounds, the span, the offset products, two adder levels of the span start.
     SPAN_STAGES: ClassVar[int] = 5
+    #: Fragments the RTL's output FIFO holds (LUT RAM): with two in flight behind it, one per clock flows
+    #: while the consumer is ready.
+    OUT_FIFO_DEPTH: ClassVar[int] = 4
 
     attrs: tuple = ()
     max_size: int = 2048
@@ -329,9 +333,9 @@ class RasterParams:
     def latency(self) -> int:
         """Clocks from an idle scan converter accepting a record to the record's first fragment on the output
         (the fill latency): the row generator's load, the span pipeline (:attr:`SPAN_STAGES`, its last stage
-        writing the row FIFO), the FIFO's read, the Pixel Calculator, the rounding, the fragment register
-        (saturation). It does not add to :func:`scan`'s clocks: the rows that follow come one per ``max(1,
-        span)`` clocks with no gap."""
+        writing the row FIFO), the FIFO's read, the Pixel Calculator, the rounding, the saturation (writing
+        the output FIFO, whose head is the output). It does not add to :func:`scan`'s clocks: the rows that
+        follow come one per ``max(1, span)`` clocks with no gap."""
         return 1 + self.SPAN_STAGES + 3
 
     # -- cost (fxmodel/cost.py, the one cost model) ---------------------------------------------------------

@@ -32,10 +32,12 @@ carry chain or one product (the house rule of the pixel pipeline); only the row 
   the row's last clock as a register.
 - **Per-triangle constants** (``params.consts``, the bump engine's block exponent ``Ae``): carried with every
   row, copied into every fragment of the triangle.
-- **Output**: each attribute rounded half-up (one register stage) and saturated to its output format (the
-  fragment register: ``x``, ``y``, the attributes, ``flags``), under ``advance = ~o.valid | o.ready`` like the
-  Pixel Calculator: all three hold while the consumer does not take the fragment, so nothing is lost or
-  repeated.
+- **Output**: each attribute rounded half-up (one register stage) and saturated to its output format, into
+  an output FIFO (:attr:`~fxmodel.raster.RasterParams.OUT_FIFO_DEPTH` fragments, LUT RAM) whose head is ``o``.
+  The consumer's ``ready`` reaches only the FIFO's read side: the Pixel Calculator and the rounding stage move
+  under ``advance``, a flip-flop that is high while the FIFO has a place for every fragment in flight, so
+  nothing is lost or repeated and no long enable path runs from the consumer into the interpolators (on the
+  engine that path, the pixel pipeline's ``ready`` to every accumulator, held the design at 77 MHz).
 
 ``busy`` is high while the Pixel Calculator works on a row: a row costs ``max(1, span)`` busy clocks, so when
 the sink is always ready the busy clocks are the model's ``clocks``. The generator runs ahead of the Pixel
@@ -248,7 +250,7 @@ class Raster(wiring.Component):
         m.d.comb += [row_in[f"{n}_dx"].eq(carry[f"dx_{n}"]) for n in P.names]
         m.d.comb += [row_in[n].eq(carry[f"c_{n}"]) for n in k_c]
 
-        # -- Pixel Calculator and the output register --------------------------------------------------------
+        # -- Pixel Calculator, rounding, saturation into the output FIFO -------------------------------------------
         row = data.View(row_layout(P), fifo.r_data)
         busy = Signal(name="busy_r")
         nonempty = Signal(name="nonempty")
@@ -258,28 +260,38 @@ class Raster(wiring.Component):
         pdx = {n: sig(P.acc_fmt(n), f"pc_{n}_dx") for n in P.names}
         pc_c = {n: sig(f, f"pc_{n}") for n, f in P.consts}
 
-        advance = ~self.o.valid | self.o.ready
+        # the output FIFO: the consumer's ready reaches only its read side; the Pixel Calculator and the rounding
+        # stage move under ``advance``, a flip-flop: fragments in the rounding stage and the FIFO leave a place
+        out_depth = P.OUT_FIFO_DEPTH
+        m.submodules.out = ofifo = SyncFIFO(width=fragment_layout(P).size, depth=out_depth)
+        out_used = Signal(range(out_depth + 1), name="out_used")
+        advance = Signal(name="advance", init=1)                         # out_used <= out_depth - 2
+        produce = advance & busy & nonempty
+        next_used = out_used + produce - (ofifo.r_rdy & self.o.ready)
+        m.d.sync += [out_used.eq(next_used), advance.eq(next_used <= out_depth - 2)]
+        m.d.comb += [self.o.valid.eq(ofifo.r_rdy), self.o.payload.eq(ofifo.r_data), ofifo.r_en.eq(self.o.ready)]
         done_row = ~busy | last_px
         m.d.comb += [take.eq(advance & done_row & fifo.r_rdy), fifo.r_en.eq(take), self.busy.eq(busy)]
 
-        # the output narrowing in two registered steps (rounding, then saturation), both under ``advance``
+        # the output narrowing in two steps: rounding (a register stage under ``advance``), saturation
         rounded = {n: shift_round(acc[n], P.acc_fmt(n).frac_bits - P.out_fmt(n).frac_bits, Rounding.HALF_UP)
                    for n in P.names}
         r_valid, r_x, r_y = Signal(name="rnd_valid"), sig(pf, "rnd_x"), sig(pf, "rnd_y")
         r_a = {n: Signal(rounded[n].shape(), name=f"rnd_{n}") for n in P.names}
         r_c = {n: sig(f, f"rnd_{n}") for n, f in P.consts}
+        frag = data.View(fragment_layout(P), ofifo.w_data)
+        m.d.comb += [ofifo.w_en.eq(advance & r_valid), frag.x.eq(r_x), frag.y.eq(r_y)]
+        flags = []
+        for n in P.names:
+            code, sat = saturate(r_a[n], P.out_fmt(n), Overflow.SATURATE)
+            m.d.comb += frag[n].eq(code)
+            flags.append(sat)
+        m.d.comb += frag.flags.eq(Cat(*flags).any())
+        m.d.comb += [frag[n].eq(r_c[n]) for n in r_c]
         with m.If(advance):
             m.d.sync += [r_valid.eq(busy & nonempty), r_x.eq(cx), r_y.eq(cy)]
             m.d.sync += [r_a[n].eq(rounded[n]) for n in P.names]
             m.d.sync += [r_c[n].eq(pc_c[n]) for n in pc_c]
-            m.d.sync += [self.o.valid.eq(r_valid), self.o.payload.x.eq(r_x), self.o.payload.y.eq(r_y)]
-            flags = []
-            for n in P.names:
-                code, sat = saturate(r_a[n], P.out_fmt(n), Overflow.SATURATE)
-                m.d.sync += self.o.payload[n].eq(code)
-                flags.append(sat)
-            m.d.sync += self.o.payload.flags.eq(Cat(*flags).any())
-            m.d.sync += [self.o.payload[n].eq(r_c[n]) for n in r_c]
             with m.If(~done_row):
                 m.d.sync += [cx.eq(cx + 1), npx.eq(npx - 1), last_px.eq(npx == 1)]
                 m.d.sync += [acc[n].eq((acc[n] + pdx[n])[:acc_w[n]]) for n in P.names]

@@ -205,9 +205,10 @@ TOLERANCE = 0.10
 
 
 def recorded_designs():
-    """Every unit preset (``make fpga``) and the pipeline presets ``make fpga`` places with a scene."""
+    """Every unit preset (``make fpga``), and the pipeline and the engine from the triangle that ``make fpga``
+    places with a scene."""
     from tools.fpga import design_list
-    return design_list() + design_list(["pipeline"], ["tin-plane-fit"], scene="tin-plane")
+    return design_list() + design_list(["pipeline", "raster_pipeline"], ["tin-plane-fit"], scene="tin-plane")
 
 
 @pytest.fixture(scope="module")

@@ -77,6 +77,10 @@ KNOWN_DIFFERENCES: dict[tuple, str] = {
         "simplifies part of that constant blend, which the estimate counts as the 12 products the RTL writes "
         "(synthesized stage by stage, the earlier fitted preset's texture sampler took 9 blocks and every other "
         "stage its estimate; the refitted preset differs by the same 3)",
+    ("raster_pipeline", "tin-plane-fit", "tin-plane"):
+        "the pixel pipeline it feeds is the fitted tin plane's, whose single-texel texture blend yosys simplifies "
+        "by 3 blocks (the pipeline's entry); the scan converter takes its estimate (34 blocks: the span-start "
+        "partial products)",
 }
 
 #: Pins of the CABGA381 package usable as IO (nextpnr's TRELLIS_IO count); a design needing more is placed

@@ -202,6 +202,11 @@ class RasterParams:
     #: Fragments the RTL's output FIFO holds (LUT RAM): with two in flight behind it, one per clock flows
     #: while the consumer is ready.
     OUT_FIFO_DEPTH: ClassVar[int] = 4
+    #: Register bits one copy of a control state drives in the RTL (``rtl/raster.py``, "Fan-out"): the row
+    #: generator's load/step enable and the Pixel Calculator's enables reach some 2 000 and 1 300 register
+    #: bits; one net to all of them was the engine's critical path (7 ns of routing in its last net alone), so
+    #: the control state is kept in as many identical copies as groups of this many bits need.
+    ENABLE_FANOUT: ClassVar[int] = 384
 
     attrs: tuple = ()
     max_size: int = 2048

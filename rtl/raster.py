@@ -104,6 +104,19 @@ def _tree(pipe: Pipe, terms: dict, levels: int, carry: dict) -> tuple[dict, dict
     return {k: ts[0][0] for k, ts in terms.items()}, carry
 
 
+def _groups(blocks: list, limit: int) -> list[list]:
+    """``blocks`` (tuples whose first item is a register bit count) packed in order into groups of at most
+    ``limit`` bits (a larger block alone): each group gets its own copy of the control state."""
+    groups, bits = [], limit + 1
+    for block in blocks:
+        if bits + block[0] > limit:
+            groups.append([])
+            bits = 0
+        groups[-1].append(block)
+        bits += block[0]
+    return groups
+
+
 @register(RasterParams)
 class Raster(wiring.Component):
     """Scan converter and interpolators.
@@ -136,7 +149,6 @@ class Raster(wiring.Component):
             return Signal(shape(fmt), name=name)
 
         # -- row generator: per-triangle constants and the next row's state ----------------------------------
-        gv = Signal(name="gen_valid")
         k_x0, k_x1, k_w = sig(pf, "k_x0"), sig(pf, "k_x1"), sig(pf, "k_w")
         k_kind = [Signal(2, name=f"k_e{e}_kind") for e in range(3)]
         qw = shape(ef["q"]).width + 1
@@ -154,44 +166,61 @@ class Raster(wiring.Component):
 
         depth = P.ROW_FIFO_DEPTH
         m.submodules.rows = fifo = SyncFIFO(width=row_layout(P).size, depth=depth)
-        # the control is registered: whether the FIFO has room for one more row, whether this row is the last
-        inflight = Signal(range(depth + 1), name="rows_in_flight")      # issued, not yet taken from the FIFO
-        room = Signal(name="room", init=1)                               # inflight != depth
-        last = Signal(name="last_row")                                  # s_rem == 0
-        issue = Signal(name="issue")
         take = Signal(name="take_row")
-        m.d.comb += issue.eq(gv & room)
-        can_accept = ~gv | (issue & last)
-        accept = Signal()
-        m.d.comb += [self.i.ready.eq(can_accept), accept.eq(can_accept & self.i.valid)]
-        next_inflight = inflight + issue - take
-        m.d.sync += [inflight.eq(next_inflight), room.eq(next_inflight != depth)]
 
-        with m.If(accept):
-            m.d.sync += [gv.eq(1), k_x0.eq(rec.x0), k_x1.eq(rec.x1), k_w.eq(rec.x1 - rec.x0),
-                         s_y.eq(rec.y0), s_rem.eq(rec.rows), last.eq(rec.rows == 0)]
-            for e in range(3):
-                left = rec[f"e{e}_kind"] == EDGE_LEFT
-                p, q = rec[f"e{e}_p"], rec[f"e{e}_q"]
-                m.d.sync += [k_kind[e].eq(rec[f"e{e}_kind"]), k_m[e].eq(rec[f"e{e}_m"]),
-                             k_md[e].eq(rec[f"e{e}_m"] - rec[f"e{e}_d"]), s_r[e].eq(rec[f"e{e}_r"]),
-                             s_v[e].eq(Mux(left, -p, p)), k_q[e].eq(Mux(left, -q, q)),
-                             k_q1[e].eq(Mux(left, ~q, q + 1))]
-            m.d.sync += [s_a[n].eq(rec[f"{n}_0"]) for n in P.names]
-            m.d.sync += [k_dx[n].eq(rec[f"{n}_dx"]) for n in P.names]
-            m.d.sync += [k_dy[n].eq(rec[f"{n}_dy"]) for n in P.names]
-            m.d.sync += [k_c[n].eq(rec[n]) for n in k_c]
-        with m.Elif(issue):
-            with m.If(last):
-                m.d.sync += gv.eq(0)
-            m.d.sync += [s_y.eq(s_y + 1), s_rem.eq(s_rem - 1), last.eq(s_rem == 1)]
-            m.d.sync += [s_a[n].eq((s_a[n] + k_dy[n])[:acc_w[n]]) for n in P.names]
-            for e in range(3):
-                t = Signal(signed(len(k_md[e]) + 1), name=f"rmd{e}")
-                m.d.comb += t.eq(s_r[e] + k_md[e])
-                carry = ~t[-1]                                           # r + m >= |a|
-                m.d.sync += [s_r[e].eq(Mux(carry, t, s_r[e] + k_m[e])),
-                             s_v[e].eq(Mux(carry, s_v[e] + k_q1[e], s_v[e] + k_q[e]))]
+        def gen_control(k):
+            """Copy ``k`` of the generator's control (module docstring, "Fan-out"): whether a triangle is
+            loaded, whether its next row is the last, the rows issued and not yet taken from the FIFO and
+            whether the FIFO has room for one more, all registered. Returns ``(issue, accept)``."""
+            gv = Signal(name=f"gen_valid_{k}")
+            inflight = Signal(range(depth + 1), name=f"rows_in_flight_{k}")
+            room = Signal(name=f"room_{k}", init=1)                     # inflight != depth
+            last = Signal(name=f"last_row_{k}")                         # s_rem == 0
+            issue, accept = Signal(name=f"issue_{k}"), Signal(name=f"accept_{k}")
+            m.d.comb += [issue.eq(gv & room), accept.eq((~gv | (issue & last)) & self.i.valid)]
+            next_inflight = inflight + issue - take
+            m.d.sync += [inflight.eq(next_inflight), room.eq(next_inflight != depth)]
+            with m.If(accept):
+                m.d.sync += [gv.eq(1), last.eq(rec.rows == 0)]
+            with m.Elif(issue):
+                with m.If(last):
+                    m.d.sync += gv.eq(0)
+                m.d.sync += last.eq(s_rem == 1)
+            if k == 0:
+                m.d.comb += self.i.ready.eq(~gv | (issue & last))
+            return issue, accept
+
+        # the registers in blocks: (bits, load statements, step statements)
+        blocks = [(3 * w + 2 * w + sum(len(s) for s in k_c.values()),
+                   [k_x0.eq(rec.x0), k_x1.eq(rec.x1), k_w.eq(rec.x1 - rec.x0), s_y.eq(rec.y0), s_rem.eq(rec.rows),
+                    *(k_c[n].eq(rec[n]) for n in k_c)],
+                   [s_y.eq(s_y + 1), s_rem.eq(s_rem - 1)])]
+        for e in range(3):
+            left = rec[f"e{e}_kind"] == EDGE_LEFT
+            p, q = rec[f"e{e}_p"], rec[f"e{e}_q"]
+            t = Signal(signed(len(k_md[e]) + 1), name=f"rmd{e}")
+            m.d.comb += t.eq(s_r[e] + k_md[e])
+            carry = ~t[-1]                                               # r + m >= |a|
+            regs = [k_kind[e], k_m[e], k_md[e], s_r[e], s_v[e], k_q[e], k_q1[e]]
+            blocks.append((sum(len(r) for r in regs),
+                           [k_kind[e].eq(rec[f"e{e}_kind"]), k_m[e].eq(rec[f"e{e}_m"]),
+                            k_md[e].eq(rec[f"e{e}_m"] - rec[f"e{e}_d"]), s_r[e].eq(rec[f"e{e}_r"]),
+                            s_v[e].eq(Mux(left, -p, p)), k_q[e].eq(Mux(left, -q, q)),
+                            k_q1[e].eq(Mux(left, ~q, q + 1))],
+                           [s_r[e].eq(Mux(carry, t, s_r[e] + k_m[e])),
+                            s_v[e].eq(Mux(carry, s_v[e] + k_q1[e], s_v[e] + k_q[e]))]))
+        for n in P.names:
+            blocks.append((3 * acc_w[n],
+                           [s_a[n].eq(rec[f"{n}_0"]), k_dx[n].eq(rec[f"{n}_dx"]), k_dy[n].eq(rec[f"{n}_dy"])],
+                           [s_a[n].eq((s_a[n] + k_dy[n])[:acc_w[n]])]))
+        issue = None
+        for k, group in enumerate(_groups(blocks, P.ENABLE_FANOUT)):
+            issue_k, accept_k = gen_control(k)
+            issue = issue_k if issue is None else issue
+            with m.If(accept_k):
+                m.d.sync += [st for _, load, _ in group for st in load]
+            with m.Elif(issue_k):
+                m.d.sync += [st for _, _, step in group for st in step]
 
         # -- span pipeline (free running: the credits keep a FIFO place for every row issued) ----------------
         pipe = Pipe(m, "span_")
@@ -252,10 +281,7 @@ class Raster(wiring.Component):
 
         # -- Pixel Calculator, rounding, saturation into the output FIFO -------------------------------------------
         row = data.View(row_layout(P), fifo.r_data)
-        busy = Signal(name="busy_r")
-        nonempty = Signal(name="nonempty")
-        last_px = Signal(name="last_px")                  # the row's last clock (its last pixel, or it is empty)
-        cx, cy, npx = sig(pf, "cx"), sig(pf, "cy"), sig(pf, "px_left")
+        cx, cy = sig(pf, "cx"), sig(pf, "cy")
         acc = {n: sig(P.acc_fmt(n), f"acc_{n}") for n in P.names}
         pdx = {n: sig(P.acc_fmt(n), f"pc_{n}_dx") for n in P.names}
         pc_c = {n: sig(f, f"pc_{n}") for n, f in P.consts}
@@ -264,14 +290,32 @@ class Raster(wiring.Component):
         # stage move under ``advance``, a flip-flop: fragments in the rounding stage and the FIFO leave a place
         out_depth = P.OUT_FIFO_DEPTH
         m.submodules.out = ofifo = SyncFIFO(width=fragment_layout(P).size, depth=out_depth)
-        out_used = Signal(range(out_depth + 1), name="out_used")
-        advance = Signal(name="advance", init=1)                         # out_used <= out_depth - 2
-        produce = advance & busy & nonempty
-        next_used = out_used + produce - (ofifo.r_rdy & self.o.ready)
-        m.d.sync += [out_used.eq(next_used), advance.eq(next_used <= out_depth - 2)]
         m.d.comb += [self.o.valid.eq(ofifo.r_rdy), self.o.payload.eq(ofifo.r_data), ofifo.r_en.eq(self.o.ready)]
-        done_row = ~busy | last_px
-        m.d.comb += [take.eq(advance & done_row & fifo.r_rdy), fifo.r_en.eq(take), self.busy.eq(busy)]
+
+        def pc_control(k):
+            """Copy ``k`` of the Pixel Calculator's control (module docstring, "Fan-out"): on a row, the row not
+            empty, its pixels left and whether this is its last clock, the output FIFO's places in use and
+            ``advance``, all registered. Returns ``(advance, step, take, busy, nonempty)``: ``step`` moves
+            along the row, ``take`` loads the next row from the FIFO (both only under ``advance``)."""
+            busy, nonempty = Signal(name=f"busy_{k}"), Signal(name=f"nonempty_{k}")
+            last_px = Signal(name=f"last_px_{k}")          # the row's last clock (its last pixel, or it is empty)
+            npx = sig(pf, f"px_left_{k}")
+            out_used = Signal(range(out_depth + 1), name=f"out_used_{k}")
+            advance = Signal(name=f"advance_{k}", init=1)                  # out_used <= out_depth - 2
+            produce = advance & busy & nonempty
+            next_used = out_used + produce - (ofifo.r_rdy & self.o.ready)
+            m.d.sync += [out_used.eq(next_used), advance.eq(next_used <= out_depth - 2)]
+            done_row = ~busy | last_px
+            step, take_k = Signal(name=f"step_{k}"), Signal(name=f"take_{k}")
+            m.d.comb += [step.eq(~done_row), take_k.eq(advance & done_row & fifo.r_rdy)]
+            with m.If(advance):
+                with m.If(step):
+                    m.d.sync += [npx.eq(npx - 1), last_px.eq(npx == 1)]
+                with m.Elif(take_k):
+                    m.d.sync += [busy.eq(1), nonempty.eq(row.nonempty), npx.eq(row.n), last_px.eq(row.single)]
+                with m.Else():
+                    m.d.sync += busy.eq(0)
+            return advance, step, take_k, busy, nonempty
 
         # the output narrowing in two steps: rounding (a register stage under ``advance``), saturation
         rounded = {n: shift_round(acc[n], P.acc_fmt(n).frac_bits - P.out_fmt(n).frac_bits, Rounding.HALF_UP)
@@ -280,7 +324,7 @@ class Raster(wiring.Component):
         r_a = {n: Signal(rounded[n].shape(), name=f"rnd_{n}") for n in P.names}
         r_c = {n: sig(f, f"rnd_{n}") for n, f in P.consts}
         frag = data.View(fragment_layout(P), ofifo.w_data)
-        m.d.comb += [ofifo.w_en.eq(advance & r_valid), frag.x.eq(r_x), frag.y.eq(r_y)]
+        m.d.comb += [frag.x.eq(r_x), frag.y.eq(r_y)]
         flags = []
         for n in P.names:
             code, sat = saturate(r_a[n], P.out_fmt(n), Overflow.SATURATE)
@@ -288,19 +332,27 @@ class Raster(wiring.Component):
             flags.append(sat)
         m.d.comb += frag.flags.eq(Cat(*flags).any())
         m.d.comb += [frag[n].eq(r_c[n]) for n in r_c]
-        with m.If(advance):
-            m.d.sync += [r_valid.eq(busy & nonempty), r_x.eq(cx), r_y.eq(cy)]
-            m.d.sync += [r_a[n].eq(rounded[n]) for n in P.names]
-            m.d.sync += [r_c[n].eq(pc_c[n]) for n in pc_c]
-            with m.If(~done_row):
-                m.d.sync += [cx.eq(cx + 1), npx.eq(npx - 1), last_px.eq(npx == 1)]
-                m.d.sync += [acc[n].eq((acc[n] + pdx[n])[:acc_w[n]]) for n in P.names]
-            with m.Elif(take):
-                m.d.sync += [busy.eq(1), nonempty.eq(row.nonempty), cx.eq(row.xl), cy.eq(row.y), npx.eq(row.n),
-                             last_px.eq(row.single)]
-                m.d.sync += [acc[n].eq(row[f"{n}_start"]) for n in P.names]
-                m.d.sync += [pdx[n].eq(row[f"{n}_dx"]) for n in P.names]
-                m.d.sync += [pc_c[n].eq(row[n]) for n in pc_c]
-            with m.Else():
-                m.d.sync += busy.eq(0)
+
+        # the registers in blocks: (bits, statements under ``advance``, along the row, on taking a row); the
+        # first block's control copy also drives the FIFOs and ``busy``
+        blocks = [(4 * w + 1 + 2 * sum(len(c) for c in pc_c.values()),
+                   lambda busy, nonempty: [r_valid.eq(busy & nonempty), r_x.eq(cx), r_y.eq(cy),
+                                           *(r_c[n].eq(pc_c[n]) for n in pc_c)],
+                   [cx.eq(cx + 1)],
+                   [cx.eq(row.xl), cy.eq(row.y), *(pc_c[n].eq(row[n]) for n in pc_c)])]
+        for n in P.names:
+            blocks.append((2 * acc_w[n] + len(r_a[n]), lambda busy, nonempty, n=n: [r_a[n].eq(rounded[n])],
+                           [acc[n].eq((acc[n] + pdx[n])[:acc_w[n]])],
+                           [acc[n].eq(row[f"{n}_start"]), pdx[n].eq(row[f"{n}_dx"])]))
+        for k, group in enumerate(_groups(blocks, P.ENABLE_FANOUT)):
+            advance, step, take_k, busy, nonempty = pc_control(k)
+            if k == 0:
+                m.d.comb += [take.eq(take_k), fifo.r_en.eq(take_k), self.busy.eq(busy),
+                             ofifo.w_en.eq(advance & r_valid)]
+            with m.If(advance):
+                m.d.sync += [st for _, always, _, _ in group for st in always(busy, nonempty)]
+                with m.If(step):
+                    m.d.sync += [st for _, _, along, _ in group for st in along]
+                with m.Elif(take_k):
+                    m.d.sync += [st for _, _, _, load in group for st in load]
         return m

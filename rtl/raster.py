@@ -39,6 +39,16 @@ carry chain or one product (the house rule of the pixel pipeline); only the row 
   nothing is lost or repeated and no long enable path runs from the consumer into the interpolators (on the
   engine that path, the pixel pipeline's ``ready`` to every accumulator, held the design at 77 MHz).
 
+**Fan-out.** The row generator's load and step enables reach some 2 000 register bits, the Pixel Calculator's
+some 1 300; one net from one control flip-flop to all of them was the engine's critical path on ECP5 (12.3 ns, the
+last hop 7.0 ns of routing). So each keeps its control state (the generator's ``gen_valid``, ``last_row``, rows
+in flight and ``room``; the Pixel Calculator's ``busy``, ``nonempty``, pixels left, ``last_px``, output places
+used and ``advance``) in identical copies, one per group of at most
+:attr:`~fxmodel.raster.RasterParams.ENABLE_FANOUT` register bits (the edges, the per-triangle values, three or
+four attributes a group): each copy is a few flip-flops with its own feedback, which synthesis does not merge
+(two flip-flops with one input would be merged into one), and the placer puts each near its group. Copy 0 also
+drives the ports, the FIFOs and the span pipeline's valid.
+
 ``busy`` is high while the Pixel Calculator works on a row: a row costs ``max(1, span)`` busy clocks, so when
 the sink is always ready the busy clocks are the model's ``clocks``. The generator runs ahead of the Pixel
 Calculator (by up to the FIFO's depth), so when the source never waits the rows follow one another with no

@@ -1,6 +1,8 @@
 """RTL construction from parameter objects: ports and latency come from the model's parameters."""
 
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
 from fxmodel.fixed import Fmt
 from fxmodel.unit import preset, preset_names, units
@@ -89,3 +91,38 @@ def test_latency_mismatch_is_caught():
 def test_unknown_params_have_no_rtl():
     with pytest.raises(ValueError, match="no RTL for Fmt"):
         build(Fmt(True, 2, 2))
+
+
+@given(st.lists(st.integers(1, 1000), max_size=40), st.integers(1, 1200))
+def test_control_copies_split_registers_into_groups_of_at_most_the_fanout(sizes, limit):
+    """``rtl.raster._groups``: every block in order, no group over ``limit`` bits unless it is one block, and
+    each group full (the next block would not have fitted), so no more control copies than needed."""
+    from rtl.raster import _groups
+
+    blocks = [(bits, k) for k, bits in enumerate(sizes)]
+    groups = _groups(blocks, limit)
+    assert [b for g in groups for b in g] == blocks
+    for g, nxt in zip(groups, groups[1:] + [None]):
+        total = sum(bits for bits, _ in g)
+        assert g and (total <= limit or len(g) == 1)
+        if nxt is not None:
+            assert total + nxt[0][0] > limit
+
+
+def test_scan_converter_keeps_one_control_copy_per_register_group():
+    """The engine's scan converter (``rtl/raster.py``, "Fan-out"): its row generator and Pixel Calculator each
+    hold their control state in several copies, every copy driving at most ``ENABLE_FANOUT`` register bits."""
+    import re
+
+    from amaranth.back import rtlil
+
+    from fxmodel.render import engine_params
+    from rtl.raster import Raster
+
+    params = engine_params("tin-plane", "tin-plane-fit").raster
+    text = rtlil.convert(Raster(params))
+    gen = set(re.findall(r"wire .*\\gen_valid_(\d+)\n", text))
+    pc = set(re.findall(r"wire .*\\advance_(\d+)\n", text))
+    acc_bits = sum(params.acc_fmt(n).width for n in params.names)
+    assert len(gen) >= -(-3 * acc_bits // params.ENABLE_FANOUT) >= 2
+    assert len(pc) >= -(-2 * acc_bits // params.ENABLE_FANOUT) >= 2

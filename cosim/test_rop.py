@@ -89,11 +89,16 @@ def test_the_hazard_test_can_fail(sim, on_chip):
     assert res["mismatches"] >= 20
 
 
-def test_on_chip_frame_buffer(sim):
+@pytest.mark.parametrize("p_valid", [0.8, 1.0])
+def test_on_chip_frame_buffer(sim, p_valid):
+    """Random fragments, then pairs on one pixel back to back (the first one's write forwarded to the second's
+    compare) and with one or two fragments between them (seen through the transparent read port), with and
+    without input gaps."""
     P = RopParams.PRESETS["on_chip"]
     frags = np.concatenate([random_fragments(P, 300, seed=3, hot=4), hazard_pairs(P, "nearer_first"),
-                            hazard_pairs(P, "equal")])
-    res = run(P, frags, p_valid=0.8, sim=sim, tag="onchip")
+                            hazard_pairs(P, "equal"), hazard_pairs(P, "nearer_first", gap=1)[:40],
+                            hazard_pairs(P, "farther_first", gap=1)[:40], hazard_pairs(P, "equal", gap=2)[:40]])
+    res = run(P, frags, p_valid=p_valid, sim=sim, tag=f"onchip_{p_valid}")
     assert res["mismatches"] == 0, res["first"]
     assert res["status"] == (1 << STATUS_BITS["outside"]) | (1 << STATUS_BITS["z_saturated"])
 
@@ -109,14 +114,20 @@ def test_wide_bus_lanes_and_base(sim):
 
 
 def test_one_fragment_per_clock_when_the_memory_keeps_up(sim):
-    """Distinct pixels, no gaps, no wait states, latency 5, 16 slots: every fragment is accepted in its own
-    clock."""
+    """Distinct pixels, no gaps, no wait states, 16 slots: at the largest memory latency whose round trip
+    ``2 L + SLOT_OVERHEAD`` fits the slots every fragment is accepted in its own clock; one cycle of latency more
+    and the slots run out (so the documented bound is the true one, not just a safe one)."""
+    from rtl.rop import SLOT_OVERHEAD
+
     P = dataclasses.replace(SMALL, outstanding=16)
     k = 150
     i = np.arange(k)
     frags = np.stack([i % P.width, i // P.width, i * 1000 + 5, i % 256, i % 256, i % 256, i % 32], 1)
-    res = run(P, frags, latency=5, sim=sim, tag="rate")
+    latency = (P.outstanding - SLOT_OVERHEAD) // 2
+    res = run(P, frags, latency=latency, sim=sim, tag="rate")
     assert res["mismatches"] == 0 and res["accept_cycles"] == k
+    res = run(P, frags, latency=latency + 1, sim=sim, tag="rate_over")
+    assert res["mismatches"] == 0 and res["accept_cycles"] > k
 
 
 def overlapping_records(raster, width, height, n, seed):

@@ -20,10 +20,12 @@ Memory port (:class:`Rop`, ``on_chip=False``). Three stages, all transfers with 
    color) from its read until its fate is sealed: until the compare if it fails, until the write's ``B``
    response if it passes (AXI4 orders a read after a write to the same address only once the write is
    acknowledged).
-3. **Compare and write**: ``R`` beats return in order, so the next slot of the ring owns each beat; the fragment
+3. **Compare and write**: ``R`` beats return in order, so the next slot of the ring owns each beat; the beat's
+   stored depth and its slot are registered (the slot read out of the ring by a multiplexer, in its own cycle:
+   with the compare in the same one it was a 35-level path, 95 MHz on ECP5), and the next cycle the fragment
    passes iff its depth is strictly greater than the stored one (ties: the first drawn wins) and then enters a
-   two-entry write queue that issues ``AW`` and ``W`` (8 bytes, ``AWSIZE = 3``); the queue's slot numbers wait
-   in a ring for the ``B`` responses, which free the slots.
+   :data:`WRITE_QUEUE`-entry write queue that issues ``AW`` and ``W`` (8 bytes, ``AWSIZE = 3``); the queue's
+   slot numbers wait in a ring for the ``B`` responses, which free the slots.
 
 **Hazard**: two fragments of one pixel in flight would read the same stored depth and both write. The
 scoreboard compares the accepted fragment's pixel index with every busy slot's and holds ``AR`` (and so ``i``)
@@ -33,16 +35,17 @@ the round-trip time (small or overlapping triangles drawn back to back). ``hazar
 the test that shows the test can fail).
 
 Throughput: one fragment per clock while a slot is free and the memory keeps up; ``outstanding`` slots cover a
-round trip (read latency + write latency) of that many clocks. ``AR``/``AW``/``W`` valid never wait for their
+round trip of that many clocks (:data:`SLOT_OVERHEAD`). ``AR``/``AW``/``W`` valid never wait for their
 ready; ``R.ready`` and ``B.ready`` come from registers (``B`` is always taken).
 
 On chip (:class:`Rop`, ``on_chip=True``): the same read-compare-write on one Amaranth ``Memory`` of ``width
-height`` words (``z_fmt`` depth, r, g, b, flags, from the low bits), initialised to the clear value: the read port
-is addressed by the accepted fragment, the next cycle compares and writes. The read port is transparent for the
-write port, which forwards the write of the fragment just before to a fragment of the same pixel right behind
-it (the only overlap: a fragment is written one cycle after its read). ``i.ready`` is always 1, except while the
-frame is read out through ``fb`` (``fb.read``: the read port takes ``fb.addr``; ``fb.data`` holds the word one
-cycle later).
+height`` words (``z_fmt`` depth, r, g, b, flags, from the low bits), initialised to the clear value, in three
+stages: the read port is addressed by the accepted fragment; the next cycle registers the stored depth (with the
+block RAM's slow output and the compare in one cycle the unit ran at 99 MHz on ECP5); the next compares and
+writes. The read port is transparent for the write port, so a fragment sees every write up to the one of the
+fragment just ahead of it, which is forwarded (its depth replaces the stored one when the pixel is the same).
+``i.ready`` is always 1, except while the frame is read out through ``fb`` (``fb.read``: the read port takes
+``fb.addr``; ``fb.data`` holds the word one cycle later).
 """
 
 from __future__ import annotations
@@ -57,11 +60,18 @@ from .fixed import const_mul, narrow
 from .streams import payload_layout
 from .unit import register
 
-__all__ = ["Rop", "axi_signature", "ring_next", "WRITE_QUEUE"]
+__all__ = ["Rop", "axi_signature", "ring_next", "SLOT_OVERHEAD", "WRITE_QUEUE"]
 
 #: Entries of the write queue between the compare and the ``AW``/``W`` channels: one being issued, one arriving,
-#: so that ``R.ready`` is a register and one fragment per clock passes.
-WRITE_QUEUE = 2
+#: one for the beat in the compare stage, so that ``R.ready`` is one logic level from registers and one fragment
+#: per clock passes.
+WRITE_QUEUE = 3
+
+#: Cycles a slot is busy beyond the memory's read and write latencies ``L`` (added to ``AxiRam``'s own in the
+#: co-simulation): a slot lives ``2 L + SLOT_OVERHEAD`` cycles when its fragment passes, so ``outstanding`` slots
+#: keep one fragment per clock while ``2 L + SLOT_OVERHEAD <= outstanding`` (``cosim/test_rop.py`` checks both
+#: sides of that bound).
+SLOT_OVERHEAD = 7
 
 
 def axi_signature(addr_bits: int, data_bits: int, id_bits: int = 1) -> wiring.Signature:
@@ -159,15 +169,29 @@ class Rop(wiring.Component):
         zc, zsat, inside, index, color = self._accept(m)
         m.d.comb += self.i.ready.eq(~self.fb.read)
         take = self.i.valid & self.i.ready
+        # stage 1: the accepted fragment, its read in flight
         s_valid = Signal()
         s_z = Signal(P.z_fmt.width)
         s_color = Signal(24 + P.flag_bits)
         s_index = Signal.like(wp.addr)
         m.d.sync += [s_valid.eq(take & inside), s_z.eq(zc), s_color.eq(color), s_index.eq(index)]
         m.d.comb += [rp.addr.eq(Mux(self.fb.read, self.fb.addr, index)), rp.en.eq(1), self.fb.data.eq(rp.data)]
-        stored = rp.data[:P.z_fmt.width]
-        m.d.comb += [wp.addr.eq(s_index), wp.data.eq(Cat(s_z, s_color)), wp.en.eq(s_valid & (s_z > stored))]
-        m.d.comb += self.busy.eq(s_valid)
+        # stage 2: the stored depth registered; whether the fragment ahead (now comparing) has the same pixel
+        c_valid = Signal(name="cmp_valid")
+        c_z, c_color, c_index = Signal.like(s_z, name="cmp_z"), Signal.like(s_color, name="cmp_color"), \
+            Signal.like(s_index, name="cmp_index")
+        c_stored = Signal(P.z_fmt.width, name="cmp_stored")
+        c_same = Signal(name="cmp_same")
+        m.d.sync += [c_valid.eq(s_valid), c_z.eq(s_z), c_color.eq(s_color), c_index.eq(s_index),
+                     c_stored.eq(rp.data[:P.z_fmt.width]), c_same.eq(c_valid & (c_index == s_index))]
+        # stage 3: compare and write; the write of the fragment just ahead is not in the stored word (its read
+        # was issued before that write), so it is forwarded: its depth replaces the stored one
+        w_en = Signal(name="write")
+        w_z = Signal.like(s_z, name="written_z")
+        stored = Mux(c_same & w_en, w_z, c_stored) if P.hazard else c_stored
+        m.d.comb += [wp.addr.eq(c_index), wp.data.eq(Cat(c_z, c_color)), wp.en.eq(c_valid & (c_z > stored))]
+        m.d.sync += [w_en.eq(wp.en), w_z.eq(c_z)]
+        m.d.comb += self.busy.eq(s_valid | c_valid)
         self._sticky(m, take & ~inside, take & inside & zsat, Const(0))
         return m
 
@@ -229,17 +253,26 @@ class Rop(wiring.Component):
         q_count = Signal(range(WRITE_QUEUE + 1))
         aw_done, w_done = Signal(), Signal()
 
-        # compare: the R beat belongs to slot rd
+        # compare, in two stages: the R beat belongs to slot rd; its stored depth and the slot are registered
+        # (``c_*``), the next cycle compares (one carry chain) and pushes a passing fragment into the queue
         r_go = Signal()
-        m.d.comb += [axi.rready.eq(q_count < WRITE_QUEUE), r_go.eq(axi.rvalid & axi.rready)]
+        c_valid = Signal(name="cmp_valid")
+        c_index, c_z, c_color = Signal.like(s_index, name="cmp_index"), Signal.like(s_z, name="cmp_z"), \
+            Signal.like(s_color, name="cmp_color")
+        c_stored = Signal(8 * DEPTH_BYTES, name="cmp_stored")
+        c_slot = Signal(range(N), name="cmp_slot")
+        m.d.comb += [axi.rready.eq(q_count + c_valid < WRITE_QUEUE), r_go.eq(axi.rvalid & axi.rready)]
         r_index = slot_index[rd.ptr]
         if lanes > 1:
             lane = (r_index + P.base // PIXEL_BYTES)[:(lanes - 1).bit_length()]
             word = axi.rdata.word_select(lane, 64)
         else:
             word = axi.rdata
-        stored = word[:8 * DEPTH_BYTES]
-        passes = slot_z[rd.ptr] > stored
+        m.d.sync += c_valid.eq(r_go)
+        with m.If(r_go):
+            m.d.sync += [c_index.eq(r_index), c_z.eq(slot_z[rd.ptr]), c_color.eq(slot_color[rd.ptr]),
+                         c_stored.eq(word[:8 * DEPTH_BYTES]), c_slot.eq(rd.ptr)]
+        passes = c_z > c_stored
 
         # write issue from the queue's head
         head = Signal()
@@ -262,17 +295,16 @@ class Rop(wiring.Component):
             m.d.sync += [aw_done.eq(0), w_done.eq(0)]
         with m.Else():
             m.d.sync += [aw_done.eq(aw_done | aw_now), w_done.eq(w_done | w_now)]
-        push = r_go & passes
+        push = c_valid & passes
         m.d.sync += q_count.eq(q_count + push - issued)
         with m.If(issued):
-            m.d.sync += [q_index[0].eq(q_index[1]), q_z[0].eq(q_z[1]), q_color[0].eq(q_color[1]),
-                         q_slot[0].eq(q_slot[1])]
+            m.d.sync += [q[k].eq(q[k + 1]) for q in (q_index, q_z, q_color, q_slot) for k in range(WRITE_QUEUE - 1)]
         with m.If(push):
             at = q_count - issued
             for k in range(WRITE_QUEUE):
                 with m.If(at == k):
-                    m.d.sync += [q_index[k].eq(r_index), q_z[k].eq(slot_z[rd.ptr]),
-                                 q_color[k].eq(slot_color[rd.ptr]), q_slot[k].eq(rd.ptr)]
+                    m.d.sync += [q_index[k].eq(c_index), q_z[k].eq(c_z), q_color[k].eq(c_color),
+                                 q_slot[k].eq(c_slot)]
 
         # slots waiting for B, in issue order
         b_slot = Array(Signal(range(N), name=f"b{k}_slot") for k in range(N))
@@ -293,7 +325,8 @@ class Rop(wiring.Component):
         set_ = Signal(N)
         clr = Signal(N)
         m.d.comb += set_.eq(Mux(ar_go, Const(1, N) << tail.ptr, 0))
-        m.d.comb += clr.eq(Mux(r_go & ~passes, Const(1, N) << rd.ptr, 0) | Mux(b_go, Const(1, N) << b_slot[b_head.ptr], 0))
+        m.d.comb += clr.eq(Mux(c_valid & ~passes, Const(1, N) << c_slot, 0)
+                           | Mux(b_go, Const(1, N) << b_slot[b_head.ptr], 0))
         m.d.sync += busy.eq((busy & ~clr) | set_)
-        m.d.comb += self.busy.eq(s_valid | busy.any() | head)
+        m.d.comb += self.busy.eq(s_valid | busy.any() | c_valid | head)
         return m

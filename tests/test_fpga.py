@@ -241,3 +241,25 @@ def test_router_is_a_flow_option_on_nextpnr_command_line_and_in_the_cache_key(tm
 def test_route_seconds_add_every_router_pass_of_the_log():
     log = "Info: Router2 time 98.03s\nInfo: Running router1 to check that route is legal...\nInfo: Router1 time 0.92s\n"
     assert fpga.route_seconds(log) == 98.95 and fpga.route_seconds("Info: Program finished normally.") is None
+
+
+def test_router_table_joins_the_runs_of_both_routers(tmp_path, capsys):
+    """``--compare``: one row per design, each router's times and Fmax from its run's report, a failed run named,
+    a later folder's record replacing an earlier one's; a folder without a report is an error naming it."""
+    def report(folder, router, designs):
+        folder.mkdir()
+        (folder / "report.json").write_text(json.dumps({"flow": {"router": router}, "designs": designs}))
+
+    rec = {"unit": "recip", "preset": "default", "route_seconds": 1.49, "flow_seconds": 5.6, "fmax_mhz": 180.05}
+    report(tmp_path / "r1", "router1", [rec, {**rec, "preset": "small", "fmax_mhz": 170.0}])
+    report(tmp_path / "r2", "router2", [{**rec, "route_seconds": 8.6, "flow_seconds": 20.0, "fmax_mhz": 168.3},
+                                        {"unit": "recip", "preset": "small", "error": "nextpnr failed (125), see x"}])
+    report(tmp_path / "r1b", "router1", [{**rec, "preset": "small", "fmax_mhz": 182.8}])
+    assert fpga.main(["--compare", str(tmp_path / "r1"), str(tmp_path / "r2"), str(tmp_path / "r1b")]) == 0
+    rows = capsys.readouterr().out.splitlines()
+    assert rows[0] == "| design | router1: routing / whole flow | Fmax | router2: routing / whole flow | Fmax |"
+    assert rows[2] == "| `recip` default | 1 s / 6 s | 180.1 MHz | 9 s / 20 s | 168.3 MHz |"
+    assert rows[3] == "| `recip` small | 1 s / 6 s | 182.8 MHz | failed: nextpnr failed (125) |  |"
+    assert len(rows) == 4
+    assert fpga.main(["--compare", str(tmp_path / "none")]) == 2
+    assert "none/report.json: no report" in capsys.readouterr().err

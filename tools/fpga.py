@@ -613,6 +613,49 @@ def scene_hint(preset_list) -> str:
             if names else "")
 
 
+def compare_routers(folders) -> str:
+    """The router table of the README: every design placed in the ``report.json`` of ``folders`` (output folders
+    of runs with ``--router router1`` and ``--router router2``; a later folder's record of the same design and
+    router replaces an earlier one), one row per design, and per router its routing time, whole flow time and
+    Fmax, or the error of a failed run.
+
+    Raises
+    ------
+    ValueError
+        A folder without a ``report.json`` (named), or none of the folders holding a placed design.
+    """
+    table: dict = {}
+    routers: list = []
+    for folder in folders:
+        path = Path(folder) / "report.json"
+        if not path.is_file():
+            raise ValueError(f"{path}: no report (run python -m tools.fpga --out {folder} first)")
+        report = json.loads(path.read_text())
+        router = report.get("flow", {}).get("router", "router1")
+        routers += [router] if router not in routers else []
+        for d in report.get("designs", []):
+            if not d.get("synth_only"):
+                table.setdefault(design_key(d), {})[router] = d
+    if not table:
+        raise ValueError(f"no placed design in {', '.join(str(f) for f in folders)}")
+    routers.sort()
+
+    def cell(d):
+        if d is None:
+            return "(not run) | "
+        if "error" in d:
+            return f"failed: {d['error'].split(',')[0]} | "
+        route = "?" if d.get("route_seconds") is None else f"{d['route_seconds']:.0f} s"
+        return f"{route} / {d['flow_seconds']:.0f} s | {d['fmax_mhz']:.1f} MHz"
+
+    head = "| design | " + " | ".join(f"{r}: routing / whole flow | Fmax" for r in routers) + " |"
+    rows = [head, "|---|" + "---:|---:|" * len(routers)]
+    for key, by in table.items():
+        name = f"`{key[0]}` {key[1]}" + (f", {key[2]} tables" if len(key) > 2 and key[2] else "")
+        rows.append(f"| {name} | " + " | ".join(cell(by.get(r)) for r in routers) + " |")
+    return "\n".join(rows)
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(prog="python -m tools.fpga", description=__doc__.split("\n")[0])
     ap.add_argument("--unit", action="append", help="unit name (repeatable; default: every unit with RTL)")
@@ -630,7 +673,16 @@ def main(argv=None) -> int:
     ap.add_argument("--synth-only", action="store_true",
                     help="yosys alone: MULT18X18D and DP16KD counts against the estimate (no place and route)")
     ap.add_argument("--record", metavar="FILE", help="merge the counts into FILE (docs/fpga/resources.json)")
+    ap.add_argument("--compare", nargs="+", metavar="FOLDER",
+                    help="print the router table of the runs in these output folders (no tools run)")
     args = ap.parse_args(argv)
+    if args.compare:
+        try:
+            print(compare_routers(args.compare))
+        except ValueError as exc:
+            print(f"error: {exc}", file=sys.stderr)
+            return 2
+        return 0
     try:
         designs = design_list(args.unit, args.preset, scene=args.scene)
         flow = Flow(seed=args.seed, router=args.router)

@@ -222,3 +222,22 @@ def test_raster_guard_points_measure_the_interpolators_against_their_bound():
     assert all(r["within_bound"] and r["worst_ulp"] <= r["bound_ulp"] for r in recs)
     assert recs[1]["bound_ulp"] < recs[0]["bound_ulp"] and recs[0]["vectors"] > 30_000
     assert recs[0]["dsp_blocks_est"] == small.cost()["dsp"] > 0 and recs[0]["unit"] == "raster"
+
+
+def test_a_preset_that_cannot_draw_the_scene_is_a_refused_point_never_on_the_front():
+    """``persp p16 c14`` cannot resolve the tin plane's bump-map addresses (``prepare`` refuses it): the sweep
+    records the refusal and the clamped frame's error instead of failing, and keeps the point off the front even
+    though it is cheaper than ``default`` at the same largest error."""
+    from fxmodel.render import ClampError, prepare
+    from fxmodel.scene import load_scene
+
+    spec = {"coord_bits": 14, "persp_p": 16, "persp_b": 17}
+    (name, units, _), = su.pipeline_grid([("persp p16 c14", spec)])
+    with pytest.raises(ClampError):
+        prepare(load_scene(su.SCENE).with_size(32, 32), preset=units)
+    res = sw.sweep([], pipeline=[("default", "default"), (name, spec)], scene_size=32, progress=False)
+    base, refused = res["pipeline"]["points"]
+    assert base["refused"] is None and "U, V" in refused["refused"] and "texel" in refused["refused"]
+    assert refused["cost"] < base["cost"] and refused["max_lsb_vs_float"] <= base["max_lsb_vs_float"]
+    assert res["pipeline"]["pareto"] == ["default"] and not refused["pareto"]
+    assert "**refused**" in sw.markdown(res)

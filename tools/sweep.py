@@ -321,7 +321,8 @@ def sweep(grid=None, *, pipeline=None, scene=None, scene_size: int | None = None
             fpga_idx += [idx[j] for j in pick(sub, [idx.index(i) for i in front], min(limit, len(sub)))]
     if fpga_idx:
         _run_fpga(records, grid, fpga_idx, jobs, progress, scheduler)
-    pfront = pareto_front(prec, bits_key="psnr_db_vs_float") if prec else []
+    drawn = [i for i, r in enumerate(prec) if not r.get("refused")]      # a refused preset is never on the front
+    pfront = [drawn[j] for j in pareto_front([prec[i] for i in drawn], bits_key="psnr_db_vs_float")] if drawn else []
     for i, r in enumerate(prec):
         r["pareto"] = i in pfront
     meta = {"machine": platform.platform(), "python": platform.python_version(), "dsp_weight": dsp_weight,
@@ -396,6 +397,8 @@ def _pipeline_table(result: dict) -> list[str]:
         hw = r["hardware"]
         name = f"**{r['name']}**" if r.get("pareto") else r["name"]
         ch = ", ".join(f"{k} {a}→{b}" for k, (a, b) in r["changes"].items()) or (r["preset"] or "")
+        if r.get("refused"):
+            ch += f" (**refused**, drawn clamped: {r['refused']})"
         rate = r["model_pixels_per_second"]
         lines.append(
             f"| {name} | {ch} | {r['max_lsb_vs_float']} / {r['psnr_db_vs_float']:.2f} "
@@ -559,10 +562,11 @@ def plot_units(result: dict, path: Path) -> None:
         right = max(r["cost"] for r in pipe)
         for k, r in enumerate(sorted(pipe, key=lambda r: (r["psnr_db_vs_float"], r["cost"]))):
             y = min(r["psnr_db_vs_float"], 99.0)
-            c = "red" if r["preset"] else "tab:blue"
-            ax.scatter(r["cost"], y, c=c, s=40, zorder=3)
+            c = "grey" if r.get("refused") else "red" if r["preset"] else "tab:blue"
+            ax.scatter(r["cost"], y, c=c, s=40, zorder=3, marker="x" if r.get("refused") else "o")
             near_edge = r["cost"] > 0.9 * right          # labels alternate above / below, inward at the right edge
-            ax.annotate(f"{r['name']} ({r['max_lsb_vs_float']} LSB)", (r["cost"], y), fontsize=6.5, color=c,
+            ax.annotate(f"{r['name']} ({r['max_lsb_vs_float']} LSB{', refused' if r.get('refused') else ''})",
+                        (r["cost"], y), fontsize=6.5, color=c,
                         xytext=(-6 if near_edge else 6, 5 if k % 2 == 0 else -11), ha="right" if near_edge else "left",
                         textcoords="offset points")
         front = sorted((r for r in pipe if r.get("pareto")), key=lambda r: r["cost"])

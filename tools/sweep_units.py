@@ -294,17 +294,28 @@ def measure_pipeline_point(name: str, units, changes: dict, *, scene=SCENE, size
                            cube_size: int | None = None, dsp_weight: float = 1024.0) -> dict:
     """Render ``scene`` with the bit-exact model for one pipeline preset (name or units dict); PSNR and the
     largest per-channel difference against references (a) and (b), and the hardware estimate.
-    ``cube_size``: reflectance-cube face edge (``None``: ``prepare``'s default, the preset's own)."""
+    ``cube_size``: reflectance-cube face edge (``None``: ``prepare``'s default, the preset's own).
+
+    A preset that cannot draw the scene (:class:`fxmodel.render.ClampError`: inputs outside its formats, or
+    texture addresses it cannot resolve) is a point too: ``refused`` holds the refusal's findings (one line per
+    input), and the frame is still drawn with the inputs clamped, so its error and cost are on record; it is never
+    on the front (:func:`tools.sweep.sweep`). ``refused`` is ``None`` for a preset that draws the scene."""
     from tools.fit import hardware
     from fxmodel.presets import preset_units
-    from fxmodel.render import prepare, render
+    from fxmodel.render import ClampError, prepare, render
     from fxmodel.scene import load_scene
 
     sc = load_scene(scene) if not hasattr(scene, "materials") else scene
     if size:
         sc = sc.with_size(size, size)
     t0 = time.perf_counter()
-    frame = prepare(sc, preset=units, **({} if cube_size is None else {"cube_size": cube_size}))
+    cube = {} if cube_size is None else {"cube_size": cube_size}
+    try:
+        frame, refused = prepare(sc, preset=units, **cube), None
+    except ClampError as exc:
+        refused = "; ".join(line.strip() for line in str(exc).splitlines()[1:]
+                            if line.strip() and not line.strip().startswith("what to do"))
+        frame = prepare(sc, preset=units, allow_clamp=True, **cube)
     rep = render(frame)
     rep.pop("_model_bytes", None)
     hw = hardware(preset_units(units), frame.params)
@@ -314,7 +325,7 @@ def measure_pipeline_point(name: str, units, changes: dict, *, scene=SCENE, size
         "cube_size": frame.stats["cube_size"],
         **{k: rep[k] for k in ("psnr_db_vs_float", "max_lsb_vs_float", "psnr_db_vs_ideal", "max_lsb_vs_ideal")},
         "clamped_fragment_inputs": sum(rep["clamped_fragment_inputs"].values()),
-        "flags": rep["flags"], "hardware": hw,
+        "flags": rep["flags"], "hardware": hw, "refused": refused,
         "cost": hw["table_bits"] + dsp_weight * hw["dsp"],
         "model_pixels_per_second": rep["model_pixels_per_second"], "seconds": round(time.perf_counter() - t0, 2),
     }

@@ -53,6 +53,7 @@ import json
 import math
 import platform
 import sys
+import textwrap
 import time
 from dataclasses import dataclass
 from fractions import Fraction
@@ -543,7 +544,7 @@ def plot_units(result: dict, path: Path) -> None:
                 left = r["cost"] <= mid
                 ax.annotate(f"ECP5: {f['LUT4']} LUT4, {f['DSP']} DSP, {f['fmax_mhz']:.0f} MHz",
                             (r["cost"], r["correct_bits_worst"]), fontsize=6.5, color="tab:purple",
-                            xytext=(6 if left else -6, 6), ha="left" if left else "right",
+                            xytext=(6, 6) if left else (-6, -14), ha="left" if left else "right",   # apart
                             textcoords="offset points")
         front = sorted((r for r in recs if r.get("pareto")), key=lambda r: r["cost"])
         ax.step([r["cost"] for r in front], [r["correct_bits_worst"] for r in front], where="post", c="k", lw=1,
@@ -551,7 +552,8 @@ def plot_units(result: dict, path: Path) -> None:
         if len({r["cost"] for r in recs}) == 1:
             ax.text(0.03, 0.03, f"every point: {recs[0]['dsp_blocks_est']} MULT18X18D, {recs[0]['table_bits']} table "
                     "bits\n(the cost proxy does not see the narrower adders)", transform=ax.transAxes, fontsize=7)
-        ax.set_title(f"{unit}: {UNIT_ERRORS[unit]['what']}", fontsize=8.5)
+        ax.set_title(textwrap.fill(f"{unit}: {UNIT_ERRORS[unit]['what']}", 60), fontsize=8.5)   # titles of a row
+                                                                                                # must not overlap
         ax.set_xlabel(f"cost: table bits + {w:g} × MULT18X18D (est.)", fontsize=8)
         ax.set_ylabel("correct bits, worst case (−log2 error)", fontsize=8)
         ax.grid(True, alpha=0.3)

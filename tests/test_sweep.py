@@ -97,3 +97,22 @@ def test_bad_arguments():
     with pytest.raises(ValueError):
         sw.sweep([], progress=False)
     assert sw.main(["--fpga-points", "7"]) == 2
+
+
+def test_overlapping_labels_are_moved_apart():
+    """``_declutter``: three labels written on one point end with disjoint boxes, spread around it."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from tools.sweep import _declutter
+
+    fig, ax = plt.subplots()
+    texts = [ax.annotate(f"label {k}", (1, 1), xytext=(4, 0), textcoords="offset points") for k in range(3)]
+    renderer = fig.canvas.get_renderer()
+    assert texts[0].get_window_extent(renderer).overlaps(texts[1].get_window_extent(renderer))
+    _declutter(fig, texts)
+    boxes = [t.get_window_extent(renderer) for t in texts]
+    assert not any(boxes[i].overlaps(boxes[j]) for i in range(3) for j in range(i + 1, 3))
+    assert {round(t.xyann[0]) for t in texts} == {4}         # moved vertically only
+    plt.close(fig)

@@ -435,6 +435,27 @@ def markdown(result: dict) -> str:
     return "\n".join(lines)
 
 
+def _declutter(fig, texts, step: float = 3.0, rounds: int = 80) -> None:
+    """Move overlapping annotations (offsets in points) apart vertically, the lower one down and the upper one
+    up, until no two boxes overlap or ``rounds`` passes are spent: matplotlib places no labels by itself, and the
+    sweep's points crowd where the front is steep."""
+    renderer = fig.canvas.get_renderer()
+    for _ in range(rounds):
+        moved = False
+        boxes = [t.get_window_extent(renderer) for t in texts]
+        for i in range(len(texts)):
+            for j in range(i + 1, len(texts)):
+                if boxes[i].overlaps(boxes[j]):
+                    lo, hi = (i, j) if boxes[i].y0 <= boxes[j].y0 else (j, i)
+                    for k, d in ((lo, -step), (hi, step)):
+                        x, y = texts[k].xyann
+                        texts[k].xyann = (x, y + d)
+                        boxes[k] = texts[k].get_window_extent(renderer)
+                    moved = True
+        if not moved:
+            return
+
+
 def plot(result: dict, path: Path) -> None:
     """Pareto plot of the reciprocal (PNG): worst-case correct bits against the cost proxy, and against LUT4 where
     the FPGA flow ran."""
@@ -458,21 +479,22 @@ def plot(result: dict, path: Path) -> None:
     front.sort(key=lambda r: r["cost"])
     ax.step([r["cost"] for r in front], [r["correct_bits_worst"] for r in front], where="post", c="k", lw=1.2,
             zorder=1, label="Pareto front")
+    labels = []
     for k, r in enumerate(front):          # labels alternate right-below / left-above to limit overlaps
         named = r["family"] in ("paper", "preset")
-        ax.annotate(r["name"], (r["cost"], r["correct_bits_worst"]), fontsize=6.5, color="red" if named else "k",
-                    xytext=(5, -9) if k % 2 else (-6, 5), ha="left" if k % 2 else "right",
-                    textcoords="offset points")
+        labels.append(ax.annotate(r["name"], (r["cost"], r["correct_bits_worst"]), fontsize=6.5,
+                                  color="red" if named else "k", xytext=(5, -9) if k % 2 else (-6, 5),
+                                  ha="left" if k % 2 else "right", textcoords="offset points"))
     for r in recs:
         if r["family"] in ("paper", "preset"):
             ax.scatter(r["cost"], r["correct_bits_worst"], s=140, facecolors="none", edgecolors="red", zorder=3)
             if not r.get("pareto"):
-                ax.annotate(r["name"], (r["cost"], r["correct_bits_worst"]), fontsize=7.5, color="red",
-                            xytext=(6, -3), textcoords="offset points")
+                labels.append(ax.annotate(r["name"], (r["cost"], r["correct_bits_worst"]), fontsize=7.5,
+                                          color="red", xytext=(6, -3), textcoords="offset points"))
     for name, tb, mu, cb in ANCHORS:
         ax.scatter(tb + w * mu, cb, marker="*", s=220, c="green", zorder=4)
-        ax.annotate(name, (tb + w * mu, cb), fontsize=7.5, color="green", xytext=(-8, 6), ha="right",
-                    textcoords="offset points")
+        labels.append(ax.annotate(name, (tb + w * mu, cb), fontsize=7.5, color="green", xytext=(-8, 6),
+                                  ha="right", textcoords="offset points"))
     for t, mk in markers.items():
         ax.scatter([], [], marker=mk, c="gray", label=f"t = {t}")
     for k, c in colors.items():
@@ -491,15 +513,17 @@ def plot(result: dict, path: Path) -> None:
         for k, r in enumerate(placed):      # labels alternate sides (neighbours in bits are often close)
             f = r["fpga"]
             ax.scatter(f["LUT4"], r["correct_bits_worst"], s=40 + 12 * f["DSP"], c="tab:purple", alpha=0.7)
-            ax.annotate(f"{r['name']}\n{f['DSP']} DSP, {f['fmax_mhz']:.0f} MHz", (f["LUT4"], r["correct_bits_worst"]),
+            labels.append(ax.annotate(f"{r['name']}\n{f['DSP']} DSP, {f['fmax_mhz']:.0f} MHz",
+                                      (f["LUT4"], r["correct_bits_worst"]),
                         fontsize=7, xytext=(7, -4) if k % 2 == 0 else (-7, -4), ha="left" if k % 2 == 0 else "right",
-                        textcoords="offset points")
+                        textcoords="offset points"))
         ax.set_xlabel("ECP5 LUT4 (marker size: MULT18X18D blocks)")
         ax.set_ylabel("correct bits (worst case, measured)")
         ax.set_title("Placed and routed (ECP5-85, speed 8)")
         ax.grid(True, alpha=0.3)
         ax.margins(x=0.3, y=0.15)
     fig.tight_layout()
+    _declutter(fig, labels)
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=130)
     plt.close(fig)
@@ -525,6 +549,7 @@ def plot_units(result: dict, path: Path) -> None:
     rows = math.ceil(n / cols)
     fig, axes = plt.subplots(rows, cols, figsize=(5.2 * cols, 4.4 * rows), squeeze=False)
     markers = ["o", "s", "D", "^", "v"]
+    labels = []
     for k, unit in enumerate(units):
         ax = axes[k // cols][k % cols]
         recs = [r for r in _points(result, unit) if r["correct_bits_worst"] is not None]
@@ -537,15 +562,16 @@ def plot_units(result: dict, path: Path) -> None:
         for r in recs:
             if r["family"] == "preset":
                 ax.scatter(r["cost"], r["correct_bits_worst"], s=120, facecolors="none", edgecolors="red", zorder=3)
-                ax.annotate(r["name"].replace(f"{unit} ", ""), (r["cost"], r["correct_bits_worst"]), fontsize=7,
-                            color="red", xytext=(6, -10), textcoords="offset points")
+                labels.append(ax.annotate(r["name"].replace(f"{unit} ", ""), (r["cost"], r["correct_bits_worst"]),
+                                          fontsize=7,
+                            color="red", xytext=(6, -10), textcoords="offset points"))
             f = r["fpga"] or {}
             if f.get("LUT4"):
                 left = r["cost"] <= mid
-                ax.annotate(f"ECP5: {f['LUT4']} LUT4, {f['DSP']} DSP, {f['fmax_mhz']:.0f} MHz",
+                labels.append(ax.annotate(f"ECP5: {f['LUT4']} LUT4, {f['DSP']} DSP, {f['fmax_mhz']:.0f} MHz",
                             (r["cost"], r["correct_bits_worst"]), fontsize=6.5, color="tab:purple",
                             xytext=(6, 6) if left else (-6, -14), ha="left" if left else "right",   # apart
-                            textcoords="offset points")
+                            textcoords="offset points"))
         front = sorted((r for r in recs if r.get("pareto")), key=lambda r: r["cost"])
         ax.step([r["cost"] for r in front], [r["correct_bits_worst"] for r in front], where="post", c="k", lw=1,
                 zorder=1, label="Pareto front")
@@ -567,10 +593,11 @@ def plot_units(result: dict, path: Path) -> None:
             c = "grey" if r.get("refused") else "red" if r["preset"] else "tab:blue"
             ax.scatter(r["cost"], y, c=c, s=40, zorder=3, marker="x" if r.get("refused") else "o")
             near_edge = r["cost"] > 0.9 * right          # labels alternate above / below, inward at the right edge
-            ax.annotate(f"{r['name']} ({r['max_lsb_vs_float']} LSB{', refused' if r.get('refused') else ''})",
+            refused = ", refused" if r.get("refused") else ""
+            labels.append(ax.annotate(f"{r['name']} ({r['max_lsb_vs_float']} LSB{refused})",
                         (r["cost"], y), fontsize=6.5, color=c,
                         xytext=(-6 if near_edge else 6, 5 if k % 2 == 0 else -11), ha="right" if near_edge else "left",
-                        textcoords="offset points")
+                        textcoords="offset points"))
         front = sorted((r for r in pipe if r.get("pareto")), key=lambda r: r["cost"])
         ax.step([r["cost"] for r in front], [min(r["psnr_db_vs_float"], 99.0) for r in front], where="post",
                 c="k", lw=1, zorder=1)
@@ -583,6 +610,7 @@ def plot_units(result: dict, path: Path) -> None:
     for k in range(n, rows * cols):
         axes[k // cols][k % cols].axis("off")
     fig.tight_layout()
+    _declutter(fig, labels)
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=120)
     plt.close(fig)

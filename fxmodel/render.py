@@ -81,19 +81,23 @@ class ClampError(ValueError):
         self.clamped = clamped
         self.imprecise = imprecise = imprecise or {}
         lines = [f"{where}: preset {preset!r} cannot draw this scene:"]
-        for name, c in clamped.items():
-            lines.append(f"  {name}: {c['count']} fragments would be clamped; the scene needs [{c['needs'][0]:.6g}, "
-                         f"{c['needs'][1]:.6g}], {c['knob']} holds [{c['holds'][0]:.6g}, {c['holds'][1]:.6g}] "
-                         f"({c['fmt']})")
-        for name, c in imprecise.items():
-            lines.append(f"  {name}: {c['count']} fragments (W down to {c['min_W']:.3g}) are addressed only to "
-                         f"{c['texels']:.3g} texel, the limit is {c['limit']:.3g} texel ({c['knob']}: more "
-                         f"fraction bits)")
+        lines += [f"  {line}" for line in self.findings(clamped, imprecise)]
         knobs = sorted({k for c in (*clamped.values(), *imprecise.values()) for k in c["knob"].split(", ")})
         lines.append(f"  what to do: `python -m fxmodel fit {where}` finds a preset that draws the scene; or widen "
                      f"{', '.join(knobs)} in a preset file (presets/<name>.toml, then --preset <name>); or pass "
                      f"--allow-clamp to draw it anyway")
         super().__init__("\n".join(lines))
+
+    @staticmethod
+    def findings(clamped: dict, imprecise: dict) -> list[str]:
+        """One line per input the preset cannot hold or address (the message's body; also
+        ``Frame.stats["refused"]`` when :func:`prepare` draws the scene anyway, ``allow_clamp``)."""
+        lines = [f"{name}: {c['count']} fragments would be clamped; the scene needs [{c['needs'][0]:.6g}, "
+                 f"{c['needs'][1]:.6g}], {c['knob']} holds [{c['holds'][0]:.6g}, {c['holds'][1]:.6g}] ({c['fmt']})"
+                 for name, c in clamped.items()]
+        return lines + [f"{name}: {c['count']} fragments (W down to {c['min_W']:.3g}) are addressed only to "
+                        f"{c['texels']:.3g} texel, the limit is {c['limit']:.3g} texel ({c['knob']}: more "
+                        f"fraction bits)" for name, c in imprecise.items()]
 
 
 def address_errors(frags, persp, shapes: dict) -> dict:
@@ -349,7 +353,8 @@ def prepare(scene, *, size=None, preset: str | dict = "default", cube_size: int 
     stats = {"fragments": len(frags), "material": mat.name, "cube_size": cube_size,
              "block_exponents": np.bincount(e, minlength=1).tolist(),                 # fragments with e = 0, 1, ...
              "clamped_fragment_inputs": {k: c["count"] for k, c in clamped.items()},
-             "imprecise_fragments": {k: c["count"] for k, c in imprecise.items()}, **cube_info,
+             "imprecise_fragments": {k: c["count"] for k, c in imprecise.items()},
+             "refused": ClampError.findings(clamped, imprecise), **cube_info,
              "bump_map_saturated": mm.bump.n_saturated if mm.bump is not None else 0,
              "seconds_front_end": round(t1 - t0, 3), "seconds_tables": round(t2 - t1, 3),
              "seconds_quantize": round(time.perf_counter() - t2, 3)}

@@ -296,26 +296,21 @@ def measure_pipeline_point(name: str, units, changes: dict, *, scene=SCENE, size
     largest per-channel difference against references (a) and (b), and the hardware estimate.
     ``cube_size``: reflectance-cube face edge (``None``: ``prepare``'s default, the preset's own).
 
-    A preset that cannot draw the scene (:class:`fxmodel.render.ClampError`: inputs outside its formats, or
-    texture addresses it cannot resolve) is a point too: ``refused`` holds the refusal's findings (one line per
-    input), and the frame is still drawn with the inputs clamped, so its error and cost are on record; it is never
-    on the front (:func:`tools.sweep.sweep`). ``refused`` is ``None`` for a preset that draws the scene."""
+    A preset that cannot draw the scene (what :func:`fxmodel.render.prepare` refuses without ``allow_clamp``:
+    inputs outside its formats, or texture addresses it cannot resolve) is a point too: ``refused`` holds the
+    refusal's findings (``Frame.stats["refused"]``, joined), and the frame is drawn with the inputs clamped, so
+    its error and cost are on record; it is never on the front (:func:`tools.sweep.sweep`). ``refused`` is
+    ``None`` for a preset that draws the scene."""
     from tools.fit import hardware
     from fxmodel.presets import preset_units
-    from fxmodel.render import ClampError, prepare, render
+    from fxmodel.render import prepare, render
     from fxmodel.scene import load_scene
 
     sc = load_scene(scene) if not hasattr(scene, "materials") else scene
     if size:
         sc = sc.with_size(size, size)
     t0 = time.perf_counter()
-    cube = {} if cube_size is None else {"cube_size": cube_size}
-    try:
-        frame, refused = prepare(sc, preset=units, **cube), None
-    except ClampError as exc:
-        refused = "; ".join(line.strip() for line in str(exc).splitlines()[1:]
-                            if line.strip() and not line.strip().startswith("what to do"))
-        frame = prepare(sc, preset=units, allow_clamp=True, **cube)
+    frame = prepare(sc, preset=units, allow_clamp=True, **({} if cube_size is None else {"cube_size": cube_size}))
     rep = render(frame)
     rep.pop("_model_bytes", None)
     hw = hardware(preset_units(units), frame.params)
@@ -325,7 +320,7 @@ def measure_pipeline_point(name: str, units, changes: dict, *, scene=SCENE, size
         "cube_size": frame.stats["cube_size"],
         **{k: rep[k] for k in ("psnr_db_vs_float", "max_lsb_vs_float", "psnr_db_vs_ideal", "max_lsb_vs_ideal")},
         "clamped_fragment_inputs": sum(rep["clamped_fragment_inputs"].values()),
-        "flags": rep["flags"], "hardware": hw, "refused": refused,
+        "flags": rep["flags"], "hardware": hw, "refused": "; ".join(frame.stats["refused"]) or None,
         "cost": hw["table_bits"] + dsp_weight * hw["dsp"],
         "model_pixels_per_second": rep["model_pixels_per_second"], "seconds": round(time.perf_counter() - t0, 2),
     }

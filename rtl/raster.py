@@ -114,6 +114,11 @@ def _tree(pipe: Pipe, terms: dict, levels: int, carry: dict) -> tuple[dict, dict
     return {k: ts[0][0] for k, ts in terms.items()}, carry
 
 
+def _bits(*regs) -> int:
+    """Register bits of ``regs`` (a block's size for :func:`_groups`)."""
+    return sum(len(r) for r in regs)
+
+
 def _groups(blocks: list, limit: int) -> list[list]:
     """``blocks`` (tuples whose first item is a register bit count) packed in order into groups of at most
     ``limit`` bits (a larger block alone): each group gets its own copy of the control state."""
@@ -186,8 +191,8 @@ class Raster(wiring.Component):
             inflight = Signal(range(depth + 1), name=f"rows_in_flight_{k}")
             room = Signal(name=f"room_{k}", init=1)                     # inflight != depth
             last = Signal(name=f"last_row_{k}")                         # s_rem == 0
-            issue, accept = Signal(name=f"issue_{k}"), Signal(name=f"accept_{k}")
-            m.d.comb += [issue.eq(gv & room), accept.eq((~gv | (issue & last)) & self.i.valid)]
+            issue, ready, accept = Signal(name=f"issue_{k}"), Signal(name=f"ready_{k}"), Signal(name=f"accept_{k}")
+            m.d.comb += [issue.eq(gv & room), ready.eq(~gv | (issue & last)), accept.eq(ready & self.i.valid)]
             next_inflight = inflight + issue - take
             m.d.sync += [inflight.eq(next_inflight), room.eq(next_inflight != depth)]
             with m.If(accept):
@@ -197,11 +202,11 @@ class Raster(wiring.Component):
                     m.d.sync += gv.eq(0)
                 m.d.sync += last.eq(s_rem == 1)
             if k == 0:
-                m.d.comb += self.i.ready.eq(~gv | (issue & last))
+                m.d.comb += self.i.ready.eq(ready)
             return issue, accept
 
         # the registers in blocks: (bits, load statements, step statements)
-        blocks = [(3 * w + 2 * w + sum(len(s) for s in k_c.values()),
+        blocks = [(_bits(k_x0, k_x1, k_w, s_y, s_rem, *k_c.values()),
                    [k_x0.eq(rec.x0), k_x1.eq(rec.x1), k_w.eq(rec.x1 - rec.x0), s_y.eq(rec.y0), s_rem.eq(rec.rows),
                     *(k_c[n].eq(rec[n]) for n in k_c)],
                    [s_y.eq(s_y + 1), s_rem.eq(s_rem - 1)])]
@@ -211,8 +216,7 @@ class Raster(wiring.Component):
             t = Signal(signed(len(k_md[e]) + 1), name=f"rmd{e}")
             m.d.comb += t.eq(s_r[e] + k_md[e])
             carry = ~t[-1]                                               # r + m >= |a|
-            regs = [k_kind[e], k_m[e], k_md[e], s_r[e], s_v[e], k_q[e], k_q1[e]]
-            blocks.append((sum(len(r) for r in regs),
+            blocks.append((_bits(k_kind[e], k_m[e], k_md[e], s_r[e], s_v[e], k_q[e], k_q1[e]),
                            [k_kind[e].eq(rec[f"e{e}_kind"]), k_m[e].eq(rec[f"e{e}_m"]),
                             k_md[e].eq(rec[f"e{e}_m"] - rec[f"e{e}_d"]), s_r[e].eq(rec[f"e{e}_r"]),
                             s_v[e].eq(Mux(left, -p, p)), k_q[e].eq(Mux(left, -q, q)),
@@ -220,7 +224,7 @@ class Raster(wiring.Component):
                            [s_r[e].eq(Mux(carry, t, s_r[e] + k_m[e])),
                             s_v[e].eq(Mux(carry, s_v[e] + k_q1[e], s_v[e] + k_q[e]))]))
         for n in P.names:
-            blocks.append((3 * acc_w[n],
+            blocks.append((_bits(s_a[n], k_dx[n], k_dy[n]),
                            [s_a[n].eq(rec[f"{n}_0"]), k_dx[n].eq(rec[f"{n}_dx"]), k_dy[n].eq(rec[f"{n}_dy"])],
                            [s_a[n].eq((s_a[n] + k_dy[n])[:acc_w[n]])]))
         issue = None
@@ -345,13 +349,13 @@ class Raster(wiring.Component):
 
         # the registers in blocks: (bits, statements under ``advance``, along the row, on taking a row); the
         # first block's control copy also drives the FIFOs and ``busy``
-        blocks = [(4 * w + 1 + 2 * sum(len(c) for c in pc_c.values()),
+        blocks = [(_bits(cx, cy, r_x, r_y, r_valid, *pc_c.values(), *r_c.values()),
                    lambda busy, nonempty: [r_valid.eq(busy & nonempty), r_x.eq(cx), r_y.eq(cy),
                                            *(r_c[n].eq(pc_c[n]) for n in pc_c)],
                    [cx.eq(cx + 1)],
                    [cx.eq(row.xl), cy.eq(row.y), *(pc_c[n].eq(row[n]) for n in pc_c)])]
         for n in P.names:
-            blocks.append((2 * acc_w[n] + len(r_a[n]), lambda busy, nonempty, n=n: [r_a[n].eq(rounded[n])],
+            blocks.append((_bits(acc[n], pdx[n], r_a[n]), lambda busy, nonempty, n=n: [r_a[n].eq(rounded[n])],
                            [acc[n].eq((acc[n] + pdx[n])[:acc_w[n]])],
                            [acc[n].eq(row[f"{n}_start"]), pdx[n].eq(row[f"{n}_dx"])]))
         for k, group in enumerate(_groups(blocks, P.ENABLE_FANOUT)):

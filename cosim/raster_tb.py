@@ -10,7 +10,7 @@ rule). It writes the packed fragments, the number of cycles with ``busy`` high a
 the first to the last with ``busy`` high (equal to the busy cycles when no clock between rows is lost)
 (``fragments.json``). ``drain`` in ``job.json`` is how long the testbench waits with everything idle after the
 last record was taken: the scan converter's fill latency, plus the pixel pipeline's latency for the engine from
-the triangle (``rtl/pipeline.py``'s ``TrianglePipeline``).
+the triangle (``rtl/engine.py``'s ``Engine``).
 A hand-written driver rather than cocotbext-axi's AXI-Stream source/sink: the payloads are single words of
 hundreds to thousands of bits with no byte lanes, which the AXI-Stream classes would split into ``tdata`` bytes.
 """

@@ -1,6 +1,6 @@
 """Co-simulation harness of the raster-operations unit (``rtl/rop.py``): fragments through the RTL into a frame
 buffer held by cocotbext-axi's ``AxiRam`` (or the on-chip block RAM), the final memory image decoded
-(:func:`fxmodel.rop.read_frame`) and compared with :func:`fxmodel.rop.draw` bit for bit, and the bus traffic
+(:func:`fxmodel.units.rop.read_frame`) and compared with :func:`fxmodel.units.rop.draw` bit for bit, and the bus traffic
 (``AR`` and ``AW`` transfers) with the model's byte counts.
 
 Memory latency: ``AxiRam`` answers as soon as it can (about two cycles) and has no latency setting, so the
@@ -23,10 +23,9 @@ from amaranth.hdl import Array, Cat, Module, Signal
 from amaranth.lib import stream, wiring
 from amaranth.lib.wiring import In, Out
 
-from fxmodel.rop import DEPTH_BYTES, PIXEL_BYTES, RopParams, clear_frame, draw, read_frame, write_frame
+from fxmodel.units.rop import DEPTH_BYTES, PIXEL_BYTES, RopParams, clear_frame, draw, read_frame, write_frame
 from rtl.digest import params_key
 from rtl.rop import Rop, axi_signature, ring_next
-from rtl.streams import payload_layout
 from rtl.verilog import component_verilog
 
 from .harness import BUILD, build_and_test, simulator
@@ -47,7 +46,7 @@ _RESPONSES = ("bid", "bresp", "bvalid", "rid", "rdata", "rresp", "rlast", "rvali
 
 class RopBench(wiring.Component):
     """Simulation top: the ROP (``params`` a :class:`RopParams`) or the engine with its depth test (a
-    :class:`~fxmodel.pipeline.TrianglePipelineParams` with ``rop``), delay queues on the ``AR``, ``AW`` and ``W``
+    :class:`~fxmodel.pipeline.engine.EngineParams` with ``rop``), delay queues on the ``AR``, ``AW`` and ``W``
     channels, the AXI4 port ``mem`` to the memory model. Ports: ``i`` (the design's: fragments or triangle
     records), ``mem`` (``axi_signature``), ``lat`` In(:data:`LATENCY_BITS`), ``busy`` (the design's, the ROP's
     too for the engine), ``status`` (the ROP's)."""
@@ -118,8 +117,8 @@ def _design(params):
     """The ROP, or the engine from the triangle with its depth test."""
     if isinstance(params, RopParams):
         return Rop(params)
-    from rtl.pipeline import TrianglePipeline
-    return TrianglePipeline(params)
+    from rtl.engine import Engine
+    return Engine(params)
 
 
 def _build(params, sim: str):
@@ -170,9 +169,9 @@ def run(params: RopParams, frags, *, latency: int = 1, p_valid: float = 1.0, p_p
 
 def run_engine(params, records, *, latency: int = 1, p_valid: float = 1.0, p_pause: float = 0.0, seed: int = 1,
                sim: str | None = None, tag: str = "", fb=None) -> dict:
-    """Draw triangle ``records`` (:class:`~fxmodel.raster.Records` or codes) through the engine with its depth
-    test (``params`` a :class:`~fxmodel.pipeline.TrianglePipelineParams` with ``rop``) and compare the frame read
-    from the memory model with :meth:`~fxmodel.pipeline.TrianglePipelineParams.draw`; arguments and report as
+    """Draw triangle ``records`` (:class:`~fxmodel.units.raster.Records` or codes) through the engine with its depth
+    test (``params`` a :class:`~fxmodel.pipeline.engine.EngineParams` with ``rop``) and compare the frame read
+    from the memory model with :meth:`~fxmodel.pipeline.engine.EngineParams.draw`; arguments and report as
     :func:`run` (``model`` the model's depth-test stats, plus ``raster_clocks``)."""
     mat = records.matrix() if hasattr(records, "matrix") else np.asarray(records, dtype=np.int64)
     want_d, want_c, stats, out, scan = params.draw(mat, fb)
@@ -245,21 +244,3 @@ def throughput(latencies=(1, 5, 10, 20), slots=(8, 16, 32), k: int = 400, sim: s
             rows.append({"outstanding": n, "latency": lat, "mismatches": res["mismatches"],
                          "fragments_per_clock": round(k / res["accept_cycles"], 3)})
     return rows
-
-
-def main(argv=None) -> int:
-    """``python -m cosim.rop --throughput``: the ROP's fragments per clock against memory latency and slots."""
-    import argparse
-    ap = argparse.ArgumentParser(prog="python -m cosim.rop", description=main.__doc__)
-    ap.add_argument("--throughput", action="store_true", required=True)
-    ap.add_argument("--sim", default=None)
-    args = ap.parse_args(argv)
-    rows = throughput(sim=args.sim)
-    print("| slots | latency (added cycles) | fragments / clock |\n|---:|---:|---:|")
-    for r in rows:
-        print(f"| {r['outstanding']} | {r['latency']} | {r['fragments_per_clock']} |")
-    return 1 if any(r["mismatches"] for r in rows) else 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

@@ -1,12 +1,12 @@
 """``make sim``: draw a scene from triangles through the RTL engine and prove it bit-identical to the golden model.
 
-``python -m cosim.sim [--scene tin-plane] [--sim icarus|verilator] [--size N] [--preset default]
+``bumpmap sim [--scene tin-plane] [--sim icarus|verilator] [--size N] [--preset default]
 [--input triangles|fragments] [--pattern none|random|bursts|stalls] [--shards N]``
 
 By default (``--input triangles``) the host's set-up turns the scene into triangle records
-(``fxmodel.render.from_triangles``: snapped vertices, edge functions, each attribute's plane rounded once, the
-bump matrix's block exponent per triangle), and the RTL of the engine from the triangle (``rtl/pipeline.py``'s
-``TrianglePipeline``: the scan converter and interpolators of ``rtl/raster.py`` feeding the stream version of the
+(``host.render.from_triangles``: snapped vertices, edge functions, each attribute's plane rounded once, the
+bump matrix's block exponent per triangle), and the RTL of the engine from the triangle (``rtl/engine.py``'s
+``Engine``: the scan converter and interpolators of ``rtl/raster.py`` feeding the stream version of the
 pixel pipeline) draws them, in the streaming harness (``cosim/stream.py``, ``run_records``: records from
 binary chunk files (``$fread``), the clock and the stimulus inside the HDL wrapper, no Python per clock); every output
 (``x, y``, the bytes, the flags) is compared with the bit-exact model, in order, none lost and none extra, and the
@@ -15,8 +15,8 @@ so they are simulated as ``--shards`` contiguous shards (default: one per usable
 one with ``WAVES=1``) in as many simulator processes at once (``run_records(shards=N)``), the fragments joined in
 order, and the clock count checked shard by shard (each shard starts from reset); the report says how many
 (``shards``, ``shard_triangles``). ``--input fragments`` starts at the fragment instead:
-the front end's fragments, quantized to the pipeline's inputs (``fxmodel.render.prepare``), stream through the
-stream version of ``rtl/pipeline.py`` (``run_stream``), every output compared in the simulation.
+the front end's fragments, quantized to the pipeline's inputs (``host.render.prepare``), stream through the
+stream version of ``rtl/pixel.py`` (``run_stream``), every output compared in the simulation.
 
 Writes ``build/sim/<scene>-triangles/`` (``build/sim/<scene>/`` from fragments): ``rtl.png`` (what the RTL drew),
 ``model.png``, ``float.png``, ``ideal.png``, ``diff.png`` (amplified differences of the model from the two float
@@ -25,8 +25,8 @@ references), ``compare.png`` and ``report.json`` (with the ``verdict``; from tri
 fragments beside it: ``fragments.png``, ``from_fragments``, ``triangles_vs_fragments``, the interpolators' share of
 the error); prints a summary table; exits 1 on any mismatch and on a frame farther than ``--max-lsb`` (default:
 the documented scene bound) from reference (a), 2 on a scene the preset cannot draw (unless ``--allow-clamp``,
-fragments only): ``fxmodel.render.judge``. ``WAVES=1`` dumps a waveform (short runs).
-From triangles, every pixel shows the fragment the depth test keeps (``fxmodel/visibility.py``, with the
+fragments only): ``host.render.judge``. ``WAVES=1`` dumps a waveform (short runs).
+From triangles, every pixel shows the fragment the depth test keeps (``host/visibility.py``, with the
 raster-operations unit's model); ``report.json`` gets ``depth`` (fragments, passed, failed, overdraw, the
 disagreements with reference (a)'s float z-buffer and their largest depth gap, the depth precision) and
 ``memory`` (frame-buffer bytes read and written per covered pixel), ``depth_disagreements.png`` marks the
@@ -50,7 +50,8 @@ import time
 
 import numpy as np
 
-from .harness import ROOT, simulator
+from fxmodel.core.paths import build_dir
+from .harness import simulator
 from .stream import PATTERNS, ArraySpace, FullSpace, Space, run_records, run_stream
 
 #: Fragments per vector file: the progress bar moves once a chunk.
@@ -92,8 +93,8 @@ def _table(rows) -> str:
 def _draw(args):
     """The model side: ``(name, frame, tframe or None, report, out_dir)`` with the images written, or an exit
     status (2: a scene the preset cannot draw)."""
-    from fxmodel.render import from_triangles, prepare, render, render_triangles
-    from fxmodel.scene import SceneError, scene_path
+    from host.render import from_triangles, prepare, render, render_triangles
+    from host.scene import SceneError, scene_path
 
     triangles = args.input == "triangles"
     try:
@@ -104,7 +105,7 @@ def _draw(args):
         print(f"error: {exc}", file=sys.stderr)
         return 2
     name = frame.scene.name
-    out_dir = ROOT / "build" / "sim" / (f"{name}-depth" if args.depth else f"{name}-triangles" if triangles else name)
+    out_dir = build_dir("sim") / (f"{name}-depth" if args.depth else f"{name}-triangles" if triangles else name)
     out_dir.mkdir(parents=True, exist_ok=True)
     for stale in ("report.json", "rtl.png"):                # never leave an old result looking current
         (out_dir / stale).unlink(missing_ok=True)
@@ -122,7 +123,7 @@ def _draw(args):
 
 def sim_scene(args) -> int:
     """``make sim`` of a scene, from triangles (default) or from fragments."""
-    from fxmodel.render import judge, save_png, tell
+    from host.render import judge, save_png, tell
 
     t0 = time.perf_counter()
     drawn = _draw(args)
@@ -206,7 +207,7 @@ def sim_scene(args) -> int:
 def sim_depth(args, tframe, report, out_dir, t0) -> int:
     """``--depth``: the engine with its depth test; the frame is read from the memory model behind the ROP's
     AXI4 port at the end (``cosim.rop.run_engine``) and compared with the model's."""
-    from fxmodel.render import save_png
+    from host.render import save_png
 
     from .rop import run_engine
 
@@ -251,14 +252,14 @@ def sim_depth(args, tframe, report, out_dir, t0) -> int:
 
 
 def sim_unit(args) -> int:
-    from fxmodel.unit import preset
+    from fxmodel.core.unit import preset
 
     params = preset(args.unit, args.preset)
     rng = np.random.default_rng(args.seed)
     vectors = FullSpace(params) if args.exhaustive else ArraySpace(
         np.concatenate([params.hard_cases(), params.random_inputs(rng, args.vectors)]), "hard cases and random")
     result = _stream(params, vectors, args, "sim", "vec")
-    out = ROOT / "build" / "sim" / f"{args.unit}_{args.preset}"
+    out = build_dir("sim") / f"{args.unit}_{args.preset}"
     out.mkdir(parents=True, exist_ok=True)
     (out / "report.json").write_text(json.dumps({"unit": args.unit, "preset": args.preset, **result}, indent=2))
     print(_table([("unit", f"{args.unit} ({args.preset})"), ("simulator", args.sim),
@@ -270,9 +271,9 @@ def sim_unit(args) -> int:
     return 0
 
 
-def main(argv=None) -> int:
-    from fxmodel.render import bound_args
-    ap = argparse.ArgumentParser(prog="python -m cosim.sim", description=__doc__.split("\n")[0])
+def add_arguments(ap: argparse.ArgumentParser) -> None:
+    """The command line (``bumpmap sim``, :mod:`tools.main`)."""
+    from host.render import bound_args
     ap.add_argument("--scene", default="tin-plane", help="scene name in scenes/ or a .toml path")
     ap.add_argument("--size", type=int, default=None, help="override the image size (square)")
     ap.add_argument("--cube-size", type=int, help="texels per reflectance-cube face edge (default: the preset's, 64 "
@@ -300,7 +301,9 @@ def main(argv=None) -> int:
                          "with WAVES=1)")
     ap.add_argument("--pattern", default="none", choices=list(PATTERNS),
                     help="gaps on the input valid and backpressure on the output ready (default: %(default)s)")
-    args = ap.parse_args(argv)
+
+
+def run(args: argparse.Namespace) -> int:
     try:
         args.sim = simulator(args.sim)
     except (ValueError, RuntimeError) as exc:
@@ -319,5 +322,8 @@ def main(argv=None) -> int:
     return sim_scene(args)
 
 
-if __name__ == "__main__":
-    raise SystemExit(main())
+def main(argv=None) -> int:
+    """``bumpmap sim`` called from Python (the co-simulation tests): parse ``argv`` and run."""
+    ap = argparse.ArgumentParser(prog="bumpmap sim", description=__doc__.split("\n")[0])
+    add_arguments(ap)
+    return run(ap.parse_args(argv))

@@ -4,7 +4,7 @@ The per-vector harness (:mod:`cosim.harness`) drives every input from Python and
 thousand vectors a second. Here Python never touches a vector inside the simulation:
 
 1. The golden model (``params.compute``) produces the expected outputs of a chunk of input vectors, and
-   :func:`fxmodel.vectors.write_words` writes inputs and expected outputs as binary words for ``$fread``
+   :func:`fxmodel.core.vectors.write_words` writes inputs and expected outputs as binary words for ``$fread``
    (the input payload then the output payload, each field where ``rtl.streams`` packs it, ``ceil(width / 8)``
    bytes a word; the wrapper's header comment documents the layout). When the run walks the whole input space
    in order (:class:`FullSpace`, inputs up to 64 bits) the wrapper counts the inputs itself (row ``i`` is the
@@ -35,11 +35,11 @@ as a zero-width pulse where possible (one time step a cycle instead of two: 1.3 
 -std=c++20``: the PyPI wheel's ``verilated.mk`` carries no coroutine flag). Icarus simulates the Yosys-optimized
 netlist of the unit, as :mod:`cosim.harness` does. Rates: Verilator about 1.45 million vectors/s (all 2**24
 inputs in 12 s); Icarus about 85 thousand a CPU second on the reciprocal without stalls, 20 thousand with valid
-and ready each high half the time (``python -m tools.bench --stream-only --sim icarus``), bound by Icarus 11
+and ready each high half the time (``bumpmap bench --stream-only --sim icarus``), bound by Icarus 11
 itself: every variable a procedural statement reads costs it a C++ ``dynamic_cast`` (about half its
 instructions), so the unit's netlist is written with every register in one clocked block
 (:func:`rtl.verilog.one_clocked_block`) and the wrapper reads its conditions from continuous assignments; the
-README's Speed section has the profile (``python -m tools.bench --icarus-profile UNIT``).
+README's Speed section has the profile (``bumpmap bench --icarus-profile UNIT``).
 
 Environment: ``SIM`` (``icarus`` default, or ``verilator``); ``WAVES=1`` dumps waveforms (slow: use short runs).
 """
@@ -59,15 +59,16 @@ from pathlib import Path
 
 import numpy as np
 
-from fxmodel.vectors import layout, write_words
+from fxmodel.core.paths import ROOT, build_dir
+from fxmodel.core.vectors import layout, write_words
 
-from .harness import ROOT, params_key, simulator, verilator_env
+from .harness import params_key, simulator, verilator_env
 
 __all__ = ["PATTERNS", "render", "Space", "FullSpace", "ProductSpace", "ArraySpace", "ConcatSpace", "full_space", "grid_space",
            "edge_codes", "as_space", "shard_range", "parse_pair", "parse_shard", "wrapper_verilog", "run_stream", "run_records",
            "measure_throughput", "StreamResult", "DEPTH", "CHUNK", "AHEAD", "BUILD", "RECORD_DEPTH"]
 
-BUILD = ROOT / "build" / "stream"
+BUILD = build_dir("stream")
 #: Words of the wrapper's vector memory (the largest chunk); fixed so every run reuses one build per unit.
 DEPTH = 1 << 20
 #: Default vectors per chunk.
@@ -107,7 +108,7 @@ class Space:
 
 
 class FullSpace(Space):
-    """Every input vector, in :meth:`fxmodel.unit.Unit.all_inputs` order (first port slowest)."""
+    """Every input vector, in :meth:`fxmodel.core.unit.Unit.all_inputs` order (first port slowest)."""
 
     def __init__(self, params):
         self.params = params
@@ -593,7 +594,7 @@ def _tail(path: Path, lines: int = 15) -> str:
 
 def _producer(params, space: Space, lo: int, chunks: list, counter: bool, job: Path, stop: threading.Event,
               errors: list, ahead: int = AHEAD):
-    """Write ``chunk_<k>.bin`` (inputs and the model's expected outputs, :func:`fxmodel.vectors.write_words`; the
+    """Write ``chunk_<k>.bin`` (inputs and the model's expected outputs, :func:`fxmodel.core.vectors.write_words`; the
     input fields zero in counter mode), at most ``ahead`` unchecked (``1``: chunk ``k + 1`` is computed only once
     the simulator has checked chunk ``k``, so the two never run at once)."""
     fields = _fields(params)

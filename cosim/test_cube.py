@@ -1,7 +1,7 @@
 """Co-simulation of the cube-map address RTL against the golden model, bit for bit (paper sections 2 and 4).
 
 Random directions at every scale, and the reflection unit's outputs fed to the cube unit (the chain of the
-pipeline). Every preset on the hard cases of ``fxmodel/cube.py`` (ties of two and three components with all signs,
+pipeline). Every preset on the hard cases of ``fxmodel/units/cube.py`` (ties of two and three components with all signs,
 corners, axis-aligned vectors, zero components, the most negative codes, minor = +-major, the zero vector) and
 random vectors: ``cosim/test_stress.py``.
 ``SIM=verilator`` runs the same tests on Verilator.
@@ -11,7 +11,7 @@ import numpy as np
 
 from cosim.conftest import assert_bit_exact
 from cosim.harness import run
-from fxmodel.unit import preset
+from fxmodel.core.unit import preset
 
 
 def test_cube_directions_at_every_scale(sim):

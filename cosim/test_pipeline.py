@@ -4,15 +4,15 @@ version of the pipeline under every stimulus pattern (gaps, backpressure, long s
 out and compared here too. Random fragments through the preset pipelines: ``cosim/test_stress.py``.
 """
 
-from pathlib import Path
+from fxmodel.core.paths import SCENES as SCENE_DIR
 
 import numpy as np
 import pytest
 
 from cosim.stream import PATTERNS, run_stream
-from fxmodel.render import prepare
+from host.render import prepare
 
-SCENES = sorted((Path(__file__).resolve().parents[1] / "scenes").glob("*.toml"))
+SCENES = sorted(SCENE_DIR.glob("*.toml"))
 
 
 @pytest.mark.parametrize("path", SCENES, ids=[p.stem for p in SCENES])
@@ -34,9 +34,9 @@ def _stream_equals_model(frame, sim):
 def _random_frames(first: int, count: int, size: int):
     """The first ``count`` random scenes from seed ``first`` on that the default preset draws (with fragments),
     prepared at ``size`` with 4-texel cube faces (a small Verilog build per scene)."""
-    from fxmodel.render import ClampError
-    from fxmodel.scene import parse_scene
-    from fxmodel.scenegen import random_scene
+    from host.render import ClampError
+    from host.scene import parse_scene
+    from host.scenegen import random_scene
     seed = first
     while count:
         scene = parse_scene(random_scene(np.random.default_rng(seed), size=size), source=f"seed {seed}")

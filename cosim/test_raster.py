@@ -6,9 +6,10 @@ triangles and the hard cases, with gaps on the input and backpressure on the out
 import numpy as np
 import pytest
 
+from fxmodel.core.paths import build_dir
 from cosim.raster import pack, run, unpack
 from cosim.stream import PATTERNS, run_records
-from fxmodel.raster import RasterParams, scan, setup
+from fxmodel.units.raster import RasterParams, scan, setup
 
 S = 256
 
@@ -72,11 +73,10 @@ def test_make_sim_from_triangles(sim):
     whole pipeline's netlist."""
     import json
 
-    from cosim.harness import ROOT
     from cosim.sim import main
     assert main(["--scene", "sphere", "--size", "24", "--cube-size", "8", "--input", "triangles",
                  "--sim", sim]) == 0
-    report = json.loads((ROOT / "build" / "sim" / "sphere-triangles" / "report.json").read_text())
+    report = json.loads((build_dir("sim") / "sphere-triangles" / "report.json").read_text())
     assert report["input"] == "triangles" and report["mismatches"] == 0 and report["rtl_clocks_match_model"]
     assert report["triangles"] > 100 and report["fragments"] > 200
 
@@ -86,11 +86,12 @@ def test_make_sim_from_triangles(sim):
 def test_engine_from_triangles_with_backpressure(sim, p_valid, p_ready):
     """The engine (scan converter -> pixel pipeline stream) on random triangles of the demo pipeline, with gaps
     on the records and backpressure on the colors: every output bit equal to the model, none lost or repeated."""
-    from fxmodel.pipeline import PipelineParams, TrianglePipelineParams
+    from fxmodel.pipeline.engine import EngineParams
+    from fxmodel.pipeline.pixel import PipelineParams
     pipe = PipelineParams.PRESETS["default"]
     raster = RasterParams.for_pipeline({"persp": pipe.persp, "bump": pipe.bump, "reflect": pipe.reflect})
     recs = hard_and_random(raster, 16, 12, 6, seed=5)
-    res = run(TrianglePipelineParams(raster=raster, pipeline=pipe), recs, p_valid=p_valid, p_ready=p_ready,
+    res = run(EngineParams(raster=raster, pipeline=pipe), recs, p_valid=p_valid, p_ready=p_ready,
               sim=sim, tag=f"engine_{p_valid}_{p_ready}")
     assert res["expected"] > 100 and res["mismatches"] == 0, res
     if p_valid == p_ready == 1.0:
@@ -99,7 +100,7 @@ def test_engine_from_triangles_with_backpressure(sim, p_valid, p_ready):
 
 def stream_records(params, records, **kw):
     """:func:`cosim.stream.run_records` of the model's records, outputs, counts and clocks (``params`` a
-    :class:`RasterParams` or a :class:`~fxmodel.pipeline.TrianglePipelineParams`)."""
+    :class:`RasterParams` or a :class:`~fxmodel.pipeline.engine.EngineParams`)."""
     mat = records.matrix()
     if isinstance(params, RasterParams):
         res = scan(params, mat)
@@ -169,11 +170,11 @@ def test_shards_draw_what_one_run_draws(sim):
 
 
 def test_engine_from_triangles_whole_path(sim):
-    """The whole engine (``TrianglePipeline``: scan converter and interpolators -> pixel pipeline) on a small
+    """The whole engine (``Engine``: scan converter and interpolators -> pixel pipeline) on a small
     scene from triangles with a steep bump map (every triangle's block exponent ``Ae = 2``), in the streaming
     harness without stalls and under the stall patterns: every output (``x, y``, bytes, flags) equal to the model,
     in order, none lost or extra; without stalls the scan converter is busy exactly the model's clocks."""
-    from fxmodel.render import from_triangles, prepare
+    from host.render import from_triangles, prepare
     tframe = from_triangles(prepare("tests/scenes/steep-sphere.toml", cube_size=8))
     assert tframe.records.codes["Ae"].min() == 2
     for pattern in ("none", ("bursts", "random", "stalls")):          # the second: one pattern a chunk

@@ -1,4 +1,4 @@
-"""Co-simulation of the raster-operations unit (``rtl/rop.py``) against :func:`fxmodel.rop.draw`: the final frame
+"""Co-simulation of the raster-operations unit (``rtl/rop.py``) against :func:`fxmodel.units.rop.draw`: the final frame
 decoded from the memory model's image, bit for bit, and the bus traffic, with random fragment gaps, memory
 latency from 1 to 20 cycles and random wait states on every AXI channel; the same-pixel hazard provoked in every
 order; and proof that these tests can fail (the hazard check disabled gives a different frame)."""
@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from cosim.rop import run
-from fxmodel.rop import STATUS_BITS, RopParams
+from fxmodel.units.rop import STATUS_BITS, RopParams
 
 SMALL = RopParams.PRESETS["small"]
 
@@ -134,7 +134,7 @@ def overlapping_records(raster, width, height, n, seed):
     """``n`` random triangles over a ``width x height`` viewport, overlapping each other (some drawn twice, so
     that equal depths meet), with ``Z`` and ``W`` in ``(0, 1]`` and the other attributes anywhere in their
     formats."""
-    from fxmodel.raster import setup
+    from fxmodel.units.raster import setup
     rng = np.random.default_rng(seed)
     S = raster.S
     X = rng.integers(-S, (width + 1) * S, (n, 3))
@@ -151,11 +151,12 @@ def overlapping_records(raster, width, height, n, seed):
 
 
 def engine_params(width, height, **rop):
-    from fxmodel.pipeline import PipelineParams, TrianglePipelineParams
-    from fxmodel.raster import RasterParams
+    from fxmodel.pipeline.engine import EngineParams
+    from fxmodel.pipeline.pixel import PipelineParams
+    from fxmodel.units.raster import RasterParams
     pipe = PipelineParams.PRESETS["default"]
     raster = RasterParams.for_pipeline({"persp": pipe.persp, "bump": pipe.bump, "reflect": pipe.reflect})
-    return TrianglePipelineParams(raster=raster, pipeline=pipe, rop=RopParams(
+    return EngineParams(raster=raster, pipeline=pipe, rop=RopParams(
         width=width, height=height, max_size=raster.max_size, z_in=raster.out_fmt("Z"), **rop))
 
 
@@ -165,7 +166,7 @@ def test_engine_with_depth_draws_the_models_frame(sim, latency, p_valid, p_pause
     """The engine from the triangle with its depth test behind the memory port, on overlapping random triangles:
     the frame read from the memory model equals the model's, and so does the bus traffic. ``make test`` runs the
     hard case (latency 20, input gaps, wait states on every channel); the netlist build (Yosys on the whole
-    pipeline) costs about a minute, once. The full-size overlapping scene: ``python -m cosim.sim --scene
+    pipeline) costs about a minute, once. The full-size overlapping scene: ``bumpmap sim --scene
     tin-sphere --input triangles --depth --latency 20 --wait-states 0.3``."""
     from cosim.rop import run_engine
     params = engine_params(16, 12)

@@ -17,8 +17,8 @@ from cosim.harness import run
 def test_banked_and_replicated_texel_memories(sim, shape, edge, banked):
     """The four-bank layout (by texel parity) and the replicated one, on map shapes that exercise the wraps,
     the clamps and the padding of odd sizes; the layout changes only the RTL, the model's sample is the rule."""
-    from fxmodel.fixed import Fmt
-    from fxmodel.sampler import SamplerParams, Texels
+    from fxmodel.core.fixed import Fmt
+    from fxmodel.units.sampler import SamplerParams, Texels
     rng = np.random.default_rng([*shape, len(edge)])
     coord = Fmt(True, 3, 12) if edge == "repeat" else Fmt(False, 1, 12)
     params = SamplerParams(texels=Texels(rng.integers(-512, 512, size=shape)), channels=(Fmt(True, 1, 9),) * 2,

@@ -14,9 +14,10 @@ import json
 import numpy as np
 import pytest
 
+from fxmodel.core.paths import build_dir
 from cosim.stream import (ArraySpace, ConcatSpace, ProductSpace, full_space, grid_space, measure_throughput,
                           parse_shard, run_stream, shard_range, wrapper_verilog)
-from fxmodel.unit import preset
+from fxmodel.core.unit import preset
 
 
 def broken_recip(params, entry: int, delta: int = 1):
@@ -182,11 +183,10 @@ def test_measure_throughput(sim):
 
 
 def test_sim_command_streams_a_unit_with_backpressure(sim):
-    """``python -m cosim.sim --unit``: the streaming harness under a stall pattern, the report written, exit 0."""
+    """``bumpmap sim --unit``: the streaming harness under a stall pattern, the report written, exit 0."""
     from cosim.sim import main
-    from cosim.harness import ROOT
     assert main(["--unit", "recip", "--preset", "small", "--vectors", "500", "--pattern", "stalls",
                  "--sim", sim]) == 0
-    report = json.loads((ROOT / "build" / "sim" / "recip_small" / "report.json").read_text())
+    report = json.loads((build_dir("sim") / "recip_small" / "report.json").read_text())
     assert report["vectors"] == len(preset("recip", "small").hard_cases()) + 500
     assert report["mismatches"] == 0 and report["missing"] == 0 and report["stalled"] > 0

@@ -26,7 +26,7 @@ import numpy as np
 import pytest
 
 from cosim.stream import PATTERNS, run_stream
-from fxmodel.unit import preset, preset_names, units
+from fxmodel.core.unit import preset, preset_names, units
 
 CASES = [(u, n) for u in units() for n in preset_names(u)]
 

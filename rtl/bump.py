@@ -4,8 +4,8 @@ from __future__ import annotations
 
 from amaranth.hdl import Module
 
-from fxmodel.bump import AXES, BumpParams
-from fxmodel.rounding import Overflow
+from fxmodel.units.bump import AXES, BumpParams
+from fxmodel.core.rounding import Overflow
 
 from .fixed import narrow
 from .unit import Pipe, UnitComponent, register
@@ -17,7 +17,7 @@ __all__ = ["Bump"]
 class Bump(UnitComponent):
     """Bump engine: six multipliers, three three-input adders, one narrowing per component.
 
-    Ports (formats from :class:`~fxmodel.bump.BumpParams`)
+    Ports (formats from :class:`~fxmodel.units.bump.BumpParams`)
     -----------------------------------------------------
     i_valid : Signal(1), in
     Nx, Ny, Nz : Signal(signed), in -- ``n_fmt``

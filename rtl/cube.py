@@ -1,13 +1,13 @@
 """RTL of the cube-map address unit (paper, sections 2 and 4): face by the major axis, ``s, t`` by division.
 
-Built from :class:`fxmodel.cube.CubeParams`; the datapath is the model's (see ``fxmodel/cube.py`` for the
+Built from :class:`fxmodel.units.cube.CubeParams`; the datapath is the model's (see ``fxmodel/units/cube.py`` for the
 algorithm, the OpenGL / Vulkan face table, the tie and zero-vector rules and the error bound). Fully pipelined,
 one result per clock.
 
 The two quotients ``a / ma`` and ``b / ma`` share one reciprocal of the signed major component: one
 :class:`~rtl.recip.Recip` (one ROM, ``t`` small multipliers) followed by two copies of the last two stages of
 :class:`~rtl.recip.Divide` (``n * mant``, then :func:`~rtl.recip.scale`: the barrel shift with half-up rounding),
-built from the same :class:`~fxmodel.recip.DivideParams`. Two ``Divide`` instances would give the same bits
+built from the same :class:`~fxmodel.units.recip.DivideParams`. Two ``Divide`` instances would give the same bits
 for twice the ROM and the reciprocal's multipliers. The divider's saturation and ``d = 0`` muxes are left out: ``|q| <= 1`` is proven,
 and ``d = 0`` comes only with ``n = 0`` (the zero vector), where the plain path already yields ``q = 0``.
 """
@@ -16,8 +16,8 @@ from __future__ import annotations
 
 from amaranth.hdl import Cat, Module, Mux
 
-from fxmodel.cube import FLIP_S, FLIP_T, CubeParams
-from fxmodel.rounding import Overflow
+from fxmodel.units.cube import FLIP_S, FLIP_T, CubeParams
+from fxmodel.core.rounding import Overflow
 
 from .fixed import saturate
 from .recip import scale_stages, times_reciprocal
@@ -30,7 +30,7 @@ __all__ = ["Cube"]
 class Cube(UnitComponent):
     """Cube-map face and ``(s, t)`` of a signed 3-vector.
 
-    Ports (formats from :class:`~fxmodel.cube.CubeParams`)
+    Ports (formats from :class:`~fxmodel.units.cube.CubeParams`)
     -----------------------------------------------------
     i_valid : Signal(1), in
     x, y, z : Signal(signed(n)), in -- ``in_fmt`` (``divide.recip.in_fmt``)

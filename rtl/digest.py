@@ -1,32 +1,18 @@
 """Cache keys shared by the build flows: a digest of the sources that turn a parameter object into Verilog.
 
 ``params_key(params)`` is the key ``cosim/harness.py`` uses for its build folders (same definition: the
-parameter object's ``repr`` plus every ``*.py`` of ``fxmodel/`` and ``rtl/``); the FPGA flow (``tools/fpga.py``)
+parameter object's ``repr`` plus every ``*.py`` below ``fxmodel/`` and ``rtl/``, :func:`fxmodel.core.paths.source_digest`); the FPGA flow (``tools/fpga.py``)
 uses it as its first-level cache key. A parameter object must have a deterministic, complete ``repr`` (frozen
 dataclasses do).
 """
 
 from __future__ import annotations
 
-import functools
 import hashlib
-from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
+from fxmodel.core.paths import source_digest
 
-__all__ = ["ROOT", "source_digest", "params_key", "text_key"]
-
-
-@functools.lru_cache(maxsize=None)
-def source_digest(folders=("fxmodel", "rtl")) -> bytes:
-    """SHA-1 of every ``*.py`` (name and contents, sorted) in ``folders`` under the repository root. Taken once
-    per process (as ``cosim/harness.py`` does), so a key names the code that was imported even if the files
-    change during a long run."""
-    h = hashlib.sha1()
-    for folder in folders:
-        for path in sorted((ROOT / folder).glob("*.py")):
-            h.update(path.name.encode() + path.read_bytes())
-    return h.digest()
+__all__ = ["params_key", "text_key"]
 
 
 def params_key(params, extra: str = "") -> str:

@@ -1,14 +1,14 @@
-"""RTL of the divider ``q = n / d`` (paper section 4.1), built from ``fxmodel.divide``'s parameters: the reciprocal
+"""RTL of the divider ``q = n / d`` (paper section 4.1), built from ``fxmodel.units.divide``'s parameters: the reciprocal
 unit's datapath (``rtl/recip.py``), ``n * mant``, a barrel shift, rounding and saturation, stage for stage as the
-model (``fxmodel/divide.py``). Fully pipelined, one result per clock.
+model (``fxmodel/units/divide.py``). Fully pipelined, one result per clock.
 """
 
 from __future__ import annotations
 
 from amaranth.hdl import Module, Mux
 
-from fxmodel.divide import DivideParams
-from fxmodel.rounding import Overflow
+from fxmodel.units.divide import DivideParams
+from fxmodel.core.rounding import Overflow
 
 from .fixed import saturate
 from .recip import scale_stages, times_reciprocal
@@ -21,7 +21,7 @@ __all__ = ["Divide"]
 class Divide(UnitComponent):
     """Divider ``q = n / d`` on the reciprocal unit.
 
-    Ports (formats from :class:`~fxmodel.divide.DivideParams`)
+    Ports (formats from :class:`~fxmodel.units.divide.DivideParams`)
     --------------------------------------------------------
     i_valid : Signal(1), in
     n : Signal(signed), in -- ``num_fmt``

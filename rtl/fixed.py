@@ -1,17 +1,17 @@
-"""Hardware side of :mod:`fxmodel.rounding`: the same narrowing rules as Amaranth expressions.
+"""Hardware side of :mod:`fxmodel.core.rounding`: the same narrowing rules as Amaranth expressions.
 
-Each function here has a twin of the same name in ``fxmodel/rounding.py``; a unit's RTL calls exactly the
-narrowings its model calls, with the same :class:`~fxmodel.rounding.Rounding` and
-:class:`~fxmodel.rounding.Overflow`, so review compares them line by line. Widths come from
-:class:`~fxmodel.fixed.Fmt`, never typed by hand.
+Each function here has a twin of the same name in ``fxmodel/core/rounding.py``; a unit's RTL calls exactly the
+narrowings its model calls, with the same :class:`~fxmodel.core.rounding.Rounding` and
+:class:`~fxmodel.core.rounding.Overflow`, so review compares them line by line. Widths come from
+:class:`~fxmodel.core.fixed.Fmt`, never typed by hand.
 """
 
 from __future__ import annotations
 
 from amaranth.hdl import Cat, Const, Mux, Shape, Value, signed, unsigned
 
-from fxmodel.fixed import Fmt
-from fxmodel.rounding import Overflow, Rounding
+from fxmodel.core.fixed import Fmt
+from fxmodel.core.rounding import Overflow, Rounding
 
 __all__ = ["shape", "shift_round", "saturate", "narrow", "const_mul"]
 

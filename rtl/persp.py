@@ -1,11 +1,11 @@
 """RTL of the perspective texture-coordinate unit ``s = U/W``, ``t = V/W`` (repeat-wrapped), from
-``fxmodel.persp.PerspParams``: one reciprocal, two products, two barrel shifts (``rtl.recip.scale``)."""
+``fxmodel.units.persp.PerspParams``: one reciprocal, two products, two barrel shifts (``rtl.recip.scale``)."""
 
 from __future__ import annotations
 
 from amaranth.hdl import Module, Mux
 
-from fxmodel.persp import PerspParams
+from fxmodel.units.persp import PerspParams
 
 from .recip import scale_stages, times_reciprocal
 from .unit import Pipe, UnitComponent, register
@@ -17,7 +17,7 @@ __all__ = ["Persp"]
 class Persp(UnitComponent):
     """Perspective-correct texture coordinates.
 
-    Ports (formats from :class:`~fxmodel.persp.PerspParams`)
+    Ports (formats from :class:`~fxmodel.units.persp.PerspParams`)
     -------------------------------------------------------
     i_valid : Signal(1), in
     U, V : Signal(signed), in -- ``uv_fmt``

@@ -1,6 +1,6 @@
 """RTL of the scan converter and attribute interpolators (paper, section 4 and Fig. 5), from
-:class:`fxmodel.raster.RasterParams`: triangle records in, one fragment per clock out, bit-exact with
-:func:`fxmodel.raster.scan`, clock count included.
+:class:`fxmodel.units.raster.RasterParams`: triangle records in, one fragment per clock out, bit-exact with
+:func:`fxmodel.units.raster.scan`, clock count included.
 
 Structure (see the model's docstring for the arithmetic and its proof). Every pipeline stage holds at most one
 carry chain or one product (the house rule of the pixel pipeline); only the row step feeds back.
@@ -14,15 +14,15 @@ carry chain or one product (the house rule of the pixel pipeline); only the row 
   chain from the input; the next record is taken in the clock the last row of the previous triangle is issued.
   Its control is registered (``last``: this row is the triangle's last; ``room``: the FIFO has a place), so
   the enables of its registers are one logic level from flip-flops.
-- **Span pipeline** (the rest of the Scan Line Initializer; :attr:`~fxmodel.raster.RasterParams.SPAN_STAGES`
+- **Span pipeline** (the rest of the Scan Line Initializer; :attr:`~fxmodel.units.raster.RasterParams.SPAN_STAGES`
   stages, nothing fed back): (1) each edge's bound relative to ``x0``, clamped to ``[0, x1 - x0]``, and whether
   it empties the row (``v - x0`` and ``v - x1 - 1`` side by side); (2) the span ``[L, R]`` (offsets from
   ``x0``) as the largest left and smallest right bound, from the three pairwise comparisons at once; (3)
   ``x0 + L``, ``R - L``, ``L <= R`` and, for every attribute, the partial products of ``a_x`` cut into
-  :meth:`~fxmodel.raster.RasterParams.dx_pieces` times ``L`` (one multiplier block each, registered before and
+  :meth:`~fxmodel.units.raster.RasterParams.dx_pieces` times ``L`` (one multiplier block each, registered before and
   after); (4, 5)
   the span start ``a(x0, y) + L a_x`` as two adder levels over the partial products, modulo ``2**N``.
-- **Row FIFO** (``amaranth.lib.fifo.SyncFIFO``, :attr:`~fxmodel.raster.RasterParams.ROW_FIFO_DEPTH` rows, LUT
+- **Row FIFO** (``amaranth.lib.fifo.SyncFIFO``, :attr:`~fxmodel.units.raster.RasterParams.ROW_FIFO_DEPTH` rows, LUT
   RAM, :func:`row_layout`): ``y``, ``x0 + L``, ``R - L``, whether the row is empty or one clock, every
   attribute's span start and ``a_x``, the triangle's constants. A credit counter (rows issued and not yet
   taken) lets the generator issue a row only when the FIFO has its place, so the span pipeline runs free, with
@@ -33,7 +33,7 @@ carry chain or one product (the house rule of the pixel pipeline); only the row 
 - **Per-triangle constants** (``params.consts``, the bump engine's block exponent ``Ae``): carried with every
   row, copied into every fragment of the triangle.
 - **Output**: each attribute rounded half-up (one register stage) and saturated to its output format, into
-  an output FIFO (:attr:`~fxmodel.raster.RasterParams.OUT_FIFO_DEPTH` fragments, LUT RAM) whose head is ``o``.
+  an output FIFO (:attr:`~fxmodel.units.raster.RasterParams.OUT_FIFO_DEPTH` fragments, LUT RAM) whose head is ``o``.
   The consumer's ``ready`` reaches only the FIFO's read side: the Pixel Calculator and the rounding stage move
   under ``advance``, a flip-flop that is high while the FIFO has a place for every fragment in flight, so
   nothing is lost or repeated and no long enable path runs from the consumer into the interpolators (on the
@@ -44,7 +44,7 @@ some 1 300; one net from one control flip-flop to all of them was the engine's c
 last hop 7.0 ns of routing). So each keeps its control state (the generator's ``gen_valid``, ``last_row``, rows
 in flight and ``room``; the Pixel Calculator's ``busy``, ``nonempty``, pixels left, ``last_px``, output places
 used and ``advance``) in identical copies, one per group of at most
-:attr:`~fxmodel.raster.RasterParams.ENABLE_FANOUT` register bits (the edges, the per-triangle values, three or
+:attr:`~fxmodel.units.raster.RasterParams.ENABLE_FANOUT` register bits (the edges, the per-triangle values, three or
 four attributes a group): each copy is a few flip-flops with its own feedback, which synthesis does not merge
 (two flip-flops with one input would be merged into one), and the placer puts each near its group. Copy 0 also
 drives the ports, the FIFOs and the span pipeline's valid.
@@ -53,19 +53,19 @@ drives the ports, the FIFOs and the span pipeline's valid.
 the sink is always ready the busy clocks are the model's ``clocks``. The generator runs ahead of the Pixel
 Calculator (by up to the FIFO's depth), so when the source never waits the rows follow one another with no
 clock between them, within and across triangles: after the fill latency
-(:attr:`~fxmodel.raster.RasterParams.latency` clocks from the first record to the first fragment) ``busy`` stays
+(:attr:`~fxmodel.units.raster.RasterParams.latency` clocks from the first record to the first fragment) ``busy`` stays
 high until the last row.
 """
 
 from __future__ import annotations
 
-from amaranth.hdl import Cat, Const, Module, Mux, Signal, signed, unsigned
+from amaranth.hdl import Cat, Const, Module, Mux, Signal, signed
 from amaranth.lib import data, stream, wiring
 from amaranth.lib.fifo import SyncFIFO
 from amaranth.lib.wiring import In, Out
 
-from fxmodel.raster import EDGE_LEFT, EDGE_RIGHT, RasterParams
-from fxmodel.rounding import Overflow, Rounding
+from fxmodel.units.raster import EDGE_LEFT, EDGE_RIGHT, RasterParams
+from fxmodel.core.rounding import Overflow, Rounding
 
 from .fixed import saturate, shape, shift_round
 from .streams import payload_layout

@@ -1,8 +1,8 @@
-"""RTL of the reciprocal unit (paper section 4.1), built from ``fxmodel.recip``'s parameters; its helpers
+"""RTL of the reciprocal unit (paper section 4.1), built from ``fxmodel.units.recip``'s parameters; its helpers
 (:func:`times_reciprocal`, :func:`scale_stages`) also serve the divider (``rtl/divide.py``) and the perspective
 and cube units.
 
-The datapath is the model's, stage for stage (see ``fxmodel/recip.py`` for the algorithm and error bound); the
+The datapath is the model's, stage for stage (see ``fxmodel/units/recip.py`` for the algorithm and error bound); the
 table ROM contents come from ``RecipParams.rom``. Fully pipelined, one result per clock.
 """
 
@@ -11,9 +11,9 @@ from __future__ import annotations
 from amaranth.hdl import Cat, Const, Module, Mux, Value
 from amaranth.lib.memory import Memory
 
-from fxmodel import cost
-from fxmodel.recip import RecipParams
-from fxmodel.rounding import Overflow, Rounding
+from fxmodel.core import cost
+from fxmodel.units.recip import RecipParams
+from fxmodel.core.rounding import Overflow, Rounding
 
 from .fixed import narrow, saturate, shift_round
 from .unit import Pipe, UnitComponent, register
@@ -23,7 +23,7 @@ __all__ = ["Recip", "scale", "scale_stages", "times_reciprocal", "leading_zeros"
 
 
 def pieces(x, limit: int = RecipParams.DSP_BITS) -> list[tuple[Value, int]]:
-    """``x`` as ``[(piece, shift)]`` with ``x = sum(piece << shift)``, cut where :func:`fxmodel.cost.pieces`
+    """``x`` as ``[(piece, shift)]`` with ``x = sum(piece << shift)``, cut where :func:`fxmodel.core.cost.pieces`
     says (the cost model counts the same pieces): unchanged if ``len(x) <= limit``, else ``limit - 1``-bit
     unsigned pieces from the bottom and a top piece of at most ``limit`` bits that keeps the sign. Every product
     of two pieces fits one ``limit x limit`` multiplier block."""
@@ -128,7 +128,7 @@ def scale_stages(pipe: Pipe, prods: dict, prod_frac: int, exp, recip: RecipParam
 
 
 def scale(prod, prod_frac: int, exp, recip: RecipParams, out_frac: int, rounding: Rounding):
-    """Twin of :meth:`fxmodel.recip.RecipParams.scale`: ``prod * 2**exp`` rounded to ``out_frac`` fraction bits
+    """Twin of :meth:`fxmodel.units.recip.RecipParams.scale`: ``prod * 2**exp`` rounded to ``out_frac`` fraction bits
     (pre-shift left, then a data-dependent right shift with rounding: a barrel shifter)."""
     pre, shift_min = recip.shift_plan(prod_frac, out_frac)
     amount = (shift_min + pre + recip.exp_fmt.max_code - exp).as_unsigned()
@@ -139,7 +139,7 @@ def scale(prod, prod_frac: int, exp, recip: RecipParams, out_frac: int, rounding
 class Recip(UnitComponent):
     """Reciprocal ``1/w = mant * 2**exp``.
 
-    Ports (formats from :class:`~fxmodel.recip.RecipParams`)
+    Ports (formats from :class:`~fxmodel.units.recip.RecipParams`)
     -------------------------------------------------------
     i_valid : Signal(1), in
     w : Signal(signed(n)), in -- ``in_fmt``
@@ -153,7 +153,7 @@ class Recip(UnitComponent):
     normalizing shift | table ROM read and ``d`` | ``q = B d`` | t - 2 Horner steps, each a product stage then an
     add stage | ``B g`` | add and round | renormalize and sign. Each stage holds at most one carry chain or one
     product
-    (ECP5 speed grade 8: about 150 MHz for ``default``, see ``python -m tools.fpga``).
+    (ECP5 speed grade 8: about 150 MHz for ``default``, see ``bumpmap fpga``).
     """
 
     def elaborate(self, platform):

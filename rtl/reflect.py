@@ -1,7 +1,7 @@
 """RTL of the reflection-vector unit ``R = 2 N (N.E) - E (N.N)`` (paper, section 2, EQ 1), block-normalized.
 
-Built from :class:`fxmodel.reflect.ReflectParams`; the datapath is the model's, stage for stage (see
-``fxmodel/reflect.py`` for the algorithm, the no-overflow proof and the error bound). Fully pipelined, one
+Built from :class:`fxmodel.units.reflect.ReflectParams`; the datapath is the model's, stage for stage (see
+``fxmodel/units/reflect.py`` for the algorithm, the no-overflow proof and the error bound). Fully pipelined, one
 result per clock.
 """
 
@@ -9,8 +9,8 @@ from __future__ import annotations
 
 from amaranth.hdl import Cat, Const, Module, Mux, Value
 
-from fxmodel.reflect import ReflectParams
-from fxmodel.rounding import Overflow, Rounding
+from fxmodel.units.reflect import ReflectParams
+from fxmodel.core.rounding import Overflow, Rounding
 
 from .fixed import narrow, saturate
 from .recip import leading_zeros
@@ -46,7 +46,7 @@ def _mul(P: ReflectParams, a, d):
 class Reflect(UnitComponent):
     """Reflection vector ``R = 2 N (N.E) - E (N.N)``, scaled by a common power of two and truncated.
 
-    Ports (formats from :class:`~fxmodel.reflect.ReflectParams`)
+    Ports (formats from :class:`~fxmodel.units.reflect.ReflectParams`)
     -----------------------------------------------------------
     i_valid : Signal(1), in
     Nx, Ny, Nz : Signal(signed(nN)), in -- ``n_fmt``

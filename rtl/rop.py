@@ -1,6 +1,6 @@
-"""RTL of the raster-operations unit (``fxmodel/rop.py``): per fragment read the pixel's stored depth, compare,
+"""RTL of the raster-operations unit (``fxmodel/units/rop.py``): per fragment read the pixel's stored depth, compare,
 and on pass write depth and color; the frame buffer behind an AXI4 master port or in block RAM (paper, section 4
-and Fig. 5: the engine's colors go to a frame buffer). Bit-exact with :func:`fxmodel.rop.draw`.
+and Fig. 5: the engine's colors go to a frame buffer). Bit-exact with :func:`fxmodel.units.rop.draw`.
 
 Why AXI4 and not Wishbone B4: AXI4 is what FPGA memory controllers (DDR, HBM) and interconnects speak, and its
 independent read and write channels let depth reads of later fragments run while earlier writes are in flight,
@@ -54,7 +54,7 @@ from amaranth.hdl import Array, Cat, Const, Module, Mux, Signal
 from amaranth.lib import memory, stream, wiring
 from amaranth.lib.wiring import In, Out
 
-from fxmodel.rop import DEPTH_BYTES, PIXEL_BYTES, STATUS_BITS, Z_OVERFLOW, Z_ROUNDING, RopParams, clear_frame
+from fxmodel.units.rop import DEPTH_BYTES, PIXEL_BYTES, STATUS_BITS, Z_OVERFLOW, Z_ROUNDING, RopParams, clear_frame
 
 from .fixed import const_mul, narrow
 from .streams import payload_layout
@@ -132,7 +132,7 @@ class Rop(wiring.Component):
         ``data`` Out(``word_bits``): the word of the address given one cycle earlier
     busy : Out(1) -- a fragment accepted and not yet finished (its write not acknowledged, or it failed)
     status : Out(3) -- sticky: bit 0 a fragment outside the frame was dropped, bit 1 a depth saturated (the
-        narrowing to ``z_fmt``), bit 2 an AXI error response (``fxmodel.rop.STATUS_BITS``)
+        narrowing to ``z_fmt``), bit 2 an AXI error response (``fxmodel.units.rop.STATUS_BITS``)
     """
 
     def __init__(self, params: RopParams):

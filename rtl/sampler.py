@@ -1,4 +1,4 @@
-"""RTL of the texture sampler (repeat/clamp, nearest/bilinear) from ``fxmodel.sampler.SamplerParams``.
+"""RTL of the texture sampler (repeat/clamp, nearest/bilinear) from ``fxmodel.units.sampler.SamplerParams``.
 
 The texels are Amaranth ``Memory`` blocks initialised from the model's packed words: for bilinear filtering
 four banks by texel parity with one read port each (``SamplerParams.banked``, ``bank_words``; the map stored
@@ -10,8 +10,8 @@ from __future__ import annotations
 
 from amaranth.hdl import Const, Module, Mux
 
-from fxmodel.rounding import Overflow, Rounding
-from fxmodel.sampler import SamplerParams
+from fxmodel.core.rounding import Overflow, Rounding
+from fxmodel.units.sampler import SamplerParams
 from amaranth.lib.memory import Memory
 
 from .fixed import const_mul, narrow
@@ -25,7 +25,7 @@ __all__ = ["Sampler"]
 class Sampler(UnitComponent):
     """Texture sampler.
 
-    Ports (formats from :class:`~fxmodel.sampler.SamplerParams`)
+    Ports (formats from :class:`~fxmodel.units.sampler.SamplerParams`)
     -----------------------------------------------------------
     i_valid : Signal(1), in
     face : Signal(unsigned(3)), in -- only for a cube map (6 faces), 0..5
@@ -35,7 +35,7 @@ class Sampler(UnitComponent):
     <names> : Signal(channel format), out -- one per channel (``channels``), e.g. ``du, dv`` in ``bump.d_fmt`` or
         ``r, g, b``
 
-    Edge rules ``repeat``, ``clamp`` and ``border`` (see ``fxmodel/sampler.py``).
+    Edge rules ``repeat``, ``clamp`` and ``border`` (see ``fxmodel/units/sampler.py``).
 
     Latency ``params.latency``: 11 for bilinear (13 banked), 5 for nearest. Stages: edge rule and scaled position
     | indices, weights and wraps | texel address | memory read (the block RAM's output register) | [bank words
@@ -44,7 +44,7 @@ class Sampler(UnitComponent):
     Each stage holds at most one carry chain or one product (a product wider than one 18 x 18 block as
     registered partial products, summed in the next stage's adder), and every multiplier block has a register on each
     side (ECP5: the pixel pipeline uses most of the device's MULT18X18D, so blocks sit far from their logic and
-    routing to and from them costs about 4 ns each way; ``python -m tools.fpga``). Constant products (map sizes)
+    routing to and from them costs about 4 ns each way; ``bumpmap fpga``). Constant products (map sizes)
     are shift-and-add (:func:`~rtl.fixed.const_mul`), not multiplier blocks.
     """
 

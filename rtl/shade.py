@@ -1,11 +1,11 @@
-"""RTL of the shading unit ``o = b D + S`` per channel, saturated to a byte (``fxmodel.shade.ShadeParams``)."""
+"""RTL of the shading unit ``o = b D + S`` per channel, saturated to a byte (``fxmodel.units.shade.ShadeParams``)."""
 
 from __future__ import annotations
 
 from amaranth.hdl import Module
 
-from fxmodel.rounding import Overflow, Rounding
-from fxmodel.shade import RGB, ShadeParams
+from fxmodel.core.rounding import Overflow, Rounding
+from fxmodel.units.shade import RGB, ShadeParams
 
 from .fixed import narrow
 from .unit import Pipe, UnitComponent, register
@@ -17,7 +17,7 @@ __all__ = ["Shade"]
 class Shade(UnitComponent):
     """Shading.
 
-    Ports (formats from :class:`~fxmodel.shade.ShadeParams`)
+    Ports (formats from :class:`~fxmodel.units.shade.ShadeParams`)
     -------------------------------------------------------
     i_valid : Signal(1), in
     tr, tg, tb : Signal(unsigned(8)), in -- ``tex_fmt``

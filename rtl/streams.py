@@ -4,7 +4,7 @@ Every unit's RTL (``rtl/<unit>.py``) is a flat pipeline: ``i_valid`` plus one po
 port per output, ``params.latency`` cycles later, one result per clock, and nothing can make it wait. The paper's
 pipeline (section 4) takes one fragment per clock from the scan converter; whatever sits at either end on an FPGA
 (a rasterizer with gaps, a frame-buffer port that is sometimes busy) needs the valid/ready handshake.
-:class:`StreamUnit` gives any unit (and :class:`~rtl.pipeline.Pipeline`) that handshake:
+:class:`StreamUnit` gives any unit (and :class:`~rtl.pixel.Pipeline`) that handshake:
 
 - ``i``: ``In(stream.Signature(input_layout(params, side)))``, ``o``: ``Out(stream.Signature(output_layout(params,
   side)))``. The payloads are :class:`~amaranth.lib.data.StructLayout` views with one field per

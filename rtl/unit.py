@@ -104,7 +104,7 @@ def component_class(params) -> type:
     """The registered RTL component class of a parameter object (``ValueError`` if it has none)."""
     import importlib
 
-    # the RTL of a unit lives under its model's file stem: fxmodel/recip.py -> rtl/recip.py
+    # the RTL of a unit lives under its model's file stem: fxmodel/units/recip.py -> rtl/recip.py
     stem = type(params).__module__.rpartition(".")[2]
     try:
         importlib.import_module(f"{__package__}.{stem}")

@@ -1,11 +1,11 @@
-"""``fxmodel/rounding.py`` against an outside oracle: apytypes, a well-kept fixed-point library.
+"""``fxmodel/core/rounding.py`` against an outside oracle: apytypes, a well-kept fixed-point library.
 
 Every rounding and overflow mode the project has, mapped to apytypes' by the one table in
-``fxmodel/apy_oracle.py`` (its docstring says why each mapping is right), must give bit-identical codes and flags:
+``fxmodel/units/apy_oracle.py`` (its docstring says why each mapping is right), must give bit-identical codes and flags:
 on single narrowings of any format pair (signed, unsigned, narrowing the fraction or the integer bits, ties next
 to even and odd codes), on products and sums narrowed as the units do (apytypes doing the arithmetic too), on the
 bump and shade units' own narrowings over their presets, on the host's float quantization and on the barrel
-shifter's data-dependent shift. Where the two disagree, exact integer math (:mod:`fxmodel.exact`) says which one is
+shifter's data-dependent shift. Where the two disagree, exact integer math (:mod:`fxmodel.units.exact`) says which one is
 wrong, in the failure message.
 """
 
@@ -18,11 +18,11 @@ import pytest
 from apytypes import APyFixedArray, OverflowMode, QuantizationMode
 from hypothesis import given, strategies as st
 
-from fxmodel.apy_oracle import QUANTIZATION, codes_of, narrow_apy, to_apy
-from fxmodel.exact import narrow_exact, round_exact
-from fxmodel.fixed import Fmt
-from fxmodel.rounding import Overflow, Rounding, narrow, quantize, shift_round
-from fxmodel.unit import preset, preset_names
+from fxmodel.units.apy_oracle import QUANTIZATION, codes_of, narrow_apy, to_apy
+from fxmodel.units.exact import narrow_exact, round_exact
+from fxmodel.core.fixed import Fmt
+from fxmodel.core.rounding import Overflow, Rounding, narrow, quantize, shift_round
+from fxmodel.core.unit import preset, preset_names
 
 
 

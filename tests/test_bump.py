@@ -1,4 +1,4 @@
-"""Bump engine model (fxmodel.bump) against exact rational math: bound, saturation, hard cases."""
+"""Bump engine model (fxmodel.units.bump) against exact rational math: bound, saturation, hard cases."""
 
 from fractions import Fraction
 
@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 from hypothesis import given, strategies as st
 
-from fxmodel.bump import BumpParams
-from fxmodel.fixed import Fmt
-from fxmodel.rounding import Rounding
-from fxmodel.unit import preset
+from fxmodel.units.bump import BumpParams
+from fxmodel.core.fixed import Fmt
+from fxmodel.core.rounding import Rounding
+from fxmodel.core.unit import preset
 
 P = preset("bump")
 

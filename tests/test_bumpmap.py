@@ -1,24 +1,23 @@
-"""Bump maps, quantization, color textures and the matrix A (fxmodel.bumpmap) against exact math."""
+"""Bump maps, quantization, color textures and the matrix A (host.bumpmap) against exact math."""
 
 import math
 from fractions import Fraction
-from pathlib import Path
 
 import numpy as np
 import pytest
 from hypothesis import assume, given, strategies as st
 from PIL import Image
 
-from fxmodel.bump import BumpParams
-from fxmodel.bumpmap import (checker, chiselled_text, color_texture, graffiti, heights_from_image, material_maps,
+from fxmodel.units.bump import BumpParams
+from host.bumpmap import (checker, chiselled_text, color_texture, graffiti, heights_from_image, material_maps,
                              mexican_hat, perturbations, quantize, scene_maps, tangent_frame, triangle_matrix)
-from fxmodel.fixed import Fmt
-from fxmodel.rounding import Overflow, Rounding
-from fxmodel.meshes import quad_mesh
-from fxmodel.scene import ColorSpec, load_scene
+from fxmodel.core.fixed import Fmt
+from fxmodel.core.rounding import Overflow, Rounding
+from host.meshes import quad_mesh
+from host.scene import ColorSpec, load_scene
 
 D = BumpParams().d_fmt                       # the bump engine's default
-SCENES = Path(__file__).resolve().parent.parent / "scenes"
+from fxmodel.core.paths import SCENES
 
 
 # -- central differences -----------------------------------------------------------------------------------

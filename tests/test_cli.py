@@ -1,4 +1,4 @@
-"""The golden model's command line (python -m fxmodel) and the $readmemh vector files."""
+"""The golden model's command line (bumpmap) and the $readmemh vector files."""
 
 import json
 import subprocess
@@ -8,14 +8,14 @@ import numpy as np
 import pytest
 from hypothesis import given, strategies as st
 
-from tools.cli import main
-from fxmodel.fixed import Fmt
-from fxmodel.unit import preset
-from fxmodel.vectors import read_readmemh, write_readmemh
+from tools.main import main
+from fxmodel.core.fixed import Fmt
+from fxmodel.core.unit import preset
+from fxmodel.core.vectors import read_readmemh, write_readmemh
 
 
 def run_cli(*args):
-    return subprocess.run([sys.executable, "-m", "fxmodel", *args], capture_output=True, text=True)
+    return subprocess.run([sys.executable, "-m", "tools", *args], capture_output=True, text=True)
 
 
 def test_info_recip_reports_formats_and_bound():
@@ -122,8 +122,8 @@ def test_readmemh_round_trip(tmp_path_factory, rows):
 
 
 def test_render_from_triangles(tmp_path, capsys):
-    """``python -m fxmodel render --triangles``: the frame the engine draws, judged, with the fragments' beside it."""
-    from tools.cli import main
+    """``bumpmap render --triangles``: the frame the engine draws, judged, with the fragments' beside it."""
+    from tools.main import main
     assert main(["render", "tests/scenes/steep-sphere.toml", str(tmp_path / "t.png"), "--triangles",
                  "--cube-size", "8"]) == 0
     rep = json.loads(capsys.readouterr().out)

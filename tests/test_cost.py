@@ -1,4 +1,4 @@
-"""The cost model (``fxmodel/cost.py``): the declared products and memories are the ones the RTL builds, the
+"""The cost model (``fxmodel/core/cost.py``): the declared products and memories are the ones the RTL builds, the
 tiling reassembles every operand exactly, and the estimate matches the recorded ECP5 counts."""
 
 from __future__ import annotations
@@ -11,9 +11,9 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from fxmodel import cost
-from fxmodel.cost import Memory, Product
-from fxmodel.unit import preset, preset_names, units
+from fxmodel.core import cost
+from fxmodel.core.cost import Memory, Product
+from fxmodel.core.unit import preset, preset_names, units
 
 UNIT_PRESETS = [(u, n) for u in units() if u != "pipeline" for n in preset_names(u)]
 
@@ -179,8 +179,8 @@ def test_bram_estimate_counts_blocks_copies_and_memories_in_logic():
 
     import numpy as np
 
-    from fxmodel.fixed import Fmt
-    from fxmodel.sampler import SamplerParams, Texels
+    from fxmodel.core.fixed import Fmt
+    from fxmodel.units.sampler import SamplerParams, Texels
 
     def blocks(sampler):
         return cost.bram_blocks(sampler.memories())
@@ -199,7 +199,7 @@ def test_bram_estimate_counts_blocks_copies_and_memories_in_logic():
     assert blocks(tiny) == 0
 
 
-# -- the estimate against the recorded ECP5 counts (docs/fpga/resources.json, `python -m tools.fpga --record`) --
+# -- the estimate against the recorded ECP5 counts (docs/fpga/resources.json, `bumpmap fpga --record`) --
 #: Largest relative difference allowed when the record states a reason.
 TOLERANCE = 0.10
 
@@ -208,7 +208,7 @@ def recorded_designs():
     """Every unit preset (``make fpga``), and the pipeline and the engine from the triangle that ``make fpga``
     places with a scene."""
     from tools.fpga import design_list
-    return design_list() + design_list(["pipeline", "raster_pipeline"], ["tin-plane-fit"], scene="tin-plane")
+    return design_list() + design_list(["pipeline", "engine"], ["tin-plane-fit"], scene="tin-plane")
 
 
 @pytest.fixture(scope="module")
@@ -224,7 +224,7 @@ def resources():
 def test_estimate_matches_the_synthesized_count(label, params, resources):
     from tools.fpga import design_key, params_digest
 
-    rerun = ("re-record: python -m tools.fpga --synth-only --record docs/fpga/resources.json"
+    rerun = ("re-record: bumpmap fpga --synth-only --record docs/fpga/resources.json"
              + (f" --scene {label['scene']} --preset {label['preset']}" if "scene" in label else ""))
     rec = resources.get(design_key(label))
     assert rec is not None, f"{label}: no recorded count; {rerun}"
@@ -241,7 +241,7 @@ def test_estimate_matches_the_synthesized_count(label, params, resources):
 def test_rop_declares_what_its_rtl_builds(name):
     """The raster-operations unit: no product (the pixel address is shifted copies of ``y``); on chip, the frame
     buffer memory."""
-    from fxmodel.rop import RopParams
+    from fxmodel.units.rop import RopParams
     P = RopParams.PRESETS[name]
     assert built(P) == declared(P)
     assert bool(P.memories()) == P.on_chip
@@ -250,13 +250,13 @@ def test_rop_declares_what_its_rtl_builds(name):
 def test_scan_converter_and_engine_declare_what_the_rtl_builds():
     """The scan converter's span-start products (one per attribute), and the engine from the triangle's whole
     count (scan converter plus pixel pipeline), through the same census as every unit."""
-    from fxmodel.pipeline import TrianglePipelineParams
-    from fxmodel.raster import RasterParams
+    from fxmodel.pipeline.engine import EngineParams
+    from fxmodel.units.raster import RasterParams
     for name in RasterParams.PRESETS:
         R = RasterParams.PRESETS[name]
         assert built(R) == declared(R) and R.cost()["dsp"] > 0 and R.cost()["bram"] == 0
     P = preset("pipeline")
-    E = TrianglePipelineParams(raster=RasterParams.for_pipeline(
+    E = EngineParams(raster=RasterParams.for_pipeline(
         {"persp": P.persp, "bump": P.bump, "reflect": P.reflect}), pipeline=P)
     assert built(E) == declared(E)
     assert E.cost()["dsp"] == E.raster.cost()["dsp"] + P.cost()["dsp"]

@@ -13,13 +13,13 @@ import pytest
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
-from fxmodel import exact
-from tools import cli
-from fxmodel.cube import FLIP_S, FLIP_T, CubeParams
-from fxmodel.fixed import Fmt
-from fxmodel.divide import DivideParams
-from fxmodel.recip import RecipParams
-from fxmodel.unit import preset
+from tools.main import main as bumpmap
+from fxmodel.units import exact
+from fxmodel.units.cube import FLIP_S, FLIP_T, CubeParams
+from fxmodel.core.fixed import Fmt
+from fxmodel.units.divide import DivideParams
+from fxmodel.units.recip import RecipParams
+from fxmodel.core.unit import preset
 
 PRESETS = ["default", "small"]
 
@@ -282,13 +282,13 @@ def test_ports_and_latency():
 
 
 def test_cli_info_and_eval(tmp_path, capsys):
-    assert cli.main(["info", "cube"]) == 0
+    assert bumpmap(["info", "cube"]) == 0
     info = json.loads(capsys.readouterr().out)
     assert set(info["max_error"]) == {"face", "s", "t", "degenerate"}
     assert info["max_error"]["s"] == pytest.approx(float(preset("cube").st_bound))
     vals = np.array([[0.5, 0.25, -0.125], [0, 0, 0], [-1, 0.5, 0.5]])
     np.save(tmp_path / "in.npy", vals)
-    assert cli.main(["eval", "cube", str(tmp_path / "in.npy"), str(tmp_path / "out.npy")]) == 0
+    assert bumpmap(["eval", "cube", str(tmp_path / "in.npy"), str(tmp_path / "out.npy")]) == 0
     out = np.load(tmp_path / "out.npy")
     assert out.shape == (3, 4)
     # +x face: s = (-z/x + 1)/2 = 0.625, t = (-y/x + 1)/2 = 0.25

@@ -1,4 +1,4 @@
-"""The documented depth precision (fxmodel/raster.py, "Depth"; docs/design.md, "Depth"): two surfaces whose exact
+"""The documented depth precision (fxmodel/units/raster.py, "Depth"; docs/design.md, "Depth"): two surfaces whose exact
 depths ``Z = near / w_c`` at a shared pixel differ by more than ``RasterParams.depth_precision()`` get fixed-point
 codes ordered the same way, checked against exact rational planes (fractions), on pairs of triangles built to
 cross or nearly coincide so that the gaps fall around the threshold."""
@@ -10,7 +10,7 @@ import numpy as np
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from fxmodel.raster import RasterParams, scan, setup
+from fxmodel.units.raster import RasterParams, scan, setup
 
 DEFAULT = RasterParams.PRESETS["default"]
 #: The default preset's Z alone: the same format, viewport limit and guard bits, so the same bound.

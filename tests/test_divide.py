@@ -1,4 +1,4 @@
-"""Divider golden model (fxmodel.divide) against exact rational math: within its documented bound or saturated
+"""Divider golden model (fxmodel.units.divide) against exact rational math: within its documented bound or saturated
 toward the exact quotient, exact quotients of one, the bound measure, bad parameters.
 """
 
@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 from hypothesis import given, strategies as st
 
-from fxmodel import exact
-from fxmodel.divide import DivideParams
-from fxmodel.fixed import Fmt
-from fxmodel.unit import preset
+from fxmodel.units import exact
+from fxmodel.units.divide import DivideParams
+from fxmodel.core.fixed import Fmt
+from fxmodel.core.unit import preset
 
 DIV = preset("divide", "default")
 

@@ -1,4 +1,4 @@
-"""Preset files and ``python -m fxmodel fit`` (scene-driven word lengths)."""
+"""Preset files and ``bumpmap fit`` (scene-driven word lengths)."""
 
 from __future__ import annotations
 
@@ -7,13 +7,13 @@ import json
 
 import pytest
 
-from tools import cli
-from fxmodel.presets import PresetError, load_preset, preset_path, write_preset
+from tools.main import main as bumpmap
+from fxmodel.pipeline.presets import PresetError, load_preset, preset_path, write_preset
 from tools.fit import KNOB_STEPS, fit, knobs_of, units_of
-from fxmodel.fixed import Fmt
-from fxmodel.presets import BUILTIN_PRESET_UNITS, PRESET_UNITS, TOP_KEYS, preset_units
-from fxmodel.reference import max_lsb
-from fxmodel.render import from_triangles, prepare, render
+from fxmodel.core.fixed import Fmt
+from fxmodel.pipeline.presets import BUILTIN_PRESET_UNITS, PRESET_UNITS, TOP_KEYS, preset_units
+from host.reference import max_lsb
+from host.render import from_triangles, prepare, render
 
 SCENE = "scenes/tin-plane.toml"
 DEFAULT = BUILTIN_PRESET_UNITS["default"]
@@ -110,7 +110,7 @@ def test_not_toml_is_named(presets):
 def test_unknown_preset_errors_clearly(presets, capsys):
     with pytest.raises(KeyError, match="unknown pipeline preset 'nope'.*nope.toml"):
         PRESET_UNITS["nope"]
-    assert cli.main(["render", SCENE, str(presets / "x.png"), "--size", "16", "--preset", "nope"]) == 2
+    assert bumpmap(["render", SCENE, str(presets / "x.png"), "--size", "16", "--preset", "nope"]) == 2
     assert "unknown pipeline preset 'nope'" in capsys.readouterr().err
 
 
@@ -146,7 +146,7 @@ def test_fit_small_scene_stays_within_bound_and_shrinks(presets, monkeypatch):
 
 
 def test_fit_cli_writes_preset_and_json(presets, capsys):
-    assert cli.main(["fit", SCENE, "--max-lsb", "4", "--size", "0", "--passes", "1", "--quiet", "--name", "c",
+    assert bumpmap(["fit", SCENE, "--max-lsb", "4", "--size", "0", "--passes", "1", "--quiet", "--name", "c",
                      "--out", str(presets / "out"), "--scene-size", "32"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["path"] == str(preset_path("c", presets / "out"))

@@ -1,15 +1,14 @@
-"""Formats (fxmodel.fixed) and rounding/overflow rules (fxmodel.rounding) against exact rational math."""
+"""Formats (fxmodel.core.fixed) and rounding/overflow rules (fxmodel.core.rounding) against exact rational math."""
 
 from fractions import Fraction
-import math
 
 import numpy as np
 import pytest
 from hypothesis import given, strategies as st
 
-from fxmodel.exact import round_exact
-from fxmodel.fixed import Fmt
-from fxmodel.rounding import Overflow, Rounding, narrow, saturate, shift_round
+from fxmodel.units.exact import round_exact
+from fxmodel.core.fixed import Fmt
+from fxmodel.core.rounding import Overflow, Rounding, narrow, saturate, shift_round
 
 fmts = st.one_of(st.builds(Fmt, st.just(True), st.integers(2, 20), st.integers(0, 30)),
                  st.builds(Fmt, st.just(False), st.integers(1, 20), st.integers(0, 30)))
@@ -104,7 +103,7 @@ def test_rounding_arguments_are_typed():
 @given(st.lists(st.floats(-300, 300, allow_nan=False), min_size=1, max_size=30),
        st.sampled_from(list(Rounding)))
 def test_quantize_matches_exact_rounding_and_saturates(values, mode):
-    from fxmodel.rounding import quantize
+    from fxmodel.core.rounding import quantize
     f = Fmt(True, 8, 6)
     codes, flag = quantize(np.array(values), f, mode, Overflow.SATURATE)
     for v, c, fl in zip(values, codes.tolist(), flag.tolist()):
@@ -113,13 +112,13 @@ def test_quantize_matches_exact_rounding_and_saturates(values, mode):
 
 
 def test_quantize_refuses_non_finite():
-    from fxmodel.rounding import quantize
+    from fxmodel.core.rounding import quantize
     with pytest.raises(ValueError, match="tex: row 1"):
         quantize(np.array([0.0, np.inf]), Fmt(True, 8, 6), Rounding.HALF_UP, Overflow.SATURATE, "tex")
 
 
 def test_quantize_rounds_once():
-    from fxmodel.rounding import quantize
+    from fxmodel.core.rounding import quantize
     codes, _ = quantize(np.array([0.49999999999999994, 0.5, -0.5, 2.5, 3.5]), Fmt(True, 8, 0), Rounding.HALF_UP,
                         Overflow.SATURATE)
     assert codes.tolist() == [0, 1, 0, 3, 4]

@@ -8,7 +8,8 @@ import json
 
 import pytest
 
-from fxmodel.unit import preset
+from tools.main import main as bumpmap
+from fxmodel.core.unit import preset
 from tools import fpga
 
 
@@ -103,10 +104,10 @@ def test_cache_reruns_nothing_and_keys_on_the_verilog(tmp_path, monkeypatch):
 
 
 def test_cli_rejects_unknown_units_and_writes_both_reports(tmp_path, monkeypatch, capsys):
-    assert fpga.main(["--unit", "nounit", "--out", str(tmp_path)]) == 2
+    assert bumpmap(["fpga", "--unit", "nounit", "--out", str(tmp_path)]) == 2
     assert "unknown unit 'nounit'" in capsys.readouterr().err
     monkeypatch.setattr(fpga, "_run_tools", lambda rdir, top, settings: fpga.parse_results(REPORT, STAT))
-    assert fpga.main(["--unit", "recip", "--preset", "small", "--out", str(tmp_path)]) == 0
+    assert bumpmap(["fpga", "--unit", "recip", "--preset", "small", "--out", str(tmp_path)]) == 0
     report = json.loads((tmp_path / "report.json").read_text())
     (rec,) = report["designs"]
     assert rec["unit"] == "recip" and rec["preset"] == "small" and rec["LUT4"] == 632 and rec["met"] is False
@@ -124,14 +125,14 @@ def test_synth_only_records_counts_beside_the_estimate(tmp_path, monkeypatch, ca
 
     monkeypatch.setattr(fpga, "_run_tools", fake_yosys)
     out, record = tmp_path / "out", tmp_path / "resources.json"
-    assert fpga.main(["--unit", "recip", "--preset", "small", "--synth-only", "--record", str(record),
+    assert bumpmap(["fpga", "--unit", "recip", "--preset", "small", "--synth-only", "--record", str(record),
                       "--out", str(out)]) == 0
     (rec,) = json.loads((out / "report.json").read_text())["designs"]
     small = preset("recip", "small")
     assert rec["DSP"] == 3 and rec["estimate"] == {"DSP": small.cost()["dsp"], "BRAM": 0} and rec["met"] is None
     assert "| recip | small | | | 3 / 3 | 0 / 0 | | 150 | synthesized only |" in (out / "report.md").read_text()
     counts["recip"] = 2                                              # a count that disagrees, another design
-    assert fpga.main(["--unit", "recip", "--preset", "rcp24", "--synth-only", "--record", str(record),
+    assert bumpmap(["fpga", "--unit", "recip", "--preset", "rcp24", "--synth-only", "--record", str(record),
                       "--out", str(out)]) == 0
     assert "without a known reason: recip/rcp24" in capsys.readouterr().out
     designs = {fpga.design_key(d): d for d in json.loads(record.read_text())["designs"]}
@@ -149,8 +150,8 @@ def test_a_failed_tool_is_reported_not_cached(tmp_path, monkeypatch):
 
 # -- the pipeline with a scene's tables (fitted or built-in pipeline presets) ------------------------------------------
 def test_design_list_with_a_scene_is_the_pipeline_of_that_preset_and_scene():
-    from fxmodel.presets import PRESET_UNITS
-    from fxmodel.render import pipeline_params, prepare
+    from fxmodel.pipeline.presets import PRESET_UNITS
+    from host.render import pipeline_params, prepare
 
     (fit_design, default_design) = fpga.design_list(["pipeline"], ["tin-plane-fit", "default"], scene="tin-plane")
     label, params = fit_design
@@ -164,9 +165,9 @@ def test_design_list_with_a_scene_is_the_pipeline_of_that_preset_and_scene():
     assert fpga.design_list(["pipeline"], None, scene="tin-plane")[0][0]["preset"] == "default"
     # without --unit: the pipeline and the engine from the triangle in front of it (its scan converter from the
     # preset's units, raster_guard included)
-    from fxmodel.render import raster_params
+    from host.render import raster_params
     both = fpga.design_list(None, ["tin-plane-fit"], scene="tin-plane")
-    assert [d[0]["unit"] for d in both] == ["pipeline", "raster_pipeline"]
+    assert [d[0]["unit"] for d in both] == ["pipeline", "engine"]
     engine = both[1][1]
     assert engine.pipeline == params and engine.raster == raster_params(units)
 
@@ -178,7 +179,7 @@ def test_design_list_with_a_scene_is_the_pipeline_of_that_preset_and_scene():
     (["--preset", "tin-plane-fit"], "tin-plane-fit: a pipeline preset, whose memories come from a scene"),
 ])
 def test_cli_scene_errors_are_named(tmp_path, capsys, args, message):
-    assert fpga.main([*args, "--out", str(tmp_path)]) == 2
+    assert bumpmap(["fpga", *args, "--out", str(tmp_path)]) == 2
     assert message in capsys.readouterr().err
 
 
@@ -191,9 +192,9 @@ def test_cli_measures_the_pipeline_of_a_fitted_preset_and_scene(tmp_path, monkey
         return fpga.parse_results(REPORT, STAT)
 
     monkeypatch.setattr(fpga, "_run_tools", fake_tools)
-    assert fpga.main(["--scene", "tin-plane", "--preset", "tin-plane-fit", "--out", str(tmp_path)]) == 0
+    assert bumpmap(["fpga", "--scene", "tin-plane", "--preset", "tin-plane-fit", "--out", str(tmp_path)]) == 0
     rec, engine = json.loads((tmp_path / "report.json").read_text())["designs"]
-    assert tops == ["pipeline", "raster_pipeline"] and engine["unit"] == "raster_pipeline"
+    assert tops == ["pipeline", "engine"] and engine["unit"] == "engine"
     assert (rec["unit"], rec["preset"], rec["scene"]) == ("pipeline", "tin-plane-fit", "tin-plane")
     md = (tmp_path / "report.md").read_text()
     assert "| unit | preset | scene | LUT4 |" in md and "| pipeline | tin-plane-fit | tin-plane | 632 |" in md
@@ -255,11 +256,11 @@ def test_router_table_joins_the_runs_of_both_routers(tmp_path, capsys):
     report(tmp_path / "r2", "router2", [{**rec, "route_seconds": 8.6, "flow_seconds": 20.0, "fmax_mhz": 168.3},
                                         {"unit": "recip", "preset": "small", "error": "nextpnr failed (125), see x"}])
     report(tmp_path / "r1b", "router1", [{**rec, "preset": "small", "fmax_mhz": 182.8}])
-    assert fpga.main(["--compare", str(tmp_path / "r1"), str(tmp_path / "r2"), str(tmp_path / "r1b")]) == 0
+    assert bumpmap(["fpga", "--compare", str(tmp_path / "r1"), str(tmp_path / "r2"), str(tmp_path / "r1b")]) == 0
     rows = capsys.readouterr().out.splitlines()
     assert rows[0] == "| design | router1: routing / whole flow | Fmax | router2: routing / whole flow | Fmax |"
     assert rows[2] == "| `recip` default | 1 s / 6 s | 180.1 MHz | 9 s / 20 s | 168.3 MHz |"
     assert rows[3] == "| `recip` small | 1 s / 6 s | 182.8 MHz | failed: nextpnr failed (125) |  |"
     assert len(rows) == 4
-    assert fpga.main(["--compare", str(tmp_path / "none")]) == 2
+    assert bumpmap(["fpga", "--compare", str(tmp_path / "none")]) == 2
     assert "none/report.json: no report" in capsys.readouterr().err

@@ -1,22 +1,21 @@
-"""Front end (fxmodel.frontend): top-left fill rule, perspective-correct attributes, clipping, culling, z-buffer.
+"""Front end (host.frontend): top-left fill rule, perspective-correct attributes, clipping, culling, z-buffer.
 
 Coverage is checked against exact rational edge functions: vertices are multiples of 1/256 pixel and pixel
 centers multiples of 1/2, so in units of 1/512 pixel every edge function is an exact integer.
 """
 
 from fractions import Fraction
-from pathlib import Path
 
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, assume, given, settings, strategies as st
 
-from fxmodel.bump import BumpParams
-from fxmodel.frontend import SUBPIXEL_BITS, clip_space, rasterize, scan_triangle, screen_space, snap
-from fxmodel.persp import PerspParams
-from fxmodel.scene import load_scene, parse_scene
+from fxmodel.units.bump import BumpParams
+from host.frontend import SUBPIXEL_BITS, clip_space, rasterize, scan_triangle, screen_space, snap
+from fxmodel.units.persp import PerspParams
+from host.scene import load_scene, parse_scene
 
-SCENES = Path(__file__).resolve().parent.parent / "scenes"
+from fxmodel.core.paths import SCENES
 SIZE = 24                          # viewport of the coverage tests, pixels
 ONE = 1 << SUBPIXEL_BITS
 
@@ -231,7 +230,7 @@ def test_perspective_correct_attributes_are_exact(ab, ws, uvs, nrm, rnd):
 def test_tile_offset_keeps_the_address_near_zero_whatever_the_repeat():
     """Range normalization in the set-up: a triangle far out in texture space (uv offset by 1000 tiles, repeat
     37) gets U / W within half its span (plus rounding) of 0, and the same wrapped address."""
-    from fxmodel.scene import parse_scene
+    from host.scene import parse_scene
     fr = rasterize(parse_scene(TILED))
     span = 37 / 2 + 0.5
     assert len(fr) > 100 and np.abs(fr.U / fr.W).max() <= span and np.abs(fr.V / fr.W).max() <= span

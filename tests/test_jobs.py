@@ -13,9 +13,10 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
+from tools.main import main as bumpmap
 from cosim.stream import FullSpace, shard_range
-from fxmodel import exact
-from fxmodel.unit import preset
+from fxmodel.units import exact
+from fxmodel.core.unit import preset
 from tools import jobs
 from tools.prove import ProofPiece, check_range, prove_piece
 
@@ -34,7 +35,7 @@ def _strip(records):
 
 
 def test_importing_the_model_and_the_runner_does_not_import_dask():
-    code = ("import sys, fxmodel.pipeline, fxmodel.recip, rtl, cosim.stream, tools.jobs, tools.prove; "
+    code = ("import sys, fxmodel.pipeline.pixel, fxmodel.units.recip, rtl, cosim.stream, tools.jobs, tools.prove; "
             "assert not [m for m in sys.modules if m.split('.')[0] in ('dask', 'distributed')], 'dask imported'")
     subprocess.run([sys.executable, "-c", code], check=True, cwd=ROOT,
                    env={**os.environ, "PYTHONPATH": str(ROOT)})
@@ -134,7 +135,7 @@ def test_a_partial_run_covers_the_selected_pieces_and_the_whole_run_resumes_from
     assert whole["resumed"] == 2 and whole["vectors"] == 1 << 16 and "pieces" not in whole
     with pytest.raises(ValueError, match="pieces 1..4"):
         exhaustive.run_dask(t, "exact", count=4, progress=False, select=(3, 5))
-    assert exhaustive.main(["--sim", "exact", "--only", "recip:small", "--select", "2"]) == 2
+    assert bumpmap(["exhaustive", "--sim", "exact", "--only", "recip:small", "--select", "2"]) == 2
 
 
 def test_exact_failures_name_the_input_the_output_and_the_bound():

@@ -1,11 +1,11 @@
-"""The layers of the code base point down (README, "Layout"): number formats and rounding < units < pipeline <
-scenes and host < ``rtl`` < ``cosim`` < ``tools``.
+"""The layers of the code base point down (docs, "Layout"): the golden model (``fxmodel.core`` < ``fxmodel.units``
+< ``fxmodel.pipeline``) < ``host`` < ``rtl`` < ``cosim`` < ``tools``.
 
 Four checks: the import-linter ``layers`` contract in ``pyproject.toml`` (``[tool.importlinter]``), that every
 module of the four packages is in one of its layers (a new module must be placed), that no module imports
 another module's private (``_``) name, and that there are no import cycles (function-level imports included).
-Exempt, and only they: the ``__main__`` entry points, which dispatch to ``tools`` (the contract's
-``ignore_imports``). The detectors are also run on small broken examples, so a check that can never fail
+Nothing is exempt (the contract has no ``ignore_imports``): the one entry point, ``bumpmap``, is in ``tools``. The
+detectors are also run on small broken examples, so a check that can never fail
 would show.
 """
 
@@ -21,10 +21,11 @@ from pathlib import Path
 import grimp
 import pytest
 
-ROOT = Path(__file__).resolve().parents[1]
-PACKAGES = ("fxmodel", "rtl", "cosim", "tools")
-#: Modules in no layer: the packages' (empty) ``__init__`` of ``fxmodel`` and its command-line entry point.
-UNLAYERED = {"fxmodel", "fxmodel.__main__"}
+from fxmodel.core.paths import ROOT
+
+PACKAGES = ("fxmodel", "host", "rtl", "cosim", "tools")
+#: Modules in no layer: the golden model's (empty) package ``__init__`` files.
+UNLAYERED = {"fxmodel", "fxmodel.core", "fxmodel.units", "fxmodel.pipeline"}
 
 
 def _config() -> dict:
@@ -55,17 +56,17 @@ def test_layers_contract_is_kept():
 
 
 def test_layers_contract_catches_an_upward_import(tmp_path):
-    """The same checker on a contract that ``fxmodel.rounding`` (which imports ``fxmodel.fixed``) breaks."""
+    """The same checker on a contract that ``fxmodel.core.rounding`` (which imports ``fxmodel.core.fixed``) breaks."""
     bad = tmp_path / "bad.toml"
     bad.write_text('[tool.importlinter]\nroot_packages = ["fxmodel"]\n\n[[tool.importlinter.contracts]]\n'
-                   'name = "upside down"\ntype = "layers"\nlayers = ["fxmodel.fixed", "fxmodel.rounding"]\n')
+                   'name = "upside down"\ntype = "layers"\nlayers = ["fxmodel.core.fixed", "fxmodel.core.rounding"]\n')
     run = _lint_imports(bad)
     assert run.returncode == 1 and "BROKEN" in run.stdout, run.stdout + run.stderr
 
 
-def test_only_entry_points_are_exempt():
+def test_nothing_is_exempt():
     (contract,) = _config()["contracts"]
-    assert set(contract.get("ignore_imports", [])) == {"fxmodel.__main__ -> tools.cli", "rtl.__main__ -> tools.fpga"}
+    assert not contract.get("ignore_imports"), contract["ignore_imports"]
 
 
 def _layer_modules() -> list[str]:
@@ -118,10 +119,10 @@ def private_imports(module: str, source: str, is_package: bool = False, project:
 
 def test_private_import_detector():
     src = "from .cube import _divide, CubeParams\nfrom rtl import reflect\nx = reflect._DIGIT\nfrom . import _ok\n"
-    assert private_imports("tools.fit", "from fxmodel.cube import _divide\n") == ["1: fxmodel.cube._divide"]
-    assert private_imports("fxmodel.fit", src) == ["1: fxmodel.cube._divide", "4: fxmodel._ok",
-                                                   "3: rtl.reflect._DIGIT"]
-    assert private_imports("fxmodel.fit", "from numpy import _x\nimport os\nos._exit\n") == []
+    assert private_imports("tools.fit", "from fxmodel.units.cube import _divide\n") == ["1: fxmodel.units.cube._divide"]
+    assert private_imports("fxmodel.units.fit", src) == ["1: fxmodel.units.cube._divide", "4: fxmodel.units._ok",
+                                                         "3: rtl.reflect._DIGIT"]
+    assert private_imports("fxmodel.units.fit", "from numpy import _x\nimport os\nos._exit\n") == []
     assert private_imports("rtl", "from .unit import _x\n", is_package=True) == ["1: rtl.unit._x"]
 
 

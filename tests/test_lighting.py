@@ -1,4 +1,4 @@
-"""Reflectance cubes (fxmodel.lighting): face orientation, exact Lambert/Phong values at texel centres."""
+"""Reflectance cubes (fxmodel.pipeline.lighting): face orientation, exact Lambert/Phong values at texel centres."""
 
 import math
 from fractions import Fraction
@@ -6,10 +6,10 @@ from fractions import Fraction
 import numpy as np
 import pytest
 
-from fxmodel.fixed import Fmt
-from fxmodel.lighting import Light, Lighting, bake_cubes, face_directions
-from fxmodel.reference import cube_address_float
-from fxmodel.sampler import SamplerParams
+from fxmodel.core.fixed import Fmt
+from fxmodel.pipeline.lighting import Light, Lighting, bake_cubes, face_directions
+from host.reference import cube_address_float
+from fxmodel.units.sampler import SamplerParams
 
 
 @pytest.mark.parametrize("size", [1, 4, 5, 8])

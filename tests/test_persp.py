@@ -1,4 +1,4 @@
-"""Perspective texture coordinates (fxmodel.persp) against exact rational math."""
+"""Perspective texture coordinates (fxmodel.units.persp) against exact rational math."""
 
 import math
 from fractions import Fraction
@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 from hypothesis import given, strategies as st
 
-from fxmodel.fixed import Fmt
-from fxmodel.persp import PerspParams
-from fxmodel.unit import preset
+from fxmodel.core.fixed import Fmt
+from fxmodel.units.persp import PerspParams
+from fxmodel.core.unit import preset
 
 P = preset("persp")
 

@@ -1,21 +1,20 @@
-"""The pixel pipeline model (fxmodel.pipeline) and scene rendering (fxmodel.render, fxmodel.reference)."""
+"""The pixel pipeline model (fxmodel.pipeline.pixel) and scene rendering (host.render, host.reference)."""
 
 import dataclasses
 import json
 import warnings
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-from tools.cli import main
-from fxmodel.fixed import Fmt
-from fxmodel.pipeline import FLAG_BITS
-from fxmodel.reference import max_lsb, psnr, sample_float
-from fxmodel.render import prepare, render
-from fxmodel.unit import preset
+from tools.main import main
+from fxmodel.core.fixed import Fmt
+from fxmodel.pipeline.pixel import FLAG_BITS
+from host.reference import max_lsb, psnr, sample_float
+from host.render import prepare, render
+from fxmodel.core.unit import preset
 
-ROOT = Path(__file__).resolve().parents[1]
+from fxmodel.core.paths import ROOT
 SCENES = sorted((ROOT / "scenes").glob("*.toml"))
 P = preset("pipeline")
 

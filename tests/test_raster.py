@@ -1,4 +1,4 @@
-"""Triangle set-up, scan conversion and interpolators (fxmodel/raster.py) against the float front end's coverage
+"""Triangle set-up, scan conversion and interpolators (fxmodel/units/raster.py) against the float front end's coverage
 and against exact rational plane equations."""
 
 import json
@@ -6,13 +6,13 @@ from fractions import Fraction
 
 import numpy as np
 import pytest
-from hypothesis import assume, given
+from hypothesis import given
 from hypothesis import strategies as st
 
-from fxmodel import frontend
-from fxmodel.fixed import Fmt
-from fxmodel.raster import RasterParams, scan, setup
-from fxmodel.scene import load_scene
+from host import frontend
+from fxmodel.core.fixed import Fmt
+from fxmodel.units.raster import RasterParams, scan, setup
+from host.scene import load_scene
 
 P = RasterParams.PRESETS["default"]
 S = P.S
@@ -181,7 +181,7 @@ def test_shipped_scenes_match_the_front_end_and_take_about_a_clock_per_pixel():
 
 
 def test_default_formats_are_the_pipeline_inputs():
-    from fxmodel.presets import BUILTIN_PRESET_UNITS
+    from fxmodel.pipeline.presets import BUILTIN_PRESET_UNITS
     units = BUILTIN_PRESET_UNITS["default"]
     assert RasterParams.for_pipeline(units).attrs == P.attrs
     assert P.subpixel_bits == frontend.SUBPIXEL_BITS and P.guard_pixels == frontend.GUARD_PIXELS
@@ -208,7 +208,7 @@ def test_a_vertex_value_outside_its_format_is_refused_naming_the_triangle():
 
 
 def test_cli_info_prints_the_formats(capsys):
-    from tools.cli import main
+    from tools.main import main
     assert main(["info", "raster"]) == 0
     info = json.loads(capsys.readouterr().out)
     assert info["params"]["guard_bits"] == 13
@@ -217,7 +217,7 @@ def test_cli_info_prints_the_formats(capsys):
 
 
 def test_measured_error_stays_within_the_proof_on_full_viewport_spans():
-    from fxmodel.raster import measure
+    from fxmodel.units.raster import measure
     rep = measure(small, triangles=2, seed=4)
     assert rep["fragments"] > 40_000
     assert rep["accumulator_worst_ulp"] <= rep["accumulator_bound_ulp"]
@@ -226,7 +226,7 @@ def test_measured_error_stays_within_the_proof_on_full_viewport_spans():
 
 @pytest.mark.parametrize("name", ["tin-plane", "berlin-wall", "sphere"])
 def test_shipped_scenes_from_triangles_within_one_lsb_of_reference_a(name):
-    from fxmodel.render import from_triangles, prepare, render_triangles
+    from host.render import from_triangles, prepare, render_triangles
     tframe = from_triangles(prepare(f"scenes/{name}.toml", size=64, cube_size=16))
     report = render_triangles(tframe)
     assert report["input"] == "triangles" and report["fragments"] == len(tframe.frame.frags) > 1000
@@ -235,11 +235,12 @@ def test_shipped_scenes_from_triangles_within_one_lsb_of_reference_a(name):
 
 
 def test_engine_parameters_check_the_formats():
-    from fxmodel.pipeline import PipelineParams, TrianglePipelineParams
+    from fxmodel.pipeline.engine import EngineParams
+    from fxmodel.pipeline.pixel import PipelineParams
     pipe = PipelineParams.PRESETS["default"]
     with pytest.raises(ValueError, match=r"raster.attrs\['U'\]"):
-        TrianglePipelineParams(raster=small, pipeline=pipe)
-    ok = TrianglePipelineParams(raster=RasterParams.for_pipeline(
+        EngineParams(raster=small, pipeline=pipe)
+    ok = EngineParams(raster=RasterParams.for_pipeline(
         {"persp": pipe.persp, "bump": pipe.bump, "reflect": pipe.reflect}), pipeline=pipe)
     assert [p.name for p in ok.outputs] == ["x", "y", "r", "g", "b", "flags"]
 
@@ -249,7 +250,7 @@ def test_steep_bump_maps_draw_from_triangles_with_the_block_exponent(scene):
     """``A`` beyond ``bump.a_fmt``: the set-up refuses the triangles with ``e`` held at 0 (``A W`` does not fit);
     with the per-triangle block exponent (the record's constant ``Ae``, the fragment path's ``e`` per scene
     triangle) every fragment of a triangle carries it, and the frame from triangles is within 1 LSB of (a)."""
-    from fxmodel.render import from_triangles, prepare, render_triangles
+    from host.render import from_triangles, prepare, render_triangles
     frame = prepare(f"tests/scenes/{scene}.toml", size=48, cube_size=8)
     tframe = from_triangles(frame)
     raster = tframe.params.raster

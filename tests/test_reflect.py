@@ -14,11 +14,11 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from fxmodel import exact
-from tools import cli
-from fxmodel.fixed import Fmt
-from fxmodel.reflect import ReflectParams, bitlen_int64
-from fxmodel.unit import preset
+from tools.main import main as bumpmap
+from fxmodel.units import exact
+from fxmodel.core.fixed import Fmt
+from fxmodel.units.reflect import ReflectParams, bitlen_int64
+from fxmodel.core.unit import preset
 
 PRESETS = ["default", "small"]
 SETTINGS = settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow])
@@ -273,7 +273,7 @@ def test_invalid_parameters_name_the_parameter(kwargs, name):
 
 
 def test_cli_info_and_eval(tmp_path, capsys):
-    assert cli.main(["info", "reflect"]) == 0
+    assert bumpmap(["info", "reflect"]) == 0
     info = json.loads(capsys.readouterr().out)
     assert set(info["max_error"]) == {"Rx", "Ry", "Rz", "degenerate"}
     assert info["max_error"]["Rx"] == 2.0 ** -17
@@ -281,6 +281,6 @@ def test_cli_info_and_eval(tmp_path, capsys):
                      [0, 0, 1, 1, 0, 0],            # grazing: R = -E
                      [0, 0, 0, 1, 0, 0]])           # N = 0: degenerate
     np.save(tmp_path / "in.npy", vals)
-    assert cli.main(["eval", "reflect", str(tmp_path / "in.npy"), str(tmp_path / "out.npy")]) == 0
+    assert bumpmap(["eval", "reflect", str(tmp_path / "in.npy"), str(tmp_path / "out.npy")]) == 0
     out = np.load(tmp_path / "out.npy")
     assert out.tolist() == [[0, 0, 0.5, 0], [-1, 0, 0, 0], [0, 0, 0, 1]]

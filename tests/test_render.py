@@ -1,4 +1,4 @@
-"""No silent degradation: one code path (``fxmodel.render.prepare`` and ``judge``) makes
+"""No silent degradation: one code path (``host.render.prepare`` and ``judge``) makes
 ``render``, ``make sim`` and ``fit`` refuse a scene whose fragment inputs the preset would clamp, and fail a frame
 farther from reference (a) than the documented bound."""
 
@@ -7,10 +7,10 @@ from pathlib import Path
 
 import pytest
 
-from tools.cli import main
-from fxmodel.render import SCENE_BOUND_LSB, ClampError, judge, prepare, render
+from tools.main import main
+from host.render import SCENE_BOUND_LSB, ClampError, judge, prepare, render
 
-ROOT = Path(__file__).resolve().parents[1]
+from fxmodel.core.paths import ROOT
 STEEP = ROOT / "tests" / "scenes" / "steep-bumps.toml"          # A about 5.3: beyond bump.a_fmt without the exponent
 WIDE = ROOT / "tests" / "scenes" / "wide-span.toml"             # U / W about 60: beyond persp.uv_fmt
 TIN = ROOT / "scenes" / "tin-plane.toml"
@@ -83,7 +83,7 @@ def test_make_sim_refuses_clamped_inputs_and_fails_a_frame_over_the_bound(monkey
         return res
 
     monkeypatch.setattr(sim, "_stream", fake_stream)
-    monkeypatch.setattr(sim, "ROOT", tmp_path)
+    monkeypatch.setenv("BUMPMAP_BUILD", str(tmp_path / "build"))
     args = ["--scene", str(WIDE), "--size", "32", "--cube-size", "4", "--sim", "icarus"]
     assert sim.main(args) == 2 and "persp.uv_fmt" in capsys.readouterr().err      # from triangles (the default)
     assert sim.main(args + ["--allow-clamp"]) == 2                                 # the set-up refuses by name

@@ -1,4 +1,4 @@
-"""The raster-operations model (``fxmodel/rop.py``): the depth rule against an independent order-statistics oracle,
+"""The raster-operations model (``fxmodel/units/rop.py``): the depth rule against an independent order-statistics oracle,
 the depth narrowing against exact rationals, the memory image, validation, ``info``; and the RTL's address
 extremes in ``amaranth.sim`` (no address outside the frame is formed)."""
 
@@ -13,8 +13,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from fxmodel.fixed import Fmt
-from fxmodel.rop import (PIXEL_BYTES, RopParams, clear_frame, draw, read_frame, write_frame)
+from fxmodel.core.fixed import Fmt
+from fxmodel.units.rop import (PIXEL_BYTES, RopParams, clear_frame, draw, read_frame, write_frame)
 
 SMALL = RopParams.PRESETS["small"]
 
@@ -166,8 +166,8 @@ def test_engine_with_depth_draws_an_overlapping_scene():
     """The model of the engine with its depth test on the overlapping shipped scene: every pixel the float front
     end shows is written, the others keep the background, some fragments fail the test, and the frame is within
     one LSB of the frame drawn from the front end's fragments except where the two surfaces cross."""
-    from fxmodel.render import from_triangles, prepare
-    from fxmodel.scene import scene_path
+    from host.render import from_triangles, prepare
+    from host.scene import scene_path
     frame = prepare(scene_path("tin-sphere"), size=32, cube_size=8)
     tf = from_triangles(frame, depth=True)
     depth, color = tf.fb
@@ -185,13 +185,14 @@ def test_engine_with_depth_draws_an_overlapping_scene():
 
 
 def test_engine_rop_must_match_the_raster():
-    from fxmodel.pipeline import PipelineParams, TrianglePipelineParams
-    from fxmodel.raster import RasterParams
+    from fxmodel.pipeline.engine import EngineParams
+    from fxmodel.pipeline.pixel import PipelineParams
+    from fxmodel.units.raster import RasterParams
     pipe = PipelineParams.PRESETS["default"]
     raster = RasterParams.for_pipeline({"persp": pipe.persp, "bump": pipe.bump, "reflect": pipe.reflect})
     good = RopParams(width=16, height=16, max_size=raster.max_size, z_in=raster.out_fmt("Z"))
-    TrianglePipelineParams(raster=raster, pipeline=pipe, rop=good)
+    EngineParams(raster=raster, pipeline=pipe, rop=good)
     for change, name in (({"max_size": 1024}, "rop.max_size"), ({"flag_bits": 4}, "rop.flag_bits"),
                          ({"z_in": Fmt(True, 3, 22)}, "rop.z_in")):
         with pytest.raises(ValueError, match=name):
-            TrianglePipelineParams(raster=raster, pipeline=pipe, rop=dataclasses.replace(good, **change))
+            EngineParams(raster=raster, pipeline=pipe, rop=dataclasses.replace(good, **change))

@@ -4,9 +4,10 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from fxmodel.fixed import Fmt
-from fxmodel.unit import preset, preset_names, units
+from fxmodel.core.fixed import Fmt
+from fxmodel.core.unit import preset, preset_names, units
 from rtl import build, write_verilog
+from tools.main import main as bumpmap
 from rtl.unit import Pipe, UnitComponent
 
 
@@ -37,10 +38,9 @@ def test_verilog_is_written_with_the_module_name(tmp_path):
 def test_cli_writes_the_pipeline_of_a_fitted_preset_with_the_scene_tables(tmp_path, capsys):
     import re
 
-    from rtl.__main__ import main
-    from fxmodel.render import pipeline_params
+    from host.render import pipeline_params
 
-    assert main(["verilog", "--scene", "tin-plane", "--preset", "tin-plane-fit", "--out", str(tmp_path)]) == 0
+    assert bumpmap(["verilog", "--scene", "tin-plane", "--preset", "tin-plane-fit", "--out", str(tmp_path)]) == 0
     path = tmp_path / "pipeline_tin-plane-fit_tin-plane.v"
     assert f"wrote {path}" in capsys.readouterr().out
     text = path.read_text()
@@ -65,9 +65,8 @@ def test_cli_writes_the_pipeline_of_a_fitted_preset_with_the_scene_tables(tmp_pa
     (["--preset", "tin-plane-fit"], "tin-plane-fit: a pipeline preset, whose memories come from a scene"),
 ])
 def test_cli_scene_errors_are_named(tmp_path, capsys, args, message):
-    from rtl.__main__ import main
 
-    assert main(["verilog", *args, "--out", str(tmp_path)]) == 2
+    assert bumpmap(["verilog", *args, "--out", str(tmp_path)]) == 2
     assert message in capsys.readouterr().err and not list(tmp_path.iterdir())
 
 
@@ -116,7 +115,7 @@ def test_scan_converter_keeps_one_control_copy_per_register_group():
 
     from amaranth.back import rtlil
 
-    from fxmodel.render import engine_params
+    from host.render import engine_params
     from rtl.raster import Raster
 
     params = engine_params("tin-plane", "tin-plane-fit").raster

@@ -1,9 +1,9 @@
-"""``rtl/fixed.py`` simulated against ``fxmodel/rounding.py`` and exact integer math, mode by mode.
+"""``rtl/fixed.py`` simulated against ``fxmodel/core/rounding.py`` and exact integer math, mode by mode.
 
 Every rounding (TRUNC, HALF_UP, HALF_EVEN) and overflow rule (SATURATE with its flag, PROVEN) of the project's
 one narrowing, on format pairs that narrow the fraction, the integer part or both, widen the fraction, mix signed
 and unsigned words, and shift by as much as or more than the input's width. All lanes go into one combinational
-circuit (:mod:`amaranth.sim`, no HDL simulator), built from the same :class:`~fxmodel.fixed.Fmt` objects as the
+circuit (:mod:`amaranth.sim`, no HDL simulator), built from the same :class:`~fxmodel.core.fixed.Fmt` objects as the
 model; each lane is driven with the hard cases (both ends of both ranges, every output boundary and one code past
 it, the exact ties ``.5`` next to even and odd codes and the codes either side of them) and random codes. The
 expected value comes from exact integer math, so a failure says which side (RTL or model) is wrong.
@@ -19,9 +19,9 @@ import pytest
 from amaranth.hdl import Module, Signal, signed, unsigned
 from amaranth.sim import Simulator
 
-from fxmodel.exact import narrow_exact, round_exact
-from fxmodel.fixed import Fmt
-from fxmodel.rounding import Overflow, Rounding, narrow, shift_round
+from fxmodel.units.exact import narrow_exact, round_exact
+from fxmodel.core.fixed import Fmt
+from fxmodel.core.rounding import Overflow, Rounding, narrow, shift_round
 from rtl import fixed as rfixed
 
 # (input format, output format): the narrowing reads the input's code with input.frac_bits fraction bits

@@ -1,4 +1,4 @@
-"""Texture sampler (fxmodel.sampler) against exact rational math: addressing, wrap, clamp, bilinear blend."""
+"""Texture sampler (fxmodel.units.sampler) against exact rational math: addressing, wrap, clamp, bilinear blend."""
 
 import math
 from fractions import Fraction
@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 from hypothesis import given, strategies as st
 
-from fxmodel.fixed import Fmt
-from fxmodel.sampler import SamplerParams, Texels
-from fxmodel.unit import preset
+from fxmodel.core.fixed import Fmt
+from fxmodel.units.sampler import SamplerParams, Texels
+from fxmodel.core.unit import preset
 
 
 def texels_strategy():

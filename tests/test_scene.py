@@ -1,4 +1,4 @@
-"""Scene files (fxmodel.scene): parsing, one clear error per malformed file, mesh generators, shipped scenes."""
+"""Scene files (host.scene): parsing, one clear error per malformed file, mesh generators, shipped scenes."""
 
 import dataclasses
 import re
@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from fxmodel.meshes import quad_mesh, sphere_mesh
-from fxmodel.scene import SCHEMA_EXAMPLE, SceneError, load_scene, parse_scene
+from host.meshes import quad_mesh, sphere_mesh
+from host.scene import SCHEMA_EXAMPLE, SceneError, load_scene, parse_scene
 
-SCENES = Path(__file__).resolve().parent.parent / "scenes"
+from fxmodel.core.paths import SCENES
 SHIPPED = ["tin-plane", "berlin-wall", "sphere"]
 
 BASE = """\
@@ -163,7 +163,7 @@ def test_png_paths_resolve_against_the_scene_folder(tmp_path, monkeypatch):
     scene = load_scene(Path("scn") / "x.toml")
     assert scene.materials[1].bump.path == (sub / "maps" / "h.png").resolve()
     assert scene.materials[0].color.path == (sub / "maps" / "c.png").resolve()
-    from fxmodel.bumpmap import height_field
+    from host.bumpmap import height_field
     assert np.array_equal(height_field(scene.materials[1].bump), heights / 255.0)
     # missing and non-PNG files: one error naming the key
     (sub / "maps" / "j.jpg").write_bytes(b"")

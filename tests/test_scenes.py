@@ -1,23 +1,22 @@
-"""Scene-level properties: every random valid scene (fxmodel.scenegen) is either drawn by the
+"""Scene-level properties: every random valid scene (host.scenegen) is either drawn by the
 default preset within the documented bound of reference (a) on every well-conditioned pixel, or refused with the
-one clear error (fxmodel.render.ClampError) -- never anything else. Reference (a) is an independent float64
-implementation of the same algorithm (fxmodel.reference). The regression scenes in tests/scenes/ are frames
+one clear error (host.render.ClampError) -- never anything else. Reference (a) is an independent float64
+implementation of the same algorithm (host.reference). The regression scenes in tests/scenes/ are frames
 this found (or the issue reported) and must keep their verdict.
 
 The RTL side (RTL == model on random scenes) is in cosim/test_pipeline.py.
 """
 
-from pathlib import Path
 
 import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from fxmodel.render import ILL_CONDITIONED, SCENE_BOUND_LSB, ClampError, judge, prepare, render
-from fxmodel.scene import parse_scene
-from fxmodel.scenegen import random_scene
+from host.render import ILL_CONDITIONED, SCENE_BOUND_LSB, ClampError, judge, prepare, render
+from host.scene import parse_scene
+from host.scenegen import random_scene
 
-ROOT = Path(__file__).resolve().parents[1]
+from fxmodel.core.paths import ROOT
 REGRESSION = ROOT / "tests" / "scenes"
 
 
@@ -63,7 +62,7 @@ def test_random_scenes_cover_what_they_promise():
 @pytest.mark.parametrize("path", sorted(REGRESSION.glob("*.toml")), ids=lambda p: p.stem)
 def test_regression_scenes_keep_their_verdict(path):
     """grazing-floor and wide-span are refused (addresses, spans), the others drawn within the bound."""
-    from fxmodel.scene import load_scene
+    from host.scene import load_scene
     rep = drawn_or_refused(load_scene(path, size=40))
     assert (rep is None) == (path.stem in ("grazing-floor", "wide-span"))
 

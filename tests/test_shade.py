@@ -1,4 +1,4 @@
-"""Shading (fxmodel.shade) against exact rational math."""
+"""Shading (fxmodel.units.shade) against exact rational math."""
 
 import math
 from fractions import Fraction
@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 from hypothesis import given, strategies as st
 
-from fxmodel.fixed import Fmt
-from fxmodel.shade import ShadeParams
-from fxmodel.unit import preset
+from fxmodel.core.fixed import Fmt
+from fxmodel.units.shade import ShadeParams
+from fxmodel.core.unit import preset
 
 P = preset("shade")
 

@@ -14,7 +14,7 @@ from amaranth.hdl import Fragment
 from amaranth.lib import data
 from amaranth.sim import Simulator
 
-from fxmodel.unit import preset
+from fxmodel.core.unit import preset
 from rtl.fixed import shape
 from rtl.streams import StreamUnit, buffer_depth, input_layout, output_layout
 
@@ -174,8 +174,8 @@ def test_sampler_block_ram_through_stalls(name):
 
 
 def test_sideband_name_clash_is_refused():
-    from fxmodel.unit import Port
+    from fxmodel.core.unit import Port
     from rtl.streams import payload_layout
-    from fxmodel.fixed import Fmt
+    from fxmodel.core.fixed import Fmt
     with pytest.raises(ValueError, match="side"):
         payload_layout([Port("side", Fmt(True, 1, 3))], SIDE)

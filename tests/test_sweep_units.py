@@ -10,11 +10,12 @@ from fractions import Fraction
 import numpy as np
 import pytest
 
+from tools.main import main as bumpmap
 from tools import sweep as sw
 from tools import sweep_units as su
-from fxmodel.exact import bump_error, wrapped_error
-from fxmodel.fixed import Fmt
-from fxmodel.unit import preset
+from fxmodel.units.exact import bump_error, wrapped_error
+from fxmodel.core.fixed import Fmt
+from fxmodel.core.unit import preset
 
 SAMPLES = 3000
 
@@ -120,7 +121,7 @@ def test_wrapped_error_against_fractions(name):
 
 
 def test_measure_persp_worst_is_the_exact_worst():
-    from fxmodel.exact import measure_persp
+    from fxmodel.units.exact import measure_persp
     P = preset("persp", "small")
     rows = np.concatenate([P.hard_cases(), su.unit_inputs(P, 400, np.random.default_rng(2))[0]])
     out = P.compute(rows)
@@ -164,7 +165,7 @@ def test_dsp_estimate_matches_the_placed_presets():
 
 def test_pipeline_points(result):
     from tools.fit import knobs_of, units_of
-    from fxmodel.presets import BUILTIN_PRESET_UNITS
+    from fxmodel.pipeline.presets import BUILTIN_PRESET_UNITS
 
     pipe = result["pipeline"]
     base, narrow = pipe["points"]
@@ -205,8 +206,8 @@ def test_outputs(result, tmp_path):
 
 
 def test_bad_arguments():
-    assert sw.main(["--unit-fpga-points", "4"]) == 2
-    assert sw.main(["--unit-samples", "0"]) == 2
+    assert bumpmap(["sweep", "--unit-fpga-points", "4"]) == 2
+    assert bumpmap(["sweep", "--unit-samples", "0"]) == 2
 
 
 def test_raster_guard_points_measure_the_interpolators_against_their_bound():
@@ -214,7 +215,7 @@ def test_raster_guard_points_measure_the_interpolators_against_their_bound():
     bound, which shrinks with each guard bit, at the cost model's multiplier count."""
     import dataclasses
 
-    from fxmodel.raster import RasterParams
+    from fxmodel.units.raster import RasterParams
     from tools.sweep_units import measure_raster_point
     small = RasterParams.PRESETS["small"]
     recs = [measure_raster_point(f"g{g}", "guard", dataclasses.replace(small, extra_guard=g), triangles=1)
@@ -228,8 +229,8 @@ def test_a_preset_that_cannot_draw_the_scene_is_a_refused_point_never_on_the_fro
     """``persp p16 c14`` cannot resolve the tin plane's bump-map addresses (``prepare`` refuses it): the sweep
     records the refusal and the clamped frame's error instead of failing, and keeps the point off the front even
     though it is cheaper than ``default`` at the same largest error."""
-    from fxmodel.render import ClampError, prepare
-    from fxmodel.scene import load_scene
+    from host.render import ClampError, prepare
+    from host.scene import load_scene
 
     spec = {"coord_bits": 14, "persp_p": 16, "persp_b": 17}
     (name, units, _), = su.pipeline_grid([("persp p16 c14", spec)])

@@ -1,4 +1,4 @@
-"""Vector files (``fxmodel/vectors.py``): the binary words for ``$fread`` and the ``$readmemh`` text hold the
+"""Vector files (``fxmodel/core/vectors.py``): the binary words for ``$fread`` and the ``$readmemh`` text hold the
 same packed words, checked against words built one Python integer at a time."""
 
 from __future__ import annotations
@@ -6,8 +6,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from fxmodel.fixed import Fmt
-from fxmodel.vectors import layout, pack_words, read_readmemh, read_words, write_readmemh, write_words
+from fxmodel.core.fixed import Fmt
+from fxmodel.core.vectors import layout, pack_words, read_readmemh, read_words, write_readmemh, write_words
 
 FIELDS = {
     "recip32 word, 65 bits": [("w", Fmt(True, 16, 16)), ("mant", Fmt(True, 2, 23)), ("exp", Fmt(True, 6, 0)),

@@ -1,4 +1,4 @@
-"""Overlapping geometry drawn from triangles (fxmodel/visibility.py): the fixed-point depth test (the raster-operations
+"""Overlapping geometry drawn from triangles (host/visibility.py): the fixed-point depth test (the raster-operations
 unit's model) against the float z-buffer of reference (a) on the overlapping shipped scene: depth disagreements only
 within the documented depth precision, counted, left out of the LSB comparison, marked in a picture; the report's
 depth and memory figures consistent with each other and with the frame."""
@@ -6,9 +6,10 @@ depth and memory figures consistent with each other and with the frame."""
 import numpy as np
 import pytest
 
-from fxmodel.raster import RasterParams
-from fxmodel.render import from_triangles, judge, prepare, render_triangles
-from fxmodel.visibility import first_max, resolve
+from tools.main import main as bumpmap
+from fxmodel.units.raster import RasterParams
+from host.render import from_triangles, judge, prepare, render_triangles
+from host.visibility import first_max, resolve
 
 SCENE = "scenes/tin-sphere.toml"
 
@@ -113,8 +114,8 @@ def test_make_sim_from_triangles_reports_depth_and_memory(monkeypatch, tmp_path,
         return res
 
     monkeypatch.setattr(sim, "run_records", fake_run_records)
-    monkeypatch.setattr(sim, "ROOT", tmp_path)
-    assert sim.main(["--scene", "tin-sphere", "--size", "96", "--cube-size", "8", "--input", "triangles",
+    monkeypatch.setenv("BUMPMAP_BUILD", str(tmp_path / "build"))
+    assert bumpmap(["sim", "--scene", "tin-sphere", "--size", "96", "--cube-size", "8", "--input", "triangles",
                      "--sim", "icarus"]) == 0
     table = capsys.readouterr().out
     assert "overdraw" in table and "depth disagreements" in table and "memory / pixel" in table
@@ -130,18 +131,17 @@ def test_make_sim_from_triangles_reports_depth_and_memory(monkeypatch, tmp_path,
 
 
 def test_depth_tool_table_and_picture(tmp_path, capsys):
-    """``python -m tools.depth`` (the README's memory-traffic table and picture): its rows agree with the frame's
+    """``bumpmap depth`` (the README's memory-traffic table and picture): its rows agree with the frame's
     own counts, and the drawing order matters (the reversed order fails other fragments)."""
     import json
 
-    from tools.depth import main
     pic = tmp_path / "depth.png"
-    assert main(["--scenes", "tin-sphere", "--size", "128", "--json", "--picture", str(pic)]) == 0
+    assert bumpmap(["depth", "--scenes", "tin-sphere", "--size", "128", "--json", "--picture", str(pic)]) == 0
     (row,) = json.loads(capsys.readouterr().out)
     assert row["overdraw"] == pytest.approx(row["fragments"] / row["covered_pixels"], abs=1e-4)
     assert row["early_depth_saves"] == pytest.approx(row["failed"] / row["fragments"], abs=1e-4)
     assert 0 < row["failed_reversed_order"] != row["failed"]
-    from fxmodel.rop import DEPTH_BYTES
+    from fxmodel.units.rop import DEPTH_BYTES
     assert row["bytes_read_per_pixel"] * row["covered_pixels"] == pytest.approx(DEPTH_BYTES * row["fragments"], rel=1e-3)
     assert pic.exists() and pic.stat().st_size > 1000
-    assert main(["--scenes", "nope"]) == 2
+    assert bumpmap(["depth", "--scenes", "nope"]) == 2

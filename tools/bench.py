@@ -13,8 +13,8 @@ Machines here are shared and noisy: the figures are medians, the ratios between 
 number, and the streaming rows also give vectors per CPU second of the simulator process (what a loaded machine
 changes least).
 
-Fixed-point core: the project's own narrowing (:mod:`fxmodel.rounding`) against apytypes'
-(:mod:`fxmodel.apy_oracle`) on ``--core-products`` random products, one core each, so the choice of an own core
+Fixed-point core: the project's own narrowing (:mod:`fxmodel.core.rounding`) against apytypes'
+(:mod:`fxmodel.units.apy_oracle`) on ``--core-products`` random products, one core each, so the choice of an own core
 stays measured (``--core-only`` runs just this).
 
 Icarus profile (``--icarus-profile UNIT``, needs ``valgrind``): the instructions Icarus' ``vvp`` executes a
@@ -45,12 +45,14 @@ import apytypes
 import numpy as np
 from tqdm import tqdm
 
-from fxmodel.apy_oracle import OVERFLOW, QUANTIZATION, codes_of, narrow_apy, to_apy
-from fxmodel.fixed import Fmt
-from fxmodel.rounding import Overflow, Rounding, narrow
-from fxmodel.unit import preset
+from fxmodel.core.paths import build_dir
+from host.args import int_range
+from fxmodel.units.apy_oracle import OVERFLOW, QUANTIZATION, codes_of, narrow_apy, to_apy
+from fxmodel.core.fixed import Fmt
+from fxmodel.core.rounding import Overflow, Rounding, narrow
+from fxmodel.core.unit import preset
 
-from cosim.harness import ROOT, run
+from cosim.harness import run as cosim_run
 
 
 def median_seconds(fn, repeat: int, warm_up=None) -> float:
@@ -74,7 +76,7 @@ CORE_SRC, CORE_DST = Fmt.parse("s2.16"), Fmt.parse("s2.14")
 
 
 def core_rates(n: int, repeat: int, rng: np.random.Generator) -> list[dict]:
-    """The project's fixed-point core (:mod:`fxmodel.rounding`) against apytypes on the same narrowing: ``n``
+    """The project's fixed-point core (:mod:`fxmodel.core.rounding`) against apytypes on the same narrowing: ``n``
     random products of two :data:`CORE_SRC` arrays narrowed to :data:`CORE_DST`, half-up and saturating, one core
     each (apytypes' thread pool set to one thread). The product is part of the timed work on both sides; the inputs
     are each side's own array type. Refuses to report a speed if the two results are not bit-identical."""
@@ -88,11 +90,11 @@ def core_rates(n: int, repeat: int, rng: np.random.Generator) -> list[dict]:
         own = narrow(a * b, 2 * src.frac_bits, dst, rounding, overflow)
         apy = narrow_apy(A * B, dst, rounding, overflow)
         if not (np.array_equal(own[0], apy[0]) and np.array_equal(own[1], apy[1])):
-            raise SystemExit("fxmodel.rounding and apytypes differ on the bench's narrowing: run "
+            raise SystemExit("fxmodel.core.rounding and apytypes differ on the bench's narrowing: run "
                              "pytest tests/test_apy_oracle.py to see where")
         cast = dict(int_bits=dst.int_bits, frac_bits=dst.frac_bits, quantization=QUANTIZATION[rounding],
                     overflow=OVERFLOW[overflow])
-        runs = [("fxmodel.rounding.narrow (own core): codes and flag",
+        runs = [("fxmodel.core.rounding.narrow (own core): codes and flag",
                  lambda: narrow(a * b, 2 * src.frac_bits, dst, rounding, overflow)),
                 ("apytypes APyFixedArray.cast (RND, SAT): codes", lambda: codes_of((A * B).cast(**cast))),
                 ("apytypes, codes and flag (a second cast)", lambda: narrow_apy(A * B, dst, rounding, overflow))]
@@ -127,7 +129,7 @@ def icarus_profile(unit: str, name: str = "default", pattern: str = "none", stan
     if not 1 <= small < vectors:
         raise SystemExit(f"--profile-vectors {vectors}: must be more than {small}")
     params = preset(unit, name)
-    out = ROOT / "build" / "bench"
+    out = build_dir("bench")
     out.mkdir(parents=True, exist_ok=True)
     tag = f"{unit}_{name}_{pattern}{'_stand_in' if stand_in else ''}"
     runs = {}
@@ -156,8 +158,8 @@ def icarus_profile(unit: str, name: str = "default", pattern: str = "none", stan
     return report
 
 
-def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m tools.bench", description=__doc__.split("\n")[0])
+def add_arguments(ap: argparse.ArgumentParser) -> None:
+    """The command line (``bumpmap bench``, :mod:`tools.main`)."""
     ap.add_argument("--repeat", type=int, default=5)
     ap.add_argument("--cosim-vectors", type=int, default=30_000)
     ap.add_argument("--core-products", type=int, default=4_000_000,
@@ -169,7 +171,8 @@ def main(argv=None) -> int:
                     help="simulator of the co-simulation rows (repeatable; default: every one installed)")
     ap.add_argument("--no-sweep", action="store_true", help="skip the design-space sweep (tools.sweep)")
     ap.add_argument("--no-fpga", action="store_true", help="sweep without the ECP5 flow")
-    ap.add_argument("--fpga-points", type=int, default=6, help="sweep points placed and routed (0 to 6, cached)")
+    ap.add_argument("--fpga-points", type=int_range(0, 6), default=6,
+                    help="sweep points placed and routed (0 to 6, cached; each new design takes 1-2 minutes)")
     from . import jobs as jobrunner
     jobrunner.add_arguments(ap, jobs=2, what="sweep points and FPGA designs")
     ap.add_argument("--docs", action="store_true", help="also write docs/img/pareto.png and docs/img/units.png")
@@ -182,7 +185,9 @@ def main(argv=None) -> int:
                     help="--icarus-profile: around the one-register stand-in (the harness alone)")
     ap.add_argument("--profile-vectors", type=int, default=4096,
                     help="--icarus-profile: vectors of the long run (the short one has 16)")
-    args = ap.parse_args(argv)
+
+
+def run(args: argparse.Namespace) -> int:
     if args.icarus_profile:
         rep = icarus_profile(args.icarus_profile, args.preset, args.pattern, args.stand_in, args.profile_vectors)
         what = "the harness alone (stand-in)" if args.stand_in else f"{rep['unit']} ({rep['preset']})"
@@ -192,8 +197,6 @@ def main(argv=None) -> int:
         for n, r in rep["runs"].items():
             print(f"  {n} vectors: {r['instructions']:,} instructions, {r['cycles']:,} cycles ({r['callgrind']})")
         return 0
-    if not 0 <= args.fpga_points <= 6:
-        ap.error("--fpga-points must be 0 to 6 (each new design takes 1-2 minutes)")
     rows = []
     rng = np.random.default_rng(1)
     jobs = [("model", "recip", "default", "all 2^24 inputs"), ("model", "recip", "small", "all 2^16 inputs"),
@@ -230,12 +233,12 @@ def main(argv=None) -> int:
                          "cycles": res["cycles"], "vectors": res["vectors"], "runs": len(runs)})
         else:
             vectors = params.random_inputs(rng, args.cosim_vectors)
-            res = run(params, vectors, sim=what, tag="bench")
+            res = cosim_run(params, vectors, sim=what, tag="bench")
             if res["mismatches"]:
                 raise SystemExit(res.describe())
             rows.append({"what": f"co-simulation {unit} ({name}), per-vector cocotb", "workload": what,
                          "per_second": res["vectors_per_second"]})
-    out = ROOT / "build" / "bench"
+    out = build_dir("bench")
     out.mkdir(parents=True, exist_ok=True)
     meta = {"machine": platform.platform(), "python": platform.python_version(), "repeat": args.repeat}
     (out / "bench.json").write_text(json.dumps({"meta": meta, "results": rows}, indent=2))
@@ -246,13 +249,9 @@ def main(argv=None) -> int:
     print(f"\n(written to {out / 'bench.json'})")
     if args.no_sweep or args.core_only or args.stream_only:
         return 0
-    from . import sweep
     sweep_argv = (["--no-fpga"] if args.no_fpga else ["--fpga-points", str(args.fpga_points)]) + [
         "--jobs", str(args.jobs), "--out", str(out)] + (["--docs"] if args.docs else []) + (
         ["--scheduler", args.scheduler] if args.scheduler else [])
-    print("\nSpeed against error (python -m tools.sweep):\n")
-    return sweep.main(sweep_argv)
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())
+    print("\nSpeed against error (bumpmap sweep):\n")
+    from .main import main
+    return main(["sweep", *sweep_argv])

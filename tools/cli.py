@@ -1,15 +1,15 @@
-"""Command line of the golden model: ``python -m fxmodel {info,eval,errors,presets} ...``.
+"""The golden model's commands: ``bumpmap {info,eval,errors,render,fit,presets,verilog} ...``.
 
 ``info UNIT``
     JSON: the unit's inputs and outputs (``name, signed, int_bits, frac_bits``; ``int_bits`` counts the sign),
     latency, parameters, documented error bounds and the hardware estimate (``cost``: MULT18X18D and DP16KD
-    blocks, multipliers, table and memory bits, :mod:`fxmodel.cost`), for ``--preset NAME`` (default
+    blocks, multipliers, table and memory bits, :mod:`fxmodel.core.cost`), for ``--preset NAME`` (default
     ``default``). ``info pipeline --scene SCENE --preset P``: the pipeline with the scene's tables.
 ``eval UNIT IN.npy OUT.npy``
     Reads real input values (float64, shape ``(K,)`` or ``(K, inputs)``), which must be exactly representable in
     the input formats (else an error naming the file, column and first bad row, and nothing is written); writes
     the real value of every output as float64, shape ``(K, outputs)``. ``--hex FILE`` also writes ``$readmemh``
-    vectors (input codes then expected output codes, packed; see :mod:`fxmodel.vectors`).
+    vectors (input codes then expected output codes, packed; see :mod:`fxmodel.core.vectors`).
 ``errors UNIT``
     Measures the preset's error against exact math: exhaustively if the input space has at most 2**26 vectors,
     else over ``--random`` vectors plus the hard cases. Prints JSON (worst, mean, bound, faithful, monotone).
@@ -17,7 +17,7 @@
     Renders a scene through the bit-exact pipeline model (no simulator) and the two float references, and prints
     JSON with PSNR and the largest per-channel difference against each and the ``verdict``; ``--refs DIR`` also
     writes the references' images. Exits 1 when the frame is farther than ``--max-lsb`` (default: the documented
-    scene bound, ``fxmodel.render.SCENE_BOUND_LSB``) from reference (a), and 2 when a fragment input does not fit
+    scene bound, ``host.render.SCENE_BOUND_LSB``) from reference (a), and 2 when a fragment input does not fit
     the preset (it would be clamped; ``--allow-clamp`` draws it clamped and prints the counts).
 ``presets [UNIT]``
     Lists units and their presets.
@@ -32,7 +32,6 @@
 
 from __future__ import annotations
 
-import argparse
 import json
 import sys
 import time
@@ -40,9 +39,10 @@ from pathlib import Path
 
 import numpy as np
 
-from fxmodel import exact
-from fxmodel.unit import BLOCK_MODULES, preset, preset_names, unit_class, units
-from fxmodel.vectors import write_readmemh
+from fxmodel.units import exact
+from fxmodel.core.unit import BLOCK_MODULES, preset, preset_names, unit_class, units
+from fxmodel.core.paths import build_dir
+from fxmodel.core.vectors import write_readmemh
 
 EXHAUSTIVE_LIMIT = 1 << 26
 
@@ -56,7 +56,7 @@ def cmd_info(args) -> int:
     if args.scene is not None:
         if args.unit != "pipeline":
             raise SystemExit(f"error: --scene sets the tables of the pipeline only, not of {args.unit!r}")
-        from fxmodel.render import pipeline_params
+        from host.render import pipeline_params
         try:
             params = pipeline_params(args.scene, args.preset)
         except (ValueError, KeyError) as exc:
@@ -122,8 +122,8 @@ def cmd_errors(args) -> int:
 
 
 def cmd_render(args) -> int:
-    from fxmodel.render import from_triangles, judge, prepare, render, render_triangles, save_png, tell
-    from fxmodel.scene import SceneError
+    from host.render import from_triangles, judge, prepare, render, render_triangles, save_png, tell
+    from host.scene import SceneError
     try:
         frame = prepare(args.scene, size=args.size, preset=args.preset, cube_size=args.cube_size,
                         allow_clamp=args.allow_clamp)
@@ -143,7 +143,7 @@ def cmd_render(args) -> int:
 
 def cmd_fit(args) -> int:
     from .fit import fit
-    from fxmodel.scene import SceneError
+    from host.scene import SceneError
     try:
         report = fit(args.scene, max_lsb=args.max_lsb, size=args.size or None, cube_size=args.cube_size,
                      name=args.name, directory=args.out, progress=not args.quiet, passes=args.passes,
@@ -160,32 +160,31 @@ def cmd_presets(args) -> int:
     return 0
 
 
-def build_parser() -> argparse.ArgumentParser:
-    ap = argparse.ArgumentParser(prog="python -m fxmodel", description=__doc__.split("\n")[0],
-                                 formatter_class=argparse.RawDescriptionHelpFormatter)
-    sub = ap.add_subparsers(dest="cmd", required=True)
+def _unit_arg(p):
+    p.add_argument("unit", help=f"one of: {', '.join(units() + list(BLOCK_MODULES))}")
+    p.add_argument("--preset", default="default", help="named parameter set (default: %(default)s)")
 
-    def unit_arg(p):
-        p.add_argument("unit", help=f"one of: {', '.join(units() + list(BLOCK_MODULES))}")
-        p.add_argument("--preset", default="default", help="named parameter set (default: %(default)s)")
 
-    p = sub.add_parser("info", help="ports, formats, latency, error bound and cost estimate of a unit (JSON)")
-    unit_arg(p)
+def add_info_arguments(p):
+    _unit_arg(p)
     p.add_argument("--scene", help="pipeline only: with this scene's tables (name in scenes/ or a .toml file); "
                    "--preset may then name a preset file (presets/<name>.toml)")
-    p.set_defaults(fn=cmd_info)
-    p = sub.add_parser("eval", help="run the golden model on real values from a .npy file")
-    unit_arg(p)
+
+
+def add_eval_arguments(p):
+    _unit_arg(p)
     p.add_argument("input", help="IN.npy: float64, shape (K,) or (K, inputs)")
     p.add_argument("output", help="OUT.npy: float64, shape (K, outputs)")
     p.add_argument("--hex", help="also write $readmemh vectors (inputs then expected outputs) to this file")
-    p.set_defaults(fn=cmd_eval)
-    p = sub.add_parser("errors", help="measure the error against exact math (exhaustive when feasible)")
-    unit_arg(p)
+
+
+def add_errors_arguments(p):
+    _unit_arg(p)
     p.add_argument("--random", type=int, default=0, help="use this many random vectors instead")
     p.add_argument("--seed", type=int, default=1)
-    p.set_defaults(fn=cmd_errors)
-    p = sub.add_parser("render", help="render a scene through the bit-exact pipeline model (no simulator)")
+
+
+def add_render_arguments(p):
     p.add_argument("scene", help="scene file (TOML)")
     p.add_argument("output", help="PNG to write")
     p.add_argument("--size", type=int, help="override the image size (square)")
@@ -195,10 +194,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--refs", metavar="DIR", help="also write the float references' images (and diff.png) into DIR")
     p.add_argument("--triangles", action="store_true", help="draw from triangles (the engine's set-up, scan "
                    "converter and interpolators; the report adds the frame from fragments beside it)")
-    from fxmodel.render import bound_args
+    from host.render import bound_args
     bound_args(p)
-    p.set_defaults(fn=cmd_render)
-    p = sub.add_parser("fit", help="scene-driven word lengths: the smallest preset within --max-lsb of float")
+
+
+def add_fit_arguments(p):
     p.add_argument("scene", help="scene file (TOML)")
     p.add_argument("--max-lsb", type=int, default=1, help="allowed per-channel error vs reference (a), 8-bit steps")
     p.add_argument("--size", type=int, default=64, help="square size of the screening renders (0: full size only); "
@@ -212,17 +212,51 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     from .jobs import add_arguments
     add_arguments(p, what="candidate presets rendered")
-    p.set_defaults(fn=cmd_fit)
-    p = sub.add_parser("presets", help="list units and presets")
+
+
+def add_presets_arguments(p):
     p.add_argument("unit", nargs="?")
-    p.set_defaults(fn=cmd_presets)
-    return ap
 
 
-def main(argv=None) -> int:
-    args = build_parser().parse_args(argv)
+def add_verilog_arguments(p):
+    p.add_argument("--unit", action="append", help="unit name (repeatable; default: all)")
+    p.add_argument("--preset", action="append", help="preset name (repeatable; default: all of each unit; "
+                   "with --scene: pipeline presets, default 'default')")
+    p.add_argument("--scene", help="the pipeline with this scene's tables (name in scenes/ or a .toml file)")
+    p.add_argument("--out", default=str(build_dir("verilog")), help="output folder (default: %(default)s)")
+
+
+def cmd_verilog(args) -> int:
+    """Without ``--scene``: ``OUT/<unit>_<preset>.v``, every registered unit (or ``--unit``) and every preset of
+    each (or ``--preset``). With ``--scene``: the pixel pipeline or the engine with that scene's memories and each
+    pipeline ``--preset``, as ``OUT/<unit>_<preset>_<scene>.v`` (:func:`tools.fpga.design_list`)."""
+    from rtl.verilog import write_verilog
+
+    from .fpga import design_list, scene_hint
     try:
-        return args.fn(args)
-    except ValueError as exc:           # unknown unit / preset: one clear line, no traceback
-        print(f"error: {exc}", file=sys.stderr)
+        if args.scene is not None:
+            for label, params in design_list(args.unit, args.preset, scene=args.scene):
+                stem = "_".join(label.values())
+                print(f"wrote {write_verilog(params, f'{args.out}/{stem}.v')}")
+            return 0
+        for unit in args.unit or units():
+            for name in args.preset or preset_names(unit):
+                print(f"wrote {write_verilog(preset(unit, name), f'{args.out}/{unit}_{name}.v')}")
+    except ValueError as exc:
+        print(f"error: {exc}{scene_hint(args.preset) if args.scene is None else ''}", file=sys.stderr)
         return 2
+    return 0
+
+
+#: The commands of this module (``tools.main``): name -> (help, add arguments, run).
+COMMANDS = {
+    "info": ("ports, formats, latency, error bound and cost estimate of a unit (JSON)", add_info_arguments, cmd_info),
+    "eval": ("run the golden model on real values from a .npy file", add_eval_arguments, cmd_eval),
+    "errors": ("measure the error against exact math (exhaustive when feasible)", add_errors_arguments, cmd_errors),
+    "render": ("render a scene through the bit-exact pipeline model (no simulator)", add_render_arguments,
+               cmd_render),
+    "fit": ("scene-driven word lengths: the smallest preset within --max-lsb of float", add_fit_arguments, cmd_fit),
+    "presets": ("list units and presets", add_presets_arguments, cmd_presets),
+    "verilog": ("write Verilog for units and presets, or the pipeline with a scene's tables", add_verilog_arguments,
+                cmd_verilog),
+}

@@ -1,14 +1,14 @@
 """Depth test and frame-buffer figures of the shipped scenes drawn from triangles (the bit-exact model):
 overdraw, what an early depth test would save, the depth disagreements with reference (a), memory traffic.
 
-``python -m tools.depth [--scenes tin-sphere ...] [--size N] [--json] [--picture PNG]``
+``bumpmap depth [--scenes tin-sphere ...] [--size N] [--json] [--picture PNG]``
 
 Per scene (at its own size unless ``--size``): the fragments the scan converter emits, the covered pixels, the
 overdraw (fragments / covered pixels), the fragments that fail the depth test when they arrive in drawing order
 (the shading an early depth test would save; the same count with the triangles drawn in reverse order, to bracket
 what the order costs), the depth disagreements with reference (a)'s float z-buffer and their largest depth gap
-against the documented precision (:mod:`fxmodel.visibility`), and the frame-buffer bytes read and written per
-covered pixel (:func:`fxmodel.rop.draw`'s counts). Prints a Markdown table (the README's) or JSON.
+against the documented precision (:mod:`host.visibility`), and the frame-buffer bytes read and written per
+covered pixel (:func:`fxmodel.units.rop.draw`'s counts). Prints a Markdown table (the README's) or JSON.
 ``--picture`` writes the first scene's frame from triangles (doubled) beside its depth disagreements marked in red
 (the README's ``docs/img/tin-sphere-depth.png``).
 """
@@ -21,9 +21,9 @@ import sys
 
 import numpy as np
 
-from fxmodel.render import compose, from_triangles, prepare, save_png
-from fxmodel.scene import SCENES, scene_path
-from fxmodel.visibility import disagreement_picture, draw_fragments
+from host.render import compose, from_triangles, prepare, save_png
+from host.scene import SCENES, scene_path
+from host.visibility import disagreement_picture, draw_fragments
 
 
 def reversed_order_failed(tframe) -> int:
@@ -67,14 +67,16 @@ def table(rows) -> str:
     return "\n".join(lines)
 
 
-def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m tools.depth", description=__doc__.split("\n")[0])
+def add_arguments(ap: argparse.ArgumentParser) -> None:
+    """The command line (``bumpmap depth``, :mod:`tools.main`)."""
     ap.add_argument("--scenes", nargs="+", default=sorted(p.stem for p in SCENES.glob("*.toml")),
                     help="scene names in scenes/ or .toml paths (default: every shipped scene)")
     ap.add_argument("--size", type=int, help="override the image width (aspect kept)")
     ap.add_argument("--json", action="store_true", help="print JSON instead of the Markdown table")
     ap.add_argument("--picture", help="write the first scene's frame and its depth disagreements to this PNG")
-    args = ap.parse_args(argv)
+
+
+def run(args: argparse.Namespace) -> int:
     try:
         rows = [figures(s, args.size, args.picture if i == 0 else None) for i, s in enumerate(args.scenes)]
     except (ValueError, OSError) as exc:
@@ -82,7 +84,3 @@ def main(argv=None) -> int:
         return 2
     print(json.dumps(rows, indent=1) if args.json else table(rows))
     return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

@@ -21,13 +21,13 @@ import sys
 from fractions import Fraction
 from pathlib import Path
 
-from fxmodel.fixed import Fmt
-from fxmodel.unit import preset, unit_class, units
+from fxmodel.core.paths import ROOT
+from fxmodel.core.fixed import Fmt
+from fxmodel.core.unit import preset, unit_class, units
 
 __all__ = ["BLOCKS", "DOCUMENTS", "COMMAND", "port_groups", "unit_formats", "pipeline_data_flow",
            "recip_presets", "reciprocals", "regenerate", "stale", "main"]
 
-ROOT = Path(__file__).resolve().parents[1]
 #: The documents holding generated blocks (relative to the repository root).
 DOCUMENTS = ("README.md", "docs/design.md")
 #: The command that regenerates them (quoted in failure messages).
@@ -101,7 +101,7 @@ def _bound(p) -> str:
         return "½ LSB unless saturated"
     if name == "pipeline":
         return "see Results"
-    return f"`python -m fxmodel info {name}`"
+    return f"`bumpmap info {name}`"
 
 
 def _ordered_units() -> list[str]:
@@ -118,7 +118,7 @@ def unit_formats() -> str:
     return _table(("unit", "inputs", "outputs", "latency", "documented bound"), rows)
 
 
-#: The pixel's path through :class:`~fxmodel.pipeline.PipelineParams`: ``(stage, parameter field, key of
+#: The pixel's path through :class:`~fxmodel.pipeline.pixel.PipelineParams`: ``(stage, parameter field, key of
 #: stage_latency)``.
 _STAGES = (("perspective coordinates", "persp", "persp"),
            ("bump-map lookup (`s`, `t`)", "bump_map", "samples"),

@@ -41,13 +41,13 @@ the shards' times, what one process would have taken. ``process_seconds`` is alw
 
 Examples::
 
-    python -m tools.exhaustive --sim icarus,verilator --jobs 2     # what `make exhaustive` runs
-    python -m tools.exhaustive --sim verilator --only recip:default --shard 3/8
-    python -m tools.exhaustive --merge
-    python -m tools.exhaustive --list
-    python -m tools.exhaustive --sim exact,verilator --only recip:rcp32 --jobs 2   # `make exhaustive-wide`
-    python -m tools.exhaustive --sim exact --only recip:rcp32 --throughput 67108864
-    DASK_SCHEDULER_ADDRESS=tcp://head:8786 python -m tools.exhaustive --sim verilator --only recip:rcp32
+    bumpmap exhaustive --sim icarus,verilator --jobs 2     # what `make exhaustive` runs
+    bumpmap exhaustive --sim verilator --only recip:default --shard 3/8
+    bumpmap exhaustive --merge
+    bumpmap exhaustive --list
+    bumpmap exhaustive --sim exact,verilator --only recip:rcp32 --jobs 2   # `make exhaustive-wide`
+    bumpmap exhaustive --sim exact --only recip:rcp32 --throughput 67108864
+    DASK_SCHEDULER_ADDRESS=tcp://head:8786 bumpmap exhaustive --sim verilator --only recip:rcp32
 
 Exit status: 0 when every record is bit-exact, 1 on any mismatch or valid-protocol error, 2 on a usage error.
 """
@@ -61,13 +61,14 @@ import os
 import re
 import sys
 import time
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
 
-from fxmodel.unit import preset
+from fxmodel.core.paths import build_dir
+from fxmodel.core.unit import preset
 
-from cosim.harness import ROOT, simulator
+from cosim.harness import simulator
 from cosim.stream import AHEAD, Space, full_space, grid_space, parse_pair, parse_shard, run_stream, shard_range
 from rtl.digest import params_key
 
@@ -76,7 +77,7 @@ from .prove import check_range
 
 __all__ = ["Target", "TARGETS", "target", "run_target", "merge_shards", "update_report", "REPORT", "SHARDS"]
 
-OUT = ROOT / "build" / "exhaustive"
+OUT = build_dir("exhaustive")
 REPORT = OUT / "report.json"
 SHARDS = OUT / "shards"
 #: Mismatch records kept in a merged record.
@@ -394,6 +395,8 @@ def run_dask(t: Target, sim: str, *, jobs: int = 1, scheduler: str | None = None
         done.append((i, rec))
         if len(done) == jobs and todo_vectors and len(ps) > jobs:     # a projection needs pieces left to run
             rates = sorted(r["vectors"] / r["seconds"] for _, r in done if r["seconds"])
+            if not rates:                       # every piece finished within the timer's resolution: no rate
+                return
             rate = rates[len(rates) // 2]
             projection.update({"workers": jobs, "per_worker_rate": round(rate, 1), "from_pieces": jobs,
                                "vectors": todo_vectors, "projected_seconds": round(todo_vectors / (rate * jobs), 3),
@@ -494,10 +497,13 @@ def parse_select(text: str) -> tuple[int, int]:
     return parse_pair(text, "--select", ":", "AB", "1:16", "pieces")
 
 
-def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m tools.exhaustive", description=__doc__.split("\n")[0],
-                                 formatter_class=argparse.RawDescriptionHelpFormatter,
+#: Extra options of this command's parser (``tools.main``).
+PARSER_OPTIONS = dict(formatter_class=argparse.RawDescriptionHelpFormatter,
                                  epilog=__doc__[__doc__.index("Sharding"):])
+
+
+def add_arguments(ap: argparse.ArgumentParser) -> None:
+    """The command line (``bumpmap exhaustive``, :mod:`tools.main`)."""
     ap.add_argument("--sim", default="icarus,verilator",
                     help="comma-separated simulators, or exact (the model against exact math) (default: %(default)s)")
     ap.add_argument("--only", default="", help="comma-separated targets UNIT[:PRESET] (default: all of TARGETS)")
@@ -520,7 +526,9 @@ def main(argv=None) -> int:
     ap.add_argument("--record", metavar="FILE",
                     help="also enter the records in FILE (as the report), or with --throughput write them there: "
                          "the committed figures (docs/exhaustive/)")
-    args = ap.parse_args(argv)
+
+
+def run(args: argparse.Namespace) -> int:
     try:
         targets = [target(x.strip()) for x in args.only.split(",") if x.strip()] or list(TARGETS)
         if args.list:
@@ -605,7 +613,3 @@ def main(argv=None) -> int:
         print(bad, file=sys.stderr)
         return 1
     return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

@@ -1,4 +1,4 @@
-"""``python -m tools.figures [OUTDIR]``: the pictures in the README, from the bit-exact model.
+"""``bumpmap figures [OUTDIR]``: the pictures in the README, from the bit-exact model.
 
 Writes into ``OUTDIR`` (default ``docs/img``):
 
@@ -19,10 +19,10 @@ from pathlib import Path
 
 import numpy as np
 
-from fxmodel.bumpmap import bump_rgb
-from fxmodel.render import compose, prepare, render, save_png
+from fxmodel.core.paths import ROOT
+from host.bumpmap import bump_rgb
+from host.render import compose, prepare, render, save_png
 
-ROOT = Path(__file__).resolve().parents[1]
 
 # cross layout: (row, column) of each face 0..5 = +X, -X, +Y, -Y, +Z, -Z
 CROSS = {0: (1, 2), 1: (1, 0), 2: (0, 1), 3: (2, 1), 4: (1, 1), 5: (1, 3)}
@@ -49,10 +49,12 @@ def _upscale(img: np.ndarray, k: int) -> np.ndarray:
     return np.repeat(np.repeat(img, k, 0), k, 1)
 
 
-def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m tools.figures", description=__doc__.split("\n")[0])
+def add_arguments(ap: argparse.ArgumentParser) -> None:
+    """The command line (``bumpmap figures``, :mod:`tools.main`)."""
     ap.add_argument("outdir", nargs="?", default=str(ROOT / "docs" / "img"))
-    args = ap.parse_args(argv)
+
+
+def run(args: argparse.Namespace) -> int:
     out = Path(args.outdir)
     summary = {}
     for path in sorted((ROOT / "scenes").glob("*.toml")):
@@ -74,7 +76,3 @@ def main(argv=None) -> int:
     print(json.dumps(summary, indent=2))
     print(f"wrote {out}")
     return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

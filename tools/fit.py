@@ -1,28 +1,28 @@
-"""Scene-driven word lengths: ``python -m fxmodel fit`` writes a pipeline preset fitted to a scene.
+"""Scene-driven word lengths: ``bumpmap fit`` writes a pipeline preset fitted to a scene.
 
 :func:`fit` measures the ranges a scene produces and searches, by greedy coordinate descent from ``default``,
 the smallest formats and table sizes (:data:`KNOB_STEPS`) for which the bit-exact frame stays within
 ``max_lsb`` of the float reference (a) on every well-conditioned pixel, first widening a preset that cannot draw
 the scene (:func:`widen`; candidates go to ``prepare`` as units dicts, nothing
 is registered globally); it writes the result as a preset file that ``prepare(..., preset=NAME)``,
-``python -m fxmodel render --preset NAME``, ``make sim PRESET=NAME`` and, with a scene, ``make verilog`` and
-``make fpga`` accept, and reports a hardware estimate (:func:`hardware`, the one cost model :mod:`fxmodel.cost`)
+``bumpmap render --preset NAME``, ``make sim PRESET=NAME`` and, with a scene, ``make verilog`` and
+``make fpga`` accept, and reports a hardware estimate (:func:`hardware`, the one cost model :mod:`fxmodel.core.cost`)
 against ``default``.
 
-The preset files themselves (reading, writing, the built-in ``default``) are :mod:`fxmodel.presets`.
+The preset files themselves (reading, writing, the built-in ``default``) are :mod:`fxmodel.pipeline.presets`.
 """
 
 from __future__ import annotations
 
 import dataclasses
 
-from fxmodel.cube import cube_divider
-from fxmodel.fixed import Fmt
-from fxmodel.presets import BUILTIN_PRESET_UNITS, UNIT_KEYS, top_value, write_preset
+from fxmodel.units.cube import cube_divider
+from fxmodel.core.fixed import Fmt
+from fxmodel.pipeline.presets import BUILTIN_PRESET_UNITS, UNIT_KEYS, top_value, write_preset
 
 __all__ = ["KNOB_STEPS", "KNOB_MIN", "knobs_of", "units_of", "measure_ranges", "hardware", "fit"]
 
-# -- scene-driven word lengths: ``python -m fxmodel fit`` ---------------------------------------------------
+# -- scene-driven word lengths: ``bumpmap fit`` ---------------------------------------------------
 #: The knobs the search reduces, in search order (widest savings first), with the starting step in bits.
 KNOB_STEPS = {
     "cube_size": 16, "word": 2, "cube_p": 2, "cube_b": 2, "cube_guard": 1, "cube_m": 1, "cube_t": 1,
@@ -106,12 +106,12 @@ def measure_ranges(frame) -> dict:
 
 
 def hardware(units: dict, params) -> dict:
-    """The hardware estimate of a pipeline preset: ``params.cost()`` (:func:`fxmodel.cost.estimate` of the
-    assembled :class:`~fxmodel.pipeline.PipelineParams`: MULT18X18D blocks ``dsp`` with the sampler blends, DP16KD
+    """The hardware estimate of a pipeline preset: ``params.cost()`` (:func:`fxmodel.core.cost.estimate` of the
+    assembled :class:`~fxmodel.pipeline.pixel.PipelineParams`: MULT18X18D blocks ``dsp`` with the sampler blends, DP16KD
     blocks ``bram``, multipliers, table and memory bits), the sum of the units' port widths, and the scan
-    converter in front of it (:func:`fxmodel.render.raster_params`): its blocks and its record's and
+    converter in front of it (:func:`host.render.raster_params`): its blocks and its record's and
     accumulators' bits (the interpolators' registers)."""
-    from fxmodel.render import raster_params
+    from host.render import raster_params
     raster = raster_params(units)
     return {**params.cost(),
             "datapath_port_bits": sum(p.fmt.width for u in (units[k] for k in UNIT_KEYS) for p in u.inputs + u.outputs),
@@ -121,15 +121,15 @@ def hardware(units: dict, params) -> dict:
 
 def _render(frame, triangles: bool) -> dict:
     """The render report of ``frame`` as the hardware draws it: from triangles (the scan converter and
-    interpolators of the frame's preset, ``raster_guard`` included: :func:`fxmodel.render.from_triangles`) or
+    interpolators of the frame's preset, ``raster_guard`` included: :func:`host.render.from_triangles`) or
     from the front end's fragments. A triangle the preset's set-up cannot draw raises ``ValueError``."""
-    from fxmodel.render import from_triangles, render
+    from host.render import from_triangles, render
     return render(frame, model=from_triangles(frame).in_frame_order() if triangles else None)
 
 
 def _refused(frame) -> int:
     """Fragment inputs a frame clamps plus fragments whose texture addresses its preset does not resolve (what
-    :func:`fxmodel.render.prepare` refuses without ``allow_clamp``)."""
+    :func:`host.render.prepare` refuses without ``allow_clamp``)."""
     return sum(frame.stats["clamped_fragment_inputs"].values()) + sum(frame.stats["imprecise_fragments"].values())
 
 
@@ -137,7 +137,7 @@ def _refused(frame) -> int:
 WIDEN_STEPS = {"word": 2, "persp_p": 2, "persp_b": 2, "coord_bits": 2, "uv_frac": 2, "w_frac": 2, "n_frac": 2,
                "a_frac": 2, "e_frac": 2, "d_frac": 1, "weight_bits": 1, "diffuse_frac": 1, "specular_frac": 1,
                "cube_p": 2, "cube_b": 2, "persp_m": 1, "cube_m": 1, "cube_size": 32}
-#: Which integer knob holds each fragment input (:data:`fxmodel.render.INPUT_KNOBS` as fit knobs).
+#: Which integer knob holds each fragment input (:data:`host.render.INPUT_KNOBS` as fit knobs).
 INT_KNOB = {**{n: "uv_int" for n in ("U", "V", "Uc", "Vc")}, **{f"E{c}": "e_int" for c in "xyz"},
             **{f"A{i}{j}": "a_int" for i in range(3) for j in range(2)}}
 WIDEN_LIMIT = 24
@@ -240,7 +240,7 @@ def check_candidate(c: Candidate) -> dict:
     size (stopping at the first size that fails), drawn from triangles when ``c.triangles`` (:func:`_render`). A
     candidate that makes an invalid unit or a triangle the set-up cannot draw (``ValueError``, ``TypeError``) is
     not ok."""
-    from fxmodel.render import prepare
+    from host.render import prepare
 
     renders = 0
     try:
@@ -359,7 +359,7 @@ def fit(scene, *, max_lsb: int = 1, size: int | None = 64, cube_size: int | None
     name : str, optional
         Preset name to write (``presets/<name>.toml``; default ``<scene>-fit``).
     directory : path, optional
-        Where to write the preset (default :func:`fxmodel.presets.presets_dir`).
+        Where to write the preset (default :func:`fxmodel.pipeline.presets.presets_dir`).
     progress : bool
         Show a progress bar (tqdm).
     passes : int
@@ -386,8 +386,8 @@ def fit(scene, *, max_lsb: int = 1, size: int | None = 64, cube_size: int | None
     import time
     from contextlib import nullcontext
 
-    from fxmodel.render import prepare
-    from fxmodel.scene import load_scene
+    from host.render import prepare
+    from host.scene import load_scene
 
     from . import jobs as jobrunner
 
@@ -467,7 +467,7 @@ def fit(scene, *, max_lsb: int = 1, size: int | None = 64, cube_size: int | None
     meta = {"scene": scene.name, "max_lsb": max_lsb, "screen_size": size or 0, "start_cube_size": base["cube_size"],
             "judged_from": "triangles" if triangles else "fragments", "final": final, "ranges": ranges, "knobs": k}
     path = write_preset(name, units, directory, meta=meta,
-                        comment=f"Written by `python -m fxmodel fit` for scene {scene.name} (--max-lsb {max_lsb}).\n"
+                        comment=f"Written by `bumpmap fit` for scene {scene.name} (--max-lsb {max_lsb}).\n"
                                 f"Use: make sim PRESET={name} SCENE={scene.name}")
     return {"preset": name, "path": str(path), "scene": scene.name, "max_lsb": max_lsb,
             "knobs": {kn: {"default": start[kn], "fit": k[kn]} for kn in order}, "widened": widened,

@@ -1,6 +1,6 @@
 """ECP5 FPGA flow: resources, Fmax and latency of any unit, preset or parameter object.
 
-``python -m tools.fpga [--unit U ...] [--preset P ...] [--scene SCENE] [--jobs N]`` (``make fpga``) runs, for each
+``bumpmap fpga [--unit U ...] [--preset P ...] [--scene SCENE] [--jobs N]`` (``make fpga``) runs, for each
 design (with ``--scene``: the pixel pipeline with that scene's tables, for each pipeline ``--preset``; see
 :func:`design_list`),
 
@@ -11,12 +11,12 @@ design (with ``--scene``: the pixel pipeline with that scene's tables, for each 
 
 and writes ``build/fpga/report.json`` (one record per design, see :func:`parse_results`) and a Markdown table
 ``build/fpga/report.md``, each design's MULT18X18D and DP16KD counts beside the estimate of the one cost model
-(:func:`fxmodel.cost.estimate`).
+(:func:`fxmodel.core.cost.estimate`).
 
 ``--synth-only`` runs yosys alone (the MULT18X18D and DP16KD counts; nextpnr keeps both as synthesized).
 ``--record FILE`` merges the designs' counts, with their estimates and parameter digests, into ``FILE``: the
 committed ``docs/fpga/resources.json`` that ``tests/test_cost.py`` holds the estimate against (written by
-``python -m tools.fpga --synth-only --record docs/fpga/resources.json`` and the same with ``--scene tin-plane
+``bumpmap fpga --synth-only --record docs/fpga/resources.json`` and the same with ``--scene tin-plane
 --preset tin-plane-fit``). A count that differs from the estimate is recorded with its reason
 (:data:`KNOWN_DIFFERENCES`). Fmax is nextpnr's achieved frequency of the clock domain (register to register; the
 unconstrained pad paths are not counted); resources come from nextpnr's utilization (``TRELLIS_COMB`` = LUT4
@@ -51,15 +51,16 @@ from dataclasses import asdict, dataclass
 from importlib import metadata
 from pathlib import Path
 
-from rtl.digest import ROOT, params_key, text_key
+from fxmodel.core.paths import ROOT, build_dir
+from rtl.digest import params_key, text_key
 
 from . import jobs as jobrunner
 
 __all__ = ["Flow", "FLOW", "TARGET_MHZ", "target_mhz", "design_list", "measure", "run_designs",
            "parse_results", "critical_path_summary", "markdown_table", "scene_hint", "KNOWN_DIFFERENCES",
-           "params_digest", "design_key", "record_resources", "RESOURCES", "main"]
+           "params_digest", "design_key", "record_resources", "RESOURCES", "add_arguments", "run"]
 
-BUILD = ROOT / "build" / "fpga"
+BUILD = build_dir("fpga")
 
 #: Clock targets (MHz): the reciprocal at 150 MHz; everything else sits in the pixel pipeline,
 #: whose target is 100 MHz. One result per clock everywhere.
@@ -77,7 +78,7 @@ KNOWN_DIFFERENCES: dict[tuple, str] = {
         "simplifies part of that constant blend, which the estimate counts as the 12 products the RTL writes "
         "(synthesized stage by stage, the earlier fitted preset's texture sampler took 9 blocks and every other "
         "stage its estimate; the refitted preset differs by the same 3)",
-    ("raster_pipeline", "tin-plane-fit", "tin-plane"):
+    ("engine", "tin-plane-fit", "tin-plane"):
         "the pixel pipeline it feeds is the fitted tin plane's, whose single-texel texture blend yosys simplifies "
         "by 3 blocks (the pipeline's entry); the scan converter takes its estimate (34 blocks: the span-start "
         "partial products)",
@@ -481,30 +482,30 @@ def design_list(unit_names=None, preset_list=None, scene=None) -> list[tuple[dic
 
     With ``scene`` (a name in ``scenes/`` or a scene file): the pixel pipeline with that scene's memories, once
     per pipeline preset in ``preset_list`` (built in or ``presets/<name>.toml``; default ``["default"]``),
-    labelled ``{"unit": "pipeline", "preset": P, "scene": <file stem>}`` (:func:`fxmodel.render.pipeline_params`),
+    labelled ``{"unit": "pipeline", "preset": P, "scene": <file stem>}`` (:func:`host.render.pipeline_params`),
     and the engine from the triangle that feeds it (the scan converter and interpolators in front:
-    ``{"unit": "raster_pipeline", ...}``, :func:`fxmodel.render.engine_params`); ``unit_names`` picks one of the
-    two. The unit ``raster`` (the scan converter alone, :data:`fxmodel.raster.RasterParams.PRESETS`) is named
+    ``{"unit": "engine", ...}``, :func:`host.render.engine_params`); ``unit_names`` picks one of the
+    two. The unit ``raster`` (the scan converter alone, :data:`fxmodel.units.raster.RasterParams.PRESETS`) is named
     explicitly.
 
     Raises
     ------
     ValueError
         An unknown unit or pipeline preset, a missing or malformed scene file (each named), or ``scene`` with a
-        unit other than ``pipeline`` or ``raster_pipeline``.
+        unit other than ``pipeline`` or ``engine``.
     """
-    from fxmodel.unit import preset, preset_names, units
+    from fxmodel.core.unit import preset, preset_names, units
 
     from rtl.unit import build as build_rtl
 
     if scene is not None:
-        from fxmodel.render import engine_params
-        from fxmodel.scene import scene_path
+        from host.render import engine_params
+        from host.scene import scene_path
 
-        kinds = ("pipeline", "raster_pipeline")
+        kinds = ("pipeline", "engine")
         if unit_names and not set(unit_names) <= set(kinds):
             raise ValueError(f"unit={unit_names!r}: a scene sets the tables of the pipeline only "
-                             "(drop --unit or use --unit pipeline or --unit raster_pipeline)")
+                             "(drop --unit or use --unit pipeline or --unit engine)")
         stem = scene_path(scene).stem
         out = []
         for name in preset_list or ["default"]:
@@ -514,7 +515,7 @@ def design_list(unit_names=None, preset_list=None, scene=None) -> list[tuple[dic
         return out
     out = []
     if unit_names and "raster" in unit_names:
-        from fxmodel.raster import RasterParams
+        from fxmodel.units.raster import RasterParams
         out += [({"unit": "raster", "preset": name}, params) for name, params in RasterParams.PRESETS.items()
                 if not preset_list or name in preset_list]
         unit_names = [u for u in unit_names if u != "raster"]
@@ -538,7 +539,7 @@ def design_list(unit_names=None, preset_list=None, scene=None) -> list[tuple[dic
 
 def markdown_table(records) -> str:
     """The report table; a ``scene`` column (the scene whose tables a pipeline holds) when any record has one.
-    DSP and BRAM read ``count / estimate`` (:func:`fxmodel.cost.estimate`); synthesized only (``--synth-only``):
+    DSP and BRAM read ``count / estimate`` (:func:`fxmodel.core.cost.estimate`); synthesized only (``--synth-only``):
     no LUT4, FF or Fmax."""
     scenes = any("scene" in r for r in records)
     lines = ["| unit | preset | " + ("scene | " if scenes else "") + "LUT4 | FF | DSP (MULT18X18D) / est. "
@@ -597,7 +598,7 @@ def record_resources(records, path: Path = RESOURCES, command: str = "") -> dict
         designs[key] = entry
     data = {"about": "ECP5 MULT18X18D and DP16KD blocks of every unit preset and of the pipelines `make fpga` "
                      "places, as yosys synth_ecp5 maps them (nextpnr keeps both counts), beside the estimate of "
-                     "fxmodel.cost; tests/test_cost.py holds the estimate to these counts.",
+                     "fxmodel.core.cost; tests/test_cost.py holds the estimate to these counts.",
             "command": command or old.get("command", ""), "tools": tool_versions(),
             "designs": sorted(designs.values(), key=lambda d: (d["unit"], d.get("scene") or "", d["preset"]))}
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -607,7 +608,7 @@ def record_resources(records, path: Path = RESOURCES, command: str = "") -> dict
 
 def scene_hint(preset_list) -> str:
     """A hint for the command lines when a preset named without ``--scene`` is a pipeline preset file."""
-    from fxmodel.presets import preset_path
+    from fxmodel.pipeline.presets import preset_path
 
     names = [p for p in preset_list or () if preset_path(p).is_file()]
     return (f" ({', '.join(names)}: a pipeline preset, whose memories come from a scene: add --scene SCENE)"
@@ -630,7 +631,7 @@ def compare_routers(folders) -> str:
     for folder in folders:
         path = Path(folder) / "report.json"
         if not path.is_file():
-            raise ValueError(f"{path}: no report (run python -m tools.fpga --out {folder} first)")
+            raise ValueError(f"{path}: no report (run bumpmap fpga --out {folder} first)")
         report = json.loads(path.read_text())
         router = report.get("flow", {}).get("router", "router1")
         routers += [router] if router not in routers else []
@@ -657,8 +658,8 @@ def compare_routers(folders) -> str:
     return "\n".join(rows)
 
 
-def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m tools.fpga", description=__doc__.split("\n")[0])
+def add_arguments(ap: argparse.ArgumentParser) -> None:
+    """The command line (``bumpmap fpga``, :mod:`tools.main`)."""
     ap.add_argument("--unit", action="append", help="unit name (repeatable; default: every unit with RTL)")
     ap.add_argument("--preset", action="append", help="preset name (repeatable; default: all of each unit; "
                     "with --scene: pipeline presets, default 'default')")
@@ -676,7 +677,9 @@ def main(argv=None) -> int:
     ap.add_argument("--record", metavar="FILE", help="merge the counts into FILE (docs/fpga/resources.json)")
     ap.add_argument("--compare", nargs="+", metavar="FOLDER",
                     help="print the router table of the runs in these output folders (no tools run)")
-    args = ap.parse_args(argv)
+
+
+def run(args: argparse.Namespace) -> int:
     if args.compare:
         try:
             print(compare_routers(args.compare))
@@ -701,19 +704,15 @@ def main(argv=None) -> int:
                                                  "designs": records}, indent=2))
     table = markdown_table(records)
     (out / "report.md").write_text(f"ECP5 {records[0]['device']}, seed {flow.seed}, {flow.router}, "
-                                   "`python -m tools.fpga`; "
+                                   "`bumpmap fpga`; "
                                    "one result per clock.\n\n" + table + "\n")
     print(table)
     print(f"\n(written to {out / 'report.json'} and {out / 'report.md'})")
     if args.record:
-        data = record_resources(records, Path(args.record), "python -m tools.fpga --synth-only --record "
+        data = record_resources(records, Path(args.record), "bumpmap fpga --synth-only --record "
                                 f"{args.record} [--scene SCENE --preset PRESET]")
         unknown = [d for d in data["designs"] if "reason" in d and not d["reason"]]
         print(f"(counts recorded in {args.record}"
               + (f"; differing from the estimate without a known reason: "
                  f"{', '.join('/'.join(str(v) for v in design_key(d) if v) for d in unknown)})" if unknown else ")"))
     return 1 if any("error" in r for r in records) else 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

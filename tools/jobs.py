@@ -49,15 +49,16 @@ from functools import lru_cache
 from pathlib import Path
 from typing import Callable, Sequence
 
-ROOT = Path(__file__).resolve().parents[1]
+from fxmodel.core.paths import ROOT, build_dir, source_digest
+
 #: Default folder of the result caches (``build/jobs/<job name>/``).
-CACHE = ROOT / "build" / "jobs"
+CACHE = build_dir("jobs")
 #: Retries of a piece that raised, before the job fails.
 RETRIES = 2
 #: Deaths of workers running one piece before it is declared failed (the scheduler's ``allowed-failures``).
 ALLOWED_FAILURES = 3
 #: The packages whose sources a piece's result depends on (their digest is checked on every result).
-CODE = ("fxmodel", "rtl", "cosim", "tools")
+CODE = ("fxmodel", "host", "rtl", "cosim", "tools")
 
 __all__ = ["RETRIES", "ALLOWED_FAILURES", "CACHE", "add_arguments", "scheduler_address", "cluster",
            "run_pieces", "content_key", "code_digest", "cpu_seconds", "JobError"]
@@ -70,11 +71,7 @@ class JobError(RuntimeError):
 @lru_cache(maxsize=None)
 def code_digest() -> str:
     """12 hex digits of the sources of :data:`CODE` (every ``*.py``, names and contents), taken once a process."""
-    h = hashlib.sha1()
-    for folder in CODE:
-        for path in sorted((ROOT / folder).glob("*.py")):
-            h.update(f"{folder}/{path.name}".encode() + b"\0" + path.read_bytes())
-    return h.hexdigest()[:12]
+    return hashlib.sha1(source_digest(CODE)).hexdigest()[:12]
 
 
 def content_key(*parts) -> str:

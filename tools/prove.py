@@ -1,14 +1,14 @@
 """Model against exact math over a whole input space, in pieces: the model side of an exhaustive proof.
 
 :func:`check_range` evaluates the bit-exact model (``params.compute``) on rows ``lo..hi`` of an input space and
-measures every output against the exact rational result with :mod:`fxmodel.exact` (integer arithmetic, no
+measures every output against the exact rational result with :mod:`fxmodel.units.exact` (integer arithmetic, no
 floating point in the decision). A row is a *violation* when its error exceeds the unit's documented bound
 (:data:`ORACLES`). The record has the fields of a streaming co-simulation record (:mod:`tools.exhaustive`,
 simulator ``exact``), so shards merge and report the same way, plus ``max_error_ulp``, ``worst_index``
 ``unfaithful`` (rows with an error of one ulp or more) and ``bound_ulp``.
 
 Rows are evaluated :data:`CHUNK` at a time, so a piece of any size runs in bounded memory (about 0.5 GB).
-The reciprocal: the paper, section 4.1; its bound: ``RecipParams.error_bound_ulp`` (``fxmodel/recip.py``).
+The reciprocal: the paper, section 4.1; its bound: ``RecipParams.error_bound_ulp`` (``fxmodel/units/recip.py``).
 """
 
 from __future__ import annotations
@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from fxmodel import exact
+from fxmodel.units import exact
 
 __all__ = ["ORACLES", "ProofPiece", "check_range", "prove_piece", "CHUNK"]
 

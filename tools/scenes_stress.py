@@ -1,10 +1,10 @@
-"""``python -m tools.scenes_stress [--count 200] [--seed 0] [--size 32] [--preset default]``: random scenes.
+"""``bumpmap scenes-stress [--count 200] [--seed 0] [--size 32] [--preset default]``: random scenes.
 
-Renders ``--count`` random valid scenes (:func:`fxmodel.scenegen.random_scene`, seeds ``seed .. seed + count -
+Renders ``--count`` random valid scenes (:func:`host.scenegen.random_scene`, seeds ``seed .. seed + count -
 1``) through the bit-exact model and reference (a) with ``--preset``, and prints the figures the README quotes:
 how many scenes the preset accepts and refuses (and why), the share of accepted frames within 1 LSB
 of (a) on every well-conditioned pixel, how many are within the documented bound, the worst frames, and the
-ill-conditioned pixels (:data:`fxmodel.render.ILL_CONDITIONED`). Frames without a visible fragment are counted
+ill-conditioned pixels (:data:`host.render.ILL_CONDITIONED`). Frames without a visible fragment are counted
 apart. Writes every scene's result to ``build/scenes_stress/report.json``; ``--keep DIR`` also writes the TOML
 of each frame over 1 LSB into DIR (to keep as a named regression scene).
 """
@@ -18,11 +18,11 @@ from pathlib import Path
 
 import numpy as np
 
-from fxmodel.render import SCENE_BOUND_LSB, ClampError, judge, prepare, render
-from fxmodel.scene import parse_scene
-from fxmodel.scenegen import random_scene
+from fxmodel.core.paths import build_dir
+from host.render import SCENE_BOUND_LSB, ClampError, judge, prepare, render
+from host.scene import parse_scene
+from host.scenegen import random_scene
 
-ROOT = Path(__file__).resolve().parents[1]
 
 
 def run_one(seed: int, size: int, preset: str = "default") -> dict:
@@ -69,22 +69,24 @@ def summary(results: list) -> dict:
             "seconds_per_scene": None}
 
 
-def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m tools.scenes_stress", description=__doc__.split("\n")[0])
+def add_arguments(ap: argparse.ArgumentParser) -> None:
+    """The command line (``bumpmap scenes-stress``, :mod:`tools.main`)."""
     ap.add_argument("--count", type=int, default=200)
     ap.add_argument("--seed", type=int, default=0, help="first seed (default: %(default)s)")
     ap.add_argument("--size", type=int, default=32, help="image width and height (default: %(default)s)")
     ap.add_argument("--preset", default="default")
-    ap.add_argument("--out", default=str(ROOT / "build" / "scenes_stress"), help="report folder")
+    ap.add_argument("--out", default=str(build_dir("scenes_stress")), help="report folder")
     ap.add_argument("--keep", help="write the scenes of frames over 1 LSB here")
-    args = ap.parse_args(argv)
+
+
+def run(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     results = []
     from tqdm import tqdm
     for seed in tqdm(range(args.seed, args.seed + args.count), unit="scene", desc="random scenes"):
         results.append(run_one(seed, args.size, args.preset))
     summ = summary(results)
-    summ["command"] = (f"python -m tools.scenes_stress --count {args.count} --seed {args.seed} --size {args.size} "
+    summ["command"] = (f"bumpmap scenes-stress --count {args.count} --seed {args.seed} --size {args.size} "
                        f"--preset {args.preset}")
     summ["seconds"] = round(time.perf_counter() - t0, 1)
     summ["seconds_per_scene"] = round(summ["seconds"] / max(1, args.count), 2)
@@ -99,7 +101,3 @@ def main(argv=None) -> int:
                 (Path(args.keep) / f"random-{r['seed']}.toml").write_text(r["text"])
     print(json.dumps(summ, indent=1))
     return 0 if summ["drawn_within_bound"] == summ["drawn"] else 1
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

@@ -1,6 +1,6 @@
 r"""Design-space sweep: speed against error of the reciprocal, the other units' widths and the pipeline.
 
-``python -m tools.sweep [--no-fpga] [--fpga-points N] [--unit-fpga-points N] [--unit-samples K] [--no-units]
+``bumpmap sweep [--no-fpga] [--fpga-points N] [--unit-fpga-points N] [--unit-samples K] [--no-units]
 [--only UNIT] [--no-pipeline] [--jobs J] [--scheduler ADDRESS] [--docs]`` (second phase of ``make bench``) measures
 the reciprocal grid below, the
 unit-width families and pipeline points of :mod:`tools.sweep_units` (perspective, cube, reflection and bump units:
@@ -10,7 +10,7 @@ reference, ``fit``'s hardware estimate), with one progress bar over all points.
 
 Reciprocal: a grid of about 45 configurations that spans cheap to precise: table index bits ``m``, table
 word bits ``b``, Taylor terms ``t`` (1 to 4), output precision ``p`` and table mode (``round``, the paper's
-``round(1/w_h)``, against ``midpoint``, the expansion about each interval's centre; ``fxmodel/recip.py``). The grid
+``round(1/w_h)``, against ``midpoint``, the expansion about each interval's centre; ``fxmodel/units/recip.py``). The grid
 (:func:`default_grid`) holds
 
 * the presets ``default``, ``small`` and ``rcp24``, and the paper's configuration (``paper``: 128 entries
@@ -24,16 +24,16 @@ word bits ``b``, Taylor terms ``t`` (1 to 4), output precision ``p`` and table m
 Every point but ``rcp24`` has the 24-bit input ``s8.16`` (``small``: ``s4.12``). For each point the bit-exact model
 (:meth:`RecipParams.compute`) runs over **every** input when the input space is at most ``--exhaustive-limit``
 (default ``2**24``), else over ``--samples`` uniform random inputs plus the unit's hard cases; the error of each
-output against the exact ``1/w`` comes from :func:`fxmodel.exact.recip_error_ulp` (exact integers). Recorded:
+output against the exact ``1/w`` comes from :func:`fxmodel.units.exact.recip_error_ulp` (exact integers). Recorded:
 worst and mean error in ulps of the result, correct bits ``p - 1 - log2(error)`` (relative error of a mantissa in
 ``[1, 2)``; worst and mean), the documented bound, table bits, multipliers, estimated MULT18X18D blocks
-(:func:`fxmodel.cost.estimate`, the one cost model), latency, model throughput (one timing of the whole ``compute`` call, one core), and, for at
+(:func:`fxmodel.core.cost.estimate`, the one cost model), latency, model throughput (one timing of the whole ``compute`` call, one core), and, for at
 most ``--fpga-points`` points (the four named ones first, then Pareto points spread evenly inside the front), the
 ECP5 results of :func:`tools.fpga.run_designs` (LUT4, FF, DSP, block RAM, Fmax; cached under ``build/fpga``).
 
 Cost and Pareto front. Without place and route for every point, the cost is a proxy:
 ``table_bits + dsp_weight * dsp`` (``--dsp-weight``, default 1024 ROM bits per 18x18 multiplier block), both from
-:func:`fxmodel.cost.estimate` (its MULT18X18D count equals the synthesized one of every preset,
+:func:`fxmodel.core.cost.estimate` (its MULT18X18D count equals the synthesized one of every preset,
 ``docs/fpga/resources.json``).
 A point is on the front when no other point has at least as many worst-case correct bits at no more cost
 (and is better in one). Published anchors on the plot: NVIDIA's SFU reciprocal (Oberman & Siu 2005: 128 entries
@@ -61,18 +61,18 @@ from pathlib import Path
 
 import numpy as np
 
-from fxmodel.exact import recip_error_ulp
-from fxmodel.fixed import Fmt
-from fxmodel.recip import RecipParams
-from fxmodel.unit import preset
+from fxmodel.core.paths import ROOT, build_dir
+from fxmodel.units.exact import recip_error_ulp
+from fxmodel.core.fixed import Fmt
+from fxmodel.units.recip import RecipParams
+from fxmodel.core.unit import preset
 
 from .sweep_units import unique_points
 
 __all__ = ["PAPER", "ANCHORS", "faithful_p", "default_grid",
-           "measure_point", "pareto_front", "sweep", "markdown", "plot", "plot_units", "write_outputs", "main"]
+           "measure_point", "pareto_front", "sweep", "markdown", "plot", "plot_units", "write_outputs", "add_arguments", "run"]
 
-ROOT = Path(__file__).resolve().parent.parent
-OUT = ROOT / "build" / "bench"
+OUT = build_dir("bench")
 DOCS_IMG = ROOT / "docs" / "img"
 
 #: Input format of the sweep (the default preset's 24-bit ``s8.16``).
@@ -329,7 +329,7 @@ def sweep(grid=None, *, pipeline=None, scene=None, scene_size: int | None = None
     meta = {"machine": platform.platform(), "python": platform.python_version(), "dsp_weight": dsp_weight,
             "exhaustive_limit": exhaustive_limit, "samples": samples, "unit_samples": unit_samples,
             "seconds": round(time.perf_counter() - t0, 1),
-            "cost": "table_bits + dsp_weight * dsp_blocks_est (fxmodel.cost.estimate; pipeline: hardware.dsp, "
+            "cost": "table_bits + dsp_weight * dsp_blocks_est (fxmodel.core.cost.estimate; pipeline: hardware.dsp, "
                     "sampler blends included)",
             "unit_errors": {u: {"error": e["what"], "ulp": e["ulp_name"]} for u, e in su.UNIT_ERRORS.items()},
             "anchors": [{"name": a, "table_bits": tb, "multipliers": mu, "correct_bits": cb}
@@ -429,7 +429,7 @@ def markdown(result: dict) -> str:
         lines += ["", f"## Pipeline ({p0['scene']}, {p0['width']}×{p0['height']}, bit-exact model)", ""]
         lines += _pipeline_table(result)
         lines += ["", "Bold: Pareto front of PSNR against reference (a) over cost = table bits + "
-                  f"{meta['dsp_weight']:g} × estimated MULT18X18D blocks (`fxmodel.cost`, the sampler blends "
+                  f"{meta['dsp_weight']:g} × estimated MULT18X18D blocks (`fxmodel.core.cost`, the sampler blends "
                   "included). Memory bits: maps, texture and "
                   "reflectance cubes."]
     return "\n".join(lines)
@@ -620,7 +620,7 @@ def write_outputs(result: dict, out: Path = OUT, docs: bool = False) -> list[Pat
     out.mkdir(parents=True, exist_ok=True)
     paths = [out / "speed_vs_error.json", out / "speed_vs_error.md"]
     paths[0].write_text(json.dumps(result, indent=2))
-    paths[1].write_text("# Design-space sweep, `python -m tools.sweep`\n\n" + markdown(result) + "\n")
+    paths[1].write_text("# Design-space sweep, `bumpmap sweep`\n\n" + markdown(result) + "\n")
     pictures = []
     if _points(result, "recip"):
         pictures.append(("pareto.png", plot))
@@ -635,8 +635,8 @@ def write_outputs(result: dict, out: Path = OUT, docs: bool = False) -> list[Pat
     return paths
 
 
-def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m tools.sweep", description=__doc__.split("\n")[0])
+def add_arguments(ap: argparse.ArgumentParser) -> None:
+    """The command line (``bumpmap sweep``, :mod:`tools.main`)."""
     ap.add_argument("--no-fpga", action="store_true", help="skip the ECP5 flow")
     ap.add_argument("--fpga-points", type=int, default=6,
                     help="reciprocal points placed and routed (cached; at most 6, default %(default)s)")
@@ -661,7 +661,9 @@ def main(argv=None) -> int:
     ap.add_argument("--dsp-weight", type=float, default=1024.0, help="ROM bits per multiplier block in the cost")
     ap.add_argument("--out", default=str(OUT), help="output folder (default: build/bench)")
     ap.add_argument("--docs", action="store_true", help="also write docs/img/pareto.png and docs/img/units.png")
-    args = ap.parse_args(argv)
+
+
+def run(args: argparse.Namespace) -> int:
     if not 0 <= args.fpga_points <= 6 or not 0 <= args.unit_fpga_points <= 3:
         print("error: --fpga-points must be 0 to 6 and --unit-fpga-points 0 to 3 (each new design takes 1-2 "
               "minutes)", file=sys.stderr)
@@ -691,7 +693,3 @@ def main(argv=None) -> int:
         print(f"error: measured error above the documented bound: {', '.join(bad)}", file=sys.stderr)
         return 1
     return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

@@ -1,25 +1,25 @@
 r"""Design-space sweep of the other units' datapath widths, and pipeline points.
 
-The unit and pipeline points of ``python -m tools.sweep`` (:mod:`tools.sweep` measures, records, draws and writes
+The unit and pipeline points of ``bumpmap sweep`` (:mod:`tools.sweep` measures, records, draws and writes
 them with the reciprocal's points, one progress bar over all). Each family changes one width (and what follows from
 it) from the unit's ``default`` preset; the unit's presets are points too.
 
 =======  ==========================================================  =================================================
-unit     families (:func:`default_unit_grid`)                        error against exact math (:mod:`fxmodel.exact`)
+unit     families (:func:`default_unit_grid`)                        error against exact math (:mod:`fxmodel.units.exact`)
 =======  ==========================================================  =================================================
 persp    ``p, t=4`` / ``p, t=3``: reciprocal precision ``p`` 12 to   ``|s - U/W|`` on the unit circle (the repeat),
          24, ``coord_bits = p`` (23 at ``p = 24``: the scaled        ``s`` and ``t``, for ``|U/W| <= 16``
-         product must fit 62 bits); ``c``: ``coord_bits`` alone      (:func:`~fxmodel.exact.measure_persp`)
+         product must fit 62 bits); ``c``: ``coord_bits`` alone      (:func:`~fxmodel.units.exact.measure_persp`)
 cube     ``p, t=3`` / ``p, t=2``: divider precision ``p`` 8 to 20,   ``|s - s_exact|``, ``|t - t_exact|`` on the
-         input word ``s1.p``                                         exact face (:func:`~fxmodel.exact.measure_cube`)
+         input word ``s1.p``                                         exact face (:func:`~fxmodel.units.exact.measure_cube`)
 reflect  ``word``: ``N``, ``E`` in ``s2.(w - 2)``, ``r_bits = w``,   angle between the exact ``R`` and the output
-         ``w`` 8 to 20 (the exact ``R`` must fit 62 bits)            (:func:`~fxmodel.exact.measure_reflect`)
+         ``w`` 8 to 20 (the exact ``R`` must fit 62 bits)            (:func:`~fxmodel.units.exact.measure_reflect`)
 bump     ``out``: ``N'`` in ``s2.f``, ``f`` 6 to 16                  ``|N'_i - (N + du A0 + dv A1)_i|``, unsaturated
-                                                                     (:func:`~fxmodel.exact.measure_bump`)
+                                                                     (:func:`~fxmodel.units.exact.measure_bump`)
 raster   ``guard``: the interpolators' guard bits ``g`` (``extra_      distance of each output code from the exact
          guard`` 0 to 3 beyond the proof's minimum) and the          rational plane, in output ulps, over triangles
          ``small`` preset                                            spanning the whole ``max_size`` viewport
-                                                                     (:func:`fxmodel.raster.measure`)
+                                                                     (:func:`fxmodel.units.raster.measure`)
 =======  ==========================================================  =================================================
 
 The reciprocal of ``persp`` and ``cube`` is the smallest faithful table at that ``p``: the fewest index bits ``m``
@@ -34,17 +34,17 @@ bound's domain), ``bump`` twice as many (about half of uniform inputs saturate, 
 bound). Correct bits: ``-log2`` of the worst error (real units; radians for ``reflect``).
 
 Cost, as for the reciprocal: table bits + ``dsp_weight`` x estimated MULT18X18D blocks (the unit's
-:meth:`~fxmodel.unit.Unit.cost`, :mod:`fxmodel.cost`; the estimate equals the synthesized ECP5 count of every unit
+:meth:`~fxmodel.core.unit.Unit.cost`, :mod:`fxmodel.core.cost`; the estimate equals the synthesized ECP5 count of every unit
 preset, ``docs/fpga/resources.json``). Placed and routed (cached): each unit's default preset
 and the cheapest point of its front (``--unit-fpga-points 3``: also the middle of the front).
 
 Pipeline points (:data:`PIPELINE_POINTS`): the ``default`` preset, the fitted ``presets/tin-plane-fit.toml`` and
 variants of ``default`` that narrow one unit's widths (:func:`tools.fit.units_of`: the knobs of ``python -m
 fxmodel fit``). Each renders a shipped scene (``scenes/tin-plane.toml`` at its own 256 x 256) through the bit-exact
-model only, as ``fit`` evaluates a candidate (:func:`fxmodel.render.prepare` with a preset name or a units dict,
-then :func:`fxmodel.render.render`), and records PSNR and the largest per-channel difference against the float
+model only, as ``fit`` evaluates a candidate (:func:`host.render.prepare` with a preset name or a units dict,
+then :func:`host.render.render`), and records PSNR and the largest per-channel difference against the float
 reference (a) and the ideal Phong reference (b), and the hardware estimate (:func:`tools.fit.hardware`: the
-pipeline's :mod:`fxmodel.cost` estimate, sampler blends included: table bits, multipliers, MULT18X18D and DP16KD
+pipeline's :mod:`fxmodel.core.cost` estimate, sampler blends included: table bits, multipliers, MULT18X18D and DP16KD
 blocks, memory bits); cost = table bits + ``dsp_weight`` x MULT18X18D blocks.
 """
 
@@ -56,11 +56,11 @@ from fractions import Fraction
 
 import numpy as np
 
-from fxmodel import exact
-from fxmodel.cube import CubeParams, cube_divider
-from fxmodel.fixed import Fmt
-from fxmodel.recip import RecipParams
-from fxmodel.unit import preset
+from fxmodel.units import exact
+from fxmodel.units.cube import CubeParams, cube_divider
+from fxmodel.core.fixed import Fmt
+from fxmodel.units.recip import RecipParams
+from fxmodel.core.unit import preset
 
 __all__ = ["unique_points", "S_ABS", "UNIT_ERRORS", "PIPELINE_POINTS", "SCENE", "smallest_faithful", "knobs",
            "default_unit_grid", "unit_inputs", "measure_unit_point", "pipeline_grid", "measure_pipeline_point",
@@ -69,7 +69,7 @@ __all__ = ["unique_points", "S_ABS", "UNIT_ERRORS", "PIPELINE_POINTS", "SCENE", 
 #: Largest ``|U/W|`` of the perspective unit's measured domain (its documented bound's ``s_abs``).
 S_ABS = 16
 
-#: Per unit: what the error is, the key of its worst / mean / bound in the ``fxmodel.exact`` measure, and the
+#: Per unit: what the error is, the key of its worst / mean / bound in the ``fxmodel.units.exact`` measure, and the
 #: output ulp (real units) the error is also given in.
 UNIT_ERRORS = {
     "persp": {"what": f"|s - U/W| mod 1 (s and t), |U/W| <= {S_ABS}", "worst": "max_error", "mean": "mean_error",
@@ -86,7 +86,7 @@ UNIT_ERRORS = {
                "ulp_name": "output ulps (each attribute's own)"},
 }
 
-#: Triangles spanning the whole viewport that measure each scan-converter point (:func:`fxmodel.raster.measure`).
+#: Triangles spanning the whole viewport that measure each scan-converter point (:func:`fxmodel.units.raster.measure`).
 RASTER_TRIANGLES = 2
 
 #: The scene of the pipeline points.
@@ -182,7 +182,7 @@ def raster_grid() -> list[tuple[str, str, object]]:
     minimum (``extra_guard``)."""
     import dataclasses
 
-    from fxmodel.raster import RasterParams
+    from fxmodel.units.raster import RasterParams
     base = RasterParams.PRESETS["default"]
     grid = [(f"raster preset {n}", "preset", P) for n, P in RasterParams.PRESETS.items()]
     grid += [(f"raster g{dataclasses.replace(base, extra_guard=g).guard_bits}", "guard",
@@ -192,11 +192,11 @@ def raster_grid() -> list[tuple[str, str, object]]:
 
 def measure_raster_point(name: str, family: str, params, *, dsp_weight: float = 1024.0,
                          triangles: int = RASTER_TRIANGLES, seed: int = 1, **_) -> dict:
-    """The scan converter's worst interpolation error against the exact planes (:func:`fxmodel.raster.measure`:
+    """The scan converter's worst interpolation error against the exact planes (:func:`fxmodel.units.raster.measure`:
     triangles spanning the whole ``max_size`` viewport, output ulps of each attribute) beside its bound and cost
-    (:func:`fxmodel.cost.estimate`; its registers: the record's and the accumulators' bits), one JSON record in the
+    (:func:`fxmodel.core.cost.estimate`; its registers: the record's and the accumulators' bits), one JSON record in the
     form of :func:`measure_unit_point`'s."""
-    from fxmodel.raster import measure
+    from fxmodel.units.raster import measure
     t0 = time.perf_counter()
     m = measure(params, triangles, seed)
     rate = m["fragments"] / (time.perf_counter() - t0)
@@ -277,7 +277,7 @@ def measure_unit_point(name: str, family: str, params, *, samples: int = 10 ** 6
 def pipeline_grid(points=None) -> list[tuple[str, object, dict]]:
     """``(name, preset name or units dict, knob changes)`` of :data:`PIPELINE_POINTS` (or ``points``)."""
     from tools.fit import knobs_of, units_of
-    from fxmodel.presets import BUILTIN_PRESET_UNITS
+    from fxmodel.pipeline.presets import BUILTIN_PRESET_UNITS
 
     base = BUILTIN_PRESET_UNITS["default"]
     k0 = knobs_of(base)
@@ -296,15 +296,15 @@ def measure_pipeline_point(name: str, units, changes: dict, *, scene=SCENE, size
     largest per-channel difference against references (a) and (b), and the hardware estimate.
     ``cube_size``: reflectance-cube face edge (``None``: ``prepare``'s default, the preset's own).
 
-    A preset that cannot draw the scene (what :func:`fxmodel.render.prepare` refuses without ``allow_clamp``:
+    A preset that cannot draw the scene (what :func:`host.render.prepare` refuses without ``allow_clamp``:
     inputs outside its formats, or texture addresses it cannot resolve) is a point too: ``refused`` holds the
     refusal's findings (``Frame.stats["refused"]``, joined), and the frame is drawn with the inputs clamped, so
     its error and cost are on record; it is never on the front (:func:`tools.sweep.sweep`). ``refused`` is
     ``None`` for a preset that draws the scene."""
     from tools.fit import hardware
-    from fxmodel.presets import preset_units
-    from fxmodel.render import prepare, render
-    from fxmodel.scene import load_scene
+    from fxmodel.pipeline.presets import preset_units
+    from host.render import prepare, render
+    from host.scene import load_scene
 
     sc = load_scene(scene) if not hasattr(scene, "materials") else scene
     if size:

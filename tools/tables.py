@@ -1,8 +1,8 @@
 """Correct bits of the reciprocal's table modes per table size and term count (paper section 4.1).
 
-``python -m tools.tables [--m 5 6 7 8 9] [--t 1 2 3 4] [--json FILE]`` prints two Markdown tables:
+``bumpmap tables [--m 5 6 7 8 9] [--t 1 2 3 4] [--json FILE]`` prints two Markdown tables:
 
-1. **Approximation bits** of the table and truncated series alone, for each :data:`~fxmodel.recip.TABLE_MODES`
+1. **Approximation bits** of the table and truncated series alone, for each :data:`~fxmodel.units.recip.TABLE_MODES`
    entry: ``-log2`` of the half-width of the exact error band ``[min, max]`` of ``T(B, d) - 1/x`` over every
    interval (:attr:`RecipParams.approx_error`, rigorous, from the actual table), with 40-bit table words so
    that the words' own rounding does not limit it. This is the error left once the free centring constant has
@@ -24,10 +24,10 @@ import math
 
 import numpy as np
 
-from fxmodel.fixed import Fmt
-from fxmodel.recip import TABLE_MODES, RecipParams
+from fxmodel.core.fixed import Fmt
+from fxmodel.units.recip import TABLE_MODES, RecipParams
 
-__all__ = ["approx_params", "approx_bits", "sampled_bits", "faithful_width", "table_study", "markdown", "main"]
+__all__ = ["approx_params", "approx_bits", "sampled_bits", "faithful_width", "table_study", "markdown", "add_arguments", "run"]
 
 #: Input width for the approximation study (``d`` ranges over a 2**-32 grid: effectively continuous).
 STUDY_N = 32
@@ -114,13 +114,15 @@ def markdown(rows) -> str:
     return "\n".join(out)
 
 
-def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m tools.tables", description=__doc__.split("\n")[0])
+def add_arguments(ap: argparse.ArgumentParser) -> None:
+    """The command line (``bumpmap tables``, :mod:`tools.main`)."""
     ap.add_argument("--m", type=int, nargs="+", default=[5, 6, 7, 8, 9], help="index bits (2**(m-1) entries)")
     ap.add_argument("--t", type=int, nargs="+", default=[1, 2, 3, 4], help="Taylor terms")
     ap.add_argument("--no-faithful", action="store_true", help="skip the faithful-width search (faster)")
     ap.add_argument("--json", help="also write the rows to this file")
-    args = ap.parse_args(argv)
+
+
+def run(args: argparse.Namespace) -> int:
     try:
         rows = table_study(args.m, args.t, faithful=not args.no_faithful)
     except ValueError as exc:
@@ -131,7 +133,3 @@ def main(argv=None) -> int:
         with open(args.json, "w") as f:
             json.dump(rows, f, indent=2)
     return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

@@ -1,0 +1,1 @@
+"""The golden model's core: fixed-point formats, rounding and overflow rules, the unit registry, the cost model, paths."""

@@ -1,0 +1,119 @@
+r"""The engine from the triangle, bit-exact (paper Fig. 5): the scan converter and interpolators
+(:mod:`fxmodel.units.raster`) feeding the pixel pipeline (:mod:`fxmodel.pipeline.pixel`), optionally with the depth
+test and frame buffer (:mod:`fxmodel.units.rop`). Its RTL is ``rtl/engine.py``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import ClassVar
+
+import numpy as np
+
+from fxmodel.core.cost import estimate
+from fxmodel.core.fixed import Fmt
+from fxmodel.core.unit import Port, require
+from fxmodel.pipeline.pixel import FLAG_BITS, PipelineParams
+from fxmodel.units.raster import RasterParams, scan
+from fxmodel.units.rop import RopParams
+from fxmodel.units.rop import draw as rop_draw
+
+__all__ = ["EngineParams", "RASTER_SATURATED_FLAG"]
+
+
+@dataclass(frozen=True)
+class EngineParams:
+    """The engine from the triangle (paper Fig. 5): the scan converter and interpolators (:mod:`fxmodel.units.raster`)
+    feeding the pixel pipeline. Triangle records in; per fragment ``x``, ``y``, ``r, g, b`` and ``flags`` out
+    (the pipeline's flags, plus :data:`RASTER_SATURATED_FLAG` when an interpolated attribute saturated).
+
+    With ``rop`` (:class:`~fxmodel.units.rop.RopParams`) the fragments' colors go through the depth test into the frame
+    buffer instead (:meth:`draw`; ``rtl/pipeline.py``'s engine then has the ROP's memory port instead of ``o``):
+    the scan converter's ``Z`` rides the pixel pipeline's sideband beside ``x``, ``y``.
+
+    Parameters
+    ----------
+    raster : RasterParams
+        Its attributes and per-triangle constants must include every pipeline input with the same format (``Z``
+        and others ride along): the block exponent ``Ae`` of the bump engine is a per-triangle constant.
+    pipeline : PipelineParams
+    rop : RopParams, optional
+        ``max_size`` the raster's, ``z_in`` the raster's ``Z`` format, ``flag_bits`` the width of the outputs'
+        ``flags``.
+    """
+
+    NAME: ClassVar[str] = "engine"
+
+    raster: RasterParams
+    pipeline: PipelineParams
+    rop: RopParams | None = None
+
+    def __post_init__(self):
+        require(isinstance(self.raster, RasterParams), "raster", type(self.raster).__name__, "must be RasterParams")
+        require(isinstance(self.pipeline, PipelineParams), "pipeline", type(self.pipeline).__name__,
+                "must be PipelineParams")
+        attrs = dict(self.raster.attrs + self.raster.consts)
+        for p in self.pipeline.inputs:
+            require(attrs.get(p.name) == p.fmt, f"raster.attrs[{p.name!r}]", str(attrs.get(p.name)),
+                    f"must be the pipeline's input format {p.fmt}")
+        if self.rop is not None:
+            R = self.rop
+            require(isinstance(R, RopParams), "rop", type(R).__name__, "must be RopParams or None")
+            require(R.max_size == self.raster.max_size, "rop.max_size", R.max_size,
+                    f"must be the raster's max_size {self.raster.max_size}")
+            require(R.z_in == attrs.get("Z"), "rop.z_in", str(R.z_in), f"must be the raster's Z format {attrs.get('Z')}")
+            require(R.flag_bits == self.outputs[-1].fmt.width, "rop.flag_bits", R.flag_bits,
+                    f"must be the engine's flags width {self.outputs[-1].fmt.width}")
+
+    @property
+    def inputs(self) -> tuple:
+        """The triangle record (:attr:`RasterParams.record`), the design's input payload."""
+        return self.raster.record
+
+    def products(self) -> tuple:
+        """The scan converter's and the pixel pipeline's products (``fxmodel/core/cost.py``)."""
+        return self.raster.products() + self.pipeline.products()
+
+    def memories(self) -> tuple:
+        return self.raster.memories() + self.pipeline.memories()
+
+    def cost(self) -> dict:
+        """:func:`fxmodel.core.cost.estimate` of the whole engine."""
+        return estimate(self)
+
+    @property
+    def outputs(self) -> tuple:
+        pf = self.raster.pixel_fmt
+        return ((Port("x", pf), Port("y", pf)) + self.pipeline.outputs[:3]
+                + (Port("flags", Fmt(False, len(FLAG_BITS) + 1, 0), str(FLAG_BITS | {"raster_saturated": 4})),))
+
+    @property
+    def latency(self) -> int:
+        """Cycles from a fragment leaving the scan converter to its color on the outputs."""
+        return self.pipeline.latency
+
+    def compute(self, records):
+        """``(out, scan)``: output codes ``(K, outputs)`` in the order the hardware draws, and the
+        :class:`~fxmodel.units.raster.ScanResult` (fragments, clocks)."""
+        res = scan(self.raster, records)
+        codes = np.stack([res.codes[p.name] for p in self.pipeline.inputs], axis=1) if len(res) else \
+            np.zeros((0, len(self.pipeline.inputs)), np.int64)
+        col = self.pipeline.compute(codes) if len(res) else np.zeros((0, 4), np.int64)
+        flags = col[:, 3] | (res.codes["flags"] << RASTER_SATURATED_FLAG)
+        out = np.column_stack([res.codes["x"], res.codes["y"], col[:, :3], flags]).astype(np.int64)
+        return out, res
+
+    def draw(self, records, fb=None):
+        """The engine with its depth test (``rop`` set): ``(depth, color, stats, out, scan)``, the frame after
+        drawing ``records`` over ``fb`` (default: the clear frame) with :func:`fxmodel.units.rop.draw`, its traffic,
+        and :meth:`compute`'s per-fragment outputs and scan."""
+        require(self.rop is not None, "rop", None, "draw needs the engine's RopParams")
+        out, res = self.compute(records)
+        frags = np.column_stack([out[:, 0], out[:, 1], res.codes["Z"] if len(res) else np.zeros(0, np.int64),
+                                 out[:, 2:6]]) if len(out) else np.zeros((0, 7), np.int64)
+        depth, color, stats = rop_draw(self.rop, frags, fb)
+        return depth, color, stats, out, res
+
+
+#: Bit of :attr:`EngineParams.outputs` ``flags`` set when the scan converter saturated an attribute.
+RASTER_SATURATED_FLAG = len(FLAG_BITS)

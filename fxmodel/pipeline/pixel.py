@@ -1,0 +1,240 @@
+r"""The whole pixel pipeline, bit-exact: fragment -> color (paper, sections 3.2, 4 and 4.1; ``docs/design.md``,
+"Data flow of one pixel").
+
+::
+
+    fragment (U, V, Uc, Vc, W homogeneous; N unnormalized; E eye vector; the triangle's A, 3 x 2)
+      -> persp      s = U (1/W), t = V (1/W); sc, tc from Uc, Vc; repeat-wrapped  (reciprocal, section 4.1)
+      -> samplers   (du, dv) from the bump map at (s, t), RGB from the color texture at (sc, tc)
+      -> bump       N' = N + du A[:,0] + dv A[:,1]                     (section 3.2, Fig. 6)
+      -> reflect    R = 2 N'(N'.E) - E (N'.N'), block-normalized       (EQ 1)
+      -> cube       face, s, t of N' (diffuse) and of R (specular)     (section 4)
+      -> samplers   bilinear lookups in the diffuse and specular reflectance cubes (seamless: one-texel border)
+      -> shade      RGB = texture * D + S, saturated to bytes
+
+Every stage is the unit of its own module, with its own parameter object; :class:`PipelineParams` holds one of
+each (plus the four memories inside the samplers) and checks that each stage's output format is the next
+stage's input format, so the chain is wired by codes, never re-scaled. The model is the composition of the
+units' models; ``rtl/pixel.py`` chains the units' components with delay lines, one fragment per clock.
+
+Outputs: ``r, g, b`` bytes and ``flags``, a bit field: bit 0 bump engine saturated ``N'``, bit 1 shading
+saturated, bit 2 degenerate reflection (``N' = 0`` or ``E = 0``), bit 3 ``W = 0``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import cached_property
+
+import numpy as np
+
+from fxmodel.units.bump import BumpParams
+from fxmodel.units.cube import CubeParams
+from fxmodel.core.fixed import Fmt
+from fxmodel.pipeline.lighting import Light, Lighting, bake_cubes
+from fxmodel.units.persp import PerspParams
+from fxmodel.pipeline.presets import preset_units, top_value
+from fxmodel.units.reflect import ReflectParams
+from fxmodel.units.sampler import SamplerParams, Texels
+from fxmodel.units.shade import ShadeParams
+from fxmodel.core.unit import Port, Unit, register, require
+
+__all__ = ["PipelineParams", "FLAG_BITS"]
+
+FLAG_BITS = {"bump_saturated": 0, "shade_saturated": 1, "degenerate": 2, "w_zero": 3}
+
+
+@dataclass(frozen=True)
+class PipelineParams(Unit):
+    """Parameters of the pixel pipeline: one parameter object per stage (see the module docstring).
+
+    Parameters
+    ----------
+    persp, bump, reflect, cube, shade
+        The units' parameter objects.
+    bump_map, texture, diffuse, specular : SamplerParams
+        The four memories and how they are sampled.
+    """
+
+    NAME = "pipeline"
+
+    persp: PerspParams
+    bump_map: SamplerParams
+    texture: SamplerParams
+    bump: BumpParams
+    reflect: ReflectParams
+    cube: CubeParams
+    diffuse: SamplerParams
+    specular: SamplerParams
+    shade: ShadeParams
+
+    def __post_init__(self):
+        require(self.persp.color, "persp.color", self.persp.color,
+                "must be True (separate color texture address)")
+        require(self.bump_map.coord_fmt == self.persp.coord_fmt and self.texture.coord_fmt == self.persp.coord_fmt,
+                "bump_map/texture.coord_fmt", (self.bump_map.coord_fmt, self.texture.coord_fmt),
+                f"must be persp's coord_fmt {self.persp.coord_fmt}")
+        require(self.bump_map.channels == (self.bump.d_fmt,) * 2 and self.bump_map.faces == 1,
+                "bump_map.channels/faces", (self.bump_map.channels, self.bump_map.faces),
+                f"must be one face of two {self.bump.d_fmt} channels (du, dv)")
+        require(self.texture.channels == (self.shade.tex_fmt,) * 3 and self.texture.faces == 1,
+                "texture.channels/faces", (self.texture.channels, self.texture.faces),
+                f"must be one face of three {self.shade.tex_fmt} channels")
+        require(self.reflect.n_fmt == self.bump.out_fmt, "reflect.n_fmt", self.reflect.n_fmt,
+                f"must be bump.out_fmt {self.bump.out_fmt}")
+        cube_bits = self.cube.in_fmt.width
+        require(self.bump.out_fmt.width == cube_bits, "cube.in_fmt", self.cube.in_fmt,
+                f"its width {cube_bits} must equal N' width {self.bump.out_fmt.width} (the codes are wired directly)")
+        require(self.reflect.r_fmt.width == cube_bits, "cube.in_fmt", self.cube.in_fmt,
+                f"its width {cube_bits} must equal R width {self.reflect.r_fmt.width}")
+        for name, fmt in (("diffuse", self.shade.diffuse_fmt), ("specular", self.shade.specular_fmt)):
+            smp = getattr(self, name)
+            require(smp.faces == 6 and smp.channels == (fmt,) * 3, f"{name}.channels/faces", (smp.channels, smp.faces),
+                    f"must be a cube of three {fmt} channels")
+            require(smp.coord_fmt == self.cube.st_fmt, f"{name}.coord_fmt", smp.coord_fmt,
+                    f"must be the cube unit's st_fmt {self.cube.st_fmt}")
+
+    # -- ports --------------------------------------------------------------------------------------------
+    @property
+    def inputs(self):
+        return (self.persp.inputs
+                + tuple(Port(f"N{c}", self.bump.n_fmt, "interpolated normal") for c in "xyz")
+                + tuple(Port(f"E{c}", self.reflect.e_fmt, "eye vector") for c in "xyz")
+                + self.bump.inputs[5:])                                  # A00 .. A21
+
+    @property
+    def outputs(self):
+        return self.shade.outputs[:3] + (Port("flags", Fmt(False, len(FLAG_BITS), 0), str(FLAG_BITS)),)
+
+    @cached_property
+    def stage_latency(self) -> dict:
+        """When each stage's result is ready (cycles after the fragment), as the RTL schedules it."""
+        t = {"persp": self.persp.latency}
+        t["samples"] = t["persp"] + max(self.bump_map.latency, self.texture.latency)
+        t["bump"] = t["samples"] + self.bump.latency
+        t["reflect"] = t["bump"] + self.reflect.latency
+        t["cubes"] = t["reflect"] + self.cube.latency
+        t["lookups"] = t["cubes"] + max(self.diffuse.latency, self.specular.latency)
+        t["shade"] = t["lookups"] + self.shade.latency
+        t["out"] = t["shade"] + 1                                       # the pipeline's output register
+        return t
+
+    @property
+    def latency(self) -> int:
+        return self.stage_latency["out"]
+
+    #: The stages in RTL order (``cube`` twice: the normal's and the reflection's address units).
+    STAGES = ("persp", "bump_map", "texture", "bump", "reflect", "cube", "cube", "diffuse", "specular", "shade")
+
+    def products(self) -> tuple:
+        """Every stage's products (:data:`STAGES`), the samplers' blends included."""
+        return tuple(p for name in self.STAGES for p in getattr(self, name).products())
+
+    def memories(self) -> tuple:
+        """Every stage's memories: the reciprocal tables and the four texel memories."""
+        return tuple(m for name in self.STAGES for m in getattr(self, name).memories())
+
+    def _info(self):
+        mems = {n: getattr(self, n).info()["texels"] for n in ("bump_map", "texture", "diffuse", "specular")}
+        return {"stage_ready_cycle": self.stage_latency, "memories": mems,
+                "memory_bits": sum(getattr(self, n).depth * getattr(self, n).word_bits
+                                   for n in ("bump_map", "texture", "diffuse", "specular")),
+                "max_error_units": "see the scene report: PSNR and max LSB against the float references"}
+
+    # -- bit-exact model: the composition of the units' models -------------------------------------------
+    def trace(self, codes: np.ndarray) -> dict:
+        """Every stage's codes for fragment codes ``(K, inputs)`` (the RTL's internal signals, for debugging)."""
+        c = np.asarray(codes, dtype=np.int64)
+        col = {p.name: c[:, i] for i, p in enumerate(self.inputs)}
+
+        def cols(names):
+            return np.stack([col[n] for n in names], axis=1)
+
+        N, E = cols(["Nx", "Ny", "Nz"]), cols(["Ex", "Ey", "Ez"])
+        A = cols([p.name for p in self.bump.inputs[5:]])
+        st = self.persp.compute(cols([p.name for p in self.persp.inputs]))
+        sto = {p.name: st[:, i] for i, p in enumerate(self.persp.outputs)}
+        duv = self.bump_map.compute(np.stack([sto["s"], sto["t"]], 1))
+        tex = self.texture.compute(np.stack([sto["sc"], sto["tc"]], 1))
+        npr = self.bump.compute(np.column_stack([N, duv, A]))
+        r = self.reflect.compute(np.column_stack([npr[:, :3], E]))
+        cd = self.cube.compute(npr[:, :3])
+        cs = self.cube.compute(r[:, :3])
+        d = self.diffuse.compute(cd[:, :3])
+        sp = self.specular.compute(cs[:, :3])
+        out = self.shade.compute(np.column_stack([tex, d, sp]))
+        flags = (npr[:, 3] << FLAG_BITS["bump_saturated"]) | (out[:, 3] << FLAG_BITS["shade_saturated"]) \
+            | (r[:, 3] << FLAG_BITS["degenerate"]) | (sto["dbz"] << FLAG_BITS["w_zero"])
+        return {"st": st, "duv": duv, "tex": tex, "N'": npr, "R": r, "cube_n": cd, "cube_r": cs, "D": d, "S": sp,
+                "rgb": out[:, :3], "flags": flags}
+
+    def _compute(self, cols):
+        tr = self.trace(np.stack(cols, axis=1))
+        return [tr["rgb"][:, 0], tr["rgb"][:, 1], tr["rgb"][:, 2], tr["flags"]]
+
+    def hard_cases(self) -> np.ndarray:
+        """Fragments built from each stage's own hard cases where they are fragment inputs."""
+        rng = np.random.default_rng(5)
+        base = self.random_inputs(rng, 64)
+        names = [p.name for p in self.inputs]
+
+        def embed(row, unit_params, cases):
+            rows = np.repeat(row[None], len(cases), axis=0)
+            for j, p in enumerate(unit_params.inputs):
+                if p.name in names:
+                    rows[:, names.index(p.name)] = cases[:, j]
+            return rows
+
+        return np.concatenate([base, embed(base[0], self.persp, self.persp.hard_cases()),
+                               embed(base[1], self.bump, self.bump.hard_cases())])
+
+    @classmethod
+    def assemble(cls, *, bump_codes, texture_bytes, lighting: Lighting, cube_face: int,
+                 preset: str | dict = "default", bump_filter: str = "bilinear", texture_filter: str = "bilinear",
+                 weight_bits: int | None = None, cube_edge: str = "border"):
+        """A pipeline from a scene's tables: the bump map codes ``(H, W, 2)`` in ``bump.d_fmt``, the texture
+        bytes ``(H, W, 3)``, the lighting (baked into cubes of ``cube_face`` texels) and the units' preset.
+
+        ``weight_bits`` of the bump-map and texture bilinear weights: 10 keep a hard texture edge (a jump of up
+        to 255) within a quarter step of the exact blend; 12 (the default) also keep a steep bump map (strength
+        up to 8) from moving ``N'`` enough to shift a highlight by a step; the cube lookups' lighting is smooth,
+        8 bits there. ``None``: the preset's ``weight_bits`` (12 unless a preset file sets it). ``preset`` is a
+        preset name or a units dict (see :func:`fxmodel.pipeline.presets.preset_units`)."""
+        units = preset_units(preset)
+        if weight_bits is None:
+            weight_bits = top_value(units, "weight_bits")
+        persp, bump, reflect, cube, shade = (units[k] for k in ("persp", "bump", "reflect", "cube", "shade"))
+        diffuse, specular, info = bake_cubes(lighting, cube_face, shade.diffuse_fmt, shade.specular_fmt,
+                                             border=1 if cube_edge == "border" else 0)
+        coord = persp.coord_fmt
+        params = cls(
+            persp=persp, bump=bump, reflect=reflect, cube=cube, shade=shade,
+            bump_map=SamplerParams(texels=Texels(np.asarray(bump_codes)[None]), channels=(bump.d_fmt,) * 2,
+                                   coord_fmt=coord, filter=bump_filter, edge="repeat", weight_bits=weight_bits,
+                                   names=("du", "dv")),
+            texture=SamplerParams(texels=Texels(np.asarray(texture_bytes)[None]), channels=(shade.tex_fmt,) * 3,
+                                  coord_fmt=coord, filter=texture_filter, edge="repeat", weight_bits=weight_bits,
+                                  names=("r", "g", "b")),
+            diffuse=SamplerParams(texels=diffuse, channels=(shade.diffuse_fmt,) * 3, coord_fmt=cube.st_fmt,
+                                  edge=cube_edge, names=("r", "g", "b")),
+            specular=SamplerParams(texels=specular, channels=(shade.specular_fmt,) * 3, coord_fmt=cube.st_fmt,
+                                   edge=cube_edge, names=("r", "g", "b")))
+        return params, info
+
+
+def _demo() -> PipelineParams:
+    """A small self-contained pipeline (8 x 8 bump ripple, 4 x 4 checker, two lights, 8-texel cube faces) for
+    the unit tests and co-simulation with random fragments."""
+    bump = BumpParams.PRESETS["default"]
+    i = np.arange(8)
+    du = np.round(400 * np.sin(2 * np.pi * i / 8))[None, :].repeat(8, 0)
+    duv = np.stack([du, du.T], -1).astype(np.int64)
+    checker = ((i[:4, None] + i[None, :4]) % 2 * 155 + 100)[..., None].repeat(3, -1)
+    lighting = Lighting(lights=(Light((-1.0, 1.0, 1.0), (0.8, 0.3, 0.8)), Light((0.0, -1.0, 1.0), (1.0, 1.0, 1.0))),
+                        ambient=(0.1, 0.1, 0.12), specular=(0.8, 0.8, 0.8), shininess=24.0)
+    del bump
+    return PipelineParams.assemble(bump_codes=duv, texture_bytes=checker, lighting=lighting, cube_face=8)[0]
+
+
+PipelineParams.PRESETS = {"default": _demo()}
+register(PipelineParams)

@@ -1,0 +1,281 @@
+"""Pipeline presets: the units dict of each built-in preset and the preset files (``presets/<name>.toml``).
+
+A pipeline preset is a *units dict*: one parameter object per unit of the pixel pipeline (``persp``, ``bump``,
+``reflect``, ``cube``, ``shade``; their classes in :data:`UNIT_TYPES`) plus the integer :data:`TOP_KEYS`
+(``weight_bits``, ``cube_size``). ``default`` is built in (:data:`BUILTIN_PRESET_UNITS`); any other name is read
+from a preset file by :func:`load_preset` (what ``bumpmap fit`` writes with :func:`write_preset`).
+:func:`preset_units` turns a name or a units dict into the units that ``PipelineParams.assemble`` uses.
+
+Preset files
+------------
+
+A preset file holds one table per unit with that unit's parameter fields; nested parameter objects are sub-tables
+(``[persp.recip]``, ``[cube.divide]``, ``[cube.divide.recip]``). Formats are written in their short form
+(``str(Fmt)``, a string), enums by name. A field that is missing keeps the ``default`` preset's value. Top-level
+keys: ``weight_bits`` (the bump-map and texture bilinear weights), ``cube_size`` (texels per reflectance-cube face
+edge) and the free-form ``[fit]`` table (what ``fit`` measured; not read back).
+
+The folder is ``presets/`` at the repository root, or the environment variable ``FXMODEL_PRESETS``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import enum
+import tomllib
+from pathlib import Path
+
+
+from fxmodel.units.bump import BumpParams
+from fxmodel.units.cube import CubeParams
+from fxmodel.core.paths import presets_dir
+from fxmodel.core.fixed import Fmt
+from fxmodel.units.persp import PerspParams
+from fxmodel.units.reflect import ReflectParams
+from fxmodel.units.shade import ShadeParams
+from fxmodel.core.unit import require
+
+__all__ = ["TOP_KEYS", "UNIT_KEYS", "UNIT_TYPES", "BUILTIN_PRESET_UNITS", "PRESET_UNITS", "PresetError",
+           "top_value", "top_problem", "preset_units", "presets_dir", "preset_path", "load_preset", "dump_preset",
+           "write_preset"]
+
+#: The integer keys of a pipeline preset beside its units: ``(default, smallest, largest)``. ``weight_bits``: the
+#: bump-map and texture bilinear weights; ``cube_size``: texels per reflectance-cube face edge (6 faces of
+#: ``(edge + 2)**2`` words each); ``raster_guard``: the scan converter's interpolators' guard bits beyond the
+#: proof's minimum (:class:`fxmodel.units.raster.RasterParams` ``extra_guard``: 1 keeps the accumulated error within a
+#: quarter of an output ulp).
+TOP_KEYS = {"weight_bits": (12, 1, 16), "cube_size": (64, 1, 1024), "raster_guard": (1, 0, 8)}
+
+#: The parameter class of each unit in a pipeline preset's units dict.
+UNIT_TYPES = {"persp": PerspParams, "bump": BumpParams, "reflect": ReflectParams, "cube": CubeParams,
+              "shade": ShadeParams}
+
+#: The units of a preset, in pipeline order.
+UNIT_KEYS = tuple(UNIT_TYPES)
+
+#: The free-form table of a preset file that records what ``fit`` measured (written, not read back).
+META_KEY = "fit"
+
+
+class PresetError(KeyError, ValueError):
+    """An unknown preset name or a bad preset file (a ``KeyError`` for dict-style lookups, a ``ValueError``
+    for the command lines, which print it as one line)."""
+
+    def __str__(self):
+        return str(self.args[0]) if self.args else ""
+
+
+def top_value(units: dict, key: str) -> int:
+    """The preset's ``key`` (one of :data:`TOP_KEYS`), or its default when ``units`` leaves it out."""
+    return units.get(key, TOP_KEYS[key][0])
+
+
+def top_problem(key: str, value) -> str | None:
+    """Why ``value`` cannot be the preset's ``key`` (one of :data:`TOP_KEYS`), or ``None`` if it can."""
+    _, lo, hi = TOP_KEYS[key]
+    if isinstance(value, int) and not isinstance(value, bool) and lo <= value <= hi:
+        return None
+    return f"must be an int in {lo}..{hi}"
+
+
+BUILTIN_PRESET_UNITS = {
+    "default": {"persp": PerspParams.PRESETS["color"], "bump": BumpParams.PRESETS["default"],
+                "reflect": ReflectParams.PRESETS["default"], "cube": CubeParams.PRESETS["default"],
+                "shade": ShadeParams.PRESETS["default"], **{k: v[0] for k, v in TOP_KEYS.items()}},
+}
+
+
+class _PresetUnits(dict):
+    """Built-in unit presets by name; a name that is not built in is read from ``presets/<name>.toml``
+    (:func:`load_preset`, re-read on every lookup; errors name the file and the key)."""
+
+    def __missing__(self, name):
+        return load_preset(name)
+
+
+PRESET_UNITS = _PresetUnits(BUILTIN_PRESET_UNITS)
+
+
+def preset_units(preset: str | dict) -> dict:
+    """The units of a pipeline preset, given by name or as the units themselves.
+
+    Parameters
+    ----------
+    preset : str or dict
+        A name: built in (:data:`BUILTIN_PRESET_UNITS`) or a preset file ``presets/<name>.toml`` (see
+        :func:`load_preset`). Or a units dict of the same shape as ``BUILTIN_PRESET_UNITS["default"]``: ``persp``,
+        ``bump``, ``reflect``, ``cube``, ``shade`` (parameter objects, see :data:`UNIT_TYPES`) and optionally
+        the :data:`TOP_KEYS` (``weight_bits``, ``cube_size``; defaults 12 and 64); returned as given, nothing is
+        registered anywhere.
+
+    Raises
+    ------
+    PresetError
+        An unknown name or a bad preset file (a ``KeyError`` and a ``ValueError``).
+    ValueError
+        A dict with a missing, unknown or wrongly typed entry (naming it).
+    TypeError
+        Anything but a str or a dict.
+    """
+    if isinstance(preset, str):
+        return PRESET_UNITS[preset]
+    if not isinstance(preset, dict):
+        raise TypeError(f"preset: must be a pipeline preset name (str) or a units dict like "
+                        f"BUILTIN_PRESET_UNITS['default'], not {type(preset).__name__} {preset!r}")
+    allowed = (*UNIT_TYPES, *TOP_KEYS)
+    for key in preset:
+        require(key in allowed, "preset key", key, f"unknown (a units dict has {', '.join(allowed)})")
+    for key, cls in UNIT_TYPES.items():
+        require(key in preset, "preset keys", sorted(preset),
+                f"a units dict needs {key!r} (all of {', '.join(UNIT_TYPES)})")
+        require(isinstance(preset[key], cls), f"type(preset[{key!r}])", type(preset[key]).__name__,
+                f"must be {cls.__name__}")
+    for key in TOP_KEYS:
+        if key in preset:
+            problem = top_problem(key, preset[key])
+            require(problem is None, f"preset[{key!r}]", preset[key], problem)
+    return preset
+
+
+def preset_path(name: str, directory=None) -> Path:
+    """The file of preset ``name`` in ``directory`` (default :func:`presets_dir`)."""
+    return Path(directory if directory is not None else presets_dir()) / f"{name}.toml"
+
+
+# -- writing ------------------------------------------------------------------------------------------------
+def _toml_value(value, where: str):
+    """``value`` as a TOML value for ``tomli_w``: a format in its short form, an enum by name, a parameter
+    object as a table of its init fields."""
+    if isinstance(value, Fmt):
+        return str(value)
+    if isinstance(value, enum.Enum):
+        return value.name
+    if dataclasses.is_dataclass(value) and not isinstance(value, type):
+        return {f.name: _toml_value(getattr(value, f.name), f"{where}.{f.name}")
+                for f in dataclasses.fields(value) if f.init}
+    if isinstance(value, dict):
+        return {str(k): _toml_value(v, f"{where}.{k}") for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_toml_value(v, where) for v in value]
+    if isinstance(value, (bool, int, float, str)):
+        return value
+    raise TypeError(f"{where}: cannot write {type(value).__name__} {value!r} to TOML")
+
+
+def dump_preset(units: dict, meta: dict | None = None, comment: str = "") -> str:
+    """TOML text of a preset (written by ``tomli_w``): ``units`` maps ``persp, bump, reflect, cube, shade`` to
+    parameter objects (and optionally the :data:`TOP_KEYS` to ints); ``meta`` (scalars and dicts of scalars)
+    goes to the ``[fit]`` table; ``comment`` lines go first, as TOML comments."""
+    doc = {key: _toml_value(units[key], key) for key in TOP_KEYS if key in units}
+    doc.update({key: _toml_value(units[key], key) for key in UNIT_KEYS})
+    if meta:
+        doc[META_KEY] = _toml_value(meta, META_KEY)
+    head = "".join(f"# {line}\n" for line in comment.splitlines())
+    import tomli_w                      # the host extra: only writing a preset file needs it
+    return head + ("\n" if head else "") + tomli_w.dumps(doc)
+
+
+def write_preset(name: str, units: dict, directory=None, meta: dict | None = None, comment: str = "") -> Path:
+    """Write ``units`` (see :func:`dump_preset`) as preset ``name``; returns the file. Checks it reads back."""
+    path = preset_path(name, directory)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(dump_preset(units, meta, comment))
+    back = load_preset(name, directory)
+    for key in UNIT_KEYS:
+        if back[key] != units[key]:
+            raise RuntimeError(f"{path}: [{key}] does not read back equal to what was written")
+    return path
+
+
+# -- reading ------------------------------------------------------------------------------------------------
+def _convert(base, value, file: Path, where: str):
+    """``value`` from the file, of the same kind as ``base`` (the default preset's value of that field)."""
+    def bad(why):
+        return PresetError(f"{file}: key {where}: {why}")
+
+    if dataclasses.is_dataclass(base) and not (isinstance(base, Fmt) and isinstance(value, str)):
+        if not isinstance(value, dict):
+            raise bad(f"must be a table, got {value!r}")
+        return _build(base, value, file, where)
+    if isinstance(base, Fmt):
+        if not isinstance(value, str):
+            raise bad(f"must be a format string like \"s2.16\", got {value!r}")
+        try:
+            return Fmt.parse(value)
+        except (ValueError, TypeError) as exc:
+            raise bad(str(exc)) from None
+    if isinstance(base, enum.Enum):
+        try:
+            return type(base)[value]
+        except (KeyError, TypeError):
+            raise bad(f"must be one of {[e.name for e in type(base)]}, got {value!r}") from None
+    if isinstance(base, bool):
+        if not isinstance(value, bool):
+            raise bad(f"must be true or false, got {value!r}")
+        return value
+    if isinstance(base, int):
+        if not isinstance(value, int) or isinstance(value, bool):
+            raise bad(f"must be an integer, got {value!r}")
+        return value
+    if isinstance(base, str):
+        if not isinstance(value, str):
+            raise bad(f"must be a string, got {value!r}")
+        return value
+    raise bad(f"fields of type {type(base).__name__} cannot be set from a preset file")
+
+
+def _build(base, table: dict, file: Path, where: str):
+    names = {f.name for f in dataclasses.fields(base) if f.init}
+    changes = {}
+    for key, value in table.items():
+        if key not in names:
+            raise PresetError(f"{file}: key {where}.{key}: unknown field of {type(base).__name__} "
+                              f"(have {', '.join(sorted(names))})")
+        changes[key] = _convert(getattr(base, key), value, file, f"{where}.{key}")
+    try:
+        return dataclasses.replace(base, **changes)
+    except (ValueError, TypeError) as exc:
+        raise PresetError(f"{file}: table [{where}]: {exc}") from None
+
+
+def load_preset(name: str, directory=None, base: dict | None = None) -> dict:
+    """The units of preset file ``name`` (``persp, bump, reflect, cube, shade``, ``weight_bits``, ``cube_size``).
+
+    Parameters
+    ----------
+    name : str
+        Preset name: the file ``<directory>/<name>.toml``.
+    directory : path, optional
+        Default :func:`presets_dir`.
+    base : dict, optional
+        Units that missing fields fall back to (default: the pipeline's ``default`` preset).
+
+    Raises
+    ------
+    PresetError
+        If the file does not exist (naming it and the built-in presets), is not TOML, or has an unknown or
+        invalid key (naming the file and the key).
+    """
+    path = preset_path(name, directory)
+    if not isinstance(name, str) or not name or "/" in name or "\\" in name:
+        raise PresetError(f"bad pipeline preset name {name!r}")
+    if not path.is_file():
+        raise PresetError(f"unknown pipeline preset {name!r}: not built in ({', '.join(BUILTIN_PRESET_UNITS)}) "
+                          f"and no file {path}")
+    try:
+        data = tomllib.loads(path.read_text())
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        raise PresetError(f"{path}: not valid TOML: {exc}") from None
+    base = base if base is not None else BUILTIN_PRESET_UNITS["default"]
+    allowed = (*UNIT_KEYS, *TOP_KEYS, META_KEY)
+    for key in data:
+        if key not in allowed:
+            raise PresetError(f"{path}: key {key}: unknown (have {', '.join(allowed)})")
+    units = {key: _convert(base[key], data[key], path, key) if key in data else base[key] for key in UNIT_KEYS}
+    for key in TOP_KEYS:
+        value = data.get(key, top_value(base, key))
+        problem = top_problem(key, value)
+        if problem:
+            raise PresetError(f"{path}: key {key}: {problem}, got {value!r}")
+        units[key] = value
+    return units

@@ -1,0 +1,786 @@
+r"""Scene files: the host-side description of what the pixel pipeline renders (paper, sections 3.2, 4 and 5).
+
+A scene is a TOML file (read with :mod:`tomllib`) holding the image size, a camera, triangle meshes (explicit
+triangles, or the ``quad`` and ``sphere`` generators), materials (a color texture and an optional bump map, a
+specular color and a Phong exponent), directional colored lights and an ambient term. :func:`load_scene` parses
+and validates it into frozen dataclasses; everything is float here (the model side), nothing is quantized.
+
+A malformed file raises **one** :class:`SceneError` naming the file and the key path, e.g.
+``scenes/x.toml: materials[1].bump.repeat: expected 2 numbers, got "a"``. Unknown keys are errors too (they are
+usually typos). Relative PNG paths resolve against the scene file's folder.
+
+Conventions
+-----------
+* World space is right-handed; the camera looks from ``position`` toward ``target`` with ``up`` roughly up
+  (camera space: x right, y up, looking down -z, as in OpenGL).
+* A triangle's **front** side is the one from which its vertices appear counter-clockwise (the right-hand rule:
+  ``(P1 - P0) x (P2 - P0)`` points to the front). Back faces are culled unless the mesh is ``two_sided``.
+* Vertex normals are normalized on load (a zero normal is an error).
+* Texture space: ``u`` runs along a texture's columns (left to right) and ``v`` along its rows **top to bottom**
+  (row 0 of a PNG is at ``v = 0``), both with period 1 per tile; ``repeat = [ru, rv]`` tiles a map ``ru`` times
+  over ``u`` in ``[0, 1]``. On the ``quad`` generator, seen from its front, ``u`` goes right and ``v`` goes down,
+  like reading an image.
+* Light ``direction`` points **toward** the light (normalized on load); colors are linear RGB floats.
+
+Schema
+------
+The complete commented example below is also a valid scene (``SCHEMA_EXAMPLE``, tested)::
+
+    # Top-level keys must come before the first [table].
+    name = "example"                 # optional, free text
+    ambient = [0.08, 0.08, 0.10]     # ambient RGB >= 0 (default [0, 0, 0])
+
+    [image]
+    width = 256                      # pixels, 1 .. 8192
+    height = 192
+    background = [0.0, 0.0, 0.0]     # RGB in [0, 1] where no triangle covers a pixel (default black)
+
+    [camera]
+    position = [0.0, 1.0, 4.0]       # eye point, world units
+    target = [0.0, 0.0, 0.0]         # looked-at point (must differ from position)
+    up = [0.0, 1.0, 0.0]             # must not be parallel to the view direction
+    fov = 45.0                       # VERTICAL field of view in degrees, 0 < fov < 180
+    near = 0.1                       # clipping distances along the view axis, 0 < near < far
+    far = 100.0
+
+    [[lights]]                       # any number (zero included)
+    direction = [-1.0, 1.0, 0.5]     # TOWARD the light, world space; normalized on load
+    color = [0.7, 0.3, 0.8]          # RGB >= 0
+
+    [[materials]]
+    name = "tin"                     # unique; meshes refer to materials by name or 0-based index
+    color = [0.55, 0.65, 0.85]       # constant RGB in [0, 1] -- or a table, see the next material
+    specular = [1.0, 1.0, 1.0]       # specular RGB >= 0 (default [1, 1, 1])
+    shininess = 40.0                 # Phong exponent > 0 (default 32)
+
+    [materials.bump]                 # optional; exactly one of `procedural` / `file`
+    procedural = "mexican-hat"       # Ricker wavelet, periodic (paper Fig. 9)
+    size = [40, 40]                  # texels [width, height] (default [40, 40])
+    sigma = 5.0                      # texels (default min(size) / 8)
+    repeat = [8, 8]                  # tiles over u, v in [0, 1]; > 0 (default [1, 1])
+    strength = 2.0                   # N' = N - strength * (dh/du T + dh/dv B), h per texel (default 1)
+
+    [[materials]]
+    name = "wall"
+    specular = [0.2, 0.2, 0.2]
+    shininess = 8.0
+
+    [materials.color]                # exactly one of `rgb` / `file` / `procedural`
+    procedural = "graffiti"          # or: file = "paint.png" (PNG relative to this file), rgb = [r, g, b]
+    size = [256, 128]                # graffiti: texels [width, height] (default [256, 128])
+    seed = 11                        # graffiti: random seed (default 1)
+    repeat = [1, 1]                  # as for bump maps (default [1, 1])
+    # procedural = "checker" takes size (default [64, 64]), checks = [8, 8], colors = [[r,g,b], [r,g,b]]
+
+    [materials.bump]
+    procedural = "chiselled-text"    # text carved into a rotten surface (paper Fig. 11)
+    text = "Berlin Hauptstadt"       # default
+    size = [256, 128]                # texels (default [512, 256])
+    font_size = 30                   # pixels of Pillow's default font (default size[1] / 5)
+    depth = 0.6                      # carving depth, heights in [0, 1] (default 0.6)
+    bevel = 1.5                      # chisel slope width in texels (default 1.5)
+    rot = 0.25                       # amplitude of the rotting noise (default 0.25)
+    seed = 1995                      # (default 1995)
+    strength = 1.5
+    # file = "height.png" instead: a greyscale PNG (8 or 16 bit), white = high; heights = value / max in [0, 1]
+
+    [[meshes]]
+    kind = "quad"                    # two triangles per cell
+    material = "tin"
+    origin = [-1.0, 0.0, -1.0]       # the corner at uv[0]
+    edge_u = [2.0, 0.0, 0.0]         # to the corner where u = uv[1][0]
+    edge_v = [0.0, 0.0, 2.0]         # to the corner where v = uv[1][1]; front normal = edge_v x edge_u (+y)
+    uv = [[0.0, 0.0], [1.0, 1.0]]    # (u, v) at origin and at origin + edge_u + edge_v (default)
+    divisions = [1, 1]               # cells along u, v (default [1, 1])
+    two_sided = false                # default false: back faces culled
+
+    [[meshes]]
+    kind = "sphere"                  # UV sphere about the +y axis, analytic normals
+    material = 1
+    center = [0.0, 0.5, 0.0]
+    radius = 0.5
+    segments = 24                    # around the axis, >= 3 (default 32)
+    rings = 12                       # pole to pole, >= 2 (default 16)
+    # u = longitude / 2 pi, from +z toward +x; v = colatitude / pi, from the +y pole down
+
+    [[meshes]]
+    kind = "triangles"               # explicit triangles
+    material = "tin"
+    positions = [[-1.0, 0.0, -1.0], [1.0, 0.0, -1.0], [0.0, 1.0, -1.0]]
+    uvs = [[0.0, 1.0], [1.0, 1.0], [0.5, 0.0]]           # one per position
+    normals = [[0.0, 0.0, 1.0], [0.0, 0.0, 1.0], [0.0, 0.0, 1.0]]  # optional (default: face normals)
+    # indices = [[0, 1, 2]]          # optional; default: consecutive triples of positions
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import textwrap
+import tomllib
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any, Callable, NamedTuple
+
+import numpy as np
+
+from fxmodel.core.paths import SCENES
+from host.meshes import frozen_array, quad_mesh, sphere_mesh
+
+__all__ = ["SceneError", "Camera", "Light", "ColorSpec", "BumpSpec", "Material", "Mesh", "Scene", "Triangles",
+           "SCENES", "scene_path", "load_scene", "parse_scene", "SCHEMA_EXAMPLE",
+           "MAX_IMAGE_SIZE", "COLOR_PROCEDURALS", "BUMP_PROCEDURALS"]
+
+MAX_IMAGE_SIZE = 8192
+
+
+class SceneError(ValueError):
+    """A malformed scene file: the message names the file and the key path."""
+
+
+# ------------------------------------------------------------------------------------------------------------
+# parsed scene
+# ------------------------------------------------------------------------------------------------------------
+Vec3 = tuple[float, float, float]
+
+
+@dataclass(frozen=True)
+class Camera:
+    """Perspective camera (paper section 4: homogeneous x, y, z, w; w is the distance along the view axis).
+
+    Attributes
+    ----------
+    position, target, up : tuple of 3 float
+        World space. ``up`` need only not be parallel to ``target - position``.
+    fov : float
+        Vertical field of view in degrees.
+    near, far : float
+        Clipping distances along the view axis, ``0 < near < far``.
+    """
+
+    position: Vec3
+    target: Vec3
+    up: Vec3
+    fov: float
+    near: float
+    far: float
+
+    def basis(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(right, up, forward)``: orthonormal world vectors, ``right = forward x up`` (right-handed)."""
+        f = np.subtract(self.target, self.position, dtype=np.float64)
+        f /= np.linalg.norm(f)
+        r = np.cross(f, np.asarray(self.up, dtype=np.float64))
+        r /= np.linalg.norm(r)
+        return r, np.cross(r, f), f
+
+
+@dataclass(frozen=True)
+class Light:
+    """Directional light: ``direction`` is a unit vector toward the light; ``color`` linear RGB >= 0."""
+
+    direction: Vec3
+    color: Vec3
+
+
+@dataclass(frozen=True)
+class ColorSpec:
+    """A material's color texture.
+
+    Attributes
+    ----------
+    kind : {"rgb", "file", "procedural"}
+    rgb : tuple of 3 float or None
+        Constant color in [0, 1] (``kind == "rgb"``).
+    path : pathlib.Path or None
+        Absolute path of the PNG (``kind == "file"``).
+    procedural : str or None
+        Generator name, one of :data:`COLOR_PROCEDURALS` (``kind == "procedural"``).
+    params : tuple of (str, value)
+        Generator parameters, defaults filled in (see :attr:`kwargs`).
+    repeat : tuple of 2 float
+        Tiles over ``u`` and ``v`` in ``[0, 1]``.
+    key : str
+        Key path in the scene file (for messages), e.g. ``materials[1].color``.
+    """
+
+    kind: str
+    rgb: Vec3 | None = None
+    path: Path | None = None
+    procedural: str | None = None
+    params: tuple = ()
+    repeat: tuple[float, float] = (1.0, 1.0)
+    key: str = ""
+
+    @property
+    def kwargs(self) -> dict:
+        return dict(self.params)
+
+
+@dataclass(frozen=True)
+class BumpSpec:
+    """A material's bump map (paper section 3.2; Fig. 9 and Fig. 11).
+
+    Attributes
+    ----------
+    kind : {"file", "procedural"}
+    path : pathlib.Path or None
+        Absolute path of the greyscale height PNG (``kind == "file"``).
+    procedural : str or None
+        One of :data:`BUMP_PROCEDURALS`.
+    params : tuple of (str, value)
+        Generator parameters with defaults filled in.
+    repeat : tuple of 2 float
+        Tiles over ``u`` and ``v`` in ``[0, 1]``.
+    strength : float
+        Slope multiplier: ``N' = N - strength (dh/du T + dh/dv B)``, ``h`` differentiated per texel.
+    key : str
+        Key path in the scene file.
+    """
+
+    kind: str
+    path: Path | None = None
+    procedural: str | None = None
+    params: tuple = ()
+    repeat: tuple[float, float] = (1.0, 1.0)
+    strength: float = 1.0
+    key: str = ""
+
+    @property
+    def kwargs(self) -> dict:
+        return dict(self.params)
+
+
+@dataclass(frozen=True)
+class Material:
+    """Color texture, optional bump map, specular color and Phong exponent."""
+
+    name: str
+    color: ColorSpec
+    bump: BumpSpec | None
+    specular: Vec3
+    shininess: float
+
+
+@dataclass(frozen=True)
+class Mesh:
+    """Triangles of one material, as read-only float64 arrays.
+
+    Attributes
+    ----------
+    kind : {"triangles", "quad", "sphere"}
+    material : int
+        Index into :attr:`Scene.materials`.
+    two_sided : bool
+        If false, back faces are culled; if true they are drawn with ``N`` and ``A`` negated.
+    positions : ndarray, shape (T, 3, 3)
+        Vertex positions, world space, counter-clockwise seen from the front.
+    normals : ndarray, shape (T, 3, 3)
+        Unit vertex normals.
+    uvs : ndarray, shape (T, 3, 2)
+        Texture coordinates ``(u, v)`` per vertex (before any repeat).
+    key : str
+        Key path in the scene file, e.g. ``meshes[0]``.
+    """
+
+    kind: str
+    material: int
+    two_sided: bool
+    positions: np.ndarray = field(repr=False)
+    normals: np.ndarray = field(repr=False)
+    uvs: np.ndarray = field(repr=False)
+    key: str = ""
+
+    @property
+    def n_triangles(self) -> int:
+        return self.positions.shape[0]
+
+
+class Triangles(NamedTuple):
+    """All triangles of a scene, concatenated in file order (:meth:`Scene.triangles`)."""
+
+    positions: np.ndarray      # (T, 3, 3)
+    normals: np.ndarray        # (T, 3, 3)
+    uvs: np.ndarray            # (T, 3, 2)
+    material: np.ndarray       # (T,) int64
+    two_sided: np.ndarray      # (T,) bool
+    mesh: np.ndarray           # (T,) int64
+
+
+@dataclass(frozen=True)
+class Scene:
+    """A parsed, validated scene (see the module docstring for the file format).
+
+    Attributes
+    ----------
+    path : pathlib.Path or None
+        The scene file (None for a scene parsed from a string).
+    name : str
+    width, height : int
+        Image size in pixels.
+    background : tuple of 3 float
+    camera : Camera
+    ambient : tuple of 3 float
+    lights : tuple of Light
+    materials : tuple of Material
+    meshes : tuple of Mesh
+    """
+
+    path: Path | None
+    name: str
+    width: int
+    height: int
+    background: Vec3
+    camera: Camera
+    ambient: Vec3
+    lights: tuple[Light, ...]
+    materials: tuple[Material, ...]
+    meshes: tuple[Mesh, ...]
+
+    def with_size(self, width: int, height: int | None = None) -> "Scene":
+        """The same scene at another image size; ``height`` defaults to keeping the aspect ratio."""
+        if height is None:
+            height = max(1, round(width * self.height / self.width))
+        for name, v in (("width", width), ("height", height)):
+            if not isinstance(v, int) or isinstance(v, bool) or not 1 <= v <= MAX_IMAGE_SIZE:
+                raise ValueError(f"{name}={v!r}: must be an int in 1..{MAX_IMAGE_SIZE}")
+        return replace(self, width=width, height=height)
+
+    def triangles(self) -> Triangles:
+        """All triangles, concatenated over the meshes in file order (the front end's triangle index)."""
+        if not self.meshes:
+            z = np.zeros((0, 3, 3))
+            return Triangles(z, z, np.zeros((0, 3, 2)), np.zeros(0, np.int64), np.zeros(0, bool),
+                             np.zeros(0, np.int64))
+        counts = [m.n_triangles for m in self.meshes]
+        return Triangles(
+            np.concatenate([m.positions for m in self.meshes]),
+            np.concatenate([m.normals for m in self.meshes]),
+            np.concatenate([m.uvs for m in self.meshes]),
+            np.repeat(np.array([m.material for m in self.meshes], np.int64), counts),
+            np.repeat(np.array([m.two_sided for m in self.meshes], bool), counts),
+            np.repeat(np.arange(len(self.meshes), dtype=np.int64), counts))
+
+
+# ------------------------------------------------------------------------------------------------------------
+# validation helpers
+# ------------------------------------------------------------------------------------------------------------
+def _show(value) -> str:
+    """A short TOML-like rendering of a bad value for an error message."""
+    try:
+        text = json.dumps(value, default=str, ensure_ascii=False)
+    except (TypeError, ValueError):
+        text = repr(value)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+def _is_num(v) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool)
+
+
+class _Reader:
+    """Validation with messages ``<file>: <key path>: <problem>``."""
+
+    def __init__(self, source: str):
+        self.source = source
+
+    def fail(self, key: str, msg: str):
+        raise SceneError(f"{self.source}: {key}: {msg}" if key else f"{self.source}: {msg}")
+
+    # -- tables ---------------------------------------------------------------------------------------------
+    def table(self, v, key: str, allowed: tuple[str, ...], required: tuple[str, ...] = ()) -> dict:
+        if not isinstance(v, dict):
+            self.fail(key, f"expected a table, got {_show(v)}")
+        for k in v:
+            if k not in allowed:
+                self.fail(f"{key}.{k}" if key else k, f"unknown key (allowed: {', '.join(allowed)})")
+        for k in required:
+            if k not in v:
+                self.fail(f"{key}.{k}" if key else k, "missing")
+        return v
+
+    def array_of_tables(self, v, key: str) -> list:
+        if not isinstance(v, list) or not all(isinstance(x, dict) for x in v):
+            self.fail(key, f"expected an array of tables ([[{key}]]), got {_show(v)}")
+        return v
+
+    # -- scalars --------------------------------------------------------------------------------------------
+    def number(self, v, key: str, lo=None, hi=None, lo_open=False, hi_open=False) -> float:
+        if not _is_num(v):
+            self.fail(key, f"expected a number, got {_show(v)}")
+        x = float(v)
+        if not math.isfinite(x):
+            self.fail(key, f"expected a finite number, got {_show(v)}")
+        if lo is not None and (x < lo or (lo_open and x == lo)):
+            self.fail(key, f"must be {'>' if lo_open else '>='} {lo:g}, got {_show(v)}")
+        if hi is not None and (x > hi or (hi_open and x == hi)):
+            self.fail(key, f"must be {'<' if hi_open else '<='} {hi:g}, got {_show(v)}")
+        return x
+
+    def integer(self, v, key: str, lo=None, hi=None) -> int:
+        if not isinstance(v, int) or isinstance(v, bool):
+            self.fail(key, f"expected an integer, got {_show(v)}")
+        if (lo is not None and v < lo) or (hi is not None and v > hi):
+            rng = f"{lo} .. {hi}" if hi is not None else f">= {lo}"
+            self.fail(key, f"must be an integer in {rng}, got {_show(v)}")
+        return int(v)
+
+    def boolean(self, v, key: str) -> bool:
+        if not isinstance(v, bool):
+            self.fail(key, f"expected true or false, got {_show(v)}")
+        return v
+
+    def string(self, v, key: str, choices: tuple[str, ...] | None = None) -> str:
+        if not isinstance(v, str):
+            self.fail(key, f"expected a string, got {_show(v)}")
+        if choices is not None and v not in choices:
+            self.fail(key, f"expected one of {', '.join(repr(c) for c in choices)}, got {_show(v)}")
+        return v
+
+    def vector(self, v, key: str, n: int, lo=None, hi=None, lo_open=False, nonzero=False, integer=False):
+        what = "integers" if integer else "numbers"
+        if not isinstance(v, list) or len(v) != n:
+            self.fail(key, f"expected {n} {what}, got {_show(v)}")
+        for i, x in enumerate(v):
+            ok = (isinstance(x, int) and not isinstance(x, bool)) if integer else _is_num(x)
+            if not ok or (not integer and not math.isfinite(x)):
+                self.fail(key, f"expected {n} {what}, got {_show(v)} (element {i} is {_show(x)})")
+            if (lo is not None and (x < lo or (lo_open and x == lo))) or (hi is not None and x > hi):
+                bound = []
+                if lo is not None:
+                    bound.append(f"{'>' if lo_open else '>='} {lo:g}")
+                if hi is not None:
+                    bound.append(f"<= {hi:g}")
+                self.fail(key, f"every element must be {' and '.join(bound)}, got {_show(v)}")
+        out = tuple(int(x) if integer else float(x) for x in v)
+        if nonzero and not any(out):
+            self.fail(key, f"must not be the zero vector, got {_show(v)}")
+        return out
+
+    def vectors(self, v, key: str, n: int) -> np.ndarray:
+        """A non-empty list of n-vectors as an array (K, n)."""
+        if not isinstance(v, list) or not v:
+            self.fail(key, f"expected a non-empty list of {n}-vectors, got {_show(v)}")
+        return np.array([self.vector(x, f"{key}[{i}]", n) for i, x in enumerate(v)], dtype=np.float64)
+
+    def png(self, v, key: str, base: Path) -> Path:
+        name = self.string(v, key)
+        path = (base / name).resolve()
+        try:
+            from PIL import Image
+            with Image.open(path) as im:
+                im.verify()
+                fmt = im.format
+        except FileNotFoundError:
+            self.fail(key, f"file {_show(name)} not found (looked for {path})")
+        except Exception as exc:                                         # noqa: BLE001 -- reported, not hidden
+            self.fail(key, f"cannot read {_show(name)} as an image ({path}): {exc}")
+        if fmt != "PNG":
+            self.fail(key, f"{_show(name)} is a {fmt} file, expected a PNG")
+        return path
+
+
+# ------------------------------------------------------------------------------------------------------------
+# procedural generators: parameter schemas (the generators live in host.bumpmap)
+# ------------------------------------------------------------------------------------------------------------
+def _size(r: _Reader, v, key):
+    return r.vector(v, key, 2, lo=1, hi=4096, integer=True)
+
+
+def _rgb01(r: _Reader, v, key):
+    return r.vector(v, key, 3, lo=0.0, hi=1.0)
+
+
+#: name -> {param: (default or callable(params) -> default, validator(reader, value, key) -> value)}
+COLOR_PROCEDURALS: dict[str, dict[str, tuple[Any, Callable]]] = {
+    "graffiti": {
+        "size": ((256, 128), _size),
+        "seed": (1, lambda r, v, k: r.integer(v, k, 0, 2**32 - 1)),
+    },
+    "checker": {
+        "size": ((64, 64), _size),
+        "checks": ((8, 8), lambda r, v, k: r.vector(v, k, 2, lo=1, hi=4096, integer=True)),
+        "colors": (((1.0, 1.0, 1.0), (0.1, 0.1, 0.1)),
+                   lambda r, v, k: (r.fail(k, f"expected 2 RGB colors, got {_show(v)}")
+                                    if not isinstance(v, list) or len(v) != 2
+                                    else tuple(_rgb01(r, c, f"{k}[{i}]") for i, c in enumerate(v)))),
+    },
+}
+
+BUMP_PROCEDURALS: dict[str, dict[str, tuple[Any, Callable]]] = {
+    "mexican-hat": {
+        "size": ((40, 40), _size),
+        "sigma": (lambda p: min(p["size"]) / 8.0, lambda r, v, k: r.number(v, k, lo=0.0, lo_open=True)),
+    },
+    "chiselled-text": {
+        "text": ("Berlin Hauptstadt", lambda r, v, k: r.string(v, k)),
+        "size": ((512, 256), _size),
+        "font_size": (lambda p: max(4, p["size"][1] // 5), lambda r, v, k: r.integer(v, k, 4, 1000)),
+        "depth": (0.6, lambda r, v, k: r.number(v, k, lo=0.0, hi=1.0)),
+        "bevel": (1.5, lambda r, v, k: r.number(v, k, lo=0.0, hi=100.0)),
+        "rot": (0.25, lambda r, v, k: r.number(v, k, lo=0.0, hi=1.0)),
+        "seed": (1995, lambda r, v, k: r.integer(v, k, 0, 2**32 - 1)),
+    },
+}
+
+
+def _procedural_params(r: _Reader, table: dict, key: str, schema: dict, fixed: tuple[str, ...]) -> tuple:
+    for k in table:
+        if k not in schema and k not in fixed:
+            r.fail(f"{key}.{k}", f"unknown key for procedural {_show(table['procedural'])} "
+                                 f"(allowed: {', '.join(fixed + tuple(schema))})")
+    out = {}
+    for name, (default, check) in schema.items():       # in schema order: later defaults may use earlier values
+        if name in table:
+            out[name] = check(r, table[name], f"{key}.{name}")
+        else:
+            out[name] = default(out) if callable(default) else default
+    return tuple(out.items())
+
+
+# ------------------------------------------------------------------------------------------------------------
+# parsing
+# ------------------------------------------------------------------------------------------------------------
+#: The shipped scenes (``scene_path`` resolves bare names here).
+
+
+def scene_path(scene) -> Path:
+    """The file of a scene given by name in :data:`SCENES` (``tin-plane`` -> ``scenes/tin-plane.toml``) or by
+    path (anything with a suffix, returned as given). Existence is checked by :func:`load_scene`."""
+    path = Path(scene)
+    return path if path.suffix else SCENES / f"{scene}.toml"
+
+
+def load_scene(path, *, size: int | tuple[int, int] | None = None) -> Scene:
+    """Read and validate a scene file.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The TOML file. Relative PNG paths inside resolve against its folder.
+    size : int or (int, int), optional
+        Override the image size: ``(width, height)``, or a width with the height keeping the aspect ratio
+        (for tests at, e.g., 64 x 64).
+
+    Raises
+    ------
+    SceneError
+        One error naming the file and the key path (also for a missing file or a TOML syntax error).
+    """
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise SceneError(f"{path}: cannot read the scene file: {exc.strerror or exc}") from None
+    except UnicodeDecodeError as exc:
+        raise SceneError(f"{path}: not UTF-8 text: {exc}") from None
+    scene = parse_scene(text, source=str(path), base=path.resolve().parent, path=path)
+    if size is not None:
+        scene = scene.with_size(*size) if isinstance(size, tuple) else scene.with_size(size)
+    return scene
+
+
+def parse_scene(text: str, *, source: str = "<string>", base: Path | None = None,
+                path: Path | None = None) -> Scene:
+    """Parse scene TOML ``text``; ``source`` names it in errors, ``base`` resolves relative PNG paths."""
+    r = _Reader(source)
+    base = Path.cwd() if base is None else base
+    try:
+        doc = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise SceneError(f"{source}: TOML syntax error: {exc}") from None
+    r.table(doc, "", ("name", "ambient", "image", "camera", "lights", "materials", "meshes"),
+            ("image", "camera", "materials", "meshes"))
+    name = r.string(doc.get("name", path.stem if path else "scene"), "name")
+    ambient = r.vector(doc.get("ambient", [0, 0, 0]), "ambient", 3, lo=0.0)
+
+    img = r.table(doc["image"], "image", ("width", "height", "background"), ("width", "height"))
+    width = r.integer(img["width"], "image.width", 1, MAX_IMAGE_SIZE)
+    height = r.integer(img["height"], "image.height", 1, MAX_IMAGE_SIZE)
+    background = _rgb01(r, img.get("background", [0, 0, 0]), "image.background")
+
+    camera = _camera(r, doc["camera"])
+
+    lights = []
+    for i, t in enumerate(r.array_of_tables(doc.get("lights", []), "lights")):
+        key = f"lights[{i}]"
+        r.table(t, key, ("direction", "color"), ("direction", "color"))
+        d = np.array(r.vector(t["direction"], f"{key}.direction", 3, nonzero=True))
+        lights.append(Light(tuple(float(x) for x in d / np.linalg.norm(d)),
+                            r.vector(t["color"], f"{key}.color", 3, lo=0.0)))
+
+    mats = r.array_of_tables(doc["materials"], "materials")
+    if not mats:
+        r.fail("materials", "at least one material is needed")
+    materials = [_material(r, t, f"materials[{i}]", base) for i, t in enumerate(mats)]
+    names = {}
+    for i, m in enumerate(materials):
+        if m.name in names:
+            r.fail(f"materials[{i}].name", f"{_show(m.name)} is already the name of materials[{names[m.name]}]")
+        names[m.name] = i
+
+    meshes = [_mesh(r, t, f"meshes[{i}]", names, len(materials))
+              for i, t in enumerate(r.array_of_tables(doc["meshes"], "meshes"))]
+    return Scene(path=path, name=name, width=width, height=height, background=background, camera=camera,
+                 ambient=ambient, lights=tuple(lights), materials=tuple(materials), meshes=tuple(meshes))
+
+
+def _camera(r: _Reader, t) -> Camera:
+    r.table(t, "camera", ("position", "target", "up", "fov", "near", "far"), ("position", "target", "fov"))
+    pos = r.vector(t["position"], "camera.position", 3)
+    tgt = r.vector(t["target"], "camera.target", 3)
+    up = r.vector(t.get("up", [0, 1, 0]), "camera.up", 3, nonzero=True)
+    fov = r.number(t["fov"], "camera.fov", lo=0.0, hi=180.0, lo_open=True, hi_open=True)
+    near = r.number(t.get("near", 0.1), "camera.near", lo=0.0, lo_open=True)
+    far = r.number(t.get("far", 1000.0), "camera.far", lo=0.0, lo_open=True)
+    if far <= near:
+        r.fail("camera.far", f"must be greater than camera.near ({near:g}), got {_show(t.get('far'))}")
+    f = np.subtract(tgt, pos)
+    if not np.any(f):
+        r.fail("camera.target", f"must differ from camera.position, got {_show(t['target'])}")
+    f = f / np.linalg.norm(f)
+    u = np.asarray(up) / np.linalg.norm(up)
+    if np.linalg.norm(np.cross(f, u)) < 1e-6:
+        r.fail("camera.up", f"must not be parallel to the view direction target - position, got {_show(t.get('up'))}")
+    return Camera(pos, tgt, up, fov, near, far)
+
+
+def _repeat(r: _Reader, t: dict, key: str):
+    return r.vector(t.get("repeat", [1, 1]), f"{key}.repeat", 2, lo=0.0, lo_open=True)
+
+
+def _material(r: _Reader, t, key: str, base: Path) -> Material:
+    r.table(t, key, ("name", "color", "bump", "specular", "shininess"), ("name",))
+    name = r.string(t["name"], f"{key}.name")
+    if not name:
+        r.fail(f"{key}.name", "must not be empty")
+    color = _color(r, t.get("color", [0.8, 0.8, 0.8]), f"{key}.color", base)
+    bump = _bump(r, t["bump"], f"{key}.bump", base) if "bump" in t else None
+    specular = r.vector(t.get("specular", [1, 1, 1]), f"{key}.specular", 3, lo=0.0)
+    shininess = r.number(t.get("shininess", 32.0), f"{key}.shininess", lo=0.0, lo_open=True)
+    return Material(name, color, bump, specular, shininess)
+
+
+def _one_of(r: _Reader, t: dict, key: str, options: tuple[str, ...]) -> str:
+    present = [o for o in options if o in t]
+    if len(present) != 1:
+        r.fail(key, f"needs exactly one of {', '.join(repr(o) for o in options)}"
+                    + (f", got {', '.join(repr(p) for p in present)}" if present else ""))
+    return present[0]
+
+
+def _color(r: _Reader, v, key: str, base: Path) -> ColorSpec:
+    if isinstance(v, list):
+        return ColorSpec("rgb", rgb=_rgb01(r, v, key), key=key)
+    if not isinstance(v, dict):
+        r.fail(key, f"expected [r, g, b] or a table, got {_show(v)}")
+    kind = _one_of(r, v, key, ("rgb", "file", "procedural"))
+    if kind == "procedural":
+        proc = r.string(v["procedural"], f"{key}.procedural", tuple(COLOR_PROCEDURALS))
+        params = _procedural_params(r, v, key, COLOR_PROCEDURALS[proc], ("procedural", "repeat"))
+        return ColorSpec("procedural", procedural=proc, params=params, repeat=_repeat(r, v, key), key=key)
+    r.table(v, key, (kind, "repeat"))
+    if kind == "rgb":
+        return ColorSpec("rgb", rgb=_rgb01(r, v["rgb"], f"{key}.rgb"), repeat=_repeat(r, v, key), key=key)
+    return ColorSpec("file", path=r.png(v["file"], f"{key}.file", base), repeat=_repeat(r, v, key), key=key)
+
+
+def _bump(r: _Reader, v, key: str, base: Path) -> BumpSpec:
+    if not isinstance(v, dict):
+        r.fail(key, f"expected a table, got {_show(v)}")
+    kind = _one_of(r, v, key, ("file", "procedural"))
+    common = ("repeat", "strength")
+    strength = r.number(v.get("strength", 1.0), f"{key}.strength", lo=0.0)
+    if kind == "procedural":
+        proc = r.string(v["procedural"], f"{key}.procedural", tuple(BUMP_PROCEDURALS))
+        params = _procedural_params(r, v, key, BUMP_PROCEDURALS[proc], ("procedural",) + common)
+        return BumpSpec("procedural", procedural=proc, params=params, repeat=_repeat(r, v, key),
+                        strength=strength, key=key)
+    r.table(v, key, ("file",) + common)
+    return BumpSpec("file", path=r.png(v["file"], f"{key}.file", base), repeat=_repeat(r, v, key),
+                    strength=strength, key=key)
+
+
+def _unit_rows(r: _Reader, n: np.ndarray, key: str) -> np.ndarray:
+    length = np.linalg.norm(n, axis=-1)
+    bad = np.flatnonzero(length.ravel() == 0)
+    if bad.size:
+        r.fail(f"{key}[{bad[0]}]", "zero-length normal")
+    return n / length[..., None]
+
+
+def _mesh(r: _Reader, t, key: str, names: dict, n_mat: int) -> Mesh:
+    if not isinstance(t, dict):
+        r.fail(key, f"expected a table, got {_show(t)}")
+    if "kind" not in t:
+        r.fail(f"{key}.kind", "missing (one of 'triangles', 'quad', 'sphere')")
+    kind = r.string(t["kind"], f"{key}.kind", ("triangles", "quad", "sphere"))
+    common = ("kind", "material", "two_sided")
+    if kind == "triangles":
+        r.table(t, key, common + ("positions", "uvs", "normals", "indices"), ("material", "positions", "uvs"))
+    elif kind == "quad":
+        r.table(t, key, common + ("origin", "edge_u", "edge_v", "uv", "divisions"),
+                ("material", "origin", "edge_u", "edge_v"))
+    else:
+        r.table(t, key, common + ("center", "radius", "segments", "rings"), ("material", "center", "radius"))
+    mat = t["material"]
+    if isinstance(mat, str):
+        if mat not in names:
+            r.fail(f"{key}.material", f"no material is named {_show(mat)} (names: {', '.join(names)})")
+        mat = names[mat]
+    else:
+        mat = r.integer(mat, f"{key}.material", 0, n_mat - 1)
+    two_sided = r.boolean(t.get("two_sided", False), f"{key}.two_sided")
+
+    if kind == "triangles":
+        pos = r.vectors(t["positions"], f"{key}.positions", 3)
+        uvs = r.vectors(t["uvs"], f"{key}.uvs", 2)
+        if len(uvs) != len(pos):
+            r.fail(f"{key}.uvs", f"expected {len(pos)} [u, v] pairs (one per position), got {len(uvs)}")
+        nrm = None
+        if "normals" in t:
+            nrm = _unit_rows(r, r.vectors(t["normals"], f"{key}.normals", 3), f"{key}.normals")
+            if len(nrm) != len(pos):
+                r.fail(f"{key}.normals", f"expected {len(pos)} normals (one per position), got {len(nrm)}")
+        if "indices" in t:
+            idx = t["indices"]
+            if not isinstance(idx, list) or not idx:
+                r.fail(f"{key}.indices", f"expected a non-empty list of [i, j, k], got {_show(idx)}")
+            idx = np.array([r.vector(x, f"{key}.indices[{i}]", 3, lo=0, hi=len(pos) - 1, integer=True)
+                            for i, x in enumerate(idx)], dtype=np.int64)
+        else:
+            if len(pos) % 3:
+                r.fail(f"{key}.positions", f"without indices, expected a multiple of 3 vertices, got {len(pos)}")
+            idx = np.arange(len(pos)).reshape(-1, 3)
+        P, UV = pos[idx], uvs[idx]
+        cross = np.cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0])
+        area = np.linalg.norm(cross, axis=-1)
+        if np.any(area == 0):
+            i = int(np.flatnonzero(area == 0)[0])
+            r.fail(f"{key}.{'indices' if 'indices' in t else 'positions'}", f"triangle {i} has zero area")
+        N = nrm[idx] if nrm is not None else np.repeat((cross / area[:, None])[:, None], 3, axis=1)
+        P, N, UV = frozen_array(P), frozen_array(N), frozen_array(UV)
+    elif kind == "quad":
+        o = r.vector(t["origin"], f"{key}.origin", 3)
+        eu = r.vector(t["edge_u"], f"{key}.edge_u", 3, nonzero=True)
+        ev = r.vector(t["edge_v"], f"{key}.edge_v", 3, nonzero=True)
+        if np.linalg.norm(np.cross(ev, eu)) <= 1e-12 * np.linalg.norm(eu) * np.linalg.norm(ev):
+            r.fail(f"{key}.edge_v", f"must not be parallel to edge_u, got {_show(t['edge_v'])}")
+        uv = t.get("uv", [[0, 0], [1, 1]])
+        if not isinstance(uv, list) or len(uv) != 2:
+            r.fail(f"{key}.uv", f"expected [[u0, v0], [u1, v1]], got {_show(uv)}")
+        uv = tuple(r.vector(x, f"{key}.uv[{i}]", 2) for i, x in enumerate(uv))
+        if uv[0][0] == uv[1][0] or uv[0][1] == uv[1][1]:
+            r.fail(f"{key}.uv", f"u0 must differ from u1 and v0 from v1, got {_show(t['uv'])}")
+        div = r.vector(t.get("divisions", [1, 1]), f"{key}.divisions", 2, lo=1, hi=1024, integer=True)
+        P, N, UV = quad_mesh(o, eu, ev, uv, div)
+    else:
+        c = r.vector(t["center"], f"{key}.center", 3)
+        rad = r.number(t["radius"], f"{key}.radius", lo=0.0, lo_open=True)
+        seg = r.integer(t.get("segments", 32), f"{key}.segments", 3, 4096)
+        rings = r.integer(t.get("rings", 16), f"{key}.rings", 2, 4096)
+        P, N, UV = sphere_mesh(c, rad, seg, rings)
+    return Mesh(kind, mat, two_sided, P, N, UV, key)
+
+
+#: The commented example of the module docstring, as TOML text (the lead can paste it into the README).
+SCHEMA_EXAMPLE = textwrap.dedent(__doc__.split("tested)::\n\n", 1)[1]).strip() + "\n"

@@ -1,0 +1,87 @@
+"""RTL of the engine from the triangle (:class:`fxmodel.pipeline.engine.EngineParams`, paper Fig. 5): the scan
+converter (``rtl/raster.py``) feeding the pixel pipeline (``rtl/pixel.py``) through its stream interface, optionally
+with the depth test and frame buffer (``rtl/rop.py``).
+"""
+
+from __future__ import annotations
+
+from amaranth.hdl import Cat, Module
+from amaranth.lib import data, stream, wiring
+from amaranth.lib.wiring import In, Out
+
+from fxmodel.pipeline.engine import EngineParams
+
+from .fixed import shape
+from .raster import Raster, record_layout
+from .streams import StreamUnit, payload_layout
+from .unit import register
+
+__all__ = ["Engine"]
+
+
+@register(EngineParams)
+class Engine(wiring.Component):
+    """The engine from the triangle: the scan converter (``rtl/raster.py``) feeding the pixel pipeline through its
+    stream interface (``rtl/streams.py``), the fragment's pixel riding the pipeline's sideband.
+
+    Ports (formats from :class:`~fxmodel.pipeline.engine.EngineParams`)
+    ---------------------------------------------------------------------
+    i : In(stream.Signature(record_layout(params.raster))) -- triangle records
+    o : Out(stream.Signature(payload_layout(params.outputs))) -- per fragment ``x``, ``y`` (``raster.pixel_fmt``),
+        ``r, g, b`` and ``flags`` (the pipeline's ``FLAG_BITS``, bit 4 an interpolated attribute saturated)
+    busy : Out(1) -- the scan converter's Pixel Calculator is on a row (its clocks are the model's ``clocks``)
+
+    Backpressure on ``o`` fills the pixel pipeline's output FIFO (its ``i.ready`` falls), which holds the scan
+    converter, which stops taking records. Without stalls a fragment's color leaves ``params.latency`` cycles after it left the
+    scan converter.
+
+    With ``params.rop`` (the engine with its depth test) ``o`` is replaced by the raster-operations unit
+    (``rtl/rop.py``): the sideband also carries ``Z``, and the colors go through the depth test into the frame
+    buffer; ports ``axi`` (its AXI4 manager port) or ``fb`` (its read-out, on chip), ``status`` (its sticky
+    flags) and ``rop_busy`` (a fragment in the ROP not yet finished; fragments inside the pixel pipeline are not
+    counted: wait its ``latency`` after the last one left the scan converter).
+    """
+
+    def __init__(self, params: EngineParams):
+        self.params = params
+        members = {"i": In(stream.Signature(record_layout(params.raster))), "busy": Out(1)}
+        if params.rop is None:
+            members["o"] = Out(stream.Signature(payload_layout(params.outputs)))
+        else:
+            from .rop import Rop
+            self._rop = Rop(params.rop)
+            port = "fb" if params.rop.on_chip else "axi"
+            members |= {port: Out(self._rop.signature.members[port].signature),
+                        "status": Out(self._rop.status.shape()), "rop_busy": Out(1)}
+        super().__init__(members)
+
+    def elaborate(self, platform):
+        P = self.params
+        m = Module()
+        pf = P.raster.pixel_fmt
+        fields = {"x": shape(pf), "y": shape(pf), "rsat": 1}
+        if P.rop is not None:
+            fields["z"] = shape(P.raster.out_fmt("Z"))
+        side = data.StructLayout(fields)
+        m.submodules.raster = ras = Raster(P.raster)
+        m.submodules.pipeline = pix = StreamUnit(P.pipeline, side)
+        wiring.connect(m, wiring.flipped(self.i), ras.i)
+        m.d.comb += [pix.i.valid.eq(ras.o.valid), ras.o.ready.eq(pix.i.ready), self.busy.eq(ras.busy)]
+        m.d.comb += [pix.i.payload[p.name].eq(ras.o.payload[p.name]) for p in P.pipeline.inputs]
+        m.d.comb += [pix.i.payload.side.x.eq(ras.o.payload.x), pix.i.payload.side.y.eq(ras.o.payload.y),
+                     pix.i.payload.side.rsat.eq(ras.o.payload.flags)]
+        res = pix.o.payload
+        if P.rop is None:
+            sink = self.o
+        else:
+            m.d.comb += pix.i.payload.side.z.eq(ras.o.payload.Z)
+            m.submodules.rop = rop = self._rop
+            port = "fb" if P.rop.on_chip else "axi"
+            wiring.connect(m, wiring.flipped(getattr(self, port)), getattr(rop, port))
+            m.d.comb += [self.status.eq(rop.status), self.rop_busy.eq(rop.busy), rop.i.payload.z.eq(res.side.z)]
+            sink = rop.i
+        out = sink.payload
+        m.d.comb += [sink.valid.eq(pix.o.valid), pix.o.ready.eq(sink.ready),
+                     out.x.eq(res.side.x), out.y.eq(res.side.y), out.r.eq(res.r), out.g.eq(res.g),
+                     out.b.eq(res.b), out.flags.eq(Cat(res.flags, res.side.rsat))]
+        return m

@@ -1,0 +1,96 @@
+"""RTL of the whole pixel pipeline (``fxmodel.pipeline.pixel.PipelineParams``): the units' components chained with
+delay lines so that every stage sees the signals of the same fragment; one fragment per clock.
+
+The schedule is ``PipelineParams.stage_latency`` (the model's): each unit starts when its last input is ready,
+the earlier inputs wait in shift registers, and the two cube address units finish together.
+"""
+
+from __future__ import annotations
+
+from amaranth.hdl import Cat, Module
+
+from fxmodel.pipeline.pixel import FLAG_BITS, PipelineParams
+
+from .unit import Pipe, UnitComponent, build, register
+
+__all__ = ["Pipeline"]
+
+
+@register(PipelineParams)
+class Pipeline(UnitComponent):
+    """Pixel pipeline.
+
+    Ports (formats from the stages' parameter objects)
+    -------------------------------------------------
+    i_valid : Signal(1), in
+    U, V, Uc, Vc : Signal(signed), in -- ``persp.uv_fmt``: bump and color numerators, less the triangle's integer
+        tile offset times ``W``
+    W : Signal(signed), in -- ``persp.recip.in_fmt``
+    Nx, Ny, Nz : Signal(signed), in -- ``bump.n_fmt``
+    Ex, Ey, Ez : Signal(signed), in -- ``reflect.e_fmt``
+    A00, A10, A20, A01, A11, A21 : Signal(signed), in -- ``bump.a_fmt``: the triangle's ``A 2^-e``
+    Ae : Signal(unsigned), in -- ``bump.e_fmt``: the triangle's block exponent ``e`` (if ``bump.exp_bits``)
+    o_valid : Signal(1), out
+    r, g, b : Signal(unsigned(8)), out -- the pixel's color
+    flags : Signal(unsigned(4)), out -- see ``fxmodel.pipeline.pixel.FLAG_BITS``
+
+    Latency: ``params.latency`` (``stage_latency['out']``).
+    """
+
+    def elaborate(self, platform):
+        P = self.params
+        T = P.stage_latency
+        m = Module()
+        pipe = Pipe(m)
+
+        def unit(name, params, valid, **inputs):
+            comp = build(params)
+            setattr(m.submodules, name, comp)
+            m.d.comb += comp.i_valid.eq(valid)
+            for port, value in inputs.items():
+                m.d.comb += getattr(comp, port).eq(value)
+            return comp
+
+        def late(value, now, when, name):
+            """``value``, ready at cycle ``now``, delayed to cycle ``when``."""
+            return pipe.delay(value, when - now, name)
+
+        persp = unit("persp", P.persp, self.i_valid, **{p.name: getattr(self, p.name) for p in P.persp.inputs})
+        t0 = T["persp"]
+        bmap = unit("bump_map", P.bump_map, persp.o_valid, s=persp.s, t=persp.t)
+        tex = unit("texture", P.texture, persp.o_valid, s=persp.sc, t=persp.tc)
+        ts = T["samples"]
+        du = late(bmap.du, t0 + P.bump_map.latency, ts, "du")
+        dv = late(bmap.dv, t0 + P.bump_map.latency, ts, "dv")
+        ins = {f"N{c}": late(getattr(self, f"N{c}"), 0, ts, f"N{c}") for c in "xyz"}
+        ins |= {p.name: late(getattr(self, p.name), 0, ts, p.name) for p in P.bump.inputs[5:]}
+        bump = unit("bump", P.bump, late(persp.o_valid, t0, ts, "v_s"), du=du, dv=dv, **ins)
+        tb = T["bump"]
+        refl = unit("reflect", P.reflect, bump.o_valid,
+                    **{f"N{c}": getattr(bump, f"Np{c}") for c in "xyz"},
+                    **{f"E{c}": late(getattr(self, f"E{c}"), 0, tb, f"E{c}") for c in "xyz"})
+        tr = T["reflect"]
+        cube_n = unit("cube_n", P.cube, refl.o_valid,
+                      **{c: late(getattr(bump, f"Np{c}"), tb, tr, f"Np{c}") for c in "xyz"})
+        cube_r = unit("cube_r", P.cube, refl.o_valid, x=refl.Rx, y=refl.Ry, z=refl.Rz)
+        tc = T["cubes"]
+        diff = unit("diffuse", P.diffuse, cube_n.o_valid, face=cube_n.face, s=cube_n.s, t=cube_n.t)
+        spec = unit("specular", P.specular, cube_r.o_valid, face=cube_r.face, s=cube_r.s, t=cube_r.t)
+        tl = T["lookups"]
+
+        def looked(smp, params, c):
+            return late(getattr(smp, c), tc + params.latency, tl, f"{smp.params.NAME}_{c}")
+
+        shade = unit("shade", P.shade, late(cube_n.o_valid, tc, tl, "v_l"),
+                     **{f"t{c}": late(getattr(tex, c), t0 + P.texture.latency, tl, f"tex_{c}") for c in "rgb"},
+                     **{f"d{c}": late(getattr(diff, c), tc + P.diffuse.latency, tl, f"d_{c}") for c in "rgb"},
+                     **{f"s{c}": late(getattr(spec, c), tc + P.specular.latency, tl, f"s_{c}") for c in "rgb"})
+        tsh = T["shade"]
+        bits = [None] * len(FLAG_BITS)
+        bits[FLAG_BITS["bump_saturated"]] = late(bump.saturated, tb, tsh, "f_bump")
+        bits[FLAG_BITS["shade_saturated"]] = shade.saturated
+        bits[FLAG_BITS["degenerate"]] = late(refl.degenerate, tr, tsh, "f_deg")
+        bits[FLAG_BITS["w_zero"]] = late(persp.dbz, t0, tsh, "f_dbz")
+        pipe.depth = tsh
+        self.finish(m, pipe, {"r": shade.r, "g": shade.g, "b": shade.b, "flags": Cat(*bits)})
+        return m

@@ -1,0 +1,3 @@
+from tools.main import main
+
+raise SystemExit(main())

@@ -1,0 +1,92 @@
+"""``bumpmap``: one command for every job of the project (a console script; also ``python -m tools``).
+
+Each command lives in the module that owns its work; this module only maps command names to them. A module with
+one command gives ``add_arguments(parser)`` and ``run(args) -> int``; a module with several gives ``COMMANDS``, a
+dict ``name -> (help, add_arguments, run)``. The ``make`` targets call these commands.
+
+Exit codes, the same for every command: 0 success; 1 a result beyond its bound (a frame farther than
+``--max-lsb`` from reference (a), an RTL mismatch, a failed proof); 2 bad input (a bad argument, scene or preset
+file, or a scene the preset cannot draw); 130 interrupted.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+
+__all__ = ["COMMANDS", "build_parser", "main"]
+
+#: Command name -> (module, help for single-command modules). Listed in the order ``bumpmap --help`` shows them.
+COMMANDS: dict[str, tuple[str, str | None]] = {
+    "sim": ("cosim.sim", "draw a scene through the RTL (the engine from triangles), bit-exact against the model"),
+    "render": ("tools.cli", None),
+    "fit": ("tools.cli", None),
+    "info": ("tools.cli", None),
+    "eval": ("tools.cli", None),
+    "errors": ("tools.cli", None),
+    "presets": ("tools.cli", None),
+    "verilog": ("tools.cli", None),
+    "fpga": ("tools.fpga", "ECP5-85 synthesis, place and route of units and pipelines"),
+    "bench": ("tools.bench", "model and co-simulation throughput, then the speed-against-error sweep"),
+    "sweep": ("tools.sweep", "the reciprocal's and the units' speed-against-error sweep"),
+    "exhaustive": ("tools.exhaustive", "exhaustive RTL equivalence runs and the 2^32 proof (Dask)"),
+    "scenes-stress": ("tools.scenes_stress", "random valid scenes rendered in bulk against the bound"),
+    "depth": ("tools.depth", "overdraw, depth disagreements and frame-buffer traffic of the shipped scenes"),
+    "figures": ("tools.figures", "re-render the documentation's scene pictures"),
+    "tables": ("tools.tables", "the reciprocal's error tables"),
+    "raster-errors": ("tools.measure", None),
+    "frontend": ("tools.measure", None),
+    "maps": ("tools.measure", None),
+    "rop-throughput": ("tools.measure", None),
+}
+
+
+def _command(name: str):
+    """``(help, add_arguments, run, parser options)`` of command ``name`` (imports its module)."""
+    module_name, help_text = COMMANDS[name]
+    try:
+        module = importlib.import_module(module_name)
+    except ModuleNotFoundError as exc:
+        if exc.name and exc.name.split(".")[0] in ("fxmodel", "host", "rtl", "cosim", "tools"):
+            raise
+        raise SystemExit(f"error: 'bumpmap {name}' needs the package {exc.name!r}: install the project with its "
+                         f"extras (make setup, or pip install -e '.[all]')") from None
+    options = dict(getattr(module, "PARSER_OPTIONS", {}))
+    if hasattr(module, "COMMANDS"):
+        help_text, add, run = module.COMMANDS[name]
+        return help_text, add, run, options
+    return help_text, module.add_arguments, module.run, options
+
+
+def _add(sub, name: str) -> None:
+    help_text, add, run, options = _command(name)
+    options.setdefault("description", (run.__doc__ or help_text).strip().split("\n\n")[0])
+    p = sub.add_parser(name, help=help_text, **options)
+    add(p)
+    p.set_defaults(_run=run)
+
+
+def build_parser(names=None) -> argparse.ArgumentParser:
+    """The parser of ``bumpmap`` with a subparser for each command (``names``: only those, to import less)."""
+    ap = argparse.ArgumentParser(prog="bumpmap", description="One command for every job of the bump-mapping "
+                                 "hardware project (also: python -m tools).",
+                                 epilog="Run 'bumpmap COMMAND --help' for a command's options.")
+    sub = ap.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    for name in COMMANDS if names is None else names:
+        _add(sub, name)
+    return ap
+
+
+def main(argv=None) -> int:
+    argv = sys.argv[1:] if argv is None else list(argv)
+    known = [a for a in argv[:1] if a in COMMANDS]       # import only the command's own module
+    args = build_parser(known or None).parse_args(argv)
+    try:
+        return args._run(args)
+    except KeyboardInterrupt:
+        print("interrupted", file=sys.stderr)
+        return 130
+    except ValueError as exc:           # unknown unit / preset: one clear line, no traceback
+        print(f"error: {exc}", file=sys.stderr)
+        return 2

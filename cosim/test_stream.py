@@ -4,7 +4,7 @@ right first mismatch, and covers exactly the vectors it claims; input spaces, sh
 Quick tier (``make test``): the reciprocal ``small`` preset over all 2**16 inputs, true and broken (inputs
 counted by the wrapper and read from the vector files), on ``SIM`` (every unit and preset under stalls:
 ``cosim/test_stress.py``). The exhaustive run's own tests (shard merging, every target) are
-``tests/test_exhaustive.py``.
+``tests/tools/test_exhaustive.py``.
 """
 
 from __future__ import annotations

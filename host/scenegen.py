@@ -1,7 +1,7 @@
 r"""Random valid scenes, for the scene-level properties of the pipeline (paper sections 3.2-5).
 
 :func:`random_scene` draws one scene file (TOML text, parsed by :func:`host.scene.parse_scene`) from a numpy
-random generator: the tests turn a hypothesis-drawn seed into a scene (``tests/test_scenes.py``), and
+random generator: the tests turn a hypothesis-drawn seed into a scene (``tests/host/test_scenegen.py``), and
 ``python -m host.scenegen`` renders a numbered series of them and prints the figures the README quotes.
 
 What a scene may hold (each choice independent):

@@ -69,7 +69,7 @@ WRITE_QUEUE = 3
 
 #: Cycles a slot is busy beyond the memory's read and write latencies ``L`` (added to ``AxiRam``'s own in the
 #: co-simulation): a slot lives ``2 L + SLOT_OVERHEAD`` cycles when its fragment passes, so ``outstanding`` slots
-#: keep one fragment per clock while ``2 L + SLOT_OVERHEAD <= outstanding`` (``cosim/test_rop.py`` checks both
+#: keep one fragment per clock while ``2 L + SLOT_OVERHEAD <= outstanding`` (``cosim/test_rtl_rop.py`` checks both
 #: sides of that bound).
 SLOT_OVERHEAD = 7
 

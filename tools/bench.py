@@ -91,7 +91,7 @@ def core_rates(n: int, repeat: int, rng: np.random.Generator) -> list[dict]:
         apy = narrow_apy(A * B, dst, rounding, overflow)
         if not (np.array_equal(own[0], apy[0]) and np.array_equal(own[1], apy[1])):
             raise SystemExit("fxmodel.core.rounding and apytypes differ on the bench's narrowing: run "
-                             "pytest tests/test_apy_oracle.py to see where")
+                             "pytest tests/fxmodel/units/test_apy_oracle.py to see where")
         cast = dict(int_bits=dst.int_bits, frac_bits=dst.frac_bits, quantization=QUANTIZATION[rounding],
                     overflow=OVERFLOW[overflow])
         runs = [("fxmodel.core.rounding.narrow (own core): codes and flag",

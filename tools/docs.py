@@ -9,7 +9,7 @@ Formats quoted in prose drift when a preset changes, so the documents do not typ
 
 whose content is the output of :data:`BLOCKS[name] <BLOCKS>`, computed from the registered units' presets.
 ``python -m tools.docs`` rewrites every block in place; ``python -m tools.docs --check`` only reports stale
-blocks (exit status 1). ``tests/test_docs.py`` runs the check, so a change of a preset, a port or a unit without
+blocks (exit status 1). ``tests/tools/test_docs.py`` runs the check, so a change of a preset, a port or a unit without
 regenerating the documents fails the test suite with the command to run.
 """
 

@@ -15,7 +15,7 @@ and writes ``build/fpga/report.json`` (one record per design, see :func:`parse_r
 
 ``--synth-only`` runs yosys alone (the MULT18X18D and DP16KD counts; nextpnr keeps both as synthesized).
 ``--record FILE`` merges the designs' counts, with their estimates and parameter digests, into ``FILE``: the
-committed ``docs/fpga/resources.json`` that ``tests/test_cost.py`` holds the estimate against (written by
+committed ``docs/fpga/resources.json`` that ``tests/fxmodel/core/test_cost.py`` holds the estimate against (written by
 ``bumpmap fpga --synth-only --record docs/fpga/resources.json`` and the same with ``--scene tin-plane
 --preset tin-plane-fit``). A count that differs from the estimate is recorded with its reason
 (:data:`KNOWN_DIFFERENCES`). Fmax is nextpnr's achieved frequency of the clock domain (register to register; the
@@ -67,11 +67,11 @@ BUILD = build_dir("fpga")
 TARGET_MHZ = {"recip": 150.0}
 DEFAULT_TARGET_MHZ = 100.0
 
-#: The committed record of synthesized MULT18X18D / DP16KD counts (``--record``; ``tests/test_cost.py``).
+#: The committed record of synthesized MULT18X18D / DP16KD counts (``--record``; ``tests/fxmodel/core/test_cost.py``).
 RESOURCES = ROOT / "docs" / "fpga" / "resources.json"
 
 #: Why a design's synthesized count differs from the estimate, by :func:`design_key`; written into the record
-#: (a difference without a reason fails ``tests/test_cost.py``).
+#: (a difference without a reason fails ``tests/fxmodel/core/test_cost.py``).
 KNOWN_DIFFERENCES: dict[tuple, str] = {
     ("pipeline", "tin-plane-fit", "tin-plane"):
         "the tin plane's texture is a single texel: its bilinear blend reads one word four times, and yosys "
@@ -598,7 +598,7 @@ def record_resources(records, path: Path = RESOURCES, command: str = "") -> dict
         designs[key] = entry
     data = {"about": "ECP5 MULT18X18D and DP16KD blocks of every unit preset and of the pipelines `make fpga` "
                      "places, as yosys synth_ecp5 maps them (nextpnr keeps both counts), beside the estimate of "
-                     "fxmodel.core.cost; tests/test_cost.py holds the estimate to these counts.",
+                     "fxmodel.core.cost; tests/fxmodel/core/test_cost.py holds the estimate to these counts.",
             "command": command or old.get("command", ""), "tools": tool_versions(),
             "designs": sorted(designs.values(), key=lambda d: (d["unit"], d.get("scene") or "", d["preset"]))}
     path.parent.mkdir(parents=True, exist_ok=True)

@@ -17,7 +17,7 @@ and table sizes; this is the same count for one FPGA family):
   a block (cost 128) against logic (1/16 per ROM bit).
 * table bits (the reciprocal tables) and memory bits (texel memories), as declared.
 
-``tests/test_cost.py`` checks the declared products and memories against what the RTL instantiates, and the
+``tests/fxmodel/core/test_cost.py`` checks the declared products and memories against what the RTL instantiates, and the
 estimate against the counts ``bumpmap fpga --synth-only --record`` measured (``docs/fpga/resources.json``).
 
 This module is in the core layer: it imports only from :mod:`fxmodel.core.fixed`, ``rounding`` and ``unit``.

@@ -2,7 +2,7 @@
 
 :mod:`fxmodel.core.rounding` is the project's own code. This module redoes its narrowings with apytypes
 (``APyFixedArray.cast``, a well-kept fixed-point library with its own C++ core), so the tests
-(``tests/test_apy_oracle.py``) can check bit-identity and ``make bench`` can measure the speed of both.
+(``tests/fxmodel/units/test_apy_oracle.py``) can check bit-identity and ``make bench`` can measure the speed of both.
 
 The one mapping of the project's modes to apytypes' (module constants :data:`QUANTIZATION` and
 :data:`OVERFLOW`), and why each is right:

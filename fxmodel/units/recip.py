@@ -594,7 +594,7 @@ RecipParams.PRESETS = {
     "small": RecipParams(in_fmt=Fmt(True, 4, 12), m=6, b=14, t=3, p=12, guard=4),
     # 25-bit input (sign and a 24-bit magnitude, the default's 16 fraction bits), 24-bit faithful result from
     # 64 entries of 26 stored bits (1664 ROM bits) and 4 terms expanded about each interval's centre. Faithful
-    # by the bound and on every one of the 2**25 inputs (tests/test_recip.py, `bumpmap errors recip
+    # by the bound and on every one of the 2**25 inputs (tests/fxmodel/units/test_recip.py, `bumpmap errors recip
     # --preset rcp24`). Products up to 23x22 bits, each split into 18x18 partial products (one more stage each).
     "rcp24": RecipParams(in_fmt=Fmt(True, 9, 16), m=7, b=27, t=4, p=24, guard=4, table="midpoint"),
     # 32-bit input (16 fraction bits), 24-bit faithful result: the smallest table faithful by the bound in a scan

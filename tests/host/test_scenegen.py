@@ -4,7 +4,7 @@ one clear error (host.render.ClampError) -- never anything else. Reference (a) i
 implementation of the same algorithm (host.reference). The regression scenes in tests/scenes/ are frames
 this found (or the issue reported) and must keep their verdict.
 
-The RTL side (RTL == model on random scenes) is in cosim/test_pipeline.py.
+The RTL side (RTL == model on random scenes) is in cosim/test_rtl_pixel.py.
 """
 
 

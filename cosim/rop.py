@@ -29,6 +29,7 @@ from rtl.rop import Rop, axi_signature, ring_next
 from rtl.verilog import component_verilog
 
 from .harness import BUILD, build_and_test, simulator
+from .job import job_folder, remove_job
 from .raster import pack
 
 __all__ = ["RopBench", "run", "run_engine", "DELAY_DEPTH", "LATENCY_BITS"]
@@ -190,11 +191,9 @@ def _simulate(params, words, want, fb, *, latency, p_valid, p_pause, seed, sim, 
     if not 0 <= latency <= DELAY_DEPTH:
         raise ValueError(f"latency={latency}: must be in 0..{DELAY_DEPTH} (DELAY_DEPTH)")
     top, bdir, src = _build(params, sim)
-    job = bdir / (f"job_{tag}" if tag else "job")
-    job.mkdir(exist_ok=True)
+    job = job_folder(bdir, tag or "job", {"design": top, "words": len(words), "latency": latency, "seed": seed,
+                                           "p_valid": p_valid, "p_pause": p_pause, "tag": tag})
     out = job / "frame.json"
-    if out.exists():
-        out.unlink()
     init = write_frame(P, *(fb if fb is not None else clear_frame(P)))
     work = max(len(words), expected or 0)
     budget = int(work * (latency + 8) / max(min(p_valid, 1 - p_pause), 0.05)) * 4 + 4000 + 64 * len(words)
@@ -207,6 +206,7 @@ def _simulate(params, words, want, fb, *, latency, p_valid, p_pause, seed, sim, 
     if not out.exists():
         raise RuntimeError(f"the testbench wrote no results ({out}); see the simulator log above")
     res = json.loads(out.read_text())
+    remove_job(job)
     if P.on_chip:
         depth, color = _unpack_words(P, [int(w, 16) for w in res["words"]])
     else:

@@ -59,6 +59,8 @@ high until the last row.
 
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 from amaranth.hdl import Cat, Const, Module, Mux, Signal, signed
 from amaranth.lib import data, stream, wiring
 from amaranth.lib.fifo import SyncFIFO
@@ -152,118 +154,123 @@ class Raster(wiring.Component):
                           "busy": Out(1)})
 
     def elaborate(self, platform):
-        P = self.params
         m = Module()
+        gen = self._row_generator(m)
+        self._span_pipeline(m, gen)
+        self._pixel_calculator(m, gen)
+        return m
+
+    # -- row generator: per-triangle constants and the next row's state ------------------------------------------
+    def _row_generator(self, m) -> SimpleNamespace:
+        """The row generator's registers and control (module docstring); returns its state for the span
+        pipeline: the registers, ``issue`` (a row leaves this clock), the row FIFO ``fifo`` and ``take`` (the
+        Pixel Calculator takes a row from it)."""
+        P = self.params
         rec = self.i.payload
         ef = P.edge_fmts
         pf = P.pixel_fmt
-        w = pf.width
         acc_w = {n: P.acc_fmt(n).width for n in P.names}
-
-        def sig(fmt, name):
-            return Signal(shape(fmt), name=name)
-
-        # -- row generator: per-triangle constants and the next row's state ----------------------------------
-        k_x0, k_x1, k_w = sig(pf, "k_x0"), sig(pf, "k_x1"), sig(pf, "k_w")
-        k_kind = [Signal(2, name=f"k_e{e}_kind") for e in range(3)]
+        g = SimpleNamespace()
+        g.k_x0, g.k_x1, g.k_w = _sig(pf, "k_x0"), _sig(pf, "k_x1"), _sig(pf, "k_w")
+        g.k_kind = [Signal(2, name=f"k_e{e}_kind") for e in range(3)]
         qw = shape(ef["q"]).width + 1
         k_q = [Signal(signed(qw), name=f"k_e{e}_Q") for e in range(3)]          # v += Q   (no carry)
         k_q1 = [Signal(signed(qw), name=f"k_e{e}_Q1") for e in range(3)]        # v += Q'  (carry)
-        k_m = [sig(ef["m"], f"k_e{e}_m") for e in range(3)]
+        k_m = [_sig(ef["m"], f"k_e{e}_m") for e in range(3)]
         k_md = [Signal(signed(shape(ef["d"]).width + 1), name=f"k_e{e}_md") for e in range(3)]
-        k_dx = {n: sig(P.acc_fmt(n), f"k_{n}_dx") for n in P.names}
-        k_dy = {n: sig(P.acc_fmt(n), f"k_{n}_dy") for n in P.names}
-        k_c = {n: sig(f, f"k_{n}") for n, f in P.consts}
-        s_v = [sig(ef["p"], f"s_e{e}_v") for e in range(3)]
-        s_r = [sig(ef["r"], f"s_e{e}_r") for e in range(3)]
-        s_a = {n: sig(P.acc_fmt(n), f"s_{n}_row") for n in P.names}
-        s_y, s_rem = sig(pf, "s_y"), sig(pf, "s_rem")
+        g.k_dx = {n: _sig(P.acc_fmt(n), f"k_{n}_dx") for n in P.names}
+        k_dy = {n: _sig(P.acc_fmt(n), f"k_{n}_dy") for n in P.names}
+        g.k_c = {n: _sig(f, f"k_{n}") for n, f in P.consts}
+        g.s_v = [_sig(ef["p"], f"s_e{e}_v") for e in range(3)]
+        s_r = [_sig(ef["r"], f"s_e{e}_r") for e in range(3)]
+        g.s_a = {n: _sig(P.acc_fmt(n), f"s_{n}_row") for n in P.names}
+        g.s_y, s_rem = _sig(pf, "s_y"), _sig(pf, "s_rem")
 
-        depth = P.ROW_FIFO_DEPTH
-        m.submodules.rows = fifo = SyncFIFO(width=row_layout(P).size, depth=depth)
-        take = Signal(name="take_row")
-
-        def gen_control(k):
-            """Copy ``k`` of the generator's control (module docstring, "Fan-out"): whether a triangle is
-            loaded, whether its next row is the last, the rows issued and not yet taken from the FIFO and
-            whether the FIFO has room for one more, all registered. Returns ``(issue, accept)``."""
-            gv = Signal(name=f"gen_valid_{k}")
-            inflight = Signal(range(depth + 1), name=f"rows_in_flight_{k}")
-            room = Signal(name=f"room_{k}", init=1)                     # inflight != depth
-            last = Signal(name=f"last_row_{k}")                         # s_rem == 0
-            issue, ready, accept = Signal(name=f"issue_{k}"), Signal(name=f"ready_{k}"), Signal(name=f"accept_{k}")
-            m.d.comb += [issue.eq(gv & room), ready.eq(~gv | (issue & last)), accept.eq(ready & self.i.valid)]
-            next_inflight = inflight + issue - take
-            m.d.sync += [inflight.eq(next_inflight), room.eq(next_inflight != depth)]
-            with m.If(accept):
-                m.d.sync += [gv.eq(1), last.eq(rec.rows == 0)]
-            with m.Elif(issue):
-                with m.If(last):
-                    m.d.sync += gv.eq(0)
-                m.d.sync += last.eq(s_rem == 1)
-            if k == 0:
-                m.d.comb += self.i.ready.eq(ready)
-            return issue, accept
+        m.submodules.rows = g.fifo = SyncFIFO(width=row_layout(P).size, depth=P.ROW_FIFO_DEPTH)
+        g.take = Signal(name="take_row")
 
         # the registers in blocks: (bits, load statements, step statements)
-        blocks = [(_bits(k_x0, k_x1, k_w, s_y, s_rem, *k_c.values()),
-                   [k_x0.eq(rec.x0), k_x1.eq(rec.x1), k_w.eq(rec.x1 - rec.x0), s_y.eq(rec.y0), s_rem.eq(rec.rows),
-                    *(k_c[n].eq(rec[n]) for n in k_c)],
-                   [s_y.eq(s_y + 1), s_rem.eq(s_rem - 1)])]
+        blocks = [(_bits(g.k_x0, g.k_x1, g.k_w, g.s_y, s_rem, *g.k_c.values()),
+                   [g.k_x0.eq(rec.x0), g.k_x1.eq(rec.x1), g.k_w.eq(rec.x1 - rec.x0), g.s_y.eq(rec.y0),
+                    s_rem.eq(rec.rows), *(g.k_c[n].eq(rec[n]) for n in g.k_c)],
+                   [g.s_y.eq(g.s_y + 1), s_rem.eq(s_rem - 1)])]
         for e in range(3):
             left = rec[f"e{e}_kind"] == EDGE_LEFT
             p, q = rec[f"e{e}_p"], rec[f"e{e}_q"]
             t = Signal(signed(len(k_md[e]) + 1), name=f"rmd{e}")
             m.d.comb += t.eq(s_r[e] + k_md[e])
             carry = ~t[-1]                                               # r + m >= |a|
-            blocks.append((_bits(k_kind[e], k_m[e], k_md[e], s_r[e], s_v[e], k_q[e], k_q1[e]),
-                           [k_kind[e].eq(rec[f"e{e}_kind"]), k_m[e].eq(rec[f"e{e}_m"]),
+            blocks.append((_bits(g.k_kind[e], k_m[e], k_md[e], s_r[e], g.s_v[e], k_q[e], k_q1[e]),
+                           [g.k_kind[e].eq(rec[f"e{e}_kind"]), k_m[e].eq(rec[f"e{e}_m"]),
                             k_md[e].eq(rec[f"e{e}_m"] - rec[f"e{e}_d"]), s_r[e].eq(rec[f"e{e}_r"]),
-                            s_v[e].eq(Mux(left, -p, p)), k_q[e].eq(Mux(left, -q, q)),
+                            g.s_v[e].eq(Mux(left, -p, p)), k_q[e].eq(Mux(left, -q, q)),
                             k_q1[e].eq(Mux(left, ~q, q + 1))],
                            [s_r[e].eq(Mux(carry, t, s_r[e] + k_m[e])),
-                            s_v[e].eq(Mux(carry, s_v[e] + k_q1[e], s_v[e] + k_q[e]))]))
+                            g.s_v[e].eq(Mux(carry, g.s_v[e] + k_q1[e], g.s_v[e] + k_q[e]))]))
         for n in P.names:
-            blocks.append((_bits(s_a[n], k_dx[n], k_dy[n]),
-                           [s_a[n].eq(rec[f"{n}_0"]), k_dx[n].eq(rec[f"{n}_dx"]), k_dy[n].eq(rec[f"{n}_dy"])],
-                           [s_a[n].eq((s_a[n] + k_dy[n])[:acc_w[n]])]))
-        issue = None
+            blocks.append((_bits(g.s_a[n], g.k_dx[n], k_dy[n]),
+                           [g.s_a[n].eq(rec[f"{n}_0"]), g.k_dx[n].eq(rec[f"{n}_dx"]), k_dy[n].eq(rec[f"{n}_dy"])],
+                           [g.s_a[n].eq((g.s_a[n] + k_dy[n])[:acc_w[n]])]))
+        g.issue = None
         for k, group in enumerate(_groups(blocks, P.ENABLE_FANOUT)):
-            issue_k, accept_k = gen_control(k)
-            issue = issue_k if issue is None else issue
+            issue_k, accept_k = self._gen_control(m, k, s_rem, g.take)
+            g.issue = issue_k if g.issue is None else g.issue
             with m.If(accept_k):
                 m.d.sync += [st for _, load, _ in group for st in load]
             with m.Elif(issue_k):
                 m.d.sync += [st for _, _, step in group for st in step]
+        return g
 
-        # -- span pipeline (free running: the credits keep a FIFO place for every row issued) ----------------
+    def _gen_control(self, m, k: int, s_rem, take):
+        """Copy ``k`` of the generator's control (module docstring, "Fan-out"): whether a triangle is loaded,
+        whether its next row is the last, the rows issued and not yet taken from the FIFO and whether the FIFO
+        has room for one more, all registered. Returns ``(issue, accept)``."""
+        rec, depth = self.i.payload, self.params.ROW_FIFO_DEPTH
+        gv = Signal(name=f"gen_valid_{k}")
+        inflight = Signal(range(depth + 1), name=f"rows_in_flight_{k}")
+        room = Signal(name=f"room_{k}", init=1)                     # inflight != depth
+        last = Signal(name=f"last_row_{k}")                         # s_rem == 0
+        issue, ready, accept = Signal(name=f"issue_{k}"), Signal(name=f"ready_{k}"), Signal(name=f"accept_{k}")
+        m.d.comb += [issue.eq(gv & room), ready.eq(~gv | (issue & last)), accept.eq(ready & self.i.valid)]
+        next_inflight = inflight + issue - take
+        m.d.sync += [inflight.eq(next_inflight), room.eq(next_inflight != depth)]
+        with m.If(accept):
+            m.d.sync += [gv.eq(1), last.eq(rec.rows == 0)]
+        with m.Elif(issue):
+            with m.If(last):
+                m.d.sync += gv.eq(0)
+            m.d.sync += last.eq(s_rem == 1)
+        if k == 0:
+            m.d.comb += self.i.ready.eq(ready)
+        return issue, accept
+
+    # -- span pipeline (free running: the credits keep a FIFO place for every row issued) ------------------------
+    def _span_pipeline(self, m, g: SimpleNamespace):
+        """The span pipeline from the generator's state ``g`` into the row FIFO (module docstring)."""
+        P = self.params
+        w = P.pixel_fmt.width
+        acc_w = {n: P.acc_fmt(n).width for n in P.names}
         pipe = Pipe(m, "span_")
         # (1) each edge's bound relative to x0, clamped to [0, x1 - x0], and whether it empties the row
-        nx1 = (~Cat(k_x1, Const(0, 1))).as_signed()                    # -x1 - 1
+        nx1 = (~Cat(g.k_x1, Const(0, 1))).as_signed()                    # -x1 - 1
         bounds = {}
         for e in range(3):
-            a = Signal(signed(len(s_v[e]) + 2), name=f"v_x0_{e}")
-            b = Signal(signed(len(s_v[e]) + 2), name=f"v_x1_{e}")
-            m.d.comb += [a.eq(s_v[e] - k_x0), b.eq(s_v[e] + nx1)]
-            is_l, is_r = k_kind[e] == EDGE_LEFT, k_kind[e] == EDGE_RIGHT
+            a = Signal(signed(len(g.s_v[e]) + 2), name=f"v_x0_{e}")
+            b = Signal(signed(len(g.s_v[e]) + 2), name=f"v_x1_{e}")
+            m.d.comb += [a.eq(g.s_v[e] - g.k_x0), b.eq(g.s_v[e] + nx1)]
+            is_l, is_r = g.k_kind[e] == EDGE_LEFT, g.k_kind[e] == EDGE_RIGHT
             bounds[f"lo{e}"] = Mux(is_l & ~a[-1], a[:w], 0)                 # left: x >= v
-            bounds[f"hi{e}"] = Mux(is_r & b[-1], a[:w], k_w)                # right: x <= v
+            bounds[f"hi{e}"] = Mux(is_r & b[-1], a[:w], g.k_w)              # right: x <= v
             bounds[f"empty{e}"] = (is_l & ~b[-1]) | (is_r & a[-1])          # v > x1, v < x0
-        per_tri = {"x0": k_x0, **{f"dx_{n}": k_dx[n] for n in P.names}, **{f"c_{n}": k_c[n] for n in k_c}}
-        s1 = pipe.stage(valid=issue, y=s_y, **bounds, **per_tri, **{f"a_{n}": s_a[n] for n in P.names})
-
-        def passing(s, names):
-            return {k: getattr(s, k) for k in names}
+        per_tri = {"x0": g.k_x0, **{f"dx_{n}": g.k_dx[n] for n in P.names}, **{f"c_{n}": g.k_c[n] for n in g.k_c}}
+        s1 = pipe.stage(valid=g.issue, y=g.s_y, **bounds, **per_tri, **{f"a_{n}": g.s_a[n] for n in P.names})
         keep = ["valid", "y", *per_tri, *(f"a_{n}" for n in P.names)]
 
         # (2) the span: the largest left bound, the smallest right bound (pairwise comparisons side by side)
-        def pick(v, better):
-            b01, b02, b12 = better(v[0], v[1]), better(v[0], v[2]), better(v[1], v[2])
-            return Mux(b01 & b02, v[0], Mux(b12, v[1], v[2]))
         lo = [getattr(s1, f"lo{e}") for e in range(3)]
         hi = [getattr(s1, f"hi{e}") for e in range(3)]
-        s2 = pipe.stage(L=pick(lo, lambda x, y: x >= y), R=pick(hi, lambda x, y: x <= y),
-                        empty=Cat(*(getattr(s1, f"empty{e}") for e in range(3))).any(), **passing(s1, keep))
+        s2 = pipe.stage(L=_pick(lo, lambda x, y: x >= y), R=_pick(hi, lambda x, y: x <= y),
+                        empty=Cat(*(getattr(s1, f"empty{e}") for e in range(3))).any(), **_passing(s1, keep))
 
         # (3) the span's first column and length, whether it is empty or one clock, the partial products a_x L
         parts, shifts = {}, {}
@@ -273,82 +280,49 @@ class Raster(wiring.Component):
                    for lo, bits, signed in P.dx_pieces(n)]
             parts |= {f"pp_{n}_{k}": piece * s2.L for k, (piece, _) in enumerate(cut)}
             shifts[n] = [shift for _, shift in cut]
-        keep3 = ["valid", "y", *(f"dx_{n}" for n in P.names), *(f"c_{n}" for n in k_c), *(f"a_{n}" for n in P.names)]
+        keep3 = ["valid", "y", *(f"dx_{n}" for n in P.names), *(f"c_{n}" for n in g.k_c),
+                 *(f"a_{n}" for n in P.names)]
         nonempty = ~s2.empty & (s2.L <= s2.R)
         s3 = pipe.stage(xl=(s2.x0 + s2.L)[:w], n=(s2.R - s2.L)[:w], nonempty=nonempty,
-                        single=~nonempty | (s2.L == s2.R), **parts, **passing(s2, keep3))
+                        single=~nonempty | (s2.L == s2.R), **parts, **_passing(s2, keep3))
         terms = {n: [(getattr(s3, f"a_{n}"), acc_w[n])]
                  + [((getattr(s3, f"pp_{n}_{k}") << sh)[:acc_w[n]], acc_w[n]) for k, sh in enumerate(shifts[n])]
                  for n in P.names}
         # (4, 5) the span start a(x0, y) + L a_x, modulo 2**N, two adder levels
-        carry = passing(s3, ["valid", "y", "xl", "n", "nonempty", "single", *(f"dx_{n}" for n in P.names),
-                             *(f"c_{n}" for n in k_c)])
+        carry = _passing(s3, ["valid", "y", "xl", "n", "nonempty", "single", *(f"dx_{n}" for n in P.names),
+                              *(f"c_{n}" for n in g.k_c)])
         start, carry = _tree(pipe, terms, P.SPAN_STAGES - 3, carry)
         assert pipe.depth == P.SPAN_STAGES - 1                            # the last level writes the FIFO
 
-        row_in = data.View(row_layout(P), fifo.w_data)
-        m.d.comb += [fifo.w_en.eq(carry["valid"])]
+        row_in = data.View(row_layout(P), g.fifo.w_data)
+        m.d.comb += [g.fifo.w_en.eq(carry["valid"])]
         m.d.comb += [row_in[k].eq(carry[k]) for k in ("y", "xl", "n", "nonempty", "single")]
         m.d.comb += [row_in[f"{n}_start"].eq(start[n]) for n in P.names]
         m.d.comb += [row_in[f"{n}_dx"].eq(carry[f"dx_{n}"]) for n in P.names]
-        m.d.comb += [row_in[n].eq(carry[f"c_{n}"]) for n in k_c]
+        m.d.comb += [row_in[n].eq(carry[f"c_{n}"]) for n in g.k_c]
 
-        # -- Pixel Calculator, rounding, saturation into the output FIFO -------------------------------------------
-        row = data.View(row_layout(P), fifo.r_data)
-        cx, cy = sig(pf, "cx"), sig(pf, "cy")
-        acc = {n: sig(P.acc_fmt(n), f"acc_{n}") for n in P.names}
-        pdx = {n: sig(P.acc_fmt(n), f"pc_{n}_dx") for n in P.names}
-        pc_c = {n: sig(f, f"pc_{n}") for n, f in P.consts}
+    # -- Pixel Calculator, rounding, saturation into the output FIFO ---------------------------------------------
+    def _pixel_calculator(self, m, g: SimpleNamespace):
+        """The Pixel Calculator: rows from the row FIFO ``g.fifo`` (taken under ``g.take``), one fragment a
+        clock through the rounding stage and the saturation into the output FIFO (module docstring)."""
+        P = self.params
+        pf = P.pixel_fmt
+        acc_w = {n: P.acc_fmt(n).width for n in P.names}
+        row = data.View(row_layout(P), g.fifo.r_data)
+        cx, cy = _sig(pf, "cx"), _sig(pf, "cy")
+        acc = {n: _sig(P.acc_fmt(n), f"acc_{n}") for n in P.names}
+        pdx = {n: _sig(P.acc_fmt(n), f"pc_{n}_dx") for n in P.names}
+        pc_c = {n: _sig(f, f"pc_{n}") for n, f in P.consts}
 
         # the output FIFO: the consumer's ready reaches only its read side; the Pixel Calculator and the rounding
         # stage move under ``advance``, a flip-flop: fragments in the rounding stage and the FIFO leave a place
-        out_depth = P.OUT_FIFO_DEPTH
-        m.submodules.out = ofifo = SyncFIFO(width=fragment_layout(P).size, depth=out_depth)
+        m.submodules.out = ofifo = SyncFIFO(width=fragment_layout(P).size, depth=P.OUT_FIFO_DEPTH)
         m.d.comb += [self.o.valid.eq(ofifo.r_rdy), self.o.payload.eq(ofifo.r_data), ofifo.r_en.eq(self.o.ready)]
-
-        def pc_control(k):
-            """Copy ``k`` of the Pixel Calculator's control (module docstring, "Fan-out"): on a row, the row not
-            empty, its pixels left and whether this is its last clock, the output FIFO's places in use and
-            ``advance``, all registered. Returns ``(advance, step, take, busy, nonempty)``: ``step`` moves
-            along the row, ``take`` loads the next row from the FIFO (both only under ``advance``)."""
-            busy, nonempty = Signal(name=f"busy_{k}"), Signal(name=f"nonempty_{k}")
-            last_px = Signal(name=f"last_px_{k}")          # the row's last clock (its last pixel, or it is empty)
-            npx = sig(pf, f"px_left_{k}")
-            out_used = Signal(range(out_depth + 1), name=f"out_used_{k}")
-            advance = Signal(name=f"advance_{k}", init=1)                  # out_used <= out_depth - 2
-            produce = advance & busy & nonempty
-            next_used = out_used + produce - (ofifo.r_rdy & self.o.ready)
-            m.d.sync += [out_used.eq(next_used), advance.eq(next_used <= out_depth - 2)]
-            done_row = ~busy | last_px
-            step, take_k = Signal(name=f"step_{k}"), Signal(name=f"take_{k}")
-            m.d.comb += [step.eq(~done_row), take_k.eq(advance & done_row & fifo.r_rdy)]
-            with m.If(advance):
-                with m.If(step):
-                    m.d.sync += [npx.eq(npx - 1), last_px.eq(npx == 1)]
-                with m.Elif(take_k):
-                    m.d.sync += [busy.eq(1), nonempty.eq(row.nonempty), npx.eq(row.n), last_px.eq(row.single)]
-                with m.Else():
-                    m.d.sync += busy.eq(0)
-            return advance, step, take_k, busy, nonempty
-
-        # the output narrowing in two steps: rounding (a register stage under ``advance``), saturation
-        rounded = {n: shift_round(acc[n], P.acc_fmt(n).frac_bits - P.out_fmt(n).frac_bits, Rounding.HALF_UP)
-                   for n in P.names}
-        r_valid, r_x, r_y = Signal(name="rnd_valid"), sig(pf, "rnd_x"), sig(pf, "rnd_y")
-        r_a = {n: Signal(rounded[n].shape(), name=f"rnd_{n}") for n in P.names}
-        r_c = {n: sig(f, f"rnd_{n}") for n, f in P.consts}
-        frag = data.View(fragment_layout(P), ofifo.w_data)
-        m.d.comb += [frag.x.eq(r_x), frag.y.eq(r_y)]
-        flags = []
-        for n in P.names:
-            code, sat = saturate(r_a[n], P.out_fmt(n), Overflow.SATURATE)
-            m.d.comb += frag[n].eq(code)
-            flags.append(sat)
-        m.d.comb += frag.flags.eq(Cat(*flags).any())
-        m.d.comb += [frag[n].eq(r_c[n]) for n in r_c]
+        r_valid, r_x, r_y, r_a, r_c = self._output_stage(m, ofifo, acc)
 
         # the registers in blocks: (bits, statements under ``advance``, along the row, on taking a row); the
         # first block's control copy also drives the FIFOs and ``busy``
+        rounded = self._rounded
         blocks = [(_bits(cx, cy, r_x, r_y, r_valid, *pc_c.values(), *r_c.values()),
                    lambda busy, nonempty: [r_valid.eq(busy & nonempty), r_x.eq(cx), r_y.eq(cy),
                                            *(r_c[n].eq(pc_c[n]) for n in pc_c)],
@@ -359,9 +333,9 @@ class Raster(wiring.Component):
                            [acc[n].eq((acc[n] + pdx[n])[:acc_w[n]])],
                            [acc[n].eq(row[f"{n}_start"]), pdx[n].eq(row[f"{n}_dx"])]))
         for k, group in enumerate(_groups(blocks, P.ENABLE_FANOUT)):
-            advance, step, take_k, busy, nonempty = pc_control(k)
+            advance, step, take_k, busy, nonempty = self._pc_control(m, k, g.fifo, ofifo, row)
             if k == 0:
-                m.d.comb += [take.eq(take_k), fifo.r_en.eq(take_k), self.busy.eq(busy),
+                m.d.comb += [g.take.eq(take_k), g.fifo.r_en.eq(take_k), self.busy.eq(busy),
                              ofifo.w_en.eq(advance & r_valid)]
             with m.If(advance):
                 m.d.sync += [st for _, always, _, _ in group for st in always(busy, nonempty)]
@@ -369,4 +343,68 @@ class Raster(wiring.Component):
                     m.d.sync += [st for _, _, along, _ in group for st in along]
                 with m.Elif(take_k):
                     m.d.sync += [st for _, _, _, load in group for st in load]
-        return m
+
+    def _output_stage(self, m, ofifo, acc: dict):
+        """The output narrowing in two steps: rounding (a register stage under ``advance``), saturation into the
+        output FIFO's write port. Returns the rounding stage's registers ``(valid, x, y, attributes,
+        constants)``; the rounded accumulators are ``self._rounded``."""
+        P = self.params
+        pf = P.pixel_fmt
+        rounded = {n: shift_round(acc[n], P.acc_fmt(n).frac_bits - P.out_fmt(n).frac_bits, Rounding.HALF_UP)
+                   for n in P.names}
+        self._rounded = rounded
+        r_valid, r_x, r_y = Signal(name="rnd_valid"), _sig(pf, "rnd_x"), _sig(pf, "rnd_y")
+        r_a = {n: Signal(rounded[n].shape(), name=f"rnd_{n}") for n in P.names}
+        r_c = {n: _sig(f, f"rnd_{n}") for n, f in P.consts}
+        frag = data.View(fragment_layout(P), ofifo.w_data)
+        m.d.comb += [frag.x.eq(r_x), frag.y.eq(r_y)]
+        flags = []
+        for n in P.names:
+            code, sat = saturate(r_a[n], P.out_fmt(n), Overflow.SATURATE)
+            m.d.comb += frag[n].eq(code)
+            flags.append(sat)
+        m.d.comb += frag.flags.eq(Cat(*flags).any())
+        m.d.comb += [frag[n].eq(r_c[n]) for n in r_c]
+        return r_valid, r_x, r_y, r_a, r_c
+
+    def _pc_control(self, m, k: int, fifo, ofifo, row):
+        """Copy ``k`` of the Pixel Calculator's control (module docstring, "Fan-out"): on a row, the row not
+        empty, its pixels left and whether this is its last clock, the output FIFO's places in use and
+        ``advance``, all registered. Returns ``(advance, step, take, busy, nonempty)``: ``step`` moves along
+        the row, ``take`` loads the next row from the FIFO (both only under ``advance``)."""
+        out_depth = self.params.OUT_FIFO_DEPTH
+        busy, nonempty = Signal(name=f"busy_{k}"), Signal(name=f"nonempty_{k}")
+        last_px = Signal(name=f"last_px_{k}")          # the row's last clock (its last pixel, or it is empty)
+        npx = _sig(self.params.pixel_fmt, f"px_left_{k}")
+        out_used = Signal(range(out_depth + 1), name=f"out_used_{k}")
+        advance = Signal(name=f"advance_{k}", init=1)                  # out_used <= out_depth - 2
+        produce = advance & busy & nonempty
+        next_used = out_used + produce - (ofifo.r_rdy & self.o.ready)
+        m.d.sync += [out_used.eq(next_used), advance.eq(next_used <= out_depth - 2)]
+        done_row = ~busy | last_px
+        step, take_k = Signal(name=f"step_{k}"), Signal(name=f"take_{k}")
+        m.d.comb += [step.eq(~done_row), take_k.eq(advance & done_row & fifo.r_rdy)]
+        with m.If(advance):
+            with m.If(step):
+                m.d.sync += [npx.eq(npx - 1), last_px.eq(npx == 1)]
+            with m.Elif(take_k):
+                m.d.sync += [busy.eq(1), nonempty.eq(row.nonempty), npx.eq(row.n), last_px.eq(row.single)]
+            with m.Else():
+                m.d.sync += busy.eq(0)
+        return advance, step, take_k, busy, nonempty
+
+
+def _sig(fmt, name: str) -> Signal:
+    """A register of format ``fmt`` named ``name``."""
+    return Signal(shape(fmt), name=name)
+
+
+def _passing(s, names) -> dict:
+    """The fields ``names`` of pipeline stage ``s``, passed on to the next stage."""
+    return {k: getattr(s, k) for k in names}
+
+
+def _pick(v, better):
+    """Of three values the one ``better`` than the other two (pairwise comparisons side by side)."""
+    b01, b02, b12 = better(v[0], v[1]), better(v[0], v[2]), better(v[1], v[2])
+    return Mux(b01 & b02, v[0], Mux(b12, v[1], v[2]))

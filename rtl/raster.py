@@ -66,8 +66,8 @@ from amaranth.lib import data, stream, wiring
 from amaranth.lib.fifo import SyncFIFO
 from amaranth.lib.wiring import In, Out
 
-from fxmodel.units.raster import EDGE_LEFT, EDGE_RIGHT, RasterParams
 from fxmodel.core.rounding import Overflow, Rounding
+from fxmodel.units.raster import EDGE_LEFT, EDGE_RIGHT, RasterParams
 
 from .fixed import saturate, shape, shift_round
 from .streams import payload_layout

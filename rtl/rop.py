@@ -208,7 +208,6 @@ class Rop(wiring.Component):
         m = Module()
         axi = self.axi
         N = P.outstanding
-        lanes = P.data_bits // 64                        # 64-bit pixel words per bus beat
         zc, zsat, inside, index, color = self._accept(m)
 
         # stage 1: the accepted fragment
@@ -230,8 +229,7 @@ class Rop(wiring.Component):
         free = ~busy.bit_select(tail.ptr, 1)
         ar_go = Signal()
 
-        def address(index):
-            return Const(P.base, P.addr_bits) + (index << 3)
+        address = self._address
 
         m.d.comb += [axi.arvalid.eq(s_valid & free & ~conflict), axi.araddr.eq(address(s_index)),
                      axi.arsize.eq((DEPTH_BYTES - 1).bit_length()), axi.arlen.eq(0), axi.arburst.eq(1),
@@ -244,7 +242,28 @@ class Rop(wiring.Component):
             m.d.sync += s_valid.eq(0)
         self._sticky(m, take & ~inside, take & inside & zsat, (axi.rvalid & axi.rready & axi.rresp.any())
                      | (axi.bvalid & axi.bready & axi.bresp.any()))
+        slots = (busy, slot_index, slot_z, slot_color, tail, rd)
+        q, c_valid, c_slot, passes, r_go = self._compare(m, s_index, s_z, s_color, slots)
+        head, issued = self._write_issue(m, q, c_valid, passes, address)
+        self._slots(m, slots, q[3], s_valid, s_index, s_z, s_color, ar_go, r_go, c_valid, c_slot, passes, head,
+                    issued)
+        return m
 
+
+    def _address(self, index):
+        """The byte address of pixel ``index``."""
+        return Const(self.params.base, self.params.addr_bits) + (index << 3)
+
+    def _compare(self, m, s_index, s_z, s_color, slots):
+        """The write queue's registers, and the compare in two stages: the R beat belongs to slot ``rd``; its
+        stored depth and the slot are registered (``c_*``), the next cycle compares (one carry chain). Returns
+        ``((q_index, q_z, q_color, q_slot, q_count, aw_done, w_done, c_index, c_z, c_color, c_slot), c_valid,
+        c_slot, passes, r_go)``."""
+        P = self.params
+        axi = self.axi
+        N = P.outstanding
+        lanes = P.data_bits // 64                        # 64-bit pixel words per bus beat
+        _, slot_index, slot_z, slot_color, _, rd = slots
         # write queue: index, depth, color, slot
         q_index = [Signal.like(s_index, name=f"wq{k}_index") for k in range(WRITE_QUEUE)]
         q_z = [Signal.like(s_z, name=f"wq{k}_z") for k in range(WRITE_QUEUE)]
@@ -274,6 +293,16 @@ class Rop(wiring.Component):
                          c_stored.eq(word[:8 * DEPTH_BYTES]), c_slot.eq(rd.ptr)]
         passes = c_z > c_stored
 
+        return ((q_index, q_z, q_color, q_slot, q_count, aw_done, w_done, c_index, c_z, c_color, c_slot), c_valid,
+                c_slot, passes, r_go)
+
+    def _write_issue(self, m, q, c_valid, passes, address):
+        """Write issue from the queue's head (``AW`` and ``W``), and the queue's shift and push of a passing
+        fragment. Returns ``(head, issued)``."""
+        P = self.params
+        axi = self.axi
+        lanes = P.data_bits // 64
+        q_index, q_z, q_color, q_slot, q_count, aw_done, w_done, c_index, c_z, c_color, c_slot = q
         # write issue from the queue's head
         head = Signal()
         m.d.comb += head.eq(q_count != 0)
@@ -306,6 +335,15 @@ class Rop(wiring.Component):
                     m.d.sync += [q_index[k].eq(c_index), q_z[k].eq(c_z), q_color[k].eq(c_color),
                                  q_slot[k].eq(c_slot)]
 
+        return head, issued
+
+    def _slots(self, m, slots, q_slot, s_valid, s_index, s_z, s_color, ar_go, r_go, c_valid, c_slot, passes, head,
+               issued):
+        """The slots waiting for ``B`` (in issue order) and the slot bookkeeping: allocate at ``AR``, free at a
+        failed compare or at ``B``; ``busy``."""
+        axi = self.axi
+        N = self.params.outstanding
+        busy, slot_index, slot_z, slot_color, tail, rd = slots
         # slots waiting for B, in issue order
         b_slot = Array(Signal(range(N), name=f"b{k}_slot") for k in range(N))
         b_head, b_tail = _Ring(N, "b_head"), _Ring(N, "b_tail")
@@ -329,4 +367,3 @@ class Rop(wiring.Component):
                            | Mux(b_go, Const(1, N) << b_slot[b_head.ptr], 0))
         m.d.sync += busy.eq((busy & ~clr) | set_)
         m.d.comb += self.busy.eq(s_valid | busy.any() | c_valid | head)
-        return m

@@ -9,10 +9,10 @@ RAM on an FPGA). Nearest filtering: one memory, one port.
 from __future__ import annotations
 
 from amaranth.hdl import Const, Module, Mux
+from amaranth.lib.memory import Memory
 
 from fxmodel.core.rounding import Overflow, Rounding
 from fxmodel.units.sampler import SamplerParams
-from amaranth.lib.memory import Memory
 
 from .fixed import const_mul, narrow
 from .recip import split_products
@@ -49,12 +49,24 @@ class Sampler(UnitComponent):
     """
 
     def elaborate(self, platform):
+        m = Module()
+        pipe = Pipe(m)
+        s2 = self._indices(pipe)
+        s3, memories, weights, parity, corners = self._addresses(pipe, s2)
+        data, late = self._read(m, pipe, s3, memories, weights, parity, corners)
+        if not self.params.bilinear:
+            self.finish(m, pipe, {n: self._channel(data[0], k) for k, n in enumerate(self.params.out_names)})
+            return m
+        self.finish(m, pipe, self._blend(pipe, data, late))
+        return m
+
+    def _indices(self, pipe: Pipe):
+        """Stages 1 and 2: the edge rule and the scaled position, then the texel indices along each axis (wraps
+        and clamps) and the bilinear weights."""
         P = self.params
         T = P.coord_fmt.frac_bits
         B = P.weight_bits
         one = 1 << T
-        m = Module()
-        pipe = Pipe(m)
 
         def edge(s):
             if P.edge == "repeat":
@@ -86,21 +98,27 @@ class Sampler(UnitComponent):
             return dict(i0=i0, i1=i1, f=x[T + 1 - B:T + 1])
 
         ax, ay = axis(s1.x, P.width), axis(s1.y, P.height)
-        s2 = pipe.stage(face=s1.face, **{f"x_{k}": v for k, v in ax.items()}, **{f"y_{k}": v for k, v in ay.items()})
+        return pipe.stage(face=s1.face, **{f"x_{k}": v for k, v in ax.items()},
+                          **{f"y_{k}": v for k, v in ay.items()})
 
-        # 3: texel addresses (face H + j) W + i = face (H W) + j W + i, constant products as shift-and-add;
-        #    banked: bank (px, py) at (face BH + j // 2) BW + i // 2 for the corner index of parity px (py)
+    def _addresses(self, pipe: Pipe, s2):
+        """Stage 3: texel addresses (face H + j) W + i = face (H W) + j W + i, constant products as
+        shift-and-add; banked: bank (px, py) at (face BH + j // 2) BW + i // 2 for the corner index of parity
+        px (py). Returns ``(stage, memories, weights, parity, corners)``: ``memories`` a list of ``(init,
+        address fields)``."""
+        P = self.params
         corners = [("x_i0", "y_i0")] + ([("x_i1", "y_i0"), ("x_i0", "y_i1"), ("x_i1", "y_i1")] if P.bilinear else [])
         weights = dict(fx=s2.x_f, fy=s2.y_f) if P.bilinear else {}
 
         def address(face_words, row_words, row, col, rows, cols):
             base = const_mul(s2.face, face_words) if P.faces > 1 else 0
-            return base + const_mul(row[:max(1, (rows - 1).bit_length())], row_words) + col[:max(1, (cols - 1).bit_length())]
+            return (base + const_mul(row[:max(1, (rows - 1).bit_length())], row_words)
+                    + col[:max(1, (cols - 1).bit_length())])
 
         if P.banked:
             _, bh, bw = P.bank_shape
-            half = {ax: [Mux(getattr(s2, f"{ax}_i0")[0] == par, getattr(s2, f"{ax}_i0"), getattr(s2, f"{ax}_i1")) >> 1
-                         for par in (0, 1)] for ax in "xy"}
+            half = {ax: [Mux(getattr(s2, f"{ax}_i0")[0] == par, getattr(s2, f"{ax}_i0"),
+                             getattr(s2, f"{ax}_i1")) >> 1 for par in (0, 1)] for ax in "xy"}
             addrs = {f"a{2 * py + px}": address(bh * bw, bw, half["y"][py], half["x"][px], bh, bw)
                      for py in (0, 1) for px in (0, 1)}
             parity = {f"p_{ax}_i{i}": getattr(s2, f"{ax}_i{i}")[0] for ax in "xy" for i in (0, 1)}
@@ -111,9 +129,15 @@ class Sampler(UnitComponent):
                      for k, (xi, yi) in enumerate(corners)}
             parity = {}
             memories = [(P.words, list(addrs))]
-        s3 = pipe.stage(**addrs, **weights, **parity)
+        return pipe.stage(**addrs, **weights, **parity), memories, weights, parity, corners
 
-        # 4: memory read; the read ports' data registers are this stage
+    def _read(self, m, pipe: Pipe, s3, memories, weights, parity, corners):
+        """Stage 4: the memory read (the read ports' data registers are this stage); banked, stages 5 and 6: the
+        bank words registered as they leave the block RAMs (a bank of a large map is a cascade of blocks spread
+        over the device, with a multiplexer of its own: ECP5 ran a 64-texel cube map at 78 MHz with the corner
+        routing in this stage), then each corner's word from the bank of its parities (a 4:1 multiplexer).
+        Returns ``(corner words, the stage holding the weights as the texels arrive)``."""
+        P = self.params
         data = []
         for k, (init, ports) in enumerate(memories):
             mem = Memory(shape=P.word_bits, depth=len(init), init=init)
@@ -123,37 +147,34 @@ class Sampler(UnitComponent):
                 m.d.comb += port.addr.eq(getattr(s3, a))
                 data.append(port.data)
         s4 = pipe.stage(**{k: getattr(s3, k) for k in (*weights, *parity)})
-        late = s4                                                      # the weights, as the texels arrive
+        if not P.banked:
+            return data, s4
+        s5 = pipe.stage(fx=s4.fx, fy=s4.fy, **{f"b{k}": d for k, d in enumerate(data)},
+                        **{k: getattr(s4, k) for k in parity})
+        data = [getattr(s5, f"b{k}") for k in range(4)]
 
-        if P.banked:
-            # 5: the bank words registered as they leave the block RAMs (a bank of a large map is a cascade of
-            #    blocks spread over the device, with a multiplexer of its own: ECP5 ran a 64-texel cube map at
-            #    78 MHz with the corner routing in this stage)
-            # 6: each corner's word from the bank of its parities (a 4:1 multiplexer)
-            s5 = pipe.stage(fx=s4.fx, fy=s4.fy, **{f"b{k}": d for k, d in enumerate(data)},
-                            **{k: getattr(s4, k) for k in parity})
-            data = [getattr(s5, f"b{k}") for k in range(4)]
+        def bank(px, py):
+            return Mux(py, Mux(px, data[3], data[2]), Mux(px, data[1], data[0]))
+        s6 = pipe.stage(fx=s5.fx, fy=s5.fy, **{f"w{k}": bank(getattr(s5, f"p_{xi}"), getattr(s5, f"p_{yi}"))
+                                               for k, (xi, yi) in enumerate(corners)})
+        return [getattr(s6, f"w{k}") for k in range(4)], s6
 
-            def bank(px, py):
-                return Mux(py, Mux(px, data[3], data[2]), Mux(px, data[1], data[0]))
-            s6 = pipe.stage(fx=s5.fx, fy=s5.fy, **{f"w{k}": bank(getattr(s5, f"p_{xi}"), getattr(s5, f"p_{yi}"))
-                                                   for k, (xi, yi) in enumerate(corners)})
-            data = [getattr(s6, f"w{k}") for k in range(4)]
-            late = s6
+    def _channel(self, word, k: int):
+        """Channel ``k``'s field of a texel word (signed if its format is)."""
+        P = self.params
+        lo = sum(f.width for f in P.channels[:k])
+        bits = word[lo:lo + P.channels[k].width]
+        return bits.as_signed() if P.channels[k].signed else bits
 
-        def channel(word, k):
-            lo = sum(f.width for f in P.channels[:k])
-            bits = word[lo:lo + P.channels[k].width]
-            return bits.as_signed() if P.channels[k].signed else bits
-
-        if not P.bilinear:
-            self.finish(m, pipe, {n: channel(data[0], k) for k, n in enumerate(P.out_names)})
-            return m
+    def _blend(self, pipe: Pipe, data, late) -> dict:
+        """The exact blend of the model, top = a 2**B + fx (b - a), bot = c 2**B + fx (d - c),
+        v = top 2**B + fy (bot - top), one operation per stage, then the rounding: the outputs by name."""
+        P = self.params
+        B = P.weight_bits
         ch = range(len(P.channels))
-        # the exact blend of the model, top = a 2**B + fx (b - a), bot = c 2**B + fx (d - c),
-        # v = top 2**B + fy (bot - top), one operation per stage
-        texel = [[channel(w, k) for w in data] for k in ch]
-        s = pipe.stage(fx=late.fx, fy=late.fy, **{f"a{k}": texel[k][0] for k in ch}, **{f"c{k}": texel[k][2] for k in ch},
+        texel = [[self._channel(w, k) for w in data] for k in ch]
+        s = pipe.stage(fx=late.fx, fy=late.fy, **{f"a{k}": texel[k][0] for k in ch},
+                       **{f"c{k}": texel[k][2] for k in ch},
                        **{f"dab{k}": texel[k][1] - texel[k][0] for k in ch},
                        **{f"dcd{k}": texel[k][3] - texel[k][2] for k in ch})
 
@@ -183,5 +204,4 @@ class Sampler(UnitComponent):
         for k, (n, fmt) in enumerate(zip(P.out_names, P.channels)):
             outs[n], _ = narrow(getattr(s, f"v{k}"), 2 * B + fmt.frac_bits, fmt, Rounding.HALF_UP,
                                 Overflow.PROVEN)
-        self.finish(m, pipe, outs)
-        return m
+        return outs

@@ -23,8 +23,9 @@ def add_raster_errors_arguments(ap: argparse.ArgumentParser) -> None:
 
 def raster_errors(args) -> int:
     """The worst interpolation error of the scan converter against exact planes over triangles spanning the whole
-    viewport (:func:`fxmodel.units.raster.measure`), as JSON."""
-    from fxmodel.units.raster import RasterParams, measure
+    viewport (:func:`fxmodel.units.raster_errors.measure`), as JSON."""
+    from fxmodel.units.raster import RasterParams
+    from fxmodel.units.raster_errors import measure
     print(json.dumps(measure(RasterParams.PRESETS[args.preset], args.triangles, args.seed), indent=1))
     return 0
 

@@ -19,7 +19,7 @@ bump     ``out``: ``N'`` in ``s2.f``, ``f`` 6 to 16                  ``|N'_i - (
 raster   ``guard``: the interpolators' guard bits ``g`` (``extra_      distance of each output code from the exact
          guard`` 0 to 3 beyond the proof's minimum) and the          rational plane, in output ulps, over triangles
          ``small`` preset                                            spanning the whole ``max_size`` viewport
-                                                                     (:func:`fxmodel.units.raster.measure`)
+                                                                     (:func:`fxmodel.units.raster_errors.measure`)
 =======  ==========================================================  =================================================
 
 The reciprocal of ``persp`` and ``cube`` is the smallest faithful table at that ``p``: the fewest index bits ``m``
@@ -86,7 +86,7 @@ UNIT_ERRORS = {
                "ulp_name": "output ulps (each attribute's own)"},
 }
 
-#: Triangles spanning the whole viewport that measure each scan-converter point (:func:`fxmodel.units.raster.measure`).
+#: Triangles spanning the whole viewport that measure each scan-converter point (:func:`fxmodel.units.raster_errors.measure`).
 RASTER_TRIANGLES = 2
 
 #: The scene of the pipeline points.
@@ -192,11 +192,11 @@ def raster_grid() -> list[tuple[str, str, object]]:
 
 def measure_raster_point(name: str, family: str, params, *, dsp_weight: float = 1024.0,
                          triangles: int = RASTER_TRIANGLES, seed: int = 1, **_) -> dict:
-    """The scan converter's worst interpolation error against the exact planes (:func:`fxmodel.units.raster.measure`:
+    """The scan converter's worst interpolation error against the exact planes (:func:`fxmodel.units.raster_errors.measure`:
     triangles spanning the whole ``max_size`` viewport, output ulps of each attribute) beside its bound and cost
     (:func:`fxmodel.core.cost.estimate`; its registers: the record's and the accumulators' bits), one JSON record in the
     form of :func:`measure_unit_point`'s."""
-    from fxmodel.units.raster import measure
+    from fxmodel.units.raster_errors import measure
     t0 = time.perf_counter()
     m = measure(params, triangles, seed)
     rate = m["fragments"] / (time.perf_counter() - t0)

@@ -117,7 +117,6 @@ set-up sends ``A W 2**-e`` and the bump engine scales ``N W`` by ``2**-e`` (``fx
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from fractions import Fraction
 from typing import ClassVar
@@ -129,7 +128,19 @@ from fxmodel.core.fixed import Fmt
 from fxmodel.core.rounding import Overflow, Rounding, narrow
 from fxmodel.core.unit import Port, require
 
-__all__ = ["RasterParams", "ATTRIBUTES", "FLOAT_DEPTH_SLACK", "edge_setup", "area2", "Records", "setup", "scan", "ScanResult"]
+from .raster_setup import (
+    EDGE_LEFT,
+    EDGE_OFF,
+    EDGE_RIGHT,
+    append_edges,
+    append_planes,
+    area2,
+    edge_setup,
+    triangle_extent,
+)
+
+__all__ = ["RasterParams", "ATTRIBUTES", "FLOAT_DEPTH_SLACK", "edge_setup", "area2", "Records", "setup", "scan",
+           "ScanResult", "EDGE_OFF", "EDGE_LEFT", "EDGE_RIGHT"]
 
 #: Attribute names in record / fragment order.
 ATTRIBUTES = ("U", "V", "Uc", "Vc", "W", "Z", "Nx", "Ny", "Nz", "Ex", "Ey", "Ez",
@@ -139,33 +150,6 @@ ATTRIBUTES = ("U", "V", "Uc", "Vc", "W", "Z", "Nx", "Ny", "Nz", "Ex", "Ey", "Ez"
 #: (relative, of ``Z``): the front end's float64 ``1 / w_c`` at a pixel is three products and a division away from
 #: exact, a few units of ``2**-53``; this allows for 64 of them.
 FLOAT_DEPTH_SLACK = 64 * 2.0 ** -53
-
-#: Edge kinds in the record.
-EDGE_OFF, EDGE_LEFT, EDGE_RIGHT = 0, 1, 2
-
-
-def edge_setup(X, Y):
-    """Edge functions of one triangle with integer snapped vertices ``X``, ``Y`` (3 each) and positive area.
-
-    Edge ``e`` runs from vertex ``e + 1`` to ``e + 2`` (mod 3), i.e. it is opposite vertex ``e``, and
-    ``E_e(p) = (bx - ax)(py - ay) - (by - ay)(px - ax) = A_e px + B_e py + C_e``, positive inside. ``bias_e`` is
-    0 for a top or left edge and 1 otherwise; a point is covered when ``E_e(p) >= bias_e`` for all ``e``.
-
-    Returns ``(A, B, C, bias)``, int64 arrays of 3.
-    """
-    X = np.asarray(X, dtype=np.int64)
-    Y = np.asarray(Y, dtype=np.int64)
-    ax, ay = X[[1, 2, 0]], Y[[1, 2, 0]]
-    bx, by = X[[2, 0, 1]], Y[[2, 0, 1]]
-    dx, dy = bx - ax, by - ay
-    top_left = (dy < 0) | ((dy == 0) & (dx > 0))        # y down, interior on the left of a -> b seen with y down
-    return -dy, dx, dy * ax - dx * ay, np.where(top_left, 0, 1).astype(np.int64)
-
-
-def area2(X, Y):
-    """Twice the signed area of triangles with vertex coordinates ``X``, ``Y`` (``(..., 3)`` integers)."""
-    return (X[..., 1] - X[..., 0]) * (Y[..., 2] - Y[..., 0]) - (X[..., 2] - X[..., 0]) * (Y[..., 1] - Y[..., 0])
-
 
 @dataclass(frozen=True)
 class RasterParams:
@@ -446,22 +430,6 @@ class Records:
             np.zeros((0, len(self.params.record)), np.int64)
 
 
-def _round_half_up(value: Fraction, frac: int) -> int:
-    """``value`` rounded half-up to ``frac`` fraction bits, as an integer code (exact)."""
-    return math.floor(value * (1 << frac) + Fraction(1, 2))
-
-
-def _wrap(code: int, fmt: Fmt) -> int:
-    """``code`` modulo ``2**width`` as a signed code (the hardware's word)."""
-    w = fmt.width
-    code &= (1 << w) - 1
-    return code - (1 << w) if code >> (w - 1) else code
-
-
-def _ceil_div(a: int, b: int) -> int:
-    return -((-a) // b)
-
-
 def setup(params: RasterParams, X, Y, values: dict, width: int, height: int) -> Records:
     """Triangle records from snapped vertices and float64 vertex attributes.
 
@@ -489,6 +457,27 @@ def setup(params: RasterParams, X, Y, values: dict, width: int, height: int) -> 
         value outside its format (naming the triangle and attribute): a triangle this hardware cannot draw.
     """
     P = params
+    X, Y, vals, consts = _setup_inputs(P, X, Y, values, width, height)
+    fields = {p.name: [] for p in P.record}
+    source, dropped = [], 0
+    for t in range(X.shape[0]):
+        tri = triangle_extent(P, t, X[t], Y[t], width, height)
+        if tri is None:                                  # zero area, or no pixel centre covered
+            dropped += 1
+            continue
+        append_edges(P, fields, tri)
+        for n, _ in P.consts:
+            fields[n].append(int(consts[n][t]))
+        append_planes(P, fields, tri, {n: vals[n][t] for n in P.names}, t)
+        source.append(t)
+    codes = {k: np.array(v, dtype=np.int64) for k, v in fields.items()}
+    for p in P.record:
+        p.fmt.check(codes[p.name], what=f"raster record field {p.name}")
+    return Records(params=P, codes=codes, source=np.array(source, dtype=np.int64), dropped=dropped)
+
+
+def _setup_inputs(P: RasterParams, X, Y, values: dict, width: int, height: int):
+    """:func:`setup`'s arguments checked and shaped: ``(X, Y, attribute values (T, 3), constants (T,))``."""
     require(1 <= width <= P.max_size and 1 <= height <= P.max_size, "viewport", (width, height),
             f"must be within 1..{P.max_size} (RasterParams.max_size)")
     X = np.asarray(X, dtype=np.int64).reshape(-1, 3)
@@ -505,85 +494,7 @@ def setup(params: RasterParams, X, Y, values: dict, width: int, height: int) -> 
             raise ValueError(f"triangle {int(bad[0])}: constant {n} = {c[bad[0]]} is not an integer code of its "
                              f"format {fmt}")
         consts[n] = c.astype(np.int64)
-    lo_c, hi_c = -(P.guard_pixels + 1) * P.S, None
-    S, half = P.S, P.S // 2
-    fields = {p.name: [] for p in P.record}
-    source, dropped = [], 0
-    for t in range(T):
-        Xt, Yt = X[t], Y[t]
-        for coord, c, lim in ((Xt, "x", width), (Yt, "y", height)):
-            hi_c = (lim + P.guard_pixels + 1) * S
-            if coord.min() < lo_c or coord.max() > hi_c:
-                raise ValueError(f"triangle {t}: vertex {c} {coord.tolist()} (1/{S} pixel) is outside the guard "
-                                 f"band [{lo_c}, {hi_c}] of the {width}x{height} viewport")
-        a2 = int(area2(Xt, Yt))
-        if a2 == 0:
-            dropped += 1
-            continue
-        order = [0, 1, 2] if a2 > 0 else [0, 2, 1]
-        Xo, Yo = Xt[order], Yt[order]
-        x0 = max(0, _ceil_div(int(Xo.min()) - half, S))
-        x1 = min(width - 1, (int(Xo.max()) - half) // S)
-        y0 = max(0, _ceil_div(int(Yo.min()) - half, S))
-        y1 = min(height - 1, (int(Yo.max()) - half) // S)
-        A, B, C, bias = (v.tolist() for v in edge_setup(Xo, Yo))
-        kinds, es = [], []
-        for e in range(3):
-            a, b = A[e] * S, B[e] * S
-            c = C[e] + (A[e] + B[e]) * half - bias[e]
-            if a == 0:                                   # horizontal: b y + c >= 0 bounds the rows
-                if b > 0:
-                    y0 = max(y0, _ceil_div(-c, b))
-                else:
-                    y1 = min(y1, c // (-b))
-                kinds.append(EDGE_OFF)
-                es.append((0, 0, 0, 0, 0))
-                continue
-            kinds.append(EDGE_LEFT if a > 0 else EDGE_RIGHT)
-            es.append((a, b, c))
-        if x1 < x0 or y1 < y0:
-            dropped += 1
-            continue
-        for e in range(3):
-            f = {k: 0 for k in P.edge_fmts}
-            f["kind"] = kinds[e]
-            if kinds[e] != EDGE_OFF:
-                a, b, c = es[e]
-                d = abs(a)
-                num = b * y0 + c
-                f["p"], f["r"] = divmod(num, d)
-                f["q"], f["m"] = divmod(b, d)
-                f["d"] = d
-            for k, v in f.items():
-                fields[f"e{e}_{k}"].append(v)
-        fields["y0"].append(y0)
-        fields["rows"].append(y1 - y0)
-        fields["x0"].append(x0)
-        fields["x1"].append(x1)
-        for n, _ in P.consts:
-            fields[n].append(int(consts[n][t]))
-        # the exact planes: a(x, y) = sum_e v_e F_e(x, y) / area2, F_e at the pixel centre
-        F0 = [A[e] * (S * x0 + half) + B[e] * (S * y0 + half) + C[e] for e in range(3)]
-        for name in P.names:
-            v = vals[name][t][order]
-            fmt, acc = P.out_fmt(name), P.acc_fmt(name)
-            if not np.all(np.isfinite(v)) or v.min() < fmt.min_value or v.max() > fmt.max_value:
-                raise ValueError(f"triangle {t}: attribute {name} has vertex values {v.tolist()} outside its "
-                                 f"format {fmt} [{float(fmt.min_value)}, {float(fmt.max_value)}]: a triangle "
-                                 f"this preset cannot draw (widen the format or normalize the range)")
-            vf = [Fraction(float(x)) for x in v]
-            num0 = sum(vf[e] * F0[e] for e in range(3))
-            numx = sum(vf[e] * (A[e] * S) for e in range(3))
-            numy = sum(vf[e] * (B[e] * S) for e in range(3))
-            fb = acc.frac_bits
-            fields[f"{name}_0"].append(_wrap(_round_half_up(num0 / abs(a2), fb), acc))
-            fields[f"{name}_dx"].append(_wrap(_round_half_up(numx / abs(a2), fb), acc))
-            fields[f"{name}_dy"].append(_wrap(_round_half_up(numy / abs(a2), fb), acc))
-        source.append(t)
-    codes = {k: np.array(v, dtype=np.int64) for k, v in fields.items()}
-    for p in P.record:
-        p.fmt.check(codes[p.name], what=f"raster record field {p.name}")
-    return Records(params=P, codes=codes, source=np.array(source, dtype=np.int64), dropped=dropped)
+    return X, Y, vals, consts
 
 
 # ------------------------------------------------------------------------------------------------------------
@@ -686,53 +597,3 @@ RasterParams.PRESETS = {
     "small": RasterParams(attrs=(("U", Fmt(True, 4, 12)), ("W", Fmt(True, 2, 12))), max_size=256,
                           guard_pixels=256, extra_guard=0),
 }
-
-
-# ------------------------------------------------------------------------------------------------------------
-# measurement: the error proof against exact planes on the longest spans
-# ------------------------------------------------------------------------------------------------------------
-def measure(params: RasterParams, triangles: int = 4, seed: int = 1) -> dict:
-    """Worst distance from the exact plane, in output ulps, over triangles spanning the whole ``max_size`` square
-    viewport (spans and columns of ``max_size`` pixels, random vertex values within each format): the accumulator
-    before the output rounding (the interpolators' own error, bound ``(2 max_size - 1) 2**-(g+1)`` ulps) and the
-    output code. The error of the accumulator is linear along a row, so its extremes lie at the span ends: every
-    row's first and last pixel is measured exactly (rationals), plus a random sample of interior pixels."""
-    rng = np.random.default_rng(seed)
-    n, S = params.max_size, params.S
-    worst_acc = {name: Fraction(0) for name in params.names}
-    worst_out = dict(worst_acc)
-    pixels = 0
-    for k in range(triangles):
-        X = np.array([-S // 2 - int(rng.integers(0, S)), n * S + int(rng.integers(0, S)), int(rng.integers(-S, S))])
-        Y = np.array([int(rng.integers(-S, S)), int(rng.integers(-S, S)), n * S + int(rng.integers(0, S))])
-        if k % 2:
-            X = n * S - X
-        vals = {name: rng.uniform(-0.95, 0.95, 3) * float(fmt.max_value) for name, fmt in params.attrs}
-        consts = {m: np.array([f.max_code]) for m, f in params.consts}       # carried, not interpolated
-        recs = setup(params, X[None], Y[None], {m: v[None] for m, v in vals.items()} | consts, n, n)
-        res = scan(params, recs)
-        pixels += len(res)
-        y, x = res.codes["y"], res.codes["x"]
-        ends = np.flatnonzero(np.r_[True, y[1:] != y[:-1]] | np.r_[y[1:] != y[:-1], True])
-        pick = np.unique(np.r_[ends, rng.integers(0, len(res), 500)])
-        a2 = int(area2(X, Y))
-        order = [0, 1, 2] if a2 > 0 else [0, 2, 1]
-        A, B, C, _ = (v.tolist() for v in edge_setup(X[order], Y[order]))
-        for name, fmt in params.attrs:
-            v = [Fraction(float(t)) for t in vals[name][order]]
-            gx = sum(v[e] * A[e] for e in range(3)) * S / abs(a2)
-            gy = sum(v[e] * B[e] for e in range(3)) * S / abs(a2)
-            g0 = sum(v[e] * (A[e] * S // 2 + B[e] * S // 2 + C[e]) for e in range(3)) / abs(a2)
-            acc_ulp, out_ulp = params.acc_fmt(name).ulp, fmt.ulp
-            for i in pick.tolist():
-                exact = g0 + gx * int(x[i]) + gy * int(y[i])
-                worst_acc[name] = max(worst_acc[name], abs(int(res.acc[name][i]) * acc_ulp - exact) / out_ulp)
-                worst_out[name] = max(worst_out[name], abs(int(res.codes[name][i]) * out_ulp - exact) / out_ulp)
-    bound_acc = Fraction(2 * n - 1, 1 << (params.guard_bits + 1))
-    return {"max_size": n, "guard_bits": params.guard_bits, "triangles": triangles, "seed": seed,
-            "fragments": pixels,
-            "accumulator_worst_ulp": max(float(w) for w in worst_acc.values()),
-            "accumulator_bound_ulp": float(bound_acc),
-            "output_worst_ulp": max(float(w) for w in worst_out.values()),
-            "output_bound_ulp": float(bound_acc + Fraction(1, 2)),
-            "per_attribute_accumulator_worst_ulp": {m: round(float(w), 5) for m, w in worst_acc.items()}}

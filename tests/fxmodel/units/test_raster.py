@@ -217,7 +217,7 @@ def test_cli_info_prints_the_formats(capsys):
 
 
 def test_measured_error_stays_within_the_proof_on_full_viewport_spans():
-    from fxmodel.units.raster import measure
+    from fxmodel.units.raster_errors import measure
     rep = measure(small, triangles=2, seed=4)
     assert rep["fragments"] > 40_000
     assert rep["accumulator_worst_ulp"] <= rep["accumulator_bound_ulp"]

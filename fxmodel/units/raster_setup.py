@@ -1,0 +1,149 @@
+"""The exact triangle set-up arithmetic of the scan converter (:func:`fxmodel.units.raster.setup`; paper, section 4):
+edge functions with the top-left rule, each triangle's pixel extent, the Bresenham form of its edges and the exact
+planes of its attributes, rounded once into the record's words. Exact integers and rationals throughout; the
+module docstring of :mod:`fxmodel.units.raster` derives them.
+"""
+
+from __future__ import annotations
+
+import math
+from fractions import Fraction
+
+import numpy as np
+
+from fxmodel.core.fixed import Fmt
+
+__all__ = ["EDGE_OFF", "EDGE_LEFT", "EDGE_RIGHT", "edge_setup", "area2", "triangle_extent", "append_edges",
+           "append_planes"]
+
+#: Edge kinds in the record.
+EDGE_OFF, EDGE_LEFT, EDGE_RIGHT = 0, 1, 2
+
+
+def edge_setup(X, Y):
+    """Edge functions of one triangle with integer snapped vertices ``X``, ``Y`` (3 each) and positive area.
+
+    Edge ``e`` runs from vertex ``e + 1`` to ``e + 2`` (mod 3), i.e. it is opposite vertex ``e``, and
+    ``E_e(p) = (bx - ax)(py - ay) - (by - ay)(px - ax) = A_e px + B_e py + C_e``, positive inside. ``bias_e`` is
+    0 for a top or left edge and 1 otherwise; a point is covered when ``E_e(p) >= bias_e`` for all ``e``.
+
+    Returns ``(A, B, C, bias)``, int64 arrays of 3.
+    """
+    X = np.asarray(X, dtype=np.int64)
+    Y = np.asarray(Y, dtype=np.int64)
+    ax, ay = X[[1, 2, 0]], Y[[1, 2, 0]]
+    bx, by = X[[2, 0, 1]], Y[[2, 0, 1]]
+    dx, dy = bx - ax, by - ay
+    top_left = (dy < 0) | ((dy == 0) & (dx > 0))        # y down, interior on the left of a -> b seen with y down
+    return -dy, dx, dy * ax - dx * ay, np.where(top_left, 0, 1).astype(np.int64)
+
+
+def area2(X, Y):
+    """Twice the signed area of triangles with vertex coordinates ``X``, ``Y`` (``(..., 3)`` integers)."""
+    return (X[..., 1] - X[..., 0]) * (Y[..., 2] - Y[..., 0]) - (X[..., 2] - X[..., 0]) * (Y[..., 1] - Y[..., 0])
+
+
+def _round_half_up(value: Fraction, frac: int) -> int:
+    """``value`` rounded half-up to ``frac`` fraction bits, as an integer code (exact)."""
+    return math.floor(value * (1 << frac) + Fraction(1, 2))
+
+
+def _wrap(code: int, fmt: Fmt) -> int:
+    """``code`` modulo ``2**width`` as a signed code (the hardware's word)."""
+    w = fmt.width
+    code &= (1 << w) - 1
+    return code - (1 << w) if code >> (w - 1) else code
+
+
+def _ceil_div(a: int, b: int) -> int:
+    return -((-a) // b)
+
+
+def triangle_extent(P, t: int, Xt, Yt, width: int, height: int) -> dict | None:
+    """Triangle ``t`` (snapped vertices ``Xt``, ``Yt``) in the ``width`` x ``height`` viewport: its winding
+    ``order``, twice its area ``a2``, its rows and columns ``x0, x1, y0, y1`` (pixel centres covered, a horizontal
+    edge bounding the rows), its edge functions ``A, B, C`` and each edge's ``kind`` and ``(a, b, c)`` scaled to
+    pixel centres; ``None`` if it has no area or covers no pixel centre. ``ValueError`` for a vertex outside the
+    guard band."""
+    S, half = P.S, P.S // 2
+    lo_c = -(P.guard_pixels + 1) * S
+    for coord, c, lim in ((Xt, "x", width), (Yt, "y", height)):
+        hi_c = (lim + P.guard_pixels + 1) * S
+        if coord.min() < lo_c or coord.max() > hi_c:
+            raise ValueError(f"triangle {t}: vertex {c} {coord.tolist()} (1/{S} pixel) is outside the guard "
+                             f"band [{lo_c}, {hi_c}] of the {width}x{height} viewport")
+    a2 = int(area2(Xt, Yt))
+    if a2 == 0:
+        return None
+    order = [0, 1, 2] if a2 > 0 else [0, 2, 1]
+    Xo, Yo = Xt[order], Yt[order]
+    x0 = max(0, _ceil_div(int(Xo.min()) - half, S))
+    x1 = min(width - 1, (int(Xo.max()) - half) // S)
+    y0 = max(0, _ceil_div(int(Yo.min()) - half, S))
+    y1 = min(height - 1, (int(Yo.max()) - half) // S)
+    A, B, C, bias = (v.tolist() for v in edge_setup(Xo, Yo))
+    kinds, es = [], []
+    for e in range(3):
+        a, b = A[e] * S, B[e] * S
+        c = C[e] + (A[e] + B[e]) * half - bias[e]
+        if a == 0:                                   # horizontal: b y + c >= 0 bounds the rows
+            if b > 0:
+                y0 = max(y0, _ceil_div(-c, b))
+            else:
+                y1 = min(y1, c // (-b))
+            kinds.append(EDGE_OFF)
+            es.append((0, 0, 0, 0, 0))
+            continue
+        kinds.append(EDGE_LEFT if a > 0 else EDGE_RIGHT)
+        es.append((a, b, c))
+    if x1 < x0 or y1 < y0:
+        return None
+    return {"order": order, "a2": a2, "x0": x0, "x1": x1, "y0": y0, "y1": y1, "A": A, "B": B, "C": C,
+            "kinds": kinds, "es": es}
+
+
+def append_edges(P, fields: dict, tri: dict):
+    """Append the record fields of a triangle's rows, columns and edges (the Bresenham form ``p, r, q, m, d`` of
+    each edge at row ``y0``; zeros for a horizontal edge) to ``fields`` (lists by record field name)."""
+    y0 = tri["y0"]
+    for e in range(3):
+        f = {k: 0 for k in P.edge_fmts}
+        f["kind"] = tri["kinds"][e]
+        if f["kind"] != EDGE_OFF:
+            a, b, c = tri["es"][e]
+            d = abs(a)
+            num = b * y0 + c
+            f["p"], f["r"] = divmod(num, d)
+            f["q"], f["m"] = divmod(b, d)
+            f["d"] = d
+        for k, v in f.items():
+            fields[f"e{e}_{k}"].append(v)
+    fields["y0"].append(y0)
+    fields["rows"].append(tri["y1"] - y0)
+    fields["x0"].append(tri["x0"])
+    fields["x1"].append(tri["x1"])
+
+
+def append_planes(P, fields: dict, tri: dict, values: dict, t: int):
+    """Append each attribute's exact plane at the first pixel centre and its steps along x and y, rounded
+    half-up into the accumulator format (modulo ``2**N``), to ``fields``: ``a(x, y) = sum_e v_e F_e(x, y) /
+    area2``. ``values``: the triangle's three vertex values of each attribute (float64, in vertex order);
+    ``ValueError`` naming triangle ``t`` for a value outside its output format."""
+    S, half = P.S, P.S // 2
+    A, B, C, a2, order = tri["A"], tri["B"], tri["C"], tri["a2"], tri["order"]
+    F0 = [A[e] * (S * tri["x0"] + half) + B[e] * (S * tri["y0"] + half) + C[e] for e in range(3)]
+    for name in P.names:
+        v = values[name][order]
+        fmt, acc = P.out_fmt(name), P.acc_fmt(name)
+        if not np.all(np.isfinite(v)) or v.min() < fmt.min_value or v.max() > fmt.max_value:
+            raise ValueError(f"triangle {t}: attribute {name} has vertex values {v.tolist()} outside its "
+                             f"format {fmt} [{float(fmt.min_value)}, {float(fmt.max_value)}]: a triangle "
+                             f"this preset cannot draw (widen the format or normalize the range)")
+        vf = [Fraction(float(x)) for x in v]
+        num0 = sum(vf[e] * F0[e] for e in range(3))
+        numx = sum(vf[e] * (A[e] * S) for e in range(3))
+        numy = sum(vf[e] * (B[e] * S) for e in range(3))
+        fb = acc.frac_bits
+        fields[f"{name}_0"].append(_wrap(_round_half_up(num0 / abs(a2), fb), acc))
+        fields[f"{name}_dx"].append(_wrap(_round_half_up(numx / abs(a2), fb), acc))
+        fields[f"{name}_dy"].append(_wrap(_round_half_up(numy / abs(a2), fb), acc))

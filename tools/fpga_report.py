@@ -1,0 +1,189 @@
+"""Reading the ECP5 flow's results (:mod:`tools.fpga`): nextpnr's and yosys' JSON reports into records
+(:func:`parse_results`, the critical path by RTL signal names), the report table (:func:`markdown_table`), the
+router comparison (:func:`compare_routers`) and the keys by which records are matched (:func:`design_key`,
+:func:`params_digest`, :data:`KNOWN_DIFFERENCES`). Pure functions, tested on canned reports.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import re
+from pathlib import Path
+
+__all__ = ["parse_results", "critical_path_summary", "route_seconds", "markdown_table", "params_digest",
+           "design_key", "compare_routers", "KNOWN_DIFFERENCES"]
+
+#: Why a design's synthesized count differs from the estimate, by :func:`design_key`; written into the record
+#: (a difference without a reason fails ``tests/fxmodel/core/test_cost.py``).
+KNOWN_DIFFERENCES: dict[tuple, str] = {
+    ("pipeline", "tin-plane-fit", "tin-plane"):
+        "the tin plane's texture is a single texel: its bilinear blend reads one word four times, and yosys "
+        "simplifies part of that constant blend, which the estimate counts as the 12 products the RTL writes "
+        "(synthesized stage by stage, the earlier fitted preset's texture sampler took 9 blocks and every other "
+        "stage its estimate; the refitted preset differs by the same 3)",
+    ("engine", "tin-plane-fit", "tin-plane"):
+        "the pixel pipeline it feeds is the fitted tin plane's, whose single-texel texture blend yosys simplifies "
+        "by 3 blocks (the pipeline's entry); the scan converter takes its estimate (34 blocks: the span-start "
+        "partial products)",
+}
+
+
+_CELL_SUFFIX = re.compile(r"(_TRELLIS_|_MULT18X18D|_DP16KD|_LUT4|_CCU2C|_PFUMX|_L6MUX21|\$).*$")
+
+
+_PRIMITIVE = re.compile(r"(MULT18X18D|ALU54B|DP16KD|TRELLIS_RAMW|TRELLIS_IO)")
+
+
+def _register_name(cell: str) -> str:
+    """The RTL signal behind a packed cell name (``s2_xn_TRELLIS_FF_Q_19`` -> ``s2_xn``); a cell with no RTL
+    name (``$330_MULT18X18D_P9``) is named by its primitive (``MULT18X18D``)."""
+    cell = cell.lstrip("\\")
+    name = _CELL_SUFFIX.sub("", cell)
+    if name:
+        return name
+    prim = _PRIMITIVE.search(cell)
+    return prim.group(1) if prim else cell
+
+
+def critical_path_summary(report: dict, clock: str | None = None) -> dict | None:
+    """Summary of nextpnr's register-to-register critical path from its JSON ``report``.
+
+    Returns ``{"from", "to", "delay_ns", "logic_ns", "routing_ns", "logic_levels", "through"}``: the first and last
+    cell (as RTL signal names), total delay, its split, the number of logic steps and the distinct signals the
+    path passes through, in order. ``None`` when the report has no clock-to-clock path.
+    """
+    for cp in report.get("critical_paths", []):
+        if "<async>" in (cp.get("from", ""), cp.get("to", "")):
+            continue
+        if clock is not None and clock not in cp.get("from", ""):
+            continue
+        path = cp.get("path", [])
+        if not path:
+            continue
+        logic = sum(p["delay"] for p in path if p.get("type") in ("logic", "clk-to-q", "setup"))
+        routing = sum(p["delay"] for p in path if p.get("type") == "routing")
+        through = []
+        for p in path:
+            name = _register_name(p["to"]["cell"])
+            if not through or through[-1] != name:
+                through.append(name)
+        return {"from": _register_name(path[0]["from"]["cell"]), "to": _register_name(path[-1]["to"]["cell"]),
+                "delay_ns": round(logic + routing, 3), "logic_ns": round(logic, 3),
+                "routing_ns": round(routing, 3),
+                "logic_levels": sum(1 for p in path if p.get("type") == "logic"), "through": through}
+    return None
+
+
+def parse_results(report: dict, stat: dict | None = None) -> dict:
+    """Resources and Fmax from nextpnr's ``--report`` JSON and (optionally) yosys' ``stat -json``.
+
+    Returns ``{"LUT4", "FF", "DSP", "BRAM", "DRAM", "IO", "fmax_mhz", "clock", "critical_path", "yosys"}``:
+    ``LUT4`` counts nextpnr's ``TRELLIS_COMB`` (LUT4 sites, including the two per carry cell), ``DSP`` the
+    ``MULT18X18D`` and ``BRAM`` the ``DP16KD`` blocks, ``DRAM`` ``TRELLIS_RAMW`` (distributed RAM). ``fmax_mhz`` is
+    the slowest clock's achieved frequency (``None`` for a design without clocked paths).
+    """
+    util = {k: v.get("used", 0) for k, v in report.get("utilization", {}).items()}
+    fmax = report.get("fmax", {})
+    clock, fmax_mhz = None, None
+    if fmax:
+        clock = min(fmax, key=lambda c: fmax[c]["achieved"])
+        fmax_mhz = round(float(fmax[clock]["achieved"]), 2)
+    cells = {}
+    if stat:
+        design = stat.get("design") or next(iter(stat.get("modules", {}).values()), {})
+        cells = dict(design.get("num_cells_by_type", {}))
+    return {"LUT4": util.get("TRELLIS_COMB", 0), "FF": util.get("TRELLIS_FF", 0),
+            "DSP": util.get("MULT18X18D", 0), "BRAM": util.get("DP16KD", 0), "DRAM": util.get("TRELLIS_RAMW", 0),
+            "IO": util.get("TRELLIS_IO", 0), "fmax_mhz": fmax_mhz, "clock": clock,
+            "critical_path": critical_path_summary(report, clock), "yosys": cells}
+
+
+def route_seconds(log: str) -> float | None:
+    """Routing time from a nextpnr log: the sum of its ``Router1 time`` / ``Router2 time`` lines (router2 ends
+    with a router1 legality pass), ``None`` if there is none."""
+    times = [float(x) for x in re.findall(r"Router[12] time ([0-9.]+)s", log)]
+    return round(sum(times), 2) if times else None
+
+
+def markdown_table(records) -> str:
+    """The report table; a ``scene`` column (the scene whose tables a pipeline holds) when any record has one.
+    DSP and BRAM read ``count / estimate`` (:func:`fxmodel.core.cost.estimate`); synthesized only (``--synth-only``):
+    no LUT4, FF or Fmax."""
+    scenes = any("scene" in r for r in records)
+    lines = ["| unit | preset | " + ("scene | " if scenes else "") + "LUT4 | FF | DSP (MULT18X18D) / est. "
+             "| BRAM (DP16KD) / est. | Fmax MHz | target MHz | met | latency (cycles) | critical path (when missed) |",
+             "|---|---|" + ("---|" if scenes else "") + "---:|---:|---:|---:|---:|---:|:-:|---:|---|"]
+    for r in records:
+        design = f"| {r.get('unit')} | {r.get('preset', '')} | " + (f"{r.get('scene', '')} | " if scenes else "")
+        est = r.get("estimate") or {}
+        if "error" in r:
+            lines.append(f"{design}| | / {est.get('DSP', '')} | / {est.get('BRAM', '')} | | {r['target_mhz']:g} "
+                         f"| error | {r['latency']} | {r['error']} |")
+            continue
+        dsp, bram = f"{r['DSP']} / {est.get('DSP', '')}", f"{r['BRAM']} / {est.get('BRAM', '')}"
+        if r.get("synth_only"):
+            lines.append(f"{design}| | {dsp} | {bram} | | {r['target_mhz']:g} | synthesized only | {r['latency']} | |")
+            continue
+        cp = r.get("critical_path")
+        why = ""
+        if cp and not r["met"]:
+            why = (f"{cp['from']} → {cp['to']}: {cp['delay_ns']} ns ({cp['logic_ns']} logic, "
+                   f"{cp['routing_ns']} routing, {cp['logic_levels']} levels)")
+        lines.append(f"{design}{r['LUT4']} | {r['FF']} | {dsp} | {bram} | {r['fmax_mhz']} "
+                     f"| {r['target_mhz']:g} | {'yes' if r['met'] else 'no'} | {r['latency']} | {why} |")
+    return "\n".join(lines)
+
+
+def params_digest(params) -> str:
+    """12 hex digits of a parameter object's ``repr`` (the scene's tables included, by their digests): a
+    recorded count belongs to exactly this object."""
+    return hashlib.sha1(repr(params).encode()).hexdigest()[:12]
+
+
+def design_key(label: dict) -> tuple:
+    """``(unit, preset, scene)`` of a design's label (scene ``None`` for a unit preset)."""
+    return label.get("unit"), label.get("preset"), label.get("scene")
+
+
+def compare_routers(folders) -> str:
+    """The router table of the README: every design placed in the ``report.json`` of ``folders`` (output folders
+    of runs with ``--router router1`` and ``--router router2``; a later folder's record of the same design and
+    router replaces an earlier one), one row per design, and per router its routing time, whole flow time and
+    Fmax, or the error of a failed run.
+
+    Raises
+    ------
+    ValueError
+        A folder without a ``report.json`` (named), or none of the folders holding a placed design.
+    """
+    table: dict = {}
+    routers: list = []
+    for folder in folders:
+        path = Path(folder) / "report.json"
+        if not path.is_file():
+            raise ValueError(f"{path}: no report (run bumpmap fpga --out {folder} first)")
+        report = json.loads(path.read_text())
+        router = report.get("flow", {}).get("router", "router1")
+        routers += [router] if router not in routers else []
+        for d in report.get("designs", []):
+            if not d.get("synth_only"):
+                table.setdefault(design_key(d), {})[router] = d
+    if not table:
+        raise ValueError(f"no placed design in {', '.join(str(f) for f in folders)}")
+    routers.sort()
+
+    def cell(d):
+        if d is None:
+            return "(not run) | "
+        if "error" in d:
+            return f"failed: {d['error'].split(',')[0]} | "
+        route = "?" if d.get("route_seconds") is None else f"{d['route_seconds']:.0f} s"
+        return f"{route} / {d['flow_seconds']:.0f} s | {d['fmax_mhz']:.1f} MHz"
+
+    head = "| design | " + " | ".join(f"{r}: routing / whole flow | Fmax" for r in routers) + " |"
+    rows = [head, "|---|" + "---:|---:|" * len(routers)]
+    for key, by in table.items():
+        name = f"`{key[0]}` {key[1]}" + (f", {key[2]} tables" if len(key) > 2 and key[2] else "")
+        rows.append(f"| {name} | " + " | ".join(cell(by.get(r)) for r in routers) + " |")
+    return "\n".join(rows)

@@ -55,41 +55,32 @@ Exit status: 0 when every record is bit-exact, 1 on any mismatch or valid-protoc
 from __future__ import annotations
 
 import argparse
-import fcntl
 import json
 import os
-import re
 import sys
 import time
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
 
-from fxmodel.core.paths import build_dir
-from fxmodel.core.unit import preset
-
 from cosim.harness import simulator
 from cosim.stream import AHEAD, Space, full_space, grid_space, parse_pair, parse_shard, run_stream, shard_range
+from fxmodel.core.unit import preset
 from rtl.digest import params_key
 
 from . import jobs as jobrunner
+from .exhaustive_report import EXACT, OUT, REPORT, SHARDS, merge_records, merge_shards, table, update_report
+from .exhaustive_report import failures as _failures
 from .prove import check_range
 
 __all__ = ["Target", "TARGETS", "target", "run_target", "merge_shards", "update_report", "REPORT", "SHARDS"]
 
-OUT = build_dir("exhaustive")
-REPORT = OUT / "report.json"
-SHARDS = OUT / "shards"
-#: Mismatch records kept in a merged record.
-KEEP = 8
 #: Largest input space a target may check whole without naming a subset (``--full`` overrides).
 FULL_LIMIT = 1 << 32
 #: Most vectors in one Dask task, per simulator (a Verilator piece takes about a minute on a free core).
 PIECE = {"verilator": 1 << 25, "icarus": 1 << 22, "exact": 1 << 25}
 #: Results of finished pieces (resume).
 CACHE = jobrunner.CACHE / "exhaustive"
-#: The model against exact math (tools.prove), beside the HDL simulators.
-EXACT = "exact"
 
 
 @dataclass(frozen=True)
@@ -246,127 +237,6 @@ def pieces(t: Target, sim: str, *, workers: int = 1, count: int | None = None, f
     count = max(1, min(count, n))
     return [Piece(t, sim, space, lo + a, lo + b, (i, count), full, chunk, ahead)
             for i, (a, b) in enumerate((shard_range(n, (i, count)) for i in range(1, count + 1)), 1)]
-
-
-def merge_records(recs: list[dict], partial: bool = False) -> dict:
-    """One record from the records of all shards of a run (see the module docstring); ``partial``: of a
-    contiguous run of shards ``a..b`` of ``N`` (``pieces`` in the record), not necessarily all."""
-    recs = sorted(recs, key=lambda r: r["range"][0])
-    n = recs[0]["shard"][1]
-    numbers = [r["shard"][0] for r in recs]
-    first_shard = numbers[0] if partial else 1
-    if numbers != list(range(first_shard, first_shard + (len(recs) if partial else n))):
-        raise ValueError(f"{recs[0]['unit']}:{recs[0]['preset']} on {recs[0]['simulator']}: shards "
-                         f"{numbers} are not exactly {first_shard}..{numbers[-1] if partial else n}")
-    for a, b in zip(recs, recs[1:]):
-        if a["range"][1] != b["range"][0] or a["space"] != b["space"]:
-            raise ValueError(f"{a['unit']}:{a['preset']}: shard ranges {a['range']} and {b['range']} do not join "
-                             "(different spaces or shard counts)")
-    total = {k: sum(r[k] for r in recs) for k in ("vectors", "mismatches", "valid_errors", "missing",
-                                                     "expected_vectors")}
-    seconds = sum(r.get("process_seconds", r["seconds"]) for r in recs)
-    first = sorted((f for r in recs for f in r["first"]), key=lambda f: f["index"])[:KEEP]
-    started, finished = min(r["started"] for r in recs), max(r["finished"] for r in recs)
-    return {"unit": recs[0]["unit"], "preset": recs[0]["preset"], "simulator": recs[0]["simulator"],
-            "vectors": total["vectors"], "mismatches": total["mismatches"], "seconds": round(seconds, 3),
-            "vectors_per_second": total["vectors"] / seconds if seconds else 0.0,
-            "process_seconds": round(seconds, 3),
-            "ok": all(r["ok"] for r in recs), "valid_errors": total["valid_errors"], "missing": total["missing"],
-            "expected_vectors": total["expected_vectors"], "space": recs[0]["space"],
-            "range": [recs[0]["range"][0], recs[-1]["range"][1]], "first": first,
-            **({"subset": recs[0]["subset"]} if "subset" in recs[0] else {}),
-            "build_seconds": max(r["build_seconds"] for r in recs),
-            "sim_cpu_seconds": round(sum(r.get("sim_cpu_seconds", 0.0) for r in recs), 3),
-            "started": started, "finished": finished,
-            "wall_seconds": round(finished - started, 3), "shards": n, **_merge_exact(recs),
-            **({"cpu_seconds": round(sum(r["cpu_seconds"] for r in recs), 3)}
-               if all("cpu_seconds" in r for r in recs) else {}),
-            **({"pieces": [numbers[0], numbers[-1]]} if partial else {})}
-
-
-def _merge_exact(recs: list[dict]) -> dict:
-    """The model-against-exact-math fields of merged records: the worst error and where, unfaithful outputs."""
-    if not all("max_error_ulp" in r for r in recs):
-        return {}
-    worst = max(recs, key=lambda r: r["max_error_ulp"])
-    return {"max_error_ulp": worst["max_error_ulp"], "worst_index": worst["worst_index"],
-            "unfaithful": sum(r["unfaithful"] for r in recs), "bound_ulp": worst["bound_ulp"]}
-
-
-_SHARD_RE = re.compile(r"^(?P<unit>.+)-(?P<preset>[^-]+)-(?P<sim>[^-]+)-(?P<i>\d+)of(?P<n>\d+)\.json$")
-
-
-def merge_shards(folder: Path = SHARDS, remove: bool = True) -> list[dict]:
-    """Merge every complete set of shard files in ``folder`` (removing them if ``remove``); return the records.
-
-    Incomplete sets stay for later. A set is one unit, preset, simulator and shard count ``N``."""
-    groups: dict[tuple, dict[int, Path]] = {}
-    for path in sorted(Path(folder).glob("*.json")):
-        m = _SHARD_RE.match(path.name)
-        if m:
-            groups.setdefault((m["unit"], m["preset"], m["sim"], int(m["n"])), {})[int(m["i"])] = path
-    merged = []
-    for (unit, pre, sim, n), files in sorted(groups.items()):
-        if sorted(files) != list(range(1, n + 1)):
-            continue
-        merged.append(merge_records([json.loads(p.read_text()) for p in files.values()]))
-        if remove:
-            for p in files.values():
-                p.unlink(missing_ok=True)
-    return merged
-
-
-def update_report(records: list[dict], path: Path = REPORT) -> list[dict]:
-    """Enter ``records`` in the report (replacing those of the same unit, preset and simulator); return it all."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    OUT.mkdir(parents=True, exist_ok=True)
-    with open(OUT / f"{path.stem}.lock", "w") as lock:                 # (not beside a committed record file)
-        fcntl.flock(lock, fcntl.LOCK_EX)
-        try:
-            old = json.loads(path.read_text()) if path.exists() else []
-        except json.JSONDecodeError:
-            old = []
-        key = lambda r: (r["unit"], r["preset"], r["simulator"])  # noqa: E731
-        new = {key(r): r for r in records}
-        report = [r for r in old if key(r) not in new] + list(new.values())
-        tmp = path.with_suffix(".tmp")
-        tmp.write_text(json.dumps(report, indent=1))
-        tmp.replace(path)
-    return report
-
-
-def table(records: list[dict]) -> str:
-    head = ("unit", "preset", "simulator", "vectors", "mismatches", "seconds", "vectors/s", "wall s", "cpu s",
-            "result")
-
-    def result(r):
-        verdict = ("within bound" if r["simulator"] == EXACT else "bit-exact") if r["ok"] else "FAIL"
-        if "pieces" in r:
-            verdict += (f" (partial: pieces {r['pieces'][0]}..{r['pieces'][1]} of {r['shards']}, "
-                        f"{100 * r.get('fraction', 0):.1f} % of the space)")
-        return verdict
-
-    rows = [(r["unit"], r["preset"], r["simulator"], f"{r['vectors']:,}", f"{r['mismatches']:,}",
-             f"{r['seconds']:.1f}", f"{r['vectors_per_second']:,.0f}", f"{r['wall_seconds']:.1f}",
-             f"{r['cpu_seconds']:.1f}" if "cpu_seconds" in r else "-", result(r)) for r in records]
-    widths = [max(len(str(x)) for x in col) for col in zip(head, *rows)]
-    fmt = lambda row: "  ".join(str(x).rjust(w) if i >= 3 else str(x).ljust(w)  # noqa: E731
-                                for i, (x, w) in enumerate(zip(row, widths)))
-    return "\n".join([fmt(head), fmt(["-" * w for w in widths])] + [fmt(r) for r in rows])
-
-
-def _failures(records: list[dict]) -> str:
-    out = []
-    for r in records:
-        if r["ok"]:
-            continue
-        out.append(f"{r['unit']}:{r['preset']} on {r['simulator']}: {r['mismatches']} mismatches, "
-                   f"{r['valid_errors']} valid-protocol errors, {r['missing']} missing outputs, "
-                   f"{r['vectors']} of {r['expected_vectors']} vectors compared")
-        out += [f"  index {f['index']}: inputs {f['inputs']} model {f['model']} error {f['error_ulp']:.6f} ulp "
-                f"> bound {f['bound_ulp']:.6f}" if "error_ulp" in f else
-                f"  index {f['index']}: inputs {f['inputs']} rtl {f['rtl']} model {f['model']}" for f in r["first"]]
-    return "\n".join(out)
 
 
 def run_dask(t: Target, sim: str, *, jobs: int = 1, scheduler: str | None = None, full: bool = False,
@@ -528,6 +398,29 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
                          "the committed figures (docs/exhaustive/)")
 
 
+def _run_throughput(args: argparse.Namespace, targets: list, sims: list) -> int:
+    """``--throughput``: measure, record and print the rate of each target and simulator."""
+    out = [throughput(t, sim, args.throughput, full=args.full, repeat=args.repeat) for t in targets
+           for sim in sims]
+    OUT.mkdir(parents=True, exist_ok=True)
+    (OUT / "throughput.json").write_text(json.dumps(out, indent=1))
+    if args.record:
+        Path(args.record).parent.mkdir(parents=True, exist_ok=True)
+        Path(args.record).write_text(json.dumps(out, indent=1) + "\n")
+    for r in out:
+        runs = ", ".join(f"{x['workers']} worker(s) {x['vectors_per_second']:,.0f} vectors/s (x{x['speedup']:.2f})"
+                         for x in r["summary"])
+        proj = ", ".join(f"{n}: {s / 60:,.1f} min" for n, s in r["projected_seconds"].items())
+        print(f"{r['unit']}:{r['preset']} {r['simulator']}, medians of {r['repeat']} rounds: {runs} (load "
+              f"average {r['load_average']:.1f}); all {r['space']:,} inputs projected (workers: time) {proj}"
+              + ("" if all(x["ok"] for x in r["runs"]) else "  FAIL"))
+        if r["projected_seconds_free_cores"]:
+            free = ", ".join(f"{n}: {s / 60:,.1f} min" for n, s in r["projected_seconds_free_cores"].items())
+            print(f"  from the CPU time ({r['per_cpu_second']:,.0f} vectors per CPU second), on free cores: {free}")
+    print(f"(throughput: {OUT / 'throughput.json'})")
+    return 0 if all(x["ok"] for r in out for x in r["runs"]) else 1
+
+
 def run(args: argparse.Namespace) -> int:
     try:
         targets = [target(x.strip()) for x in args.only.split(",") if x.strip()] or list(TARGETS)
@@ -552,25 +445,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"error: {exc}", file=sys.stderr)
         return 2
     if args.throughput:
-        out = [throughput(t, sim, args.throughput, full=args.full, repeat=args.repeat) for t in targets
-               for sim in sims]
-        OUT.mkdir(parents=True, exist_ok=True)
-        (OUT / "throughput.json").write_text(json.dumps(out, indent=1))
-        if args.record:
-            Path(args.record).parent.mkdir(parents=True, exist_ok=True)
-            Path(args.record).write_text(json.dumps(out, indent=1) + "\n")
-        for r in out:
-            runs = ", ".join(f"{x['workers']} worker(s) {x['vectors_per_second']:,.0f} vectors/s (x{x['speedup']:.2f})"
-                             for x in r["summary"])
-            proj = ", ".join(f"{n}: {s / 60:,.1f} min" for n, s in r["projected_seconds"].items())
-            print(f"{r['unit']}:{r['preset']} {r['simulator']}, medians of {r['repeat']} rounds: {runs} (load "
-                  f"average {r['load_average']:.1f}); all {r['space']:,} inputs projected (workers: time) {proj}"
-                  + ("" if all(x["ok"] for x in r["runs"]) else "  FAIL"))
-            if r["projected_seconds_free_cores"]:
-                free = ", ".join(f"{n}: {s / 60:,.1f} min" for n, s in r["projected_seconds_free_cores"].items())
-                print(f"  from the CPU time ({r['per_cpu_second']:,.0f} vectors per CPU second), on free cores: {free}")
-        print(f"(throughput: {OUT / 'throughput.json'})")
-        return 0 if all(x["ok"] for r in out for x in r["runs"]) else 1
+        return _run_throughput(args, targets, sims)
     if args.merge:
         records = merge_shards()
         if not records:

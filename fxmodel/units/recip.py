@@ -69,11 +69,13 @@ from functools import cached_property
 
 import numpy as np
 
-from fxmodel.units import recip_bound
 from fxmodel.core.cost import DSP_BITS, Memory, Product
 from fxmodel.core.fixed import INT64_SAFE_BITS, Fmt
 from fxmodel.core.rounding import Overflow, Rounding, narrow, saturate, shift_round
 from fxmodel.core.unit import Port, Unit, register, require
+from fxmodel.units import recip_bound
+
+from .recip_tables import minimax_codes
 
 __all__ = ["RecipParams", "TABLE_MODES"]
 
@@ -82,8 +84,6 @@ __all__ = ["RecipParams", "TABLE_MODES"]
 #: ``w_h`` too but picks each word to minimise the interval's worst approximation error; ``midpoint`` expands
 #: about the interval's centre ``c`` (signed ``d``) with ``round(1/c)``; ``midpoint-minimax`` combines both.
 TABLE_MODES = ("round", "minimax", "midpoint", "midpoint-minimax")
-
-
 
 
 @dataclass(frozen=True)
@@ -349,7 +349,7 @@ class RecipParams(Unit):
         """The ``2**(m-1)`` table words as ``b_fmt`` codes (hidden bit included), chosen by :attr:`table`."""
         n, fb = self.n, self.b - 1
         if self.table.endswith("minimax"):
-            codes = self._minimax_codes()
+            codes = minimax_codes(self)
         else:
             # B = round_half_up(2**n / center) at fb fraction bits
             codes = [((1 << (n + fb + 1)) // c + 1) // 2 for c in self.centers]
@@ -364,35 +364,6 @@ class RecipParams(Unit):
         for _ in range(self.t - 1):
             acc = 1 + u * acc
         return B * acc
-
-    def _minimax_codes(self) -> list[int]:
-        """Per interval, the ``b``-bit word minimising the worst ``|T(B, d) - 1/(c - d)|`` over the interval.
-
-        Only the *choice* uses float64 (on 1025 points of each interval: the error is smooth, about ``2**-52``
-        float error against errors above ``2**-40``); the documented bound is then computed exactly from the
-        chosen words. Both ends of the error rise with ``B``, so bisection finds the real ``B`` that centres the
-        error; the best of the four codes around it is kept.
-        """
-        fb = self.b - 1
-        c = np.array(self.centers, dtype=np.float64) / 2.0 ** self.n          # exact: at most 48 bits
-        d = np.linspace(float(self.d_range[0]), float(self.d_range[1]), 1025)
-        inv = 1.0 / (c[:, None] - d[None, :])
-
-        def err(B):
-            return self.series(B[:, None], d[None, :]) - inv
-
-        B0 = 1.0 / c
-        span = 4 * np.abs(err(B0)).max(axis=1) + 2.0 ** -fb
-        lo, hi = B0 - span, B0 + span
-        for _ in range(100):
-            mid = (lo + hi) / 2
-            e = err(mid)
-            up = e.max(axis=1) + e.min(axis=1) > 0
-            hi, lo = np.where(up, mid, hi), np.where(up, lo, mid)
-        base = np.floor(lo * 2.0 ** fb)
-        cands = base[:, None] + np.arange(-1, 3)[None, :]
-        worst = np.stack([np.abs(err(cands[:, j] / 2.0 ** fb)).max(axis=1) for j in range(cands.shape[1])], 1)
-        return [int(v) for v in cands[np.arange(len(c)), np.argmin(worst, axis=1)]]
 
     def with_table(self, codes, *, keep_bias: bool = True) -> "RecipParams":
         """A copy whose table words are ``codes`` (``b_fmt`` codes, hidden bit included) instead of the ones

@@ -132,19 +132,36 @@ from .raster_setup import (
     EDGE_LEFT,
     EDGE_OFF,
     EDGE_RIGHT,
-    append_edges,
-    append_planes,
+    Records,
     area2,
     edge_setup,
-    triangle_extent,
+    setup,
 )
 
-__all__ = ["RasterParams", "ATTRIBUTES", "FLOAT_DEPTH_SLACK", "edge_setup", "area2", "Records", "setup", "scan",
-           "ScanResult", "EDGE_OFF", "EDGE_LEFT", "EDGE_RIGHT"]
+__all__ = ["RasterParams", "ATTRIBUTES", "ATTRIBUTE_FORMATS", "attribute_format", "FLOAT_DEPTH_SLACK", "edge_setup",
+           "area2", "Records", "setup", "scan", "ScanResult", "EDGE_OFF", "EDGE_LEFT", "EDGE_RIGHT"]
 
 #: Attribute names in record / fragment order.
 ATTRIBUTES = ("U", "V", "Uc", "Vc", "W", "Z", "Nx", "Ny", "Nz", "Ex", "Ey", "Ez",
               "A00", "A01", "A10", "A11", "A20", "A21")
+
+#: Where each interpolated attribute's format lives among a pipeline's units: ``unit.field`` (a field path of the
+#: parameter objects, and of a pipeline preset file), read by :meth:`RasterParams.for_pipeline` and
+#: :func:`attribute_format`. ``Z`` has none: its format is ``for_pipeline``'s ``z_fmt``.
+ATTRIBUTE_FORMATS = {**{n: "persp.uv_fmt" for n in ("U", "V", "Uc", "Vc")}, "W": "persp.recip.in_fmt",
+                     **{f"N{c}": "bump.n_fmt" for c in "xyz"}, **{f"E{c}": "reflect.e_fmt" for c in "xyz"},
+                     **{f"A{i}{j}": "bump.a_fmt" for i in range(3) for j in range(2)}}
+
+
+def attribute_format(pipeline_units: dict, name: str) -> Fmt:
+    """The format of attribute ``name`` in a pipeline's units (``{"persp": ..., "bump": ..., "reflect": ...}``),
+    by its path in :data:`ATTRIBUTE_FORMATS`."""
+    unit, *fields = ATTRIBUTE_FORMATS[name].split(".")
+    obj = pipeline_units[unit]
+    for f in fields:
+        obj = getattr(obj, f)
+    return obj
+
 
 #: Slack for the float reference's own rounding when comparing float depths with :meth:`RasterParams.depth_precision`
 #: (relative, of ``Z``): the front end's float64 ``1 / w_c`` at a pixel is three products and a division away from
@@ -399,102 +416,10 @@ class RasterParams:
     def for_pipeline(cls, pipeline_units: dict, z_fmt: Fmt = Fmt(True, 2, 22), **kw) -> "RasterParams":
         """The attributes in the formats of a pipeline preset's units (``persp``, ``bump``, ``reflect``), and the
         bump engine's block exponent ``Ae`` as a per-triangle constant (if it has one)."""
-        persp, bump, reflect = pipeline_units["persp"], pipeline_units["bump"], pipeline_units["reflect"]
+        bump = pipeline_units["bump"]
         kw.setdefault("consts", (("Ae", bump.e_fmt),) if bump.exp_bits else ())
-        fm = {"U": persp.uv_fmt, "V": persp.uv_fmt, "Uc": persp.uv_fmt, "Vc": persp.uv_fmt,
-              "W": persp.recip.in_fmt, "Z": z_fmt}
-        fm |= {f"N{c}": bump.n_fmt for c in "xyz"} | {f"E{c}": reflect.e_fmt for c in "xyz"}
-        fm |= {f"A{i}{j}": bump.a_fmt for i in range(3) for j in range(2)}
+        fm = {n: attribute_format(pipeline_units, n) for n in ATTRIBUTE_FORMATS} | {"Z": z_fmt}
         return cls(attrs=tuple((n, fm[n]) for n in ATTRIBUTES), **kw)
-
-
-# ------------------------------------------------------------------------------------------------------------
-# set-up (host, once per triangle)
-# ------------------------------------------------------------------------------------------------------------
-@dataclass
-class Records:
-    """Triangle records: ``codes[field]`` an int64 array ``(T,)`` per record field; ``source`` the index of each
-    record's input triangle; ``dropped`` the input triangles that cover no pixel centre of the viewport."""
-
-    params: RasterParams
-    codes: dict
-    source: np.ndarray
-    dropped: int = 0
-
-    def __len__(self) -> int:
-        return int(self.source.shape[0])
-
-    def matrix(self) -> np.ndarray:
-        """Codes ``(T, fields)`` in :attr:`RasterParams.record` order."""
-        return np.stack([self.codes[p.name] for p in self.params.record], axis=1) if len(self) else \
-            np.zeros((0, len(self.params.record)), np.int64)
-
-
-def setup(params: RasterParams, X, Y, values: dict, width: int, height: int) -> Records:
-    """Triangle records from snapped vertices and float64 vertex attributes.
-
-    Parameters
-    ----------
-    params : RasterParams
-    X, Y : array_like, shape (T, 3), int
-        Snapped vertex coordinates (``subpixel_bits`` fraction bits), either winding, any area.
-    values : dict
-        For every attribute of ``params`` an array ``(T, 3)`` of vertex values (float64, within the attribute's
-        output format); for every per-triangle constant (:attr:`RasterParams.consts`) an integer array ``(T,)``.
-    width, height : int
-        The viewport, at most ``max_size`` each.
-
-    Returns
-    -------
-    Records
-        Zero-area triangles and triangles covering no pixel centre of the viewport (an empty row or column range)
-        are dropped.
-
-    Raises
-    ------
-    ValueError
-        A viewport larger than ``max_size``, a vertex outside the guard band, a missing attribute or a vertex
-        value outside its format (naming the triangle and attribute): a triangle this hardware cannot draw.
-    """
-    P = params
-    X, Y, vals, consts = _setup_inputs(P, X, Y, values, width, height)
-    fields = {p.name: [] for p in P.record}
-    source, dropped = [], 0
-    for t in range(X.shape[0]):
-        tri = triangle_extent(P, t, X[t], Y[t], width, height)
-        if tri is None:                                  # zero area, or no pixel centre covered
-            dropped += 1
-            continue
-        append_edges(P, fields, tri)
-        for n, _ in P.consts:
-            fields[n].append(int(consts[n][t]))
-        append_planes(P, fields, tri, {n: vals[n][t] for n in P.names}, t)
-        source.append(t)
-    codes = {k: np.array(v, dtype=np.int64) for k, v in fields.items()}
-    for p in P.record:
-        p.fmt.check(codes[p.name], what=f"raster record field {p.name}")
-    return Records(params=P, codes=codes, source=np.array(source, dtype=np.int64), dropped=dropped)
-
-
-def _setup_inputs(P: RasterParams, X, Y, values: dict, width: int, height: int):
-    """:func:`setup`'s arguments checked and shaped: ``(X, Y, attribute values (T, 3), constants (T,))``."""
-    require(1 <= width <= P.max_size and 1 <= height <= P.max_size, "viewport", (width, height),
-            f"must be within 1..{P.max_size} (RasterParams.max_size)")
-    X = np.asarray(X, dtype=np.int64).reshape(-1, 3)
-    Y = np.asarray(Y, dtype=np.int64).reshape(-1, 3)
-    T = X.shape[0]
-    missing = [n for n in P.names + tuple(n for n, _ in P.consts) if n not in values]
-    require(not missing, "values", sorted(values), f"missing attributes {missing}")
-    vals = {n: np.asarray(values[n], dtype=np.float64).reshape(T, 3) for n in P.names}
-    consts = {n: np.asarray(values[n]).reshape(T) for n, _ in P.consts}
-    for n, fmt in P.consts:
-        c = consts[n]
-        bad = np.flatnonzero((c != np.round(c)) | (c < fmt.min_code) | (c > fmt.max_code))
-        if len(bad):
-            raise ValueError(f"triangle {int(bad[0])}: constant {n} = {c[bad[0]]} is not an integer code of its "
-                             f"format {fmt}")
-        consts[n] = c.astype(np.int64)
-    return X, Y, vals, consts
 
 
 # ------------------------------------------------------------------------------------------------------------

@@ -1,5 +1,6 @@
-"""The exact triangle set-up arithmetic of the scan converter (:func:`fxmodel.units.raster.setup`; paper, section 4):
-edge functions with the top-left rule, each triangle's pixel extent, the Bresenham form of its edges and the exact
+"""The triangle set-up of the scan converter (:func:`setup`, re-exported by :mod:`fxmodel.units.raster`; paper,
+section 4): triangle records from snapped vertices, by exact arithmetic: edge functions with the top-left rule,
+each triangle's pixel extent, the Bresenham form of its edges and the exact
 planes of its attributes, rounded once into the record's words. Exact integers and rationals throughout; the
 module docstring of :mod:`fxmodel.units.raster` derives them.
 """
@@ -7,14 +8,16 @@ module docstring of :mod:`fxmodel.units.raster` derives them.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from fractions import Fraction
 
 import numpy as np
 
 from fxmodel.core.fixed import Fmt
+from fxmodel.core.unit import require
 
-__all__ = ["EDGE_OFF", "EDGE_LEFT", "EDGE_RIGHT", "edge_setup", "area2", "triangle_extent", "append_edges",
-           "append_planes"]
+__all__ = ["Records", "setup", "EDGE_OFF", "EDGE_LEFT", "EDGE_RIGHT", "edge_setup", "area2", "triangle_extent",
+           "append_edges", "append_planes"]
 
 #: Edge kinds in the record.
 EDGE_OFF, EDGE_LEFT, EDGE_RIGHT = 0, 1, 2
@@ -147,3 +150,93 @@ def append_planes(P, fields: dict, tri: dict, values: dict, t: int):
         fields[f"{name}_0"].append(_wrap(_round_half_up(num0 / abs(a2), fb), acc))
         fields[f"{name}_dx"].append(_wrap(_round_half_up(numx / abs(a2), fb), acc))
         fields[f"{name}_dy"].append(_wrap(_round_half_up(numy / abs(a2), fb), acc))
+
+
+# ------------------------------------------------------------------------------------------------------------
+# set-up (host, once per triangle)
+# ------------------------------------------------------------------------------------------------------------
+@dataclass
+class Records:
+    """Triangle records: ``codes[field]`` an int64 array ``(T,)`` per record field; ``source`` the index of each
+    record's input triangle; ``dropped`` the input triangles that cover no pixel centre of the viewport."""
+
+    params: object                      # the RasterParams that made them
+    codes: dict
+    source: np.ndarray
+    dropped: int = 0
+
+    def __len__(self) -> int:
+        return int(self.source.shape[0])
+
+    def matrix(self) -> np.ndarray:
+        """Codes ``(T, fields)`` in :attr:`RasterParams.record` order."""
+        return np.stack([self.codes[p.name] for p in self.params.record], axis=1) if len(self) else \
+            np.zeros((0, len(self.params.record)), np.int64)
+
+
+def setup(params, X, Y, values: dict, width: int, height: int) -> Records:
+    """Triangle records from snapped vertices and float64 vertex attributes.
+
+    Parameters
+    ----------
+    params : RasterParams
+        The scan converter (:class:`fxmodel.units.raster.RasterParams`).
+    X, Y : array_like, shape (T, 3), int
+        Snapped vertex coordinates (``subpixel_bits`` fraction bits), either winding, any area.
+    values : dict
+        For every attribute of ``params`` an array ``(T, 3)`` of vertex values (float64, within the attribute's
+        output format); for every per-triangle constant (:attr:`RasterParams.consts`) an integer array ``(T,)``.
+    width, height : int
+        The viewport, at most ``max_size`` each.
+
+    Returns
+    -------
+    Records
+        Zero-area triangles and triangles covering no pixel centre of the viewport (an empty row or column range)
+        are dropped.
+
+    Raises
+    ------
+    ValueError
+        A viewport larger than ``max_size``, a vertex outside the guard band, a missing attribute or a vertex
+        value outside its format (naming the triangle and attribute): a triangle this hardware cannot draw.
+    """
+    P = params
+    X, Y, vals, consts = _setup_inputs(P, X, Y, values, width, height)
+    fields = {p.name: [] for p in P.record}
+    source, dropped = [], 0
+    for t in range(X.shape[0]):
+        tri = triangle_extent(P, t, X[t], Y[t], width, height)
+        if tri is None:                                  # zero area, or no pixel centre covered
+            dropped += 1
+            continue
+        append_edges(P, fields, tri)
+        for n, _ in P.consts:
+            fields[n].append(int(consts[n][t]))
+        append_planes(P, fields, tri, {n: vals[n][t] for n in P.names}, t)
+        source.append(t)
+    codes = {k: np.array(v, dtype=np.int64) for k, v in fields.items()}
+    for p in P.record:
+        p.fmt.check(codes[p.name], what=f"raster record field {p.name}")
+    return Records(params=P, codes=codes, source=np.array(source, dtype=np.int64), dropped=dropped)
+
+
+def _setup_inputs(P, X, Y, values: dict, width: int, height: int):
+    """:func:`setup`'s arguments checked and shaped: ``(X, Y, attribute values (T, 3), constants (T,))``."""
+    require(1 <= width <= P.max_size and 1 <= height <= P.max_size, "viewport", (width, height),
+            f"must be within 1..{P.max_size} (RasterParams.max_size)")
+    X = np.asarray(X, dtype=np.int64).reshape(-1, 3)
+    Y = np.asarray(Y, dtype=np.int64).reshape(-1, 3)
+    T = X.shape[0]
+    missing = [n for n in P.names + tuple(n for n, _ in P.consts) if n not in values]
+    require(not missing, "values", sorted(values), f"missing attributes {missing}")
+    vals = {n: np.asarray(values[n], dtype=np.float64).reshape(T, 3) for n in P.names}
+    consts = {n: np.asarray(values[n]).reshape(T) for n, _ in P.consts}
+    for n, fmt in P.consts:
+        c = consts[n]
+        bad = np.flatnonzero((c != np.round(c)) | (c < fmt.min_code) | (c > fmt.max_code))
+        if len(bad):
+            raise ValueError(f"triangle {int(bad[0])}: constant {n} = {c[bad[0]]} is not an integer code of its "
+                             f"format {fmt}")
+        consts[n] = c.astype(np.int64)
+    return X, Y, vals, consts

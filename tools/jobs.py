@@ -197,19 +197,7 @@ def run_pieces(fn: Callable, pieces: Sequence, *, jobs: int = 1, scheduler: str 
         raise ValueError("run_pieces: give both key and cache (resume), or neither")
     if retries < 0:
         raise ValueError(f"retries={retries}: must be >= 0")
-    results: list = [None] * len(pieces)
-    todo = list(range(len(pieces)))
-    paths: dict[int, Path] = {}
-    if cache is not None:
-        cache = Path(cache)
-        cache.mkdir(parents=True, exist_ok=True)
-        todo = []
-        for i, piece in enumerate(pieces):
-            paths[i] = cache / f"{key(piece)}.json"
-            try:
-                results[i] = json.loads(paths[i].read_text())
-            except (OSError, json.JSONDecodeError):
-                todo.append(i)
+    results, todo, paths = _cached(pieces, key, cache)
     counts = [vectors(p) for p in pieces] if vectors else None
     bar = tqdm(total=len(pieces), initial=len(pieces) - len(todo), desc=desc, unit="task", disable=not progress,
                smoothing=0.1)
@@ -244,6 +232,24 @@ def run_pieces(fn: Callable, pieces: Sequence, *, jobs: int = 1, scheduler: str 
         return results
     finally:
         bar.close()
+
+
+def _cached(pieces: list, key: Callable | None, cache: Path | str | None) -> tuple[list, list, dict]:
+    """``(results, todo, paths)``: the stored result of each piece (``None`` where there is none), the indices of
+    the pieces still to run and, with a ``cache``, each piece's result file (the folder is made)."""
+    results: list = [None] * len(pieces)
+    if cache is None:
+        return results, list(range(len(pieces))), {}
+    cache = Path(cache)
+    cache.mkdir(parents=True, exist_ok=True)
+    todo, paths = [], {}
+    for i, piece in enumerate(pieces):
+        paths[i] = cache / f"{key(piece)}.json"
+        try:
+            results[i] = json.loads(paths[i].read_text())
+        except (OSError, json.JSONDecodeError):
+            todo.append(i)
+    return results, todo, paths
 
 
 def _run_local(fn, piece, retries, describe):

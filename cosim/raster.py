@@ -11,6 +11,7 @@ import numpy as np
 from fxmodel.units.raster import RasterParams, scan
 
 from .harness import build_and_test, build_folder, simulator
+from .job import remove_job
 
 __all__ = ["run", "pack", "unpack"]
 
@@ -63,8 +64,6 @@ def run(params, records, *, p_valid: float = 1.0, p_ready: float = 1.0, seed: in
         ports = params.fragment
     top, bdir, src, job = build_folder(params, sim, tag)
     out = job / "fragments.json"
-    if out.exists():
-        out.unlink()
     budget = int(expected.clocks.sum() / max(min(p_valid, p_ready), 0.05) * 4) + 1000 + 2 * len(mat)
     meta = {"records": [format(w, "x") for w in pack(raster.record, mat)], "p_valid": p_valid,
             "p_ready": p_ready, "seed": seed, "max_cycles": budget,
@@ -75,6 +74,7 @@ def run(params, records, *, p_valid: float = 1.0, p_ready: float = 1.0, seed: in
     if not out.exists():
         raise RuntimeError(f"the testbench wrote no results ({out}); see the simulator log above")
     res = json.loads(out.read_text())
+    remove_job(job)                                        # (kept, with the simulator's output, if the run failed)
     got = unpack(ports, [int(w, 16) for w in res["fragments"]])
     n = min(len(got), len(want))
     bad = np.flatnonzero(np.any(got[:n] != want[:n], axis=1))

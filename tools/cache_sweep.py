@@ -39,6 +39,7 @@ import numpy as np
 
 from fxmodel.core.cost import bram_blocks
 from fxmodel.core.paths import ROOT, SCENES
+from fxmodel.units.sampler import Texels
 from fxmodel.units.texcache import Layout, TexCacheParams, footprints, simulate
 
 #: Scenes swept by default: every shipped scene and the grazing floor (a regression scene of ``tests/scenes``).
@@ -47,9 +48,19 @@ MAPS = ("bump_map", "texture")
 ECP5_85_DP16KD = 208
 
 
-def scene_traces(scene: str, size=None, engine_mhz: float = 100.0) -> dict:
-    """One scene's lookups: per map ``(sampler, trace)`` and the frame's figures (fragments, clocks, the depth
-    test's and frame buffer's bytes per fragment, the engine's other memories)."""
+def at_level(sampler, level: int):
+    """The sampler over every ``2^level``-th texel of its map in each direction: a stand-in for the MIP level
+    ``level`` a level-of-detail unit would pick (same coordinates, a map ``2^level`` times smaller)."""
+    if level == 0:
+        return sampler
+    step = 1 << level
+    return dataclasses.replace(sampler, texels=Texels(sampler.texels.codes[:, ::step, ::step]))
+
+
+def scene_traces(scene: str, size=None, level: int = 0) -> dict:
+    """One scene's lookups: per map ``(sampler, trace)`` (the maps at ``level``, :func:`at_level`) and the frame's
+    figures (fragments, clocks, the depth test's and frame buffer's bytes per fragment, the engine's other
+    memories)."""
     from host.render import from_triangles, prepare
     from host.scene import scene_path
     frame = prepare(scene_path(scene), size=size, allow_clamp=True)
@@ -57,8 +68,9 @@ def scene_traces(scene: str, size=None, engine_mhz: float = 100.0) -> dict:
     p = frame.params
     codes = np.stack([tframe.scan.codes[q.name] for q in p.inputs], axis=1)
     st = p.trace(codes)["st"]
-    traces = {"bump_map": (p.bump_map, footprints(p.bump_map, st[:, 0], st[:, 1], 0)),
-              "texture": (p.texture, footprints(p.texture, st[:, 2], st[:, 3], 0))}
+    bump, tex = at_level(p.bump_map, level), at_level(p.texture, level)
+    traces = {"bump_map": (bump, footprints(bump, st[:, 0], st[:, 1], 0)),
+              "texture": (tex, footprints(tex, st[:, 2], st[:, 3], 0))}
     n = len(codes)
     mem = tframe.vis.stats["memory"]
     engine = tframe.params
@@ -148,6 +160,9 @@ def write_atomic(path: Path, data: bytes) -> Path:
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix=".tmp")
     with os.fdopen(fd, "wb") as f:
         f.write(data)
+    mask = os.umask(0)
+    os.umask(mask)
+    os.chmod(tmp, 0o666 & ~mask)
     os.replace(tmp, path)
     return path
 
@@ -217,22 +232,53 @@ def picture(rows: list[dict], scenes: list[str], labels: dict, chosen: dict) -> 
         axes[i, 1].plot([ckb], [100 * c["hit_rate"]], "k*", markersize=12)
         axes[i, 2].plot([ckb], [c["sdram_ns_per_fragment"]], "k*", markersize=12)
         axes[i, 2].set_ylabel("SDRAM ns / fragment")
-        axes[i, 2].set_yscale("symlog", linthresh=10.0)
+        axes[i, 2].set_yscale("log")
         axes[i, 0].set_ylabel(f"{labels[s]}\nmemory bytes / fragment")
         axes[i, 1].set_ylabel("hit rate (line accesses) %")
         for ax in axes[i]:
             ax.set_xscale("log", base=2)
             ax.grid(True, alpha=0.3)
-        axes[i, 0].set_yscale("symlog", linthresh=1.0)
+        axes[i, 0].set_yscale("log")
     for ax in axes[-1]:
         ax.set_xlabel("data per cache (KB; one cache per map)")
-    axes[0, 0].legend(fontsize=6, ncol=2)
+    handles, texts = axes[0, 0].get_legend_handles_labels()
+    fig.legend(handles, texts, loc="lower center", ncol=7, fontsize=7)
     fig.suptitle("Texel cache sweep (LRU, XOR set index; bump map and color texture, each its own cache)")
-    fig.tight_layout()
+    fig.tight_layout(rect=(0, 0.04, 1, 1))
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=90)
     plt.close(fig)
     return buf.getvalue()
+
+
+def _cache_name(c: dict) -> str:
+    return f"{c['size_bytes'] // 1024} KB, {c['block']}x{c['block']}-texel lines, {c['ways']}-way"
+
+
+def table(record: dict) -> str:
+    """The Markdown summary of a record (``docs/texcache.md`` holds the committed record's)."""
+    c, b = record["chosen_params"], record["bram"]
+    lines = [f"Chosen: one cache per map, {_cache_name(c)} {c['replacement'].upper()}, {c['index']} set index, "
+             f"{c['line_bytes']}-byte lines = one {c['beats_per_line']}-beat INCR burst on a {8 * c['bus_bytes']}-bit "
+             f"AXI4 bus. Block RAM (DP16KD): cubes of {b['cube_face']}-texel faces {b['cubes']}, the two caches "
+             f"{b['caches']}, the rest of the engine {b['rest_of_engine']}: {b['total']} of the ECP5-85's "
+             f"{b['device']}. "
+             f"SDRAM {record['sdram_mb_s']:g} MB/s, {record['burst_overhead_ns']:g} ns a burst; maps at level "
+             f"{record['level']}.", "",
+             "| scene | maps (bump, color) | fragments | hit rate | lookups all hit | bytes / fragment (compulsory) | "
+             "bursts / fragment | SDRAM ns / fragment | Mfragments/s (engine) | with frame buffer, bytes only | "
+             "smallest cache within slack |",
+             "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---|"]
+    for name, v in record["per_scene"].items():
+        r, m = v["result"], v["maps"]
+        lines.append(f"| `{name}` | {m['bump_map'][1]}x{m['bump_map'][0]}, {m['texture'][1]}x{m['texture'][0]} | "
+                     f"{v['fragments']:,} | {100 * r['hit_rate']:.2f} % | {100 * r['lookup_hit_rate']:.2f} % | "
+                     f"{r['bytes_per_fragment']:.2f} ({r['compulsory_bytes_per_fragment']:.2f}) | "
+                     f"{r['bursts_per_fragment']:.4f} | {v['sdram_ns_per_fragment']:.1f} | "
+                     f"{v['sustained_textures'] / 1e6:.1f} ({v['engine_fragments_per_s'] / 1e6:.1f}) | "
+                     f"{v['sustained_with_frame_buffer_bytes_only'] / 1e6:.1f} | "
+                     f"{_cache_name(record['smallest_per_scene'][name])} |")
+    return "\n".join(lines)
 
 
 def add_arguments(ap: argparse.ArgumentParser) -> None:
@@ -240,6 +286,8 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
     ap.add_argument("--scenes", nargs="+", default=list(DEFAULT_SCENES), metavar="SCENE",
                     help="scene names in scenes/ or .toml paths (default: the shipped scenes and the grazing floor)")
     ap.add_argument("--size", type=int, help="override every scene's image width (aspect kept)")
+    ap.add_argument("--level", type=int, default=0, choices=range(0, 5), metavar="L",
+                    help="read every 2^L-th texel of the maps (a stand-in for MIP level L; default 0, the maps)")
     ap.add_argument("--sizes-kb", nargs="+", type=float, default=[0.5, 1, 2, 4, 8, 16, 32, 64],
                     help="data per cache in KB")
     ap.add_argument("--blocks", nargs="+", type=int, default=[2, 4, 8], help="line = block x block texels")
@@ -267,7 +315,7 @@ def run(args: argparse.Namespace) -> int:
     try:
         datas = {}
         for s in args.scenes:
-            d = scene_traces(s, args.size)
+            d = scene_traces(s, args.size, args.level)
             datas[d["name"]] = d
     except (ValueError, OSError) as exc:
         print(f"error: {exc}", file=sys.stderr)
@@ -308,16 +356,13 @@ def run(args: argparse.Namespace) -> int:
               "date": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
               "machine": machine(), "sdram_mb_s": args.sdram_mb_s,
               "burst_overhead_ns": args.burst_overhead_ns, "engine_mhz": args.engine_mhz,
-              "slack": args.slack, "chosen": chosen, "chosen_params": params.info(), "per_scene": per_scene,
+              "slack": args.slack, "chosen": chosen,
+              "smallest_per_scene": {s: choose(rows, [s], args.slack)["cache"] for s in names},
+              "level": args.level, "chosen_params": params.info(), "per_scene": per_scene,
               "bram": bram, "variants": variants(datas, params, sdram, args.burst_overhead_ns), "sweep": rows}
     if args.record:
         write_atomic(args.record, (json.dumps(record, indent=1) + "\n").encode())
     if args.picture:
         write_atomic(args.picture, picture(rows, names, {s: datas[s]["name"] for s in names}, chosen))
-    print(json.dumps({"chosen": params.info(), "bram": bram,
-                      "per_scene": {s: {"hit_rate": round(v["result"]["hit_rate"], 4),
-                                        "bytes_per_fragment": round(v["result"]["bytes_per_fragment"], 3),
-                                        "sdram_ns_per_fragment": round(v["sdram_ns_per_fragment"], 2),
-                                        "mfragments_per_s": round(v["sustained_textures"] / 1e6, 2)}
-                                    for s, v in per_scene.items()}}, indent=1))
+    print(table(record))
     return 0

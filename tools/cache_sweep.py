@@ -246,7 +246,7 @@ def picture(rows: list[dict], scenes: list[str], labels: dict, chosen: dict) -> 
     fig.suptitle("Texel cache sweep (LRU, XOR set index; bump map and color texture, each its own cache)")
     fig.tight_layout(rect=(0, 0.04, 1, 1))
     buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=90)
+    fig.savefig(buf, format="png", dpi=64)
     plt.close(fig)
     return buf.getvalue()
 

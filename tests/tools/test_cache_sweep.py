@@ -4,9 +4,11 @@ against the model run map by map, the record and the picture on a small scene, b
 from __future__ import annotations
 
 import json
+import re
 
 import pytest
 
+from fxmodel.core.paths import ROOT
 from fxmodel.units.texcache import Layout, TexCacheParams, simulate
 from tools import cache_sweep
 from tools.main import main
@@ -71,3 +73,15 @@ def test_bad_input_is_one_line(capsys):
     assert main(["cache-sweep", "--ways", "0"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 2 and all(e.startswith("error: ") for e in err)
+
+
+def test_docs_tables_are_the_records():
+    """Every figure of ``docs/texcache.md`` comes from a committed record: each generated block is
+    :func:`tools.cache_sweep.table` of the record it names."""
+    text = (ROOT / "docs" / "texcache.md").read_text()
+    blocks = re.findall(r"<!-- BEGIN texcache table: bumpmap cache-sweep[^(]*\((?P<rec>[^)]+)\) -->\n(?P<body>.*?)\n"
+                        r"<!-- END texcache table -->", text, re.S)
+    assert blocks
+    for rec, body in blocks:
+        record = json.loads((ROOT / rec).read_text())
+        assert body == cache_sweep.table(record), f"regenerate the table of {rec}: bumpmap cache-sweep (docs)"

@@ -61,9 +61,9 @@ def run(params: TexCacheParams, words: np.ndarray, trace: Trace, *, base: int = 
     Returns
     -------
     dict
-        ``mismatches`` (lookups whose four texels differ from the map's), ``bursts_equal`` (the RTL's ``AR``
-        addresses and lengths are the model's, in order), ``rtl_bytes`` and ``model_bytes`` (4 per ``R`` beat; the
-        model's ``memory_bytes``), ``model`` (its totals), ``cycles``.
+        ``mismatches`` (lookups whose four texels differ from the map's), ``rtl_bursts`` and ``model_bursts``
+        (``(address, AXI length)`` of every ``AR`` transfer, in order), ``bursts_equal``, ``rtl_bytes`` and
+        ``model_bytes`` (4 per ``R`` beat; the model's ``memory_bytes``), ``model`` (its totals), ``cycles``.
     """
     sim = simulator(sim)
     words = np.asarray(words, dtype=np.int64)
@@ -88,14 +88,15 @@ def run(params: TexCacheParams, words: np.ndarray, trace: Trace, *, base: int = 
         raise RuntimeError(f"the testbench wrote no results ({out}); see the simulator log above")
     got = json.loads(out.read_text())
     x, y = trace.corners()
-    want = words[y, x] & 0xFFFFFFFF
-    rtl = np.array([[(int(v, 16) >> (32 * q)) & 0xFFFFFFFF for q in range(4)] for v in got["outputs"]],
+    tb = params.texel_bits
+    want = words[y, x] & ((1 << tb) - 1)
+    rtl = np.array([[(int(v, 16) >> (tb * q)) & ((1 << tb) - 1) for q in range(4)] for v in got["outputs"]],
                    dtype=np.int64).reshape(-1, 4)
     bad = np.flatnonzero(np.any(rtl != want, axis=1)) if rtl.shape == want.shape else np.arange(len(want))
     bursts = [(int(a), int(n)) for a, n in got["ar"]]
     model_bursts = [(int(a), params.beats_per_line - 1) for a in res_model.burst_addresses()]
     return {"mismatches": int(len(bad)), "outputs": len(rtl), "lookups": len(trace),
-            "bursts_equal": bursts == model_bursts, "rtl_bursts": len(bursts), "model_bursts": len(model_bursts),
+            "bursts_equal": bursts == model_bursts, "rtl_bursts": bursts, "model_bursts": model_bursts,
             "rtl_bytes": 4 * got["beats"], "model_bytes": res_model.totals["memory_bytes"],
             "model": res_model.totals, "cycles": got["cycles"], "simulator": sim,
             "build_seconds": build_seconds, "seconds": seconds}

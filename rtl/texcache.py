@@ -18,6 +18,8 @@ must be 0).
 
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 from amaranth.hdl import Array, Cat, Const, Module, Mux, Signal
 from amaranth.lib import stream, wiring
 from amaranth.lib.memory import Memory
@@ -49,124 +51,138 @@ class TexCache(wiring.Component):
                           "o": Out(stream.Signature(4 * params.texel_bits)),
                           "mem": Out(axi_signature(addr_bits, 32)), "busy": Out(1)})
 
+    def _line_of(self, x, y):
+        """``(line number, bx, by)`` of texel ``(x, y)`` (the layout's one surface)."""
+        L, lb = self.layout, self.params.block.bit_length() - 1
+        bx, by = x >> lb, y >> lb
+        return (int(L.first_line[0]) + by * int(L.blocks_per_row[0]) + bx)[:self.addr_bits], bx, by
+
+    def _set_of(self, x, y):
+        """The set of texel ``(x, y)``'s line (:meth:`fxmodel.units.texcache.Layout.set_of`)."""
+        P = self.params
+        line, bx, by = self._line_of(x, y)
+        if P.sets == 1:
+            return Const(0, 1)
+        s = P.sets.bit_length() - 1
+        if P.index == "linear":
+            return line[:s]
+        h = (s + 1) // 2
+        return (bx ^ (by << h) ^ (by >> (s - h)) ^ int(self.layout.first_line[0]))[:s]
+
+    def _slot(self, set_, way):
+        """First bank word of line slot ``(set, way)``."""
+        return (set_ * self.params.ways + way) * (self.params.line_texels // 4)
+
     def elaborate(self, platform):
         m = Module()
-        P, L = self.params, self.layout
-        B, W, S = P.block, P.ways, P.sets
-        lb = B.bit_length() - 1                              # log2 B
-        cb = self.coord_bits
-        bank_words = P.lines * P.line_texels // 4
-        banks = []
-        for b in range(4):
-            mem = Memory(shape=P.texel_bits, depth=bank_words, init=[])
-            m.submodules[f"bank{b}"] = mem
-            banks.append((mem.write_port(), mem.read_port(domain="sync")))
+        P = self.params
+        W, S, cb = P.ways, P.sets, self.coord_bits
+        t = SimpleNamespace(
+            xs=[Signal(cb, name=f"x{k}") for k in range(4)], ys=[Signal(cb, name=f"y{k}") for k in range(4)],
+            ways=[Signal(range(max(W, 2)), name=f"way{k}") for k in range(4)], k=Signal(2),
+            tags=Array(Signal(self.addr_bits, name=f"tag{j}") for j in range(S * W)),
+            valid=Array(Signal(name=f"valid{j}") for j in range(S * W)),
+            age=Array(Signal(range(max(W, 2)), init=j % W, name=f"age{j}") for j in range(S * W)),
+            beat=Signal(range(P.line_texels)))
+        t.lines = [self._line_of(t.xs[k], t.ys[k])[0] for k in range(4)]
+        t.sets = [self._set_of(t.xs[k], t.ys[k]) for k in range(4)]
+        t.line_k, t.set_k, t.way_sel = Array(t.lines)[t.k], Array(t.sets)[t.k], Array(t.ways)
+        self._tag_check(m, t)
+        self._banks(m, t)
+        self._fsm(m, t)
+        return m
 
-        line_bits = self.addr_bits
-        xs = [Signal(cb, name=f"x{k}") for k in range(4)]
-        ys = [Signal(cb, name=f"y{k}") for k in range(4)]
-        ways = [Signal(range(max(W, 2)), name=f"way{k}") for k in range(4)]
-        tags = Array(Signal(line_bits, name=f"tag{j}") for j in range(S * W))
-        valid = Array(Signal(name=f"valid{j}") for j in range(S * W))
-        age = Array(Signal(range(max(W, 2)), init=j % W, name=f"age{j}") for j in range(S * W))
-
-        def line_of(x, y):
-            bx, by = x >> lb, y >> lb
-            return (int(L.first_line[0]) + by * int(L.blocks_per_row[0]) + bx)[:line_bits], bx, by
-
-        def set_of(x, y):
-            line, bx, by = line_of(x, y)
-            if S == 1:
-                return Const(0, 1)
-            s = S.bit_length() - 1
-            if P.index == "linear":
-                return line[:s]
-            h = (s + 1) // 2
-            return (bx ^ (by << h) ^ (by >> (s - h)) ^ int(L.first_line[0]))[:s]
-
-        lines = [line_of(xs[k], ys[k])[0] for k in range(4)]
-        sets = [set_of(xs[k], ys[k]) for k in range(4)]
-        k = Signal(2)
-        line_k, set_k = Array(lines)[k], Array(sets)[k]
-        way_sel = Array(ways)
-        # a duplicate of an earlier corner's line: its way
-        dup = Signal()
-        dup_way = Signal.like(ways[0])
-        for j in reversed(range(3)):
-            with m.If((j < k) & (lines[j] == line_k)):
-                m.d.comb += [dup.eq(1), dup_way.eq(ways[j])]
-        # tag check of corner k
-        hit, hit_way = Signal(), Signal.like(ways[0])
-        free, free_way, old_way = Signal(), Signal.like(ways[0]), Signal.like(ways[0])
-        for w in reversed(range(W)):
-            j = set_k * W + w
-            with m.If(valid[j] & (tags[j] == line_k)):
-                m.d.comb += [hit.eq(1), hit_way.eq(w)]
-            with m.If(~valid[j]):
+    def _tag_check(self, m, t):
+        """Corner ``k``'s duplicate of an earlier corner's line (``dup``, ``dup_way``), hit (``hit``, ``hit_way``)
+        and victim (the lowest invalid way, else the oldest)."""
+        W = self.params.ways
+        like = t.ways[0]
+        t.dup, t.dup_way = Signal(), Signal.like(like)
+        for j in reversed(range(3)):                         # the earliest matching corner wins
+            with m.If((j < t.k) & (t.lines[j] == t.line_k)):
+                m.d.comb += [t.dup.eq(1), t.dup_way.eq(t.ways[j])]
+        t.hit, t.hit_way = Signal(), Signal.like(like)
+        free, free_way, old_way = Signal(), Signal.like(like), Signal.like(like)
+        for w in reversed(range(W)):                         # the lowest way wins
+            j = t.set_k * W + w
+            with m.If(t.valid[j] & (t.tags[j] == t.line_k)):
+                m.d.comb += [t.hit.eq(1), t.hit_way.eq(w)]
+            with m.If(~t.valid[j]):
                 m.d.comb += [free.eq(1), free_way.eq(w)]
-            with m.If(age[j] == W - 1):
+            with m.If(t.age[j] == W - 1):
                 m.d.comb += old_way.eq(w)
-        victim = Signal.like(ways[0])
-        m.d.comb += victim.eq(Mux(free, free_way, old_way))
+        t.victim = Signal.like(like)
+        m.d.comb += t.victim.eq(Mux(free, free_way, old_way))
 
-        def touch(w):
-            """LRU: way ``w`` of set ``set_k`` becomes the youngest; the ways younger than it age by one."""
-            base = set_k * W
-            for v in range(W):
-                with m.If(w == v):
-                    m.d.sync += age[base + v].eq(0)
-                with m.Elif(age[base + v] < age[base + w]):
-                    m.d.sync += age[base + v].eq(age[base + v] + 1)
+    def _touch(self, m, t, w):
+        """LRU: way ``w`` of set ``set_k`` becomes the youngest; the ways younger than it age by one."""
+        W = self.params.ways
+        base = t.set_k * W
+        for v in range(W):
+            with m.If(w == v):
+                m.d.sync += t.age[base + v].eq(0)
+            with m.Elif(t.age[base + v] < t.age[base + w]):
+                m.d.sync += t.age[base + v].eq(t.age[base + v] + 1)
 
-        beat = Signal(range(P.line_texels))
+    def _banks(self, m, t):
+        """The four data banks: fills from the ``R`` channel (beat ``n`` = texel ``(n mod B, n div B)`` of the
+        line), reads at each corner's texel, and the AXI ``AR`` fields."""
+        P = self.params
+        B, lb = P.block, P.block.bit_length() - 1
         axi = self.mem
         m.d.comb += [axi.arid.eq(0), axi.arlen.eq(P.beats_per_line - 1), axi.arsize.eq(2), axi.arburst.eq(1),
-                     axi.araddr.eq(line_k * P.line_bytes), axi.awvalid.eq(0), axi.wvalid.eq(0), axi.bready.eq(1)]
-        slot_k = (set_k * W + way_sel[k]) * (P.line_texels // 4)
-        r, c = beat >> lb, beat & (B - 1)
+                     axi.araddr.eq(t.line_k * P.line_bytes), axi.awvalid.eq(0), axi.wvalid.eq(0), axi.bready.eq(1)]
+        r, c = t.beat >> lb, t.beat & (B - 1)
         fill_bank = Cat(c[0], r[0])
-        fill_addr = slot_k + (r >> 1) * (B // 2) + (c >> 1)
-        for b, (wp, _) in enumerate(banks):
+        fill_addr = self._slot(t.set_k, t.way_sel[t.k]) + (r >> 1) * (B // 2) + (c >> 1)
+        t.read_ports = []
+        for b in range(4):
+            mem = Memory(shape=P.texel_bits, depth=P.lines * P.line_texels // 4, init=[])
+            m.submodules[f"bank{b}"] = mem
+            wp, rp = mem.write_port(), mem.read_port(domain="sync")
+            t.read_ports.append(rp)
             m.d.comb += [wp.addr.eq(fill_addr), wp.data.eq(axi.rdata[:P.texel_bits]),
                          wp.en.eq(axi.rvalid & axi.rready & (fill_bank == b))]
-        # the read of the four texels: each bank at the corner of its parity
-        for b, (_, rp) in enumerate(banks):
-            for q in range(4):
-                with m.If(Cat(xs[q][0], ys[q][0]) == b):
-                    slot = (sets[q] * W + ways[q]) * (P.line_texels // 4)
-                    m.d.comb += rp.addr.eq(slot + ((ys[q] & (B - 1)) >> 1) * (B // 2) + ((xs[q] & (B - 1)) >> 1))
-        rdata = Array(rp.data for _, rp in banks)
-        m.d.comb += self.o.payload.eq(Cat(*(rdata[Cat(xs[q][0], ys[q][0])] for q in range(4))))
+            for q in range(4):                               # the corner of this bank's parity
+                with m.If(Cat(t.xs[q][0], t.ys[q][0]) == b):
+                    m.d.comb += rp.addr.eq(self._slot(t.sets[q], t.ways[q]) + ((t.ys[q] & (B - 1)) >> 1) * (B // 2)
+                                           + ((t.xs[q] & (B - 1)) >> 1))
+        rdata = Array(rp.data for rp in t.read_ports)
+        m.d.comb += self.o.payload.eq(Cat(*(rdata[Cat(t.xs[q][0], t.ys[q][0])] for q in range(4))))
+
+    def _fsm(self, m, t):
+        """IDLE (take a request) -> CHECK each corner [-> AR -> FILL on a miss] -> READ -> OUT."""
+        cb, W, axi = self.coord_bits, self.params.ways, self.mem
 
         def next_corner():
-            with m.If(k == 3):
+            with m.If(t.k == 3):
                 m.next = "READ"
             with m.Else():
-                m.d.sync += k.eq(k + 1)
+                m.d.sync += t.k.eq(t.k + 1)
                 m.next = "CHECK"
 
         with m.FSM():
             with m.State("IDLE"):
                 m.d.comb += self.i.ready.eq(1)
                 with m.If(self.i.valid):
-                    p = self.i.payload
-                    m.d.sync += [xs[0].eq(p[:cb]), xs[1].eq(p[cb:2 * cb]), xs[2].eq(p[:cb]), xs[3].eq(p[cb:2 * cb]),
-                                 ys[0].eq(p[2 * cb:3 * cb]), ys[1].eq(p[2 * cb:3 * cb]), ys[2].eq(p[3 * cb:]),
-                                 ys[3].eq(p[3 * cb:]), k.eq(0)]
+                    x0, x1, y0, y1 = (self.i.payload[q * cb:(q + 1) * cb] for q in range(4))
+                    m.d.sync += [t.xs[0].eq(x0), t.xs[1].eq(x1), t.xs[2].eq(x0), t.xs[3].eq(x1),
+                                 t.ys[0].eq(y0), t.ys[1].eq(y0), t.ys[2].eq(y1), t.ys[3].eq(y1), t.k.eq(0)]
                     m.next = "CHECK"
             with m.State("CHECK"):
                 m.d.comb += self.busy.eq(1)
-                with m.If(dup):
-                    m.d.sync += way_sel[k].eq(dup_way)
+                with m.If(t.dup):
+                    m.d.sync += t.way_sel[t.k].eq(t.dup_way)
                     next_corner()
-                with m.Elif(hit):
-                    m.d.sync += way_sel[k].eq(hit_way)
-                    touch(hit_way)
+                with m.Elif(t.hit):
+                    m.d.sync += t.way_sel[t.k].eq(t.hit_way)
+                    self._touch(m, t, t.hit_way)
                     next_corner()
                 with m.Else():
-                    m.d.sync += [way_sel[k].eq(victim), tags[set_k * W + victim].eq(line_k),
-                                 valid[set_k * W + victim].eq(1), beat.eq(0)]
-                    touch(victim)
+                    j = t.set_k * W + t.victim
+                    m.d.sync += [t.way_sel[t.k].eq(t.victim), t.tags[j].eq(t.line_k), t.valid[j].eq(1),
+                                 t.beat.eq(0)]
+                    self._touch(m, t, t.victim)
                     m.next = "AR"
             with m.State("AR"):
                 m.d.comb += [self.busy.eq(1), axi.arvalid.eq(1)]
@@ -175,19 +191,15 @@ class TexCache(wiring.Component):
             with m.State("FILL"):
                 m.d.comb += [self.busy.eq(1), axi.rready.eq(1)]
                 with m.If(axi.rvalid):
-                    m.d.sync += beat.eq(beat + 1)
+                    m.d.sync += t.beat.eq(t.beat + 1)
                     with m.If(axi.rlast):
                         next_corner()
-            with m.State("READ"):
+            with m.State("READ"):                           # the read ports' enable is on (their default)
                 m.d.comb += self.busy.eq(1)
-                for _, rp in banks:
-                    m.d.comb += rp.en.eq(1)
                 m.next = "OUT"
-            with m.State("OUT"):
+            with m.State("OUT"):                            # hold the read data while the sink waits
                 m.d.comb += [self.busy.eq(1), self.o.valid.eq(1)]
-                for _, rp in banks:
+                for rp in t.read_ports:
                     m.d.comb += rp.en.eq(0)
                 with m.If(self.o.ready):
                     m.next = "IDLE"
-        return m
-

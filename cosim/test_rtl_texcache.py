@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from cosim.texcache import run
-from fxmodel.units.texcache import TexCacheParams, Trace, simulate
+from fxmodel.units.texcache import TexCacheParams, Trace, footprints, simulate
 
 pytestmark = pytest.mark.cosim
 
@@ -47,11 +47,14 @@ def test_random_walk(params, h, w, kw):
 def test_scene_bump_map_lookups():
     """The tin plane's bump-map lookups (its first 400 fragments from triangles at 48 pixels) through a small cache:
     the sampler's packed 28-bit texel words come back exactly."""
-    from tools.cache_sweep import scene_traces
-    data = scene_traces("tin-plane", size=48)
-    sampler, trace = data["traces"]["bump_map"]
-    n = 400
-    trace = Trace(*(getattr(trace, f)[:n] for f in ("fragment", "surface", "x0", "x1", "y0", "y1")))
+    from host.render import from_triangles, prepare
+    from host.scene import scene_path
+    frame = prepare(scene_path("tin-plane"), size=48)
+    scan = from_triangles(frame).scan
+    p = frame.params
+    st = p.trace(np.stack([scan.codes[q.name] for q in p.inputs], axis=1)[:400])["st"]
+    sampler = p.bump_map
+    trace = footprints(sampler, st[:, 0], st[:, 1], 0)
     h, w = sampler.texels.shape[1:3]
     words = np.array(sampler.words, dtype=np.int64).reshape(h, w)
     params = TexCacheParams(block=4, sets=8, ways=2, texel_bits=sampler.word_bits)

@@ -221,3 +221,48 @@ def test_bad_parameters_name_themselves(kw, word):
 def test_layout_and_cache_must_agree():
     with pytest.raises(ValueError, match="^layout="):
         simulate(TexCacheParams(block=4), Layout(((("m", 0), 8, 8),), 8), Trace(*([np.zeros(1, np.int64)] * 6)))
+
+
+@settings(max_examples=200, deadline=None)
+@given(cases())
+def test_self_evictions_are_counted(case):
+    """The model's count of lookups evicting a line they need is the reference's (misses into a slot an earlier
+    line of the same lookup used); none with true LRU and at least four ways."""
+    params, layout, trace = case
+    res = simulate(params, layout, trace)
+    own = 0
+    used = set()
+    for n, line, way, hit in reference(params, layout, trace):
+        if not used or next(iter(used))[0] != n:
+            used = {(n, None, None)}
+        slot = (n, _set_of_line(params, layout, trace, n, line), way)
+        own += (not hit) and slot in used
+        used.add(slot)
+    assert res.self_evictions == own
+    if params.ways >= 4 and params.replacement == "lru":
+        assert res.self_evictions == 0
+
+
+@given(st.sampled_from([2, 4, 8, 16, 64]), st.integers(2, 70), st.integers(2, 40), st.integers(0, 68),
+       st.integers(0, 38), st.sampled_from(["linear", "xor"]))
+def test_footprint_lines_at_most_two_a_set(sets, bpr, rows, bx, by, index):
+    """Of the four lines of a footprint that does not wrap around the map's edge, at most two share a set (either
+    index, two sets or more): so with two ways such a lookup never evicts a line it needs."""
+    bx, by = bx % (bpr - 1), by % (rows - 1)
+    params = TexCacheParams(block=2, sets=sets, ways=2, index=index)
+    lay = Layout(((("m", 0), 2 * rows, 2 * bpr),), 2)
+    x = np.array([2 * bx, 2 * bx + 2, 2 * bx, 2 * bx + 2])
+    y = np.array([2 * by, 2 * by, 2 * by + 2, 2 * by + 2])
+    got = lay.set_of(params, np.zeros(4, np.int64), x, y).tolist()
+    assert max(got.count(v) for v in got) <= 2
+
+
+def _set_of_line(params, layout, trace, n, line):
+    """The set of ``line``, one of lookup ``n``'s lines."""
+    k = int(trace.surface[n])
+    for x in (trace.x0[n], trace.x1[n]):
+        for y in (trace.y0[n], trace.y1[n]):
+            got, s = ref_set_index(params, layout, k, int(x), int(y))
+            if got == line:
+                return s
+    raise AssertionError("line not in the footprint")

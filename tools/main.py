@@ -39,6 +39,7 @@ COMMANDS: dict[str, tuple[str, str | None]] = {
     "frontend": ("tools.measure", None),
     "maps": ("tools.measure", None),
     "rop-throughput": ("tools.measure", None),
+    "cache-sweep": ("tools.cache_sweep", "size the texel cache in the model on the shipped scenes and grazing floor"),
 }
 
 

@@ -79,7 +79,8 @@ def run(params, records, *, p_valid: float = 1.0, p_ready: float = 1.0, seed: in
     n = min(len(got), len(want))
     bad = np.flatnonzero(np.any(got[:n] != want[:n], axis=1))
     first = [{"row": int(r), "rtl": got[r].tolist(), "model": want[r].tolist()} for r in bad[:5]]
-    return {"rtl": got, "simulator": sim, "records": int(len(mat)), "fragments": int(len(got)), "expected": int(len(want)),
+    return {"rtl": got, "simulator": sim, "records": int(len(mat)), "fragments": int(len(got)),
+            "expected": int(len(want)),
             "mismatches": int(len(bad)) + abs(len(got) - len(want)), "first": first,
             "busy_cycles": res["busy_cycles"], "busy_span": res["busy_span"], "clocks": int(expected.clocks.sum()),
             "cycles": res["cycles"],

@@ -45,7 +45,8 @@ class StreamResult(dict):
     waited for ready), ``rtl`` (the output codes, when the run dumped them), ``seconds`` (wall time of the
     check: model, files and simulation, the HDL build excluded), ``vectors_per_second``, ``sim_seconds`` (inside
     the simulator, from the first chunk to the last, waiting for the model included), ``sim_cpu_seconds`` (CPU time of
-    the simulator process meanwhile: on a loaded machine the rate it gives, ``vectors / sim_cpu_seconds``, is the one to compare), ``build_seconds``,
+    the simulator process meanwhile: on a loaded machine the rate it gives, ``vectors / sim_cpu_seconds``, is the one
+    to compare), ``build_seconds``,
     ``space``, ``range`` (``[lo, hi)`` of the space), ``chunks``, ``variant``, ``started``/``finished`` (Unix
     times).
     """

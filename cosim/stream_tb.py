@@ -1,11 +1,13 @@
 """cocotb side of the streaming co-simulation (:mod:`cosim.stream`): orchestration only, no vector in Python.
 
 The job folder named by ``STREAM_JOB`` holds ``meta.json`` (chunk lengths, mismatch records kept, widths) and
-receives ``chunk_<k>.bin`` files from the model (binary words for ``$fread``). For each chunk this test waits for its file, hands it to the
+receives ``chunk_<k>.bin`` files from the model (binary words for ``$fread``). For each chunk this test waits for its
+file, hands it to the
 wrapper (``chunk_len``, then ``load_seq = k + 1``), waits until the wrapper raises ``done_seq`` to ``k + 1``,
 deletes the file and records progress. At the end it reads the wrapper's counters and first mismatch records and
 writes ``result.json``; the caller judges them. Each chunk has its own stimulus pattern and seed (gaps on the
-input valid, backpressure on the output ready), generated inside the wrapper. The clock runs inside the wrapper: Python wakes once a chunk.
+input valid, backpressure on the output ready), generated inside the wrapper. The clock runs inside the wrapper:
+Python wakes once a chunk.
 In the wrapper's ``expand`` mode (:func:`cosim.stream.run_records`) ``meta.json`` also gives each chunk's output
 count (``out_lens``) and cycle limit (``limits``).
 """

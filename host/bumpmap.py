@@ -55,7 +55,8 @@ from host.textures import (
 )
 
 __all__ = ["block_exponent", "bump_rgb", "mexican_hat", "heights_from_image", "chiselled_text", "height_field",
-           "height_picture", "perturbations", "BumpCodes", "quantize", "tangent_frame", "triangle_matrix", "graffiti", "checker", "color_texture",
+           "height_picture", "perturbations", "BumpCodes", "quantize", "tangent_frame", "triangle_matrix", "graffiti",
+           "checker", "color_texture",
            "MaterialMaps", "material_maps", "scene_maps", "bump_gain", "periodic_noise"]
 
 DEFAULT_D_FMT = BumpParams().d_fmt
@@ -174,7 +175,8 @@ def quantize(du, dv, fmt: Fmt = DEFAULT_D_FMT, scale: float | None = None) -> Bu
     Returns
     -------
     BumpCodes
-        ``code = round_half_up(d / scale / ulp)`` of the exact quotient (:attr:`Rounding.HALF_UP`, ties toward plus infinity),
+        ``code = round_half_up(d / scale / ulp)`` of the exact quotient (:attr:`Rounding.HALF_UP`, ties toward plus
+        infinity),
         clamped to ``[min_code, max_code]`` (:attr:`Overflow.SATURATE`, flagged per texel).
     """
     du = np.asarray(du, dtype=np.float64)
@@ -250,7 +252,8 @@ def triangle_matrix(positions, uvs, strength: float, scale: float) -> np.ndarray
     With it the bump engine's ``N' = N + du_r A[:, 0] + dv_r A[:, 1]`` (``du_r``, ``dv_r`` the real values of
     the quantized codes, ``du ~ scale du_r``) is the float perturbation ``N + strength (du T + dv B)
     = N - strength (dh/du T + dh/dv B)`` in units where ``|N| ~ 1``. The pipeline quantizes ``A`` to
-    ``BumpParams.a_fmt`` (half-up, saturating): keep ``strength * scale`` below ``a_fmt.max_value``. A degenerate mapping gives ``A = 0``.
+    ``BumpParams.a_fmt`` (half-up, saturating): keep ``strength * scale`` below ``a_fmt.max_value``. A degenerate
+    mapping gives ``A = 0``.
 
     Parameters
     ----------

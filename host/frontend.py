@@ -55,8 +55,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from host.bumpmap import bump_gain, triangle_matrix
 from fxmodel.units.raster import RasterParams, area2, edge_setup, setup
+from host.bumpmap import bump_gain, triangle_matrix
 from host.scene import Scene
 
 __all__ = ["SUBPIXEL_BITS", "GUARD_PIXELS", "Fragments", "rasterize", "clip_space", "screen_space", "snap",
@@ -326,7 +326,7 @@ class Fragments:
     stats: dict = field(default_factory=dict)
 
     def __post_init__(self):
-        for name, value in vars(self).items():
+        for value in vars(self).values():
             if isinstance(value, np.ndarray):
                 value.setflags(write=False)              # read-only: some arrays may share memory
 

@@ -113,8 +113,8 @@ def _fit_font(draw, text: str, font_size: int, max_w: float, max_h: float):
     size = int(font_size)
     while True:
         font = ImageFont.load_default(size=size)
-        l, t, r, b = draw.multiline_textbbox((0, 0), text, font=font, align="center")
-        if (r - l <= max_w and b - t <= max_h) or size <= 4:
+        left, t, r, b = draw.multiline_textbbox((0, 0), text, font=font, align="center")
+        if (r - left <= max_w and b - t <= max_h) or size <= 4:
             return font
         size = max(4, int(size * 0.9))
 
@@ -247,8 +247,8 @@ def graffiti(size=(256, 128), seed: int = 1) -> np.ndarray:
         font = ImageFont.load_default(size=int(rng.uniform(0.16, 0.24) * H))
         cx, cy = (k + 0.5 + rng.uniform(-0.15, 0.15)) * W / 3, (0.17 if k % 2 == 0 else 0.83) * H
         sw = max(1, int(0.012 * H))
-        l, t, r, b = d.textbbox((0, 0), word, font=font, anchor="mm", stroke_width=sw)
-        tag = Image.new("RGBA", (r - l + 2 * sw + 4, b - t + 2 * sw + 4), (0, 0, 0, 0))
+        left, t, r, b = d.textbbox((0, 0), word, font=font, anchor="mm", stroke_width=sw)
+        tag = Image.new("RGBA", (r - left + 2 * sw + 4, b - t + 2 * sw + 4), (0, 0, 0, 0))
         ImageDraw.Draw(tag).text((tag.width / 2, tag.height / 2), word, font=font, anchor="mm", fill=color(),
                                  stroke_width=sw, stroke_fill=(10, 10, 10, 255))
         tag = tag.rotate(float(rng.uniform(-15, 15)), resample=Image.BICUBIC, expand=True)

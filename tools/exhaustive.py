@@ -59,9 +59,9 @@ import json
 import os
 import sys
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable
 
 from cosim.harness import simulator
 from cosim.stream import AHEAD, Space, full_space, grid_space, parse_pair, parse_shard, run_stream, shard_range

@@ -82,7 +82,7 @@ def merge_shards(folder: Path = SHARDS, remove: bool = True) -> list[dict]:
         if m:
             groups.setdefault((m["unit"], m["preset"], m["sim"], int(m["n"])), {})[int(m["i"])] = path
     merged = []
-    for (unit, pre, sim, n), files in sorted(groups.items()):
+    for (_, _, _, n), files in sorted(groups.items()):
         if sorted(files) != list(range(1, n + 1)):
             continue
         merged.append(merge_records([json.loads(p.read_text()) for p in files.values()]))

@@ -44,10 +44,10 @@ import json
 import os
 import socket
 import time
+from collections.abc import Callable, Sequence
 from contextlib import contextmanager
-from functools import lru_cache
+from functools import cache
 from pathlib import Path
-from typing import Callable, Sequence
 
 from fxmodel.core.paths import ROOT, build_dir, source_digest
 
@@ -68,7 +68,7 @@ class JobError(RuntimeError):
     """A piece failed after its retries (the message names the piece and gives its error)."""
 
 
-@lru_cache(maxsize=None)
+@cache
 def code_digest() -> str:
     """12 hex digits of the sources of :data:`CODE` (every ``*.py``, names and contents), taken once a process."""
     return hashlib.sha1(source_digest(CODE)).hexdigest()[:12]

@@ -10,7 +10,8 @@ reference, ``fit``'s hardware estimate), with one progress bar over all points.
 
 Reciprocal: a grid of about 45 configurations that spans cheap to precise: table index bits ``m``, table
 word bits ``b``, Taylor terms ``t`` (1 to 4), output precision ``p`` and table mode (``round``, the paper's
-``round(1/w_h)``, against ``midpoint``, the expansion about each interval's centre; ``fxmodel/units/recip.py``). The grid
+``round(1/w_h)``, against ``midpoint``, the expansion about each interval's centre; ``fxmodel/units/recip.py``). The
+grid
 (:func:`default_grid`) holds
 
 * the presets ``default``, ``small`` and ``rcp24``, and the paper's configuration (``paper``: 128 entries
@@ -27,7 +28,8 @@ Every point but ``rcp24`` has the 24-bit input ``s8.16`` (``small``: ``s4.12``).
 output against the exact ``1/w`` comes from :func:`fxmodel.units.exact.recip_error_ulp` (exact integers). Recorded:
 worst and mean error in ulps of the result, correct bits ``p - 1 - log2(error)`` (relative error of a mantissa in
 ``[1, 2)``; worst and mean), the documented bound, table bits, multipliers, estimated MULT18X18D blocks
-(:func:`fxmodel.core.cost.estimate`, the one cost model), latency, model throughput (one timing of the whole ``compute`` call, one core), and, for at
+(:func:`fxmodel.core.cost.estimate`, the one cost model), latency, model throughput (one timing of the whole
+``compute`` call, one core), and, for at
 most ``--fpga-points`` points (the four named ones first, then Pareto points spread evenly inside the front), the
 ECP5 results of :func:`tools.fpga.run_designs` (LUT4, FF, DSP, block RAM, Fmax; cached under ``build/fpga``).
 
@@ -72,7 +74,8 @@ from .sweep_plots import unit_points as _points
 from .sweep_units import unique_points
 
 __all__ = ["PAPER", "ANCHORS", "faithful_p", "default_grid",
-           "measure_point", "pareto_front", "sweep", "markdown", "plot", "plot_units", "write_outputs", "add_arguments", "run"]
+           "measure_point", "pareto_front", "sweep", "markdown", "plot", "plot_units", "write_outputs", "add_arguments",
+           "run"]
 
 OUT = build_dir("bench")
 DOCS_IMG = ROOT / "docs" / "img"
@@ -303,8 +306,9 @@ def sweep(grid=None, *, pipeline=None, scene=None, scene_size: int | None = None
         else:
             points.append(SweepPoint("unit", (name, family, params), (
                 ("samples", unit_samples), ("dsp_weight", dsp_weight), ("exhaustive_limit", exhaustive_limit))))
-    points += [SweepPoint("pipeline", (name, units, changes), (("scene", scene), ("size", scene_size),
-                                                                ("dsp_weight", dsp_weight))) for name, units, changes in pipe]
+    points += [SweepPoint("pipeline", (name, units, changes),
+                          (("scene", scene), ("size", scene_size), ("dsp_weight", dsp_weight)))
+               for name, units, changes in pipe]
     out = jobrunner.run_pieces(measure_sweep_point, points, jobs=jobs, scheduler=scheduler, desc="sweep",
                                describe=SweepPoint.describe, progress=progress)
     records, prec = out[:len(grid)], out[len(grid):]

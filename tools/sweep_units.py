@@ -86,7 +86,8 @@ UNIT_ERRORS = {
                "ulp_name": "output ulps (each attribute's own)"},
 }
 
-#: Triangles spanning the whole viewport that measure each scan-converter point (:func:`fxmodel.units.raster_errors.measure`).
+#: Triangles spanning the whole viewport that measure each scan-converter point
+#: (:func:`fxmodel.units.raster_errors.measure`).
 RASTER_TRIANGLES = 2
 
 #: The scene of the pipeline points.
@@ -192,8 +193,8 @@ def raster_grid() -> list[tuple[str, str, object]]:
 
 def measure_raster_point(name: str, family: str, params, *, dsp_weight: float = 1024.0,
                          triangles: int = RASTER_TRIANGLES, seed: int = 1, **_) -> dict:
-    """The scan converter's worst interpolation error against the exact planes (:func:`fxmodel.units.raster_errors.measure`:
-    triangles spanning the whole ``max_size`` viewport, output ulps of each attribute) beside its bound and cost
+    """The scan converter's worst interpolation error against the exact planes
+    (:func:`fxmodel.units.raster_errors.measure`: triangles spanning the whole ``max_size`` viewport, output ulps of each attribute) beside its bound and cost
     (:func:`fxmodel.core.cost.estimate`; its registers: the record's and the accumulators' bits), one JSON record in the
     form of :func:`measure_unit_point`'s."""
     from fxmodel.units.raster_errors import measure

@@ -89,7 +89,8 @@ compares the same quantity (``1 / w_c``; ties: first drawn wins), so model and r
 
 **Precision (the proof above, applied to ``Z``).** At a covered pixel ``|code ulp - Z| <= b`` with ``b =``
 :meth:`RasterParams.error_bound` ``("Z")`` (``(1/2 + (2 max_size - 1) 2**-(g + 1))`` ulp of ``Z``'s format: 0.74994
-ulp for the default preset, whose ``Z`` (:meth:`RasterParams.for_pipeline`'s ``z_fmt``) has 22 fraction bits). For two surfaces with exact depths ``Z_1 >
+ulp for the default preset, whose ``Z`` (:meth:`RasterParams.for_pipeline`'s ``z_fmt``) has 22 fraction bits). For
+two surfaces with exact depths ``Z_1 >
 Z_2`` at one pixel:
 
 * ``Z_1 - Z_2 > 2 b`` (:meth:`RasterParams.depth_precision`): ``code_1 ulp >= Z_1 - b > Z_2 + b >= code_2 ulp``,
@@ -162,6 +163,9 @@ def attribute_format(pipeline_units: dict, name: str) -> Fmt:
         obj = getattr(obj, f)
     return obj
 
+
+#: The depth ``Z``'s default format (:meth:`RasterParams.for_pipeline`).
+Z_FMT = Fmt(True, 2, 22)
 
 #: Slack for the float reference's own rounding when comparing float depths with :meth:`RasterParams.depth_precision`
 #: (relative, of ``Z``): the front end's float64 ``1 / w_c`` at a pixel is three products and a division away from
@@ -413,7 +417,7 @@ class RasterParams:
                 "cost": self.cost()}
 
     @classmethod
-    def for_pipeline(cls, pipeline_units: dict, z_fmt: Fmt = Fmt(True, 2, 22), **kw) -> "RasterParams":
+    def for_pipeline(cls, pipeline_units: dict, z_fmt: Fmt = Z_FMT, **kw) -> RasterParams:
         """The attributes in the formats of a pipeline preset's units (``persp``, ``bump``, ``reflect``), and the
         bump engine's block exponent ``Ae`` as a per-triangle constant (if it has one)."""
         bump = pipeline_units["bump"]
@@ -482,7 +486,8 @@ def scan(params: RasterParams, records) -> ScanResult:
         nxs.append(x - rec["x0"])
         nys.append(y[rows] - rec["y0"])
         recs.append(np.full(x.shape, t, dtype=np.int64))
-    cat = (lambda a: np.concatenate(a) if a else np.zeros(0, np.int64))
+    def cat(a):
+        return np.concatenate(a) if a else np.zeros(0, np.int64)
     x, y, rec_idx, nx, ny = (cat(a) for a in (xs, ys, recs, nxs, nys))
     codes = {"x": x, "y": y}
     acc = {}
@@ -505,7 +510,7 @@ def scan(params: RasterParams, records) -> ScanResult:
     return ScanResult(codes=codes, record=rec_idx, acc=acc, clocks=clocks)
 
 
-def _pipeline_raster() -> "RasterParams":
+def _pipeline_raster() -> RasterParams:
     from fxmodel.units.bump import BumpParams
     from fxmodel.units.persp import PerspParams
     from fxmodel.units.reflect import ReflectParams

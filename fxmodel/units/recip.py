@@ -365,7 +365,7 @@ class RecipParams(Unit):
             acc = 1 + u * acc
         return B * acc
 
-    def with_table(self, codes, *, keep_bias: bool = True) -> "RecipParams":
+    def with_table(self, codes, *, keep_bias: bool = True) -> RecipParams:
         """A copy whose table words are ``codes`` (``b_fmt`` codes, hidden bit included) instead of the ones
         :attr:`table` chooses: fault injection for the co-simulation tests (a wrong ROM word must be caught).
         Every value cached from the table (the model's per-entry constants, its memoized datapath) is dropped and

@@ -18,6 +18,7 @@ from rtl.texcache import TexCache
 from rtl.verilog import component_verilog
 
 from .harness import BUILD, build_and_test, simulator
+from .job import job_folder, remove_job
 
 __all__ = ["run", "memory_image", "pack_requests"]
 
@@ -72,11 +73,9 @@ def run(params: TexCacheParams, words: np.ndarray, trace: Trace, *, base: int = 
     res_model = simulate(params, cache.layout, trace)
     key = (params, h, w, base)
     top, bdir, src = _build(cache, key, sim)
-    job = bdir / (f"job_{tag}" if tag else "job")
-    job.mkdir(exist_ok=True)
+    job = job_folder(bdir, tag or "texcache", {"key": repr(key), "sim": sim, "lookups": len(trace), "seed": seed,
+                                               "p": [p_valid, p_ready, p_pause]})
     out = job / "result.json"
-    if out.exists():
-        out.unlink()
     reqs = pack_requests(cache, trace)
     meta = {"requests": [format(r, "x") for r in reqs], "image": memory_image(cache, words).hex(), "base": base,
             "p_valid": p_valid, "p_ready": p_ready, "p_pause": p_pause, "seed": seed,
@@ -87,6 +86,7 @@ def run(params: TexCacheParams, words: np.ndarray, trace: Trace, *, base: int = 
     if not out.exists():
         raise RuntimeError(f"the testbench wrote no results ({out}); see the simulator log above")
     got = json.loads(out.read_text())
+    remove_job(job)
     x, y = trace.corners()
     tb = params.texel_bits
     want = words[y, x] & ((1 << tb) - 1)

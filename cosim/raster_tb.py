@@ -23,9 +23,9 @@ import random
 from pathlib import Path
 
 import cocotb
-from tqdm import tqdm
 from cocotb.clock import Clock
 from cocotb.triggers import FallingEdge, ReadOnly
+from tqdm import tqdm
 
 
 @cocotb.test()
@@ -73,5 +73,6 @@ async def raster(dut):
         done = k == len(records) and not offered
         idle = idle + 1 if (done and not int(dut.busy.value) and not int(o_valid.value)) else 0
     bar.close()
+    span = 0 if first_busy is None else last_busy - first_busy + 1
     (job / "fragments.json").write_text(json.dumps({"fragments": frags, "busy_cycles": busy, "cycles": cycles,
-                                                      "busy_span": 0 if first_busy is None else last_busy - first_busy + 1}))
+                                                      "busy_span": span}))

@@ -17,9 +17,9 @@ from pathlib import Path
 
 import cocotb
 import numpy as np
-from tqdm import tqdm
 from cocotb.clock import Clock
 from cocotb.triggers import FallingEdge
+from tqdm import tqdm
 
 
 @cocotb.test()

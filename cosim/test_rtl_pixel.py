@@ -4,12 +4,11 @@ version of the pipeline under every stimulus pattern (gaps, backpressure, long s
 out and compared here too. Random fragments through the preset pipelines: ``cosim/test_stress.py``.
 """
 
-from fxmodel.core.paths import SCENES as SCENE_DIR
-
 import numpy as np
 import pytest
 
 from cosim.stream import PATTERNS, run_stream
+from fxmodel.core.paths import SCENES as SCENE_DIR
 from host.render import prepare
 
 SCENES = sorted(SCENE_DIR.glob("*.toml"))
@@ -52,11 +51,11 @@ def _random_frames(first: int, count: int, size: int):
 
 def test_random_scene_rtl_equals_model(sim):
     """A random scene (block exponents, tile offsets, lights along axes) through the RTL, bit for bit."""
-    for seed, frame in _random_frames(7, 1, 10):
+    for _seed, frame in _random_frames(7, 1, 10):
         _stream_equals_model(frame, sim)
 
 
 @pytest.mark.slow
 def test_random_scenes_rtl_equals_model_thorough(sim):
-    for seed, frame in _random_frames(100, 8, 16):
+    for _seed, frame in _random_frames(100, 8, 16):
         _stream_equals_model(frame, sim)

@@ -6,9 +6,9 @@ triangles and the hard cases, with gaps on the input and backpressure on the out
 import numpy as np
 import pytest
 
-from fxmodel.core.paths import build_dir
 from cosim.raster import pack, run, unpack
 from cosim.stream import PATTERNS, run_records
+from fxmodel.core.paths import build_dir
 from fxmodel.units.raster import RasterParams, scan, setup
 
 S = 256
@@ -32,7 +32,8 @@ def hard_and_random(params, width, height, n_random, seed):
         tris.append((rng.integers(lo, hi, 3).tolist(), rng.integers(lo, hi, 3).tolist()))
     for _ in range(n_random // 2):                                                    # small ones
         c = rng.integers(0, width * S, 2)
-        tris.append(((c[0] + rng.integers(-3 * S, 3 * S, 3)).tolist(), (c[1] + rng.integers(-3 * S, 3 * S, 3)).tolist()))
+        tris.append(((c[0] + rng.integers(-3 * S, 3 * S, 3)).tolist(),
+                     (c[1] + rng.integers(-3 * S, 3 * S, 3)).tolist()))
     X, Y = np.array([t[0] for t in tris]), np.array([t[1] for t in tris])
     vals = {}
     for name, fmt in params.attrs:

@@ -10,8 +10,8 @@ import pytest
 
 from cosim.conftest import assert_bit_exact
 from cosim.harness import run
-from fxmodel.units.recip import TABLE_MODES
 from fxmodel.core.unit import preset
+from fxmodel.units.recip import TABLE_MODES
 
 
 def test_recip_small_exhaustive(sim):

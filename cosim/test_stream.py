@@ -14,9 +14,19 @@ import json
 import numpy as np
 import pytest
 
+from cosim.stream import (
+    ArraySpace,
+    ConcatSpace,
+    ProductSpace,
+    full_space,
+    grid_space,
+    measure_throughput,
+    parse_shard,
+    run_stream,
+    shard_range,
+    wrapper_verilog,
+)
 from fxmodel.core.paths import build_dir
-from cosim.stream import (ArraySpace, ConcatSpace, ProductSpace, full_space, grid_space, measure_throughput,
-                          parse_shard, run_stream, shard_range, wrapper_verilog)
 from fxmodel.core.unit import preset
 
 
@@ -85,6 +95,7 @@ def test_memory_word_parts_are_the_payloads():
     every field at its offset in the rtl.streams layouts, so the wrapper connects both whole; the counted rows
     (first port most significant) are rearranged into the payload's order."""
     import re
+
     from rtl.streams import input_layout, output_layout
     params = preset("divide", "default")
     text = wrapper_verilog(params, "stream_divide", "divide_dut")
@@ -98,7 +109,7 @@ def test_memory_word_parts_are_the_payloads():
     assert ".i__payload(in_word)" in text and ".o__payload(got)" in text
     n, d = (p.fmt.width for p in params.inputs)       # the row: n above d; the payload: d above n
     assert f"{{row[{d - 1}:0], row[{n + d - 1}:{d}]}}" in text
-    assert "LATENCY = %d" % params.latency in text and "divide_dut dut (" in text
+    assert f"LATENCY = {params.latency}" in text and "divide_dut dut (" in text
     # expand mode (triangle records): the word is the input payload alone, the dump the output payload
     text = wrapper_verilog(params, "stream_divide", "divide_dut", expand=True)
     word = {m[3]: (int(m[1]), int(m[2])) for m in re.finditer(r"^//   \[(\d+):(\d+)\] (\w+) ", text, re.M)}

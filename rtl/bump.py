@@ -4,8 +4,8 @@ from __future__ import annotations
 
 from amaranth.hdl import Module
 
-from fxmodel.units.bump import AXES, BumpParams
 from fxmodel.core.rounding import Overflow
+from fxmodel.units.bump import AXES, BumpParams
 
 from .fixed import narrow
 from .unit import Pipe, UnitComponent, register

@@ -8,16 +8,17 @@ The two quotients ``a / ma`` and ``b / ma`` share one reciprocal of the signed m
 :class:`~rtl.recip.Recip` (one ROM, ``t`` small multipliers) followed by two copies of the last two stages of
 :class:`~rtl.recip.Divide` (``n * mant``, then :func:`~rtl.recip.scale`: the barrel shift with half-up rounding),
 built from the same :class:`~fxmodel.units.recip.DivideParams`. Two ``Divide`` instances would give the same bits
-for twice the ROM and the reciprocal's multipliers. The divider's saturation and ``d = 0`` muxes are left out: ``|q| <= 1`` is proven,
-and ``d = 0`` comes only with ``n = 0`` (the zero vector), where the plain path already yields ``q = 0``.
+for twice the ROM and the reciprocal's multipliers. The divider's saturation and ``d = 0`` muxes are left out: ``|q|
+<= 1`` is proven, and ``d = 0`` comes only with ``n = 0`` (the zero vector), where the plain path already yields ``q =
+0``.
 """
 
 from __future__ import annotations
 
 from amaranth.hdl import Cat, Module, Mux
 
-from fxmodel.units.cube import FLIP_S, FLIP_T, CubeParams
 from fxmodel.core.rounding import Overflow
+from fxmodel.units.cube import FLIP_S, FLIP_T, CubeParams
 
 from .fixed import saturate
 from .recip import scale_stages, times_reciprocal

@@ -1,9 +1,9 @@
 """Cache keys shared by the build flows: a digest of the sources that turn a parameter object into Verilog.
 
 ``params_key(params)`` is the key ``cosim/harness.py`` uses for its build folders (same definition: the
-parameter object's ``repr`` plus every ``*.py`` below ``fxmodel/`` and ``rtl/``, :func:`fxmodel.core.paths.source_digest`); the FPGA flow (``tools/fpga.py``)
-uses it as its first-level cache key. A parameter object must have a deterministic, complete ``repr`` (frozen
-dataclasses do).
+parameter object's ``repr`` plus every ``*.py`` below ``fxmodel/`` and ``rtl/``,
+:func:`fxmodel.core.paths.source_digest`); the FPGA flow (``tools/fpga.py``) uses it as its first-level cache key. A
+parameter object must have a deterministic, complete ``repr`` (frozen dataclasses do).
 """
 
 from __future__ import annotations

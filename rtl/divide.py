@@ -1,14 +1,14 @@
-"""RTL of the divider ``q = n / d`` (paper section 4.1), built from ``fxmodel.units.divide``'s parameters: the reciprocal
-unit's datapath (``rtl/recip.py``), ``n * mant``, a barrel shift, rounding and saturation, stage for stage as the
-model (``fxmodel/units/divide.py``). Fully pipelined, one result per clock.
+"""RTL of the divider ``q = n / d`` (paper section 4.1), built from ``fxmodel.units.divide``'s parameters: the
+reciprocal unit's datapath (``rtl/recip.py``), ``n * mant``, a barrel shift, rounding and saturation, stage for stage
+as the model (``fxmodel/units/divide.py``). Fully pipelined, one result per clock.
 """
 
 from __future__ import annotations
 
 from amaranth.hdl import Module, Mux
 
-from fxmodel.units.divide import DivideParams
 from fxmodel.core.rounding import Overflow
+from fxmodel.units.divide import DivideParams
 
 from .fixed import saturate
 from .recip import scale_stages, times_reciprocal

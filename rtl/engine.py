@@ -32,8 +32,8 @@ class Engine(wiring.Component):
     busy : Out(1) -- the scan converter's Pixel Calculator is on a row (its clocks are the model's ``clocks``)
 
     Backpressure on ``o`` fills the pixel pipeline's output FIFO (its ``i.ready`` falls), which holds the scan
-    converter, which stops taking records. Without stalls a fragment's color leaves ``params.latency`` cycles after it left the
-    scan converter.
+    converter, which stops taking records. Without stalls a fragment's color leaves ``params.latency`` cycles after it
+    left the scan converter.
 
     With ``params.rop`` (the engine with its depth test) ``o`` is replaced by the raster-operations unit
     (``rtl/rop.py``): the sideband also carries ``Z``, and the colors go through the depth test into the frame

@@ -12,8 +12,8 @@ from amaranth.hdl import Cat, Const, Module, Mux, Value
 from amaranth.lib.memory import Memory
 
 from fxmodel.core import cost
-from fxmodel.units.recip import RecipParams
 from fxmodel.core.rounding import Overflow, Rounding
+from fxmodel.units.recip import RecipParams
 
 from .fixed import narrow, saturate, shift_round
 from .unit import Pipe, UnitComponent, register
@@ -149,9 +149,9 @@ class Recip(UnitComponent):
     dbz : Signal(1), out -- ``w`` was zero (``mant``, ``exp`` then the largest magnitude)
 
     Latency: ``params.latency`` = 2 t + 4 cycles (t >= 2) plus one per product wider than one DSP block
-    (``split_products``: its partial products get a stage of their own), 6 for t = 1. Stages: magnitude | leading-zero count |
-    normalizing shift | table ROM read and ``d`` | ``q = B d`` | t - 2 Horner steps, each a product stage then an
-    add stage | ``B g`` | add and round | renormalize and sign. Each stage holds at most one carry chain or one
+    (``split_products``: its partial products get a stage of their own), 6 for t = 1. Stages: magnitude | leading-zero
+    count | normalizing shift | table ROM read and ``d`` | ``q = B d`` | t - 2 Horner steps, each a product stage then
+    an add stage | ``B g`` | add and round | renormalize and sign. Each stage holds at most one carry chain or one
     product
     (ECP5 speed grade 8: about 150 MHz for ``default``, see ``bumpmap fpga``).
     """

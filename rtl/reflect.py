@@ -9,8 +9,8 @@ from __future__ import annotations
 
 from amaranth.hdl import Cat, Const, Module, Mux, Value
 
-from fxmodel.units.reflect import ReflectParams
 from fxmodel.core.rounding import Overflow, Rounding
+from fxmodel.units.reflect import ReflectParams
 
 from .fixed import narrow, saturate
 from .recip import leading_zeros

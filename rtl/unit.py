@@ -37,7 +37,7 @@ class UnitComponent(wiring.Component):
         self.params = params
         super().__init__(unit_signature(params))
 
-    def finish(self, m: Module, pipe: "Pipe", outputs: dict):
+    def finish(self, m: Module, pipe: Pipe, outputs: dict):
         """Register ``outputs`` (port name -> expression) as the last stage, drive ``o_valid``, check latency."""
         for name, expr in outputs.items():
             m.d.sync += getattr(self, name).eq(expr)

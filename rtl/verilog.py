@@ -6,8 +6,8 @@ written for event-driven simulators (:func:`one_clocked_block`).
 from __future__ import annotations
 
 import re
-from pathlib import Path
 from collections import defaultdict
+from pathlib import Path
 
 from .streams import StreamUnit
 from .unit import build, stream_native
@@ -120,9 +120,9 @@ def _merged(event: str, blocks) -> str:
 
 
 def write_verilog(params, path, optimize: bool = False, flat: bool = False) -> Path:
-    """Write the unit's Verilog (:func:`verilog_text`) to ``path`` as module ``path.stem``, with every character that is not a letter,
-    digit or ``_`` made ``_`` (``pipeline_tin-plane-fit_tin-plane.v`` holds ``pipeline_tin_plane_fit_tin_plane``:
-    a plain identifier rather than an escaped one)."""
+    """Write the unit's Verilog (:func:`verilog_text`) to ``path`` as module ``path.stem``, with every character that
+    is not a letter, digit or ``_`` made ``_`` (``pipeline_tin-plane-fit_tin-plane.v`` holds
+    ``pipeline_tin_plane_fit_tin_plane``: a plain identifier rather than an escaped one)."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(verilog_text(params, re.sub(r"\W", "_", path.stem), optimize, flat))

@@ -74,7 +74,8 @@ def check_range(params, space, lo: int, hi: int, *, chunk: int = CHUNK, keep: in
     n = hi - lo
     return {"unit": params.NAME, "simulator": "exact", "vectors": n, "expected_vectors": n, "mismatches": bad,
             "valid_errors": 0, "missing": 0, "ok": bad == 0, "first": first, "seconds": round(seconds, 3),
-            "vectors_per_second": n / seconds if seconds else 0.0, "sim_cpu_seconds": round(time.process_time() - c0, 3),
+            "vectors_per_second": n / seconds if seconds else 0.0,
+            "sim_cpu_seconds": round(time.process_time() - c0, 3),
             "build_seconds": 0.0, "space": space.describe(), "range": [lo, hi], "started": started,
             "finished": time.time(), "max_error_ulp": worst, "worst_index": worst_index, "unfaithful": unfaithful,
             "bound_ulp": float(bound)}

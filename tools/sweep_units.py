@@ -5,13 +5,15 @@ them with the reciprocal's points, one progress bar over all). Each family chang
 it) from the unit's ``default`` preset; the unit's presets are points too.
 
 =======  ==========================================================  =================================================
-unit     families (:func:`default_unit_grid`)                        error against exact math (:mod:`fxmodel.units.exact`)
+unit     families (:func:`default_unit_grid`)                        error against exact math
+(:mod:`fxmodel.units.exact`)
 =======  ==========================================================  =================================================
 persp    ``p, t=4`` / ``p, t=3``: reciprocal precision ``p`` 12 to   ``|s - U/W|`` on the unit circle (the repeat),
          24, ``coord_bits = p`` (23 at ``p = 24``: the scaled        ``s`` and ``t``, for ``|U/W| <= 16``
          product must fit 62 bits); ``c``: ``coord_bits`` alone      (:func:`~fxmodel.units.exact.measure_persp`)
 cube     ``p, t=3`` / ``p, t=2``: divider precision ``p`` 8 to 20,   ``|s - s_exact|``, ``|t - t_exact|`` on the
-         input word ``s1.p``                                         exact face (:func:`~fxmodel.units.exact.measure_cube`)
+         input word ``s1.p``                                         exact face
+         (:func:`~fxmodel.units.exact.measure_cube`)
 reflect  ``word``: ``N``, ``E`` in ``s2.(w - 2)``, ``r_bits = w``,   angle between the exact ``R`` and the output
          ``w`` 8 to 20 (the exact ``R`` must fit 62 bits)            (:func:`~fxmodel.units.exact.measure_reflect`)
 bump     ``out``: ``N'`` in ``s2.f``, ``f`` 6 to 16                  ``|N'_i - (N + du A0 + dv A1)_i|``, unsaturated
@@ -34,8 +36,8 @@ bound's domain), ``bump`` twice as many (about half of uniform inputs saturate, 
 bound). Correct bits: ``-log2`` of the worst error (real units; radians for ``reflect``).
 
 Cost, as for the reciprocal: table bits + ``dsp_weight`` x estimated MULT18X18D blocks (the unit's
-:meth:`~fxmodel.core.unit.Unit.cost`, :mod:`fxmodel.core.cost`; the estimate equals the synthesized ECP5 count of every unit
-preset, ``docs/fpga/resources.json``). Placed and routed (cached): each unit's default preset
+:meth:`~fxmodel.core.unit.Unit.cost`, :mod:`fxmodel.core.cost`; the estimate equals the synthesized ECP5 count of
+every unit preset, ``docs/fpga/resources.json``). Placed and routed (cached): each unit's default preset
 and the cheapest point of its front (``--unit-fpga-points 3``: also the middle of the front).
 
 Pipeline points (:data:`PIPELINE_POINTS`): the ``default`` preset, the fitted ``presets/tin-plane-fit.toml`` and
@@ -56,11 +58,11 @@ from fractions import Fraction
 
 import numpy as np
 
+from fxmodel.core.fixed import Fmt
+from fxmodel.core.unit import preset
 from fxmodel.units import exact
 from fxmodel.units.cube import CubeParams, cube_divider
-from fxmodel.core.fixed import Fmt
 from fxmodel.units.recip import RecipParams
-from fxmodel.core.unit import preset
 
 __all__ = ["unique_points", "S_ABS", "UNIT_ERRORS", "PIPELINE_POINTS", "SCENE", "smallest_faithful", "knobs",
            "default_unit_grid", "unit_inputs", "measure_unit_point", "pipeline_grid", "measure_pipeline_point",
@@ -194,9 +196,9 @@ def raster_grid() -> list[tuple[str, str, object]]:
 def measure_raster_point(name: str, family: str, params, *, dsp_weight: float = 1024.0,
                          triangles: int = RASTER_TRIANGLES, seed: int = 1, **_) -> dict:
     """The scan converter's worst interpolation error against the exact planes
-    (:func:`fxmodel.units.raster_errors.measure`: triangles spanning the whole ``max_size`` viewport, output ulps of each attribute) beside its bound and cost
-    (:func:`fxmodel.core.cost.estimate`; its registers: the record's and the accumulators' bits), one JSON record in the
-    form of :func:`measure_unit_point`'s."""
+    (:func:`fxmodel.units.raster_errors.measure`: triangles spanning the whole ``max_size`` viewport, output ulps of
+    each attribute) beside its bound and cost (:func:`fxmodel.core.cost.estimate`; its registers: the record's and the
+    accumulators' bits), one JSON record in the form of :func:`measure_unit_point`'s."""
     from fxmodel.units.raster_errors import measure
     t0 = time.perf_counter()
     m = measure(params, triangles, seed)
@@ -277,8 +279,8 @@ def measure_unit_point(name: str, family: str, params, *, samples: int = 10 ** 6
 # -- pipeline points ------------------------------------------------------------------------------------------
 def pipeline_grid(points=None) -> list[tuple[str, object, dict]]:
     """``(name, preset name or units dict, knob changes)`` of :data:`PIPELINE_POINTS` (or ``points``)."""
-    from tools.fit import knobs_of, units_of
     from fxmodel.pipeline.presets import BUILTIN_PRESET_UNITS
+    from tools.fit import knobs_of, units_of
 
     base = BUILTIN_PRESET_UNITS["default"]
     k0 = knobs_of(base)
@@ -302,10 +304,10 @@ def measure_pipeline_point(name: str, units, changes: dict, *, scene=SCENE, size
     refusal's findings (``Frame.stats["refused"]``, joined), and the frame is drawn with the inputs clamped, so
     its error and cost are on record; it is never on the front (:func:`tools.sweep.sweep`). ``refused`` is
     ``None`` for a preset that draws the scene."""
-    from tools.fit import hardware
     from fxmodel.pipeline.presets import preset_units
     from host.render import prepare, render
     from host.scene import load_scene
+    from tools.fit import hardware
 
     sc = load_scene(scene) if not hasattr(scene, "materials") else scene
     if size:

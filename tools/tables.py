@@ -27,7 +27,8 @@ import numpy as np
 from fxmodel.core.fixed import Fmt
 from fxmodel.units.recip import TABLE_MODES, RecipParams
 
-__all__ = ["approx_params", "approx_bits", "sampled_bits", "faithful_width", "table_study", "markdown", "add_arguments", "run"]
+__all__ = ["approx_params", "approx_bits", "sampled_bits", "faithful_width", "table_study", "markdown", "add_arguments",
+           "run"]
 
 #: Input width for the approximation study (``d`` ranges over a 2**-32 grid: effectively continuous).
 STUDY_N = 32
@@ -105,8 +106,8 @@ def markdown(rows) -> str:
         cells = [f"{r['modes'][k]['approx_bits']:.2f} ({r['modes'][k]['sampled_bits']:.2f})" for k in modes]
         out.append(f"| {r['t']} | {r['entries']} | " + " | ".join(cells) + " |")
     if "faithful_p" in rows[0]["modes"][modes[0]]:
-        out += ["", "Largest faithful output width p (up to 30) by the documented bound (b = p + 3, guard = 4, input of "
-                "max(p + 2, m + 4) bits):",
+        out += ["", "Largest faithful output width p (up to 30) by the documented bound (b = p + 3, guard = 4, "
+                "input of max(p + 2, m + 4) bits):",
                 "", "| t | entries | " + " | ".join(modes) + " |", "|---:|---:|" + "---:|" * len(modes)]
         for r in rows:
             cells = [str(r["modes"][k]["faithful_p"] or "-") for k in modes]

@@ -1,1 +1,1 @@
-"""The golden model's core: fixed-point formats, rounding and overflow rules, the unit registry, the cost model, paths."""
+"""The golden model's core: fixed-point formats, rounding and overflow rules, the unit registry, cost model, paths."""

@@ -90,7 +90,7 @@ class Product:
         if self.count < 0 or not isinstance(self.count, int):
             raise ValueError(f"Product.count={self.count!r}: must be an int >= 0")
 
-    def times(self, k: int) -> "Product":
+    def times(self, k: int) -> Product:
         """The same product ``k`` times as often."""
         return Product(self.a_bits, self.b_bits, self.a_signed, self.b_signed, self.count * k, self.split,
                        self.square, self.name)
@@ -134,7 +134,7 @@ class Memory:
         if self.kind not in MEMORY_KINDS:
             raise ValueError(f"Memory.kind={self.kind!r}: must be one of {MEMORY_KINDS}")
 
-    def times(self, k: int) -> "Memory":
+    def times(self, k: int) -> Memory:
         """The same memory ``k`` times as often."""
         return Memory(self.words, self.bits, self.read_ports, self.rom, self.count * k, self.kind, self.name)
 

@@ -76,7 +76,7 @@ class Fmt:
 
     # -- construction -------------------------------------------------------------------------------------
     @classmethod
-    def parse(cls, text: str) -> "Fmt":
+    def parse(cls, text: str) -> Fmt:
         """Parse the short form ``s8.16`` / ``u1.16`` (see :meth:`__str__`)."""
         match = _FMT_RE.match(text)
         if not match:
@@ -84,7 +84,7 @@ class Fmt:
         return cls(match.group(1) == "s", int(match.group(2)), int(match.group(3)))
 
     @classmethod
-    def integer(cls, lo: int, hi: int) -> "Fmt":
+    def integer(cls, lo: int, hi: int) -> Fmt:
         """The narrowest integer format (``frac_bits = 0``) that holds every integer in ``[lo, hi]``."""
         if lo > hi:
             raise ValueError(f"empty integer range [{lo}, {hi}]")

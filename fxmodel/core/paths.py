@@ -32,7 +32,7 @@ def build_dir(*parts: str) -> Path:
     return (Path(env).resolve() if env else ROOT / "build").joinpath(*parts)
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def source_digest(folders: tuple[str, ...] = ("fxmodel", "rtl")) -> bytes:
     """SHA-1 of every ``*.py`` below ``folders`` (relative path and contents, sorted). Taken once per process, so a
     cache key names the code that was imported even if the files change during a long run."""

@@ -91,7 +91,7 @@ def write_words(path, fields: list[tuple[str, Fmt]], codes: np.ndarray, chunk: i
 def _split_words(words: list[int], fields: list[tuple[str, Fmt]]) -> np.ndarray:
     """Codes ``(K, len(fields))`` of packed words (Python integers)."""
     out = np.zeros((len(words), len(fields)), dtype=object)
-    for i, (_, fmt, msb, lsb) in enumerate(layout(fields)):
+    for i, (_, fmt, _msb, lsb) in enumerate(layout(fields)):
         mask = (1 << fmt.width) - 1
         out[:, i] = [int(v) for v in fmt.from_bits(np.array([(w >> lsb) & mask for w in words], dtype=object))]
     return out.astype(np.int64) if max(f.width for _, f in fields) <= 62 else out

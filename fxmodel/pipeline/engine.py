@@ -61,7 +61,8 @@ class EngineParams:
             require(isinstance(R, RopParams), "rop", type(R).__name__, "must be RopParams or None")
             require(R.max_size == self.raster.max_size, "rop.max_size", R.max_size,
                     f"must be the raster's max_size {self.raster.max_size}")
-            require(R.z_in == attrs.get("Z"), "rop.z_in", str(R.z_in), f"must be the raster's Z format {attrs.get('Z')}")
+            require(R.z_in == attrs.get("Z"), "rop.z_in", str(R.z_in),
+                    f"must be the raster's Z format {attrs.get('Z')}")
             require(R.flag_bits == self.outputs[-1].fmt.width, "rop.flag_bits", R.flag_bits,
                     f"must be the engine's flags width {self.outputs[-1].fmt.width}")
 

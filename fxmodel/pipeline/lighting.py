@@ -11,10 +11,10 @@ Host-side, float64, quantized once (:func:`fxmodel.core.rounding.quantize`, half
   (see :mod:`fxmodel.units.shade`);
 
 evaluated at the direction of every texel centre. Face orientation is the OpenGL / Vulkan table of
-``docs/design.md`` ("Cube faces: table and tie rule"; the cube address unit's): texel ``(i, j)`` of a face of ``F x F`` texels has
-``s = (i + 1/2) / F``, ``t = (j + 1/2) / F`` and ``(s_c, t_c) = (2s - 1, 2t - 1)``; :func:`face_directions`
-inverts the table. The same float functions serve the ideal per-pixel Phong reference, so the two differ only
-by what the cube method itself costs (sampling the lighting at texel centres and blending).
+``docs/design.md`` ("Cube faces: table and tie rule"; the cube address unit's): texel ``(i, j)`` of a face of ``F x
+F`` texels has ``s = (i + 1/2) / F``, ``t = (j + 1/2) / F`` and ``(s_c, t_c) = (2s - 1, 2t - 1)``;
+:func:`face_directions` inverts the table. The same float functions serve the ideal per-pixel Phong reference, so the
+two differ only by what the cube method itself costs (sampling the lighting at texel centres and blending).
 """
 
 from __future__ import annotations

@@ -28,16 +28,16 @@ from functools import cached_property
 
 import numpy as np
 
+from fxmodel.core.fixed import Fmt
+from fxmodel.core.unit import Port, Unit, register, require
+from fxmodel.pipeline.lighting import Light, Lighting, bake_cubes
+from fxmodel.pipeline.presets import preset_units, top_value
 from fxmodel.units.bump import BumpParams
 from fxmodel.units.cube import CubeParams
-from fxmodel.core.fixed import Fmt
-from fxmodel.pipeline.lighting import Light, Lighting, bake_cubes
 from fxmodel.units.persp import PerspParams
-from fxmodel.pipeline.presets import preset_units, top_value
 from fxmodel.units.reflect import ReflectParams
 from fxmodel.units.sampler import SamplerParams, Texels
 from fxmodel.units.shade import ShadeParams
-from fxmodel.core.unit import Port, Unit, register, require
 
 __all__ = ["PipelineParams", "FLAG_BITS"]
 

@@ -25,15 +25,14 @@ import enum
 import tomllib
 from pathlib import Path
 
-
+from fxmodel.core.fixed import Fmt
+from fxmodel.core.paths import presets_dir
+from fxmodel.core.unit import require
 from fxmodel.units.bump import BumpParams
 from fxmodel.units.cube import CubeParams
-from fxmodel.core.paths import presets_dir
-from fxmodel.core.fixed import Fmt
 from fxmodel.units.persp import PerspParams
 from fxmodel.units.reflect import ReflectParams
 from fxmodel.units.shade import ShadeParams
-from fxmodel.core.unit import require
 
 __all__ = ["TOP_KEYS", "UNIT_KEYS", "UNIT_TYPES", "BUILTIN_PRESET_UNITS", "PRESET_UNITS", "PresetError",
            "top_value", "top_problem", "preset_units", "presets_dir", "preset_path", "load_preset", "dump_preset",
@@ -171,7 +170,7 @@ def dump_preset(units: dict, meta: dict | None = None, comment: str = "") -> str
     if meta:
         doc[META_KEY] = _toml_value(meta, META_KEY)
     head = "".join(f"# {line}\n" for line in comment.splitlines())
-    import tomli_w                      # the host extra: only writing a preset file needs it
+    import tomli_w  # the host extra: only writing a preset file needs it
     return head + ("\n" if head else "") + tomli_w.dumps(doc)
 
 

@@ -79,10 +79,9 @@ from functools import cached_property
 import numpy as np
 
 from fxmodel.core.fixed import Fmt
+from fxmodel.core.unit import Port, Unit, register, require
 from fxmodel.units.divide import DivideParams
 from fxmodel.units.recip import RecipParams
-
-from fxmodel.core.unit import Port, Unit, register, require
 
 __all__ = ["CubeParams", "cube_divider", "FACE_NAMES", "FLIP_S", "FLIP_T"]
 

@@ -11,9 +11,9 @@ from fractions import Fraction
 import numpy as np
 
 from fxmodel.core.fixed import INT64_SAFE_BITS, Fmt
-from fxmodel.units.recip import RecipParams
 from fxmodel.core.rounding import Overflow, Rounding, saturate
 from fxmodel.core.unit import Port, Unit, register, require
+from fxmodel.units.recip import RecipParams
 
 __all__ = ["DivideParams"]
 

@@ -18,14 +18,15 @@ import numpy as np
 from fxmodel.core.fixed import Fmt
 from fxmodel.core.rounding import Overflow, Rounding
 
-__all__ = ["round_exact", "narrow_exact", "recip_error_ulp", "divide_error", "wrapped_error", "bump_error", "recip_monotone", "as_float", "within"]
+__all__ = ["round_exact", "narrow_exact", "recip_error_ulp", "divide_error", "wrapped_error", "bump_error",
+           "recip_monotone", "as_float", "within"]
 
 
 def round_exact(x, rounding: Rounding) -> int:
     """The rational ``x`` (an ``int`` or a :class:`~fractions.Fraction`) rounded to an integer by ``rounding``.
 
-    The oracle of :func:`fxmodel.core.rounding.shift_round` and :func:`~fxmodel.core.rounding.quantize`, written from the
-    definitions (floor; nearest with ties up; nearest with ties to the even integer), with no shift or mask.
+    The oracle of :func:`fxmodel.core.rounding.shift_round` and :func:`~fxmodel.core.rounding.quantize`, written from
+    the definitions (floor; nearest with ties up; nearest with ties to the even integer), with no shift or mask.
     """
     x = Fraction(x)
     q, r = divmod(x.numerator, x.denominator)        # x = q + r / den, 0 <= r < den
@@ -273,7 +274,8 @@ def measure_bump(params, rows, out) -> dict:
 
 # -- cube addressing and reflection -------------------------------------------------------------------------
 
-#: The OpenGL / Vulkan cube table (docs/design.md, "The face table"): per face, (component, sign) of s_c and of t_c; 0, 1, 2 = x, y, z.
+#: The OpenGL / Vulkan cube table (docs/design.md, "The face table"): per face, (component, sign) of s_c and of t_c;
+#: 0, 1, 2 = x, y, z.
 CUBE_TABLE = {0: ((2, -1), (1, -1)), 1: ((2, 1), (1, -1)), 2: ((0, 1), (2, 1)),
               3: ((0, 1), (2, -1)), 4: ((0, 1), (1, -1)), 5: ((0, -1), (1, -1))}
 

@@ -29,9 +29,9 @@ from fractions import Fraction
 import numpy as np
 
 from fxmodel.core.fixed import INT64_SAFE_BITS, Fmt
-from fxmodel.units.recip import RecipParams
 from fxmodel.core.rounding import Rounding
 from fxmodel.core.unit import Port, Unit, register
+from fxmodel.units.recip import RecipParams
 
 __all__ = ["PerspParams"]
 
@@ -143,10 +143,10 @@ class PerspParams(Unit):
                 "max_error": {"s": float(bound16), "t": float(bound16)}, "max_error_for_abs_s_up_to": 16}
 
 
-#: The reciprocal for texture addresses: ``W`` in ``[-2, 2)`` with 22 fraction bits (the front end scales each triangle's ``W`` into
-#: ``(0, 1]``), 22-bit faithful result (bound 0.97 ulp) from 64 entries and 4 terms. Measured need: a hard edge of a
-#: 512-texel texture sampled bilinearly stays within 1 LSB of the float reference only with address errors
-#: near 2**-19; the 17-bit ``recip`` default gave 3 LSB on the Berlin wall.
+#: The reciprocal for texture addresses: ``W`` in ``[-2, 2)`` with 22 fraction bits (the front end scales each
+#: triangle's ``W`` into ``(0, 1]``), 22-bit faithful result (bound 0.97 ulp) from 64 entries and 4 terms. Measured
+#: need: a hard edge of a 512-texel texture sampled bilinearly stays within 1 LSB of the float reference only with
+#: address errors near 2**-19; the 17-bit ``recip`` default gave 3 LSB on the Berlin wall.
 TEXCOORD_RECIP = RecipParams(in_fmt=Fmt(True, 2, 22), m=7, b=23, t=4, p=22, guard=5)
 
 PerspParams.PRESETS = {

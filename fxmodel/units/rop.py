@@ -16,9 +16,9 @@ writes nothing. Before the first fragment every pixel holds ``clear_depth`` and 
 
 Depth word
 ----------
-The scan converter's ``Z`` (``z_in``, a signed format: the raster's ``out_fmt("Z")``) is in ``[0, 1]`` at every covered pixel (a
-convex combination of vertex values in ``(0, 1]``, within the interpolators' proven 3/4 ulp, and rounded
-half-up, so never below 0). The stored word ``z_fmt`` is unsigned; by default ``z_in`` without its sign bit
+The scan converter's ``Z`` (``z_in``, a signed format: the raster's ``out_fmt("Z")``) is in ``[0, 1]`` at every
+covered pixel (a convex combination of vertex values in ``(0, 1]``, within the interpolators' proven 3/4 ulp, and
+rounded half-up, so never below 0). The stored word ``z_fmt`` is unsigned; by default ``z_in`` without its sign bit
 (exact: every code of ``[0, 2)``). The narrowing from ``z_in`` to ``z_fmt`` is named: **rounding TRUNC**
 (floor, monotone, so the order of two depths is kept or becomes a tie, never reversed) and **overflow
 SATURATE**: a negative ``Z`` becomes 0 (infinitely far) and one above the format's top its largest code, each

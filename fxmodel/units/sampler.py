@@ -196,8 +196,9 @@ class SamplerParams(Unit):
         """Bilinear lookups read their four texels from four banks by texel parity (bank ``(i mod 2, j mod 2)``
         holds texel ``(i, j)`` at ``(face, j // 2, i // 2)``), one read port each: the four texels of a lookup
         always lie in four different banks (``i1 = i0 + 1``), or are the same texel twice (``clamp`` at an edge).
-        That stores the map once instead of twice (a block RAM has two read ports), for two more pipeline stages. Not for ``repeat`` with an
-        odd map size, where ``i0 = W - 1`` and ``i1 = 0`` share a parity: one memory with four read ports there."""
+        That stores the map once instead of twice (a block RAM has two read ports), for two more pipeline stages. Not
+        for ``repeat`` with an odd map size, where ``i0 = W - 1`` and ``i1 = 0`` share a parity: one memory with four
+        read ports there."""
         return self.bilinear and (self.edge != "repeat" or (self.width % 2 == 0 and self.height % 2 == 0))
 
     @property

@@ -19,9 +19,9 @@ import pytest
 from amaranth.hdl import Module, Signal, signed, unsigned
 from amaranth.sim import Simulator
 
-from fxmodel.units.exact import narrow_exact, round_exact
 from fxmodel.core.fixed import Fmt
 from fxmodel.core.rounding import Overflow, Rounding, narrow, shift_round
+from fxmodel.units.exact import narrow_exact, round_exact
 from rtl import fixed as rfixed
 
 # (input format, output format): the narrowing reads the input's code with input.frac_bits fraction bits

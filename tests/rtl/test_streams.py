@@ -174,8 +174,8 @@ def test_sampler_block_ram_through_stalls(name):
 
 
 def test_sideband_name_clash_is_refused():
+    from fxmodel.core.fixed import Fmt
     from fxmodel.core.unit import Port
     from rtl.streams import payload_layout
-    from fxmodel.core.fixed import Fmt
     with pytest.raises(ValueError, match="side"):
         payload_layout([Port("side", Fmt(True, 1, 3))], SIDE)

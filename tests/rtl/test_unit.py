@@ -7,8 +7,8 @@ from hypothesis import strategies as st
 from fxmodel.core.fixed import Fmt
 from fxmodel.core.unit import preset, preset_names, units
 from rtl import build, write_verilog
-from tools.main import main as bumpmap
 from rtl.unit import Pipe, UnitComponent
+from tools.main import main as bumpmap
 
 
 @pytest.mark.parametrize("unit, name", [("recip", "default"), ("recip", "small"), ("divide", "default")])

@@ -3,8 +3,8 @@ tiling reassembles every operand exactly, and the estimate matches the recorded 
 
 from __future__ import annotations
 
-from collections import Counter
 import sys
+from collections import Counter
 from contextlib import contextmanager
 
 import pytest

@@ -4,11 +4,12 @@ from fractions import Fraction
 
 import numpy as np
 import pytest
-from hypothesis import given, strategies as st
+from hypothesis import given
+from hypothesis import strategies as st
 
-from fxmodel.units.exact import round_exact
 from fxmodel.core.fixed import Fmt
 from fxmodel.core.rounding import Overflow, Rounding, narrow, saturate, shift_round
+from fxmodel.units.exact import round_exact
 
 fmts = st.one_of(st.builds(Fmt, st.just(True), st.integers(2, 20), st.integers(0, 30)),
                  st.builds(Fmt, st.just(False), st.integers(1, 20), st.integers(0, 30)))

@@ -27,7 +27,8 @@ def _codes(fields, rng, n=500):
             cols.append(np.array([int(x) for x in rng.integers(-2**62, 2**62, n)] + [f.min_code, f.max_code]
                                 , dtype=object))
         else:
-            cols.append(np.concatenate([rng.integers(f.min_code, f.max_code, n, endpoint=True), [f.min_code, f.max_code]]))
+            codes = rng.integers(f.min_code, f.max_code, n, endpoint=True)
+            cols.append(np.concatenate([codes, [f.min_code, f.max_code]]))
     return np.stack(cols, axis=1)
 
 

@@ -8,8 +8,8 @@ import pytest
 
 from fxmodel.core.fixed import Fmt
 from fxmodel.pipeline.lighting import Light, Lighting, bake_cubes, face_directions
-from host.reference import cube_address_float
 from fxmodel.units.sampler import SamplerParams
+from host.reference import cube_address_float
 
 
 @pytest.mark.parametrize("size", [1, 4, 5, 8])

@@ -7,14 +7,14 @@ import warnings
 import numpy as np
 import pytest
 
-from tools.main import main
 from fxmodel.core.fixed import Fmt
+from fxmodel.core.paths import ROOT
+from fxmodel.core.unit import preset
 from fxmodel.pipeline.pixel import FLAG_BITS
 from host.reference import max_lsb, psnr, sample_float
 from host.render import prepare, render
-from fxmodel.core.unit import preset
+from tools.main import main
 
-from fxmodel.core.paths import ROOT
 SCENES = sorted((ROOT / "scenes").glob("*.toml"))
 P = preset("pipeline")
 

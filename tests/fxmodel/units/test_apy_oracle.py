@@ -5,8 +5,8 @@ Every rounding and overflow mode the project has, mapped to apytypes' by the one
 on single narrowings of any format pair (signed, unsigned, narrowing the fraction or the integer bits, ties next
 to even and odd codes), on products and sums narrowed as the units do (apytypes doing the arithmetic too), on the
 bump and shade units' own narrowings over their presets, on the host's float quantization and on the barrel
-shifter's data-dependent shift. Where the two disagree, exact integer math (:mod:`fxmodel.units.exact`) says which one is
-wrong, in the failure message.
+shifter's data-dependent shift. Where the two disagree, exact integer math (:mod:`fxmodel.units.exact`) says which one
+is wrong, in the failure message.
 """
 
 from __future__ import annotations
@@ -16,18 +16,19 @@ from fractions import Fraction
 import numpy as np
 import pytest
 from apytypes import APyFixedArray, OverflowMode, QuantizationMode
-from hypothesis import given, strategies as st
+from hypothesis import given
+from hypothesis import strategies as st
 
-from fxmodel.units.apy_oracle import QUANTIZATION, codes_of, narrow_apy, to_apy
-from fxmodel.units.exact import narrow_exact, round_exact
 from fxmodel.core.fixed import Fmt
 from fxmodel.core.rounding import Overflow, Rounding, narrow, quantize, shift_round
 from fxmodel.core.unit import preset, preset_names
+from fxmodel.units.apy_oracle import QUANTIZATION, codes_of, narrow_apy, to_apy
+from fxmodel.units.exact import narrow_exact, round_exact
 
 
-
-def formats(int_bits, frac_bits, signed=st.booleans()):
-    """Valid formats (a signed word needs a sign bit and one more)."""
+def formats(int_bits, frac_bits, signed=None):
+    """Valid formats (a signed word needs a sign bit and one more); ``signed`` a strategy (default: either)."""
+    signed = st.booleans() if signed is None else signed
     return st.tuples(signed, int_bits, frac_bits).filter(lambda t: t[1] + t[2] >= 1 + t[0]).map(lambda t: Fmt(*t))
 
 

@@ -4,12 +4,13 @@ from fractions import Fraction
 
 import numpy as np
 import pytest
-from hypothesis import given, strategies as st
+from hypothesis import given
+from hypothesis import strategies as st
 
-from fxmodel.units.bump import BumpParams
 from fxmodel.core.fixed import Fmt
 from fxmodel.core.rounding import Rounding
 from fxmodel.core.unit import preset
+from fxmodel.units.bump import BumpParams
 
 P = preset("bump")
 

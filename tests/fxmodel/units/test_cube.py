@@ -1,8 +1,8 @@
 """Cube-map address unit (paper sections 2 and 4): golden model against exact integer / rational math.
 
-The face rule and the OpenGL / Vulkan table are restated here from docs/design.md ("Cube faces: table and tie rule"), independently of the model; s and t
-are checked against exact ``Fraction`` quotients within the documented bound; every hard case of the module
-docstring has a test.
+The face rule and the OpenGL / Vulkan table are restated here from docs/design.md ("Cube faces: table and tie rule"),
+independently of the model; s and t are checked against exact ``Fraction`` quotients within the documented bound;
+every hard case of the module docstring has a test.
 """
 
 import json
@@ -13,13 +13,13 @@ import pytest
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
-from tools.main import main as bumpmap
+from fxmodel.core.fixed import Fmt
+from fxmodel.core.unit import preset
 from fxmodel.units import exact
 from fxmodel.units.cube import FLIP_S, FLIP_T, CubeParams
-from fxmodel.core.fixed import Fmt
 from fxmodel.units.divide import DivideParams
 from fxmodel.units.recip import RecipParams
-from fxmodel.core.unit import preset
+from tools.main import main as bumpmap
 
 PRESETS = ["default", "small"]
 

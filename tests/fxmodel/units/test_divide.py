@@ -6,12 +6,13 @@ from fractions import Fraction
 
 import numpy as np
 import pytest
-from hypothesis import given, strategies as st
+from hypothesis import given
+from hypothesis import strategies as st
 
-from fxmodel.units import exact
-from fxmodel.units.divide import DivideParams
 from fxmodel.core.fixed import Fmt
 from fxmodel.core.unit import preset
+from fxmodel.units import exact
+from fxmodel.units.divide import DivideParams
 
 DIV = preset("divide", "default")
 

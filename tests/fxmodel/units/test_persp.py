@@ -5,11 +5,12 @@ from fractions import Fraction
 
 import numpy as np
 import pytest
-from hypothesis import given, strategies as st
+from hypothesis import given
+from hypothesis import strategies as st
 
 from fxmodel.core.fixed import Fmt
-from fxmodel.units.persp import PerspParams
 from fxmodel.core.unit import preset
+from fxmodel.units.persp import PerspParams
 
 P = preset("persp")
 

@@ -9,9 +9,9 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from host import frontend
 from fxmodel.core.fixed import Fmt
 from fxmodel.units.raster import RasterParams, scan, setup
+from host import frontend
 from host.scene import load_scene
 
 P = RasterParams.PRESETS["default"]

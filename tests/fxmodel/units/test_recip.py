@@ -1,4 +1,5 @@
-"""Reciprocal golden model (fxmodel.units.recip, its bound fxmodel.units.recip_bound) against exact rational / integer math.
+"""Reciprocal golden model (fxmodel.units.recip, its bound fxmodel.units.recip_bound) against exact rational / integer
+math.
 
 The exhaustive test covers all 2**24 inputs of ``default``; hypothesis draws whole parameter sets and checks
 every input of each against the documented bound; each hard case named in the module docstring has a test.
@@ -8,13 +9,13 @@ from fractions import Fraction
 
 import numpy as np
 import pytest
-from hypothesis import assume, given, strategies as st
+from hypothesis import assume, given
+from hypothesis import strategies as st
 
-from fxmodel.units import exact
 from fxmodel.core.fixed import Fmt
-from fxmodel.units import recip_bound
-from fxmodel.units.recip import TABLE_MODES, RecipParams
 from fxmodel.core.unit import preset
+from fxmodel.units import exact, recip_bound
+from fxmodel.units.recip import TABLE_MODES, RecipParams
 
 DEFAULT = preset("recip", "default")
 

@@ -14,11 +14,11 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from tools.main import main as bumpmap
-from fxmodel.units import exact
 from fxmodel.core.fixed import Fmt
-from fxmodel.units.reflect import ReflectParams, bitlen_int64
 from fxmodel.core.unit import preset
+from fxmodel.units import exact
+from fxmodel.units.reflect import ReflectParams, bitlen_int64
+from tools.main import main as bumpmap
 
 PRESETS = ["default", "small"]
 SETTINGS = settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow])

@@ -1,5 +1,5 @@
-"""The raster-operations model (``fxmodel/units/rop.py``): the depth rule against an independent order-statistics oracle,
-the depth narrowing against exact rationals, the memory image, validation, ``info``; and the RTL's address
+"""The raster-operations model (``fxmodel/units/rop.py``): the depth rule against an independent order-statistics
+oracle, the depth narrowing against exact rationals, the memory image, validation, ``info``; and the RTL's address
 extremes in ``amaranth.sim`` (no address outside the frame is formed)."""
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from fxmodel.core.fixed import Fmt
-from fxmodel.units.rop import (PIXEL_BYTES, RopParams, clear_frame, draw, read_frame, write_frame)
+from fxmodel.units.rop import PIXEL_BYTES, RopParams, clear_frame, draw, read_frame, write_frame
 
 SMALL = RopParams.PRESETS["small"]
 
@@ -109,7 +109,8 @@ def test_memory_image_round_trips_and_refuses_bad_images():
 @pytest.mark.parametrize("change, param", [
     ({"width": 300}, "width"), ({"base": 4}, "base"), ({"addr_bits": 12, "width": 256, "height": 3}, "base"),
     ({"z_fmt": Fmt(True, 1, 15)}, "z_fmt"), ({"z_fmt": Fmt(False, 1, 23)}, "z_fmt"), ({"flag_bits": 9}, "flag_bits"),
-    ({"data_bits": 96}, "data_bits"), ({"clear_depth": 1 << 16}, "clear_depth"), ({"clear_color": (0, 0)}, "clear_color"),
+    ({"data_bits": 96}, "data_bits"), ({"clear_depth": 1 << 16}, "clear_depth"),
+    ({"clear_color": (0, 0)}, "clear_color"),
     ({"outstanding": 1}, "outstanding")])
 def test_bad_parameters_are_refused_by_name(change, param):
     with pytest.raises(ValueError, match=param):

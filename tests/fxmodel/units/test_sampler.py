@@ -5,11 +5,12 @@ from fractions import Fraction
 
 import numpy as np
 import pytest
-from hypothesis import given, strategies as st
+from hypothesis import given
+from hypothesis import strategies as st
 
 from fxmodel.core.fixed import Fmt
-from fxmodel.units.sampler import SamplerParams, Texels
 from fxmodel.core.unit import preset
+from fxmodel.units.sampler import SamplerParams, Texels
 
 
 def texels_strategy():
@@ -52,7 +53,7 @@ def exact_sample(params, face, s, t):
     if params.filter == "nearest":
         return [int(v) for v in tex[face, j0, i0]], None
     out, corners = [], []
-    for k, fmt in enumerate(params.channels):
+    for k in range(len(params.channels)):
         a, b, c, d = (Fraction(int(tex[face, j, i, k])) for j, i in ((j0, i0), (j0, i1), (j1, i0), (j1, i1)))
         v = (a * (1 - fx) + b * fx) * (1 - fy) + (c * (1 - fx) + d * fx) * fy
         out.append(math.floor(v + Fraction(1, 2)))

@@ -1,0 +1,145 @@
+r"""Reference (c), the true image: ideal per-pixel Phong integrated over each pixel's area (paper section 6 names
+filtering, "artifact reduced MIP mapping for bump textures", as the next step; this is what a filter is judged
+against).
+
+References (a) and (b) (:mod:`host.reference`) shade one sample at each pixel's centre, so wherever a pixel
+covers many texels they alias exactly as the hardware does, and cannot show it. Reference (c) shades
+``K x K`` samples per pixel with reference (b)'s lighting (normalized perturbed normal, exact Phong, the
+full-resolution maps filtered bilinearly, as the scene conventions define a map) and averages them with a box
+filter over the pixel:
+
+* **Sample pattern: a regular grid**, sample ``(i, j)`` of pixel ``(x, y)`` at ``(x + (i + 1/2) / K,
+  y + (j + 1/2) / K)``. It is obtained by rasterizing the scene at ``K`` times the resolution with the same front
+  end (:func:`host.frontend.rasterize`: the same clipping, fill rule and perspective-correct attributes), so
+  coverage and attributes are exactly those of the ordinary front end at a finer grid, and the result is
+  deterministic without a seed. ``tools/filtering.py`` records the figures at ``K = 8`` and ``K = 16``: they move
+  little (the record's ``truth_convergence``).
+* Each sample's radiance ``texture D + S`` is clipped to ``[0, 255]`` (a display cannot show more) and averaged
+  in float; uncovered samples count as the background; the mean is rounded half-up to a byte once.
+* **Coverage**: the number of covered samples per pixel. Pixels with all ``K^2`` covered are *fully covered*
+  (the figures the issue compares), the others with some coverage are *edge* pixels, reported apart (their value
+  mixes surface and background, which a one-sample renderer cannot match).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from fxmodel.pipeline.lighting import Light, Lighting
+from host.bumpmap import perturbations, scene_maps
+from host.frontend import rasterize
+from host.reference import perturbed, sample_float
+
+__all__ = ["Truth", "material_lighting", "bump_float", "radiance", "true_image", "DEFAULT_SAMPLES"]
+
+#: Samples per pixel along each axis of reference (c) by default.
+DEFAULT_SAMPLES = 8
+
+#: Fragments shaded at once (bounds the temporaries of the samplers).
+_CHUNK = 1 << 20
+
+
+@dataclass
+class Truth:
+    """Reference (c) of a scene.
+
+    Attributes
+    ----------
+    image : ndarray (H, W, 3) uint8
+        The box-filtered true image (background where nothing is covered).
+    mean : ndarray (H, W, 3) float64
+        The same before rounding, in 8-bit units.
+    coverage : ndarray (H, W) int64
+        Covered samples per pixel, ``0 .. samples**2``.
+    samples : int
+        ``K``: samples per pixel along each axis.
+    """
+
+    image: np.ndarray = field(repr=False)
+    mean: np.ndarray = field(repr=False)
+    coverage: np.ndarray = field(repr=False)
+    samples: int
+
+    @property
+    def full(self) -> np.ndarray:
+        """Mask ``(H, W)`` of the pixels every sample of which is covered."""
+        return self.coverage == self.samples ** 2
+
+    @property
+    def edge(self) -> np.ndarray:
+        """Mask ``(H, W)`` of the partly covered pixels."""
+        return (self.coverage > 0) & ~self.full
+
+
+def material_lighting(scene, material) -> Lighting:
+    """The lighting of one material of ``scene`` (as :func:`host.render.prepare` builds it)."""
+    return Lighting(lights=tuple(Light(tuple(li.direction), tuple(li.color)) for li in scene.lights),
+                    ambient=tuple(scene.ambient), specular=tuple(material.specular),
+                    shininess=float(material.shininess))
+
+
+def bump_float(maps) -> np.ndarray:
+    """The unquantized perturbations ``(H, W, 2)`` of a material in the units ``A`` expects (as
+    :meth:`host.render.Frame.bump_float`); one zero texel without a bump map."""
+    if maps.bump is None:
+        return np.zeros((1, 1, 2))
+    pu, pv = perturbations(maps.heights)
+    scale = maps.bump.scale or 1.0
+    return np.stack([pu / scale, pv / scale], -1)
+
+
+def radiance(frags: dict, *, bump, texture, lighting: Lighting) -> np.ndarray:
+    """Reference (b)'s shading before rounding: ``clip(texture D + S, 0, 255)`` ``(K, 3)`` float, the maps
+    sampled bilinearly at the exact addresses (``frags`` as :func:`host.reference.ideal_phong` takes them)."""
+    n = perturbed(frags, bump, "bilinear")
+    n = n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
+    e = frags["E"] / np.maximum(np.linalg.norm(frags["E"], axis=1, keepdims=True), 1e-300)
+    r = 2 * n * np.sum(n * e, 1, keepdims=True) - e
+    tex = sample_float(np.asarray(texture, dtype=np.float64)[None], np.zeros(len(n), np.int64), frags["sc"],
+                       frags["tc"], "bilinear", "repeat")
+    return np.clip(tex * lighting.diffuse_factor(n) + lighting.specular_bytes(r), 0.0, 255.0)
+
+
+def _shade(scene, frags, maps) -> np.ndarray:
+    """Radiance ``(K, 3)`` of every fragment of ``frags`` (each with its own material's maps)."""
+    out = np.empty((len(frags), 3))
+    for mi in np.unique(frags.material):
+        lighting = material_lighting(scene, scene.materials[mi])
+        bump = bump_float(maps[mi])
+        for lo in range(0, len(frags), _CHUNK):
+            sel = np.arange(lo, min(lo + _CHUNK, len(frags)))
+            sel = sel[np.asarray(frags.material[sel]) == mi]
+            if not sel.size:
+                continue
+            f = {"U": frags.U[sel], "s": frags.s[sel], "t": frags.t[sel], "sc": frags.sc[sel],
+                 "tc": frags.tc[sel], "N": frags.N[sel], "E": frags.E[sel], "A": frags.A[sel]}
+            out[sel] = radiance(f, bump=bump, texture=maps[mi].color, lighting=lighting)
+    return out
+
+
+def true_image(scene, samples: int = DEFAULT_SAMPLES) -> Truth:
+    """Reference (c) of ``scene`` (a loaded :class:`host.scene.Scene`, at its own size) with ``samples x samples``
+    samples per pixel on a regular grid (see the module docstring).
+
+    Raises
+    ------
+    ValueError
+        ``samples`` not a positive int, or a super-sampled frame beyond the front end's largest image size.
+    """
+    if not isinstance(samples, int) or isinstance(samples, bool) or samples < 1:
+        raise ValueError(f"samples={samples!r}: must be a positive int")
+    k, w, h = samples, scene.width, scene.height
+    fine = scene.with_size(w * k, h * k)
+    maps = scene_maps(fine)
+    frags = rasterize(fine, maps)
+    rad = _shade(fine, frags, maps)
+    bg = np.asarray(scene.background, dtype=np.float64) * 255.0
+    pix = (np.asarray(frags.y) // k) * w + np.asarray(frags.x) // k
+    coverage = np.bincount(pix, minlength=w * h)
+    total = np.stack([np.bincount(pix, weights=rad[:, c], minlength=w * h) for c in range(3)], -1)
+    mean = (total + (k * k - coverage)[:, None] * bg) / (k * k)
+    image = np.clip(np.floor(mean + 0.5), 0, 255).astype(np.uint8)
+    return Truth(image=image.reshape(h, w, 3), mean=mean.reshape(h, w, 3), coverage=coverage.reshape(h, w),
+                 samples=k)

@@ -1,0 +1,249 @@
+"""``bumpmap filtering``: every shipped scene against the true image, and the filtering study of issue 24.
+
+For each shipped scene: the bit-exact model frame (today's pipeline, no filtering) and float reference (a) against
+reference (c) (:mod:`host.truth`, ``--samples`` per pixel along each axis) on the fully covered pixels, and apart
+on the edge pixels: PSNR, RMSE, largest and 99th-percentile difference, mean FLIP (:mod:`host.metrics`); and the
+same for the chosen filter (:data:`CHOSEN`). Then the study (paper section 6, "artifact reduced MIP mapping for
+bump textures"): each filtering choice of :func:`study_choices`, in float (:mod:`host.filtered`), against (c) on
+the study scenes; the convergence of (c) itself (``--samples`` against ``--check-samples``); and the flicker of a
+slow camera pan over the grazing floor (:func:`flicker`). Writes the JSON record (``--record``) and the picture
+none | ours | truth of the grazing floor (``--picture``), both atomically.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import datetime
+import json
+import math
+import os
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from fxmodel.core.paths import ROOT, SCENES
+
+__all__ = ["add_arguments", "run", "study_choices", "CHOSEN", "SCENE_PRESETS", "flicker", "measure_scene"]
+
+#: The preset each shipped scene is drawn with (the default preset refuses the grazing floor's texture addresses).
+SCENE_PRESETS = {"grazing-floor": "grazing-floor-wide"}
+
+#: Scenes of the study and of the flicker measure.
+STUDY_SCENES = ("grazing-floor", "tin-plane")
+
+
+def _choice(**kw):
+    from host.filtered import Choice
+    return Choice(**kw)
+
+
+#: The filter this study chooses (see docs: anisotropic color and LEAN bump lookups, per-texel covariance, four
+#: specular cubes a factor 4 apart in exponent, at most 4 taps).
+CHOSEN = dict(color="anisotropic", bump="lean", bump_footprint="anisotropic", lean="covariance", spec="cubes",
+              lobes=4, ratio=4.0, taps=4)
+
+
+def study_choices() -> list:
+    """The filtering choices measured, cheapest first (:class:`host.filtered.Choice` arguments)."""
+    iso = dict(color="trilinear")
+    aniso = dict(color="anisotropic", bump_footprint="anisotropic")
+    lean = dict(bump="lean", lean="covariance")
+    rows = [dict(), dict(color="nearest-level"), iso, dict(iso, bias=-0.5), dict(iso, bias=0.5),
+            dict(iso, kernel="tent"), dict(iso, bump="mean"), dict(iso, bump="lean"), dict(iso, **lean),
+            dict(iso, **lean, spec="cubes"), dict(color="anisotropic"), dict(aniso, bump="mean"),
+            dict(aniso, bump="lean"), dict(aniso, **lean)]
+    rows += [dict(aniso, **lean, spec="cubes", lobes=lobes, taps=taps)
+             for lobes, taps in ((4, 2), (4, 4), (4, 8), (4, 16), (3, 4), (2, 4))]
+    return rows
+
+
+def add_arguments(ap) -> None:
+    ap.add_argument("--scenes", nargs="*", default=None, help="scene names in scenes/ (default: every shipped scene)")
+    ap.add_argument("--samples", type=int, default=8, help="samples per pixel along each axis of reference (c) "
+                    "(default: %(default)s)")
+    ap.add_argument("--check-samples", type=int, default=16, help="the convergence check of (c) on the study "
+                    "scenes at this many samples per axis; 0: none (default: %(default)s)")
+    ap.add_argument("--size", type=int, default=None, help="render every scene at this width (aspect kept) "
+                    "instead of its own size (quick runs)")
+    ap.add_argument("--pan-frames", type=int, default=8, help="frames of the flicker pan; 0: none "
+                    "(default: %(default)s)")
+    ap.add_argument("--pan-degrees", type=float, default=0.1, help="camera yaw per frame of the pan "
+                    "(default: %(default)s, about a fifth of a pixel)")
+    ap.add_argument("--record", type=Path, default=ROOT / "docs" / "records" / "filtering.json",
+                    help="JSON record to write (default: docs/records/filtering.json)")
+    ap.add_argument("--picture", type=Path, default=ROOT / "docs" / "img" / "grazing-floor.png",
+                    help="picture none | ours | truth of the grazing floor (default: docs/img/grazing-floor.png)")
+
+
+def _atomic_write(path: Path, write) -> Path:
+    """Write through ``write(file_object)`` to a temporary file beside ``path``, then rename it into place."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "wb") as f:
+            write(f)
+        os.replace(tmp, path)
+    except BaseException:
+        os.unlink(tmp)
+        raise
+    return path
+
+
+def _load(name: str, size):
+    from host.scene import load_scene
+    scene = load_scene(SCENES / f"{name}.toml")
+    return scene.with_size(size) if size else scene
+
+
+def _frame(scene, name: str):
+    from host.render import prepare
+    return prepare(scene, preset=SCENE_PRESETS.get(name, "default"))
+
+
+def measure_scene(name: str, samples: int, size=None) -> tuple[dict, dict]:
+    """Figures of one shipped scene against (c): the model frame, reference (a) and the chosen filter, on the
+    fully covered and the edge pixels; and the images ``{"none", "ours", "truth"}`` (for the picture)."""
+    from host.filtered import Choice, render_filtered
+    from host.metrics import compare
+    from host.render import render
+    from host.truth import true_image
+    scene = _load(name, size)
+    t0 = time.perf_counter()
+    truth = true_image(scene, samples)
+    t1 = time.perf_counter()
+    frame = _frame(scene, name)
+    model = frame.image(render(frame, references=False)["_model_bytes"])
+    a, _ = frame.references()
+    ours = frame.image(render_filtered(frame, Choice(**CHOSEN)))
+    out = {"preset": SCENE_PRESETS.get(name, "default"), "width": scene.width, "height": scene.height,
+           "full_pixels": int(truth.full.sum()), "edge_pixels": int(truth.edge.sum()),
+           "seconds_truth": round(t1 - t0, 1)}
+    for key, img in (("model", model), ("float_a", frame.image(a)), ("filtered", ours)):
+        out[key] = {"full": compare(img, truth.image, truth.full), "edge": compare(img, truth.image, truth.edge),
+                    "flip_mean_whole_frame": round(float(_flip_whole(img, truth.image)), 4)}
+    return out, {"none": model, "ours": ours, "truth": truth.image}
+
+
+def _flip_whole(img, ref) -> float:
+    from host.metrics import flip_map
+    return flip_map(ref, img).mean()
+
+
+def study(name: str, samples: int, check: int, size=None) -> dict:
+    """Each choice of :func:`study_choices` against (c) on scene ``name``, and (c)'s convergence."""
+    from host.filtered import Choice, render_filtered
+    from host.metrics import compare
+    from host.render import render
+    from host.truth import true_image
+    scene = _load(name, size)
+    frame = _frame(scene, name)
+    truth = true_image(scene, samples)
+    model = frame.image(render(frame, references=False)["_model_bytes"])
+    rows = [{"choice": "model (bit-exact, no filtering)", "params": None,
+             "full": compare(model, truth.image, truth.full)}]
+    images = {}
+    for kw in study_choices():
+        c = Choice(**kw)
+        img = frame.image(render_filtered(frame, c))
+        images[c.label()] = img
+        rows.append({"choice": c.label(), "params": dataclasses.asdict(c), "chosen": kw == CHOSEN,
+                     "full": compare(img, truth.image, truth.full)})
+    out = {"samples": samples, "rows": rows}
+    if check:
+        fine = true_image(scene, check)
+        conv = {"truth_vs_truth": compare(truth.image, fine.image, truth.full & fine.full)}
+        for label, img in (("model", model), ("chosen", images[Choice(**CHOSEN).label()])):
+            conv[label] = {str(samples): compare(img, truth.image, truth.full & fine.full),
+                           str(check): compare(img, fine.image, truth.full & fine.full)}
+        out["convergence"] = {"samples": [samples, check], **conv}
+    return out
+
+
+def _pan(scene, degrees: float):
+    """``scene`` with its camera turned by ``degrees`` about the world's y axis (a yaw pan)."""
+    cam = scene.camera
+    d = np.subtract(cam.target, cam.position)
+    c, s = math.cos(math.radians(degrees)), math.sin(math.radians(degrees))
+    d = (c * d[0] + s * d[2], d[1], -s * d[0] + c * d[2])
+    target = tuple(float(p + q) for p, q in zip(cam.position, d))
+    return dataclasses.replace(scene, camera=dataclasses.replace(cam, target=target))
+
+
+def flicker(name: str, samples: int, frames: int, degrees: float, size=None) -> dict:
+    """Temporal stability on a slow yaw pan: per frame the model (no filtering), the chosen filter and (c); the
+    flicker of a sequence is the RMS, over the pixels fully covered in both frames and the frame pairs, of its
+    frame-to-frame change minus (c)'s own (``Delta test - Delta truth``, 8-bit steps)."""
+    from host.filtered import Choice, render_filtered
+    from host.render import render
+    from host.truth import true_image
+    base = _load(name, size)
+    seq = {"none": [], "ours": [], "truth": [], "full": []}
+    for i in range(frames):
+        scene = _pan(base, i * degrees)
+        frame = _frame(scene, name)
+        truth = true_image(scene, samples)
+        seq["none"].append(frame.image(render(frame, references=False)["_model_bytes"]).astype(np.float64))
+        seq["ours"].append(frame.image(render_filtered(frame, Choice(**CHOSEN))).astype(np.float64))
+        seq["truth"].append(truth.image.astype(np.float64))
+        seq["full"].append(truth.full)
+    out = {"frames": frames, "degrees_per_frame": degrees, "samples": samples}
+    sq = {"none": 0.0, "ours": 0.0, "truth": 0.0}
+    n = 0
+    for i in range(frames - 1):
+        m = seq["full"][i] & seq["full"][i + 1]
+        dt = (seq["truth"][i + 1] - seq["truth"][i])[m]
+        for key in ("none", "ours"):
+            sq[key] += float((((seq[key][i + 1] - seq[key][i])[m] - dt) ** 2).sum())
+        sq["truth"] += float((dt ** 2).sum())
+        n += dt.size
+    for key in sq:
+        out[f"rms_{key}" if key == "truth" else f"flicker_{key}"] = round(math.sqrt(sq[key] / max(n, 1)), 3)
+    out["reduction"] = round(out["flicker_none"] / out["flicker_ours"], 2) if out["flicker_ours"] else None
+    return out
+
+
+def _picture(path: Path, images: dict) -> None:
+    from PIL import Image
+
+    from host.render import compose
+    img = compose(images["none"], images["ours"], images["truth"])
+    _atomic_write(path, lambda f: Image.fromarray(img).save(f, format="PNG"))
+
+
+def run(args) -> int:
+    """Every shipped scene against the true image (reference (c)), and the filtering study (issue 24)."""
+    t0 = time.perf_counter()
+    names = args.scenes if args.scenes is not None else sorted(p.stem for p in SCENES.glob("*.toml"))
+    for name in names:
+        if not (SCENES / f"{name}.toml").is_file():
+            print(f"error: --scenes: no scene {name!r} in {SCENES}", file=sys.stderr)
+            return 2
+    if args.samples < 1 or args.check_samples < 0 or args.pan_frames < 0 or args.pan_frames == 1:
+        print("error: --samples must be >= 1, --check-samples >= 0, --pan-frames 0 or >= 2", file=sys.stderr)
+        return 2
+    record = {"command": "bumpmap " + " ".join(sys.argv[2:] if sys.argv[1:2] == ["filtering"] else sys.argv[1:]),
+              "date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
+              "machine": {"nproc": os.cpu_count(), "load_average": [round(x, 2) for x in os.getloadavg()]},
+              "samples": args.samples, "sample_pattern": "regular grid, (i + 1/2) / K, by rasterizing at K times "
+              "the resolution", "chosen": _choice(**CHOSEN).label(), "scenes": {}, "study": {}}
+    for name in names:
+        print(f"filtering: {name}", file=sys.stderr)
+        record["scenes"][name], images = measure_scene(name, args.samples, args.size)
+        if name == "grazing-floor":
+            _picture(args.picture, images)
+    for name in STUDY_SCENES:
+        if name in names:
+            print(f"filtering: study on {name}", file=sys.stderr)
+            record["study"][name] = study(name, args.samples, args.check_samples, args.size)
+    if args.pan_frames and "grazing-floor" in names:
+        print("filtering: flicker pan", file=sys.stderr)
+        record["flicker"] = flicker("grazing-floor", args.samples, args.pan_frames, args.pan_degrees, args.size)
+    record["seconds"] = round(time.perf_counter() - t0, 1)
+    text = json.dumps(record, indent=1, allow_nan=False) + "\n"
+    _atomic_write(args.record, lambda f: f.write(text.encode()))
+    print(json.dumps({k: record[k] for k in ("chosen", "seconds")}, indent=1))
+    return 0

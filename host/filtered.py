@@ -24,8 +24,15 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from fxmodel.pipeline.lighting import face_directions
-from host.mipmap import (lean_pyramid, level_of_detail, pyramid, sample_anisotropic, sample_trilinear,
-                         screen_derivatives, texel_derivatives)
+from host.mipmap import (
+    lean_pyramid,
+    level_of_detail,
+    pyramid,
+    sample_anisotropic,
+    sample_trilinear,
+    screen_derivatives,
+    texel_derivatives,
+)
 from host.reference import cube_address_float, sample_float, to_bytes
 
 __all__ = ["Choice", "render_filtered", "lobe_widening"]

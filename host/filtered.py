@@ -6,11 +6,16 @@ measurement against the true image (:mod:`host.truth`) before any hardware is bu
 replaced by the filtered ones of :mod:`host.mipmap` and, for LEAN bump maps, the specular lobe widened by the
 slope variance the filter averaged away:
 
-* the slope covariance ``Sigma = M - B B^T`` moves the normal by ``A Sigma A^T``; its part across ``N'``,
-  divided by ``|N'|^2``, is the angular variance of the normal, ``sigma^2`` per axis half of it;
-* the reflection vector moves twice as far, so a Phong lobe ``cos^s`` (angular variance ``1 / s`` per axis)
-  convolved with it has ``1 / s' = 1 / s + 4 sigma^2`` (Toksvig 2004 and LEAN, Olano & Baker 2010, give the same
-  first-order widening), and keeps its energy: it is scaled by ``(s' + 1) / (s + 1)``;
+* the slope covariance ``Sigma`` moves the unit normal by ``P A d / |N'|`` for a slope change ``d`` and the
+  reflection vector by ``J`` times that (:func:`lobe_widening`: twice the tilt in the plane of incidence,
+  ``2 (n.e)`` times across it), so a Phong lobe ``cos^s`` (angular variance ``1 / s`` per axis) convolved with
+  the reflection vector's spread has ``1 / s' = 1 / s + sigma_R^2`` (half the trace of its covariance; Toksvig
+  2004 and LEAN, Olano & Baker 2010, give the same first-order widening), and keeps its energy: it is scaled by
+  ``(s' + 1) / (s + 1)``;
+* ``lean="moments"`` takes ``Sigma = M - B B^T`` from the filtered ``B`` and ``M`` (LEAN as published: bilinear
+  blending of two texels with different slopes counts as variance, even where the pixel is smaller than a
+  texel); ``lean="covariance"`` stores each texel's own ``M - B B^T`` in the pyramid (zero at level 0) and
+  filters that, so only the variance within the texels of the level the footprint chose widens the lobe;
 * ``spec="exact"`` evaluates that lobe per pixel (a float oracle no cube can hold); ``spec="cubes"`` bakes
   ``lobes`` specular cubes at exponents ``s / ratio^k`` (each with its energy factor) and blends the two whose
   exponents bracket ``s'`` linearly in ``log s'``: what the hardware would hold (``lobes`` times the specular
@@ -61,6 +66,8 @@ class Choice:
         Largest number of anisotropic taps.
     kernel : str
         Downsampling kernel (:data:`host.mipmap.KERNELS`).
+    lean : str
+        ``moments`` or ``covariance`` (see the module docstring); only with ``bump="lean"``.
     """
 
     color: str = "none"

@@ -25,11 +25,9 @@ from pathlib import Path
 import numpy as np
 
 from fxmodel.core.paths import ROOT, SCENES
+from host.shipped import scene_preset
 
-__all__ = ["add_arguments", "run", "study_choices", "CHOSEN", "SCENE_PRESETS", "flicker", "measure_scene"]
-
-#: The preset each shipped scene is drawn with (the default preset refuses the grazing floor's texture addresses).
-SCENE_PRESETS = {"grazing-floor": "grazing-floor-wide"}
+__all__ = ["add_arguments", "run", "study_choices", "CHOSEN", "flicker", "measure_scene"]
 
 #: Scenes of the study and of the flicker measure.
 STUDY_SCENES = ("grazing-floor", "tin-plane")
@@ -101,7 +99,7 @@ def _load(name: str, size):
 
 def _frame(scene, name: str):
     from host.render import prepare
-    return prepare(scene, preset=SCENE_PRESETS.get(name, "default"))
+    return prepare(scene, preset=scene_preset(name))
 
 
 def measure_scene(name: str, samples: int, size=None) -> tuple[dict, dict]:
@@ -119,7 +117,7 @@ def measure_scene(name: str, samples: int, size=None) -> tuple[dict, dict]:
     model = frame.image(render(frame, references=False)["_model_bytes"])
     a, _ = frame.references()
     ours = frame.image(render_filtered(frame, Choice(**CHOSEN)))
-    out = {"preset": SCENE_PRESETS.get(name, "default"), "width": scene.width, "height": scene.height,
+    out = {"preset": scene_preset(name), "width": scene.width, "height": scene.height,
            "full_pixels": int(truth.full.sum()), "edge_pixels": int(truth.edge.sum()),
            "seconds_truth": round(t1 - t0, 1)}
     for key, img in (("model", model), ("float_a", frame.image(a)), ("filtered", ours)):

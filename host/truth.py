@@ -32,7 +32,7 @@ from host.bumpmap import perturbations, scene_maps
 from host.frontend import rasterize
 from host.reference import perturbed, sample_float
 
-__all__ = ["Truth", "material_lighting", "bump_float", "radiance", "true_image", "DEFAULT_SAMPLES"]
+__all__ = ["Truth", "material_lighting", "bump_float", "radiance", "true_image", "against_truth", "DEFAULT_SAMPLES"]
 
 #: Samples per pixel along each axis of reference (c) by default.
 DEFAULT_SAMPLES = 8
@@ -143,3 +143,22 @@ def true_image(scene, samples: int = DEFAULT_SAMPLES) -> Truth:
     image = np.clip(np.floor(mean + 0.5), 0, 255).astype(np.uint8)
     return Truth(image=image.reshape(h, w, 3), mean=mean.reshape(h, w, 3), coverage=coverage.reshape(h, w),
                  samples=k)
+
+
+def against_truth(scene, images: dict, samples: int = DEFAULT_SAMPLES, exclude=None, *, flip: bool = True):
+    """The figures of each frame in ``images`` (name -> bytes ``(H, W, 3)`` of ``scene`` at its size) against
+    reference (c): ``({"samples", "full_pixels", "edge_pixels", name: {"full": ..., "edge": ...}}, truth)``
+    with :func:`host.metrics.compare`'s measures on the fully covered and on the edge pixels. ``exclude``: pixels
+    ``(x, y)`` (two arrays) left out of both (the depth disagreements of a frame drawn from triangles). The hook
+    of ``render`` and ``make sim`` for (c)."""
+    from host.metrics import compare
+    truth = true_image(scene, samples)
+    full, edge = truth.full.copy(), truth.edge.copy()
+    if exclude is not None:
+        x, y = (np.asarray(v, np.int64) for v in exclude)
+        full[y, x] = edge[y, x] = False
+    out = {"samples": samples, "full_pixels": int(full.sum()), "edge_pixels": int(edge.sum())}
+    for name, img in images.items():
+        out[name] = {"full": compare(img, truth.image, full, flip=flip),
+                     "edge": compare(img, truth.image, edge, flip=flip)}
+    return out, truth

@@ -10,7 +10,7 @@ from fxmodel.core.paths import ROOT
 from host.metrics import compare, psnr_db, rmse
 from host.render import prepare, render
 from host.scene import load_scene
-from host.truth import true_image
+from host.truth import against_truth, true_image
 
 TIN = ROOT / "scenes" / "tin-plane.toml"
 
@@ -106,3 +106,14 @@ def test_eight_by_eight_is_close_to_sixteen_by_sixteen():
     assert abs(p8["psnr_db"] - p16["psnr_db"]) < 0.5
     assert abs(p8["flip_mean"] - p16["flip_mean"]) < 0.005
     assert compare(t8.image, t16.image, full, flip=False)["max_lsb"] <= 8
+
+
+def test_against_truth_reports_full_and_edge_and_excludes_pixels(tmp_path):
+    scene = square(tmp_path, 0.5625)
+    truth = true_image(scene, 4)
+    rep, t = against_truth(scene, {"same": truth.image}, 4, flip=False)
+    assert np.array_equal(t.image, truth.image)
+    assert rep["full_pixels"] == 64 and rep["edge_pixels"] == 36
+    assert rep["same"]["full"]["psnr_db"] is None and rep["same"]["edge"]["max_lsb"] == 0
+    rep, _ = against_truth(scene, {"same": truth.image}, 4, exclude=([4, 3], [4, 3]), flip=False)
+    assert rep["full_pixels"] == 63 and rep["edge_pixels"] == 35

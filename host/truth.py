@@ -8,12 +8,13 @@ covers many texels they alias exactly as the hardware does, and cannot show it. 
 full-resolution maps filtered bilinearly, as the scene conventions define a map) and averages them with a box
 filter over the pixel:
 
-* **Sample pattern: a regular grid**, sample ``(i, j)`` of pixel ``(x, y)`` at ``(x + (i + 1/2) / K,
-  y + (j + 1/2) / K)``. It is obtained by rasterizing the scene at ``K`` times the resolution with the same front
-  end (:func:`host.frontend.rasterize`: the same clipping, fill rule and perspective-correct attributes), so
-  coverage and attributes are exactly those of the ordinary front end at a finer grid, and the result is
-  deterministic without a seed. ``tools/filtering.py`` records the figures at ``K = 8`` and ``K = 16``: they move
-  little (the record's ``truth_convergence``).
+* **Samples** (:mod:`host.supersample`): the front end's own projection, clipping, snapping, fill rule, depth
+  rule and perspective-correct attributes, evaluated at sample points instead of pixel centres, a band of rows
+  at a time (memory bounded by the band, any ``K`` up to 128). **Pattern: a regular grid**, sample ``(i, j)``
+  of pixel ``(x, y)`` at ``(x + (i + 1/2) / K, y + (j + 1/2) / K)``: deterministic, and the frame that
+  rasterizing at ``K`` times the resolution gives, but for vertices snapped to 1/256 of a pixel rather than of a
+  sample. ``pattern="jittered"`` (one random point per cell, fixed seed) for comparison; ``tools/filtering.py``
+  records the figures at ``K = 8`` and ``K = 16`` (``convergence``).
 * Each sample's radiance ``texture D + S`` is clipped to ``[0, 255]`` (a display cannot show more) and averaged
   in float; uncovered samples count as the background; the mean is rounded half-up to a byte once.
 * **Coverage**: the number of covered samples per pixel. Pixels with all ``K^2`` covered are *fully covered*
@@ -29,16 +30,13 @@ import numpy as np
 
 from fxmodel.pipeline.lighting import Light, Lighting
 from host.bumpmap import perturbations, scene_maps
-from host.frontend import rasterize
 from host.reference import perturbed, sample_float
+from host.supersample import scene_samples
 
 __all__ = ["Truth", "material_lighting", "bump_float", "radiance", "true_image", "against_truth", "DEFAULT_SAMPLES"]
 
 #: Samples per pixel along each axis of reference (c) by default.
 DEFAULT_SAMPLES = 8
-
-#: Fragments shaded at once (bounds the temporaries of the samplers).
-_CHUNK = 1 << 20
 
 
 @dataclass
@@ -102,43 +100,35 @@ def radiance(frags: dict, *, bump, texture, lighting: Lighting) -> np.ndarray:
     return np.clip(tex * lighting.diffuse_factor(n) + lighting.specular_bytes(r), 0.0, 255.0)
 
 
-def _shade(scene, frags, maps) -> np.ndarray:
-    """Radiance ``(K, 3)`` of every fragment of ``frags`` (each with its own material's maps)."""
-    out = np.empty((len(frags), 3))
-    for mi in np.unique(frags.material):
-        lighting = material_lighting(scene, scene.materials[mi])
-        bump = bump_float(maps[mi])
-        for lo in range(0, len(frags), _CHUNK):
-            sel = np.arange(lo, min(lo + _CHUNK, len(frags)))
-            sel = sel[np.asarray(frags.material[sel]) == mi]
-            if not sel.size:
-                continue
-            f = {"U": frags.U[sel], "s": frags.s[sel], "t": frags.t[sel], "sc": frags.sc[sel],
-                 "tc": frags.tc[sel], "N": frags.N[sel], "E": frags.E[sel], "A": frags.A[sel]}
-            out[sel] = radiance(f, bump=bump, texture=maps[mi].color, lighting=lighting)
-    return out
-
-
-def true_image(scene, samples: int = DEFAULT_SAMPLES) -> Truth:
+def true_image(scene, samples: int = DEFAULT_SAMPLES, pattern: str = "grid", seed: int = 0) -> Truth:
     """Reference (c) of ``scene`` (a loaded :class:`host.scene.Scene`, at its own size) with ``samples x samples``
-    samples per pixel on a regular grid (see the module docstring).
+    samples per pixel (:func:`host.supersample.offsets`: ``grid`` or ``jittered``), a band of rows at a time.
 
     Raises
     ------
     ValueError
-        ``samples`` not a positive int, or a super-sampled frame beyond the front end's largest image size.
+        ``samples`` not a power of two from 1 to 128 (sample positions are exact in 1/256 pixel), or an unknown
+        ``pattern``.
     """
-    if not isinstance(samples, int) or isinstance(samples, bool) or samples < 1:
-        raise ValueError(f"samples={samples!r}: must be a positive int")
+    if not isinstance(samples, int) or isinstance(samples, bool) or samples < 1 or samples > 128 or \
+            samples & (samples - 1):
+        raise ValueError(f"samples={samples!r}: must be a power of two from 1 to 128")
     k, w, h = samples, scene.width, scene.height
-    fine = scene.with_size(w * k, h * k)
-    maps = scene_maps(fine)
-    frags = rasterize(fine, maps)
-    rad = _shade(fine, frags, maps)
+    maps = scene_maps(scene)
+    lighting = [material_lighting(scene, m) for m in scene.materials]
+    bumps = [bump_float(m) for m in maps]
+    total = np.zeros((h * w, 3))
+    coverage = np.zeros(h * w, np.int64)
+    for y0, y1, cov, smp in scene_samples(scene, [m.a_gain for m in maps], k, pattern, seed):
+        coverage[y0 * w:y1 * w] = cov.ravel()
+        for mi in np.unique(smp.material):
+            sel = np.flatnonzero(smp.material == mi)
+            f = {"U": smp.s[sel], "s": smp.s[sel], "t": smp.t[sel], "sc": smp.sc[sel], "tc": smp.tc[sel],
+                 "N": smp.N[sel], "E": smp.E[sel], "A": smp.A[sel]}
+            rad = radiance(f, bump=bumps[mi], texture=maps[mi].color, lighting=lighting[mi])
+            for c in range(3):
+                total[:, c] += np.bincount(smp.pix[sel], weights=rad[:, c], minlength=h * w)
     bg = np.asarray(scene.background, dtype=np.float64) * 255.0
-    pix = (np.asarray(frags.y) // k) * w + np.asarray(frags.x) // k
-    coverage = np.bincount(pix, minlength=w * h)
-    total = np.stack([np.bincount(pix, weights=rad[:, c], minlength=w * h) for c in range(3)], -1)
     mean = (total + (k * k - coverage)[:, None] * bg) / (k * k)
     image = np.clip(np.floor(mean + 0.5), 0, 255).astype(np.uint8)
     return Truth(image=image.reshape(h, w, 3), mean=mean.reshape(h, w, 3), coverage=coverage.reshape(h, w),

@@ -7,10 +7,12 @@ import numpy as np
 import pytest
 
 from fxmodel.core.paths import ROOT
+from host.bumpmap import scene_maps
+from host.frontend import rasterize
 from host.metrics import compare, psnr_db, rmse
 from host.render import prepare, render
 from host.scene import load_scene
-from host.truth import against_truth, true_image
+from host.truth import against_truth, bump_float, material_lighting, radiance, true_image
 
 TIN = ROOT / "scenes" / "tin-plane.toml"
 
@@ -117,3 +119,34 @@ def test_against_truth_reports_full_and_edge_and_excludes_pixels(tmp_path):
     assert rep["same"]["full"]["psnr_db"] is None and rep["same"]["edge"]["max_lsb"] == 0
     rep, _ = against_truth(scene, {"same": truth.image}, 4, exclude=([4, 3], [4, 3]), flip=False)
     assert rep["full_pixels"] == 63 and rep["edge_pixels"] == 35
+
+
+def test_grid_samples_are_the_frame_rasterized_at_k_times_the_resolution():
+    n, k = 96, 4
+    scene = load_scene(TIN, size=n)
+    truth = true_image(scene, k)
+    fine = scene.with_size(n * k)
+    maps = scene_maps(fine)
+    f = rasterize(fine, maps)
+    rad = radiance({"U": f.s, "s": f.s, "t": f.t, "sc": f.sc, "tc": f.tc, "N": f.N, "E": f.E, "A": f.A},
+                   bump=bump_float(maps[0]), texture=maps[0].color,
+                   lighting=material_lighting(fine, fine.materials[0]))
+    pix = (f.y // k) * n + f.x // k
+    cov = np.bincount(pix, minlength=n * n).reshape(n, n)
+    mean = np.stack([np.bincount(pix, rad[:, c], minlength=n * n) for c in range(3)], -1).reshape(n, n, 3)
+    assert np.array_equal(cov, truth.coverage)
+    # the same samples up to vertex snapping (1/256 of a pixel here, of a sample there)
+    d = np.abs(mean[truth.full] / (k * k) - truth.mean[truth.full])
+    assert truth.full.sum() > 7000 and np.percentile(d, 99) < 0.05 and d.max() < 0.5
+
+
+def test_jittered_pattern_is_reproducible_and_bands_do_not_matter(tmp_path):
+    scene = load_scene(TIN, size=24)
+    a, b = true_image(scene, 4, "jittered", seed=3), true_image(scene, 4, "jittered", seed=3)
+    assert np.array_equal(a.mean, b.mean)
+    assert not np.array_equal(a.mean, true_image(scene, 4, "jittered", seed=4).mean)
+    assert not np.array_equal(a.mean, true_image(scene, 4).mean)
+    with pytest.raises(ValueError, match="power of two"):
+        true_image(scene, 6)
+    with pytest.raises(ValueError, match="pattern"):
+        true_image(scene, 4, "poisson")

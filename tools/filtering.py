@@ -204,6 +204,60 @@ def flicker(name: str, samples: int, frames: int, degrees: float, size=None) -> 
     return out
 
 
+def lod_check(name: str, size=None) -> dict:
+    """The fixed-point level of detail (:class:`fxmodel.units.lod.LodParams`) on every fragment of scene
+    ``name``, for its color texture and its bump map: ``U, V, W`` are the fragment's pipeline input codes, the
+    increments each triangle's exact ``U_x = k (rep u_x - tile (1/w)_x)``, ``W_x = k (1/w)_x`` rounded to
+    ``duv_fmt`` and ``dw_fmt``. Records the largest distance from the exact level of the same codes (the unit's
+    documented bound) and from the float level of :func:`host.mipmap.level_of_detail` (which adds the
+    rounding of the inputs)."""
+    from fxmodel.core.fixed import Fmt
+    from fxmodel.units.lod import LodParams
+    from host.frontend import clip_space
+    from host.mipmap import level_of_detail, screen_derivatives, texel_derivatives
+    scene = _load(name, size)
+    frame = _frame(scene, name)
+    f, maps, p = frame.frags, frame.maps, frame.params
+    names = [q.name for q in p.inputs]
+    tris = scene.triangles()
+    coef = np.linalg.solve(clip_space(scene, tris.positions),
+                           np.concatenate([tris.uvs, np.ones(tris.uvs.shape[:2] + (1,))], -1))[np.asarray(f.tri)]
+    px = np.array([2.0 / scene.width, -2.0 / scene.height])
+    k = np.asarray(f.wscale)
+    duv_fmt, dw_fmt = Fmt(True, 4, 36), Fmt(True, 2, 38)
+    out = {"duv_fmt": str(duv_fmt), "dw_fmt": str(dw_fmt), "fragments": len(f)}
+    duv = screen_derivatives(scene, f)
+    for label, (nu, nv), rep, tile, shape in (
+            ("color", ("Uc", "Vc"), maps.color_repeat, f.tile_c, maps.color.shape[:2]),
+            ("bump", ("U", "V"), maps.bump_repeat, f.tile, frame.bump_float().shape[:2])):
+        lp = LodParams(uv_fmt=p.persp.uv_fmt, w_fmt=p.persp.recip.in_fmt, duv_fmt=duv_fmt, dw_fmt=dw_fmt,
+                       size=(int(shape[1]), int(shape[0])))
+        inc = {}
+        for ax, axn in ((0, "x"), (1, "y")):
+            w1 = k * coef[:, ax, 2] * px[ax]
+            inc["W" + axn] = np.rint(w1 * 2.0 ** dw_fmt.frac_bits)
+            for i, n in enumerate((nu, nv)):
+                v = k * (rep[i] * coef[:, ax, i] - tile[:, i] * coef[:, ax, 2]) * px[ax]
+                inc[n + axn] = np.rint(v * 2.0 ** duv_fmt.frac_bits)
+        cols = [frame.codes[:, names.index(nu)], frame.codes[:, names.index(nv)], frame.codes[:, names.index("W")],
+                inc[nu + "x"], inc[nu + "y"], inc[nv + "x"], inc[nv + "y"], inc["Wx"], inc["Wy"]]
+        cols = [np.asarray(c, dtype=np.int64) for c in cols]
+        lam, flags = lp.compute(*cols)
+        ok = flags == 0
+        got = lam / (1 << lp.lod_frac)
+        exact = np.array([lp.exact(*[c[i] for c in cols]) for i in np.flatnonzero(ok)])
+        flt = level_of_detail(texel_derivatives(duv, rep, shape))[ok]
+        worst = np.abs(got[ok] - exact)
+        out[label] = {"size": list(lp.size), "bound_levels": round(lp.error_bound(), 5),
+                      "max_error_vs_exact_levels": round(float(worst.max(initial=0)), 5),
+                      "within_bound": bool((worst <= lp.error_bound() + 1e-12).all()),
+                      "max_error_vs_float_levels": round(float(np.abs(got[ok] - flt).max(initial=0)), 5),
+                      "flagged": int((~ok).sum()), "level_range": [round(float(got[ok].min()), 3),
+                                                                   round(float(got[ok].max()), 3)],
+                      "table_entries": 1 << lp.table_bits, "products_per_pixel": lp.products()}
+    return out
+
+
 def _picture(path: Path, images: dict) -> None:
     from PIL import Image
 
@@ -237,6 +291,10 @@ def run(args) -> int:
         if name in names:
             print(f"filtering: study on {name}", file=sys.stderr)
             record["study"][name] = study(name, args.samples, args.check_samples, args.size)
+    for name in STUDY_SCENES:
+        if name in names:
+            print(f"filtering: level of detail on {name}", file=sys.stderr)
+            record.setdefault("lod", {})[name] = lod_check(name, args.size)
     if args.pan_frames and "grazing-floor" in names:
         print("filtering: flicker pan", file=sys.stderr)
         record["flicker"] = flicker("grazing-floor", args.samples, args.pan_frames, args.pan_degrees, args.size)

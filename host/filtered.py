@@ -30,6 +30,7 @@ import numpy as np
 
 from fxmodel.pipeline.lighting import face_directions
 from host.mipmap import (
+    anisotropic_taps,
     lean_pyramid,
     level_of_detail,
     pyramid,
@@ -40,7 +41,7 @@ from host.mipmap import (
 )
 from host.reference import cube_address_float, sample_float, to_bytes
 
-__all__ = ["Choice", "render_filtered", "lobe_widening"]
+__all__ = ["Choice", "render_filtered", "lobe_widening", "lookups_per_pixel"]
 
 
 @dataclass(frozen=True)
@@ -151,6 +152,26 @@ def _specular(frame, R, s2, energy, choice: Choice):
         hi = sample_float(cubes[min(k + 1, choice.lobes - 1)], face[sel], ss[sel], ts[sel], "bilinear",
                           p.specular.edge)
         out[sel] = lo + f[sel] * (hi - lo)
+    return out
+
+
+def lookups_per_pixel(frame, choice: Choice) -> dict:
+    """Mean bilinear lookups per fragment of each map under ``choice`` (one level: 1, trilinear: 2, anisotropic:
+    2 per tap): the clocks per pixel of a sampler doing one bilinear lookup a clock, or the samplers needed for
+    one pixel a clock."""
+    f, maps = frame.frags, frame.maps
+    duv = screen_derivatives(frame.scene, f)
+    out = {}
+    for name, mode, rep, shape in (("color", choice.color, maps.color_repeat, maps.color.shape[:2]),
+                                   ("bump", "none" if choice.bump == "none" else choice.bump_footprint,
+                                    maps.bump_repeat, frame.bump_float().shape[:2])):
+        if mode in ("none", "nearest-level"):
+            out[name] = 1.0
+        elif mode in ("trilinear", "isotropic"):
+            out[name] = 2.0
+        else:
+            out[name] = round(2.0 * float(anisotropic_taps(texel_derivatives(duv, rep, shape), choice.taps)[0].mean()),
+                              3)
     return out
 
 

@@ -38,7 +38,7 @@ from host.frontend import clip_space
 from host.reference import sample_float
 
 __all__ = ["downsample", "pyramid", "lean_pyramid", "screen_derivatives", "texel_derivatives", "level_of_detail",
-           "sample_trilinear", "sample_anisotropic", "KERNELS"]
+           "sample_trilinear", "sample_anisotropic", "anisotropic_taps", "KERNELS"]
 
 #: Downsampling kernels: ``box`` (area average, the default) and ``tent`` (the box followed by a
 #: ``[1, 2, 1] / 4`` blur of the new level, with wrap-around: wider, no ringing, for comparison).
@@ -153,16 +153,22 @@ def sample_trilinear(levels: list[np.ndarray], s, t, lod, trilinear: bool = True
     return out
 
 
+def anisotropic_taps(dtex: np.ndarray, max_taps: int = 16):
+    """``(taps, P_max, P_min, major_x)`` per fragment: ``taps = min(ceil(P_max / P_min), max_taps)`` with
+    ``P_max``, ``P_min`` the longer and shorter footprint axes in texels (``dtex`` ``(K, 2, 2)``) and
+    ``major_x`` True where the x axis is the longer."""
+    px = np.hypot(dtex[:, 0, 0], dtex[:, 1, 0])
+    py = np.hypot(dtex[:, 0, 1], dtex[:, 1, 1])
+    pmax, pmin = np.maximum(px, py), np.maximum(np.minimum(px, py), 1e-300)
+    return np.clip(np.ceil(pmax / pmin), 1, max_taps).astype(np.int64), pmax, pmin, px >= py
+
+
 def sample_anisotropic(levels, s, t, dtex, shape, max_taps: int = 16, bias: float = 0.0) -> np.ndarray:
     """Anisotropic sampling (as the OpenGL anisotropic-filtering extension describes it): ``N = min(ceil(P_max /
     P_min), max_taps)`` trilinear taps spaced evenly along the footprint's major axis, each at the level
     ``log2(P_max / N) + bias``, averaged. ``dtex`` ``(K, 2, 2)`` texel derivatives, ``shape`` ``(H, W)`` of
     level 0 (to turn texel offsets into ``s, t``)."""
-    px = np.hypot(dtex[:, 0, 0], dtex[:, 1, 0])
-    py = np.hypot(dtex[:, 0, 1], dtex[:, 1, 1])
-    major_x = px >= py
-    pmax, pmin = np.maximum(px, py), np.maximum(np.minimum(px, py), 1e-300)
-    n = np.clip(np.ceil(pmax / pmin), 1, max_taps).astype(np.int64)
+    n, pmax, pmin, major_x = anisotropic_taps(dtex, max_taps)
     lod = np.log2(np.maximum(pmax / n, 1e-300)) + bias
     axis = np.where(major_x[:, None], dtex[:, :, 0], dtex[:, :, 1])            # texels per pixel along the major
     axis = axis / np.array([shape[1], shape[0]], dtype=np.float64)             # in s, t

@@ -133,7 +133,7 @@ def _flip_whole(img, ref) -> float:
 
 def study(name: str, samples: int, check: int, size=None) -> dict:
     """Each choice of :func:`study_choices` against (c) on scene ``name``, and (c)'s convergence."""
-    from host.filtered import Choice, render_filtered
+    from host.filtered import Choice, lookups_per_pixel, render_filtered
     from host.metrics import compare
     from host.render import render
     from host.truth import true_image
@@ -149,11 +149,16 @@ def study(name: str, samples: int, check: int, size=None) -> dict:
         img = frame.image(render_filtered(frame, c))
         images[c.label()] = img
         rows.append({"choice": c.label(), "params": dataclasses.asdict(c), "chosen": kw == CHOSEN,
+                     "bilinear_lookups_per_pixel": lookups_per_pixel(frame, c),
                      "full": compare(img, truth.image, truth.full)})
     out = {"samples": samples, "rows": rows}
     if check:
         fine = true_image(scene, check)
-        conv = {"truth_vs_truth": compare(truth.image, fine.image, truth.full & fine.full)}
+        both = truth.full & fine.full
+        for row in rows:
+            img = model if row["params"] is None else images[row["choice"]]
+            row[f"full_vs_{check}x{check}"] = compare(img, fine.image, both)
+        conv = {"truth_vs_truth": compare(truth.image, fine.image, both)}
         for label, img in (("model", model), ("chosen", images[Choice(**CHOSEN).label()])):
             conv[label] = {str(samples): compare(img, truth.image, truth.full & fine.full),
                            str(check): compare(img, fine.image, truth.full & fine.full)}
@@ -172,35 +177,40 @@ def _pan(scene, degrees: float):
 
 
 def flicker(name: str, samples: int, frames: int, degrees: float, size=None) -> dict:
-    """Temporal stability on a slow yaw pan: per frame the model (no filtering), the chosen filter and (c); the
-    flicker of a sequence is the RMS, over the pixels fully covered in both frames and the frame pairs, of its
-    frame-to-frame change minus (c)'s own (``Delta test - Delta truth``, 8-bit steps)."""
+    """Temporal stability on a slow yaw pan: per frame the model (no filtering), trilinear color alone, the chosen
+    filter and (c); the flicker of a sequence is the RMS, over the pixels fully covered in both frames and the
+    frame pairs, of its frame-to-frame change minus (c)'s own (``Delta test - Delta truth``, 8-bit steps)."""
     from host.filtered import Choice, render_filtered
     from host.render import render
     from host.truth import true_image
     base = _load(name, size)
-    seq = {"none": [], "ours": [], "truth": [], "full": []}
+    trilinear = Choice(color="trilinear")
+    seq = {"none": [], "trilinear": [], "ours": [], "truth": [], "full": []}
     for i in range(frames):
         scene = _pan(base, i * degrees)
         frame = _frame(scene, name)
         truth = true_image(scene, samples)
         seq["none"].append(frame.image(render(frame, references=False)["_model_bytes"]).astype(np.float64))
         seq["ours"].append(frame.image(render_filtered(frame, Choice(**CHOSEN))).astype(np.float64))
+        seq["trilinear"].append(frame.image(render_filtered(frame, trilinear)).astype(np.float64))
         seq["truth"].append(truth.image.astype(np.float64))
         seq["full"].append(truth.full)
-    out = {"frames": frames, "degrees_per_frame": degrees, "samples": samples}
-    sq = {"none": 0.0, "ours": 0.0, "truth": 0.0}
+    out = {"frames": frames, "degrees_per_frame": degrees, "samples": samples, "none": "the model frame",
+           "trilinear": trilinear.label(), "ours": Choice(**CHOSEN).label()}
+    sq = {"none": 0.0, "trilinear": 0.0, "ours": 0.0, "truth": 0.0}
     n = 0
     for i in range(frames - 1):
         m = seq["full"][i] & seq["full"][i + 1]
         dt = (seq["truth"][i + 1] - seq["truth"][i])[m]
-        for key in ("none", "ours"):
+        for key in ("none", "trilinear", "ours"):
             sq[key] += float((((seq[key][i + 1] - seq[key][i])[m] - dt) ** 2).sum())
         sq["truth"] += float((dt ** 2).sum())
         n += dt.size
     for key in sq:
         out[f"rms_{key}" if key == "truth" else f"flicker_{key}"] = round(math.sqrt(sq[key] / max(n, 1)), 3)
     out["reduction"] = round(out["flicker_none"] / out["flicker_ours"], 2) if out["flicker_ours"] else None
+    out["reduction_trilinear"] = (round(out["flicker_none"] / out["flicker_trilinear"], 2)
+                                  if out["flicker_trilinear"] else None)
     return out
 
 
@@ -277,7 +287,8 @@ def run(args) -> int:
     if args.samples < 1 or args.check_samples < 0 or args.pan_frames < 0 or args.pan_frames == 1:
         print("error: --samples must be >= 1, --check-samples >= 0, --pan-frames 0 or >= 2", file=sys.stderr)
         return 2
-    record = {"command": "bumpmap " + " ".join(sys.argv[2:] if sys.argv[1:2] == ["filtering"] else sys.argv[1:]),
+    argv = sys.argv[sys.argv.index("filtering") + 1:] if "filtering" in sys.argv else []
+    record = {"command": " ".join(["bumpmap", "filtering", *argv]),
               "date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
               "machine": {"nproc": os.cpu_count(), "load_average": [round(x, 2) for x in os.getloadavg()]},
               "samples": args.samples, "sample_pattern": "regular grid, (i + 1/2) / K, by rasterizing at K times "

@@ -64,6 +64,9 @@ def add_arguments(ap) -> None:
                     "(default: %(default)s)")
     ap.add_argument("--check-samples", type=int, default=16, help="the convergence check of (c) on the study "
                     "scenes at this many samples per axis; 0: none (default: %(default)s)")
+    ap.add_argument("--reference-samples", type=int, default=32, help="the sample-pattern study on the grazing "
+                    "floor: regular and jittered truths at --samples and --check-samples against a jittered truth "
+                    "at this many samples per axis; 0: none (default: %(default)s)")
     ap.add_argument("--size", type=int, default=None, help="render every scene at this width (aspect kept) "
                     "instead of its own size (quick runs)")
     ap.add_argument("--pan-frames", type=int, default=8, help="frames of the flicker pan; 0: none "
@@ -148,7 +151,7 @@ def study(name: str, samples: int, check: int, size=None) -> dict:
         c = Choice(**kw)
         img = frame.image(render_filtered(frame, c))
         images[c.label()] = img
-        rows.append({"choice": c.label(), "params": dataclasses.asdict(c), "chosen": kw == CHOSEN,
+        rows.append({"choice": c.label(), "params": dataclasses.asdict(c), "chosen": c == Choice(**CHOSEN),
                      "bilinear_lookups_per_pixel": lookups_per_pixel(frame, c),
                      "full": compare(img, truth.image, truth.full)})
     out = {"samples": samples, "rows": rows}
@@ -163,6 +166,33 @@ def study(name: str, samples: int, check: int, size=None) -> dict:
             conv[label] = {str(samples): compare(img, truth.image, truth.full & fine.full),
                            str(check): compare(img, fine.image, truth.full & fine.full)}
         out["convergence"] = {"samples": [samples, check], **conv}
+    return out
+
+
+def pattern_study(name: str, samples: int, check: int, reference: int, size=None) -> dict:
+    """Regular grid against jittered sampling of (c): each pattern at ``samples`` and ``check`` samples per axis
+    against a jittered truth at ``reference``, and the model's and the chosen filter's figures against each."""
+    from host.filtered import Choice, render_filtered
+    from host.metrics import compare
+    from host.render import render
+    from host.truth import true_image
+    scene = _load(name, size)
+    frame = _frame(scene, name)
+    model = frame.image(render(frame, references=False)["_model_bytes"])
+    ours = frame.image(render_filtered(frame, Choice(**CHOSEN)))
+    ref = true_image(scene, reference, "jittered", seed=1)          # another seed than the truths it judges
+    out = {"reference": f"jittered {reference}x{reference}, seed 1", "rows": []}
+    for k in sorted({samples, check} - {0}):
+        for pattern in ("grid", "jittered"):
+            t0 = time.perf_counter()
+            t = true_image(scene, k, pattern)
+            mask = ref.full & t.full
+            out["rows"].append({"pattern": pattern, "samples": k, "seconds": round(time.perf_counter() - t0, 1),
+                                "truth_vs_reference": compare(t.image, ref.image, mask, flip=False),
+                                "model": compare(model, t.image, mask), "chosen": compare(ours, t.image, mask)})
+    mask = ref.full
+    out["rows"].append({"pattern": "jittered", "samples": reference, "seed": 1,
+                        "model": compare(model, ref.image, mask), "chosen": compare(ours, ref.image, mask)})
     return out
 
 
@@ -284,15 +314,18 @@ def run(args) -> int:
         if not (SCENES / f"{name}.toml").is_file():
             print(f"error: --scenes: no scene {name!r} in {SCENES}", file=sys.stderr)
             return 2
-    if args.samples < 1 or args.check_samples < 0 or args.pan_frames < 0 or args.pan_frames == 1:
-        print("error: --samples must be >= 1, --check-samples >= 0, --pan-frames 0 or >= 2", file=sys.stderr)
+    powers = [args.samples] + [k for k in (args.check_samples, args.reference_samples) if k]
+    if any(k < 1 or k > 128 or k & (k - 1) for k in powers) or args.pan_frames < 0 or args.pan_frames == 1:
+        print("error: --samples, --check-samples and --reference-samples must be powers of two up to 128 (or 0 for "
+              "the last two), --pan-frames 0 or >= 2", file=sys.stderr)
         return 2
     argv = sys.argv[sys.argv.index("filtering") + 1:] if "filtering" in sys.argv else []
     record = {"command": " ".join(["bumpmap", "filtering", *argv]),
               "date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
               "machine": {"nproc": os.cpu_count(), "load_average": [round(x, 2) for x in os.getloadavg()]},
-              "samples": args.samples, "sample_pattern": "regular grid, (i + 1/2) / K, by rasterizing at K times "
-              "the resolution", "chosen": _choice(**CHOSEN).label(), "scenes": {}, "study": {}}
+              "samples": args.samples, "sample_pattern": "stratified (jittered): one uniform random point per "
+              "cell of a K x K grid, seed 0 (host.truth; pattern_study measures it against the regular grid)",
+              "chosen": _choice(**CHOSEN).label(), "scenes": {}, "study": {}}
     for name in names:
         print(f"filtering: {name}", file=sys.stderr)
         record["scenes"][name], images = measure_scene(name, args.samples, args.size)
@@ -302,6 +335,10 @@ def run(args) -> int:
         if name in names:
             print(f"filtering: study on {name}", file=sys.stderr)
             record["study"][name] = study(name, args.samples, args.check_samples, args.size)
+    if args.reference_samples and "grazing-floor" in names:
+        print("filtering: sample patterns", file=sys.stderr)
+        record["pattern_study"] = pattern_study("grazing-floor", args.samples, args.check_samples,
+                                                args.reference_samples, args.size)
     for name in STUDY_SCENES:
         if name in names:
             print(f"filtering: level of detail on {name}", file=sys.stderr)

@@ -12,6 +12,7 @@ from host.frontend import rasterize
 from host.metrics import compare, psnr_db, rmse
 from host.render import prepare, render
 from host.scene import load_scene
+from host.supersample import scene_samples
 from host.truth import against_truth, bump_float, material_lighting, radiance, true_image
 
 TIN = ROOT / "scenes" / "tin-plane.toml"
@@ -65,7 +66,7 @@ def test_edge_and_full_split_of_an_axis_aligned_square(tmp_path):
     # edges half-way through pixels 3 and 12: 8 x 8 full pixels, a ring of 36 edge pixels, half (corners a
     # quarter) of their samples covered
     scene = square(tmp_path, 0.5625)
-    truth = true_image(scene, 8)
+    truth = true_image(scene, 8, "grid")
     assert truth.full.sum() == 64 and truth.edge.sum() == 36
     assert truth.full[4:12, 4:12].all()
     cov = truth.coverage
@@ -73,7 +74,9 @@ def test_edge_and_full_split_of_an_axis_aligned_square(tmp_path):
     assert cov[3, 3] == cov[3, 12] == cov[12, 3] == cov[12, 12] == 16
     assert cov.sum() == 64 * 64 + 32 * 32 + 4 * 16
     # on pixel boundaries: no edge pixel at all
-    exact = true_image(square(tmp_path, 0.5), 8)
+    exact = true_image(square(tmp_path, 0.5), 8, "grid")
+    assert exact.full.sum() == 64 and exact.edge.sum() == 0
+    exact = true_image(square(tmp_path, 0.5), 8)                       # jittered: samples stay in their pixel
     assert exact.full.sum() == 64 and exact.edge.sum() == 0
 
 
@@ -113,7 +116,7 @@ def test_eight_by_eight_is_close_to_sixteen_by_sixteen():
 def test_against_truth_reports_full_and_edge_and_excludes_pixels(tmp_path):
     scene = square(tmp_path, 0.5625)
     truth = true_image(scene, 4)
-    rep, t = against_truth(scene, {"same": truth.image}, 4, flip=False)
+    rep, t = against_truth(scene, {"same": truth.image}, 4, flip=False)      # (c) is reproducible
     assert np.array_equal(t.image, truth.image)
     assert rep["full_pixels"] == 64 and rep["edge_pixels"] == 36
     assert rep["same"]["full"]["psnr_db"] is None and rep["same"]["edge"]["max_lsb"] == 0
@@ -124,7 +127,7 @@ def test_against_truth_reports_full_and_edge_and_excludes_pixels(tmp_path):
 def test_grid_samples_are_the_frame_rasterized_at_k_times_the_resolution():
     n, k = 96, 4
     scene = load_scene(TIN, size=n)
-    truth = true_image(scene, k)
+    truth = true_image(scene, k, "grid")
     fine = scene.with_size(n * k)
     maps = scene_maps(fine)
     f = rasterize(fine, maps)
@@ -142,11 +145,17 @@ def test_grid_samples_are_the_frame_rasterized_at_k_times_the_resolution():
 
 def test_jittered_pattern_is_reproducible_and_bands_do_not_matter(tmp_path):
     scene = load_scene(TIN, size=24)
-    a, b = true_image(scene, 4, "jittered", seed=3), true_image(scene, 4, "jittered", seed=3)
+    a, b = true_image(scene, 4, seed=3), true_image(scene, 4, "jittered", seed=3)
     assert np.array_equal(a.mean, b.mean)
     assert not np.array_equal(a.mean, true_image(scene, 4, "jittered", seed=4).mean)
-    assert not np.array_equal(a.mean, true_image(scene, 4).mean)
+    assert not np.array_equal(a.mean, true_image(scene, 4, "grid").mean)
     with pytest.raises(ValueError, match="power of two"):
         true_image(scene, 6)
     with pytest.raises(ValueError, match="pattern"):
         true_image(scene, 4, "poisson")
+    # a row's samples do not depend on the band it is drawn in
+    gains = [m.a_gain for m in scene_maps(scene)]
+    one = list(scene_samples(scene, gains, 4, "jittered", seed=3, rows=1))
+    five = list(scene_samples(scene, gains, 4, "jittered", seed=3, rows=5))
+    assert np.array_equal(np.concatenate([c for _, _, c, _ in one]), np.concatenate([c for _, _, c, _ in five]))
+    assert np.array_equal(np.concatenate([s.s for *_, s in one]), np.concatenate([s.s for *_, s in five]))

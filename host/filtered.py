@@ -1,5 +1,6 @@
-r"""Reference (a) with filtering: the float model of the filtering choices of issue 24, to choose among them by
-measurement against the true image (:mod:`host.truth`) before any hardware is built (paper section 6).
+r"""Reference (a) with filtering: the float model of the filtering choices (MIP maps, LEAN, anisotropy), to
+choose among them by measurement against the true image (:mod:`host.truth`) before any hardware is built (paper
+section 6).
 
 :func:`render_filtered` is :func:`host.reference.float_pipeline` (perspective division, bump-map lookup,
 ``N' = N + du A0 + dv A1``, EQ 1, bilinear reflectance-cube lookups, ``b D + S``) with the two map lookups

@@ -1,5 +1,5 @@
 r"""MIP pyramids of color textures and bump maps, the level of detail from screen-space derivatives, and
-trilinear and anisotropic sampling, in float (host side; the study before the hardware of issue 24, paper
+trilinear and anisotropic sampling, in float (host side; the study before the hardware, paper
 section 6: "artifact reduced MIP mapping for bump textures").
 
 Pyramids

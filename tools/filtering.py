@@ -1,4 +1,4 @@
-"""``bumpmap filtering``: every shipped scene against the true image, and the filtering study of issue 24.
+"""``bumpmap filtering``: every shipped scene against the true image, and the filtering study.
 
 For each shipped scene: the bit-exact model frame (today's pipeline, no filtering) and float reference (a) against
 reference (c) (:mod:`host.truth`, ``--samples`` per pixel along each axis) on the fully covered pixels, and apart
@@ -307,7 +307,8 @@ def _picture(path: Path, images: dict) -> None:
 
 
 def run(args) -> int:
-    """Every shipped scene against the true image (reference (c)), and the filtering study (issue 24)."""
+    """Every shipped scene against the true image (reference (c)), and the filtering study (MIP maps, LEAN bump
+    maps, level of detail)."""
     t0 = time.perf_counter()
     names = args.scenes if args.scenes is not None else sorted(p.stem for p in SCENES.glob("*.toml"))
     for name in names:

@@ -70,6 +70,9 @@ class Choice:
         Downsampling kernel (:data:`host.mipmap.KERNELS`).
     lean : str
         ``moments`` or ``covariance`` (see the module docstring); only with ``bump="lean"``.
+    shrink, min_face : int
+        Specular cube ``k`` has faces of ``max(min_face, F >> (k shrink))`` texels (``F`` the pipeline's): a wider
+        lobe is smoother and needs fewer texels (``shrink=1`` halves the face per lobe).
     """
 
     color: str = "none"
@@ -82,6 +85,8 @@ class Choice:
     taps: int = 16
     kernel: str = "box"
     lean: str = "moments"
+    shrink: int = 0
+    min_face: int = 8
 
     def label(self) -> str:
         parts = [f"color {self.color}", f"bump {self.bump}"]
@@ -91,6 +96,8 @@ class Choice:
             parts.append(f"lean {self.lean}")
         if self.bump == "lean":
             parts.append("exact lobe" if self.spec == "exact" else f"{self.lobes} lobes x{self.ratio:g}")
+            if self.spec == "cubes" and self.shrink:
+                parts.append(f"faces / {2 ** self.shrink} per lobe (min {self.min_face})")
         if "anisotropic" in (self.color, self.bump_footprint):
             parts.append(f"{self.taps} taps")
         if self.bias:
@@ -139,9 +146,10 @@ def _specular(frame, R, s2, energy, choice: Choice):
             out += 255.0 * (energy * lobe)[:, None] * ks * np.asarray(light.color, dtype=np.float64)
         return out
     s = lighting.shininess
-    dirs = face_directions(p.specular.width, p.specular.border)
     exps = [s / choice.ratio ** k for k in range(choice.lobes)]
-    cubes = [replace(lighting, shininess=e).specular_bytes(dirs) * ((e + 1) / (s + 1)) for e in exps]
+    faces = [max(choice.min_face, p.specular.width >> (k * choice.shrink)) for k in range(choice.lobes)]
+    cubes = [replace(lighting, shininess=e).specular_bytes(face_directions(n, p.specular.border)) * ((e + 1) / (s + 1))
+             for e, n in zip(exps, faces)]
     x = np.clip(np.log(s / s2) / np.log(choice.ratio), 0, choice.lobes - 1)
     k0 = np.minimum(np.floor(x).astype(np.int64), choice.lobes - 1)
     f = (x - k0)[:, None]

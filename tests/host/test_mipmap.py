@@ -5,7 +5,6 @@ import numpy as np
 import pytest
 
 from fxmodel.core.paths import ROOT
-from host.filtered import Choice, render_filtered
 from host.frontend import rasterize
 from host.mipmap import (
     downsample,
@@ -16,7 +15,6 @@ from host.mipmap import (
     screen_derivatives,
     texel_derivatives,
 )
-from host.render import prepare
 from host.scene import load_scene
 
 TIN = ROOT / "scenes" / "tin-plane.toml"
@@ -74,14 +72,6 @@ def test_trilinear_at_a_whole_level_is_bilinear_in_that_level():
     np.testing.assert_allclose(a, b, atol=1e-12)
     c = sample_trilinear(levels, s, t, np.full(50, 99.0))          # clamped to the 1 x 1 level: the mean
     np.testing.assert_allclose(c, np.broadcast_to(levels[0].mean(axis=(0, 1)), c.shape), atol=1e-12)
-
-
-def test_no_filtering_is_reference_a_and_filtering_changes_the_frame():
-    frame = prepare(TIN, size=48)
-    a, _ = frame.references()
-    assert np.array_equal(render_filtered(frame, Choice()), a)
-    lean = render_filtered(frame, Choice(color="trilinear", bump="lean"))
-    assert not np.array_equal(lean, a)
 
 
 def test_bad_kernel_is_refused():

@@ -12,7 +12,6 @@ from host.frontend import rasterize
 from host.metrics import compare, psnr_db, rmse
 from host.render import prepare, render
 from host.scene import load_scene
-from host.supersample import scene_samples
 from host.truth import against_truth, bump_float, material_lighting, radiance, true_image
 
 TIN = ROOT / "scenes" / "tin-plane.toml"
@@ -141,21 +140,3 @@ def test_grid_samples_are_the_frame_rasterized_at_k_times_the_resolution():
     # the same samples up to vertex snapping (1/256 of a pixel here, of a sample there)
     d = np.abs(mean[truth.full] / (k * k) - truth.mean[truth.full])
     assert truth.full.sum() > 7000 and np.percentile(d, 99) < 0.05 and d.max() < 0.5
-
-
-def test_jittered_pattern_is_reproducible_and_bands_do_not_matter(tmp_path):
-    scene = load_scene(TIN, size=24)
-    a, b = true_image(scene, 4, seed=3), true_image(scene, 4, "jittered", seed=3)
-    assert np.array_equal(a.mean, b.mean)
-    assert not np.array_equal(a.mean, true_image(scene, 4, "jittered", seed=4).mean)
-    assert not np.array_equal(a.mean, true_image(scene, 4, "grid").mean)
-    with pytest.raises(ValueError, match="power of two"):
-        true_image(scene, 6)
-    with pytest.raises(ValueError, match="pattern"):
-        true_image(scene, 4, "poisson")
-    # a row's samples do not depend on the band it is drawn in
-    gains = [m.a_gain for m in scene_maps(scene)]
-    one = list(scene_samples(scene, gains, 4, "jittered", seed=3, rows=1))
-    five = list(scene_samples(scene, gains, 4, "jittered", seed=3, rows=5))
-    assert np.array_equal(np.concatenate([c for _, _, c, _ in one]), np.concatenate([c for _, _, c, _ in five]))
-    assert np.array_equal(np.concatenate([s.s for *_, s in one]), np.concatenate([s.s for *_, s in five]))

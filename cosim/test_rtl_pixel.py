@@ -10,13 +10,14 @@ import pytest
 from cosim.stream import PATTERNS, run_stream
 from fxmodel.core.paths import SCENES as SCENE_DIR
 from host.render import prepare
+from host.shipped import scene_preset
 
 SCENES = sorted(SCENE_DIR.glob("*.toml"))
 
 
 @pytest.mark.parametrize("path", SCENES, ids=[p.stem for p in SCENES])
 def test_shipped_scene_rtl_equals_model(sim, path):
-    frame = prepare(path, size=40, cube_size=16)
+    frame = prepare(path, size=40, cube_size=16, preset=scene_preset(path))
     assert len(frame.codes) > 200
     result = run_stream(frame.params, frame.codes, sim=sim, chunk=-(-len(frame.codes) // len(PATTERNS)),
                         pattern=list(PATTERNS), dump=True)

@@ -23,6 +23,7 @@ import numpy as np
 
 from host.render import compose, from_triangles, prepare, save_png
 from host.scene import SCENES, scene_path
+from host.shipped import scene_preset
 from host.visibility import disagreement_picture, draw_fragments
 
 
@@ -37,7 +38,7 @@ def reversed_order_failed(tframe) -> int:
 
 def figures(scene, size=None, picture=None) -> dict:
     """One scene's row (module docstring); ``picture``: a PNG path for the frame and its disagreements."""
-    tframe = from_triangles(prepare(scene_path(scene), size=size))
+    tframe = from_triangles(prepare(scene_path(scene), size=size, preset=scene_preset(scene)))
     if picture is not None:
         frame = tframe.image(tframe.out[:, 2:5].astype(np.uint8))
         save_png(picture, compose(np.repeat(np.repeat(frame, 2, 0), 2, 1),

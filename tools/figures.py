@@ -22,6 +22,7 @@ import numpy as np
 from fxmodel.core.paths import ROOT
 from host.bumpmap import bump_rgb
 from host.render import compose, prepare, render, save_png
+from host.shipped import scene_preset
 
 
 # cross layout: (row, column) of each face 0..5 = +X, -X, +Y, -Y, +Z, -Z
@@ -58,7 +59,7 @@ def run(args: argparse.Namespace) -> int:
     out = Path(args.outdir)
     summary = {}
     for path in sorted((ROOT / "scenes").glob("*.toml")):
-        frame = prepare(path)
+        frame = prepare(path, preset=scene_preset(path))
         report = render(frame)
         model = frame.image(report.pop("_model_bytes"))
         a, b = frame.references()

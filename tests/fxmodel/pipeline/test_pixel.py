@@ -13,6 +13,7 @@ from fxmodel.core.unit import preset
 from fxmodel.pipeline.pixel import FLAG_BITS
 from host.reference import max_lsb, psnr, sample_float
 from host.render import prepare, render
+from host.shipped import scene_preset
 from tools.main import main
 
 SCENES = sorted((ROOT / "scenes").glob("*.toml"))
@@ -59,7 +60,7 @@ def test_mismatched_stage_formats_name_the_stage():
 
 @pytest.mark.parametrize("path", SCENES, ids=[p.stem for p in SCENES])
 def test_shipped_scenes_within_one_lsb_of_the_float_reference(path):
-    frame = prepare(path, size=64)
+    frame = prepare(path, size=64, preset=scene_preset(path))
     report = render(frame)
     model = report.pop("_model_bytes")
     assert report["pixels"] > 500 and len(model) == report["pixels"]

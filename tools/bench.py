@@ -182,7 +182,11 @@ def main(argv=None) -> int:
                     help="--icarus-profile: around the one-register stand-in (the harness alone)")
     ap.add_argument("--profile-vectors", type=int, default=4096,
                     help="--icarus-profile: vectors of the long run (the short one has 16)")
+    ap.add_argument("--record", metavar="PATH", help="also write the throughput rows, the command and the machine to "
+                    "this JSON record (e.g. docs/records/bench-core.json)")
     args = ap.parse_args(argv)
+    from .record import command_line, machine, write
+    before = machine()
     if args.icarus_profile:
         rep = icarus_profile(args.icarus_profile, args.preset, args.pattern, args.stand_in, args.profile_vectors)
         what = "the harness alone (stand-in)" if args.stand_in else f"{rep['unit']} ({rep['preset']})"
@@ -244,6 +248,8 @@ def main(argv=None) -> int:
         cpu = f"{r['per_cpu_second']:,.0f}" if "per_cpu_second" in r else ""
         print(f"| {r['what']} | {r['workload']} | {r['per_second']:,.0f} | {cpu} |")
     print(f"\n(written to {out / 'bench.json'})")
+    if args.record:
+        print(f"wrote {write(args.record, command_line(ap.prog, argv), {'meta': meta, 'results': rows}, before)}")
     if args.no_sweep or args.core_only or args.stream_only:
         return 0
     from . import sweep

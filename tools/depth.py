@@ -74,13 +74,19 @@ def main(argv=None) -> int:
     ap.add_argument("--size", type=int, help="override the image width (aspect kept)")
     ap.add_argument("--json", action="store_true", help="print JSON instead of the Markdown table")
     ap.add_argument("--picture", help="write the first scene's frame and its depth disagreements to this PNG")
+    ap.add_argument("--record", metavar="PATH", help="also write the rows, the command and the machine to this JSON "
+                    "record (docs/records/depth.json)")
     args = ap.parse_args(argv)
+    from .record import command_line, machine, write
+    before = machine()
     try:
         rows = [figures(s, args.size, args.picture if i == 0 else None) for i, s in enumerate(args.scenes)]
     except (ValueError, OSError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
     print(json.dumps(rows, indent=1) if args.json else table(rows))
+    if args.record:
+        print(f"wrote {write(args.record, command_line(ap.prog, argv), rows, before)}")
     return 0
 
 

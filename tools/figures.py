@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from fxmodel.bumpmap import bump_rgb
-from fxmodel.render import compose, prepare, render, save_png
+from fxmodel.render import compose, from_triangles, prepare, render, render_triangles, save_png
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -45,6 +45,20 @@ def bump_picture(maps) -> np.ndarray:
     return compose(np.repeat(grey[..., None], 3, -1), bump_rgb(maps.bump))
 
 
+def triangle_figures(frame) -> dict:
+    """The frame drawn from triangles (the engine's set-up, scan converter and interpolators): triangles,
+    fragments, the scan converter's clocks per covered pixel, its distance from the references and from the frame
+    of float-interpolated fragments."""
+    tframe = from_triangles(frame)
+    report = render_triangles(tframe)
+    report.pop("_triangle_bytes")
+    covered = report["depth"]["covered_pixels"]
+    return {"triangles": len(tframe.records), "fragments": len(tframe.out), "covered_pixels": covered,
+            "raster_clocks": report["raster_clocks"], "clocks_per_covered_pixel": report["raster_clocks"] / covered,
+            **{k: report[k] for k in ("psnr_db_vs_float", "max_lsb_vs_float", "max_lsb_vs_ideal")},
+            "vs_fragments": report["triangles_vs_fragments"]}
+
+
 def _upscale(img: np.ndarray, k: int) -> np.ndarray:
     return np.repeat(np.repeat(img, k, 0), k, 1)
 
@@ -52,7 +66,11 @@ def _upscale(img: np.ndarray, k: int) -> np.ndarray:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(prog="python -m tools.figures", description=__doc__.split("\n")[0])
     ap.add_argument("outdir", nargs="?", default=str(ROOT / "docs" / "img"))
+    ap.add_argument("--record", metavar="PATH", help="also write the figures, the command and the machine to this "
+                    "JSON record (the documentation's results tables: docs/records/figures.json)")
     args = ap.parse_args(argv)
+    from .record import command_line, machine, write
+    before = machine()
     out = Path(args.outdir)
     summary = {}
     for path in sorted((ROOT / "scenes").glob("*.toml")):
@@ -63,6 +81,7 @@ def main(argv=None) -> int:
         save_png(out / f"{path.stem}.png", compose(model, frame.image(b)))
         summary[path.stem] = {k: report[k] for k in ("pixels", "psnr_db_vs_float", "max_lsb_vs_float",
                                                      "psnr_db_vs_ideal", "max_lsb_vs_ideal")}
+        summary[path.stem]["triangles"] = triangle_figures(frame)
         if frame.maps.bump is not None and path.stem in ("tin-plane", "berlin-wall"):
             pic = bump_picture(frame.maps)
             save_png(out / f"{path.stem}-bump.png", _upscale(pic, 4) if pic.shape[0] < 100 else pic)
@@ -73,6 +92,8 @@ def main(argv=None) -> int:
             save_png(out / "tin-plane-cubes.png", np.concatenate([d, s], 0))
     print(json.dumps(summary, indent=2))
     print(f"wrote {out}")
+    if args.record:
+        print(f"wrote {write(args.record, command_line(ap.prog, argv), summary, before)}")
     return 0
 
 

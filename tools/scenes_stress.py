@@ -77,7 +77,11 @@ def main(argv=None) -> int:
     ap.add_argument("--preset", default="default")
     ap.add_argument("--out", default=str(ROOT / "build" / "scenes_stress"), help="report folder")
     ap.add_argument("--keep", help="write the scenes of frames over 1 LSB here")
+    ap.add_argument("--record", metavar="PATH", help="also write the summary, the command and the machine to this "
+                    "JSON record (docs/records/scenes-stress-<size>.json)")
     args = ap.parse_args(argv)
+    from .record import command_line, machine, write
+    before = machine()
     t0 = time.perf_counter()
     results = []
     from tqdm import tqdm
@@ -98,6 +102,8 @@ def main(argv=None) -> int:
                 Path(args.keep).mkdir(parents=True, exist_ok=True)
                 (Path(args.keep) / f"random-{r['seed']}.toml").write_text(r["text"])
     print(json.dumps(summ, indent=1))
+    if args.record:
+        print(f"wrote {write(args.record, command_line(ap.prog, argv), summ, before)}")
     return 0 if summ["drawn_within_bound"] == summ["drawn"] else 1
 
 

@@ -661,7 +661,11 @@ def main(argv=None) -> int:
     ap.add_argument("--dsp-weight", type=float, default=1024.0, help="ROM bits per multiplier block in the cost")
     ap.add_argument("--out", default=str(OUT), help="output folder (default: build/bench)")
     ap.add_argument("--docs", action="store_true", help="also write docs/img/pareto.png and docs/img/units.png")
+    ap.add_argument("--record", metavar="PATH", help="also write the sweep, the command and the machine to this JSON "
+                    "record (e.g. docs/records/sweep-raster.json)")
     args = ap.parse_args(argv)
+    from .record import command_line, machine, write
+    before = machine()
     if not 0 <= args.fpga_points <= 6 or not 0 <= args.unit_fpga_points <= 3:
         print("error: --fpga-points must be 0 to 6 and --unit-fpga-points 0 to 3 (each new design takes 1-2 "
               "minutes)", file=sys.stderr)
@@ -686,6 +690,8 @@ def main(argv=None) -> int:
     for unit, names in result["pareto"].items():
         print(f"\nPareto front, {unit}: {', '.join(names)}")
     print(f"({result['meta']['seconds']} s; written to {', '.join(str(p) for p in paths)})")
+    if args.record:
+        print(f"wrote {write(args.record, command_line(ap.prog, argv), result, before)}")
     bad = [r["name"] for r in result["points"] if not r["within_bound"]]
     if bad:
         print(f"error: measured error above the documented bound: {', '.join(bad)}", file=sys.stderr)

@@ -235,7 +235,7 @@ PAGES = {
     "exhaustive-rcp32": rec.exhaustive_rcp32, "exhaustive-throughput": rec.exhaustive_throughput,
     "fpga-resources": rec.fpga_resources, "bench-core": rec.bench, "raster-guard": rec.raster_guard,
     "formal-proofs": formal_proofs, "records": rec.records_index, "scene-schema": scene_schema,
-    "make-targets": make_targets, "recip-errors": rec.recip_errors,
+    "make-targets": make_targets, "recip-errors": rec.recip_errors, "rop-throughput": rec.rop_throughput,
 }
 
 

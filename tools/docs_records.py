@@ -17,7 +17,7 @@ from .record import RECORDS, read
 
 __all__ = ["provenance", "quickstart", "timed_commands", "scene_results", "triangle_results", "scenes_stress",
            "depth", "exhaustive_rcp32", "exhaustive_throughput", "fpga_resources", "bench", "raster_guard",
-           "recip_errors", "records_index"]
+           "recip_errors", "rop_throughput", "records_index"]
 
 ROOT = Path(__file__).resolve().parents[1]
 DOCS = ROOT / "docs"
@@ -275,6 +275,22 @@ def recip_errors(presets=("default", "small", "rcp24")) -> str:
     head = ("preset", "inputs", "vectors", "worst error", "mean error", "documented bound", "faithful", "monotone")
     return (_table(head, rows, ["---", "---"] + ["---:"] * 4 + ["---", "---"]) + "\n" if rows else "") \
         + "\n".join(notes)
+
+
+def rop_throughput() -> str:
+    """The raster-operations unit's fragments per clock against slots and added memory latency
+    (``python -m cosim.rop --throughput``: its table pivoted, slots down, latency across)."""
+    record, path = _load("rop-throughput")
+    if record is None:
+        return _missing(path, "python -m tools.record rop-throughput -- python -m cosim.rop --throughput")
+    cells: dict[int, dict[int, str]] = {}
+    for line in record["result"]["stdout"]:
+        parts = [c.strip() for c in line.strip().strip("|").split("|")]
+        if len(parts) == 3 and parts[0].isdigit() and parts[1].isdigit():
+            cells.setdefault(int(parts[0]), {})[int(parts[1])] = parts[2]
+    latencies = sorted({lat for row in cells.values() for lat in row})
+    rows = [(slots, *(row.get(lat, "") for lat in latencies)) for slots, row in sorted(cells.items())]
+    return _table(("slots", *(f"L = {lat}" for lat in latencies)), rows) + "\n" + provenance(record, path)
 
 
 def records_index() -> str:

@@ -116,7 +116,7 @@ def _help(action: argparse.Action) -> str:
     if action.default not in (None, False, argparse.SUPPRESS) and "%(default)" not in (action.help or "") \
             and action.option_strings and not isinstance(action, (argparse._HelpAction, argparse._StoreTrueAction)):
         text += f" (default: {action.default})"
-    return text
+    return text.replace(f"{ROOT}/", "")          # defaults under the checkout, relative to it
 
 
 def _arguments_table(parser: argparse.ArgumentParser) -> list[str]:

@@ -8,9 +8,10 @@ overdraw (fragments / covered pixels), the fragments that fail the depth test wh
 (the shading an early depth test would save; the same count with the triangles drawn in reverse order, to bracket
 what the order costs), the depth disagreements with reference (a)'s float z-buffer and their largest depth gap
 against the documented precision (:mod:`fxmodel.visibility`), and the frame-buffer bytes read and written per
-covered pixel (:func:`fxmodel.rop.draw`'s counts). Prints a Markdown table (the README's) or JSON.
+covered pixel (:func:`fxmodel.rop.draw`'s counts). Prints a Markdown table or JSON; ``--record PATH`` writes the
+rows with the command and the machine (``docs/records/depth.json``, the docs' table).
 ``--picture`` writes the first scene's frame from triangles (doubled) beside its depth disagreements marked in red
-(the README's ``docs/img/tin-sphere-depth.png``).
+(``docs/img/tin-sphere-depth.png``).
 """
 
 from __future__ import annotations

@@ -33,6 +33,7 @@ from fxmodel.unit import preset, unit_class, units
 
 from . import docs_records as rec
 from . import docs_reference as ref
+from .docs_reference import UNIT_ORDER
 
 __all__ = ["PAGES", "DOCUMENTS", "GENERATED", "COMMAND", "port_groups", "unit_formats", "pipeline_data_flow",
            "recip_presets", "reciprocals", "formal_proofs", "render_pages", "write_pages", "regenerate",
@@ -51,8 +52,6 @@ COMMAND = "python -m tools.docs"
 _BLOCK = re.compile(r"(<!-- BEGIN GENERATED (?P<name>[\w-]+): python -m tools\.docs -->\n)(?P<body>.*?)"
                     r"(<!-- END GENERATED (?P=name) -->)", re.S)
 
-#: Units in the order of the pixel's path; registered units not listed here follow in name order.
-UNIT_ORDER = ("recip", "divide", "persp", "sampler", "bump", "reflect", "cube", "shade", "pipeline")
 FLAG = Fmt(False, 1, 0)
 
 
@@ -228,7 +227,8 @@ PAGES = {
     # from the records
     "quickstart-sim": lambda: rec.quickstart("quickstart-sim", head=30),
     "quickstart-test": lambda: rec.quickstart("quickstart-test", head=0, tail=1),
-    "quickstart-render": lambda: rec.quickstart("quickstart-render", head=8),
+    "quickstart-render": lambda: rec.quickstart("quickstart-render", keep=r'^  "(scene|pixels|psnr_db_vs_\w+|max_lsb_vs_'
+                                                                       r'(float|ideal))"|^    "pass"'),
     "refusal": lambda: rec.quickstart("refusal", head=20),
     "timed-commands": rec.timed_commands, "scene-results": rec.scene_results,
     "triangle-results": rec.triangle_results, "scenes-stress": rec.scenes_stress, "depth": rec.depth,

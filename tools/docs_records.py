@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import datetime
 import json
+import re
 import statistics
 from pathlib import Path
 
@@ -65,14 +66,23 @@ def _lsb(x) -> str:
 
 
 # -- transcripts of the quick start ----------------------------------------------------------------------------
-def quickstart(name: str, head: int = 40, tail: int = 0) -> str:
+def quickstart(name: str, head: int = 40, tail: int = 0, keep: str | None = None) -> str:
     """A fenced block: ``$ command`` and the lines it printed (the first ``head`` and, after ``…``, the last
-    ``tail`` lines), from the transcript record ``name`` (:func:`tools.record.transcript`)."""
+    ``tail`` lines; or, with the regular expression ``keep``, the matching lines, ``…`` for each gap), from the
+    transcript record ``name`` (:func:`tools.record.transcript`)."""
     record, path = _load(name)
     if record is None:
         return "```text\n" + _missing(path, f"python -m tools.record {name} -- COMMAND") + "```\n"
     lines = record["result"]["stdout"]
-    shown = lines if len(lines) <= head + tail else lines[:head] + ["…"] + (lines[-tail:] if tail else [])
+    if keep is not None:
+        shown, last = [], -1
+        for i, line in enumerate(lines):
+            if re.search(keep, line):
+                shown += (["…"] if i > last + 1 else []) + [line]
+                last = i
+        shown += ["…"] if last < len(lines) - 1 else []
+    else:
+        shown = lines if len(lines) <= head + tail else lines[:head] + ["…"] + (lines[-tail:] if tail else [])
     return "```text\n$ " + record["command"] + "\n" + "\n".join(shown) + "\n```\n"
 
 

@@ -21,9 +21,12 @@ import tomllib
 from contextlib import contextmanager
 from pathlib import Path
 
-__all__ = ["ENTRY_POINTS", "parsers", "commands", "contract_layers", "layout", "module_summary", "parameters"]
+__all__ = ["UNIT_ORDER", "ENTRY_POINTS", "parsers", "commands", "contract_layers", "layout", "module_summary",
+           "parameters"]
 
 ROOT = Path(__file__).resolve().parents[1]
+#: Units in the order of the pixel's path; registered units not listed here follow in name order.
+UNIT_ORDER = ("recip", "divide", "persp", "sampler", "bump", "reflect", "cube", "shade", "pipeline")
 
 #: ``(command as typed, module, attribute)`` of every entry point: ``attribute`` is a parser factory
 #: (``build_parser``) or a ``main(argv)`` that builds its parser and parses (see :func:`_captured_parser`).
@@ -134,7 +137,7 @@ def _arguments_table(parser: argparse.ArgumentParser) -> list[str]:
 def _describe(parser: argparse.ArgumentParser, prog: str, level: int) -> list[str]:
     out = [f"{'#' * level} `{prog}`", "", "```text", _usage(parser, prog), "```", ""]
     if parser.description:
-        out += [parser.description.strip().split("\n\n")[0].replace("\n", " "), ""]
+        out += [rst_to_markdown(parser.description.strip().split("\n\n")[0].replace("\n", " ")), ""]
     out += _arguments_table(parser)
     for action in parser._actions:
         if isinstance(action, argparse._SubParsersAction):
@@ -240,7 +243,6 @@ def _extra_classes() -> list[type]:
 def parameters() -> str:
     """``mkdocstrings`` directives of every registered unit's parameter object, then :func:`_extra_classes`."""
     from fxmodel.unit import unit_class, units
-    from tools.docs import UNIT_ORDER
 
     names = [u for u in UNIT_ORDER if u in units()] + sorted(u for u in units() if u not in UNIT_ORDER)
     out = []

@@ -1,4 +1,4 @@
-"""``python -m tools.figures [OUTDIR]``: the pictures in the README, from the bit-exact model.
+"""``python -m tools.figures [OUTDIR] [--record PATH]``: the pictures of the docs, from the bit-exact model.
 
 Writes into ``OUTDIR`` (default ``docs/img``):
 

@@ -1,7 +1,8 @@
 """``python -m tools.scenes_stress [--count 200] [--seed 0] [--size 32] [--preset default]``: random scenes.
 
 Renders ``--count`` random valid scenes (:func:`fxmodel.scenegen.random_scene`, seeds ``seed .. seed + count -
-1``) through the bit-exact model and reference (a) with ``--preset``, and prints the figures the README quotes:
+1``) through the bit-exact model and reference (a) with ``--preset``, and prints the figures the docs quote
+(``--record PATH``: with the command and the machine, ``docs/records/scenes-stress-<size>.json``):
 how many scenes the preset accepts and refuses (and why), the share of accepted frames within 1 LSB
 of (a) on every well-conditioned pixel, how many are within the documented bound, the worst frames, and the
 ill-conditioned pixels (:data:`fxmodel.render.ILL_CONDITIONED`). Frames without a visible fragment are counted

@@ -233,7 +233,7 @@ PAGES = {
     "timed-commands": rec.timed_commands, "scene-results": rec.scene_results,
     "triangle-results": rec.triangle_results, "scenes-stress": rec.scenes_stress, "depth": rec.depth,
     "exhaustive-rcp32": rec.exhaustive_rcp32, "exhaustive-throughput": rec.exhaustive_throughput,
-    "fpga-resources": rec.fpga_resources, "bench-core": rec.bench, "raster-guard": rec.raster_guard,
+    "fpga-resources": rec.fpga_resources, "bench": rec.bench, "raster-guard": rec.raster_guard,
     "formal-proofs": formal_proofs, "records": rec.records_index, "scene-schema": scene_schema,
     "make-targets": make_targets, "recip-errors": rec.recip_errors, "rop-throughput": rec.rop_throughput,
 }

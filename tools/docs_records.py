@@ -86,7 +86,7 @@ def quickstart(name: str, head: int = 40, tail: int = 0, keep: str | None = None
     return "```text\n$ " + record["command"] + "\n" + "\n".join(shown) + "\n```\n"
 
 
-def timed_commands(names=("quickstart-sim", "quickstart-test", "quickstart-render")) -> str:
+def timed_commands(names=("quickstart-sim", "sim-verilator", "quickstart-test", "quickstart-render")) -> str:
     """Wall time and exit status of the quick-start commands, one row per transcript record."""
     rows, notes = [], []
     for name in names:
@@ -99,7 +99,7 @@ def timed_commands(names=("quickstart-sim", "quickstart-test", "quickstart-rende
                      " / ".join(f"{x:g}" for x in m.get("load_average") or []), m.get("date"),
                      f"[`{_rel(path)}`]({_rel(path)})"))
     head = ("command", "exit status", "wall time", "processors", "load average at the end", "date", "record")
-    return (_table(head, rows, ["---"] + ["---:"] * 4 + ["---", "---"]) if rows else "") + "".join(notes)
+    return (_table(head, rows, ["---"] + ["---:"] * 4 + ["---", "---"]) + "\n" if rows else "") + "".join(notes)
 
 
 # -- results ---------------------------------------------------------------------------------------------------
@@ -237,11 +237,11 @@ def fpga_resources() -> str:
 
 
 # -- speed and design space ------------------------------------------------------------------------------------
-def bench(name: str = "bench-core") -> str:
+def bench(name: str = "bench") -> str:
     """Throughput rows of ``tools.bench`` (model, fixed-point core, co-simulation), medians of its repeats."""
     record, path = _load(name)
     if record is None:
-        return _missing(path, f"python -m tools.bench --core-only --record {_rel(path)}")
+        return _missing(path, f"python -m tools.bench --no-sweep --record docs/{_rel(path)}")
     rows = []
     for r in record["result"]["results"]:
         cpu = f"{r['per_cpu_second']:,.0f}" if "per_cpu_second" in r else ""

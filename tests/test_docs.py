@@ -158,6 +158,9 @@ def test_record_is_written_atomically_with_command_and_machine(tmp_path):
     (tmp_path / "bad.json").write_text('{"a": 1}')
     with pytest.raises(ValueError, match="bad.json"):
         record.read(tmp_path / "bad.json")
+    (tmp_path / "flat.json").write_text('{"command": "c", "date": "d", "machine": {"nproc": 2}, "x": 1}')
+    assert record.read(tmp_path / "flat.json") == {"command": "c", "machine": {"nproc": 2, "date": "d"},
+                                                   "result": {"x": 1}}
 
 
 def test_transcript_records_what_a_command_printed(tmp_path):

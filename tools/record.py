@@ -91,14 +91,22 @@ def write(path, command: str, data, machine_before: dict | None = None) -> Path:
 
 
 def read(path) -> dict:
-    """A record written by :func:`write` (``ValueError`` naming the file when it is not one)."""
+    """A record (``ValueError`` naming the file when it is not one): :func:`write`'s form, or a flat one whose
+    figures sit beside ``command`` and ``machine`` (then gathered into ``result``; a top-level ``date`` moves into
+    ``machine``)."""
     path = Path(path)
     try:
         record = json.loads(path.read_text(encoding="utf-8"))
     except (OSError, json.JSONDecodeError) as exc:
         raise ValueError(f"{path}: not a readable record ({exc})") from exc
-    if not isinstance(record, dict) or not {"command", "machine", "result"} <= set(record):
-        raise ValueError(f"{path}: not a record (expected the keys command, machine, result)")
+    if not isinstance(record, dict) or not {"command", "machine"} <= set(record) \
+            or not isinstance(record["machine"], dict):
+        raise ValueError(f"{path}: not a record (expected the keys command and machine)")
+    if "result" not in record:
+        machine = dict(record["machine"])
+        machine.setdefault("date", record.get("date"))
+        record = {"command": record["command"], "machine": machine,
+                  "result": {k: v for k, v in record.items() if k not in ("command", "machine", "date")}}
     return record
 
 

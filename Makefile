@@ -21,7 +21,7 @@ SCENE_ARGS = $(if $(filter-out file default undefined,$(origin PRESET) $(origin 
 export PATH := $(CURDIR)/$(VENV)/bin:$(PATH)
 export SIM
 
-.PHONY: setup test verilog sim render bench fpga exhaustive exhaustive-wide clean help
+.PHONY: setup test verilog sim render bench fpga exhaustive exhaustive-wide docs clean help
 
 help:
 	@echo "make sim        draw SCENE (default tin-plane) from triangles through the RTL engine, bit-exact check"
@@ -38,6 +38,8 @@ help:
 	@echo "make exhaustive exhaustive RTL equivalence (streaming co-simulation) -> build/exhaustive/report.json"
 	@echo "make exhaustive-wide  the 2^32-input proof of recip rcp32: model vs exact math, RTL vs model on Verilator"
 	@echo "                (long: Dask, --jobs \$$JOBS local workers or DASK_SCHEDULER_ADDRESS; resumes where it stopped)"
+	@echo "make docs       regenerate docs/generated/ from the presets, the code and docs/records/, then build the"
+	@echo "                site into build/site (mkdocs build --strict: warnings are errors)"
 	@echo "make setup      create .venv, install everything, install iverilog if missing"
 
 setup: $(STAMP) iverilog-check
@@ -86,6 +88,10 @@ exhaustive: setup
 # nice 10; WIDE_ARGS="--select A:B" checks pieces A..B only (a rerun without it resumes from them).
 exhaustive-wide: setup
 	nice -n 10 $(BUMPMAP) exhaustive --sim exact,verilator --only recip:rcp32 --jobs $(JOBS) $(WIDE_ARGS)
+
+docs: setup
+	$(BUMPMAP) docs
+	NO_MKDOCS_2_WARNING=1 $(PY) -m mkdocs build --strict
 
 clean:
 	rm -rf build sim_build .pytest_cache .hypothesis

@@ -45,14 +45,14 @@ import apytypes
 import numpy as np
 from tqdm import tqdm
 
-from fxmodel.core.paths import build_dir
-from host.args import int_range
-from fxmodel.units.apy_oracle import OVERFLOW, QUANTIZATION, codes_of, narrow_apy, to_apy
+from cosim.harness import run as cosim_run
 from fxmodel.core.fixed import Fmt
+from fxmodel.core.paths import build_dir
 from fxmodel.core.rounding import Overflow, Rounding, narrow
 from fxmodel.core.unit import preset
-
-from cosim.harness import run as cosim_run
+from fxmodel.units.apy_oracle import OVERFLOW, QUANTIZATION, codes_of, narrow_apy, to_apy
+from host.args import int_range
+from tools.record import add_record_option, machine, write_if_asked
 
 
 def median_seconds(fn, repeat: int, warm_up=None) -> float:
@@ -186,8 +186,11 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
     ap.add_argument("--profile-vectors", type=int, default=4096,
                     help="--icarus-profile: vectors of the long run (the short one has 16)")
 
+    add_record_option(ap, "the throughput rows")
+
 
 def run(args: argparse.Namespace) -> int:
+    before = machine()
     if args.icarus_profile:
         rep = icarus_profile(args.icarus_profile, args.preset, args.pattern, args.stand_in, args.profile_vectors)
         what = "the harness alone (stand-in)" if args.stand_in else f"{rep['unit']} ({rep['preset']})"
@@ -247,6 +250,7 @@ def run(args: argparse.Namespace) -> int:
         cpu = f"{r['per_cpu_second']:,.0f}" if "per_cpu_second" in r else ""
         print(f"| {r['what']} | {r['workload']} | {r['per_second']:,.0f} | {cpu} |")
     print(f"\n(written to {out / 'bench.json'})")
+    write_if_asked(args, {"meta": meta, "results": rows}, before)
     if args.no_sweep or args.core_only or args.stream_only:
         return 0
     sweep_argv = (["--no-fpga"] if args.no_fpga else ["--fpga-points", str(args.fpga_points)]) + [

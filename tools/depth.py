@@ -25,6 +25,7 @@ from host.render import compose, from_triangles, prepare, save_png
 from host.scene import SCENES, scene_path
 from host.shipped import scene_preset
 from host.visibility import disagreement_picture, draw_fragments
+from tools.record import add_record_option, machine, write_if_asked
 
 
 def reversed_order_failed(tframe) -> int:
@@ -76,12 +77,16 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
     ap.add_argument("--json", action="store_true", help="print JSON instead of the Markdown table")
     ap.add_argument("--picture", help="write the first scene's frame and its depth disagreements to this PNG")
 
+    add_record_option(ap, "the rows")
+
 
 def run(args: argparse.Namespace) -> int:
+    before = machine()
     try:
         rows = [figures(s, args.size, args.picture if i == 0 else None) for i, s in enumerate(args.scenes)]
     except (ValueError, OSError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
     print(json.dumps(rows, indent=1) if args.json else table(rows))
+    write_if_asked(args, rows, before)
     return 0

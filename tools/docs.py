@@ -1,43 +1,57 @@
-"""Tables of the documentation generated from the presets: formats, latencies and error bounds.
+"""The documentation generator: every table and reference page that would drift if typed by hand.
 
-Formats quoted in prose drift when a preset changes, so the documents do not type them: ``README.md`` and
-``docs/design.md`` hold blocks between the markers ::
+``bumpmap docs`` writes ``docs/generated/<name>.md`` for every entry of :data:`PAGES`, from three
+sources: the presets (formats, latencies, documented bounds: the functions below), the code
+(:mod:`tools.docs_reference`: the command reference from the argument parsers, the layout from the
+import-linter contract, the parameter objects' ``mkdocstrings`` directives) and the committed records of the
+commands that measured something (:mod:`tools.docs_records`, ``docs/records/``). The pages of ``docs/`` include
+them with ``pymdownx.snippets`` (``--8<-- "generated/<name>.md"``). The README, read outside the site, holds
+blocks between the markers ::
 
-    <!-- BEGIN GENERATED <name>: python -m tools.docs -->
+    <!-- BEGIN GENERATED <name>: bumpmap docs -->
     ...
     <!-- END GENERATED <name> -->
 
-whose content is the output of :data:`BLOCKS[name] <BLOCKS>`, computed from the registered units' presets.
-``python -m tools.docs`` rewrites every block in place; ``python -m tools.docs --check`` only reports stale
-blocks (exit status 1). ``tests/tools/test_docs.py`` runs the check, so a change of a preset, a port or a unit without
-regenerating the documents fails the test suite with the command to run.
+whose content is :data:`PAGES[name] <PAGES>`, rewritten in place. ``bumpmap docs --check`` only reports
+what is stale (exit status 1); ``tests/tools/test_docs.py`` runs it, so a changed preset, parser, layer or record
+without regenerating fails the test suite with the command to run. ``make docs`` then builds the site
+(``mkdocs build --strict`` into ``build/site``).
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import re
 import sys
+import tempfile
 from fractions import Fraction
 from pathlib import Path
 
-from fxmodel.core.paths import ROOT
 from fxmodel.core.fixed import Fmt
+from fxmodel.core.paths import ROOT
 from fxmodel.core.unit import preset, unit_class, units
 
-__all__ = ["BLOCKS", "DOCUMENTS", "COMMAND", "port_groups", "unit_formats", "pipeline_data_flow",
-           "recip_presets", "reciprocals", "regenerate", "stale", "main"]
+from . import docs_records as rec
+from . import docs_reference as ref
+from .docs_reference import UNIT_ORDER
 
-#: The documents holding generated blocks (relative to the repository root).
-DOCUMENTS = ("README.md", "docs/design.md")
+__all__ = ["PAGES", "DOCUMENTS", "GENERATED", "COMMAND", "port_groups", "unit_formats", "pipeline_data_flow",
+           "recip_presets", "reciprocals", "formal_proofs", "render_pages", "write_pages", "regenerate",
+           "generated_spans", "stale", "add_arguments", "run"]
+
+#: The documents holding generated blocks in place (relative to the repository root).
+DOCUMENTS = ("README.md",)
+#: The folder of the generated pages.
+GENERATED = ROOT / "docs" / "generated"
+#: The formal proofs' record (written by the ``formal`` package; the page says so while it is absent).
+PROOFS = ROOT / "docs" / "formal" / "proofs.json"
 #: The command that regenerates them (quoted in failure messages).
-COMMAND = "python -m tools.docs"
+COMMAND = "bumpmap docs"
 
-_BLOCK = re.compile(r"(<!-- BEGIN GENERATED (?P<name>[\w-]+): python -m tools\.docs -->\n)(?P<body>.*?)"
+_BLOCK = re.compile(r"(<!-- BEGIN GENERATED (?P<name>[\w-]+): bumpmap docs -->\n)(?P<body>.*?)"
                     r"(<!-- END GENERATED (?P=name) -->)", re.S)
 
-#: Units in the order of the pixel's path; registered units not listed here follow in name order.
-UNIT_ORDER = ("recip", "divide", "persp", "sampler", "bump", "reflect", "cube", "shade", "pipeline")
 FLAG = Fmt(False, 1, 0)
 
 
@@ -171,21 +185,107 @@ def reciprocals() -> str:
     return _table(_RECIP_HEADER, _recip_rows(configs))
 
 
-#: Block name -> function returning its markdown.
-BLOCKS = {"unit-formats": unit_formats, "pipeline-data-flow": pipeline_data_flow, "recip-presets": recip_presets,
-          "reciprocals": reciprocals}
+def scene_schema() -> str:
+    """The scene file's commented example (``host.scene.SCHEMA_EXAMPLE``, itself a parsed scene)."""
+    from host.scene import SCHEMA_EXAMPLE
+    return "```toml\n" + SCHEMA_EXAMPLE + "```\n"
 
 
-def regenerate(text: str, where: str = "text") -> str:
+def make_targets(makefile: Path = ROOT / "Makefile") -> str:
+    """The ``make`` targets as ``make help`` prints them (the ``@echo "make ..."`` lines of the Makefile)."""
+    rows: list[list[str]] = []
+    for line in makefile.read_text(encoding="utf-8").splitlines():
+        m = re.match(r'\t@echo "(make \S+)?\s*(.*)"$', line)
+        if not m:
+            continue
+        text = m.group(2).replace("\\$$", "$").replace("$$", "$")
+        if m.group(1):
+            rows.append([f"`{m.group(1)}`", text])
+        elif rows:
+            rows[-1][1] += " " + text
+    return _table(("target", "does"), [(t, d.replace("|", "\\|")) for t, d in rows])
+
+
+def formal_proofs() -> str:
+    """The formal proofs' table from ``docs/formal/proofs.json`` (``formal.report.markdown_table``)."""
+    if not PROOFS.is_file():
+        return ("*No proof record yet: the formal proofs write `formal/proofs.json` under `docs/`; this page shows "
+                "their table once it is committed.*\n")
+    import json
+
+    from formal.report import markdown_table
+    return markdown_table(json.loads(PROOFS.read_text(encoding="utf-8"))).rstrip() + "\n"
+
+
+#: Page name -> function returning its Markdown (``docs/generated/<name>.md``; a README block of that name).
+PAGES = {
+    # from the presets
+    "unit-formats": unit_formats, "pipeline-data-flow": pipeline_data_flow, "recip-presets": recip_presets,
+    "reciprocals": reciprocals,
+    # from the code
+    "commands": ref.commands, "layout": ref.layout, "parameters": ref.parameters,
+    # from the records
+    "quickstart-sim": lambda: rec.quickstart("quickstart-sim", head=30),
+    "quickstart-test": lambda: rec.quickstart("quickstart-test", head=0, tail=1),
+    "quickstart-render": lambda: rec.quickstart(
+        "quickstart-render", keep=r'^  "(scene|pixels|psnr_db_vs_\w+|max_lsb_vs_(float|ideal))"|^    "pass"'),
+    "refusal": lambda: rec.quickstart("refusal", head=20),
+    "timed-commands": rec.timed_commands, "scene-results": rec.scene_results,
+    "triangle-results": rec.triangle_results, "scenes-stress": rec.scenes_stress, "depth": rec.depth,
+    "exhaustive-rcp32": rec.exhaustive_rcp32, "exhaustive-throughput": rec.exhaustive_throughput,
+    "fpga-resources": rec.fpga_resources, "bench": rec.bench, "raster-guard": rec.raster_guard,
+    "formal-proofs": formal_proofs, "records": rec.records_index, "scene-schema": scene_schema,
+    "make-targets": make_targets, "recip-errors": rec.recip_errors, "rop-throughput": rec.rop_throughput,
+    "texcache": rec.texcache, "texcache-level1": lambda: rec.texcache("texcache-level1"),
+    "filtering-scenes": rec.filtering_scenes, "filtering-study": rec.filtering_study,
+}
+
+
+def render_pages(names=None) -> dict[str, str]:
+    """``{name: markdown}`` of the generated pages (all, or ``names``)."""
+    return {name: fn() for name, fn in PAGES.items() if names is None or name in names}
+
+
+def _write(path: Path, text: str) -> None:
+    """Write ``text`` atomically (a temporary file beside ``path``, then ``os.replace``)."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as f:
+            f.write(text)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def write_pages(folder: Path = GENERATED, pages: dict | None = None) -> list[Path]:
+    """Write every generated page into ``folder`` (``<name>.md``) and remove pages no longer generated; the paths
+    whose content changed."""
+    pages = render_pages() if pages is None else pages
+    changed = []
+    for name, text in pages.items():
+        path = folder / f"{name}.md"
+        if not path.is_file() or path.read_text(encoding="utf-8") != text:
+            _write(path, text)
+            changed.append(path)
+    for path in folder.glob("*.md"):
+        if path.stem not in pages:
+            path.unlink()
+            changed.append(path)
+    return changed
+
+
+def regenerate(text: str, where: str = "text", pages: dict | None = None) -> str:
     """``text`` with every generated block's body recomputed (``ValueError`` for an unknown block name)."""
-    cache = {}
+    cache = dict(pages or {})
 
     def body(match):
         name = match.group("name")
-        if name not in BLOCKS:
-            raise ValueError(f"{where}: unknown generated block {name!r} (known: {', '.join(BLOCKS)})")
         if name not in cache:
-            cache[name] = BLOCKS[name]()
+            if name not in PAGES:
+                raise ValueError(f"{where}: unknown generated block {name!r} (known: {', '.join(PAGES)})")
+            cache[name] = PAGES[name]()
         return match.group(1) + cache[name] + match.group(4)
 
     return _BLOCK.sub(body, text)
@@ -196,36 +296,48 @@ def generated_spans(text: str) -> list[tuple[int, int]]:
     return [m.span("body") for m in _BLOCK.finditer(text)]
 
 
-def stale(root: Path = ROOT) -> list[str]:
-    """The documents whose generated blocks differ from what the presets give now."""
+def stale(root: Path = ROOT, pages: dict | None = None) -> list[str]:
+    """The generated pages and documents that differ from what the presets, the code and the records give now."""
+    pages = render_pages() if pages is None else pages
     out = []
+    folder = root / "docs" / "generated"
+    for name, text in pages.items():
+        path = folder / f"{name}.md"
+        if not path.is_file() or path.read_text(encoding="utf-8") != text:
+            out.append(path.relative_to(root).as_posix())
+    out += [p.relative_to(root).as_posix() for p in folder.glob("*.md") if p.stem not in pages]
     for rel in DOCUMENTS:
-        path = root / rel
-        text = path.read_text(encoding="utf-8")
-        if regenerate(text, rel) != text:
+        text = (root / rel).read_text(encoding="utf-8")
+        if regenerate(text, rel, pages) != text:
             out.append(rel)
     return out
 
 
-def main(argv=None) -> int:
-    """``python -m tools.docs [--check]``: regenerate the generated tables of README.md and docs/design.md."""
-    ap = argparse.ArgumentParser(prog=COMMAND, description=main.__doc__)
-    ap.add_argument("--check", action="store_true", help="only report stale documents (exit status 1)")
-    args = ap.parse_args(argv)
+def add_arguments(ap: argparse.ArgumentParser) -> None:
+    """``bumpmap docs [--check]``."""
+    ap.add_argument("--check", action="store_true", help="only report stale pages and documents (exit status 1)")
+
+
+def run(args: argparse.Namespace) -> int:
+    """Write the generated pages (docs/generated/) and the README's blocks."""
+    try:
+        pages = render_pages()
+    except (OSError, ValueError) as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
     if args.check:
-        bad = stale()
+        bad = stale(pages=pages)
         for rel in bad:
-            print(f"{rel}: generated tables are stale; run `{COMMAND}`", file=sys.stderr)
+            print(f"{rel}: stale; run `{COMMAND}`", file=sys.stderr)
         return 1 if bad else 0
+    for path in write_pages(GENERATED, pages):
+        print(f"updated {path.relative_to(ROOT)}")
     for rel in DOCUMENTS:
         path = ROOT / rel
         text = path.read_text(encoding="utf-8")
-        new = regenerate(text, rel)
+        new = regenerate(text, rel, pages)
         if new != text:
-            path.write_text(new, encoding="utf-8")
+            _write(path, new)
             print(f"updated {rel}")
     return 0
 
-
-if __name__ == "__main__":
-    raise SystemExit(main())

@@ -1,4 +1,4 @@
-"""``bumpmap figures [OUTDIR]``: the pictures in the README, from the bit-exact model.
+"""``bumpmap figures [OUTDIR] [--record PATH]``: the pictures of the docs, from the bit-exact model.
 
 Writes into ``OUTDIR`` (default ``docs/img``):
 
@@ -21,9 +21,9 @@ import numpy as np
 
 from fxmodel.core.paths import ROOT
 from host.bumpmap import bump_rgb
-from host.render import compose, prepare, render, save_png
+from host.render import compose, from_triangles, prepare, render, render_triangles, save_png
 from host.shipped import scene_preset
-
+from tools.record import add_record_option, machine, write_if_asked
 
 # cross layout: (row, column) of each face 0..5 = +X, -X, +Y, -Y, +Z, -Z
 CROSS = {0: (1, 2), 1: (1, 0), 2: (0, 1), 3: (2, 1), 4: (1, 1), 5: (1, 3)}
@@ -46,6 +46,20 @@ def bump_picture(maps) -> np.ndarray:
     return compose(np.repeat(grey[..., None], 3, -1), bump_rgb(maps.bump))
 
 
+def triangle_figures(frame) -> dict:
+    """The frame drawn from triangles (the engine's set-up, scan converter and interpolators): triangles,
+    fragments, the scan converter's clocks per covered pixel, its distance from the references and from the frame
+    of float-interpolated fragments."""
+    tframe = from_triangles(frame)
+    report = render_triangles(tframe)
+    report.pop("_triangle_bytes")
+    covered = report["depth"]["covered_pixels"]
+    return {"triangles": len(tframe.records), "fragments": len(tframe.out), "covered_pixels": covered,
+            "raster_clocks": report["raster_clocks"], "clocks_per_covered_pixel": report["raster_clocks"] / covered,
+            **{k: report[k] for k in ("psnr_db_vs_float", "max_lsb_vs_float", "max_lsb_vs_ideal")},
+            "vs_fragments": report["triangles_vs_fragments"]}
+
+
 def _upscale(img: np.ndarray, k: int) -> np.ndarray:
     return np.repeat(np.repeat(img, k, 0), k, 1)
 
@@ -53,9 +67,11 @@ def _upscale(img: np.ndarray, k: int) -> np.ndarray:
 def add_arguments(ap: argparse.ArgumentParser) -> None:
     """The command line (``bumpmap figures``, :mod:`tools.main`)."""
     ap.add_argument("outdir", nargs="?", default=str(ROOT / "docs" / "img"))
+    add_record_option(ap, "the figures (the docs' results tables)")
 
 
 def run(args: argparse.Namespace) -> int:
+    before = machine()
     out = Path(args.outdir)
     summary = {}
     for path in sorted((ROOT / "scenes").glob("*.toml")):
@@ -66,6 +82,7 @@ def run(args: argparse.Namespace) -> int:
         save_png(out / f"{path.stem}.png", compose(model, frame.image(b)))
         summary[path.stem] = {k: report[k] for k in ("pixels", "psnr_db_vs_float", "max_lsb_vs_float",
                                                      "psnr_db_vs_ideal", "max_lsb_vs_ideal")}
+        summary[path.stem]["triangles"] = triangle_figures(frame)
         if frame.maps.bump is not None and path.stem in ("tin-plane", "berlin-wall"):
             pic = bump_picture(frame.maps)
             save_png(out / f"{path.stem}-bump.png", _upscale(pic, 4) if pic.shape[0] < 100 else pic)
@@ -76,4 +93,5 @@ def run(args: argparse.Namespace) -> int:
             save_png(out / "tin-plane-cubes.png", np.concatenate([d, s], 0))
     print(json.dumps(summary, indent=2))
     print(f"wrote {out}")
+    write_if_asked(args, summary, before)
     return 0

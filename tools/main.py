@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import shlex
 import sys
 
 __all__ = ["COMMANDS", "build_parser", "main"]
@@ -37,6 +38,8 @@ COMMANDS: dict[str, tuple[str, str | None]] = {
                   "filtering study: MIP maps, LEAN bump maps, level of detail"),
     "figures": ("tools.figures", "re-render the documentation's scene pictures"),
     "tables": ("tools.tables", "the reciprocal's error tables"),
+    "docs": ("tools.docs", "write the generated pages of the docs (docs/generated/) and the README's blocks"),
+    "record": ("tools.record", "run a command and record what it printed (the docs' sample output)"),
     "raster-errors": ("tools.measure", None),
     "frontend": ("tools.measure", None),
     "maps": ("tools.measure", None),
@@ -85,6 +88,7 @@ def main(argv=None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     known = [a for a in argv[:1] if a in COMMANDS]       # import only the command's own module
     args = build_parser(known or None).parse_args(argv)
+    args.command_line = " ".join(["bumpmap", *map(shlex.quote, argv)])       # for a record of the run
     try:
         return args._run(args)
     except KeyboardInterrupt:

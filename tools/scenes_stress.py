@@ -22,7 +22,7 @@ from fxmodel.core.paths import build_dir
 from host.render import SCENE_BOUND_LSB, ClampError, judge, prepare, render
 from host.scene import parse_scene
 from host.scenegen import random_scene
-
+from tools.record import add_record_option, machine, write_if_asked
 
 
 def run_one(seed: int, size: int, preset: str = "default") -> dict:
@@ -78,8 +78,11 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
     ap.add_argument("--out", default=str(build_dir("scenes_stress")), help="report folder")
     ap.add_argument("--keep", help="write the scenes of frames over 1 LSB here")
 
+    add_record_option(ap, "the summary")
+
 
 def run(args: argparse.Namespace) -> int:
+    before = machine()
     t0 = time.perf_counter()
     results = []
     from tqdm import tqdm
@@ -100,4 +103,5 @@ def run(args: argparse.Namespace) -> int:
                 Path(args.keep).mkdir(parents=True, exist_ok=True)
                 (Path(args.keep) / f"random-{r['seed']}.toml").write_text(r["text"])
     print(json.dumps(summ, indent=1))
+    write_if_asked(args, summ, before)
     return 0 if summ["drawn_within_bound"] == summ["drawn"] else 1

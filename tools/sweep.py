@@ -67,6 +67,7 @@ from fxmodel.core.paths import ROOT, build_dir
 from fxmodel.core.unit import preset
 from fxmodel.units.exact import recip_error_ulp
 from fxmodel.units.recip import RecipParams
+from tools.record import add_record_option, machine, write_if_asked
 
 from .sweep_plots import ANCHORS, plot, plot_units
 from .sweep_plots import declutter as _declutter  # noqa: F401  (tests/tools/test_sweep.py)
@@ -482,8 +483,11 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
     ap.add_argument("--out", default=str(OUT), help="output folder (default: build/bench)")
     ap.add_argument("--docs", action="store_true", help="also write docs/img/pareto.png and docs/img/units.png")
 
+    add_record_option(ap, "the sweep")
+
 
 def run(args: argparse.Namespace) -> int:
+    before = machine()
     if not 0 <= args.fpga_points <= 6 or not 0 <= args.unit_fpga_points <= 3:
         print("error: --fpga-points must be 0 to 6 and --unit-fpga-points 0 to 3 (each new design takes 1-2 "
               "minutes)", file=sys.stderr)
@@ -508,6 +512,7 @@ def run(args: argparse.Namespace) -> int:
     for unit, names in result["pareto"].items():
         print(f"\nPareto front, {unit}: {', '.join(names)}")
     print(f"({result['meta']['seconds']} s; written to {', '.join(str(p) for p in paths)})")
+    write_if_asked(args, result, before)
     bad = [r["name"] for r in result["points"] if not r["within_bound"]]
     if bad:
         print(f"error: measured error above the documented bound: {', '.join(bad)}", file=sys.stderr)

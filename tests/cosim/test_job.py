@@ -1,5 +1,5 @@
 """Job folders of the co-simulation (:mod:`cosim.job`): a label from a scene file never names a path outside the
-build folder, and clean-up deletes only folders this process made (issue 23, item 1)."""
+build folder, and clean-up deletes only folders this process made (docs, "Exit codes and limits")."""
 
 from __future__ import annotations
 

@@ -23,11 +23,13 @@ CLOCK_WORD = 0b0000011111
 class TimingGenerator(wiring.Component):
     """Line and frame counters of a :class:`~board.video.VideoTiming`: ``x``, ``y`` (the counters: the pixel's
     position while ``de``), ``de``, ``hsync``, ``vsync`` (wire levels, polarity applied), ``frame`` (high on the
-    first clock of a frame, ``x = y = 0``)."""
+    first clock of a frame, ``x = y = 0``). Out of reset the counters stand at the first blanking line (``y =
+    v_active``), so a sink sees a whole vertical blanking before the first frame."""
 
     def __init__(self, timing: VideoTiming):
         self.timing = t = timing
-        super().__init__({"x": Out(range(t.h_total)), "y": Out(range(t.v_total)), "de": Out(1), "hsync": Out(1),
+        super().__init__({"x": Out(range(t.h_total)), "y": Out(range(t.v_total), init=t.v_active), "de": Out(1),
+                          "hsync": Out(1),
                           "vsync": Out(1), "frame": Out(1)})
 
     def elaborate(self, platform):
@@ -51,10 +53,11 @@ class TimingGenerator(wiring.Component):
 
 class TmdsEncoder(wiring.Component):
     """One TMDS lane (DVI 1.0, 3.2.2): ``data`` while ``de``, else the control token of ``ctrl`` (``C1 C0``);
-    ``word`` (bit 0 sent first) one clock later. The running disparity is kept in ``cnt`` and reset in blanking."""
+    ``word`` (bit 0 sent first) one clock later (a control token out of reset). The running disparity is kept in
+    ``cnt`` and reset in blanking."""
 
     def __init__(self):
-        super().__init__({"de": In(1), "data": In(8), "ctrl": In(2), "word": Out(10)})
+        super().__init__({"de": In(1), "data": In(8), "ctrl": In(2), "word": Out(10, init=CTRL_TOKENS[0])})
         self.cnt = Signal(signed(6))
 
     def elaborate(self, platform):

@@ -52,8 +52,9 @@ def _timing_rows(t: VideoTiming, clocks: int) -> list:
 
 
 def test_timing_generator_matches_the_model_over_two_frames():
+    """From the first blanking line (where reset leaves it) through two whole frames."""
     for t in (SMALL, VideoTiming(5, 1, 1, 1, 3, 1, 1, 1, h_sync_pos=True, v_sync_pos=True)):
         rows = _timing_rows(t, 2 * t.frame_clocks + 3)
         for k, row in enumerate(rows):
-            h, v = k % t.h_total, (k // t.h_total) % t.v_total
+            h, v = k % t.h_total, (k // t.h_total + t.v_active) % t.v_total      # out of reset: blanking
             assert row == (h, v, *t.at(h, v), int(h == 0 and v == 0)), (t, k, row)

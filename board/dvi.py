@@ -150,9 +150,9 @@ class Serializer(wiring.Component):
 
 
 class DisplayTest(wiring.Component):
-    """The display showing :func:`~board.video.pattern_rgb` (the same formula), serialized (behaviourally): the co-simulation's top.
-    Ports: ``tmds_clk``/``tmds_rst`` (the five-times clock), ``serial`` (lanes 0-2, lane 3 the clock), ``words``
-    (the three data lanes' words before the serializer, for the full-frame check)."""
+    """The display showing :func:`~board.video.pattern_rgb` (the same formula), serialized (behaviourally): the
+    co-simulation's top. Ports: ``tmds_clk``/``tmds_rst`` (the five-times clock), ``serial`` (lanes 0-2, lane 3
+    the clock), ``words`` (the three data lanes' words before the serializer, for the full-frame check)."""
 
     def __init__(self, timing: VideoTiming):
         self.timing = timing

@@ -2,7 +2,8 @@
 serializer's five-times clock ``tmds_clk`` (10 ns, its edges 1 ns after the pixel clock's, as a PLL's outputs
 with a small skew), both reset together. ``job.json`` says what to record for how many pixel clocks: the four
 serial lanes at every ``tmds_clk`` edge (the double-data-rate output: two bit times a clock), or the three
-encoders' 30-bit word at every falling edge of the pixel clock (the serializer's clock left still). The samples go to ``samples.npy`` for ``cosim/board_dvi.py``.
+encoders' 30-bit word at every falling edge of the pixel clock (the serializer's clock left still).
+The samples go to ``samples.npy`` for ``cosim/board_dvi.py``.
 """
 
 from __future__ import annotations

@@ -33,7 +33,8 @@ def test_encoder_matches_the_model_bit_for_bit():
     model = ModelEncoder()
     want = [model.step(de, d, c) for de, d, c in stimulus]
     bad = [i for i, (a, b) in enumerate(zip(got, want)) if a != b]
-    assert len(got) == len(want) and not bad, f"first mismatch at {bad[:3]}: rtl {got[bad[0]]:#x} model {want[bad[0]]:#x}"
+    assert len(got) == len(want)
+    assert not bad, f"first mismatch at {bad[:3]}: rtl {got[bad[0]]:#x} model {want[bad[0]]:#x}"
 
 
 def _timing_rows(t: VideoTiming, clocks: int) -> list:

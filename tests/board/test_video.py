@@ -8,7 +8,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from board.video import CTRL_TOKENS, SMALL, VGA_640x480, TmdsEncoder, VideoTiming, scan, tmds_decode, tmds_encode
+from board.video import CTRL_TOKENS, SMALL, TmdsEncoder, VGA_640x480, VideoTiming, scan, tmds_decode, tmds_encode
 
 
 def _reachable() -> set[int]:

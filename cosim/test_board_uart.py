@@ -52,3 +52,20 @@ def test_the_error_state_is_sticky_without_clear(sim):
     assert res["commands"] == [(Cmd.STATUS, b"")]
     assert res["replies"] == bytes([ACK, 0x80 | Err.CRC])
     assert (res["error"], res["code"]) == (1, Err.CRC)
+
+
+def test_the_tin_plane_triangles_through_the_link(sim):
+    """The tin plane's FRAME_START, triangle records and SWAP as ``bumpmap send`` writes them (the texel uploads
+    are left out: 260 kB would take minutes of UART time), parsed by the RTL with the engine's record length."""
+    from host.protocol import record_bytes, triangle_frames
+    from host.render import from_triangles, prepare
+    from host.scene import scene_path
+
+    tframe = from_triangles(prepare(scene_path("tin-plane")))
+    ports = tframe.params.raster.record
+    data = frame(Cmd.FRAME_START) + b"".join(triangle_frames(ports, tframe.records.matrix())) + frame(Cmd.SWAP)
+    n = record_bytes(ports)
+    want = parse(data, n)
+    res = run(data, n, sim=sim)
+    assert len(want.commands) == len(tframe.records) + 2 and want.error == 0
+    assert res["commands"] == want.commands and res["replies"] == bytes(want.replies)

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 __all__ = ["SYNC", "ACK", "Cmd", "Err", "LENGTHS", "MAX_PAYLOAD", "crc16", "frame", "CLEAR_FRAME", "record_bytes",
-           "triangle_frames", "upload_frames", "Parsed", "parse", "MEMORIES"]
+           "triangle_frames", "upload_frames", "scene_frames", "Parsed", "parse", "MEMORIES"]
 
 SYNC = 0xA5
 ACK = 0x00
@@ -168,3 +168,16 @@ def parse(data: bytes, record_len: int) -> Parsed:
                     out.replies.append(ACK)
                     state = "sync"
     return out
+
+
+def scene_frames(pipeline, raster_ports, records) -> list[bytes]:
+    """The frames that draw one prepared frame on the board: the four texel memories of ``pipeline`` (a
+    :class:`~fxmodel.pipeline.pixel.PipelineParams`: bump map and texture by TEXTURE, the diffuse and specular cubes
+    by CUBE, each memory's words in texel order), FRAME_START, one TRIANGLE per record (codes ``(T, fields)`` in
+    ``raster_ports`` order), SWAP."""
+    out = []
+    for cmd, names in MEMORIES.items():
+        for mem, name in enumerate(names):
+            sampler = getattr(pipeline, name)
+            out += upload_frames(cmd, mem, sampler.words, sampler.word_bits)
+    return out + [frame(Cmd.FRAME_START)] + triangle_frames(raster_ports, records) + [frame(Cmd.SWAP)]

@@ -39,6 +39,7 @@ COMMANDS: dict[str, tuple[str, str | None]] = {
     "frontend": ("tools.measure", None),
     "maps": ("tools.measure", None),
     "rop-throughput": ("tools.measure", None),
+    "send": ("tools.send", "send a scene to the board over the UART (or its bytes to a file: --dry-run)"),
 }
 
 

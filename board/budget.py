@@ -18,7 +18,7 @@ from fxmodel.units.rop import DEPTH_BYTES, PIXEL_BYTES
 
 from .video import VGA_640x480, VideoTiming
 
-__all__ = ["budget", "main"]
+__all__ = ["budget", "main", "write_text_atomic"]
 
 #: DP16KD block RAMs of the LFE5U-85F, and the bits of one (18 Kbit).
 DP16KD_COUNT, DP16KD_BITS = 208, 18 * 1024
@@ -61,7 +61,8 @@ def budget(timing: VideoTiming = VGA_640x480, *, sdram_mhz: float = 100.0, sdram
     }
 
 
-def _write(path: Path, text: str) -> None:
+def write_text_atomic(path: Path, text: str) -> None:
+    """Write ``text`` to ``path`` atomically (a temporary file in the same folder, then a rename)."""
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name + ".")
     with os.fdopen(fd, "w") as f:
@@ -81,7 +82,7 @@ def main(argv=None) -> int:
         return 2
     record = {"command": f"python -m board.budget {args.out} --engine-mhz {args.engine_mhz:g} --tile {args.tile}",
               **budget(engine_mhz=args.engine_mhz, tile=args.tile)}
-    _write(args.out, json.dumps(record, indent=1) + "\n")
+    write_text_atomic(args.out, json.dumps(record, indent=1) + "\n")
     print(json.dumps(record, indent=1))
     return 0
 

@@ -19,7 +19,7 @@ from pathlib import Path
 
 from fxmodel.core.paths import ROOT, build_dir
 
-from .budget import _write
+from .budget import write_text_atomic
 
 __all__ = ["generate", "ports", "main"]
 
@@ -70,7 +70,7 @@ def main(argv=None) -> int:
     except RuntimeError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 1
-    _write(args.out, json.dumps(record, indent=1) + "\n")
+    write_text_atomic(args.out, json.dumps(record, indent=1) + "\n")
     print(json.dumps(record, indent=1))
     return 0
 

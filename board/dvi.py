@@ -1,6 +1,7 @@
 """DVI output in Amaranth (DVI 1.0 section 3.2): the video timing generator, the TMDS 8b/10b encoder of one lane, the
 display (timing, pixel source, three encoders) and the 10:1 serializer (two bits a clock at five times the pixel
-clock: the ECP5's ODDRX1F in the hardware build, a behavioural double-data-rate stand-in in simulation).
+clock: the ECP5's ODDRX1F through the platform in the hardware build, a behavioural double-data-rate stand-in in
+simulation).
 
 Checked against the golden model ``board/video.py`` bit for bit (``tests/board/test_dvi.py`` in Amaranth's simulator,
 ``cosim/test_board_dvi.py`` decoding the lanes on Icarus).
@@ -8,13 +9,13 @@ Checked against the golden model ``board/video.py`` bit for bit (``tests/board/t
 
 from __future__ import annotations
 
-from amaranth import Cat, ClockSignal, Const, Instance, Module, Mux, Signal, signed
+from amaranth import Cat, ClockSignal, Const, Module, Mux, Signal, signed
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
 from .video import CTRL_TOKENS, VideoTiming
 
-__all__ = ["TimingGenerator", "TmdsEncoder", "Display", "Serializer", "DisplayTest", "CLOCK_WORD"]
+__all__ = ["TimingGenerator", "TmdsEncoder", "Display", "Serializer", "DisplayTest", "CLOCK_WORD", "pattern"]
 
 #: The clock lane's 10-bit word: five ones then five zeros each pixel clock (bit 0 sent first).
 CLOCK_WORD = 0b0000011111
@@ -120,13 +121,18 @@ class Display(wiring.Component):
 
 class Serializer(wiring.Component):
     """Four 10-bit words a pixel clock (``sync``) -> four serial lanes, two bits a clock of domain ``tmds`` (five
-    times the pixel clock, from the same PLL). ``hardware=True``: an ECP5 ODDRX1F per lane drives ``pins``;
-    otherwise a behavioural double-data-rate output (bit ``2k`` while the ``tmds`` clock is high, ``2k + 1`` while
-    low), for simulation. The ``tmds`` domain loads a word every fifth clock and shifts it out from bit 0."""
+    times the pixel clock, from the same PLL). The ``tmds`` domain loads a word every fifth clock and shifts it out
+    from bit 0: ``pairs`` holds each lane's two bits of the clock (lane ``k``: bit ``2k`` first, ``2k + 1`` second).
+    ``hardware=True``: the board top hands ``pairs`` to the platform's double-data-rate output buffers (the ECP5's
+    ODDRX1F, ``amaranth.lib.io.DDRBuffer``); otherwise ``pins`` is a behavioural double-data-rate output (the first
+    bit while the ``tmds`` clock is high, the second while low), for simulation."""
 
     def __init__(self, lanes: int = 4, hardware: bool = False):
         self.lanes, self.hardware = lanes, hardware
-        super().__init__({"words": In(10 * lanes), "pins": Out(lanes)})
+        sig = {"words": In(10 * lanes), "pairs": Out(2 * lanes)}
+        if not hardware:
+            sig["pins"] = Out(lanes)
+        super().__init__(sig)
 
     def elaborate(self, platform):
         m = Module()
@@ -139,14 +145,19 @@ class Serializer(wiring.Component):
                 m.d.tmds += sr.eq(word)
             with m.Else():
                 m.d.tmds += sr.eq(sr >> 2)
-            if self.hardware:
-                m.submodules[f"oddr{k}"] = Instance("ODDRX1F", i_SCLK=ClockSignal("tmds"), i_RST=Const(0, 1),
-                                                    i_D0=sr[0], i_D1=sr[1], o_Q=self.pins[k])
-            else:
+            m.d.comb += self.pairs[2 * k:2 * k + 2].eq(sr[:2])
+            if not self.hardware:
                 q0, q1 = Signal(name=f"ddr{k}_0"), Signal(name=f"ddr{k}_1")
                 m.d.tmds += [q0.eq(sr[0]), q1.eq(sr[1])]
                 m.d.comb += self.pins[k].eq(Mux(ClockSignal("tmds"), q0, q1))
         return m
+
+
+def pattern(disp: Display) -> list:
+    """Statements driving ``disp``'s colors with :func:`~board.video.pattern_rgb` of its position (the same
+    formula)."""
+    x, y = disp.x, disp.y
+    return [disp.r.eq(x[:8]), disp.g.eq(y[:8] + x[8:]), disp.b.eq((x >> 1) ^ (y << 1))]
 
 
 class DisplayTest(wiring.Component):
@@ -165,8 +176,7 @@ class DisplayTest(wiring.Component):
         m.d.comb += [ClockSignal("tmds").eq(self.tmds_clk), ResetSignal("tmds").eq(self.tmds_rst)]
         m.submodules.display = disp = Display(self.timing)
         m.submodules.serializer = ser = Serializer(4)
-        x, y = disp.x, disp.y
-        m.d.comb += [disp.r.eq(x[:8]), disp.g.eq(y[:8] + x[8:]), disp.b.eq((x >> 1) ^ (y << 1)),
+        m.d.comb += [*pattern(disp),
                      self.words.eq(disp.words), ser.words.eq(Cat(disp.words, Const(CLOCK_WORD, 10))),
                      self.serial.eq(ser.pins)]
         return m

@@ -25,13 +25,14 @@ from amaranth.lib.cdc import ResetSynchronizer
 from .budget import write_text_atomic
 from .command import CommandLink
 from .dvi import CLOCK_WORD, Display, Serializer, pattern
+from .ulx3s import BAUD
 from .video import VGA_640x480
 
 __all__ = ["Top", "PLL", "build", "report", "main"]
 
 #: The PLL: 25 MHz in, VCO 625 MHz; CLKOP 125 MHz (TMDS, five times the pixel clock), CLKOS 25 MHz (pixel).
 PLL = {"CLKI_DIV": 1, "CLKFB_DIV": 5, "CLKOP_DIV": 5, "CLKOP_CPHASE": 2, "CLKOS_DIV": 25, "CLKOS_CPHASE": 12}
-PIXEL_HZ, TMDS_HZ, BAUD = 25_000_000, 125_000_000, 3_125_000
+PIXEL_HZ, TMDS_HZ = 25_000_000, 125_000_000
 
 
 class Top(Elaboratable):

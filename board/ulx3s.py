@@ -11,8 +11,9 @@ from .command import CommandLink
 
 __all__ = ["platform", "LinkProbe", "CLOCK_HZ", "BAUD"]
 
-#: The design's clock (the board's 25 MHz oscillator, until the PLL) and the UART's rate (the FTDI chip takes it).
-CLOCK_HZ, BAUD = 25_000_000, 3_125_000
+#: The design's clock (the 25 MHz oscillator; the pixel clock in the board top) and the UART's rate: 1 MBd divides
+#: both 25 MHz (25 clocks a bit) and the FTDI chip's 3 MHz baud base exactly.
+CLOCK_HZ, BAUD = 25_000_000, 1_000_000
 
 
 def platform():

@@ -28,7 +28,8 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
     ap.add_argument("--size", type=int_range(1, 4096), default=None, help="override the image size (square)")
     ap.add_argument("--cube-size", type=int_range(2, 1024), default=None, help="texels per cube face edge")
     ap.add_argument("--port", help="serial port of the board (e.g. /dev/ttyUSB0; needs pyserial)")
-    ap.add_argument("--baud", type=int_range(300, 12_000_000), default=3_000_000, help="(default %(default)s)")
+    ap.add_argument("--baud", type=int_range(300, 12_000_000), default=1_000_000,
+                    help="the board's rate (default %(default)s: board/ulx3s.py)")
     ap.add_argument("--timeout", type=float, default=1.0, help="seconds to wait for each answer")
     ap.add_argument("--dry-run", type=Path, metavar="FILE", help="write the bytes to FILE instead of a port")
 

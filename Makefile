@@ -15,13 +15,15 @@ DEPTH    ?=
 JOBS     ?= 2
 # nextpnr router of `make fpga` (router1: the README's figures; router2: quick checks of the pipeline)
 ROUTER   ?= router1
+# the board of `make bitstream` (board/top.py)
+BOARD    ?= ulx3s
 # PRESET or SCENE given on the command line or in the environment: `make verilog` and `make fpga` build the pixel
 # pipeline with SCENE's tables and PRESET (built in or presets/<name>.toml); otherwise every unit and preset.
 SCENE_ARGS = $(if $(filter-out file default undefined,$(origin PRESET) $(origin SCENE)),--scene $(SCENE) --preset $(PRESET))
 export PATH := $(CURDIR)/$(VENV)/bin:$(PATH)
 export SIM
 
-.PHONY: setup test verilog sim render bench fpga exhaustive exhaustive-wide docs clean help
+.PHONY: setup test verilog sim render bench fpga bitstream exhaustive exhaustive-wide docs clean help
 
 help:
 	@echo "make sim        draw SCENE (default tin-plane) from triangles through the RTL engine, bit-exact check"
@@ -35,6 +37,8 @@ help:
 	@echo "make fpga       ECP5-85 synthesis, place and route of every unit and preset -> build/fpga/report.{json,md};"
 	@echo "                with PRESET= and/or SCENE=: the pipeline with that preset and the scene's tables;"
 	@echo "                ROUTER=router2 for a quick check of the pipeline (nextpnr's router1 is the default)"
+	@echo "make bitstream  BOARD=ulx3s: the board top (PLL, DVI test picture, UART link) through Yosys, nextpnr-ecp5 and"
+	@echo "                ecppack -> build/bitstream/\$$BOARD/top.bit and report.json (Fmax per clock, resources)"
 	@echo "make exhaustive exhaustive RTL equivalence (streaming co-simulation) -> build/exhaustive/report.json"
 	@echo "make exhaustive-wide  the 2^32-input proof of recip rcp32: model vs exact math, RTL vs model on Verilator"
 	@echo "                (long: Dask, --jobs \$$JOBS local workers or DASK_SCHEDULER_ADDRESS; resumes where it stopped)"
@@ -78,6 +82,10 @@ bench: setup
 
 fpga: setup
 	$(BUMPMAP) fpga --jobs $(JOBS) --router $(ROUTER) $(SCENE_ARGS)
+
+bitstream: setup
+	@test "$(BOARD)" = ulx3s || { echo "BOARD=$(BOARD): the board top exists for ulx3s only" >&2; exit 2; }
+	$(PY) -m board.top --out build/bitstream/$(BOARD)
 
 exhaustive: setup
 	HYPOTHESIS_PROFILE=thorough $(PY) -m pytest -n $(JOBS) -q -m slow -k "not test_exhaustive_target"

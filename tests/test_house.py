@@ -15,7 +15,7 @@ from fxmodel.core.paths import ROOT
 from tools.main import COMMANDS, build_parser
 
 #: The packages whose sources are held to the limits.
-PACKAGES = ("fxmodel", "host", "rtl", "cosim", "tools", "formal")
+PACKAGES = ("fxmodel", "host", "rtl", "board", "cosim", "tools", "formal")
 MAX_FILE_LINES = 600
 MAX_FUNCTION_LINES = 100
 MAX_README_LINES = 200

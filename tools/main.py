@@ -45,6 +45,7 @@ COMMANDS: dict[str, tuple[str, str | None]] = {
     "maps": ("tools.measure", None),
     "rop-throughput": ("tools.measure", None),
     "cache-sweep": ("tools.cache_sweep", "size the texel cache in the model on the shipped scenes and grazing floor"),
+    "send": ("tools.send", "send a scene to the board over the UART (or its bytes to a file: --dry-run)"),
 }
 
 

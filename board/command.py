@@ -1,0 +1,160 @@
+"""The board's command parser: UART bytes -> commands of the protocol in ``host/protocol.py`` (``docs/protocol.md``),
+with a sticky error state. The Python reference is :func:`host.protocol.parse`; ``cosim/test_board_uart.py`` checks
+this RTL against it byte for byte.
+
+Payload bytes are passed on as they arrive (``data``, ``index``, with ``data_valid``; one per UART byte, so a
+consumer never has to stall the line) and a frame takes effect at ``done``, which pulses once its CRC matched: a
+triangle's consumer keeps the record until then; an upload's words are written as they arrive (a bad CRC leaves
+the words it carried undefined and the error state set, and the host sends the upload again after CLEAR).
+"""
+
+from __future__ import annotations
+
+from amaranth import Cat, Module, Signal
+from amaranth.lib import wiring
+from amaranth.lib.wiring import In, Out
+
+from host.protocol import ACK, CLEAR_FRAME, LENGTHS, SYNC, Err, crc16
+
+__all__ = ["CommandParser", "crc16_byte"]
+
+
+def _crc_step(crc: int, byte: int) -> int:
+    """One byte of :func:`host.protocol.crc16` on an arbitrary register value."""
+    return crc16(bytes([byte]), crc)
+
+
+def crc16_byte(crc, byte):
+    """CRC-16/CCITT-FALSE after one more ``byte`` (Amaranth values of 16 and 8 bits). The byte step is linear over
+    GF(2) in the 24 bits of register and byte, so each output bit is the XOR of the input bits whose unit vector
+    sets it: the taps are read off :func:`host.protocol.crc16` itself, one call per input bit."""
+    bits = Cat(crc, byte)
+    cols = [_crc_step(1 << i, 0) for i in range(16)] + [_crc_step(0, 1 << i) for i in range(8)]
+    out = []
+    for j in range(16):
+        taps = [bits[i] for i, col in enumerate(cols) if col >> j & 1]
+        x = taps[0]
+        for t in taps[1:]:
+            x = x ^ t
+        out.append(x)
+    return Cat(*out)
+
+
+class CommandParser(wiring.Component):
+    """Parser of the byte stream (``byte`` with ``valid``; ``framing`` from the UART). Out: ``cmd``, ``length``;
+    ``data``/``index``/``data_valid`` per payload byte; ``done`` for a good frame; ``error`` (sticky) with ``code``
+    (:class:`host.protocol.Err`); ``reply``/``reply_valid``: the byte the board answers (``ACK`` per good frame,
+    ``0x80 | code`` on entering the error state, ``ACK`` on leaving it)."""
+
+    def __init__(self, record_len: int):
+        self.record_len = record_len
+        self.lengths = LENGTHS(record_len)
+        super().__init__({"byte": In(8), "valid": In(1), "framing": In(1),
+                          "cmd": Out(8), "length": Out(16), "data": Out(8), "index": Out(16), "data_valid": Out(1),
+                          "done": Out(1), "error": Out(1), "code": Out(3), "reply": Out(8), "reply_valid": Out(1)})
+
+    def elaborate(self, platform):
+        m = Module()
+        b = self.byte
+        crc, got, count = Signal(16), Signal(8), Signal(16)
+        window = Signal(8 * len(CLEAR_FRAME))
+        clear = int.from_bytes(CLEAR_FRAME, "little")          # the newest byte in the high bits
+        m.d.sync += [self.data_valid.eq(0), self.done.eq(0), self.reply_valid.eq(0)]
+        known = Signal()
+        m.d.comb += known.eq(sum((b == c) for c in self.lengths) != 0)
+        length = Cat(self.length[:8], b)                          # the length once its high byte arrives
+        in_range = Signal()
+        m.d.comb += in_range.eq(sum((self.cmd == c) & (length >= lo) & (length <= hi)
+                                    for c, (lo, hi) in self.lengths.items()) != 0)
+
+        def fail(code):
+            m.d.sync += [self.error.eq(1), self.code.eq(code), self.reply.eq(0x80 | code), self.reply_valid.eq(1),
+                         window.eq(0)]
+            m.next = "error"
+
+        with m.FSM():
+            with m.State("sync"):
+                with m.If(self.framing):
+                    fail(Err.FRAMING)
+                with m.Elif(self.valid):
+                    with m.If(b == SYNC):
+                        m.d.sync += crc.eq(0xFFFF)
+                        m.next = "cmd"
+                    with m.Else():
+                        fail(Err.SYNC)
+            for state, nxt in (("cmd", "len0"), ("len0", "len1"), ("len1", None), ("body", None),
+                               ("crc0", "crc1"), ("crc1", None)):
+                with m.State(state):
+                    with m.If(self.framing):
+                        fail(Err.FRAMING)
+                    with m.Elif(self.valid):
+                        if state in ("cmd", "len0", "len1", "body"):
+                            m.d.sync += crc.eq(crc16_byte(crc, b))
+                        if state == "cmd":
+                            m.d.sync += self.cmd.eq(b)
+                            with m.If(~known):
+                                fail(Err.COMMAND)
+                            with m.Else():
+                                m.next = nxt
+                        elif state == "len0":
+                            m.d.sync += self.length[:8].eq(b)
+                            m.next = nxt
+                        elif state == "len1":
+                            m.d.sync += [self.length[8:].eq(b), count.eq(0)]
+                            with m.If(~in_range):
+                                fail(Err.LENGTH)
+                            with m.Else():
+                                m.next = "body"
+                                with m.If(length == 0):
+                                    m.next = "crc0"
+                        elif state == "body":
+                            m.d.sync += [self.data.eq(b), self.index.eq(count), self.data_valid.eq(1),
+                                         count.eq(count + 1)]
+                            with m.If(count == self.length - 1):
+                                m.next = "crc0"
+                        elif state == "crc0":
+                            m.d.sync += got.eq(b)
+                            m.next = nxt
+                        else:
+                            with m.If(Cat(got, b) != crc):
+                                fail(Err.CRC)
+                            with m.Else():
+                                m.d.sync += [self.done.eq(1), self.reply.eq(ACK), self.reply_valid.eq(1)]
+                                m.next = "sync"
+            with m.State("error"):
+                with m.If(self.valid):
+                    nwin = Cat(window[8:], b)
+                    m.d.sync += window.eq(nwin)
+                    with m.If(nwin == clear):
+                        m.d.sync += [self.error.eq(0), self.code.eq(0), self.reply.eq(ACK), self.reply_valid.eq(1)]
+                        m.next = "sync"
+        return m
+
+
+class CommandLink(wiring.Component):
+    """The UART link of the board: :class:`~board.uart.UartRx` -> :class:`CommandParser` -> replies through
+    :class:`~board.uart.UartTx`. Ports: ``rx``, ``tx`` and the parser's outputs."""
+
+    def __init__(self, divisor: int, record_len: int):
+        self.divisor, self.record_len = divisor, record_len
+        super().__init__({"rx": In(1, init=1), "tx": Out(1, init=1), "cmd": Out(8), "length": Out(16),
+                          "data": Out(8), "index": Out(16), "data_valid": Out(1), "done": Out(1), "error": Out(1),
+                          "code": Out(3)})
+
+    def elaborate(self, platform):
+        from amaranth.lib.fifo import SyncFIFOBuffered
+
+        from .uart import UartRx, UartTx
+        m = Module()
+        m.submodules.rx = rx = UartRx(self.divisor)
+        m.submodules.parser = p = CommandParser(self.record_len)
+        m.submodules.tx = tx = UartTx(self.divisor)
+        # a reply is due at the stop bit of a received byte, at most one per byte, and takes as long to send as a
+        # byte to receive; a small queue absorbs the one-clock slips between the two
+        m.submodules.replies = q = SyncFIFOBuffered(width=8, depth=4)
+        m.d.comb += [rx.rx.eq(self.rx), p.byte.eq(rx.data), p.valid.eq(rx.valid), p.framing.eq(rx.framing),
+                     q.w_data.eq(p.reply), q.w_en.eq(p.reply_valid),
+                     self.tx.eq(tx.tx), tx.data.eq(q.r_data), tx.valid.eq(q.r_rdy), q.r_en.eq(tx.ready)]
+        for name in ("cmd", "length", "data", "index", "data_valid", "done", "error", "code"):
+            m.d.comb += getattr(self, name).eq(getattr(p, name))
+        return m

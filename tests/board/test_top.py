@@ -1,0 +1,38 @@
+"""The ULX3S board top (``board/top.py``) prepares for the open flow (RTLIL, constraints, build script: the PLL, the
+HDMI pairs' double-data-rate buffers, the UART pins), and the report reads nextpnr's figures. The bitstream itself
+is ``make bitstream BOARD=ulx3s`` (about a minute)."""
+
+from __future__ import annotations
+
+import pytest
+
+pytest.importorskip("amaranth_boards")
+
+from board.top import Top, _platform, report  # noqa: E402
+
+TIM = """Info: Max frequency for clock '$glbnet$tmds': 150.00 MHz (PASS at 125.00 MHz)
+Info: Max frequency for clock               '$glbnet$clk': 20.00 MHz (FAIL at 25.00 MHz)
+Info: Device utilisation:
+Info: \t          TRELLIS_IO:    10/   365     2%
+Info: \t             EHXPLLL:     1/     4    25%
+Info: Max frequency for clock '$glbnet$tmds': 160.00 MHz (PASS at 125.00 MHz)
+Info: Max frequency for clock               '$glbnet$clk': 30.00 MHz (PASS at 25.00 MHz)
+"""
+
+
+def test_report_takes_the_last_figures_of_every_clock():
+    rec = report(TIM)
+    assert rec["clocks"] == {"$glbnet$tmds": {"fmax_mhz": 160.0, "target_mhz": 125.0, "met": True},
+                             "$glbnet$clk": {"fmax_mhz": 30.0, "target_mhz": 25.0, "met": True}}
+    assert rec["resources"] == {"TRELLIS_IO": [10, 365], "EHXPLLL": [1, 4]} and rec["all_met"]
+    assert not report(TIM.rsplit("Info: Max", 1)[0])["all_met"]        # the clk FAIL is the last one seen then
+
+
+def test_top_prepares_with_pll_and_ddr_outputs():
+    plan = _platform().prepare(Top(), name="top")
+    rtlil = plan.files["top.il"]
+    rtlil = rtlil.decode() if isinstance(rtlil, bytes) else rtlil
+    assert "EHXPLLL" in rtlil and "ODDRX1F" in rtlil
+    lpf = plan.files["top.lpf"]
+    lpf = lpf.decode() if isinstance(lpf, bytes) else lpf
+    assert all(pin in lpf for pin in ("A16", "A14", "A12", "A17", "M1", "L4", "G2"))   # HDMI data, clock, UART, clk25

@@ -1,0 +1,61 @@
+"""The UART command protocol (``host/protocol.py``): the CRC against its published check value, frames and the
+reference parser's error state, the packing of triangle records and uploads."""
+
+from __future__ import annotations
+
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from host.protocol import ACK, CLEAR_FRAME, LENGTHS, MAX_PAYLOAD, SYNC, Cmd, Err, crc16, frame, parse, upload_frames
+
+
+def test_crc_check_value():
+    assert crc16(b"123456789") == 0x29B1                  # CRC-16/CCITT-FALSE's catalogued check value
+
+
+@given(st.sampled_from([Cmd.TEXTURE, Cmd.CUBE]), st.binary(min_size=6, max_size=300))
+def test_a_frame_parses_back_to_its_command(cmd, payload):
+    data = frame(cmd, payload)
+    assert data[0] == SYNC and int.from_bytes(data[2:4], "little") == len(payload)
+    assert parse(data, 8).commands == [(cmd, payload)]
+
+
+@given(st.binary(min_size=6, max_size=40), st.integers(0, 10_000), st.integers(0, 7))
+def test_a_single_bit_flip_is_never_accepted(payload, where, bit):
+    """CRC-16 detects every single-bit error: the flipped frame is refused (an error), or, with its length field
+    hit, waits for bytes that are not its own; a good frame after it is then swallowed, never a wrong upload
+    accepted."""
+    data = bytearray(frame(Cmd.TEXTURE, payload))
+    data[where % len(data)] ^= 1 << bit
+    res = parse(bytes(data), 8)
+    assert res.commands == []
+    assert res.error != 0 or where % len(data) in (2, 3)          # 2, 3: the length field
+    res = parse(bytes(data) + frame(Cmd.TEXTURE, payload), 8)
+    assert all(p == payload for _, p in res.commands) and len(res.commands) <= 1
+
+
+def test_error_state_holds_until_clear():
+    bad = bytearray(frame(Cmd.SWAP))
+    bad[-1] ^= 0x40
+    res = parse(bytes(bad) + frame(Cmd.SWAP), 8)
+    assert (res.commands, res.replies, res.error) == ([], [0x80 | Err.CRC], Err.CRC)
+    res = parse(bytes(bad) + frame(Cmd.SWAP) + CLEAR_FRAME + frame(Cmd.SWAP), 8)
+    assert (res.commands, res.replies, res.error) == ([(Cmd.SWAP, b"")], [0x80 | Err.CRC, ACK, ACK], 0)
+
+
+def test_lengths_are_checked_per_command():
+    assert parse(frame(Cmd.TRIANGLE, bytes(7)), 8).error == Err.LENGTH
+    assert parse(frame(Cmd.SWAP, b"x"), 8).error == Err.LENGTH
+    assert parse(bytes([SYNC, 0x55, 0, 0]), 8).error == Err.COMMAND
+    assert LENGTHS(8)[Cmd.TEXTURE] == (6, MAX_PAYLOAD)
+
+
+def test_uploads_are_chunked_with_their_first_word():
+    frames = upload_frames(Cmd.TEXTURE, 1, range(10), 24, chunk=12)     # 4 words of 3 bytes a frame
+    cmds = parse(b"".join(frames), 8).commands
+    assert [int.from_bytes(p[1:5], "little") for _, p in cmds] == [0, 4, 8]
+    words = [int.from_bytes(p[5 + 3 * k:8 + 3 * k], "little") for _, p in cmds for k in range((len(p) - 5) // 3)]
+    assert words == list(range(10)) and all(p[0] == 1 for _, p in cmds)
+    with pytest.raises(ValueError, match="memory 2"):
+        upload_frames(Cmd.CUBE, 2, [1], 8)

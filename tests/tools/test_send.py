@@ -1,0 +1,50 @@
+"""``bumpmap send --dry-run``: the bytes it writes parse (:func:`host.protocol.parse`, the board's reference parser)
+into the tin plane's set-up: every texel memory's words in order, FRAME_START, each triangle record with its
+fields' bits, SWAP; bad arguments exit 2 with one line."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from host.protocol import MEMORIES, Cmd, parse, record_bytes
+from host.render import from_triangles, prepare
+from host.scene import scene_path
+from tools.main import main
+
+
+def _unpack(ports, payload: bytes) -> list[int]:
+    word, row, shift = int.from_bytes(payload, "little"), [], 0
+    for p in ports:
+        bits = (word >> shift) & ((1 << p.fmt.width) - 1)
+        row.append(bits - (1 << p.fmt.width) if p.fmt.signed and bits >> (p.fmt.width - 1) else bits)
+        shift += p.fmt.width
+    return row
+
+
+def test_dry_run_bytes_are_the_scene_setup(tmp_path, capsys):
+    out = tmp_path / "tin.bin"
+    assert main(["send", "--dry-run", str(out)]) == 0
+    frame = prepare(scene_path("tin-plane"))
+    tframe = from_triangles(frame)
+    ports = tframe.params.raster.record
+    parsed = parse(out.read_bytes(), record_bytes(ports))
+    assert parsed.error == 0 and "tin-plane" in capsys.readouterr().out
+    cmds = [c for c, _ in parsed.commands]
+    n = len(tframe.records)
+    assert cmds[-n - 2:] == [Cmd.FRAME_START] + [Cmd.TRIANGLE] * n + [Cmd.SWAP]
+    rows = [_unpack(ports, p) for c, p in parsed.commands if c == Cmd.TRIANGLE]
+    assert np.array_equal(np.array(rows), tframe.records.matrix())
+    for cmd, names in MEMORIES.items():
+        for mem, name in enumerate(names):
+            s = getattr(frame.params, name)
+            wb = (s.word_bits + 7) // 8
+            chunks = [p for c, p in parsed.commands if c == cmd and p[0] == mem]
+            words = [int.from_bytes(p[5 + k:5 + k + wb], "little") for p in chunks for k in range(0, len(p) - 5, wb)]
+            assert words == s.words, name
+
+
+def test_bad_arguments_exit_2(tmp_path, capsys):
+    assert main(["send"]) == 2
+    assert "--port" in capsys.readouterr().err
+    assert main(["send", "--scene", "no-such-scene", "--dry-run", str(tmp_path / "x")]) == 2
+    assert "no-such-scene" in capsys.readouterr().err

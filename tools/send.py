@@ -1,0 +1,103 @@
+"""``bumpmap send``: a scene drawn on the board. The host's set-up (:func:`host.render.prepare` and
+:func:`host.render.from_triangles`: the triangle records of the scan converter, the preset's texel memories) is sent
+over the UART as the protocol's frames (``host/protocol.py``, ``docs/protocol.md``): the four texel memories,
+FRAME_START, the triangles, SWAP. Each frame waits for the board's answer; an error byte stops the send (exit 1)
+after a CLEAR, naming the error. ``--dry-run FILE`` writes the bytes instead (the co-simulation's input).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import tempfile
+from pathlib import Path
+
+from host.args import int_range
+
+__all__ = ["add_arguments", "run", "scene_bytes"]
+
+ERRORS = {1: "SYNC (a byte where a frame must start)", 2: "COMMAND (unknown command code)",
+          3: "LENGTH (a length outside the command's range)", 4: "CRC (the frame's checksum did not match)",
+          5: "FRAMING (the UART saw no stop bit)"}
+
+
+def add_arguments(ap: argparse.ArgumentParser) -> None:
+    ap.add_argument("--scene", default="tin-plane", help="scene name in scenes/ or a .toml path")
+    ap.add_argument("--preset", default="default", help="pipeline preset (built in or presets/<name>.toml)")
+    ap.add_argument("--size", type=int_range(1, 4096), default=None, help="override the image size (square)")
+    ap.add_argument("--cube-size", type=int_range(2, 1024), default=None, help="texels per cube face edge")
+    ap.add_argument("--port", help="serial port of the board (e.g. /dev/ttyUSB0; needs pyserial)")
+    ap.add_argument("--baud", type=int_range(300, 12_000_000), default=1_000_000,
+                    help="the board's rate (default %(default)s: board/ulx3s.py)")
+    ap.add_argument("--timeout", type=float, default=1.0, help="seconds to wait for each answer")
+    ap.add_argument("--dry-run", type=Path, metavar="FILE", help="write the bytes to FILE instead of a port")
+
+
+def scene_bytes(args) -> list[bytes]:
+    """The frames of the scene (``args.scene``, ``args.preset``, ``args.size``, ``args.cube_size``)."""
+    from host.protocol import scene_frames
+    from host.render import from_triangles, prepare
+    from host.scene import scene_path
+
+    frame = prepare(scene_path(args.scene), size=args.size, preset=args.preset, cube_size=args.cube_size)
+    tframe = from_triangles(frame)
+    return scene_frames(frame.params, tframe.params.raster.record, tframe.records.matrix())
+
+
+def _write_atomic(path: Path, data: bytes) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name + ".")
+    with os.fdopen(fd, "wb") as f:
+        f.write(data)
+    os.chmod(tmp, 0o644)
+    os.replace(tmp, path)
+
+
+def _send(frames: list[bytes], args) -> int:
+    from host.protocol import ACK, CLEAR_FRAME
+    try:
+        import serial
+    except ModuleNotFoundError:
+        print("error: --port needs pyserial (pip install -e '.[board]')", file=sys.stderr)
+        return 2
+    try:
+        port = serial.Serial(args.port, args.baud, timeout=args.timeout)
+    except (serial.SerialException, ValueError) as exc:
+        print(f"error: --port {args.port}: {exc}", file=sys.stderr)
+        return 2
+    with port:
+        port.write(CLEAR_FRAME)                 # leave an error state a previous run may have left
+        port.read(1)
+        for k, data in enumerate(frames):
+            port.write(data)
+            answer = port.read(1)
+            if not answer:
+                print(f"error: no answer to frame {k} within {args.timeout} s", file=sys.stderr)
+                return 1
+            if answer[0] != ACK:
+                code = answer[0] & 0x7F
+                print(f"error: the board refused frame {k}: {ERRORS.get(code, code)}; sent CLEAR", file=sys.stderr)
+                port.write(CLEAR_FRAME)
+                return 1
+    return 0
+
+
+def run(args: argparse.Namespace) -> int:
+    """Send a scene to the board over the UART (or write its bytes with --dry-run)."""
+    from host.scene import SceneError
+    if not args.port and not args.dry_run:
+        print("error: give --port PORT or --dry-run FILE", file=sys.stderr)
+        return 2
+    try:
+        frames = scene_bytes(args)
+    except (SceneError, ValueError, OSError) as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    total = sum(map(len, frames))
+    print(f"{args.scene}: {len(frames)} frames, {total} bytes, {total * 10 / args.baud:.2f} s at {args.baud} baud")
+    if args.dry_run:
+        _write_atomic(args.dry_run, b"".join(frames))
+        print(f"wrote {args.dry_run}")
+        return 0
+    return _send(frames, args)

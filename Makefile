@@ -85,7 +85,7 @@ fpga: setup
 
 bitstream: setup
 	@test "$(BOARD)" = ulx3s || { echo "BOARD=$(BOARD): the board top exists for ulx3s only" >&2; exit 2; }
-	$(PY) -m board.top --out build/bitstream/$(BOARD)
+	$(BUMPMAP) bitstream --out build/bitstream/$(BOARD)
 
 exhaustive: setup
 	HYPOTHESIS_PROFILE=thorough $(PY) -m pytest -n $(JOBS) -q -m slow -k "not test_exhaustive_target"

@@ -2,7 +2,7 @@
 takes, what the engine's depth test and frame buffer would take at one fragment a clock, and what remains, for the
 two frame-buffer strategies (on-chip tiles, or the frame buffer in SDRAM at a reduced rate).
 
-``python -m board.budget OUT.json`` writes the record the docs quote (re-run it after changing a figure here).
+``bumpmap board-budget OUT.json`` writes the record the docs quote (re-run it after changing a figure here).
 """
 
 from __future__ import annotations
@@ -18,7 +18,7 @@ from fxmodel.units.rop import DEPTH_BYTES, PIXEL_BYTES
 
 from .video import VGA_640x480, VideoTiming
 
-__all__ = ["budget", "main", "write_text_atomic"]
+__all__ = ["budget", "add_arguments", "run", "write_text_atomic"]
 
 #: DP16KD block RAMs of the LFE5U-85F, and the bits of one (18 Kbit).
 DP16KD_COUNT, DP16KD_BITS = 208, 18 * 1024
@@ -71,21 +71,19 @@ def write_text_atomic(path: Path, text: str) -> None:
     os.replace(tmp, path)
 
 
-def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m board.budget", description=__doc__.split("\n\n")[0])
+def add_arguments(ap: argparse.ArgumentParser) -> None:
+    """The command line (``bumpmap budget``, :mod:`tools.main`)."""
     ap.add_argument("out", type=Path, help="the JSON record to write")
     ap.add_argument("--engine-mhz", type=float, default=110.0, help="the engine's clock (default %(default)s)")
     ap.add_argument("--tile", type=int, default=32, help="on-chip tile edge in pixels (default %(default)s)")
-    args = ap.parse_args(argv)
+
+
+def run(args: argparse.Namespace) -> int:
     if args.engine_mhz <= 0 or args.tile < 1:
         print("error: --engine-mhz and --tile must be positive", file=sys.stderr)
         return 2
-    record = {"command": f"python -m board.budget {args.out} --engine-mhz {args.engine_mhz:g} --tile {args.tile}",
+    record = {"command": f"bumpmap board-budget {args.out} --engine-mhz {args.engine_mhz:g} --tile {args.tile}",
               **budget(engine_mhz=args.engine_mhz, tile=args.tile)}
     write_text_atomic(args.out, json.dumps(record, indent=1) + "\n")
     print(json.dumps(record, indent=1))
     return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

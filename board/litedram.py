@@ -2,7 +2,7 @@
 committed), with the SDRAM pins (the board build) or with its behavioural DRAM model inside (``--sim``, for the
 end-to-end simulation), and a record of what it gave: its ports and their widths.
 
-``python -m board.litedram OUT.json`` generates both and writes the record (needs ``litedram``, ``litex``,
+``bumpmap litedram OUT.json`` generates both and writes the record (needs ``litedram``, ``litex``,
 ``migen``, ``pyyaml``, and for ``--sim`` ``liteeth``, ``litescope``, ``pythondata-misc-tapcfg``).
 """
 
@@ -21,7 +21,7 @@ from fxmodel.core.paths import ROOT, build_dir
 
 from .budget import write_text_atomic
 
-__all__ = ["generate", "ports", "main"]
+__all__ = ["generate", "ports", "add_arguments", "run"]
 
 CONFIG = ROOT / "board" / "sdram.yml"
 _PORT = re.compile(r"^\s*(input|output|inout)\s+wire\s+(?:\[(\d+):0\]\s+)?(\w+),?$")
@@ -53,11 +53,13 @@ def ports(verilog: Path) -> dict[str, tuple[str, int]]:
     return out
 
 
-def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m board.litedram", description=__doc__.split("\n\n")[0])
+def add_arguments(ap: argparse.ArgumentParser) -> None:
+    """The command line (``bumpmap litedram``, :mod:`tools.main`)."""
     ap.add_argument("out", type=Path, help="the JSON record to write")
-    args = ap.parse_args(argv)
-    record = {"command": f"python -m board.litedram {args.out}", "config": "board/sdram.yml"}
+
+
+def run(args: argparse.Namespace) -> int:
+    record = {"command": f"bumpmap litedram {args.out}", "config": "board/sdram.yml"}
     try:
         for sim in (False, True):
             t0 = time.perf_counter()
@@ -73,7 +75,3 @@ def main(argv=None) -> int:
     write_text_atomic(args.out, json.dumps(record, indent=1) + "\n")
     print(json.dumps(record, indent=1))
     return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -3,7 +3,7 @@ serializer, 25 MHz pixel clock), the DVI display of the test picture on the HDMI
 the UART command link on the FTDI pins (its error on LED 0, a toggle per good frame on LED 1). The engine, the
 SDRAM controller and the frame buffer come next (``docs/board.md``).
 
-``python -m board.top --out build/bitstream/ulx3s`` (``make bitstream BOARD=ulx3s``) runs the open flow through the
+``bumpmap bitstream --out build/bitstream/ulx3s`` (``make bitstream BOARD=ulx3s``) runs the open flow through the
 platform (YoWASP's Yosys, nextpnr-ecp5 and ecppack) and writes ``report.json`` there: Fmax per clock domain against
 its target, and the resources used.
 """
@@ -14,7 +14,6 @@ import argparse
 import json
 import os
 import re
-import sys
 import time
 from pathlib import Path
 
@@ -28,7 +27,7 @@ from .dvi import CLOCK_WORD, Display, Serializer, pattern
 from .ulx3s import BAUD
 from .video import VGA_640x480
 
-__all__ = ["Top", "PLL", "build", "report", "main"]
+__all__ = ["Top", "PLL", "build", "report", "add_arguments", "run"]
 
 #: The PLL: 25 MHz in, VCO 625 MHz; CLKOP 125 MHz (TMDS, five times the pixel clock), CLKOS 25 MHz (pixel).
 PLL = {"CLKI_DIV": 1, "CLKFB_DIV": 5, "CLKOP_DIV": 5, "CLKOP_CPHASE": 2, "CLKOS_DIV": 25, "CLKOS_CPHASE": 12}
@@ -128,15 +127,13 @@ def build(out: Path) -> dict:
     return rec
 
 
-def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m board.top", description=__doc__.split("\n\n")[0])
+def add_arguments(ap: argparse.ArgumentParser) -> None:
+    """The command line (``bumpmap top``, :mod:`tools.main`)."""
     ap.add_argument("--out", type=Path, default=Path("build/bitstream/ulx3s"), help="build folder")
-    args = ap.parse_args(argv)
+
+
+def run(args: argparse.Namespace) -> int:
     rec = build(args.out)
     write_text_atomic(args.out / "report.json", json.dumps(rec, indent=1) + "\n")
     print(json.dumps(rec, indent=1))
     return 0 if rec["all_met"] else 1
-
-
-if __name__ == "__main__":
-    sys.exit(main())

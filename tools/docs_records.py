@@ -382,3 +382,54 @@ def filtering_study() -> str:
                    [[f["flicker_none"], f["flicker_trilinear"], f["flicker_ours"], f"{f['reduction']}x",
                      f"{f['reduction_trilinear']}x"]], _align("rrrrr")), "", provenance(record, path)]
     return "\n".join(out)
+
+
+# -- the board --------------------------------------------------------------------------------------------------
+BOARD = DOCS / "board"
+
+
+def _board_record(name: str):
+    path = BOARD / f"{name}.json"
+    if not path.is_file():
+        return None, path
+    return json.loads(path.read_text(encoding="utf-8")), path
+
+
+def board_budget() -> str:
+    """The memory-bandwidth arithmetic of the board's frame-buffer strategy (``bumpmap board-budget``)."""
+    r, path = _board_record("budget")
+    if r is None:
+        return _missing(path, "bumpmap board-budget docs/board/budget.json")
+    rows = [["SDRAM peak (one x16 SDR chip)", f"{r['sdram_peak_MBps']} MB/s"],
+            [f"scan-out, {r['mode']}, 16-bit color", f"{r['scanout_MBps']} MB/s ({100 * r['scanout_share_of_peak']:.1f} "
+             "% of the peak)"],
+            ["left after scan-out", f"{r['sdram_left_after_scanout_MBps']} MB/s"],
+            [f"drawing at one fragment a clock ({r['engine_Mpx_per_s']} Mfragment/s), compact "
+             f"{r['bytes_per_fragment_compact']}-byte fragments", f"{r['drawing_MBps_compact']} MB/s"],
+            [f"the same with today's ROP ({r['bytes_per_fragment_rop_today']} bytes a fragment)",
+             f"{r['drawing_MBps_rop_today']} MB/s"],
+            ["a frame buffer in SDRAM sustains at most (compact / today's)",
+             f"{r['direct_fb_Mpx_per_s_compact_at_peak']} / {r['direct_fb_Mpx_per_s_rop_today_at_peak']} Mfragment/s "
+             f"({100 * r['direct_fb_share_of_engine_rate_compact']:.0f} % of the engine's rate)"],
+            [f"on-chip tile {r['tile_edge']} x {r['tile_edge']}, depth and color",
+             f"{r['tile_bits']} bits: {r['tile_dp16kd']} DP16KD, {r['tile_dp16kd_double_buffered']} double-buffered "
+             f"of {r['dp16kd_total']}"],
+            ["tiles a frame; finished tiles written to SDRAM",
+             f"{r['tiles_per_frame']}; {r['tile_writeback_MB_per_frame']} MB a frame, "
+             f"{r['tile_writeback_MBps_at_60fps']} MB/s at 60 frames a second"]]
+    return _table(["quantity", "value"], rows, _align("lr")) + f"\n*Computed by `{r['command']}`; record: " \
+        f"[`board/budget.json`](board/budget.json).*\n"
+
+
+def board_bitstream() -> str:
+    """The board top's last bitstream: Fmax per clock domain against its target, and resources."""
+    r, path = _board_record("bitstream")
+    if r is None:
+        return _missing(path, "make bitstream BOARD=ulx3s")
+    clocks = [[f"`{name}`", f"{c['target_mhz']} MHz", f"{c['fmax_mhz']} MHz", "yes" if c["met"] else "**no**"]
+              for name, c in r["clocks"].items()]
+    res = [[kind, used, avail] for kind, (used, avail) in r["resources"].items()]
+    return (_table(["clock", "target", "Fmax", "met"], clocks, _align("lrrl")) + "\n"
+            + _table(["resource", "used", "available"], res, _align("lrr"))
+            + f"\n*Measured by `{r['command']}` in {r['seconds']} s; record: [`board/bitstream.json`]"
+              "(board/bitstream.json).*\n")

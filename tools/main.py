@@ -45,6 +45,9 @@ COMMANDS: dict[str, tuple[str, str | None]] = {
     "maps": ("tools.measure", None),
     "rop-throughput": ("tools.measure", None),
     "cache-sweep": ("tools.cache_sweep", "size the texel cache in the model on the shipped scenes and grazing floor"),
+    "bitstream": ("board.top", "the board top (ULX3S) through Yosys, nextpnr-ecp5 and ecppack: bitstream and report"),
+    "litedram": ("board.litedram", "generate the SDRAM controller core (LiteDRAM) from board/sdram.yml"),
+    "board-budget": ("board.budget", "the board's memory bandwidth budget (frame-buffer strategy)"),
     "send": ("tools.send", "send a scene to the board over the UART (or its bytes to a file: --dry-run)"),
 }
 

@@ -1,4 +1,4 @@
-"""The board's bandwidth record (``docs/board/budget.json``) is what ``python -m board.budget`` computes now, and its
+"""The board's bandwidth record (``docs/board/budget.json``) is what ``bumpmap board-budget`` computes now, and its
 figures are the arithmetic they claim."""
 
 from __future__ import annotations

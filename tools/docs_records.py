@@ -401,8 +401,8 @@ def board_budget() -> str:
     if r is None:
         return _missing(path, "bumpmap board-budget docs/board/budget.json")
     rows = [["SDRAM peak (one x16 SDR chip)", f"{r['sdram_peak_MBps']} MB/s"],
-            [f"scan-out, {r['mode']}, 16-bit color", f"{r['scanout_MBps']} MB/s ({100 * r['scanout_share_of_peak']:.1f} "
-             "% of the peak)"],
+            [f"scan-out, {r['mode']}, 16-bit color",
+             f"{r['scanout_MBps']} MB/s ({100 * r['scanout_share_of_peak']:.1f} % of the peak)"],
             ["left after scan-out", f"{r['sdram_left_after_scanout_MBps']} MB/s"],
             [f"drawing at one fragment a clock ({r['engine_Mpx_per_s']} Mfragment/s), compact "
              f"{r['bytes_per_fragment_compact']}-byte fragments", f"{r['drawing_MBps_compact']} MB/s"],

@@ -568,7 +568,7 @@ def load_scene(path, *, size: int | tuple[int, int] | None = None) -> Scene:
     """
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8")
+        text = path.read_text(encoding="utf-8-sig")          # a byte-order mark is accepted
     except OSError as exc:
         raise SceneError(f"{path}: cannot read the scene file: {exc.strerror or exc}") from None
     except UnicodeDecodeError as exc:

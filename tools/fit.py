@@ -29,8 +29,8 @@ class FitError(ValueError):
 
     Attributes
     ----------
-    bound : int
-        The smallest largest-difference from reference (a) (well-conditioned pixels, at every size) reached.
+    bound : int or None
+        The smallest largest-difference from reference (a) (well-conditioned pixels, at every size) reached (``None``: no preset drew the scene without refusals).
     knobs : dict
         The knobs of the preset that reaches it (:func:`knobs_of`).
     """
@@ -253,7 +253,8 @@ def _best(tried: list, sizes: list, problems) -> tuple[int, dict]:
         if best is None or bound < best[0]:
             best = (bound, kk)
     if best is None:
-        raise ValueError("fit: no widening draws the scene without clamping or unresolved texture addresses")
+        raise FitError("fit: no preset within the search's limits draws the scene without clamped inputs or "
+                       "unresolved texture addresses", None, {})
     return best
 
 

@@ -47,6 +47,10 @@ __all__ = ["TOP_KEYS", "UNIT_KEYS", "UNIT_TYPES", "BUILTIN_PRESET_UNITS", "PRESE
 #: quarter of an output ulp).
 TOP_KEYS = {"weight_bits": (12, 1, 16), "cube_size": (64, 1, 1024), "raster_guard": (1, 0, 8)}
 
+#: Widest number format a preset file may give a field (sign included): the model's integer arithmetic and the
+#: RTL's ports are sized from it; the default preset's widest is 26 bits.
+MAX_FMT_BITS = 48
+
 #: The parameter class of each unit in a pipeline preset's units dict.
 UNIT_TYPES = {"persp": PerspParams, "bump": BumpParams, "reflect": ReflectParams, "cube": CubeParams,
               "shade": ShadeParams}
@@ -210,17 +214,20 @@ def _convert(base, value, file: Path, where: str):
     def bad(why):
         return PresetError(f"{file}: key {where}: {why}")
 
-    if dataclasses.is_dataclass(base) and not (isinstance(base, Fmt) and isinstance(value, str)):
-        if not isinstance(value, dict):
-            raise bad(f"must be a table, got {value!r}")
-        return _build(base, value, file, where)
-    if isinstance(base, Fmt):
+    if isinstance(base, Fmt):                   # before the tables: a format is a dataclass written as a string
         if not isinstance(value, str):
             raise bad(f"must be a format string like \"s2.16\", got {value!r}")
         try:
-            return Fmt.parse(value)
+            fmt = Fmt.parse(value)
         except (ValueError, TypeError) as exc:
             raise bad(str(exc)) from None
+        if fmt.width > MAX_FMT_BITS:
+            raise bad(f"{value!r} is {fmt.width} bits wide, at most {MAX_FMT_BITS} allowed")
+        return fmt
+    if dataclasses.is_dataclass(base):
+        if not isinstance(value, dict):
+            raise bad(f"must be a table, got {value!r}")
+        return _build(base, value, file, where)
     if isinstance(base, enum.Enum):
         try:
             return type(base)[value]
@@ -233,6 +240,8 @@ def _convert(base, value, file: Path, where: str):
     if isinstance(base, int):
         if not isinstance(value, int) or isinstance(value, bool):
             raise bad(f"must be an integer, got {value!r}")
+        if not -(1 << 16) <= value <= 1 << 16:
+            raise bad(f"must be an integer of magnitude at most {1 << 16}, got {value!r}")
         return value
     if isinstance(base, str):
         if not isinstance(value, str):

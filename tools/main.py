@@ -108,9 +108,9 @@ def main(argv=None) -> int:
     """Parse ``argv`` and run the command; every error ends in one line on stderr and the exit code above."""
     argv = sys.argv[1:] if argv is None else list(argv)
     known = [a for a in argv[:1] if a in COMMANDS]       # import only the command's own module
-    args = build_parser(known or None).parse_args(argv)
     previous = signal.signal(signal.SIGTERM, _on_sigterm)
-    try:
+    try:                                                 # an interrupt while importing is caught too
+        args = build_parser(known or None).parse_args(argv)
         return args._run(args)
     except Terminated:
         print("terminated", file=sys.stderr)

@@ -296,6 +296,26 @@ def prepare(scene, *, size=None, preset: str | dict = "default", cube_size: int 
     elif size is not None:
         scene = scene.with_size(*((size, size) if isinstance(size, int) else size))
     units = preset_units(preset)
+    frame, clamped, imprecise, cols, timing = _build(scene, units, cube_size, t0)
+    if (clamped or imprecise) and not allow_clamp:
+        raise ClampError(str(scene.path or scene.name), clamped, preset if isinstance(preset, str) else "(units)",
+                         imprecise)
+    frame.codes = np.stack(cols, 1) if cols and len(frame.frags) else np.zeros((0, len(frame.params.inputs)),
+                                                                               np.int64)
+    t1, t2 = timing
+    frame.stats.update({"clamped_fragment_inputs": {k: c["count"] for k, c in clamped.items()},
+                        "imprecise_fragments": {k: c["count"] for k, c in imprecise.items()},
+                        "refused": ClampError.findings(clamped, imprecise),
+                        "seconds_front_end": round(t1 - t0, 3), "seconds_tables": round(t2 - t1, 3),
+                        "seconds_quantize": round(time.perf_counter() - t2, 3)})
+    return frame
+
+
+def _build(scene, units: dict, cube_size: int | None, t0: float):
+    """The steps of :func:`prepare` after loading: the front end's fragments, the pipeline with the scene's
+    memories, the block exponents and the quantized fragment inputs. Returns ``(frame, clamped, imprecise,
+    columns, (t1, t2))``: the frame (without codes), the clamped inputs and unresolved addresses (as
+    :class:`ClampError` takes them), the code columns, and when the front end and the tables were done."""
     if cube_size is None:
         cube_size = top_value(units, "cube_size")
     maps = scene_maps(scene, units["bump"].d_fmt)
@@ -349,20 +369,12 @@ def prepare(scene, *, size=None, preset: str | dict = "default", cube_size: int 
             imprecise[label] = {"count": int(bad.sum()), "texels": float(err.max()), "limit": ADDRESS_LIMIT_TEXELS,
                                 "min_W": float(np.asarray(frags.W)[bad].min()),
                                 "knob": "persp.uv_fmt, persp.recip.in_fmt"}
-    if (clamped or imprecise) and not allow_clamp:
-        raise ClampError(str(scene.path or scene.name), clamped, preset if isinstance(preset, str) else "(units)",
-                         imprecise)
-    codes = np.stack(cols, 1) if cols and len(frags) else np.zeros((0, len(params.inputs)), np.int64)
     stats = {"fragments": len(frags), "material": mat.name, "cube_size": cube_size,
              "block_exponents": np.bincount(e, minlength=1).tolist(),                 # fragments with e = 0, 1, ...
-             "clamped_fragment_inputs": {k: c["count"] for k, c in clamped.items()},
-             "imprecise_fragments": {k: c["count"] for k, c in imprecise.items()},
-             "refused": ClampError.findings(clamped, imprecise), **cube_info,
-             "bump_map_saturated": mm.bump.n_saturated if mm.bump is not None else 0,
-             "seconds_front_end": round(t1 - t0, 3), "seconds_tables": round(t2 - t1, 3),
-             "seconds_quantize": round(time.perf_counter() - t2, 3)}
-    return Frame(scene=scene, params=params, frags=frags, codes=codes, lighting=lighting, maps=mm, stats=stats,
-                 exponent=e_tri, units=units)
+             **cube_info, "bump_map_saturated": mm.bump.n_saturated if mm.bump is not None else 0}
+    frame = Frame(scene=scene, params=params, frags=frags, codes=None, lighting=lighting, maps=mm, stats=stats,
+                  exponent=e_tri, units=units)
+    return frame, clamped, imprecise, cols, (t1, t2)
 
 
 def pipeline_params(scene, preset: str | dict = "default", *, cube_size: int | None = None) -> PipelineParams:

@@ -28,7 +28,8 @@ Limits (module constants, the same for files and command-line options): image ed
 (:data:`MAX_IMAGE_SIZE`), map edges 1 .. 4096 texels (graffiti at least 4 high), every coordinate (positions,
 targets, origins, edges, centers, radii, texture coordinates, ``near``, ``far``) of magnitude at most 1e6
 (:data:`MAX_COORD`), colors of lights, ambient and specular at most 1e3 (:data:`MAX_COLOR`), shininess 1e4,
-bump strength 1e3, repeats 1e4, ``sigma`` 4096 texels; ``near`` at least 1e-6. A file may start with a UTF-8
+bump strength 1e3, repeats 1e4, ``sigma`` 4096 texels; ``near`` at least 1e-6; at most 2^20 triangles
+(:data:`MAX_TRIANGLES`, a generator's count checked before it runs). A file may start with a UTF-8
 byte-order mark.
 
 The complete commented example below is also a valid scene (``SCHEMA_EXAMPLE``, tested)::
@@ -137,7 +138,7 @@ from host.meshes import frozen_array, quad_mesh, sphere_mesh
 __all__ = ["SceneError", "Camera", "Light", "ColorSpec", "BumpSpec", "Material", "Mesh", "Scene", "Triangles",
            "SCENES", "scene_path", "load_scene", "parse_scene", "SCHEMA_EXAMPLE",
            "MAX_IMAGE_SIZE", "MAX_MAP_SIZE", "MAX_COORD", "MAX_COLOR", "MAX_SHININESS", "MAX_STRENGTH",
-           "MAX_REPEAT", "MAX_SIGMA", "COLOR_PROCEDURALS", "BUMP_PROCEDURALS"]
+           "MAX_REPEAT", "MAX_SIGMA", "MAX_TRIANGLES", "COLOR_PROCEDURALS", "BUMP_PROCEDURALS"]
 
 #: Limits of the schema, stated once: what a file may hold is what the pipeline can compute (anything beyond is
 #: refused by key before any work). Image edge in pixels; map (texture, bump map) edge in texels.
@@ -153,6 +154,8 @@ MAX_SHININESS = 1e4
 MAX_STRENGTH = 1e3
 MAX_REPEAT = 1e4
 MAX_SIGMA = float(MAX_MAP_SIZE)
+#: Most triangles a scene may hold (all meshes together; a mesh generator's count is checked before it runs).
+MAX_TRIANGLES = 1 << 20
 #: Smallest graffiti texture height (its bands need this many texels).
 MIN_GRAFFITI_HEIGHT = 4
 
@@ -657,6 +660,7 @@ def parse_scene(text: str, *, source: str = "<string>", base: Path | None = None
 
     meshes = [_mesh(r, t, f"meshes[{i}]", names, len(materials))
               for i, t in enumerate(r.array_of_tables(doc["meshes"], "meshes"))]
+    _triangle_budget(r, sum(m.n_triangles for m in meshes), "meshes")
     return Scene(path=path, name=name, width=width, height=height, background=background, camera=camera,
                  ambient=ambient, lights=tuple(lights), materials=tuple(materials), meshes=tuple(meshes))
 
@@ -737,6 +741,11 @@ def _bump(r: _Reader, v, key: str, base: Path) -> BumpSpec:
                     strength=strength, key=key)
 
 
+def _triangle_budget(r: _Reader, count: int, key: str) -> None:
+    if count > MAX_TRIANGLES:
+        r.fail(key, f"makes {count:,} triangles, more than the {MAX_TRIANGLES:,} a scene may hold")
+
+
 def _unit_rows(r: _Reader, n: np.ndarray, key: str) -> np.ndarray:
     length = np.linalg.norm(n, axis=-1)
     bad = np.flatnonzero(length.ravel() == 0)
@@ -788,6 +797,7 @@ def _mesh(r: _Reader, t, key: str, names: dict, n_mat: int) -> Mesh:
             if len(pos) % 3:
                 r.fail(f"{key}.positions", f"without indices, expected a multiple of 3 vertices, got {len(pos)}")
             idx = np.arange(len(pos)).reshape(-1, 3)
+        _triangle_budget(r, len(idx), f"{key}.indices" if "indices" in t else f"{key}.positions")
         P, UV = pos[idx], uvs[idx]
         cross = np.cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0])
         area = np.linalg.norm(cross, axis=-1)
@@ -809,12 +819,14 @@ def _mesh(r: _Reader, t, key: str, names: dict, n_mat: int) -> Mesh:
         if uv[0][0] == uv[1][0] or uv[0][1] == uv[1][1]:
             r.fail(f"{key}.uv", f"u0 must differ from u1 and v0 from v1, got {_show(t['uv'])}")
         div = r.vector(t.get("divisions", [1, 1]), f"{key}.divisions", 2, lo=1, hi=1024, integer=True)
+        _triangle_budget(r, 2 * div[0] * div[1], f"{key}.divisions")
         P, N, UV = quad_mesh(o, eu, ev, uv, div)
     else:
         c = r.vector(t["center"], f"{key}.center", 3, mag=MAX_COORD)
         rad = r.number(t["radius"], f"{key}.radius", lo=0.0, lo_open=True, hi=MAX_COORD)
         seg = r.integer(t.get("segments", 32), f"{key}.segments", 3, 4096)
         rings = r.integer(t.get("rings", 16), f"{key}.rings", 2, 4096)
+        _triangle_budget(r, 2 * seg * rings, f"{key}.segments")
         P, N, UV = sphere_mesh(c, rad, seg, rings)
     return Mesh(kind, mat, two_sided, P, N, UV, key)
 

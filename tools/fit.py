@@ -492,7 +492,7 @@ def _setup(scene, size, cube_size, scene_size) -> _Job:
     if size is None:
         sizes = [None]
     stem = scene.path.stem if scene.path is not None else scene.name
-    stem = re.sub(r"[^A-Za-z0-9_.+-]", "_", stem).lstrip(".")[:90] or "scene"
+    stem = re.sub(r"^[^A-Za-z0-9]+", "", re.sub(r"[^A-Za-z0-9_.+-]", "_", stem))[:90] or "scene"
     return _Job(scene, base, sizes, f"{stem}-fit")
 
 

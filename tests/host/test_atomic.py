@@ -1,5 +1,5 @@
 """Atomic outputs (:mod:`host.atomic`, :func:`fxmodel.core.paths.atomic_writer`): a run interrupted at any moment
-leaves each output either the previous complete file or the new complete file (issue 23: 7 of 7 renders
+leaves each output either the previous complete file or the new complete file (before, 7 of 7 renders
 interrupted while writing left truncated PNGs).
 
 Three levels: the writer itself; a render whose writes are interrupted in-process at every write, every fsync

@@ -1,4 +1,4 @@
-"""``bumpmap``'s one error path (issue 23: scene and preset files are untrusted input).
+"""``bumpmap``'s one error path: scene and preset files are untrusted input.
 
 One regression test per defect found by trying bad and extreme inputs as a new user would: paths made from a
 scene's free-text name, outputs checked only after the work, arguments without a range, empty frames reported as
@@ -130,6 +130,29 @@ def test_fit_default_name_is_the_file_stem_not_the_scene_name(sandbox, capsys):
     assert bumpmap(["fit", str(path), "--size", "8", "--passes", "1", "--out", str(out), "--quiet"]) == 0
     assert [p.name for p in out.iterdir()] == ["small-fit.toml"]
     assert json.loads(capsys.readouterr().out)["path"] == str(out / "small-fit.toml")
+
+
+def test_maps_file_names_are_labels_not_paths(sandbox, tmp_path):
+    """``bumpmap maps`` named its PNGs by the material's free-text name: ``../../x`` wrote outside the folder."""
+    text = SCENE.format(**DEFAULTS).replace('name = "m"', 'name = "../../x"').replace('material = "m"',
+                                                                                    "material = 0")
+    path = sandbox / "maps.toml"
+    path.write_text(text)
+    before = listing(tmp_path)
+    assert bumpmap(["maps", str(path), str(sandbox / "maps")]) == 0
+    after = listing(tmp_path)
+    new = sorted(k for k in after if before.get(k) != after[k])
+    assert new == ["work/maps/0-______x_color.png"], new
+
+
+@pytest.mark.parametrize("stem, name", [("ü-x", "x-fit"), ("-x", "x-fit"), ("..x", "x-fit"), ("a b", "a_b-fit"),
+                                        ("ü", "scene-fit")])
+def test_fit_default_name_of_any_file_stem_is_a_preset_name(sandbox, stem, name):
+    """Found by the fuzzer: a scene file ``ü-x.toml`` gave the default name ``_-x-fit``, which fit then refused."""
+    from fxmodel.pipeline.presets import check_preset_name
+    from tools.fit import _setup
+    path = scene(sandbox, stem=stem)
+    assert check_preset_name(_setup(path, 8, None, None).default_name) == name
 
 
 # -- 3. one error path: outputs checked before the work -------------------------------------------------------
@@ -326,3 +349,19 @@ def test_sigterm_ends_in_one_line(sandbox):
     if proc.returncode == 0:                                # finished first on a fast machine
         pytest.skip("the render finished before the signal")
     assert proc.returncode == 143 and err.strip().splitlines()[-1] == "terminated" and "Traceback" not in err
+
+
+def test_exit_codes_page_states_the_limits_as_the_code_does():
+    """``docs/exit-codes.md``'s limits table: each value is the constant it names (so the page cannot drift)."""
+    import importlib
+    import re
+    text = (ROOT / "docs" / "exit-codes.md").read_text(encoding="utf-8")
+    rows = re.findall(r"^\| [^|]+ \| ([0-9.]+) \| `([\w.]+)`(?: \(`(\w+)`\))? \|$", text, re.M)
+    assert len(rows) == 11
+    for value, where, key in rows:
+        module, name = where.rsplit(".", 1)
+        constant = getattr(importlib.import_module(module), name)
+        constant = constant[key][2] if key else constant
+        assert value == str(constant), (where, value, constant)
+    for code in ("| 0 |", "| 1 |", "| 2 |", "| 130 |", "| 143 |"):
+        assert code in text

@@ -22,7 +22,8 @@ Writes ``build/sim/<key>-triangles/`` (``<key>-fragments/`` from fragments, ``<k
 test), ``<key>`` the scene FILE's stem (letters, digits, ``-`` and ``_`` kept, the rest ``_``) and a digest of the
 run (scene file, size, preset, cube size, simulator, input): :func:`run_key`. The folder always lies under the
 build folder, whatever the scene's ``name`` (only a label), and concurrent runs of one scene with other sizes,
-presets or simulators never share it (nor the simulator's job folders, named by the same key). In it: ``rtl.png`` (what the RTL drew),
+presets or simulators never share it (nor the simulator's job folders, named by the same key). In it:
+``rtl.png`` (what the RTL drew),
 ``model.png``, ``float.png``, ``ideal.png``, ``diff.png`` (amplified differences of the model from the two float
 references), ``compare.png`` and ``report.json`` (with the ``verdict``; from triangles also ``"input":
 "triangles"``, the triangle and fragment counts, the clocks per fragment, and the frame from float-interpolated
@@ -148,7 +149,7 @@ def _draw(args):
     name = frame.scene.name
     for stale in ("report.json", "rtl.png"):                # never leave an old result looking current
         (out_dir / stale).unlink(missing_ok=True)           # (in this run's own folder, under build/sim)
-    size = f"{frame.scene.width}x{frame.scene.height}, RTL on {args.sim}"
+    size = f"{frame.scene.width}x{frame.scene.height}, " + ("model only" if args.model_only else f"RTL on {args.sim}")
     if triangles:
         print(f"{name}: {len(tframe.records)} triangles, {len(tframe.out)} fragments, {size}")
         report = render_triangles(tframe, out_dir)
@@ -334,8 +335,9 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
     from host.render import bound_args
     ap.add_argument("--scene", default="tin-plane", help="scene name in scenes/ or a .toml path")
     ap.add_argument("--size", type=size_arg(), default=None, help=SIZE_HELP)
-    ap.add_argument("--cube-size", type=cube_size_arg(), help="texels per reflectance-cube face edge (default: the preset's, 64 "
-                   "unless a preset file sets it)")
+    ap.add_argument("--cube-size", type=cube_size_arg(),
+                    help="texels per reflectance-cube face edge, 1 .. 1024 (default: the preset's, 64 "
+                         "unless a preset file sets it)")
     ap.add_argument("--preset", default="default")
     bound_args(ap)
     ap.add_argument("--sim", default=None, help="icarus or verilator (default: $SIM or icarus)")

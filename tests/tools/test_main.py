@@ -316,8 +316,8 @@ def test_fit_meets_the_bound_on_the_grazing_floor(sandbox, capsys, size):
                     "--out", str(sandbox / "p")]) == 0
     report = json.loads(capsys.readouterr().out)
     assert report["final"]["max_lsb_vs_float_well_conditioned"] <= 1
-    from host.render import from_triangles, prepare, render
     from fxmodel.pipeline.presets import load_preset
+    from host.render import from_triangles, prepare, render
     units = load_preset("grazing-floor-fit", sandbox / "p")
     frame = prepare(GRAZING, preset=units)
     rep = render(frame, model=from_triangles(frame).in_frame_order())
@@ -365,3 +365,12 @@ def test_exit_codes_page_states_the_limits_as_the_code_does():
         assert value == str(constant), (where, value, constant)
     for code in ("| 0 |", "| 1 |", "| 2 |", "| 130 |", "| 143 |"):
         assert code in text
+
+
+def test_fit_whose_widening_makes_an_invalid_unit_says_so(sandbox, capsys):
+    """Found by the fuzzer: texture coordinates of 1e6 made fit widen ``uv_int`` into an invalid perspective unit,
+    and it ended with that unit's message ('coord_bits=22: ...'), exit 2, not saying it was fit giving up."""
+    path = scene(sandbox)
+    path.write_text(path.read_text() + "uv = [[0.0, 0.0], [1000000.0, 1000000.0]]\n")
+    assert bumpmap(["fit", str(path), "--size", "8", "--passes", "1", "--quiet", "--out", str(sandbox / "p")]) == 1
+    one_error(capsys, "fit: widened to uv_int=", "the preset is invalid", "no preset within the search's limits")

@@ -341,9 +341,9 @@ def test_sigterm_ends_in_one_line(sandbox):
     import sys
     import time
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
-    proc = subprocess.Popen([sys.executable, "-m", "tools", "render", str(TIN), str(sandbox / "x.png")],
-                            cwd=sandbox, env=env, stderr=subprocess.PIPE, text=True)
-    time.sleep(1.5)
+    proc = subprocess.Popen([sys.executable, "-m", "tools", "render", str(TIN), str(sandbox / "x.png"), "--size",
+                             "1024"], cwd=sandbox, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    time.sleep(2.5)
     proc.send_signal(signal.SIGTERM)
     _, err = proc.communicate(timeout=60)
     if proc.returncode == 0:                                # finished first on a fast machine

@@ -18,7 +18,12 @@ order, and the clock count checked shard by shard (each shard starts from reset)
 the front end's fragments, quantized to the pipeline's inputs (``host.render.prepare``), stream through the
 stream version of ``rtl/pixel.py`` (``run_stream``), every output compared in the simulation.
 
-Writes ``build/sim/<scene>-triangles/`` (``build/sim/<scene>/`` from fragments): ``rtl.png`` (what the RTL drew),
+Writes ``build/sim/<key>-triangles/`` (``<key>-fragments/`` from fragments, ``<key>-depth/`` with the depth
+test), ``<key>`` the scene FILE's stem (letters, digits, ``-`` and ``_`` kept, the rest ``_``) and a digest of the
+run (scene file, size, preset, cube size, simulator, input): :func:`run_key`. The folder always lies under the
+build folder, whatever the scene's ``name`` (only a label), and concurrent runs of one scene with other sizes,
+presets or simulators never share it (nor the simulator's job folders, named by the same key). In it:
+``rtl.png`` (what the RTL drew),
 ``model.png``, ``float.png``, ``ideal.png``, ``diff.png`` (amplified differences of the model from the two float
 references), ``compare.png`` and ``report.json`` (with the ``verdict``; from triangles also ``"input":
 "triangles"``, the triangle and fragment counts, the clocks per fragment, and the frame from float-interpolated
@@ -37,20 +42,29 @@ disagreements, and the verdict fails on a disagreement beyond the depth precisio
 from the memory model at the end and compared with the model's; ``build/sim/<scene>-depth/report.json`` has the
 memory traffic (``depth_test``: bytes read and written per covered pixel).
 
+``--model-only`` stops before the RTL build: the model side only (the frame prepared, drawn and judged, the
+images and ``report.json`` written, ``"rtl": null``), for checking a scene quickly. A frame with no covered
+pixel is refused (exit 2): there is nothing to compare.
+
 ``--unit U [--preset P]`` co-simulates a single unit on its hard cases and random vectors instead.
 """
 
 from __future__ import annotations
 
 import argparse
-import json
+import hashlib
 import os
+import re
 import sys
 import time
+from pathlib import Path
 
 import numpy as np
 
 from fxmodel.core.paths import build_dir
+from host.args import SIZE_HELP, cube_size_arg, float_range, int_range, size_arg
+from host.atomic import atomic_json, check_output_dir
+
 from .harness import simulator
 from .stream import PATTERNS, ArraySpace, FullSpace, Space, run_records, run_stream
 
@@ -90,26 +104,52 @@ def _table(rows) -> str:
     return "\n".join(f"  {k:<{width}}  {v}" for k, v in rows)
 
 
+def run_key(args, scene_file) -> str:
+    """The name of a scene run's folders (output and simulator jobs): the scene file's stem made safe (letters,
+    digits, ``-``, ``_``; at most 40 characters) and 10 hex digits of a SHA-1 over the resolved file and every
+    option that changes the run (size, preset, cube size, simulator, input, depth, clamping). Never taken from
+    the file's contents, so it cannot climb out of the build folder; distinct for concurrent runs that differ."""
+    path = Path(scene_file)
+    stem = re.sub(r"[^A-Za-z0-9_-]", "_", path.stem)[:40].strip("_-") or "scene"
+    what = [str(path.resolve()), args.size, args.preset, args.cube_size, args.sim, args.input, args.depth,
+            args.allow_clamp]
+    return f"{stem}-{hashlib.sha1(repr(what).encode()).hexdigest()[:10]}"
+
+
+def out_dir_of(args, scene_file) -> Path:
+    """The run's output folder under ``build/sim`` (:func:`run_key`); checked to lie inside it."""
+    kind = "depth" if args.depth else args.input
+    root = build_dir("sim")
+    out = root / f"{run_key(args, scene_file)}-{kind}"
+    if out.resolve().parent != root.resolve():              # cannot happen with run_key's characters
+        raise ValueError(f"output folder {out} is not inside {root}")
+    return out
+
+
 def _draw(args):
     """The model side: ``(name, frame, tframe or None, report, out_dir)`` with the images written, or an exit
-    status (2: a scene the preset cannot draw)."""
+    status (2: a bad scene, one the preset cannot draw, or one that draws nothing)."""
     from host.render import from_triangles, prepare, render, render_triangles
     from host.scene import SceneError, scene_path
 
     triangles = args.input == "triangles"
+    scene_file = scene_path(args.scene)
     try:
-        frame = prepare(scene_path(args.scene), size=args.size, preset=args.preset, cube_size=args.cube_size,
+        frame = prepare(scene_file, size=args.size, preset=args.preset, cube_size=args.cube_size,
                         allow_clamp=args.allow_clamp)
+        if not len(frame.codes):
+            raise ValueError(f"{scene_file}: nothing is drawn: no triangle covers a pixel of the "
+                             f"{frame.scene.width}x{frame.scene.height} frame (camera behind or inside the geometry, "
+                             f"or everything clipped or culled), so there is nothing to compare")
         tframe = from_triangles(frame, depth=args.depth) if triangles else None
+        out_dir = check_output_dir(out_dir_of(args, scene_file))
     except (SceneError, ValueError, OSError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
     name = frame.scene.name
-    out_dir = build_dir("sim") / (f"{name}-depth" if args.depth else f"{name}-triangles" if triangles else name)
-    out_dir.mkdir(parents=True, exist_ok=True)
     for stale in ("report.json", "rtl.png"):                # never leave an old result looking current
-        (out_dir / stale).unlink(missing_ok=True)
-    size = f"{frame.scene.width}x{frame.scene.height}, RTL on {args.sim}"
+        (out_dir / stale).unlink(missing_ok=True)           # (in this run's own folder, under build/sim)
+    size = f"{frame.scene.width}x{frame.scene.height}, " + ("model only" if args.model_only else f"RTL on {args.sim}")
     if triangles:
         print(f"{name}: {len(tframe.records)} triangles, {len(tframe.out)} fragments, {size}")
         report = render_triangles(tframe, out_dir)
@@ -130,6 +170,9 @@ def sim_scene(args) -> int:
     if isinstance(drawn, int):
         return drawn
     name, frame, tframe, report, out_dir = drawn
+    if args.model_only:
+        return model_only(args, report, out_dir, name)
+    key = out_dir.name
     if args.depth:
         return sim_depth(args, tframe, report, out_dir, t0)
     if tframe is not None:                                  # records in, fragments out: compared here, in order
@@ -137,10 +180,10 @@ def sim_scene(args) -> int:
         with _bar(len(tframe.out), args, "px") as bar:
             result = run_records(tframe.params, tframe.records.matrix(), tframe.out, counts,
                                  clocks=tframe.scan.clocks, sim=args.sim, pattern=args.pattern,
-                                 tag=f"scene_{name}", progress=bar, shards=args.shards)
+                                 tag=f"scene_{key}", progress=bar, shards=args.shards)
         expected, pixels = tframe.out, len(tframe.out)
     else:                                                   # compared in the simulation, and again here
-        result = _stream(frame.params, frame.codes, args, f"scene_{name}", "px")
+        result = _stream(frame.params, frame.codes, args, f"scene_{key}", "px")
         expected, pixels = (frame.params.compute(frame.codes) if len(frame.codes) else None), len(frame.codes)
     wall = time.perf_counter() - t0
     rtl = result.rtl
@@ -170,7 +213,7 @@ def sim_scene(args) -> int:
                        "shards": len(result["shards"]), "shard_triangles": result["shards"],
                        "rtl_shard_busy_cycles": result["shard_busy_cycles"], "model_shard_clocks": model_clocks})
     judge(report, args.max_lsb)
-    (out_dir / "report.json").write_text(json.dumps(report, indent=2))
+    atomic_json(out_dir / "report.json", report)
     rows = [("scene", name), ("simulator", args.sim)]
     if tframe is not None:
         rows += [("input", f"{report['triangles']} triangles -> {report['fragments']:,} fragments"),
@@ -182,11 +225,11 @@ def sim_scene(args) -> int:
     else:
         rows += [("pixels", f"{report['pixels']:,}")]
     rows += [("mismatches", str(mismatches)),
-             ("PSNR vs float", f"{report['psnr_db_vs_float']} dB (max {report['max_lsb_vs_float']} LSB)"),
-             ("PSNR vs ideal", f"{report['psnr_db_vs_ideal']} dB (max {report['max_lsb_vs_ideal']} LSB)")]
+             ("PSNR vs float", f"{_db(report['psnr_db_vs_float'])} (max {report['max_lsb_vs_float']} LSB)"),
+             ("PSNR vs ideal", f"{_db(report['psnr_db_vs_ideal'])} (max {report['max_lsb_vs_ideal']} LSB)")]
     if tframe is not None:
         ff = report["from_fragments"]
-        rows += [("from fragments vs float", f"{ff['psnr_db_vs_float']} dB (max {ff['max_lsb_vs_float']} LSB)"),
+        rows += [("from fragments vs float", f"{_db(ff['psnr_db_vs_float'])} (max {ff['max_lsb_vs_float']} LSB)"),
                  *depth_rows(report)]
     rows += [("verdict", f"{'pass' if report['verdict']['pass'] else 'FAIL'} (bound {args.max_lsb} LSB from (a))"),
              ("RTL pixels/s", f"{report['pixels_per_second']:,}"),
@@ -204,6 +247,24 @@ def sim_scene(args) -> int:
     return tell(report, name)
 
 
+def _db(value) -> str:
+    """A report's PSNR for the table (``None``: the frames are identical)."""
+    return "identical (exact)" if value is None else f"{value} dB"
+
+
+def model_only(args, report: dict, out_dir: Path, name: str) -> int:
+    """``--model-only``: the model side's report judged and written (``"rtl": null``), no RTL build."""
+    from host.render import judge, tell
+    judge(report, args.max_lsb)
+    report.update({"rtl": None, "preset": args.preset, "simulator": args.sim})
+    atomic_json(out_dir / "report.json", report)
+    print(_table([("scene", name), ("PSNR vs float", f"{_db(report['psnr_db_vs_float'])} (max "
+                                                      f"{report['max_lsb_vs_float']} LSB)"),
+                  ("verdict", f"{'pass' if report['verdict']['pass'] else 'FAIL'} (model only, no RTL)"),
+                  ("output", str(out_dir))]))
+    return tell(report, name)
+
+
 def sim_depth(args, tframe, report, out_dir, t0) -> int:
     """``--depth``: the engine with its depth test; the frame is read from the memory model behind the ROP's
     AXI4 port at the end (``cosim.rop.run_engine``) and compared with the model's."""
@@ -213,13 +274,11 @@ def sim_depth(args, tframe, report, out_dir, t0) -> int:
 
     name = tframe.frame.scene.name
     rop = tframe.params.rop
-    if not 0.0 <= args.wait_states < 1.0:
-        raise SystemExit(f"--wait-states={args.wait_states}: must be in [0, 1)")
     print(f"{name}: depth test and frame buffer behind AXI4 (latency {args.latency}, wait states "
           f"{args.wait_states:g}), {rop.width}x{rop.height}")
     os.environ.setdefault("COSIM_PROGRESS", "1")
     result = run_engine(tframe.params, tframe.records, latency=args.latency, p_pause=args.wait_states,
-                        seed=args.seed, sim=args.sim, tag=f"scene_{name}")
+                        seed=args.seed, sim=args.sim, tag=f"scene_{out_dir.name}")
     wall = time.perf_counter() - t0
     save_png(out_dir / "rtl.png", result["color"][..., :3].astype(np.uint8))
     dt = report["depth_test"]
@@ -231,7 +290,7 @@ def sim_depth(args, tframe, report, out_dir, t0) -> int:
                    "rtl_traffic_matches_model": traffic_ok, "rtl_status": result["status"],
                    "rtl_cycles": result["cycles"], "rtl_seconds": result["seconds"],
                    "build_seconds": result["build_seconds"], "wall_seconds": round(wall, 2)})
-    (out_dir / "report.json").write_text(json.dumps(report, indent=2))
+    atomic_json(out_dir / "report.json", report)
     tv = report["triangles_vs_fragments"]
     print(_table([
         ("scene", name), ("input", f"{report['triangles']} triangles -> {report['fragments']:,} fragments "
@@ -240,7 +299,7 @@ def sim_depth(args, tframe, report, out_dir, t0) -> int:
         ("depth test", f"{dt['passed']:,} passed, {dt['failed']:,} failed"),
         ("memory traffic", f"{dt['bytes_read_per_pixel']} B read, {dt['bytes_written_per_pixel']} B written per "
                            f"covered pixel (RTL {result['rtl_bytes_read']:,} / {result['rtl_bytes_written']:,} B)"),
-        ("from triangles vs float", f"{tv['psnr_db_vs_float']} dB (max {tv['max_lsb_vs_float']} LSB)"),
+        ("from triangles vs float", f"{_db(tv['psnr_db_vs_float'])} (max {tv['max_lsb_vs_float']} LSB)"),
         ("wall seconds", f"{wall:.1f}"), ("output", str(out_dir))]))
     if result["mismatches"] or not traffic_ok or result["status"]:
         print(f"RTL differs from the model: {result['mismatches']} pixels, traffic {result['rtl_bytes_read']} / "
@@ -259,9 +318,9 @@ def sim_unit(args) -> int:
     vectors = FullSpace(params) if args.exhaustive else ArraySpace(
         np.concatenate([params.hard_cases(), params.random_inputs(rng, args.vectors)]), "hard cases and random")
     result = _stream(params, vectors, args, "sim", "vec")
-    out = build_dir("sim") / f"{args.unit}_{args.preset}"
+    out = build_dir("sim") / re.sub(r"[^A-Za-z0-9_-]", "_", f"{args.unit}_{args.preset}")
     out.mkdir(parents=True, exist_ok=True)
-    (out / "report.json").write_text(json.dumps({"unit": args.unit, "preset": args.preset, **result}, indent=2))
+    atomic_json(out / "report.json", {"unit": args.unit, "preset": args.preset, **result})
     print(_table([("unit", f"{args.unit} ({args.preset})"), ("simulator", args.sim),
                   ("vectors", f"{result['vectors']:,}"), ("mismatches", str(result["mismatches"])),
                   ("vectors/s", f"{result['vectors_per_second']:,.0f}"), ("report", str(out / "report.json"))]))
@@ -275,9 +334,10 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
     """The command line (``bumpmap sim``, :mod:`tools.main`)."""
     from host.render import bound_args
     ap.add_argument("--scene", default="tin-plane", help="scene name in scenes/ or a .toml path")
-    ap.add_argument("--size", type=int, default=None, help="override the image size (square)")
-    ap.add_argument("--cube-size", type=int, help="texels per reflectance-cube face edge (default: the preset's, 64 "
-                   "unless a preset file sets it)")
+    ap.add_argument("--size", type=size_arg(), default=None, help=SIZE_HELP)
+    ap.add_argument("--cube-size", type=cube_size_arg(),
+                    help="texels per reflectance-cube face edge, 1 .. 1024 (default: the preset's, 64 "
+                         "unless a preset file sets it)")
     ap.add_argument("--preset", default="default")
     bound_args(ap)
     ap.add_argument("--sim", default=None, help="icarus or verilator (default: $SIM or icarus)")
@@ -287,25 +347,28 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
     ap.add_argument("--depth", action="store_true",
                     help="with --input triangles: the engine with its depth test and frame buffer behind an AXI4 port "
                          "(cosim/rop.py); the frame is read from the memory model (build/sim/<scene>-depth/)")
-    ap.add_argument("--latency", type=int, default=4, help="memory latency added by the bench (--depth; 0..24)")
-    ap.add_argument("--wait-states", type=float, default=0.0, metavar="P",
+    ap.add_argument("--latency", type=int_range(0, 24), default=4, help="memory latency added by the bench (--depth; 0..24)")
+    ap.add_argument("--wait-states", type=float_range(0.0, 0.99), default=0.0, metavar="P",
                     help="--depth: probability that each AXI channel of the memory model pauses in a cycle "
-                         "(random wait states; default %(default)s)")
+                         "(random wait states, 0 .. 0.99; default %(default)s)")
     ap.add_argument("--unit", help="co-simulate one unit instead of a scene")
-    ap.add_argument("--vectors", type=int, default=100_000, help="random vectors besides the hard cases (--unit)")
+    ap.add_argument("--vectors", type=int_range(0, 1 << 30), default=100_000, help="random vectors besides the hard cases (--unit)")
     ap.add_argument("--exhaustive", action="store_true", help="the unit's whole input space (--unit)")
-    ap.add_argument("--seed", type=int, default=1)
-    ap.add_argument("--shards", type=int, default=None, metavar="N",
+    ap.add_argument("--seed", type=int_range(0, 2**32 - 1), default=1)
+    ap.add_argument("--shards", type=int_range(1, 1024), default=None, metavar="N",
                     help="from triangles (without --depth): simulate the triangles as N contiguous shards in N "
                          "simulator processes at once (default: the usable cores, at most the triangles; one "
                          "with WAVES=1)")
+    ap.add_argument("--model-only", action="store_true",
+                    help="stop before the RTL build: prepare, draw and judge the model side only, write its images "
+                         "and report.json (\"rtl\": null)")
     ap.add_argument("--pattern", default="none", choices=list(PATTERNS),
                     help="gaps on the input valid and backpressure on the output ready (default: %(default)s)")
 
 
 def run(args: argparse.Namespace) -> int:
     try:
-        args.sim = simulator(args.sim)
+        args.sim = simulator(args.sim) if not args.model_only else (args.sim or "none")
     except (ValueError, RuntimeError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
@@ -318,8 +381,25 @@ def run(args: argparse.Namespace) -> int:
         print(f"error: --shards {args.shards}: must be >= 1", file=sys.stderr)
         return 2
     if args.unit:
+        from fxmodel.core.unit import preset, unit_class
+        try:
+            unit_class(args.unit)
+            preset(args.unit, args.preset)
+        except (KeyError, ValueError) as exc:
+            print(f"error: {str(exc).strip(chr(39))}", file=sys.stderr)
+            return 2
         return sim_unit(args)
     return sim_scene(args)
+
+
+def output_folder(argv) -> Path:
+    """The output folder that the ``bumpmap sim`` command line ``argv`` (a scene run) writes: :func:`out_dir_of`."""
+    from host.scene import scene_path
+    ap = argparse.ArgumentParser(prog="bumpmap sim")
+    add_arguments(ap)
+    args = ap.parse_args(argv)
+    args.sim = simulator(args.sim) if not args.model_only else (args.sim or "none")
+    return out_dir_of(args, scene_path(args.scene))
 
 
 def main(argv=None) -> int:

@@ -74,10 +74,10 @@ def test_make_sim_from_triangles(sim):
     whole pipeline's netlist."""
     import json
 
-    from cosim.sim import main
-    assert main(["--scene", "sphere", "--size", "24", "--cube-size", "8", "--input", "triangles",
-                 "--sim", sim]) == 0
-    report = json.loads((build_dir("sim") / "sphere-triangles" / "report.json").read_text())
+    from cosim.sim import main, output_folder
+    argv = ["--scene", "sphere", "--size", "24", "--cube-size", "8", "--input", "triangles", "--sim", sim]
+    assert main(argv) == 0
+    report = json.loads((output_folder(argv) / "report.json").read_text())
     assert report["input"] == "triangles" and report["mismatches"] == 0 and report["rtl_clocks_match_model"]
     assert report["triangles"] > 100 and report["fragments"] > 200
 

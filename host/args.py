@@ -6,7 +6,7 @@ from __future__ import annotations
 import argparse
 import math
 
-__all__ = ["int_range", "float_range"]
+__all__ = ["int_range", "float_range", "size_arg", "cube_size_arg", "SIZE_HELP"]
 
 
 def int_range(lo: int | None = None, hi: int | None = None):
@@ -43,3 +43,21 @@ def float_range(lo: float | None = None, hi: float | None = None, *, lo_open: bo
 def _describe(lo, hi, lo_open: bool = False) -> str:
     parts = ([f"{'>' if lo_open else '>='} {lo}"] if lo is not None else []) + ([f"<= {hi}"] if hi is not None else [])
     return "must be " + " and ".join(parts)
+
+
+def size_arg():
+    """``--size``: an image width in the scene schema's limits (:data:`host.scene.MAX_IMAGE_SIZE`)."""
+    from host.scene import MAX_IMAGE_SIZE
+    return int_range(1, MAX_IMAGE_SIZE)
+
+
+def cube_size_arg():
+    """``--cube-size``: texels per reflectance-cube face edge in the preset schema's limits
+    (:data:`fxmodel.pipeline.presets.TOP_KEYS`, the same as a preset file's ``cube_size``)."""
+    from fxmodel.pipeline.presets import TOP_KEYS
+    _, lo, hi = TOP_KEYS["cube_size"]
+    return int_range(lo, hi)
+
+
+#: Help of ``--size`` for the commands that keep the scene's aspect ratio.
+SIZE_HELP = "image width in pixels; the height keeps the scene's aspect ratio (default: the scene's own size)"

@@ -26,6 +26,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
+from host.atomic import atomic_save_png
 from host.bumpmap import block_exponent, bump_gain, perturbations, scene_maps
 from host.frontend import rasterize, triangle_records
 from fxmodel.pipeline.lighting import Light, Lighting, face_directions
@@ -140,9 +141,10 @@ def address_errors(frags, persp, shapes: dict) -> dict:
 def bound_args(parser) -> None:
     """Add ``--max-lsb`` and ``--allow-clamp`` to an ``argparse`` parser: ``render`` and ``make sim`` take both
     (and pass them to :func:`prepare` and :func:`judge`)."""
-    parser.add_argument("--max-lsb", type=int, default=SCENE_BOUND_LSB, help="exit 1 when the frame is farther "
-                        "than this from reference (a) on some pixel, in 8-bit steps (default: the documented scene "
-                        "bound, %(default)s)")
+    from host.args import int_range
+    parser.add_argument("--max-lsb", type=int_range(0, 255), default=SCENE_BOUND_LSB, help="exit 1 when the frame is "
+                        "farther than this from reference (a) on some pixel, in 8-bit steps, 0 .. 255 (default: the "
+                        "documented scene bound, %(default)s)")
     parser.add_argument("--allow-clamp", action="store_true", help="draw fragment inputs that do not fit the "
                         "preset's formats clamped (the counts are printed) instead of refusing the scene")
 
@@ -294,6 +296,26 @@ def prepare(scene, *, size=None, preset: str | dict = "default", cube_size: int 
     elif size is not None:
         scene = scene.with_size(*((size, size) if isinstance(size, int) else size))
     units = preset_units(preset)
+    frame, clamped, imprecise, cols, timing = _build(scene, units, cube_size, t0)
+    if (clamped or imprecise) and not allow_clamp:
+        raise ClampError(str(scene.path or scene.name), clamped, preset if isinstance(preset, str) else "(units)",
+                         imprecise)
+    frame.codes = np.stack(cols, 1) if cols and len(frame.frags) else np.zeros((0, len(frame.params.inputs)),
+                                                                               np.int64)
+    t1, t2 = timing
+    frame.stats.update({"clamped_fragment_inputs": {k: c["count"] for k, c in clamped.items()},
+                        "imprecise_fragments": {k: c["count"] for k, c in imprecise.items()},
+                        "refused": ClampError.findings(clamped, imprecise),
+                        "seconds_front_end": round(t1 - t0, 3), "seconds_tables": round(t2 - t1, 3),
+                        "seconds_quantize": round(time.perf_counter() - t2, 3)})
+    return frame
+
+
+def _build(scene, units: dict, cube_size: int | None, t0: float):
+    """The steps of :func:`prepare` after loading: the front end's fragments, the pipeline with the scene's
+    memories, the block exponents and the quantized fragment inputs. Returns ``(frame, clamped, imprecise,
+    columns, (t1, t2))``: the frame (without codes), the clamped inputs and unresolved addresses (as
+    :class:`ClampError` takes them), the code columns, and when the front end and the tables were done."""
     if cube_size is None:
         cube_size = top_value(units, "cube_size")
     maps = scene_maps(scene, units["bump"].d_fmt)
@@ -347,20 +369,12 @@ def prepare(scene, *, size=None, preset: str | dict = "default", cube_size: int 
             imprecise[label] = {"count": int(bad.sum()), "texels": float(err.max()), "limit": ADDRESS_LIMIT_TEXELS,
                                 "min_W": float(np.asarray(frags.W)[bad].min()),
                                 "knob": "persp.uv_fmt, persp.recip.in_fmt"}
-    if (clamped or imprecise) and not allow_clamp:
-        raise ClampError(str(scene.path or scene.name), clamped, preset if isinstance(preset, str) else "(units)",
-                         imprecise)
-    codes = np.stack(cols, 1) if cols and len(frags) else np.zeros((0, len(params.inputs)), np.int64)
     stats = {"fragments": len(frags), "material": mat.name, "cube_size": cube_size,
              "block_exponents": np.bincount(e, minlength=1).tolist(),                 # fragments with e = 0, 1, ...
-             "clamped_fragment_inputs": {k: c["count"] for k, c in clamped.items()},
-             "imprecise_fragments": {k: c["count"] for k, c in imprecise.items()},
-             "refused": ClampError.findings(clamped, imprecise), **cube_info,
-             "bump_map_saturated": mm.bump.n_saturated if mm.bump is not None else 0,
-             "seconds_front_end": round(t1 - t0, 3), "seconds_tables": round(t2 - t1, 3),
-             "seconds_quantize": round(time.perf_counter() - t2, 3)}
-    return Frame(scene=scene, params=params, frags=frags, codes=codes, lighting=lighting, maps=mm, stats=stats,
-                 exponent=e_tri, units=units)
+             **cube_info, "bump_map_saturated": mm.bump.n_saturated if mm.bump is not None else 0}
+    frame = Frame(scene=scene, params=params, frags=frags, codes=None, lighting=lighting, maps=mm, stats=stats,
+                  exponent=e_tri, units=units)
+    return frame, clamped, imprecise, cols, (t1, t2)
 
 
 def pipeline_params(scene, preset: str | dict = "default", *, cube_size: int | None = None) -> PipelineParams:
@@ -389,11 +403,8 @@ def engine_params(scene, preset: str | dict = "default", *, cube_size: int | Non
 
 
 def save_png(path, img: np.ndarray) -> Path:
-    from PIL import Image
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    Image.fromarray(img).save(path)
-    return path
+    """Write ``img`` as a PNG atomically (:func:`host.atomic.atomic_save_png`); returns the path."""
+    return atomic_save_png(path, img)
 
 
 def compose(*imgs: np.ndarray, gap: int = 4) -> np.ndarray:
@@ -412,10 +423,21 @@ def diff_image(a: np.ndarray, b: np.ndarray, gain: int = DIFF_GAIN) -> np.ndarra
     return np.clip(np.abs(a.astype(np.int64) - b.astype(np.int64)) * gain, 0, 255).astype(np.uint8)
 
 
+def psnr_db(a: np.ndarray, b: np.ndarray) -> float | None:
+    """PSNR in dB rounded to 0.01 for a JSON report, ``None`` (JSON ``null``) for identical frames, whose PSNR
+    is infinite (strict JSON has no ``Infinity``; the report's ``exact_*`` fields say so)."""
+    value = psnr(a, b)
+    return round(value, 2) if np.isfinite(value) else None
+
+
 def metrics(model: np.ndarray, float_a: np.ndarray, ideal_b: np.ndarray) -> dict:
-    return {"psnr_db_vs_float": round(psnr(model, float_a), 2), "max_lsb_vs_float": max_lsb(model, float_a),
-            "psnr_db_vs_ideal": round(psnr(model, ideal_b), 2), "max_lsb_vs_ideal": max_lsb(model, ideal_b),
-            "psnr_db_float_vs_ideal": round(psnr(float_a, ideal_b), 2)}
+    """PSNR and largest difference of the model's bytes against references (a) and (b). An exact match has
+    ``psnr_db_*`` ``null`` and ``exact_*`` true (an empty frame matches exactly)."""
+    return {"psnr_db_vs_float": psnr_db(model, float_a), "max_lsb_vs_float": max_lsb(model, float_a),
+            "psnr_db_vs_ideal": psnr_db(model, ideal_b), "max_lsb_vs_ideal": max_lsb(model, ideal_b),
+            "psnr_db_float_vs_ideal": psnr_db(float_a, ideal_b),
+            "exact_vs_float": bool(np.array_equal(model, float_a)),
+            "exact_vs_ideal": bool(np.array_equal(model, ideal_b))}
 
 
 def render(frame: Frame, out_dir=None, *, references: bool = True, model=None, exclude=None) -> dict:

@@ -24,6 +24,14 @@ Conventions
 
 Schema
 ------
+Limits (module constants, the same for files and command-line options): image edges 1 .. 8192 pixels
+(:data:`MAX_IMAGE_SIZE`), map edges 1 .. 4096 texels (graffiti at least 4 high), every coordinate (positions,
+targets, origins, edges, centers, radii, texture coordinates, ``near``, ``far``) of magnitude at most 1e6
+(:data:`MAX_COORD`), colors of lights, ambient and specular at most 1e3 (:data:`MAX_COLOR`), shininess 1e4,
+bump strength 1e3, repeats 1e4, ``sigma`` 4096 texels; ``near`` at least 1e-6; at most 2^20 triangles
+(:data:`MAX_TRIANGLES`, a generator's count checked before it runs). A file may start with a UTF-8
+byte-order mark.
+
 The complete commented example below is also a valid scene (``SCHEMA_EXAMPLE``, tested)::
 
     # Top-level keys must come before the first [table].
@@ -129,9 +137,27 @@ from host.meshes import frozen_array, quad_mesh, sphere_mesh
 
 __all__ = ["SceneError", "Camera", "Light", "ColorSpec", "BumpSpec", "Material", "Mesh", "Scene", "Triangles",
            "SCENES", "scene_path", "load_scene", "parse_scene", "SCHEMA_EXAMPLE",
-           "MAX_IMAGE_SIZE", "COLOR_PROCEDURALS", "BUMP_PROCEDURALS"]
+           "MAX_IMAGE_SIZE", "MAX_MAP_SIZE", "MAX_COORD", "MAX_COLOR", "MAX_SHININESS", "MAX_STRENGTH",
+           "MAX_REPEAT", "MAX_SIGMA", "MAX_TRIANGLES", "COLOR_PROCEDURALS", "BUMP_PROCEDURALS"]
 
+#: Limits of the schema, stated once: what a file may hold is what the pipeline can compute (anything beyond is
+#: refused by key before any work). Image edge in pixels; map (texture, bump map) edge in texels.
 MAX_IMAGE_SIZE = 8192
+MAX_MAP_SIZE = 4096
+#: Largest magnitude of a world coordinate (positions, targets, mesh origins and edges, sphere centers and radii,
+#: clipping distances) and of a texture coordinate: far beyond any scene, far below where squares overflow.
+MAX_COORD = 1e6
+#: Largest light, ambient or specular color component (linear RGB; 1 is full scale).
+MAX_COLOR = 1e3
+#: Largest Phong exponent, bump strength, map repeat count and Mexican-hat sigma (texels).
+MAX_SHININESS = 1e4
+MAX_STRENGTH = 1e3
+MAX_REPEAT = 1e4
+MAX_SIGMA = float(MAX_MAP_SIZE)
+#: Most triangles a scene may hold (all meshes together; a mesh generator's count is checked before it runs).
+MAX_TRIANGLES = 1 << 20
+#: Smallest graffiti texture height (its bands need this many texels).
+MIN_GRAFFITI_HEIGHT = 4
 
 
 class SceneError(ValueError):
@@ -436,7 +462,12 @@ class _Reader:
             self.fail(key, f"expected one of {', '.join(repr(c) for c in choices)}, got {_show(v)}")
         return v
 
-    def vector(self, v, key: str, n: int, lo=None, hi=None, lo_open=False, nonzero=False, integer=False):
+    def vector(self, v, key: str, n: int, lo=None, hi=None, lo_open=False, nonzero=False, integer=False,
+               mag=None):
+        """``n`` numbers, each in ``[lo, hi]`` and, with ``mag``, of magnitude at most ``mag``."""
+        if mag is not None:
+            lo = -mag if lo is None else lo
+            hi = mag if hi is None else min(hi, mag)
         what = "integers" if integer else "numbers"
         if not isinstance(v, list) or len(v) != n:
             self.fail(key, f"expected {n} {what}, got {_show(v)}")
@@ -456,11 +487,11 @@ class _Reader:
             self.fail(key, f"must not be the zero vector, got {_show(v)}")
         return out
 
-    def vectors(self, v, key: str, n: int) -> np.ndarray:
-        """A non-empty list of n-vectors as an array (K, n)."""
+    def vectors(self, v, key: str, n: int, mag=None) -> np.ndarray:
+        """A non-empty list of n-vectors as an array (K, n), each element of magnitude at most ``mag``."""
         if not isinstance(v, list) or not v:
             self.fail(key, f"expected a non-empty list of {n}-vectors, got {_show(v)}")
-        return np.array([self.vector(x, f"{key}[{i}]", n) for i, x in enumerate(v)], dtype=np.float64)
+        return np.array([self.vector(x, f"{key}[{i}]", n, mag=mag) for i, x in enumerate(v)], dtype=np.float64)
 
     def png(self, v, key: str, base: Path) -> Path:
         name = self.string(v, key)
@@ -483,7 +514,14 @@ class _Reader:
 # procedural generators: parameter schemas (the generators live in host.bumpmap)
 # ------------------------------------------------------------------------------------------------------------
 def _size(r: _Reader, v, key):
-    return r.vector(v, key, 2, lo=1, hi=4096, integer=True)
+    return r.vector(v, key, 2, lo=1, hi=MAX_MAP_SIZE, integer=True)
+
+
+def _graffiti_size(r: _Reader, v, key):
+    size = _size(r, v, key)
+    if size[1] < MIN_GRAFFITI_HEIGHT:
+        r.fail(key, f"graffiti needs a texture at least {MIN_GRAFFITI_HEIGHT} texels high, got {_show(v)}")
+    return size
 
 
 def _rgb01(r: _Reader, v, key):
@@ -493,12 +531,12 @@ def _rgb01(r: _Reader, v, key):
 #: name -> {param: (default or callable(params) -> default, validator(reader, value, key) -> value)}
 COLOR_PROCEDURALS: dict[str, dict[str, tuple[Any, Callable]]] = {
     "graffiti": {
-        "size": ((256, 128), _size),
+        "size": ((256, 128), _graffiti_size),
         "seed": (1, lambda r, v, k: r.integer(v, k, 0, 2**32 - 1)),
     },
     "checker": {
         "size": ((64, 64), _size),
-        "checks": ((8, 8), lambda r, v, k: r.vector(v, k, 2, lo=1, hi=4096, integer=True)),
+        "checks": ((8, 8), lambda r, v, k: r.vector(v, k, 2, lo=1, hi=MAX_MAP_SIZE, integer=True)),
         "colors": (((1.0, 1.0, 1.0), (0.1, 0.1, 0.1)),
                    lambda r, v, k: (r.fail(k, f"expected 2 RGB colors, got {_show(v)}")
                                     if not isinstance(v, list) or len(v) != 2
@@ -509,7 +547,7 @@ COLOR_PROCEDURALS: dict[str, dict[str, tuple[Any, Callable]]] = {
 BUMP_PROCEDURALS: dict[str, dict[str, tuple[Any, Callable]]] = {
     "mexican-hat": {
         "size": ((40, 40), _size),
-        "sigma": (lambda p: min(p["size"]) / 8.0, lambda r, v, k: r.number(v, k, lo=0.0, lo_open=True)),
+        "sigma": (lambda p: min(p["size"]) / 8.0, lambda r, v, k: r.number(v, k, lo=0.0, hi=MAX_SIGMA, lo_open=True)),
     },
     "chiselled-text": {
         "text": ("Berlin Hauptstadt", lambda r, v, k: r.string(v, k)),
@@ -568,7 +606,7 @@ def load_scene(path, *, size: int | tuple[int, int] | None = None) -> Scene:
     """
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8")
+        text = path.read_text(encoding="utf-8-sig")          # a byte-order mark is accepted
     except OSError as exc:
         raise SceneError(f"{path}: cannot read the scene file: {exc.strerror or exc}") from None
     except UnicodeDecodeError as exc:
@@ -591,7 +629,7 @@ def parse_scene(text: str, *, source: str = "<string>", base: Path | None = None
     r.table(doc, "", ("name", "ambient", "image", "camera", "lights", "materials", "meshes"),
             ("image", "camera", "materials", "meshes"))
     name = r.string(doc.get("name", path.stem if path else "scene"), "name")
-    ambient = r.vector(doc.get("ambient", [0, 0, 0]), "ambient", 3, lo=0.0)
+    ambient = r.vector(doc.get("ambient", [0, 0, 0]), "ambient", 3, lo=0.0, hi=MAX_COLOR)
 
     img = r.table(doc["image"], "image", ("width", "height", "background"), ("width", "height"))
     width = r.integer(img["width"], "image.width", 1, MAX_IMAGE_SIZE)
@@ -604,9 +642,11 @@ def parse_scene(text: str, *, source: str = "<string>", base: Path | None = None
     for i, t in enumerate(r.array_of_tables(doc.get("lights", []), "lights")):
         key = f"lights[{i}]"
         r.table(t, key, ("direction", "color"), ("direction", "color"))
-        d = np.array(r.vector(t["direction"], f"{key}.direction", 3, nonzero=True))
+        d = np.array(r.vector(t["direction"], f"{key}.direction", 3, nonzero=True, mag=MAX_COORD))
+        if not np.linalg.norm(d) > 1e-9 * np.abs(d).max():
+            r.fail(f"{key}.direction", f"too short to normalize, got {_show(t['direction'])}")
         lights.append(Light(tuple(float(x) for x in d / np.linalg.norm(d)),
-                            r.vector(t["color"], f"{key}.color", 3, lo=0.0)))
+                            r.vector(t["color"], f"{key}.color", 3, lo=0.0, hi=MAX_COLOR)))
 
     mats = r.array_of_tables(doc["materials"], "materials")
     if not mats:
@@ -620,22 +660,23 @@ def parse_scene(text: str, *, source: str = "<string>", base: Path | None = None
 
     meshes = [_mesh(r, t, f"meshes[{i}]", names, len(materials))
               for i, t in enumerate(r.array_of_tables(doc["meshes"], "meshes"))]
+    _triangle_budget(r, sum(m.n_triangles for m in meshes), "meshes")
     return Scene(path=path, name=name, width=width, height=height, background=background, camera=camera,
                  ambient=ambient, lights=tuple(lights), materials=tuple(materials), meshes=tuple(meshes))
 
 
 def _camera(r: _Reader, t) -> Camera:
     r.table(t, "camera", ("position", "target", "up", "fov", "near", "far"), ("position", "target", "fov"))
-    pos = r.vector(t["position"], "camera.position", 3)
-    tgt = r.vector(t["target"], "camera.target", 3)
-    up = r.vector(t.get("up", [0, 1, 0]), "camera.up", 3, nonzero=True)
+    pos = r.vector(t["position"], "camera.position", 3, mag=MAX_COORD)
+    tgt = r.vector(t["target"], "camera.target", 3, mag=MAX_COORD)
+    up = r.vector(t.get("up", [0, 1, 0]), "camera.up", 3, nonzero=True, mag=MAX_COORD)
     fov = r.number(t["fov"], "camera.fov", lo=0.0, hi=180.0, lo_open=True, hi_open=True)
-    near = r.number(t.get("near", 0.1), "camera.near", lo=0.0, lo_open=True)
-    far = r.number(t.get("far", 1000.0), "camera.far", lo=0.0, lo_open=True)
+    near = r.number(t.get("near", 0.1), "camera.near", lo=1e-6, hi=MAX_COORD)
+    far = r.number(t.get("far", 1000.0), "camera.far", lo=1e-6, hi=4 * MAX_COORD)
     if far <= near:
         r.fail("camera.far", f"must be greater than camera.near ({near:g}), got {_show(t.get('far'))}")
     f = np.subtract(tgt, pos)
-    if not np.any(f):
+    if not np.linalg.norm(f) > 1e-9 * max(1.0, np.abs(pos).max()):
         r.fail("camera.target", f"must differ from camera.position, got {_show(t['target'])}")
     f = f / np.linalg.norm(f)
     u = np.asarray(up) / np.linalg.norm(up)
@@ -645,7 +686,7 @@ def _camera(r: _Reader, t) -> Camera:
 
 
 def _repeat(r: _Reader, t: dict, key: str):
-    return r.vector(t.get("repeat", [1, 1]), f"{key}.repeat", 2, lo=0.0, lo_open=True)
+    return r.vector(t.get("repeat", [1, 1]), f"{key}.repeat", 2, lo=0.0, lo_open=True, hi=MAX_REPEAT)
 
 
 def _material(r: _Reader, t, key: str, base: Path) -> Material:
@@ -655,8 +696,8 @@ def _material(r: _Reader, t, key: str, base: Path) -> Material:
         r.fail(f"{key}.name", "must not be empty")
     color = _color(r, t.get("color", [0.8, 0.8, 0.8]), f"{key}.color", base)
     bump = _bump(r, t["bump"], f"{key}.bump", base) if "bump" in t else None
-    specular = r.vector(t.get("specular", [1, 1, 1]), f"{key}.specular", 3, lo=0.0)
-    shininess = r.number(t.get("shininess", 32.0), f"{key}.shininess", lo=0.0, lo_open=True)
+    specular = r.vector(t.get("specular", [1, 1, 1]), f"{key}.specular", 3, lo=0.0, hi=MAX_COLOR)
+    shininess = r.number(t.get("shininess", 32.0), f"{key}.shininess", lo=0.0, lo_open=True, hi=MAX_SHININESS)
     return Material(name, color, bump, specular, shininess)
 
 
@@ -689,7 +730,7 @@ def _bump(r: _Reader, v, key: str, base: Path) -> BumpSpec:
         r.fail(key, f"expected a table, got {_show(v)}")
     kind = _one_of(r, v, key, ("file", "procedural"))
     common = ("repeat", "strength")
-    strength = r.number(v.get("strength", 1.0), f"{key}.strength", lo=0.0)
+    strength = r.number(v.get("strength", 1.0), f"{key}.strength", lo=0.0, hi=MAX_STRENGTH)
     if kind == "procedural":
         proc = r.string(v["procedural"], f"{key}.procedural", tuple(BUMP_PROCEDURALS))
         params = _procedural_params(r, v, key, BUMP_PROCEDURALS[proc], ("procedural",) + common)
@@ -698,6 +739,11 @@ def _bump(r: _Reader, v, key: str, base: Path) -> BumpSpec:
     r.table(v, key, ("file",) + common)
     return BumpSpec("file", path=r.png(v["file"], f"{key}.file", base), repeat=_repeat(r, v, key),
                     strength=strength, key=key)
+
+
+def _triangle_budget(r: _Reader, count: int, key: str) -> None:
+    if count > MAX_TRIANGLES:
+        r.fail(key, f"makes {count:,} triangles, more than the {MAX_TRIANGLES:,} a scene may hold")
 
 
 def _unit_rows(r: _Reader, n: np.ndarray, key: str) -> np.ndarray:
@@ -732,13 +778,13 @@ def _mesh(r: _Reader, t, key: str, names: dict, n_mat: int) -> Mesh:
     two_sided = r.boolean(t.get("two_sided", False), f"{key}.two_sided")
 
     if kind == "triangles":
-        pos = r.vectors(t["positions"], f"{key}.positions", 3)
-        uvs = r.vectors(t["uvs"], f"{key}.uvs", 2)
+        pos = r.vectors(t["positions"], f"{key}.positions", 3, mag=MAX_COORD)
+        uvs = r.vectors(t["uvs"], f"{key}.uvs", 2, mag=MAX_COORD)
         if len(uvs) != len(pos):
             r.fail(f"{key}.uvs", f"expected {len(pos)} [u, v] pairs (one per position), got {len(uvs)}")
         nrm = None
         if "normals" in t:
-            nrm = _unit_rows(r, r.vectors(t["normals"], f"{key}.normals", 3), f"{key}.normals")
+            nrm = _unit_rows(r, r.vectors(t["normals"], f"{key}.normals", 3, mag=MAX_COORD), f"{key}.normals")
             if len(nrm) != len(pos):
                 r.fail(f"{key}.normals", f"expected {len(pos)} normals (one per position), got {len(nrm)}")
         if "indices" in t:
@@ -751,6 +797,7 @@ def _mesh(r: _Reader, t, key: str, names: dict, n_mat: int) -> Mesh:
             if len(pos) % 3:
                 r.fail(f"{key}.positions", f"without indices, expected a multiple of 3 vertices, got {len(pos)}")
             idx = np.arange(len(pos)).reshape(-1, 3)
+        _triangle_budget(r, len(idx), f"{key}.indices" if "indices" in t else f"{key}.positions")
         P, UV = pos[idx], uvs[idx]
         cross = np.cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0])
         area = np.linalg.norm(cross, axis=-1)
@@ -760,24 +807,26 @@ def _mesh(r: _Reader, t, key: str, names: dict, n_mat: int) -> Mesh:
         N = nrm[idx] if nrm is not None else np.repeat((cross / area[:, None])[:, None], 3, axis=1)
         P, N, UV = frozen_array(P), frozen_array(N), frozen_array(UV)
     elif kind == "quad":
-        o = r.vector(t["origin"], f"{key}.origin", 3)
-        eu = r.vector(t["edge_u"], f"{key}.edge_u", 3, nonzero=True)
-        ev = r.vector(t["edge_v"], f"{key}.edge_v", 3, nonzero=True)
+        o = r.vector(t["origin"], f"{key}.origin", 3, mag=MAX_COORD)
+        eu = r.vector(t["edge_u"], f"{key}.edge_u", 3, nonzero=True, mag=MAX_COORD)
+        ev = r.vector(t["edge_v"], f"{key}.edge_v", 3, nonzero=True, mag=MAX_COORD)
         if np.linalg.norm(np.cross(ev, eu)) <= 1e-12 * np.linalg.norm(eu) * np.linalg.norm(ev):
             r.fail(f"{key}.edge_v", f"must not be parallel to edge_u, got {_show(t['edge_v'])}")
         uv = t.get("uv", [[0, 0], [1, 1]])
         if not isinstance(uv, list) or len(uv) != 2:
             r.fail(f"{key}.uv", f"expected [[u0, v0], [u1, v1]], got {_show(uv)}")
-        uv = tuple(r.vector(x, f"{key}.uv[{i}]", 2) for i, x in enumerate(uv))
+        uv = tuple(r.vector(x, f"{key}.uv[{i}]", 2, mag=MAX_COORD) for i, x in enumerate(uv))
         if uv[0][0] == uv[1][0] or uv[0][1] == uv[1][1]:
             r.fail(f"{key}.uv", f"u0 must differ from u1 and v0 from v1, got {_show(t['uv'])}")
         div = r.vector(t.get("divisions", [1, 1]), f"{key}.divisions", 2, lo=1, hi=1024, integer=True)
+        _triangle_budget(r, 2 * div[0] * div[1], f"{key}.divisions")
         P, N, UV = quad_mesh(o, eu, ev, uv, div)
     else:
-        c = r.vector(t["center"], f"{key}.center", 3)
-        rad = r.number(t["radius"], f"{key}.radius", lo=0.0, lo_open=True)
+        c = r.vector(t["center"], f"{key}.center", 3, mag=MAX_COORD)
+        rad = r.number(t["radius"], f"{key}.radius", lo=0.0, lo_open=True, hi=MAX_COORD)
         seg = r.integer(t.get("segments", 32), f"{key}.segments", 3, 4096)
         rings = r.integer(t.get("rings", 16), f"{key}.rings", 2, 4096)
+        _triangle_budget(r, 2 * seg * rings, f"{key}.segments")
         P, N, UV = sphere_mesh(c, rad, seg, rings)
     return Mesh(kind, mat, two_sided, P, N, UV, key)
 

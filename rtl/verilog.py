@@ -9,6 +9,8 @@ import re
 from collections import defaultdict
 from pathlib import Path
 
+from fxmodel.core.paths import atomic_writer
+
 from .streams import StreamUnit
 from .unit import build, stream_native
 
@@ -125,5 +127,7 @@ def write_verilog(params, path, optimize: bool = False, flat: bool = False) -> P
     ``pipeline_tin_plane_fit_tin_plane``: a plain identifier rather than an escaped one)."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(verilog_text(params, re.sub(r"\W", "_", path.stem), optimize, flat))
+    text = verilog_text(params, re.sub(r"\W", "_", path.stem), optimize, flat)
+    with atomic_writer(path, "w", encoding="utf-8") as fh:
+        fh.write(text)
     return path

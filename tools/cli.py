@@ -39,10 +39,17 @@ from pathlib import Path
 
 import numpy as np
 
-from fxmodel.units import exact
-from fxmodel.core.unit import BLOCK_MODULES, preset, preset_names, unit_class, units
 from fxmodel.core.paths import build_dir
+from fxmodel.core.unit import BLOCK_MODULES, preset, preset_names, unit_class, units
 from fxmodel.core.vectors import write_readmemh
+from fxmodel.units import exact
+from host.args import SIZE_HELP, cube_size_arg, int_range, size_arg
+from host.atomic import (
+    atomic_save_npy,
+    check_output_dir,
+    check_output_file,
+    strict_json,
+)
 
 EXHAUSTIVE_LIMIT = 1 << 26
 
@@ -70,6 +77,9 @@ def cmd_info(args) -> int:
 
 def cmd_eval(args) -> int:
     params = _params(args)
+    check_output_file(args.output, "output")                  # before any work: nothing half done
+    if args.hex:
+        check_output_file(args.hex, "--hex file")
     src = Path(args.input)
     try:
         values = np.load(src, allow_pickle=False)
@@ -90,7 +100,7 @@ def cmd_eval(args) -> int:
         raise SystemExit(f"error: {exc}")
     out = params.compute(codes)
     reals = np.stack([p.fmt.to_real(out[:, i]) for i, p in enumerate(params.outputs)], axis=1)
-    np.save(args.output, reals)
+    atomic_save_npy(args.output, reals)
     if args.hex:
         fields = [(p.name, p.fmt) for p in params.inputs + params.outputs]
         write_readmemh(args.hex, fields, np.concatenate([codes, out], axis=1))
@@ -122,8 +132,19 @@ def cmd_errors(args) -> int:
 
 
 def cmd_render(args) -> int:
-    from host.render import from_triangles, judge, prepare, render, render_triangles, save_png, tell
+    from host.render import (
+        from_triangles,
+        judge,
+        prepare,
+        render,
+        render_triangles,
+        save_png,
+        tell,
+    )
     from host.scene import SceneError
+    check_output_file(args.output, "output PNG")              # before any work
+    if args.refs:
+        check_output_dir(args.refs, "--refs folder")
     try:
         frame = prepare(args.scene, size=args.size, preset=args.preset, cube_size=args.cube_size,
                         allow_clamp=args.allow_clamp)
@@ -137,20 +158,32 @@ def cmd_render(args) -> int:
         report = render(frame, args.refs)
         save_png(args.output, frame.image(report.pop("_model_bytes")))
     judge(report, args.max_lsb)
-    print(json.dumps(report, indent=2))
+    print(strict_json(report))
+    if not report["pixels"]:
+        print(f"warning: {args.scene}: nothing is drawn: no triangle covers a pixel of the {report['width']}x"
+              f"{report['height']} frame (camera behind or inside the geometry, or everything clipped or culled); "
+              f"{args.output} shows the background only", file=sys.stderr)
     return tell(report, args.scene)
 
 
 def cmd_fit(args) -> int:
-    from .fit import fit
+    from fxmodel.pipeline.presets import check_preset_name, presets_dir
     from host.scene import SceneError
+
+    from .fit import FitError, fit
+    if args.name is not None:                                   # before any work: nothing written elsewhere
+        check_preset_name(args.name)
+    check_output_dir(args.out if args.out is not None else presets_dir(), "preset folder")
     try:
         report = fit(args.scene, max_lsb=args.max_lsb, size=args.size or None, cube_size=args.cube_size,
                      name=args.name, directory=args.out, progress=not args.quiet, passes=args.passes,
                      scene_size=args.scene_size, jobs=args.jobs, scheduler=args.scheduler)
     except (SceneError, OSError) as exc:
         raise SystemExit(f"error: {exc}")
-    print(json.dumps(report, indent=2))
+    except FitError as exc:                                     # no preset within the limits meets --max-lsb
+        print(f"error: {exc}", file=sys.stderr)
+        return 1
+    print(strict_json(report))
     return 0
 
 
@@ -180,17 +213,19 @@ def add_eval_arguments(p):
 
 def add_errors_arguments(p):
     _unit_arg(p)
-    p.add_argument("--random", type=int, default=0, help="use this many random vectors instead")
-    p.add_argument("--seed", type=int, default=1)
+    p.add_argument("--random", type=int_range(0, 1 << 30), default=0,
+                   help="use this many random vectors instead (0 .. 2^30)")
+    p.add_argument("--seed", type=int_range(0, 2**32 - 1), default=1)
 
 
 def add_render_arguments(p):
     p.add_argument("scene", help="scene file (TOML)")
     p.add_argument("output", help="PNG to write")
-    p.add_argument("--size", type=int, help="override the image size (square)")
+    p.add_argument("--size", type=size_arg(), help=SIZE_HELP)
     p.add_argument("--preset", default="default", help="pipeline preset (default: %(default)s)")
-    p.add_argument("--cube-size", type=int, help="texels per reflectance-cube face edge (default: the preset's, 64 "
-                   "unless a preset file sets it)")
+    p.add_argument("--cube-size", type=cube_size_arg(),
+                   help="texels per reflectance-cube face edge, 1 .. 1024 (default: the preset's, 64 "
+                        "unless a preset file sets it)")
     p.add_argument("--refs", metavar="DIR", help="also write the float references' images (and diff.png) into DIR")
     p.add_argument("--triangles", action="store_true", help="draw from triangles (the engine's set-up, scan "
                    "converter and interpolators; the report adds the frame from fragments beside it)")
@@ -199,16 +234,21 @@ def add_render_arguments(p):
 
 
 def add_fit_arguments(p):
+    from host.scene import MAX_IMAGE_SIZE
     p.add_argument("scene", help="scene file (TOML)")
-    p.add_argument("--max-lsb", type=int, default=1, help="allowed per-channel error vs reference (a), 8-bit steps")
-    p.add_argument("--size", type=int, default=64, help="square size of the screening renders (0: full size only); "
-                   "every accepted step is also checked at the scene's size (default: %(default)s)")
-    p.add_argument("--cube-size", type=int, help="texels per reflectance-cube face edge to start from (a "
-                   "knob of the search; default: the default preset's, 64)")
-    p.add_argument("--name", help="preset name (default: <scene>-fit)")
+    p.add_argument("--max-lsb", type=int_range(0, 255), default=1,
+                   help="allowed per-channel error vs reference (a), 8-bit steps (0 .. 255)")
+    p.add_argument("--size", type=int_range(0, MAX_IMAGE_SIZE), default=64,
+                   help=f"square size of the screening renders, 0 .. {MAX_IMAGE_SIZE} (0: full size only); "
+                        "every accepted step is also checked at the scene's size (default: %(default)s)")
+    p.add_argument("--cube-size", type=cube_size_arg(),
+                   help="texels per reflectance-cube face edge to start from, 1 .. 1024 (a "
+                        "knob of the search; default: the default preset's, 64)")
+    p.add_argument("--name", help="preset name: letters, digits, '_', '.', '+', '-' (default: <scene file stem>-fit)")
     p.add_argument("--out", help="preset folder (default: $FXMODEL_PRESETS or presets/ at the repo root)")
-    p.add_argument("--scene-size", type=int, help="render the scene at this square size instead of its own")
-    p.add_argument("--passes", type=int, default=2, help="passes over the knobs (default: %(default)s)")
+    p.add_argument("--scene-size", type=size_arg(), help="render the scene at this square size instead of its own")
+    p.add_argument("--passes", type=int_range(1, 100), default=2, help="passes over the knobs, 1 .. 100 (default: "
+                   "%(default)s)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     from .jobs import add_arguments
     add_arguments(p, what="candidate presets rendered")
@@ -226,6 +266,10 @@ def add_verilog_arguments(p):
     p.add_argument("--out", default=str(build_dir("verilog")), help="output folder (default: %(default)s)")
 
 
+def _check_verilog_out(args) -> None:
+    check_output_dir(args.out, "--out folder")
+
+
 def cmd_verilog(args) -> int:
     """Without ``--scene``: ``OUT/<unit>_<preset>.v``, every registered unit (or ``--unit``) and every preset of
     each (or ``--preset``). With ``--scene``: the pixel pipeline or the engine with that scene's memories and each
@@ -233,6 +277,7 @@ def cmd_verilog(args) -> int:
     from rtl.verilog import write_verilog
 
     from .fpga import design_list, scene_hint
+    _check_verilog_out(args)
     try:
         if args.scene is not None:
             for label, params in design_list(args.unit, args.preset, scene=args.scene):

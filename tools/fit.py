@@ -18,9 +18,31 @@ import dataclasses
 
 from fxmodel.units.cube import cube_divider
 from fxmodel.core.fixed import Fmt
-from fxmodel.pipeline.presets import BUILTIN_PRESET_UNITS, UNIT_KEYS, top_value, write_preset
+from fxmodel.pipeline.presets import BUILTIN_PRESET_UNITS, UNIT_KEYS, check_preset_name, top_value, write_preset
 
-__all__ = ["KNOB_STEPS", "KNOB_MIN", "knobs_of", "units_of", "measure_ranges", "hardware", "fit"]
+__all__ = ["KNOB_STEPS", "KNOB_MIN", "FitError", "knobs_of", "units_of", "measure_ranges", "hardware", "fit"]
+
+
+class FitError(ValueError):
+    """No preset within the search's limits brings the scene within ``max_lsb`` of reference (a) (``bumpmap fit``
+    exits 1). The message gives the best bound reached and the knobs of the preset that reaches it.
+
+    Attributes
+    ----------
+    bound : int or None
+        The smallest largest-difference from reference (a) (well-conditioned pixels, at every size) reached (``None``: no preset drew the scene without refusals).
+    knobs : dict
+        The knobs of the preset that reaches it (:func:`knobs_of`).
+    """
+
+    def __init__(self, message: str, bound: int, knobs: dict):
+        super().__init__(message)
+        self.bound, self.knobs = bound, knobs
+
+
+def changed_knobs(k: dict, start: dict) -> str:
+    """``"word=14, uv_frac=12"``: the knobs of ``k`` that differ from ``start`` (``"none"`` if none)."""
+    return ", ".join(f"{n}={v}" for n, v in k.items() if start.get(n) != v) or "none"
 
 # -- scene-driven word lengths: ``bumpmap fit`` ---------------------------------------------------
 #: The knobs the search reduces, in search order (widest savings first), with the starting step in bits.
@@ -161,24 +183,41 @@ def widen(k: dict, base: dict, sizes: list, max_lsb: int, run) -> tuple[dict, li
     Raises
     ------
     ValueError
-        If the scene needs an input the pipeline cannot widen (``W``, ``N``), or no widening helps within
-        :data:`WIDEN_LIMIT` steps.
+        If the scene needs an input the pipeline cannot widen (``W``, ``N``).
+    FitError
+        If no widening helps, or none within :data:`WIDEN_LIMIT` steps: with the best bound reached (at every
+        size) and the knobs that reach it.
     """
-    steps = []
+    steps, tried = [], []
 
     def problems(kk, at):
         frame, rep = run(units_of(kk, base), at)
         over = sum(rep["pixels_by_lsb_vs_float"][max_lsb + 1:])
         return frame, rep, over
 
+    def give_up(why: str):
+        try:
+            bound, best = _best(tried, sizes, problems)
+        except FitError as exc:
+            raise FitError(f"fit: {why}; {str(exc).removeprefix('fit: ')}", None, {}) from None
+        start = knobs_of(base)
+        raise FitError(f"fit: {why}; no preset within the search's limits meets --max-lsb {max_lsb}: the best "
+                       f"reached is {bound} LSB from reference (a), by the default preset with "
+                       f"{changed_knobs(best, start)} (try --max-lsb {bound})", bound, best)
+
     for _ in range(WIDEN_LIMIT):
         for at in sizes:
-            frame, rep, over = problems(k, at)
+            try:
+                frame, rep, over = problems(k, at)
+            except (ValueError, TypeError) as exc:      # the last widening made an invalid unit
+                give_up(f"widened to {changed_knobs(k, knobs_of(base))}, the preset is invalid ({exc})")
             clamped = frame.stats["clamped_fragment_inputs"]
             if clamped or frame.stats["imprecise_fragments"] or over:
                 break
         else:
             return k, steps
+        if not clamped and not frame.stats["imprecise_fragments"]:
+            tried.append(dict(k))
         if clamped:
             for name in clamped:
                 if name not in INT_KNOB:
@@ -204,11 +243,25 @@ def widen(k: dict, base: dict, sizes: list, max_lsb: int, run) -> tuple[dict, li
         f0, r0, o0 = problems(k, sizes[0])
         now = (o0 + _refused(f0) * 10**6, r0["max_lsb_vs_float_well_conditioned"])
         if best is None or best[0] >= now and at == sizes[0]:
-            raise ValueError(f"fit: the frame is {rep['max_lsb_vs_float']} LSB from reference (a) at "
-                             f"{at or 'full size'} and no single widening of {', '.join(WIDEN_STEPS)} helps")
+            give_up(f"the frame is {rep['max_lsb_vs_float_well_conditioned']} LSB from reference (a) at "
+                    f"{'x'.join(map(str, at)) if at else 'full size'} and no single widening helps")
         k = best[2]
         steps.append([best[1], k[best[1]], f"{over} pixels over {max_lsb} LSB"])
-    raise ValueError(f"fit: no preset within --max-lsb {max_lsb} after {WIDEN_LIMIT} widening steps: {steps}")
+    give_up(f"{WIDEN_LIMIT} widening steps did not reach it")
+
+
+def _best(tried: list, sizes: list, problems) -> tuple[int, dict]:
+    """``(bound, knobs)``: of the knob sets ``tried`` (each drawing the scene without refusals), the one whose
+    largest difference from reference (a) on well-conditioned pixels, over every size, is smallest."""
+    best = None
+    for kk in tried:
+        bound = max(problems(kk, at)[1]["max_lsb_vs_float_well_conditioned"] for at in sizes)
+        if best is None or bound < best[0]:
+            best = (bound, kk)
+    if best is None:
+        raise FitError("fit: no preset within the search's limits draws the scene without clamped inputs or "
+                       "unresolved texture addresses", None, {})
+    return best
 
 
 def _savings(new: dict, old: dict) -> dict:
@@ -384,14 +437,52 @@ def fit(scene, *, max_lsb: int = 1, size: int | None = 64, cube_size: int | None
         If no widening brings the scene within ``max_lsb`` (:func:`widen`).
     """
     import time
-    from contextlib import nullcontext
+
+    t0 = time.perf_counter()
+    job = _setup(scene, size, cube_size, scene_size)
+    name = name or job.default_name
+    check_preset_name(name)                         # before any work: the preset file stays in its folder
+    k0, widened = _widen_both(job, max_lsb)
+    ranges, default_hw = _reference(job)
+    k, start, order = _descend(job, k0, ranges, max_lsb, passes, progress, jobs, scheduler, speculate)
+    units = units_of(k, job.base)
+    frame, rep = job.run(units, None)
+    if rep["max_lsb_vs_float_well_conditioned"] > max_lsb:   # every step was checked at full size: a bug if so
+        bound = rep["max_lsb_vs_float_well_conditioned"]
+        raise FitError(f"fit: the final preset is {bound} LSB from reference (a) at full size, over --max-lsb "
+                       f"{max_lsb} (default with {changed_knobs(k, start)})", bound, k)
+    return _write(job, name, units, k, start, order, frame, rep, max_lsb, size, directory, widened, ranges,
+                  default_hw, time.perf_counter() - t0)
+
+
+@dataclasses.dataclass
+class _Job:
+    """What the steps of :func:`fit` share: the scene, the starting units, the screening sizes, the render
+    counter and how frames are judged (from triangles or from fragments)."""
+
+    scene: object
+    base: dict
+    sizes: list
+    default_name: str
+    renders: int = 0
+    triangles: bool = False         # the widening judges the fragments' frame first; the descent, what is drawn
+
+    def run(self, units, at):
+        """Frame and render report of candidate ``units`` (a units dict) at size ``at`` (None: full size)."""
+        from host.render import prepare
+        self.renders += 1
+        sc = self.scene if at is None else self.scene.with_size(*at)
+        frame = prepare(sc, preset=units, allow_clamp=True)      # the cube size is the units' (a knob)
+        return frame, _render(frame, self.triangles)
+
+
+def _setup(scene, size, cube_size, scene_size) -> _Job:
+    """Load the scene, refuse one that draws nothing, and fix the starting units and the screening sizes."""
+    import re
 
     from host.render import prepare
     from host.scene import load_scene
 
-    from . import jobs as jobrunner
-
-    t0 = time.perf_counter()
     if not hasattr(scene, "materials"):
         scene = load_scene(scene)
     if scene_size:
@@ -399,78 +490,95 @@ def fit(scene, *, max_lsb: int = 1, size: int | None = 64, cube_size: int | None
     base = BUILTIN_PRESET_UNITS["default"]
     if cube_size is not None:
         base = {**base, "cube_size": cube_size}
+    if not len(prepare(scene, preset=base, allow_clamp=True).codes):
+        raise ValueError(f"{scene.path or scene.name}: nothing is drawn: no triangle covers a pixel of the "
+                         f"{scene.width}x{scene.height} frame (camera behind or inside the geometry, or everything "
+                         f"clipped or culled), so there is no error to fit a preset to")
     sizes = [s for s in ((size, size), None) if s is None or s != (scene.width, scene.height)]
     if size is None:
         sizes = [None]
-    renders = 0
-    triangles = False                   # the widening judges the fragments' frame; the descent, what is drawn
+    stem = scene.path.stem if scene.path is not None else scene.name
+    stem = re.sub(r"^[^A-Za-z0-9]+", "", re.sub(r"[^A-Za-z0-9_.+-]", "_", stem))[:90] or "scene"
+    return _Job(scene, base, sizes, f"{stem}-fit")
 
-    def run(units, at):
-        """Frame and render report of candidate ``units`` (a units dict) at size ``at`` (None: full size)."""
-        nonlocal renders
-        renders += 1
-        sc = scene if at is None else scene.with_size(*at)
-        frame = prepare(sc, preset=units, allow_clamp=True)      # the cube size is the units' (a knob)
-        return frame, _render(frame, triangles)
 
-    k0, widened = widen(knobs_of(base), base, sizes, max_lsb, run)
-    wide = units_of(k0, base)
+def _widen_both(job: _Job, max_lsb: int) -> tuple[dict, list]:
+    """:func:`widen` judged from the front end's fragments, then, where the scan converter draws the scene, from
+    triangles as the engine draws it (and as the descent and the final check judge), widening on if needed."""
+    k0, widened = widen(knobs_of(job.base), job.base, job.sizes, max_lsb, job.run)
+    wide = units_of(k0, job.base)
     try:                                # the engine draws from triangles: judge that frame (raster_guard a knob)
-        triangles = True
-        for at in sizes:
-            run(wide, at)
+        job.triangles = True
+        for at in job.sizes:
+            job.run(wide, at)
     except ValueError:                  # a scene the scan converter cannot draw (overlapping geometry, a
-        triangles = False               # vertex value beyond a format): judged from fragments, raster_guard kept
-    ref = {}
-    for at in sizes:
-        frame, rep = run(wide, at)
-        ref[at] = (rep["max_lsb_vs_float_well_conditioned"], _refused(frame), rep["max_lsb_vs_ideal"])
-    full_frame = prepare(scene, preset=base, allow_clamp=True)
-    ranges = measure_ranges(full_frame)
-    default_hw = hardware(base, full_frame.params)
+        job.triangles = False           # vertex value beyond a format): judged from fragments, raster_guard kept
+        return k0, widened
+    k1, more = widen(k0, job.base, job.sizes, max_lsb, job.run)
+    return k1, widened + more
 
+
+def _reference(job: _Job) -> tuple[dict, dict]:
+    """The ranges the scene produces (:func:`measure_ranges`) and the default preset's hardware estimate."""
+    from host.render import prepare
+    full_frame = prepare(job.scene, preset=job.base, allow_clamp=True)
+    return measure_ranges(full_frame), hardware(job.base, full_frame.params)
+
+
+def _descend(job, k0, ranges, max_lsb, passes, progress, jobs, scheduler, speculate):
+    """The greedy coordinate descent from the widened knobs ``k0`` (:func:`_search`), candidates judged as Dask
+    tasks (:mod:`tools.jobs`; in this process without a cluster)."""
+    from contextlib import nullcontext
+
+    from . import jobs as jobrunner
+
+    wide = units_of(k0, job.base)
+    refs = {}
+    for at in job.sizes:
+        frame, rep = job.run(wide, at)
+        refs[at] = (rep["max_lsb_vs_float_well_conditioned"], _refused(frame), rep["max_lsb_vs_ideal"])
     verdicts: dict[tuple, bool] = {}
     remote = jobs > 1 or bool(jobrunner.scheduler_address(scheduler))
     width = max(1, speculate if speculate is not None else (jobs if remote else 1))
 
     def judge(cands: list[dict]) -> None:
-        """Verdicts of candidate knob sets, as Dask tasks (in this process without a cluster)."""
-        nonlocal renders
         todo = [c for c in {tuple(sorted(c.items())): c for c in cands} if c not in verdicts]
-        pieces = [Candidate(scene, c, tuple(sorted(base.items())), tuple(sizes), tuple(ref[at] for at in sizes),
-                            max_lsb, triangles) for c in todo]
+        pieces = [Candidate(job.scene, c, tuple(sorted(job.base.items())), tuple(job.sizes),
+                            tuple(refs[at] for at in job.sizes), max_lsb, job.triangles) for c in todo]
         for c, out in zip(todo, jobrunner.run_pieces(check_candidate, pieces, client=client, progress=False,
                                                      describe=Candidate.describe)):
             verdicts[c] = out["ok"]
-            renders += out["renders"]
+            job.renders += out["renders"]
 
     def ok(k) -> bool:
         judge([k])
         return verdicts[tuple(sorted(k.items()))]
 
-    cluster = jobrunner.cluster(jobs, scheduler) if remote else nullcontext()
-    with cluster as client:
-        k, start, order = _search(base, ranges, ok, judge, verdicts, width, passes, progress, scene.name,
-                                  lambda: renders, initial=k0)
-    k = dict(k)
-    units = units_of(k, base)
-    frame, rep = run(units, None)
-    if rep["max_lsb_vs_float_well_conditioned"] > max_lsb:   # cannot happen: every step was checked at full size
-        raise RuntimeError(f"fit: the final preset is {rep['max_lsb_vs_float_well_conditioned']} LSB from (a)")
+    with (jobrunner.cluster(jobs, scheduler) if remote else nullcontext()) as client:
+        k, start, order = _search(job.base, ranges, ok, judge, verdicts, width, passes, progress, job.scene.name,
+                                  lambda: job.renders, initial=k0)
+    return dict(k), start, order
+
+
+def _write(job, name, units, k, start, order, frame, rep, max_lsb, size, directory, widened, ranges, default_hw,
+           seconds) -> dict:
+    """Write the preset file and return :func:`fit`'s report."""
+    scene = job.scene
     fit_hw = hardware(units, frame.params)
-    name = name or f"{scene.name}-fit"
     final = {"max_lsb_vs_float": rep["max_lsb_vs_float"], "psnr_db_vs_float": rep["psnr_db_vs_float"],
              "max_lsb_vs_float_well_conditioned": rep["max_lsb_vs_float_well_conditioned"],
              "ill_conditioned_pixels": rep["ill_conditioned_pixels"],
              "max_lsb_vs_ideal": rep["max_lsb_vs_ideal"], "psnr_db_vs_ideal": rep["psnr_db_vs_ideal"],
+             "exact_vs_float": rep["exact_vs_float"], "exact_vs_ideal": rep["exact_vs_ideal"],
              "pixels": rep["pixels"], "width": scene.width, "height": scene.height}
-    meta = {"scene": scene.name, "max_lsb": max_lsb, "screen_size": size or 0, "start_cube_size": base["cube_size"],
-            "judged_from": "triangles" if triangles else "fragments", "final": final, "ranges": ranges, "knobs": k}
+    meta = {"scene": scene.name, "max_lsb": max_lsb, "screen_size": size or 0,
+            "start_cube_size": job.base["cube_size"], "judged_from": "triangles" if job.triangles else "fragments",
+            "final": {k_: v for k_, v in final.items() if v is not None}, "ranges": ranges, "knobs": k}
     path = write_preset(name, units, directory, meta=meta,
                         comment=f"Written by `bumpmap fit` for scene {scene.name} (--max-lsb {max_lsb}).\n"
-                                f"Use: make sim PRESET={name} SCENE={scene.name}")
+                                f"Use: make sim PRESET={name} SCENE={scene.path or scene.name}")
     return {"preset": name, "path": str(path), "scene": scene.name, "max_lsb": max_lsb,
             "knobs": {kn: {"default": start[kn], "fit": k[kn]} for kn in order}, "widened": widened,
             "ranges": ranges, "final": final,
             "hardware": {"fit": fit_hw, "default": default_hw, "savings": _savings(fit_hw, default_hw)},
-            "judged_from": meta["judged_from"], "renders": renders, "seconds": round(time.perf_counter() - t0, 1)}
+            "judged_from": meta["judged_from"], "renders": job.renders, "seconds": round(seconds, 1)}

@@ -84,7 +84,8 @@ def content_key(*parts) -> str:
 
 def add_arguments(ap: argparse.ArgumentParser, jobs: int = 1, what: str = "pieces") -> None:
     """``--jobs`` and ``--scheduler`` for a command line (the same two options for every long job)."""
-    ap.add_argument("--jobs", type=int, default=jobs,
+    from host.args import int_range
+    ap.add_argument("--jobs", type=int_range(1, 1024), default=jobs,
                     help=f"{what} run at once on a local Dask cluster of that many single-threaded worker "
                          f"processes; 1: in this process (default: %(default)s)")
     ap.add_argument("--scheduler", default=None,

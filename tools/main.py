@@ -4,9 +4,18 @@ Each command lives in the module that owns its work; this module only maps comma
 one command gives ``add_arguments(parser)`` and ``run(args) -> int``; a module with several gives ``COMMANDS``, a
 dict ``name -> (help, add_arguments, run)``. The ``make`` targets call these commands.
 
-Exit codes, the same for every command: 0 success; 1 a result beyond its bound (a frame farther than
-``--max-lsb`` from reference (a), an RTL mismatch, a failed proof); 2 bad input (a bad argument, scene or preset
-file, or a scene the preset cannot draw); 130 interrupted.
+Exit codes, the same for every command (``docs/exit-codes.md``):
+
+- 0: success (``render`` of a frame that covers no pixel also exits 0, with a warning line);
+- 1: a result beyond its bound: a frame farther than ``--max-lsb`` from reference (a), an RTL mismatch, a failed
+  proof, or ``fit`` finding no preset within its limits that meets ``--max-lsb`` (it names the best it reached);
+- 2: bad input: a bad argument (out of its range, the range in the message), a bad scene or preset file, a
+  scene the preset cannot draw, a scene that draws nothing (``fit``, ``sim``), or an output that cannot be
+  written (a directory, a read-only folder, a missing file's folder), named in one line;
+- 130: interrupted (SIGINT, Ctrl-C); 143: terminated (SIGTERM). Outputs are written atomically, so an
+  interrupted run leaves the previous complete files or the new ones.
+
+Errors are one line on stderr (``error: ...``), never a traceback.
 """
 
 from __future__ import annotations
@@ -14,6 +23,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import shlex
+import signal
 import sys
 
 __all__ = ["COMMANDS", "build_parser", "main"]
@@ -77,9 +87,17 @@ def _add(sub, name: str) -> None:
     p.set_defaults(_run=run)
 
 
+class OneLineParser(argparse.ArgumentParser):
+    """An argument parser whose refusals are one line (``bumpmap render: error: argument --size: ...``, exit 2);
+    ``--help`` shows the usage."""
+
+    def error(self, message):
+        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+
 def build_parser(names=None) -> argparse.ArgumentParser:
     """The parser of ``bumpmap`` with a subparser for each command (``names``: only those, to import less)."""
-    ap = argparse.ArgumentParser(prog="bumpmap", description="One command for every job of the bump-mapping "
+    ap = OneLineParser(prog="bumpmap", description="One command for every job of the bump-mapping "
                                  "hardware project (also: python -m tools).",
                                  epilog="Run 'bumpmap COMMAND --help' for a command's options.")
     sub = ap.add_subparsers(dest="command", required=True, metavar="COMMAND")
@@ -88,16 +106,40 @@ def build_parser(names=None) -> argparse.ArgumentParser:
     return ap
 
 
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, raised in the main thread like Ctrl-C so that the same clean-up runs."""
+
+
+def _on_sigterm(signum, frame):
+    raise Terminated()
+
+
 def main(argv=None) -> int:
+    """Parse ``argv`` and run the command; every error ends in one line on stderr and the exit code above."""
     argv = sys.argv[1:] if argv is None else list(argv)
     known = [a for a in argv[:1] if a in COMMANDS]       # import only the command's own module
-    args = build_parser(known or None).parse_args(argv)
-    args.command_line = " ".join(["bumpmap", *map(shlex.quote, argv)])       # for a record of the run
-    try:
+    previous = signal.signal(signal.SIGTERM, _on_sigterm)
+    try:                                                 # an interrupt while importing is caught too
+        args = build_parser(known or None).parse_args(argv)
+        args.command_line = " ".join(["bumpmap", *map(shlex.quote, argv)])       # for a record of the run
         return args._run(args)
+    except Terminated:
+        print("terminated", file=sys.stderr)
+        return 143
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         return 130
+    except SystemExit as exc:           # a command's one-line refusal: bad input
+        if isinstance(exc.code, str):
+            print(exc.code if exc.code.startswith("error") else f"error: {exc.code}", file=sys.stderr)
+            return 2
+        raise
+    except OSError as exc:              # an output that cannot be written (or an input that cannot be read)
+        where = f"{exc.filename}: " if exc.filename else ""
+        print(f"error: {where}{exc.strerror or exc}", file=sys.stderr)
+        return 2
     except ValueError as exc:           # unknown unit / preset: one clear line, no traceback
         print(f"error: {exc}", file=sys.stderr)
         return 2
+    finally:
+        signal.signal(signal.SIGTERM, previous)

@@ -6,8 +6,8 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 import time
-from pathlib import Path
 
 import numpy as np
 
@@ -79,26 +79,29 @@ def add_maps_arguments(ap: argparse.ArgumentParser) -> None:
 
 
 def maps(args) -> int:
-    """Write each material's maps as PNG files: ``<material>_color.png`` (the color texture), and for a bump-mapped
-    material ``<material>_height.png`` (the height field, white = high) and ``<material>_bump.png`` (the quantized
-    ``(du, dv)`` as red and green, 128 = zero, full scale = the format's range)."""
-    from PIL import Image
+    """Write each material's maps as PNG files: ``<i>-<material>_color.png`` (the color texture), and for a
+    bump-mapped material ``<i>-<material>_height.png`` (the height field, white = high) and
+    ``<i>-<material>_bump.png`` (the quantized ``(du, dv)`` as red and green, 128 = zero, full scale = the format's
+    range). ``<i>`` is the material's index and ``<material>`` its name with every character but letters, digits,
+    ``-`` and ``_`` made ``_``: a name from the file is a label, never a path."""
+    import re
 
+    from host.atomic import atomic_save_png, check_output_dir
     from host.bumpmap import bump_rgb, height_picture, scene_maps
     from host.scene import SceneError, load_scene
+    out = check_output_dir(args.outdir, "output folder")
     try:
         scene = load_scene(args.scene)
     except SceneError as exc:
-        print(f"error: {exc}")
+        print(f"error: {exc}", file=sys.stderr)
         return 2
-    out = Path(args.outdir)
-    out.mkdir(parents=True, exist_ok=True)
-    for mat, m in zip(scene.materials, scene_maps(scene)):
-        Image.fromarray(m.color).save(out / f"{mat.name}_color.png")
+    for i, (mat, m) in enumerate(zip(scene.materials, scene_maps(scene))):
+        stem = f"{i}-{re.sub(r'[^A-Za-z0-9_-]', '_', mat.name)[:40]}"
+        atomic_save_png(out / f"{stem}_color.png", m.color)
         if m.bump is None:
             continue
-        Image.fromarray(height_picture(m.heights)).save(out / f"{mat.name}_height.png")
-        Image.fromarray(bump_rgb(m.bump)).save(out / f"{mat.name}_bump.png")
+        atomic_save_png(out / f"{stem}_height.png", height_picture(m.heights))
+        atomic_save_png(out / f"{stem}_bump.png", bump_rgb(m.bump))
         print(f"{mat.name}: {m.bump.shape[1]}x{m.bump.shape[0]} bump map, scale {m.bump.scale:.6g}, "
               f"A gain {m.a_gain:.6g}, saturated {m.bump.n_saturated}")
     print(f"wrote {out}")

@@ -1,16 +1,22 @@
 """Where the project's files are: the repository root, the shipped scenes and presets, the build folder, and the
 digest of the sources that build caches are keyed by. Every module that needs one of these asks here, so a
 checkout, an installed copy and a relocated build folder all work the same way.
+
+:func:`atomic_writer` is the one way a file is written: into a temporary file beside it, flushed to disk, then
+renamed over it, so a reader (or a run interrupted at any moment) sees the old complete file or the new one,
+never a truncated mix (``host.atomic`` builds the PNG, JSON and ``.npy`` writers on it).
 """
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import hashlib
 import os
+import tempfile
 from pathlib import Path
 
-__all__ = ["ROOT", "SCENES", "presets_dir", "build_dir", "source_digest"]
+__all__ = ["ROOT", "SCENES", "presets_dir", "build_dir", "source_digest", "atomic_writer"]
 
 #: The repository root (the folder holding ``fxmodel/``, ``scenes/`` and ``presets/``).
 ROOT = Path(__file__).resolve().parents[2]
@@ -42,3 +48,41 @@ def source_digest(folders: tuple[str, ...] = ("fxmodel", "rtl")) -> bytes:
         for path in sorted(base.rglob("*.py")):
             h.update(path.relative_to(ROOT).as_posix().encode() + b"\0" + path.read_bytes())
     return h.digest()
+
+
+@contextlib.contextmanager
+def atomic_writer(path, mode: str = "wb", encoding: str | None = None):
+    """Write ``path`` atomically: yields a file open on a temporary file in the same folder (``mode`` ``"wb"`` or
+    ``"w"``); when the block ends without an exception the file is flushed, ``fsync``-ed and renamed over
+    ``path`` (:func:`os.replace`), else removed and ``path`` left as it was. The folder must exist.
+
+    Raises
+    ------
+    OSError
+        The folder is missing or not writable, or ``path`` is a directory (``IsADirectoryError``, checked first).
+    """
+    path = Path(path)
+    if path.is_dir():
+        raise IsADirectoryError(21, "Is a directory", str(path))
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    except OSError as exc:              # name the file asked for, not the temporary one
+        raise type(exc)(exc.errno, exc.strerror, str(path)) from None
+    try:
+        with os.fdopen(fd, mode, encoding=encoding if "b" not in mode else None) as fh:
+            yield fh
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.chmod(tmp, 0o644 & ~_umask())
+        os.replace(tmp, path)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        raise
+
+
+@functools.lru_cache(maxsize=1)
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask

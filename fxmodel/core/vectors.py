@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from fxmodel.core.fixed import Fmt
+from fxmodel.core.paths import atomic_writer
 
 __all__ = ["layout", "write_readmemh", "read_readmemh", "pack_words", "write_words", "read_words"]
 
@@ -116,7 +117,7 @@ def write_readmemh(path, fields: list[tuple[str, Fmt]], codes: np.ndarray, chunk
     digits = -(-total // 4)
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    with open(path, "wb") as fh:
+    with atomic_writer(path, "wb") as fh:
         fh.write(f"// {codes.shape[0]} vectors, {total} bits a word, fields from the most significant bit:\n"
                  .encode())
         for name, fmt, msb, lsb in layout(fields):

@@ -22,11 +22,12 @@ from __future__ import annotations
 
 import dataclasses
 import enum
+import re
 import tomllib
 from pathlib import Path
 
 from fxmodel.core.fixed import Fmt
-from fxmodel.core.paths import presets_dir
+from fxmodel.core.paths import atomic_writer, presets_dir
 from fxmodel.core.unit import require
 from fxmodel.units.bump import BumpParams
 from fxmodel.units.cube import CubeParams
@@ -35,7 +36,7 @@ from fxmodel.units.reflect import ReflectParams
 from fxmodel.units.shade import ShadeParams
 
 __all__ = ["TOP_KEYS", "UNIT_KEYS", "UNIT_TYPES", "BUILTIN_PRESET_UNITS", "PRESET_UNITS", "PresetError",
-           "top_value", "top_problem", "preset_units", "presets_dir", "preset_path", "load_preset", "dump_preset",
+           "top_value", "top_problem", "preset_units", "presets_dir", "check_preset_name", "preset_path", "load_preset", "dump_preset",
            "write_preset"]
 
 #: The integer keys of a pipeline preset beside its units: ``(default, smallest, largest)``. ``weight_bits``: the
@@ -44,6 +45,10 @@ __all__ = ["TOP_KEYS", "UNIT_KEYS", "UNIT_TYPES", "BUILTIN_PRESET_UNITS", "PRESE
 #: proof's minimum (:class:`fxmodel.units.raster.RasterParams` ``extra_guard``: 1 keeps the accumulated error within a
 #: quarter of an output ulp).
 TOP_KEYS = {"weight_bits": (12, 1, 16), "cube_size": (64, 1, 1024), "raster_guard": (1, 0, 8)}
+
+#: Widest number format a preset file may give a field (sign included): the model's integer arithmetic and the
+#: RTL's ports are sized from it; the default preset's widest is 26 bits.
+MAX_FMT_BITS = 48
 
 #: The parameter class of each unit in a pipeline preset's units dict.
 UNIT_TYPES = {"persp": PerspParams, "bump": BumpParams, "reflect": ReflectParams, "cube": CubeParams,
@@ -136,9 +141,23 @@ def preset_units(preset: str | dict) -> dict:
     return preset
 
 
+#: What a preset name may be: it names a file in the presets folder, so no path separators, no leading dot.
+NAME_PATTERN = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.+-]{0,99}")
+
+
+def check_preset_name(name) -> str:
+    """``name`` if it can name a preset file (:data:`NAME_PATTERN`: letters, digits, ``_ . + -``, not starting
+    with a dot, at most 100 characters), else :class:`PresetError` naming it (nothing outside the folder)."""
+    if not isinstance(name, str) or not NAME_PATTERN.fullmatch(name):
+        raise PresetError(f"bad pipeline preset name {name!r}: use letters, digits, '_', '.', '+', '-' (not first), "
+                          f"at most 100 characters")
+    return name
+
+
 def preset_path(name: str, directory=None) -> Path:
-    """The file of preset ``name`` in ``directory`` (default :func:`presets_dir`)."""
-    return Path(directory if directory is not None else presets_dir()) / f"{name}.toml"
+    """The file of preset ``name`` (checked, :func:`check_preset_name`) in ``directory`` (default
+    :func:`presets_dir`)."""
+    return Path(directory if directory is not None else presets_dir()) / f"{check_preset_name(name)}.toml"
 
 
 # -- writing ------------------------------------------------------------------------------------------------
@@ -177,8 +196,10 @@ def dump_preset(units: dict, meta: dict | None = None, comment: str = "") -> str
 def write_preset(name: str, units: dict, directory=None, meta: dict | None = None, comment: str = "") -> Path:
     """Write ``units`` (see :func:`dump_preset`) as preset ``name``; returns the file. Checks it reads back."""
     path = preset_path(name, directory)
+    text = dump_preset(units, meta, comment)
     path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(dump_preset(units, meta, comment))
+    with atomic_writer(path, "w", encoding="utf-8") as fh:
+        fh.write(text)
     back = load_preset(name, directory)
     for key in UNIT_KEYS:
         if back[key] != units[key]:
@@ -192,17 +213,20 @@ def _convert(base, value, file: Path, where: str):
     def bad(why):
         return PresetError(f"{file}: key {where}: {why}")
 
-    if dataclasses.is_dataclass(base) and not (isinstance(base, Fmt) and isinstance(value, str)):
-        if not isinstance(value, dict):
-            raise bad(f"must be a table, got {value!r}")
-        return _build(base, value, file, where)
-    if isinstance(base, Fmt):
+    if isinstance(base, Fmt):                   # before the tables: a format is a dataclass written as a string
         if not isinstance(value, str):
             raise bad(f"must be a format string like \"s2.16\", got {value!r}")
         try:
-            return Fmt.parse(value)
+            fmt = Fmt.parse(value)
         except (ValueError, TypeError) as exc:
             raise bad(str(exc)) from None
+        if fmt.width > MAX_FMT_BITS:
+            raise bad(f"{value!r} is {fmt.width} bits wide, at most {MAX_FMT_BITS} allowed")
+        return fmt
+    if dataclasses.is_dataclass(base):
+        if not isinstance(value, dict):
+            raise bad(f"must be a table, got {value!r}")
+        return _build(base, value, file, where)
     if isinstance(base, enum.Enum):
         try:
             return type(base)[value]
@@ -215,6 +239,8 @@ def _convert(base, value, file: Path, where: str):
     if isinstance(base, int):
         if not isinstance(value, int) or isinstance(value, bool):
             raise bad(f"must be an integer, got {value!r}")
+        if not -(1 << 16) <= value <= 1 << 16:
+            raise bad(f"must be an integer of magnitude at most {1 << 16}, got {value!r}")
         return value
     if isinstance(base, str):
         if not isinstance(value, str):
@@ -256,13 +282,11 @@ def load_preset(name: str, directory=None, base: dict | None = None) -> dict:
         invalid key (naming the file and the key).
     """
     path = preset_path(name, directory)
-    if not isinstance(name, str) or not name or "/" in name or "\\" in name:
-        raise PresetError(f"bad pipeline preset name {name!r}")
     if not path.is_file():
         raise PresetError(f"unknown pipeline preset {name!r}: not built in ({', '.join(BUILTIN_PRESET_UNITS)}) "
                           f"and no file {path}")
     try:
-        data = tomllib.loads(path.read_text())
+        data = tomllib.loads(path.read_text(encoding="utf-8-sig"))      # a byte-order mark is accepted
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
         raise PresetError(f"{path}: not valid TOML: {exc}") from None
     base = base if base is not None else BUILTIN_PRESET_UNITS["default"]

@@ -92,7 +92,9 @@ def test_make_sim_refuses_clamped_inputs_and_fails_a_frame_over_the_bound(monkey
     assert sim.main(args) == 2 and "persp.uv_fmt" in capsys.readouterr().err
     assert sim.main(args + ["--allow-clamp", "--max-lsb", "0"]) == 1
     assert "over the bound of 0 LSB" in capsys.readouterr().err
-    rep = json.loads((tmp_path / "build" / "sim" / "wide-span" / "report.json").read_text())
+    out = sim.output_folder(args + ["--allow-clamp", "--max-lsb", "0"])
+    assert out.parent == tmp_path / "build" / "sim" and out.name.startswith("wide-span-")
+    rep = json.loads((out / "report.json").read_text())
     assert rep["verdict"]["bound_lsb"] == 0 and not rep["verdict"]["pass"]
     assert rep["verdict"]["clamped_fragment_inputs"]["U"] > 0
 

@@ -115,11 +115,12 @@ def test_make_sim_from_triangles_reports_depth_and_memory(monkeypatch, tmp_path,
 
     monkeypatch.setattr(sim, "run_records", fake_run_records)
     monkeypatch.setenv("BUMPMAP_BUILD", str(tmp_path / "build"))
-    assert bumpmap(["sim", "--scene", "tin-sphere", "--size", "96", "--cube-size", "8", "--input", "triangles",
-                     "--sim", "icarus"]) == 0
+    argv = ["--scene", "tin-sphere", "--size", "96", "--cube-size", "8", "--input", "triangles", "--sim", "icarus"]
+    assert bumpmap(["sim", *argv]) == 0
     table = capsys.readouterr().out
     assert "overdraw" in table and "depth disagreements" in table and "memory / pixel" in table
-    out = tmp_path / "build" / "sim" / "tin-sphere-triangles"
+    out = sim.output_folder(argv)
+    assert out.parent == tmp_path / "build" / "sim" and out.name.startswith("tin-sphere-")
     report = json.loads((out / "report.json").read_text())
     d, m = report["depth"], report["memory"]
     assert set(d) >= {"fragments", "passed", "failed", "overdraw", "disagreements",

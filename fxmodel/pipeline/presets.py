@@ -36,8 +36,8 @@ from fxmodel.units.reflect import ReflectParams
 from fxmodel.units.shade import ShadeParams
 
 __all__ = ["TOP_KEYS", "UNIT_KEYS", "UNIT_TYPES", "BUILTIN_PRESET_UNITS", "PRESET_UNITS", "PresetError",
-           "top_value", "top_problem", "preset_units", "presets_dir", "check_preset_name", "preset_path", "load_preset", "dump_preset",
-           "write_preset"]
+           "top_value", "top_problem", "preset_units", "presets_dir", "check_preset_name", "preset_path", "load_preset",
+           "dump_preset", "write_preset"]
 
 #: The integer keys of a pipeline preset beside its units: ``(default, smallest, largest)``. ``weight_bits``: the
 #: bump-map and texture bilinear weights; ``cube_size``: texels per reflectance-cube face edge (6 faces of

@@ -84,7 +84,10 @@ def sphere_mesh(center, radius, segments=32, rings=16):
     d = np.stack(np.broadcast_arrays(st * np.sin(phi), ct, st * np.cos(phi)), -1)
     d = d / np.linalg.norm(d, axis=-1, keepdims=True)                 # (rings + 1, segments + 1, 3)
     uvg = np.stack(np.broadcast_arrays(j / segments, i / rings), -1).astype(np.float64)
-    pole_uv = lambda v: np.stack([(np.arange(segments) + 0.5) / segments, np.full(segments, float(v))], -1)
+
+    def pole_uv(v):
+        return np.stack([(np.arange(segments) + 0.5) / segments, np.full(segments, float(v))], -1)
+
     js = np.arange(segments)
     tris_d, tris_uv = [], []
     for r in range(rings):

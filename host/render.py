@@ -26,17 +26,17 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from host.atomic import atomic_save_png
-from host.bumpmap import block_exponent, bump_gain, perturbations, scene_maps
-from host.frontend import rasterize, triangle_records
-from fxmodel.pipeline.lighting import Light, Lighting, face_directions
+from fxmodel.core.rounding import Overflow, Rounding, quantize
 from fxmodel.pipeline.engine import EngineParams
+from fxmodel.pipeline.lighting import Light, Lighting, face_directions
 from fxmodel.pipeline.pixel import FLAG_BITS, PipelineParams
 from fxmodel.pipeline.presets import preset_units, top_value
 from fxmodel.units.raster import RasterParams, Records
-from host.reference import float_pipeline, ideal_phong, max_lsb, perturbed, psnr
 from fxmodel.units.rop import RopParams
-from fxmodel.core.rounding import Overflow, Rounding, quantize
+from host.bumpmap import block_exponent, bump_gain, perturbations, scene_maps
+from host.frontend import rasterize, triangle_records
+from host.images import compose, diff_image, metrics, save_png
+from host.reference import float_pipeline, ideal_phong, max_lsb, perturbed
 from host.scene import load_scene, scene_path
 from host.visibility import disagreement_picture, resolve
 
@@ -44,7 +44,6 @@ __all__ = ["Frame", "prepare", "pipeline_params", "render", "save_png", "compose
            "judge", "tell", "bound_args", "INPUT_KNOBS", "ILL_CONDITIONED", "ADDRESS_LIMIT_TEXELS",
            "address_errors", "TriangleFrame", "from_triangles", "render_triangles", "raster_params", "engine_params"]
 
-DIFF_GAIN = 16
 
 #: The documented bound of a frame of an accepted scene: the largest per-channel distance, in 8-bit steps, of the
 #: bit-exact frame from reference (a) on every well-conditioned pixel (README, "Which scenes the hardware draws,
@@ -327,7 +326,7 @@ def _build(scene, units: dict, cube_size: int | None, t0: float):
     mi = int(used[0]) if len(used) else 0
     mat, mm = scene.materials[mi], maps[mi]
     bump = np.stack([mm.bump.du, mm.bump.dv], -1) if mm.bump is not None else np.zeros((1, 1, 2), np.int64)
-    lighting = Lighting(lights=tuple(Light(tuple(l.direction), tuple(l.color)) for l in scene.lights),
+    lighting = Lighting(lights=tuple(Light(tuple(s.direction), tuple(s.color)) for s in scene.lights),
                         ambient=tuple(scene.ambient), specular=tuple(mat.specular), shininess=float(mat.shininess))
     t1 = time.perf_counter()
     params, cube_info = PipelineParams.assemble(bump_codes=bump, texture_bytes=mm.color, lighting=lighting,
@@ -379,8 +378,8 @@ def _build(scene, units: dict, cube_size: int | None, t0: float):
 
 def pipeline_params(scene, preset: str | dict = "default", *, cube_size: int | None = None) -> PipelineParams:
     """The pipeline that renders ``scene``: ``preset``'s units with the scene's memories (bump map, texture and
-    the reflectance cubes of ``cube_size`` texels, default the preset's), as ``make sim`` streams it; for ``make verilog`` and
-    ``make fpga``.
+    the reflectance cubes of ``cube_size`` texels, default the preset's), as ``make sim`` streams it; for ``make
+    verilog`` and ``make fpga``.
 
     ``scene`` is a scene name in ``scenes/`` (``tin-plane``) or a file (see :func:`host.scene.scene_path`);
     ``preset`` as :func:`prepare`. The scene is prepared at its own size (a fraction of a second for the shipped
@@ -400,44 +399,6 @@ def engine_params(scene, preset: str | dict = "default", *, cube_size: int | Non
     :func:`pipeline_params` (for ``make fpga``)."""
     frame = prepare(scene_path(scene), preset=preset, cube_size=cube_size, allow_clamp=True)
     return EngineParams(raster=raster_params(frame.units), pipeline=frame.params)
-
-
-def save_png(path, img: np.ndarray) -> Path:
-    """Write ``img`` as a PNG atomically (:func:`host.atomic.atomic_save_png`); returns the path."""
-    return atomic_save_png(path, img)
-
-
-def compose(*imgs: np.ndarray, gap: int = 4) -> np.ndarray:
-    """Images side by side on a dark grey gap."""
-    h = max(i.shape[0] for i in imgs)
-    w = sum(i.shape[1] for i in imgs) + gap * (len(imgs) - 1)
-    out = np.full((h, w, 3), 40, dtype=np.uint8)
-    x = 0
-    for img in imgs:
-        out[:img.shape[0], x:x + img.shape[1]] = img
-        x += img.shape[1] + gap
-    return out
-
-
-def diff_image(a: np.ndarray, b: np.ndarray, gain: int = DIFF_GAIN) -> np.ndarray:
-    return np.clip(np.abs(a.astype(np.int64) - b.astype(np.int64)) * gain, 0, 255).astype(np.uint8)
-
-
-def psnr_db(a: np.ndarray, b: np.ndarray) -> float | None:
-    """PSNR in dB rounded to 0.01 for a JSON report, ``None`` (JSON ``null``) for identical frames, whose PSNR
-    is infinite (strict JSON has no ``Infinity``; the report's ``exact_*`` fields say so)."""
-    value = psnr(a, b)
-    return round(value, 2) if np.isfinite(value) else None
-
-
-def metrics(model: np.ndarray, float_a: np.ndarray, ideal_b: np.ndarray) -> dict:
-    """PSNR and largest difference of the model's bytes against references (a) and (b). An exact match has
-    ``psnr_db_*`` ``null`` and ``exact_*`` true (an empty frame matches exactly)."""
-    return {"psnr_db_vs_float": psnr_db(model, float_a), "max_lsb_vs_float": max_lsb(model, float_a),
-            "psnr_db_vs_ideal": psnr_db(model, ideal_b), "max_lsb_vs_ideal": max_lsb(model, ideal_b),
-            "psnr_db_float_vs_ideal": psnr_db(float_a, ideal_b),
-            "exact_vs_float": bool(np.array_equal(model, float_a)),
-            "exact_vs_ideal": bool(np.array_equal(model, ideal_b))}
 
 
 def render(frame: Frame, out_dir=None, *, references: bool = True, model=None, exclude=None) -> dict:

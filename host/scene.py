@@ -122,409 +122,59 @@ The complete commented example below is also a valid scene (``SCHEMA_EXAMPLE``, 
 
 from __future__ import annotations
 
-import json
-import math
 import textwrap
 import tomllib
-from dataclasses import dataclass, field, replace
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any, Callable, NamedTuple
+from typing import Any
 
 import numpy as np
 
 from fxmodel.core.paths import SCENES
 from host.meshes import frozen_array, quad_mesh, sphere_mesh
+from host.scene_reader import Reader, show_value
+from host.scene_types import (
+    MAX_COLOR,
+    MAX_COORD,
+    MAX_IMAGE_SIZE,
+    MAX_MAP_SIZE,
+    MAX_REPEAT,
+    MAX_SHININESS,
+    MAX_SIGMA,
+    MAX_STRENGTH,
+    MAX_TRIANGLES,
+    MIN_GRAFFITI_HEIGHT,
+    BumpSpec,
+    Camera,
+    ColorSpec,
+    Light,
+    Material,
+    Mesh,
+    Scene,
+    SceneError,
+    Triangles,
+)
 
 __all__ = ["SceneError", "Camera", "Light", "ColorSpec", "BumpSpec", "Material", "Mesh", "Scene", "Triangles",
            "SCENES", "scene_path", "load_scene", "parse_scene", "SCHEMA_EXAMPLE",
            "MAX_IMAGE_SIZE", "MAX_MAP_SIZE", "MAX_COORD", "MAX_COLOR", "MAX_SHININESS", "MAX_STRENGTH",
            "MAX_REPEAT", "MAX_SIGMA", "MAX_TRIANGLES", "COLOR_PROCEDURALS", "BUMP_PROCEDURALS"]
 
-#: Limits of the schema, stated once: what a file may hold is what the pipeline can compute (anything beyond is
-#: refused by key before any work). Image edge in pixels; map (texture, bump map) edge in texels.
-MAX_IMAGE_SIZE = 8192
-MAX_MAP_SIZE = 4096
-#: Largest magnitude of a world coordinate (positions, targets, mesh origins and edges, sphere centers and radii,
-#: clipping distances) and of a texture coordinate: far beyond any scene, far below where squares overflow.
-MAX_COORD = 1e6
-#: Largest light, ambient or specular color component (linear RGB; 1 is full scale).
-MAX_COLOR = 1e3
-#: Largest Phong exponent, bump strength, map repeat count and Mexican-hat sigma (texels).
-MAX_SHININESS = 1e4
-MAX_STRENGTH = 1e3
-MAX_REPEAT = 1e4
-MAX_SIGMA = float(MAX_MAP_SIZE)
-#: Most triangles a scene may hold (all meshes together; a mesh generator's count is checked before it runs).
-MAX_TRIANGLES = 1 << 20
-#: Smallest graffiti texture height (its bands need this many texels).
-MIN_GRAFFITI_HEIGHT = 4
-
-
-class SceneError(ValueError):
-    """A malformed scene file: the message names the file and the key path."""
-
-
-# ------------------------------------------------------------------------------------------------------------
-# parsed scene
-# ------------------------------------------------------------------------------------------------------------
-Vec3 = tuple[float, float, float]
-
-
-@dataclass(frozen=True)
-class Camera:
-    """Perspective camera (paper section 4: homogeneous x, y, z, w; w is the distance along the view axis).
-
-    Attributes
-    ----------
-    position, target, up : tuple of 3 float
-        World space. ``up`` need only not be parallel to ``target - position``.
-    fov : float
-        Vertical field of view in degrees.
-    near, far : float
-        Clipping distances along the view axis, ``0 < near < far``.
-    """
-
-    position: Vec3
-    target: Vec3
-    up: Vec3
-    fov: float
-    near: float
-    far: float
-
-    def basis(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """``(right, up, forward)``: orthonormal world vectors, ``right = forward x up`` (right-handed)."""
-        f = np.subtract(self.target, self.position, dtype=np.float64)
-        f /= np.linalg.norm(f)
-        r = np.cross(f, np.asarray(self.up, dtype=np.float64))
-        r /= np.linalg.norm(r)
-        return r, np.cross(r, f), f
-
-
-@dataclass(frozen=True)
-class Light:
-    """Directional light: ``direction`` is a unit vector toward the light; ``color`` linear RGB >= 0."""
-
-    direction: Vec3
-    color: Vec3
-
-
-@dataclass(frozen=True)
-class ColorSpec:
-    """A material's color texture.
-
-    Attributes
-    ----------
-    kind : {"rgb", "file", "procedural"}
-    rgb : tuple of 3 float or None
-        Constant color in [0, 1] (``kind == "rgb"``).
-    path : pathlib.Path or None
-        Absolute path of the PNG (``kind == "file"``).
-    procedural : str or None
-        Generator name, one of :data:`COLOR_PROCEDURALS` (``kind == "procedural"``).
-    params : tuple of (str, value)
-        Generator parameters, defaults filled in (see :attr:`kwargs`).
-    repeat : tuple of 2 float
-        Tiles over ``u`` and ``v`` in ``[0, 1]``.
-    key : str
-        Key path in the scene file (for messages), e.g. ``materials[1].color``.
-    """
-
-    kind: str
-    rgb: Vec3 | None = None
-    path: Path | None = None
-    procedural: str | None = None
-    params: tuple = ()
-    repeat: tuple[float, float] = (1.0, 1.0)
-    key: str = ""
-
-    @property
-    def kwargs(self) -> dict:
-        return dict(self.params)
-
-
-@dataclass(frozen=True)
-class BumpSpec:
-    """A material's bump map (paper section 3.2; Fig. 9 and Fig. 11).
-
-    Attributes
-    ----------
-    kind : {"file", "procedural"}
-    path : pathlib.Path or None
-        Absolute path of the greyscale height PNG (``kind == "file"``).
-    procedural : str or None
-        One of :data:`BUMP_PROCEDURALS`.
-    params : tuple of (str, value)
-        Generator parameters with defaults filled in.
-    repeat : tuple of 2 float
-        Tiles over ``u`` and ``v`` in ``[0, 1]``.
-    strength : float
-        Slope multiplier: ``N' = N - strength (dh/du T + dh/dv B)``, ``h`` differentiated per texel.
-    key : str
-        Key path in the scene file.
-    """
-
-    kind: str
-    path: Path | None = None
-    procedural: str | None = None
-    params: tuple = ()
-    repeat: tuple[float, float] = (1.0, 1.0)
-    strength: float = 1.0
-    key: str = ""
-
-    @property
-    def kwargs(self) -> dict:
-        return dict(self.params)
-
-
-@dataclass(frozen=True)
-class Material:
-    """Color texture, optional bump map, specular color and Phong exponent."""
-
-    name: str
-    color: ColorSpec
-    bump: BumpSpec | None
-    specular: Vec3
-    shininess: float
-
-
-@dataclass(frozen=True)
-class Mesh:
-    """Triangles of one material, as read-only float64 arrays.
-
-    Attributes
-    ----------
-    kind : {"triangles", "quad", "sphere"}
-    material : int
-        Index into :attr:`Scene.materials`.
-    two_sided : bool
-        If false, back faces are culled; if true they are drawn with ``N`` and ``A`` negated.
-    positions : ndarray, shape (T, 3, 3)
-        Vertex positions, world space, counter-clockwise seen from the front.
-    normals : ndarray, shape (T, 3, 3)
-        Unit vertex normals.
-    uvs : ndarray, shape (T, 3, 2)
-        Texture coordinates ``(u, v)`` per vertex (before any repeat).
-    key : str
-        Key path in the scene file, e.g. ``meshes[0]``.
-    """
-
-    kind: str
-    material: int
-    two_sided: bool
-    positions: np.ndarray = field(repr=False)
-    normals: np.ndarray = field(repr=False)
-    uvs: np.ndarray = field(repr=False)
-    key: str = ""
-
-    @property
-    def n_triangles(self) -> int:
-        return self.positions.shape[0]
-
-
-class Triangles(NamedTuple):
-    """All triangles of a scene, concatenated in file order (:meth:`Scene.triangles`)."""
-
-    positions: np.ndarray      # (T, 3, 3)
-    normals: np.ndarray        # (T, 3, 3)
-    uvs: np.ndarray            # (T, 3, 2)
-    material: np.ndarray       # (T,) int64
-    two_sided: np.ndarray      # (T,) bool
-    mesh: np.ndarray           # (T,) int64
-
-
-@dataclass(frozen=True)
-class Scene:
-    """A parsed, validated scene (see the module docstring for the file format).
-
-    Attributes
-    ----------
-    path : pathlib.Path or None
-        The scene file (None for a scene parsed from a string).
-    name : str
-    width, height : int
-        Image size in pixels.
-    background : tuple of 3 float
-    camera : Camera
-    ambient : tuple of 3 float
-    lights : tuple of Light
-    materials : tuple of Material
-    meshes : tuple of Mesh
-    """
-
-    path: Path | None
-    name: str
-    width: int
-    height: int
-    background: Vec3
-    camera: Camera
-    ambient: Vec3
-    lights: tuple[Light, ...]
-    materials: tuple[Material, ...]
-    meshes: tuple[Mesh, ...]
-
-    def with_size(self, width: int, height: int | None = None) -> "Scene":
-        """The same scene at another image size; ``height`` defaults to keeping the aspect ratio."""
-        if height is None:
-            height = max(1, round(width * self.height / self.width))
-        for name, v in (("width", width), ("height", height)):
-            if not isinstance(v, int) or isinstance(v, bool) or not 1 <= v <= MAX_IMAGE_SIZE:
-                raise ValueError(f"{name}={v!r}: must be an int in 1..{MAX_IMAGE_SIZE}")
-        return replace(self, width=width, height=height)
-
-    def triangles(self) -> Triangles:
-        """All triangles, concatenated over the meshes in file order (the front end's triangle index)."""
-        if not self.meshes:
-            z = np.zeros((0, 3, 3))
-            return Triangles(z, z, np.zeros((0, 3, 2)), np.zeros(0, np.int64), np.zeros(0, bool),
-                             np.zeros(0, np.int64))
-        counts = [m.n_triangles for m in self.meshes]
-        return Triangles(
-            np.concatenate([m.positions for m in self.meshes]),
-            np.concatenate([m.normals for m in self.meshes]),
-            np.concatenate([m.uvs for m in self.meshes]),
-            np.repeat(np.array([m.material for m in self.meshes], np.int64), counts),
-            np.repeat(np.array([m.two_sided for m in self.meshes], bool), counts),
-            np.repeat(np.arange(len(self.meshes), dtype=np.int64), counts))
-
-
-# ------------------------------------------------------------------------------------------------------------
-# validation helpers
-# ------------------------------------------------------------------------------------------------------------
-def _show(value) -> str:
-    """A short TOML-like rendering of a bad value for an error message."""
-    try:
-        text = json.dumps(value, default=str, ensure_ascii=False)
-    except (TypeError, ValueError):
-        text = repr(value)
-    return text if len(text) <= 60 else text[:57] + "..."
-
-
-def _is_num(v) -> bool:
-    return isinstance(v, (int, float)) and not isinstance(v, bool)
-
-
-class _Reader:
-    """Validation with messages ``<file>: <key path>: <problem>``."""
-
-    def __init__(self, source: str):
-        self.source = source
-
-    def fail(self, key: str, msg: str):
-        raise SceneError(f"{self.source}: {key}: {msg}" if key else f"{self.source}: {msg}")
-
-    # -- tables ---------------------------------------------------------------------------------------------
-    def table(self, v, key: str, allowed: tuple[str, ...], required: tuple[str, ...] = ()) -> dict:
-        if not isinstance(v, dict):
-            self.fail(key, f"expected a table, got {_show(v)}")
-        for k in v:
-            if k not in allowed:
-                self.fail(f"{key}.{k}" if key else k, f"unknown key (allowed: {', '.join(allowed)})")
-        for k in required:
-            if k not in v:
-                self.fail(f"{key}.{k}" if key else k, "missing")
-        return v
-
-    def array_of_tables(self, v, key: str) -> list:
-        if not isinstance(v, list) or not all(isinstance(x, dict) for x in v):
-            self.fail(key, f"expected an array of tables ([[{key}]]), got {_show(v)}")
-        return v
-
-    # -- scalars --------------------------------------------------------------------------------------------
-    def number(self, v, key: str, lo=None, hi=None, lo_open=False, hi_open=False) -> float:
-        if not _is_num(v):
-            self.fail(key, f"expected a number, got {_show(v)}")
-        x = float(v)
-        if not math.isfinite(x):
-            self.fail(key, f"expected a finite number, got {_show(v)}")
-        if lo is not None and (x < lo or (lo_open and x == lo)):
-            self.fail(key, f"must be {'>' if lo_open else '>='} {lo:g}, got {_show(v)}")
-        if hi is not None and (x > hi or (hi_open and x == hi)):
-            self.fail(key, f"must be {'<' if hi_open else '<='} {hi:g}, got {_show(v)}")
-        return x
-
-    def integer(self, v, key: str, lo=None, hi=None) -> int:
-        if not isinstance(v, int) or isinstance(v, bool):
-            self.fail(key, f"expected an integer, got {_show(v)}")
-        if (lo is not None and v < lo) or (hi is not None and v > hi):
-            rng = f"{lo} .. {hi}" if hi is not None else f">= {lo}"
-            self.fail(key, f"must be an integer in {rng}, got {_show(v)}")
-        return int(v)
-
-    def boolean(self, v, key: str) -> bool:
-        if not isinstance(v, bool):
-            self.fail(key, f"expected true or false, got {_show(v)}")
-        return v
-
-    def string(self, v, key: str, choices: tuple[str, ...] | None = None) -> str:
-        if not isinstance(v, str):
-            self.fail(key, f"expected a string, got {_show(v)}")
-        if choices is not None and v not in choices:
-            self.fail(key, f"expected one of {', '.join(repr(c) for c in choices)}, got {_show(v)}")
-        return v
-
-    def vector(self, v, key: str, n: int, lo=None, hi=None, lo_open=False, nonzero=False, integer=False,
-               mag=None):
-        """``n`` numbers, each in ``[lo, hi]`` and, with ``mag``, of magnitude at most ``mag``."""
-        if mag is not None:
-            lo = -mag if lo is None else lo
-            hi = mag if hi is None else min(hi, mag)
-        what = "integers" if integer else "numbers"
-        if not isinstance(v, list) or len(v) != n:
-            self.fail(key, f"expected {n} {what}, got {_show(v)}")
-        for i, x in enumerate(v):
-            ok = (isinstance(x, int) and not isinstance(x, bool)) if integer else _is_num(x)
-            if not ok or (not integer and not math.isfinite(x)):
-                self.fail(key, f"expected {n} {what}, got {_show(v)} (element {i} is {_show(x)})")
-            if (lo is not None and (x < lo or (lo_open and x == lo))) or (hi is not None and x > hi):
-                bound = []
-                if lo is not None:
-                    bound.append(f"{'>' if lo_open else '>='} {lo:g}")
-                if hi is not None:
-                    bound.append(f"<= {hi:g}")
-                self.fail(key, f"every element must be {' and '.join(bound)}, got {_show(v)}")
-        out = tuple(int(x) if integer else float(x) for x in v)
-        if nonzero and not any(out):
-            self.fail(key, f"must not be the zero vector, got {_show(v)}")
-        return out
-
-    def vectors(self, v, key: str, n: int, mag=None) -> np.ndarray:
-        """A non-empty list of n-vectors as an array (K, n), each element of magnitude at most ``mag``."""
-        if not isinstance(v, list) or not v:
-            self.fail(key, f"expected a non-empty list of {n}-vectors, got {_show(v)}")
-        return np.array([self.vector(x, f"{key}[{i}]", n, mag=mag) for i, x in enumerate(v)], dtype=np.float64)
-
-    def png(self, v, key: str, base: Path) -> Path:
-        name = self.string(v, key)
-        path = (base / name).resolve()
-        try:
-            from PIL import Image
-            with Image.open(path) as im:
-                im.verify()
-                fmt = im.format
-        except FileNotFoundError:
-            self.fail(key, f"file {_show(name)} not found (looked for {path})")
-        except Exception as exc:                                         # noqa: BLE001 -- reported, not hidden
-            self.fail(key, f"cannot read {_show(name)} as an image ({path}): {exc}")
-        if fmt != "PNG":
-            self.fail(key, f"{_show(name)} is a {fmt} file, expected a PNG")
-        return path
-
-
 # ------------------------------------------------------------------------------------------------------------
 # procedural generators: parameter schemas (the generators live in host.bumpmap)
 # ------------------------------------------------------------------------------------------------------------
-def _size(r: _Reader, v, key):
+def _size(r: Reader, v, key):
     return r.vector(v, key, 2, lo=1, hi=MAX_MAP_SIZE, integer=True)
 
 
-def _graffiti_size(r: _Reader, v, key):
+def _graffiti_size(r: Reader, v, key):
     size = _size(r, v, key)
     if size[1] < MIN_GRAFFITI_HEIGHT:
-        r.fail(key, f"graffiti needs a texture at least {MIN_GRAFFITI_HEIGHT} texels high, got {_show(v)}")
+        r.fail(key, f"graffiti needs a texture at least {MIN_GRAFFITI_HEIGHT} texels high, got {show_value(v)}")
     return size
 
 
-def _rgb01(r: _Reader, v, key):
+def _rgb01(r: Reader, v, key):
     return r.vector(v, key, 3, lo=0.0, hi=1.0)
 
 
@@ -538,7 +188,7 @@ COLOR_PROCEDURALS: dict[str, dict[str, tuple[Any, Callable]]] = {
         "size": ((64, 64), _size),
         "checks": ((8, 8), lambda r, v, k: r.vector(v, k, 2, lo=1, hi=MAX_MAP_SIZE, integer=True)),
         "colors": (((1.0, 1.0, 1.0), (0.1, 0.1, 0.1)),
-                   lambda r, v, k: (r.fail(k, f"expected 2 RGB colors, got {_show(v)}")
+                   lambda r, v, k: (r.fail(k, f"expected 2 RGB colors, got {show_value(v)}")
                                     if not isinstance(v, list) or len(v) != 2
                                     else tuple(_rgb01(r, c, f"{k}[{i}]") for i, c in enumerate(v)))),
     },
@@ -561,10 +211,10 @@ BUMP_PROCEDURALS: dict[str, dict[str, tuple[Any, Callable]]] = {
 }
 
 
-def _procedural_params(r: _Reader, table: dict, key: str, schema: dict, fixed: tuple[str, ...]) -> tuple:
+def _procedural_params(r: Reader, table: dict, key: str, schema: dict, fixed: tuple[str, ...]) -> tuple:
     for k in table:
         if k not in schema and k not in fixed:
-            r.fail(f"{key}.{k}", f"unknown key for procedural {_show(table['procedural'])} "
+            r.fail(f"{key}.{k}", f"unknown key for procedural {show_value(table['procedural'])} "
                                  f"(allowed: {', '.join(fixed + tuple(schema))})")
     out = {}
     for name, (default, check) in schema.items():       # in schema order: later defaults may use earlier values
@@ -620,7 +270,7 @@ def load_scene(path, *, size: int | tuple[int, int] | None = None) -> Scene:
 def parse_scene(text: str, *, source: str = "<string>", base: Path | None = None,
                 path: Path | None = None) -> Scene:
     """Parse scene TOML ``text``; ``source`` names it in errors, ``base`` resolves relative PNG paths."""
-    r = _Reader(source)
+    r = Reader(source)
     base = Path.cwd() if base is None else base
     try:
         doc = tomllib.loads(text)
@@ -644,7 +294,7 @@ def parse_scene(text: str, *, source: str = "<string>", base: Path | None = None
         r.table(t, key, ("direction", "color"), ("direction", "color"))
         d = np.array(r.vector(t["direction"], f"{key}.direction", 3, nonzero=True, mag=MAX_COORD))
         if not np.linalg.norm(d) > 1e-9 * np.abs(d).max():
-            r.fail(f"{key}.direction", f"too short to normalize, got {_show(t['direction'])}")
+            r.fail(f"{key}.direction", f"too short to normalize, got {show_value(t['direction'])}")
         lights.append(Light(tuple(float(x) for x in d / np.linalg.norm(d)),
                             r.vector(t["color"], f"{key}.color", 3, lo=0.0, hi=MAX_COLOR)))
 
@@ -655,7 +305,7 @@ def parse_scene(text: str, *, source: str = "<string>", base: Path | None = None
     names = {}
     for i, m in enumerate(materials):
         if m.name in names:
-            r.fail(f"materials[{i}].name", f"{_show(m.name)} is already the name of materials[{names[m.name]}]")
+            r.fail(f"materials[{i}].name", f"{show_value(m.name)} is already the name of materials[{names[m.name]}]")
         names[m.name] = i
 
     meshes = [_mesh(r, t, f"meshes[{i}]", names, len(materials))
@@ -665,7 +315,7 @@ def parse_scene(text: str, *, source: str = "<string>", base: Path | None = None
                  ambient=ambient, lights=tuple(lights), materials=tuple(materials), meshes=tuple(meshes))
 
 
-def _camera(r: _Reader, t) -> Camera:
+def _camera(r: Reader, t) -> Camera:
     r.table(t, "camera", ("position", "target", "up", "fov", "near", "far"), ("position", "target", "fov"))
     pos = r.vector(t["position"], "camera.position", 3, mag=MAX_COORD)
     tgt = r.vector(t["target"], "camera.target", 3, mag=MAX_COORD)
@@ -674,22 +324,23 @@ def _camera(r: _Reader, t) -> Camera:
     near = r.number(t.get("near", 0.1), "camera.near", lo=1e-6, hi=MAX_COORD)
     far = r.number(t.get("far", 1000.0), "camera.far", lo=1e-6, hi=4 * MAX_COORD)
     if far <= near:
-        r.fail("camera.far", f"must be greater than camera.near ({near:g}), got {_show(t.get('far'))}")
+        r.fail("camera.far", f"must be greater than camera.near ({near:g}), got {show_value(t.get('far'))}")
     f = np.subtract(tgt, pos)
     if not np.linalg.norm(f) > 1e-9 * max(1.0, np.abs(pos).max()):
-        r.fail("camera.target", f"must differ from camera.position, got {_show(t['target'])}")
+        r.fail("camera.target", f"must differ from camera.position, got {show_value(t['target'])}")
     f = f / np.linalg.norm(f)
     u = np.asarray(up) / np.linalg.norm(up)
     if np.linalg.norm(np.cross(f, u)) < 1e-6:
-        r.fail("camera.up", f"must not be parallel to the view direction target - position, got {_show(t.get('up'))}")
+        r.fail("camera.up", "must not be parallel to the view direction target - position, "
+               f"got {show_value(t.get('up'))}")
     return Camera(pos, tgt, up, fov, near, far)
 
 
-def _repeat(r: _Reader, t: dict, key: str):
+def _repeat(r: Reader, t: dict, key: str):
     return r.vector(t.get("repeat", [1, 1]), f"{key}.repeat", 2, lo=0.0, lo_open=True, hi=MAX_REPEAT)
 
 
-def _material(r: _Reader, t, key: str, base: Path) -> Material:
+def _material(r: Reader, t, key: str, base: Path) -> Material:
     r.table(t, key, ("name", "color", "bump", "specular", "shininess"), ("name",))
     name = r.string(t["name"], f"{key}.name")
     if not name:
@@ -701,7 +352,7 @@ def _material(r: _Reader, t, key: str, base: Path) -> Material:
     return Material(name, color, bump, specular, shininess)
 
 
-def _one_of(r: _Reader, t: dict, key: str, options: tuple[str, ...]) -> str:
+def _one_of(r: Reader, t: dict, key: str, options: tuple[str, ...]) -> str:
     present = [o for o in options if o in t]
     if len(present) != 1:
         r.fail(key, f"needs exactly one of {', '.join(repr(o) for o in options)}"
@@ -709,11 +360,11 @@ def _one_of(r: _Reader, t: dict, key: str, options: tuple[str, ...]) -> str:
     return present[0]
 
 
-def _color(r: _Reader, v, key: str, base: Path) -> ColorSpec:
+def _color(r: Reader, v, key: str, base: Path) -> ColorSpec:
     if isinstance(v, list):
         return ColorSpec("rgb", rgb=_rgb01(r, v, key), key=key)
     if not isinstance(v, dict):
-        r.fail(key, f"expected [r, g, b] or a table, got {_show(v)}")
+        r.fail(key, f"expected [r, g, b] or a table, got {show_value(v)}")
     kind = _one_of(r, v, key, ("rgb", "file", "procedural"))
     if kind == "procedural":
         proc = r.string(v["procedural"], f"{key}.procedural", tuple(COLOR_PROCEDURALS))
@@ -725,9 +376,9 @@ def _color(r: _Reader, v, key: str, base: Path) -> ColorSpec:
     return ColorSpec("file", path=r.png(v["file"], f"{key}.file", base), repeat=_repeat(r, v, key), key=key)
 
 
-def _bump(r: _Reader, v, key: str, base: Path) -> BumpSpec:
+def _bump(r: Reader, v, key: str, base: Path) -> BumpSpec:
     if not isinstance(v, dict):
-        r.fail(key, f"expected a table, got {_show(v)}")
+        r.fail(key, f"expected a table, got {show_value(v)}")
     kind = _one_of(r, v, key, ("file", "procedural"))
     common = ("repeat", "strength")
     strength = r.number(v.get("strength", 1.0), f"{key}.strength", lo=0.0, hi=MAX_STRENGTH)
@@ -741,12 +392,12 @@ def _bump(r: _Reader, v, key: str, base: Path) -> BumpSpec:
                     strength=strength, key=key)
 
 
-def _triangle_budget(r: _Reader, count: int, key: str) -> None:
+def _triangle_budget(r: Reader, count: int, key: str) -> None:
     if count > MAX_TRIANGLES:
         r.fail(key, f"makes {count:,} triangles, more than the {MAX_TRIANGLES:,} a scene may hold")
 
 
-def _unit_rows(r: _Reader, n: np.ndarray, key: str) -> np.ndarray:
+def _unit_rows(r: Reader, n: np.ndarray, key: str) -> np.ndarray:
     length = np.linalg.norm(n, axis=-1)
     bad = np.flatnonzero(length.ravel() == 0)
     if bad.size:
@@ -754,9 +405,9 @@ def _unit_rows(r: _Reader, n: np.ndarray, key: str) -> np.ndarray:
     return n / length[..., None]
 
 
-def _mesh(r: _Reader, t, key: str, names: dict, n_mat: int) -> Mesh:
+def _mesh(r: Reader, t, key: str, names: dict, n_mat: int) -> Mesh:
     if not isinstance(t, dict):
-        r.fail(key, f"expected a table, got {_show(t)}")
+        r.fail(key, f"expected a table, got {show_value(t)}")
     if "kind" not in t:
         r.fail(f"{key}.kind", "missing (one of 'triangles', 'quad', 'sphere')")
     kind = r.string(t["kind"], f"{key}.kind", ("triangles", "quad", "sphere"))
@@ -771,7 +422,7 @@ def _mesh(r: _Reader, t, key: str, names: dict, n_mat: int) -> Mesh:
     mat = t["material"]
     if isinstance(mat, str):
         if mat not in names:
-            r.fail(f"{key}.material", f"no material is named {_show(mat)} (names: {', '.join(names)})")
+            r.fail(f"{key}.material", f"no material is named {show_value(mat)} (names: {', '.join(names)})")
         mat = names[mat]
     else:
         mat = r.integer(mat, f"{key}.material", 0, n_mat - 1)
@@ -790,7 +441,7 @@ def _mesh(r: _Reader, t, key: str, names: dict, n_mat: int) -> Mesh:
         if "indices" in t:
             idx = t["indices"]
             if not isinstance(idx, list) or not idx:
-                r.fail(f"{key}.indices", f"expected a non-empty list of [i, j, k], got {_show(idx)}")
+                r.fail(f"{key}.indices", f"expected a non-empty list of [i, j, k], got {show_value(idx)}")
             idx = np.array([r.vector(x, f"{key}.indices[{i}]", 3, lo=0, hi=len(pos) - 1, integer=True)
                             for i, x in enumerate(idx)], dtype=np.int64)
         else:
@@ -811,13 +462,13 @@ def _mesh(r: _Reader, t, key: str, names: dict, n_mat: int) -> Mesh:
         eu = r.vector(t["edge_u"], f"{key}.edge_u", 3, nonzero=True, mag=MAX_COORD)
         ev = r.vector(t["edge_v"], f"{key}.edge_v", 3, nonzero=True, mag=MAX_COORD)
         if np.linalg.norm(np.cross(ev, eu)) <= 1e-12 * np.linalg.norm(eu) * np.linalg.norm(ev):
-            r.fail(f"{key}.edge_v", f"must not be parallel to edge_u, got {_show(t['edge_v'])}")
+            r.fail(f"{key}.edge_v", f"must not be parallel to edge_u, got {show_value(t['edge_v'])}")
         uv = t.get("uv", [[0, 0], [1, 1]])
         if not isinstance(uv, list) or len(uv) != 2:
-            r.fail(f"{key}.uv", f"expected [[u0, v0], [u1, v1]], got {_show(uv)}")
+            r.fail(f"{key}.uv", f"expected [[u0, v0], [u1, v1]], got {show_value(uv)}")
         uv = tuple(r.vector(x, f"{key}.uv[{i}]", 2, mag=MAX_COORD) for i, x in enumerate(uv))
         if uv[0][0] == uv[1][0] or uv[0][1] == uv[1][1]:
-            r.fail(f"{key}.uv", f"u0 must differ from u1 and v0 from v1, got {_show(t['uv'])}")
+            r.fail(f"{key}.uv", f"u0 must differ from u1 and v0 from v1, got {show_value(t['uv'])}")
         div = r.vector(t.get("divisions", [1, 1]), f"{key}.divisions", 2, lo=1, hi=1024, integer=True)
         _triangle_budget(r, 2 * div[0] * div[1], f"{key}.divisions")
         P, N, UV = quad_mesh(o, eu, ev, uv, div)

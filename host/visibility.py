@@ -28,8 +28,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from host.frontend import inverse_w, screen_triangles
 from fxmodel.units.raster import FLOAT_DEPTH_SLACK
+from host.frontend import inverse_w, screen_triangles
 
 __all__ = ["Visibility", "resolve", "first_max", "disagreement_picture", "draw_fragments", "rop_params"]
 

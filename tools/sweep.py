@@ -188,6 +188,11 @@ def measure_point(name: str, family: str, params: RecipParams, *, exhaustive_lim
     }
 
 
+def _db(psnr) -> str:
+    """A PSNR for a table: ``exact`` for an exact match (``None``: infinite, written as JSON ``null``)."""
+    return "exact" if psnr is None else f"{psnr:.2f}"
+
+
 def pareto_front(records, cost_key: str = "cost", bits_key: str = "correct_bits_worst") -> list[int]:
     """Indices of the non-dominated records: no other record has ``>=`` bits at ``<=`` cost, better in one."""
     pts = [(r[cost_key], r[bits_key] if r[bits_key] is not None else math.inf) for r in records]
@@ -402,8 +407,8 @@ def _pipeline_table(result: dict) -> list[str]:
             ch += f" (**refused**, drawn clamped: {r['refused']})"
         rate = r["model_pixels_per_second"]
         lines.append(
-            f"| {name} | {ch} | {r['max_lsb_vs_float']} / {r['psnr_db_vs_float']:.2f} "
-            f"| {r['max_lsb_vs_ideal']} / {r['psnr_db_vs_ideal']:.2f} | {hw['table_bits']} | {hw['multipliers']} "
+            f"| {name} | {ch} | {r['max_lsb_vs_float']} / {_db(r['psnr_db_vs_float'])} "
+            f"| {r['max_lsb_vs_ideal']} / {_db(r['psnr_db_vs_ideal'])} | {hw['table_bits']} | {hw['multipliers']} "
             f"| {hw['dsp']} | {hw['bram']} | {hw['multiplier_bit_products']} | {r.get('cube_size', '')} "
             f"| {hw.get('memory_bits', '')} "
             f"| {r['cost']:.0f} | {_fmt(rate and rate / 1e6, '.2f')} |")

@@ -189,8 +189,10 @@ def _unit_panel(ax, result: dict, unit: str, w: float, labels: list) -> None:
 def _pipeline_panel(ax, pipe: list, w: float, labels: list) -> None:
     """The pipeline panel of :func:`plot_units`: each point's PSNR against reference (a) over cost."""
     right = max(r["cost"] for r in pipe)
-    for k, r in enumerate(sorted(pipe, key=lambda r: (r["psnr_db_vs_float"], r["cost"]))):
-        y = min(r["psnr_db_vs_float"], 99.0)
+    def db(r):                          # an exact match (None) is drawn at the top of the axis
+        return 99.0 if r["psnr_db_vs_float"] is None else min(r["psnr_db_vs_float"], 99.0)
+    for k, r in enumerate(sorted(pipe, key=lambda r: (db(r), r["cost"]))):
+        y = db(r)
         c = "grey" if r.get("refused") else "red" if r["preset"] else "tab:blue"
         ax.scatter(r["cost"], y, c=c, s=40, zorder=3, marker="x" if r.get("refused") else "o")
         near_edge = r["cost"] > 0.9 * right          # labels alternate above / below, inward at the right edge
@@ -199,7 +201,7 @@ def _pipeline_panel(ax, pipe: list, w: float, labels: list) -> None:
                                   fontsize=6.5, color=c, xytext=(-6 if near_edge else 6, 5 if k % 2 == 0 else -11),
                                   ha="right" if near_edge else "left", textcoords="offset points"))
     front = sorted((r for r in pipe if r.get("pareto")), key=lambda r: r["cost"])
-    ax.step([r["cost"] for r in front], [min(r["psnr_db_vs_float"], 99.0) for r in front], where="post",
+    ax.step([r["cost"] for r in front], [db(r) for r in front], where="post",
             c="k", lw=1, zorder=1)
     ax.set_title(f"pipeline, {pipe[0]['scene']} {pipe[0]['width']}×{pipe[0]['height']} (bit-exact model)",
                  fontsize=8.5)

@@ -31,7 +31,7 @@ from fxmodel.pipeline.engine import EngineParams
 from fxmodel.pipeline.lighting import Light, Lighting, face_directions
 from fxmodel.pipeline.pixel import FLAG_BITS, PipelineParams
 from fxmodel.pipeline.presets import preset_units, top_value
-from fxmodel.units.raster import RasterParams, Records
+from fxmodel.units.raster import ATTRIBUTE_FORMATS, RasterParams, Records
 from fxmodel.units.rop import RopParams
 from host.bumpmap import block_exponent, bump_gain, perturbations, scene_maps
 from host.frontend import rasterize, triangle_records
@@ -54,9 +54,7 @@ SCENE_BOUND_LSB = 2
 ILL_CONDITIONED = 0.25
 
 #: Where each fragment input's format lives in a preset file (what to widen when a scene needs more range).
-INPUT_KNOBS = {**{n: "persp.uv_fmt" for n in ("U", "V", "Uc", "Vc")}, "W": "persp.recip.in_fmt",
-               **{f"N{c}": "bump.n_fmt" for c in "xyz"}, **{f"E{c}": "reflect.e_fmt" for c in "xyz"},
-               **{f"A{i}{j}": "bump.a_fmt" for i in range(3) for j in range(2)}, "Ae": "bump.exp_bits"}
+INPUT_KNOBS = {**ATTRIBUTE_FORMATS, "Ae": "bump.exp_bits"}
 
 
 #: The largest texture-address error (texels) a fragment may have before the scene is refused: about half a step

@@ -16,9 +16,10 @@ from __future__ import annotations
 
 import dataclasses
 
-from fxmodel.units.cube import cube_divider
 from fxmodel.core.fixed import Fmt
 from fxmodel.pipeline.presets import BUILTIN_PRESET_UNITS, UNIT_KEYS, check_preset_name, top_value, write_preset
+from fxmodel.units.cube import cube_divider
+from fxmodel.units.raster import ATTRIBUTE_FORMATS
 
 __all__ = ["KNOB_STEPS", "KNOB_MIN", "FitError", "knobs_of", "units_of", "measure_ranges", "hardware", "fit"]
 
@@ -30,7 +31,8 @@ class FitError(ValueError):
     Attributes
     ----------
     bound : int or None
-        The smallest largest-difference from reference (a) (well-conditioned pixels, at every size) reached (``None``: no preset drew the scene without refusals).
+        The smallest largest-difference from reference (a) (well-conditioned pixels, at every size) reached
+        (``None``: no preset drew the scene without refusals).
     knobs : dict
         The knobs of the preset that reaches it (:func:`knobs_of`).
     """
@@ -63,7 +65,8 @@ def knobs_of(units: dict) -> dict:
     persp, bump, reflect, cube, shade = (units[k] for k in UNIT_KEYS)
     pr, cr = persp.recip, cube.divide.recip
     return {"cube_size": top_value(units, "cube_size"), "word": bump.out_fmt.width, "cube_p": cr.p, "cube_b": cr.b,
-            "cube_guard": cr.guard, "cube_m": cr.m, "cube_t": cr.t, "coord_bits": persp.coord_bits, "persp_p": pr.p, "persp_b": pr.b,
+            "cube_guard": cr.guard, "cube_m": cr.m, "cube_t": cr.t, "coord_bits": persp.coord_bits, "persp_p": pr.p,
+            "persp_b": pr.b,
             "persp_guard": pr.guard, "persp_m": pr.m, "persp_t": pr.t, "uv_frac": persp.uv_fmt.frac_bits,
             "w_frac": pr.in_fmt.frac_bits, "n_frac": bump.n_fmt.frac_bits, "a_frac": bump.a_fmt.frac_bits,
             "e_frac": reflect.e_fmt.frac_bits, "d_frac": bump.d_fmt.frac_bits,
@@ -82,7 +85,7 @@ def units_of(k: dict, base: dict) -> dict:
         If the knobs make an invalid unit (the search treats that as "not allowed").
     """
     persp, bump, reflect, cube, shade = (base[key] for key in UNIT_KEYS)
-    pr, cr = persp.recip, cube.divide.recip
+    pr = persp.recip
     word = k["word"]
     n_prime = Fmt(True, bump.out_fmt.int_bits, word - bump.out_fmt.int_bits)
     recip = dataclasses.replace(pr, in_fmt=Fmt(True, pr.in_fmt.int_bits, k["w_frac"]), m=k["persp_m"],
@@ -159,9 +162,10 @@ def _refused(frame) -> int:
 WIDEN_STEPS = {"word": 2, "persp_p": 2, "persp_b": 2, "coord_bits": 2, "uv_frac": 2, "w_frac": 2, "n_frac": 2,
                "a_frac": 2, "e_frac": 2, "d_frac": 1, "weight_bits": 1, "diffuse_frac": 1, "specular_frac": 1,
                "cube_p": 2, "cube_b": 2, "persp_m": 1, "cube_m": 1, "cube_size": 32}
-#: Which integer knob holds each fragment input (:data:`host.render.INPUT_KNOBS` as fit knobs).
-INT_KNOB = {**{n: "uv_int" for n in ("U", "V", "Uc", "Vc")}, **{f"E{c}": "e_int" for c in "xyz"},
-            **{f"A{i}{j}": "a_int" for i in range(3) for j in range(2)}}
+#: The fit knob of integer bits of each format field (:data:`fxmodel.units.raster.ATTRIBUTE_FORMATS` names which
+#: field holds each fragment input).
+FIELD_INT_KNOB = {"persp.uv_fmt": "uv_int", "reflect.e_fmt": "e_int", "bump.a_fmt": "a_int"}
+INT_KNOB = {name: FIELD_INT_KNOB[path] for name, path in ATTRIBUTE_FORMATS.items() if path in FIELD_INT_KNOB}
 WIDEN_LIMIT = 24
 
 
@@ -298,7 +302,7 @@ def check_candidate(c: Candidate) -> dict:
     renders = 0
     try:
         units = units_of(dict(c.knobs), dict(c.base))
-        for at, (lsb_a, clamped_ref, lsb_b) in zip(c.sizes, c.ref):
+        for at, (_lsb_a, clamped_ref, lsb_b) in zip(c.sizes, c.ref):
             renders += 1
             frame = prepare(c.scene if at is None else c.scene.with_size(*at), preset=units, allow_clamp=True)
             rep = _render(frame, c.triangles)

@@ -94,8 +94,8 @@ def depth_rows(report: dict) -> list:
     d, m = report["depth"], report["memory"]
     return [("overdraw", f"{d['overdraw']} fragments per pixel ({d['passed']:,} passed, {d['failed']:,} failed "
                          f"the depth test)"),
-            ("depth disagreements", f"{d['disagreements']} pixels, largest gap {d['max_depth_gap_of_disagreements']:.3g}"
-                                    f" (precision {d['precision']:.3g})"),
+            ("depth disagreements", f"{d['disagreements']} pixels, largest gap "
+                                    f"{d['max_depth_gap_of_disagreements']:.3g} (precision {d['precision']:.3g})"),
             ("memory / pixel", f"{m['bytes_read_per_pixel']} bytes read, {m['bytes_written_per_pixel']} written")]
 
 
@@ -347,12 +347,14 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
     ap.add_argument("--depth", action="store_true",
                     help="with --input triangles: the engine with its depth test and frame buffer behind an AXI4 port "
                          "(cosim/rop.py); the frame is read from the memory model (build/sim/<scene>-depth/)")
-    ap.add_argument("--latency", type=int_range(0, 24), default=4, help="memory latency added by the bench (--depth; 0..24)")
+    ap.add_argument("--latency", type=int_range(0, 24), default=4,
+                    help="memory latency added by the bench (--depth; 0..24)")
     ap.add_argument("--wait-states", type=float_range(0.0, 0.99), default=0.0, metavar="P",
                     help="--depth: probability that each AXI channel of the memory model pauses in a cycle "
                          "(random wait states, 0 .. 0.99; default %(default)s)")
     ap.add_argument("--unit", help="co-simulate one unit instead of a scene")
-    ap.add_argument("--vectors", type=int_range(0, 1 << 30), default=100_000, help="random vectors besides the hard cases (--unit)")
+    ap.add_argument("--vectors", type=int_range(0, 1 << 30), default=100_000,
+                    help="random vectors besides the hard cases (--unit)")
     ap.add_argument("--exhaustive", action="store_true", help="the unit's whole input space (--unit)")
     ap.add_argument("--seed", type=int_range(0, 2**32 - 1), default=1)
     ap.add_argument("--shards", type=int_range(1, 1024), default=None, metavar="N",

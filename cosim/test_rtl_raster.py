@@ -8,7 +8,6 @@ import pytest
 
 from cosim.raster import pack, run, unpack
 from cosim.stream import PATTERNS, run_records
-from fxmodel.core.paths import build_dir
 from fxmodel.units.raster import RasterParams, scan, setup
 
 S = 256

@@ -48,7 +48,7 @@ def long_functions(source: str, limit: int) -> list[tuple[str, int]]:
 
 
 def test_long_function_detector():
-    src = f"def short():\n    pass\n\nclass C:\n    @staticmethod\n    def f():\n" + "\n".join(
+    src = "def short():\n    pass\n\nclass C:\n    @staticmethod\n    def f():\n" + "\n".join(
         f"        x{i} = {i}" for i in range(6)) + "\n"
     assert long_functions(src, 5) == [("C.f", 8)]
     assert long_functions(src, 8) == []

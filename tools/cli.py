@@ -62,12 +62,12 @@ def _params(args):
 def cmd_info(args) -> int:
     if args.scene is not None:
         if args.unit != "pipeline":
-            raise SystemExit(f"error: --scene sets the tables of the pipeline only, not of {args.unit!r}")
+            raise SystemExit(f"error: --scene sets the tables of the pipeline only, not of {args.unit!r}") from None
         from host.render import pipeline_params
         try:
             params = pipeline_params(args.scene, args.preset)
         except (ValueError, KeyError) as exc:
-            raise SystemExit(f"error: {exc}")
+            raise SystemExit(f"error: {exc}") from None
         print(json.dumps({"preset": args.preset, "scene": args.scene, **params.info()}, indent=2))
         return 0
     params = _params(args)
@@ -84,7 +84,7 @@ def cmd_eval(args) -> int:
     try:
         values = np.load(src, allow_pickle=False)
     except (OSError, ValueError) as exc:
-        raise SystemExit(f"error: cannot read {src} as a .npy array: {exc}")
+        raise SystemExit(f"error: cannot read {src} as a .npy array: {exc}") from None
     if values.ndim == 1 and len(params.inputs) == 1:
         values = values[:, None]
     if values.ndim != 2 or values.shape[1] != len(params.inputs):
@@ -92,12 +92,12 @@ def cmd_eval(args) -> int:
         raise SystemExit(f"error: {src}: expected shape (K, {len(params.inputs)}) for inputs ({names}), "
                          f"got {values.shape}")
     if not np.issubdtype(values.dtype, np.floating) and not np.issubdtype(values.dtype, np.integer):
-        raise SystemExit(f"error: {src}: expected real numbers (float64), got dtype {values.dtype}")
+        raise SystemExit(f"error: {src}: expected real numbers (float64), got dtype {values.dtype}") from None
     try:
         codes = np.stack([p.fmt.from_real(values[:, i], what=f"{src} column {i} ({p.name})")
                           for i, p in enumerate(params.inputs)], axis=1)
     except ValueError as exc:
-        raise SystemExit(f"error: {exc}")
+        raise SystemExit(f"error: {exc}") from None
     out = params.compute(codes)
     reals = np.stack([p.fmt.to_real(out[:, i]) for i, p in enumerate(params.outputs)], axis=1)
     atomic_save_npy(args.output, reals)
@@ -110,7 +110,7 @@ def cmd_eval(args) -> int:
 def cmd_errors(args) -> int:
     params = _params(args)
     if args.unit not in exact.MEASURES:
-        raise SystemExit(f"error: no error measure for unit {args.unit!r}; have {', '.join(exact.MEASURES)}")
+        raise SystemExit(f"error: no error measure for unit {args.unit!r}; have {', '.join(exact.MEASURES)}") from None
     space = params.input_space()
     if space <= EXHAUSTIVE_LIMIT and not args.random:
         inputs, how = params.all_inputs(), "exhaustive"
@@ -150,7 +150,7 @@ def cmd_render(args) -> int:
                         allow_clamp=args.allow_clamp)
         tframe = from_triangles(frame) if args.triangles else None
     except (SceneError, OSError) as exc:
-        raise SystemExit(f"error: {exc}")
+        raise SystemExit(f"error: {exc}") from None
     if tframe is not None:
         report = render_triangles(tframe, args.refs)
         save_png(args.output, tframe.image(report.pop("_triangle_bytes")[:, 2:5].astype("uint8")))
@@ -179,7 +179,7 @@ def cmd_fit(args) -> int:
                      name=args.name, directory=args.out, progress=not args.quiet, passes=args.passes,
                      scene_size=args.scene_size, jobs=args.jobs, scheduler=args.scheduler)
     except (SceneError, OSError) as exc:
-        raise SystemExit(f"error: {exc}")
+        raise SystemExit(f"error: {exc}") from None
     except FitError as exc:                                     # no preset within the limits meets --max-lsb
         print(f"error: {exc}", file=sys.stderr)
         return 1

@@ -326,7 +326,7 @@ def run(args) -> int:
         return 2
     argv = sys.argv[sys.argv.index("filtering") + 1:] if "filtering" in sys.argv else []
     record = {"command": " ".join(["bumpmap", "filtering", *argv]),
-              "date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
+              "date": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
               "machine": {"nproc": os.cpu_count(), "load_average": [round(x, 2) for x in os.getloadavg()]},
               "samples": args.samples, "sample_pattern": "stratified (jittered): one uniform random point per "
               "cell of a K x K grid, seed 0 (host.truth; pattern_study measures it against the regular grid)",

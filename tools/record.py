@@ -56,7 +56,7 @@ def machine() -> dict:
     except OSError:
         load = None
     return {"nproc": os.cpu_count(), "load_average": load,
-            "date": datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ"),
+            "date": datetime.datetime.now(datetime.UTC).strftime("%Y-%m-%dT%H:%M:%SZ"),
             "commit": _commit(), "python": sys.version.split()[0]}
 
 

@@ -110,13 +110,13 @@ def test_render_interrupted_at_every_step_of_every_write(tmp_path_factory, monke
     for k in range(len(new) + 1):
         calls = [0]
 
-        def trip():
+        def trip(calls=calls, k=k):
             calls[0] += 1
             if calls[0] == k + 1:
                 raise KeyboardInterrupt
 
         class HalfFile(io.FileIO):
-            def write(self, data):
+            def write(self, data, calls=calls, k=k, trip=trip):
                 if calls[0] + 1 == k + 1:
                     super().write(bytes(data)[:len(data) // 2])
                 trip()

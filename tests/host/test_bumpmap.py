@@ -5,19 +5,32 @@ from fractions import Fraction
 
 import numpy as np
 import pytest
-from hypothesis import assume, given, strategies as st
+from hypothesis import assume, given
+from hypothesis import strategies as st
 from PIL import Image
 
-from fxmodel.units.bump import BumpParams
-from host.bumpmap import (checker, chiselled_text, color_texture, graffiti, heights_from_image, material_maps,
-                             mexican_hat, perturbations, quantize, scene_maps, tangent_frame, triangle_matrix)
 from fxmodel.core.fixed import Fmt
+from fxmodel.core.paths import SCENES
 from fxmodel.core.rounding import Overflow, Rounding
+from fxmodel.units.bump import BumpParams
+from host.bumpmap import (
+    checker,
+    chiselled_text,
+    color_texture,
+    graffiti,
+    heights_from_image,
+    material_maps,
+    mexican_hat,
+    perturbations,
+    quantize,
+    scene_maps,
+    tangent_frame,
+    triangle_matrix,
+)
 from host.meshes import quad_mesh
 from host.scene import ColorSpec, load_scene
 
 D = BumpParams().d_fmt                       # the bump engine's default
-from fxmodel.core.paths import SCENES
 
 
 # -- central differences -----------------------------------------------------------------------------------

@@ -8,14 +8,15 @@ from fractions import Fraction
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, assume, given, settings, strategies as st
-
-from fxmodel.units.bump import BumpParams
-from host.frontend import SUBPIXEL_BITS, clip_space, rasterize, scan_triangle, screen_space, snap
-from fxmodel.units.persp import PerspParams
-from host.scene import load_scene, parse_scene
+from hypothesis import HealthCheck, assume, given, settings
+from hypothesis import strategies as st
 
 from fxmodel.core.paths import SCENES
+from fxmodel.units.bump import BumpParams
+from fxmodel.units.persp import PerspParams
+from host.frontend import SUBPIXEL_BITS, clip_space, rasterize, scan_triangle, screen_space, snap
+from host.scene import load_scene, parse_scene
+
 SIZE = 24                          # viewport of the coverage tests, pixels
 ONE = 1 << SUBPIXEL_BITS
 

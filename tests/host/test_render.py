@@ -7,10 +7,10 @@ from pathlib import Path
 
 import pytest
 
-from tools.main import main
-from host.render import SCENE_BOUND_LSB, ClampError, judge, prepare, render
-
 from fxmodel.core.paths import ROOT
+from host.render import SCENE_BOUND_LSB, ClampError, judge, prepare, render
+from tools.main import main
+
 STEEP = ROOT / "tests" / "scenes" / "steep-bumps.toml"          # A about 5.3: beyond bump.a_fmt without the exponent
 WIDE = ROOT / "tests" / "scenes" / "wide-span.toml"             # U / W about 60: beyond persp.uv_fmt
 TIN = ROOT / "scenes" / "tin-plane.toml"

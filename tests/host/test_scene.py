@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 from PIL import Image
 
+from fxmodel.core.paths import SCENES
 from host.meshes import quad_mesh, sphere_mesh
 from host.scene import SCHEMA_EXAMPLE, SceneError, load_scene, parse_scene
 
-from fxmodel.core.paths import SCENES
 SHIPPED = ["tin-plane", "berlin-wall", "sphere"]
 
 BASE = """\

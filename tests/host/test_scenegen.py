@@ -10,13 +10,14 @@ The RTL side (RTL == model on random scenes) is in cosim/test_rtl_pixel.py.
 
 import numpy as np
 import pytest
-from hypothesis import given, settings, strategies as st
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
+from fxmodel.core.paths import ROOT
 from host.render import ILL_CONDITIONED, SCENE_BOUND_LSB, ClampError, judge, prepare, render
 from host.scene import parse_scene
 from host.scenegen import random_scene
 
-from fxmodel.core.paths import ROOT
 REGRESSION = ROOT / "tests" / "scenes"
 
 

@@ -6,10 +6,10 @@ depth and memory figures consistent with each other and with the frame."""
 import numpy as np
 import pytest
 
-from tools.main import main as bumpmap
 from fxmodel.units.raster import RasterParams
 from host.render import from_triangles, judge, prepare, render_triangles
 from host.visibility import first_max, resolve
+from tools.main import main as bumpmap
 
 SCENE = "scenes/tin-sphere.toml"
 
@@ -143,6 +143,7 @@ def test_depth_tool_table_and_picture(tmp_path, capsys):
     assert row["early_depth_saves"] == pytest.approx(row["failed"] / row["fragments"], abs=1e-4)
     assert 0 < row["failed_reversed_order"] != row["failed"]
     from fxmodel.units.rop import DEPTH_BYTES
-    assert row["bytes_read_per_pixel"] * row["covered_pixels"] == pytest.approx(DEPTH_BYTES * row["fragments"], rel=1e-3)
+    read = row["bytes_read_per_pixel"] * row["covered_pixels"]
+    assert read == pytest.approx(DEPTH_BYTES * row["fragments"], rel=1e-3)
     assert pic.exists() and pic.stat().st_size > 1000
     assert bumpmap(["depth", "--scenes", "nope"]) == 2

@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from tools.main import main as bumpmap
 from tools import bench
+from tools.main import main as bumpmap
 
 
 def test_core_rates_times_the_own_core_and_apytypes():

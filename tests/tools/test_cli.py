@@ -6,12 +6,13 @@ import sys
 
 import numpy as np
 import pytest
-from hypothesis import given, strategies as st
+from hypothesis import given
+from hypothesis import strategies as st
 
-from tools.main import main
 from fxmodel.core.fixed import Fmt
 from fxmodel.core.unit import preset
 from fxmodel.core.vectors import read_readmemh, write_readmemh
+from tools.main import main
 
 
 def run_cli(*args):
@@ -116,8 +117,8 @@ def test_readmemh_round_trip(tmp_path_factory, rows):
     path = tmp_path_factory.mktemp("hex") / "v.hex"
     codes = np.array(rows, dtype=np.int64)
     write_readmemh(path, fields, codes, chunk=7)
-    lines = [l for l in path.read_text().splitlines() if not l.startswith("//")]
-    assert len(lines) == len(rows) and all(len(l) == (24 + 3 + 42 + 3) // 4 for l in lines)
+    lines = [s for s in path.read_text().splitlines() if not s.startswith("//")]
+    assert len(lines) == len(rows) and all(len(s) == (24 + 3 + 42 + 3) // 4 for s in lines)
     assert np.array_equal(read_readmemh(path, fields), codes)
 
 

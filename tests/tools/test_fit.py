@@ -7,13 +7,21 @@ import json
 
 import pytest
 
-from tools.main import main as bumpmap
-from fxmodel.pipeline.presets import PresetError, load_preset, preset_path, write_preset
-from tools.fit import KNOB_STEPS, fit, knobs_of, units_of
 from fxmodel.core.fixed import Fmt
-from fxmodel.pipeline.presets import BUILTIN_PRESET_UNITS, PRESET_UNITS, TOP_KEYS, preset_units
+from fxmodel.pipeline.presets import (
+    BUILTIN_PRESET_UNITS,
+    PRESET_UNITS,
+    TOP_KEYS,
+    PresetError,
+    load_preset,
+    preset_path,
+    preset_units,
+    write_preset,
+)
 from host.reference import max_lsb
 from host.render import from_triangles, prepare, render
+from tools.fit import KNOB_STEPS, fit, knobs_of, units_of
+from tools.main import main as bumpmap
 
 SCENE = "scenes/tin-plane.toml"
 DEFAULT = BUILTIN_PRESET_UNITS["default"]

@@ -8,9 +8,9 @@ import json
 
 import pytest
 
-from tools.main import main as bumpmap
 from fxmodel.core.unit import preset
 from tools import fpga
+from tools.main import main as bumpmap
 
 
 def _path(*steps):
@@ -27,7 +27,8 @@ REPORT = {
                     "TRELLIS_RAMW": {"used": 0, "available": 1}, "TRELLIS_IO": {"used": 53, "available": 365}},
     "critical_paths": [
         {"from": "<async>", "to": f"posedge {CLK}",
-         "path": _path(("source", 0.0, "w[1]$tr_io", "w[1]$tr_io"), ("routing", 4.0, "w[1]$tr_io", "s1_X_TRELLIS_FF_Q"))},
+         "path": _path(("source", 0.0, "w[1]$tr_io", "w[1]$tr_io"),
+                       ("routing", 4.0, "w[1]$tr_io", "s1_X_TRELLIS_FF_Q"))},
         {"from": f"posedge {CLK}", "to": f"posedge {CLK}",
          "path": _path(("clk-to-q", 0.4, "s4_q_TRELLIS_FF_Q_3", "s4_q_TRELLIS_FF_Q_3"),
                        ("routing", 1.2, "s4_q_TRELLIS_FF_Q_3", "\\$330_MULT18X18D_P9"),
@@ -214,7 +215,7 @@ def test_recip_default_meets_150_mhz_on_ecp5_85_speed_8(tmp_path):
     assert again["cached"] and again["fmax_mhz"] == rec["fmax_mhz"]
 
 
-# -- the router: a flow option ------------------------------------------------------------------------------------------
+# -- the router: a flow option -----------------------------------------------------------------------------------
 @pytest.mark.parametrize("router", fpga.ROUTERS)
 def test_router_is_a_flow_option_on_nextpnr_command_line_and_in_the_cache_key(tmp_path, monkeypatch, router):
     commands = []

@@ -13,11 +13,11 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from tools.main import main as bumpmap
 from cosim.stream import FullSpace, shard_range
-from fxmodel.units import exact
 from fxmodel.core.unit import preset
+from fxmodel.units import exact
 from tools import jobs
+from tools.main import main as bumpmap
 from tools.prove import ProofPiece, check_range, prove_piece
 
 ROOT = jobs.ROOT

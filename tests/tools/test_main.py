@@ -342,7 +342,8 @@ def test_sigterm_ends_in_one_line(sandbox):
     import time
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
     proc = subprocess.Popen([sys.executable, "-m", "tools", "render", str(TIN), str(sandbox / "x.png"), "--size",
-                             "1024"], cwd=sandbox, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+                             "1024"], cwd=sandbox, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                            text=True)
     time.sleep(2.5)
     proc.send_signal(signal.SIGTERM)
     _, err = proc.communicate(timeout=60)

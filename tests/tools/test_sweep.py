@@ -2,12 +2,13 @@
 
 import json
 import math
+
 import pytest
 
-from tools.main import main as bumpmap
-from tools import sweep as sw
 from fxmodel.core.fixed import Fmt
 from fxmodel.units.recip import RecipParams
+from tools import sweep as sw
+from tools.main import main as bumpmap
 
 IN16 = Fmt(True, 4, 12)
 GRID = [

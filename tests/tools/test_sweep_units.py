@@ -10,12 +10,12 @@ from fractions import Fraction
 import numpy as np
 import pytest
 
-from tools.main import main as bumpmap
-from tools import sweep as sw
-from tools import sweep_units as su
-from fxmodel.units.exact import bump_error, wrapped_error
 from fxmodel.core.fixed import Fmt
 from fxmodel.core.unit import preset
+from fxmodel.units.exact import bump_error, wrapped_error
+from tools import sweep as sw
+from tools import sweep_units as su
+from tools.main import main as bumpmap
 
 SAMPLES = 3000
 
@@ -51,7 +51,7 @@ def test_unit_records_fields_and_consistency(result):
     assert [r["name"] for r in recs] == [g[0] for g in GRID]
     for r, (_, _, P) in zip(recs, GRID):
         assert r["unit"] == P.NAME and r["latency"] == P.latency and r["fpga"] is None
-        table = {"persp": lambda: P.recip.table_bits, "cube": lambda: P.divide.recip.table_bits}.get(P.NAME)
+        table = {"persp": lambda P=P: P.recip.table_bits, "cube": lambda P=P: P.divide.recip.table_bits}.get(P.NAME)
         assert r["table_bits"] == (table() if table else 0)
         assert r["cost"] == r["table_bits"] + 1024 * r["dsp_blocks_est"]
         assert r["dsp_blocks_est"] == P.cost()["dsp"] and r["multipliers"] == P.cost()["multipliers"]
@@ -164,8 +164,8 @@ def test_dsp_estimate_matches_the_placed_presets():
 
 
 def test_pipeline_points(result):
-    from tools.fit import knobs_of, units_of
     from fxmodel.pipeline.presets import BUILTIN_PRESET_UNITS
+    from tools.fit import knobs_of, units_of
 
     pipe = result["pipeline"]
     base, narrow = pipe["points"]

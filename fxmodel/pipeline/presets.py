@@ -24,6 +24,7 @@ import dataclasses
 import enum
 import re
 import tomllib
+from collections.abc import Mapping
 from pathlib import Path
 
 from fxmodel.core.fixed import Fmt
@@ -35,7 +36,8 @@ from fxmodel.units.persp import PerspParams
 from fxmodel.units.reflect import ReflectParams
 from fxmodel.units.shade import ShadeParams
 
-__all__ = ["TOP_KEYS", "UNIT_KEYS", "UNIT_TYPES", "BUILTIN_PRESET_UNITS", "PRESET_UNITS", "PresetError",
+__all__ = ["TOP_KEYS", "UNIT_KEYS", "UNIT_TYPES", "PRESET_KEYS", "PipelinePreset", "BUILTIN_PRESET_UNITS",
+           "PRESET_UNITS", "PresetError",
            "top_value", "top_problem", "preset_units", "presets_dir", "check_preset_name", "preset_path", "load_preset",
            "dump_preset", "write_preset"]
 
@@ -82,10 +84,84 @@ def top_problem(key: str, value) -> str | None:
     return f"must be an int in {lo}..{hi}"
 
 
+@dataclasses.dataclass(frozen=True)
+class PipelinePreset(Mapping):
+    """A pipeline preset: one parameter object per unit of the pixel pipeline and the :data:`TOP_KEYS`, frozen and
+    validated like every unit's parameter object.
+
+    It is also a read-only mapping (``preset["persp"]``, ``{**preset, "cube_size": 32}``, ``preset.get(key)``), the
+    *units dict* the pipeline's ``assemble``, ``fit`` and the sweeps read; :meth:`from_mapping` validates any such
+    mapping into one.
+
+    Parameters
+    ----------
+    persp, bump, reflect, cube, shade
+        The units' parameter objects (classes in :data:`UNIT_TYPES`).
+    weight_bits, cube_size, raster_guard : int
+        The bilinear weights' bits of the bump map and texture, texels per reflectance-cube face edge, guard bits
+        of the scan converter's interpolators (ranges and defaults in :data:`TOP_KEYS`).
+    """
+
+    persp: PerspParams
+    bump: BumpParams
+    reflect: ReflectParams
+    cube: CubeParams
+    shade: ShadeParams
+    weight_bits: int = TOP_KEYS["weight_bits"][0]
+    cube_size: int = TOP_KEYS["cube_size"][0]
+    raster_guard: int = TOP_KEYS["raster_guard"][0]
+
+    def __post_init__(self):
+        for key, cls in UNIT_TYPES.items():
+            value = getattr(self, key)
+            require(isinstance(value, cls), f"type(preset[{key!r}])", type(value).__name__, f"must be {cls.__name__}")
+        for key in TOP_KEYS:
+            problem = top_problem(key, getattr(self, key))
+            require(problem is None, f"preset[{key!r}]", getattr(self, key), problem)
+
+    @classmethod
+    def from_mapping(cls, units) -> PipelinePreset:
+        """A preset from a units mapping: the five units required, the :data:`TOP_KEYS` optional (their defaults),
+        any other key refused by name."""
+        if isinstance(units, cls):
+            return units
+        allowed = (*UNIT_TYPES, *TOP_KEYS)
+        for key in units:
+            require(key in allowed, "preset key", key, f"unknown (a units dict has {', '.join(allowed)})")
+        for key in UNIT_TYPES:
+            require(key in units, "preset keys", sorted(units),
+                    f"a units dict needs {key!r} (all of {', '.join(UNIT_TYPES)})")
+        return cls(**dict(units))
+
+    def __getitem__(self, key: str):
+        if key not in PRESET_KEYS:
+            raise KeyError(key)
+        return getattr(self, key)
+
+    def __iter__(self):
+        return iter(PRESET_KEYS)
+
+    def __len__(self) -> int:
+        return len(PRESET_KEYS)
+
+    def __hash__(self) -> int:                  # Mapping sets __hash__ = None; a frozen preset is hashable
+        return hash(tuple(getattr(self, key) for key in PRESET_KEYS))
+
+    def __eq__(self, other) -> bool:
+        """Equal to a preset, or to a units dict of the same entries (its missing :data:`TOP_KEYS` at their
+        defaults)."""
+        if isinstance(other, Mapping):
+            return dict(self) == {**{k: v[0] for k, v in TOP_KEYS.items()}, **dict(other)}
+        return NotImplemented
+
+
+#: The keys of a pipeline preset, in file order: the units, then the :data:`TOP_KEYS`.
+PRESET_KEYS = (*UNIT_TYPES, *TOP_KEYS)
+
 BUILTIN_PRESET_UNITS = {
-    "default": {"persp": PerspParams.PRESETS["color"], "bump": BumpParams.PRESETS["default"],
-                "reflect": ReflectParams.PRESETS["default"], "cube": CubeParams.PRESETS["default"],
-                "shade": ShadeParams.PRESETS["default"], **{k: v[0] for k, v in TOP_KEYS.items()}},
+    "default": PipelinePreset(persp=PerspParams.PRESETS["color"], bump=BumpParams.PRESETS["default"],
+                              reflect=ReflectParams.PRESETS["default"], cube=CubeParams.PRESETS["default"],
+                              shade=ShadeParams.PRESETS["default"]),
 }
 
 
@@ -100,45 +176,32 @@ class _PresetUnits(dict):
 PRESET_UNITS = _PresetUnits(BUILTIN_PRESET_UNITS)
 
 
-def preset_units(preset: str | dict) -> dict:
+def preset_units(preset: str | Mapping) -> PipelinePreset:
     """The units of a pipeline preset, given by name or as the units themselves.
 
     Parameters
     ----------
-    preset : str or dict
+    preset : str or mapping
         A name: built in (:data:`BUILTIN_PRESET_UNITS`) or a preset file ``presets/<name>.toml`` (see
-        :func:`load_preset`). Or a units dict of the same shape as ``BUILTIN_PRESET_UNITS["default"]``: ``persp``,
-        ``bump``, ``reflect``, ``cube``, ``shade`` (parameter objects, see :data:`UNIT_TYPES`) and optionally
-        the :data:`TOP_KEYS` (``weight_bits``, ``cube_size``; defaults 12 and 64); returned as given, nothing is
-        registered anywhere.
+        :func:`load_preset`). Or a units mapping (a :class:`PipelinePreset`, or a dict of the same keys:
+        ``persp``, ``bump``, ``reflect``, ``cube``, ``shade`` and optionally the :data:`TOP_KEYS`), validated
+        into a :class:`PipelinePreset` (:meth:`PipelinePreset.from_mapping`); nothing is registered anywhere.
 
     Raises
     ------
     PresetError
         An unknown name or a bad preset file (a ``KeyError`` and a ``ValueError``).
     ValueError
-        A dict with a missing, unknown or wrongly typed entry (naming it).
+        A mapping with a missing, unknown or wrongly typed entry (naming it).
     TypeError
-        Anything but a str or a dict.
+        Anything but a str or a mapping.
     """
     if isinstance(preset, str):
         return PRESET_UNITS[preset]
-    if not isinstance(preset, dict):
+    if not isinstance(preset, Mapping):
         raise TypeError(f"preset: must be a pipeline preset name (str) or a units dict like "
                         f"BUILTIN_PRESET_UNITS['default'], not {type(preset).__name__} {preset!r}")
-    allowed = (*UNIT_TYPES, *TOP_KEYS)
-    for key in preset:
-        require(key in allowed, "preset key", key, f"unknown (a units dict has {', '.join(allowed)})")
-    for key, cls in UNIT_TYPES.items():
-        require(key in preset, "preset keys", sorted(preset),
-                f"a units dict needs {key!r} (all of {', '.join(UNIT_TYPES)})")
-        require(isinstance(preset[key], cls), f"type(preset[{key!r}])", type(preset[key]).__name__,
-                f"must be {cls.__name__}")
-    for key in TOP_KEYS:
-        if key in preset:
-            problem = top_problem(key, preset[key])
-            require(problem is None, f"preset[{key!r}]", preset[key], problem)
-    return preset
+    return PipelinePreset.from_mapping(preset)
 
 
 #: What a preset name may be: it names a file in the presets folder, so no path separators, no leading dot.
@@ -263,7 +326,7 @@ def _build(base, table: dict, file: Path, where: str):
         raise PresetError(f"{file}: table [{where}]: {exc}") from None
 
 
-def load_preset(name: str, directory=None, base: dict | None = None) -> dict:
+def load_preset(name: str, directory=None, base: Mapping | None = None) -> PipelinePreset:
     """The units of preset file ``name`` (``persp, bump, reflect, cube, shade``, ``weight_bits``, ``cube_size``).
 
     Parameters
@@ -301,4 +364,7 @@ def load_preset(name: str, directory=None, base: dict | None = None) -> dict:
         if problem:
             raise PresetError(f"{path}: key {key}: {problem}, got {value!r}")
         units[key] = value
-    return units
+    try:
+        return PipelinePreset(**units)
+    except (ValueError, TypeError) as exc:
+        raise PresetError(f"{path}: {exc}") from None

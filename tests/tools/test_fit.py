@@ -12,6 +12,7 @@ from fxmodel.pipeline.presets import (
     BUILTIN_PRESET_UNITS,
     PRESET_UNITS,
     TOP_KEYS,
+    PipelinePreset,
     PresetError,
     load_preset,
     preset_path,
@@ -62,7 +63,14 @@ def test_prepare_takes_a_units_dict_as_the_preset(presets):
     by_dict = prepare(SCENE, size=24, preset=units)
     assert by_dict.params == prepare(SCENE, size=24, preset="small-dict").params
     assert (by_dict.codes == prepare(SCENE, size=24, preset="small-dict").codes).all()
-    assert preset_units(units) is units and preset_units("default") is DEFAULT
+    frozen = preset_units(units)                    # a units dict is validated into a frozen PipelinePreset
+    assert isinstance(frozen, PipelinePreset) and frozen == units and dict(frozen) == {**dict(frozen), **units}
+    assert preset_units(frozen) is frozen and preset_units("default") is DEFAULT
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        frozen.cube_size = 8
+    assert dataclasses.replace(frozen, cube_size=8)["cube_size"] == 8
+    with pytest.raises(ValueError, match="cube_size"):             # validated like every parameter object
+        dataclasses.replace(frozen, cube_size=0)
 
 
 @pytest.mark.parametrize("bad, error, match", [

@@ -118,10 +118,13 @@ def main(argv=None) -> int:
     """Parse ``argv`` and run the command; every error ends in one line on stderr and the exit code above."""
     argv = sys.argv[1:] if argv is None else list(argv)
     known = [a for a in argv[:1] if a in COMMANDS]       # import only the command's own module
+    trailing = argv[argv.index("--") + 1:] if "--" in argv else []    # a command to run (bumpmap record)
+    argv = argv[:argv.index("--")] if "--" in argv else argv
     previous = signal.signal(signal.SIGTERM, _on_sigterm)
     try:                                                 # an interrupt while importing is caught too
         args = build_parser(known or None).parse_args(argv)
         args.command_line = " ".join(["bumpmap", *map(shlex.quote, argv)])       # for a record of the run
+        args.trailing = trailing
         return args._run(args)
     except Terminated:
         print("terminated", file=sys.stderr)

@@ -148,17 +148,17 @@ def write_if_asked(args: argparse.Namespace, data, machine_before: dict | None =
 
 
 def add_arguments(ap: argparse.ArgumentParser) -> None:
-    """``bumpmap record NAME [--as SHOWN] [--stderr] -- COMMAND ...``."""
+    """``bumpmap record NAME [--as SHOWN] [--stderr] -- COMMAND ...`` (the command after ``--``)."""
     ap.add_argument("name", help="record name: writes docs/records/NAME.json (or --out)")
     ap.add_argument("--as", dest="shown_as", metavar="SHOWN", help="the command as the documents show it")
     ap.add_argument("--out", help="record file (default: docs/records/NAME.json)")
     ap.add_argument("--stderr", action="store_true", help="record standard error too (an error message)")
-    ap.add_argument("command", nargs=argparse.REMAINDER, help="-- then the command to run")
+
 
 
 def run(args: argparse.Namespace) -> int:
     """Run a command and record what it printed on standard output (the documents' sample output)."""
-    command = args.command[1:] if args.command[:1] == ["--"] else args.command
+    command = getattr(args, "trailing", [])          # everything after --, set by tools.main
     if not command:
         print("error: no command to run (give it after --)", file=sys.stderr)
         return 2

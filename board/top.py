@@ -24,7 +24,7 @@ from amaranth.lib.cdc import ResetSynchronizer
 from .budget import write_text_atomic
 from .command import CommandLink
 from .dvi import CLOCK_WORD, Display, Serializer, pattern
-from .ulx3s import BAUD
+from .ulx3s import BAUD, wire_link
 from .video import VGA_640x480
 
 __all__ = ["Top", "PLL", "build", "report", "add_arguments", "run"]
@@ -78,17 +78,7 @@ class Top(Elaboratable):
         m.d.comb += [d.o[0].eq(pairs[0::2][:3]), d.o[1].eq(pairs[1::2][:3]),
                      c.o[0].eq(pairs[6]), c.o[1].eq(pairs[7])]
         m.submodules.link = link = CommandLink(PIXEL_HZ // BAUD, self.record_len)
-        uart = platform.request("uart", 0, dir="-")
-        bufs = {"rx": io.Buffer("i", uart.rx), "tx": io.Buffer("o", uart.tx),
-                "tx_en": io.Buffer("o", platform.request("uart_tx_enable", 0, dir="-")),
-                "led0": io.Buffer("o", platform.request("led", 0, dir="-")),
-                "led1": io.Buffer("o", platform.request("led", 1, dir="-"))}
-        for name, buf in bufs.items():
-            m.submodules[name] = buf
-        m.d.comb += [link.rx.eq(bufs["rx"].i), bufs["tx"].o.eq(link.tx), bufs["tx_en"].o.eq(1),
-                     bufs["led0"].o.eq(link.error)]
-        with m.If(link.done):
-            m.d.sync += bufs["led1"].o.eq(~bufs["led1"].o)
+        wire_link(m, platform, link)
         return m
 
 

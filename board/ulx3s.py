@@ -9,7 +9,7 @@ from amaranth.lib import io
 
 from .command import CommandLink
 
-__all__ = ["platform", "LinkProbe", "CLOCK_HZ", "BAUD"]
+__all__ = ["platform", "LinkProbe", "wire_link", "CLOCK_HZ", "BAUD"]
 
 #: The design's clock (the 25 MHz oscillator; the pixel clock in the board top) and the UART's rate: 1 MBd divides
 #: both 25 MHz (25 clocks a bit) and the FTDI chip's 3 MHz baud base exactly.
@@ -32,15 +32,21 @@ class LinkProbe(Elaboratable):
     def elaborate(self, platform):
         m = Module()
         m.submodules.link = link = CommandLink(CLOCK_HZ // BAUD, self.record_len)
-        uart = platform.request("uart", 0, dir="-")
-        bufs = {"rx": io.Buffer("i", uart.rx), "tx": io.Buffer("o", uart.tx),
-                "tx_en": io.Buffer("o", platform.request("uart_tx_enable", 0, dir="-")),
-                "led0": io.Buffer("o", platform.request("led", 0, dir="-")),
-                "led1": io.Buffer("o", platform.request("led", 1, dir="-"))}
-        for name, buf in bufs.items():
-            m.submodules[name] = buf
-        m.d.comb += [link.rx.eq(bufs["rx"].i), bufs["tx"].o.eq(link.tx), bufs["tx_en"].o.eq(1),
-                     bufs["led0"].o.eq(link.error)]
-        with m.If(link.done):
-            m.d.sync += bufs["led1"].o.eq(~bufs["led1"].o)
+        wire_link(m, platform, link)
         return m
+
+
+def wire_link(m: Module, platform, link: CommandLink) -> None:
+    """Put ``link`` on the FTDI UART's pins (``uart_tx_enable`` high), its error flag on LED 0 and a toggle per good
+    frame on LED 1, in the ``sync`` domain of ``m``."""
+    uart = platform.request("uart", 0, dir="-")
+    bufs = {"rx": io.Buffer("i", uart.rx), "tx": io.Buffer("o", uart.tx),
+            "tx_en": io.Buffer("o", platform.request("uart_tx_enable", 0, dir="-")),
+            "led0": io.Buffer("o", platform.request("led", 0, dir="-")),
+            "led1": io.Buffer("o", platform.request("led", 1, dir="-"))}
+    for name, buf in bufs.items():
+        m.submodules[name] = buf
+    m.d.comb += [link.rx.eq(bufs["rx"].i), bufs["tx"].o.eq(link.tx), bufs["tx_en"].o.eq(1),
+                 bufs["led0"].o.eq(link.error)]
+    with m.If(link.done):
+        m.d.sync += bufs["led1"].o.eq(~bufs["led1"].o)

@@ -7,7 +7,6 @@ symbols and picture, and the video timing is measured from the decoded syncs alo
 
 from __future__ import annotations
 
-import fcntl
 import hashlib
 import json
 
@@ -16,24 +15,15 @@ import numpy as np
 from board.dvi import CLOCK_WORD, DisplayTest
 from board.video import VideoTiming, frame_lanes, pattern_rgb, tmds_decode
 from fxmodel.core.paths import source_digest
-from rtl.verilog import component_verilog
 
-from .harness import BUILD, build_and_test, simulator
+from .harness import build_and_test, component_build, simulator
 
 __all__ = ["run", "symbols_from_serial", "decode", "measure"]
 
 
 def _build(timing: VideoTiming, sim: str):
-    top = "display_test"
     key = hashlib.sha1(repr(timing).encode() + source_digest(("board",))).hexdigest()[:12]
-    bdir = BUILD / sim / f"{top}_{key}"
-    bdir.mkdir(parents=True, exist_ok=True)
-    src = bdir / f"{top}.v"
-    with open(bdir / ".build.lock", "w") as lock:
-        fcntl.flock(lock, fcntl.LOCK_EX)
-        if not src.exists():
-            src.write_text(component_verilog(DisplayTest(timing), top, optimize=(sim == "icarus"), rename=True))
-    return top, bdir, src
+    return component_build("display_test", key, sim, lambda: DisplayTest(timing))
 
 
 def symbols_from_serial(bits: np.ndarray) -> np.ndarray:

@@ -5,15 +5,13 @@ recorded by ``cosim.board_uart_tb``; compared with :func:`host.protocol.parse`."
 
 from __future__ import annotations
 
-import fcntl
 import hashlib
 import json
 
 from board.command import CommandLink
 from fxmodel.core.paths import source_digest
-from rtl.verilog import component_verilog
 
-from .harness import BUILD, build_and_test, simulator
+from .harness import build_and_test, component_build, simulator
 
 __all__ = ["run", "CLOCK_NS", "DIVISOR"]
 
@@ -25,16 +23,8 @@ def run(data: bytes, record_len: int, *, sim: str | None = None) -> dict:
     """Send ``data``; return ``commands`` [(cmd, payload bytes)], ``replies`` (bytes from ``tx``), ``error``,
     ``code`` (the error state at the end) and the times."""
     sim = simulator(sim)
-    top = "command_link"
     key = hashlib.sha1(f"{DIVISOR} {record_len}".encode() + source_digest(("board", "host"))).hexdigest()[:12]
-    bdir = BUILD / sim / f"{top}_{key}"
-    bdir.mkdir(parents=True, exist_ok=True)
-    src = bdir / f"{top}.v"
-    with open(bdir / ".build.lock", "w") as lock:
-        fcntl.flock(lock, fcntl.LOCK_EX)
-        if not src.exists():
-            src.write_text(component_verilog(CommandLink(DIVISOR, record_len), top, optimize=(sim == "icarus"),
-                                             rename=True))
+    top, bdir, src = component_build("command_link", key, sim, lambda: CommandLink(DIVISOR, record_len))
     job = bdir / f"job_{hashlib.sha1(data).hexdigest()[:8]}"
     job.mkdir(exist_ok=True)
     out = job / "parsed.json"

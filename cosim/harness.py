@@ -27,8 +27,8 @@ from .simulators import SIMULATORS, build_args, simulator, verilator_env, waves_
 
 BUILD = build_dir("cosim")
 
-__all__ = ["run", "simulator", "build_and_test", "build_folder", "CosimResult", "SIMULATORS", "verilator_env",
-           "params_key"]
+__all__ = ["component_build", "run", "simulator", "build_and_test", "build_folder", "CosimResult", "SIMULATORS",
+           "verilator_env", "params_key"]
 
 
 class CosimResult(dict):
@@ -50,6 +50,22 @@ def _verilog(params, bdir: Path, top: str, sim: str) -> Path:
     if not path.exists():
         write_verilog(params, path, optimize=(sim == "icarus"), flat=True)
     return path
+
+
+def component_build(top: str, key: str, sim: str, component) -> tuple[str, Path, Path]:
+    """``(top, build folder, Verilog source)`` of a testbench design: the folder ``BUILD/<sim>/<top>_<key>``, the
+    Verilog of ``component()`` written once (under a lock: parallel workers share it), optimized by Yosys for Icarus
+    and as Amaranth writes it for Verilator. ``key`` names everything the design is built from (parameters and
+    sources: :func:`rtl.digest.params_key`)."""
+    from rtl.verilog import component_verilog
+    bdir = BUILD / sim / f"{top}_{key}"
+    bdir.mkdir(parents=True, exist_ok=True)
+    src = bdir / f"{top}.v"
+    with open(bdir / ".build.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        if not src.exists():
+            src.write_text(component_verilog(component(), top, optimize=(sim == "icarus"), rename=True))
+    return top, bdir, src
 
 
 def build_folder(params, sim: str, tag: str = ""):

@@ -15,7 +15,6 @@ Environment: ``SIM`` (``icarus`` default, or ``verilator``).
 
 from __future__ import annotations
 
-import fcntl
 import json
 
 import numpy as np
@@ -26,9 +25,8 @@ from amaranth.lib.wiring import In, Out
 from fxmodel.units.rop import DEPTH_BYTES, PIXEL_BYTES, RopParams, clear_frame, draw, read_frame, write_frame
 from rtl.digest import params_key
 from rtl.rop import Rop, axi_signature, ring_next
-from rtl.verilog import component_verilog
 
-from .harness import BUILD, build_and_test, simulator
+from .harness import build_and_test, component_build, simulator
 from .job import job_folder, remove_job
 from .raster import pack
 
@@ -125,15 +123,9 @@ def _design(params):
 def _build(params, sim: str):
     """``(top, build folder)``: the bench's Verilog written once per parameters (under a lock); on chip the
     design itself."""
-    top = "rop_bench"
-    bdir = BUILD / sim / f"{top}_{params_key(params)}"
-    bdir.mkdir(parents=True, exist_ok=True)
-    src = bdir / f"{top}.v"
-    with open(bdir / ".build.lock", "w") as lock:
-        fcntl.flock(lock, fcntl.LOCK_EX)
-        if not src.exists():
-            comp = _design(params) if _rop_params(params).on_chip else RopBench(params)
-            src.write_text(component_verilog(comp, top, optimize=(sim == "icarus"), rename=True))
+    top, bdir, src = component_build(
+        "rop_bench", params_key(params), sim,
+        lambda: _design(params) if _rop_params(params).on_chip else RopBench(params))
     return top, bdir, src
 
 

@@ -7,7 +7,6 @@ read channels (``AxiRam``'s pause generators). Environment: ``SIM`` (``icarus`` 
 
 from __future__ import annotations
 
-import fcntl
 import json
 
 import numpy as np
@@ -15,9 +14,8 @@ import numpy as np
 from fxmodel.units.texcache import TexCacheParams, Trace, simulate
 from rtl.digest import params_key
 from rtl.texcache import TexCache
-from rtl.verilog import component_verilog
 
-from .harness import BUILD, build_and_test, simulator
+from .harness import build_and_test, component_build, simulator
 from .job import job_folder, remove_job
 
 __all__ = ["run", "memory_image", "pack_requests"]
@@ -44,15 +42,7 @@ def pack_requests(cache: TexCache, trace: Trace) -> list[int]:
 
 
 def _build(cache: TexCache, key, sim: str):
-    top = "texcache"
-    bdir = BUILD / sim / f"{top}_{params_key(key)}"
-    bdir.mkdir(parents=True, exist_ok=True)
-    src = bdir / f"{top}.v"
-    with open(bdir / ".build.lock", "w") as lock:
-        fcntl.flock(lock, fcntl.LOCK_EX)
-        if not src.exists():
-            src.write_text(component_verilog(cache, top, optimize=(sim == "icarus"), rename=True))
-    return top, bdir, src
+    return component_build("texcache", params_key(key), sim, lambda: cache)
 
 
 def run(params: TexCacheParams, words: np.ndarray, trace: Trace, *, base: int = 0, p_valid: float = 1.0,

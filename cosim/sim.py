@@ -64,6 +64,7 @@ import numpy as np
 from fxmodel.core.paths import build_dir
 from host.args import SIZE_HELP, cube_size_arg, float_range, int_range, size_arg
 from host.atomic import atomic_json, check_output_dir
+from host.images import db_text, summary_table
 
 from .harness import simulator
 from .stream import PATTERNS, ArraySpace, FullSpace, Space, run_records, run_stream
@@ -97,11 +98,6 @@ def depth_rows(report: dict) -> list:
             ("depth disagreements", f"{d['disagreements']} pixels, largest gap "
                                     f"{d['max_depth_gap_of_disagreements']:.3g} (precision {d['precision']:.3g})"),
             ("memory / pixel", f"{m['bytes_read_per_pixel']} bytes read, {m['bytes_written_per_pixel']} written")]
-
-
-def _table(rows) -> str:
-    width = max(len(k) for k, _ in rows)
-    return "\n".join(f"  {k:<{width}}  {v}" for k, v in rows)
 
 
 def run_key(args, scene_file) -> str:
@@ -225,18 +221,18 @@ def sim_scene(args) -> int:
     else:
         rows += [("pixels", f"{report['pixels']:,}")]
     rows += [("mismatches", str(mismatches)),
-             ("PSNR vs float", f"{_db(report['psnr_db_vs_float'])} (max {report['max_lsb_vs_float']} LSB)"),
-             ("PSNR vs ideal", f"{_db(report['psnr_db_vs_ideal'])} (max {report['max_lsb_vs_ideal']} LSB)")]
+             ("PSNR vs float", f"{db_text(report['psnr_db_vs_float'])} (max {report['max_lsb_vs_float']} LSB)"),
+             ("PSNR vs ideal", f"{db_text(report['psnr_db_vs_ideal'])} (max {report['max_lsb_vs_ideal']} LSB)")]
     if tframe is not None:
         ff = report["from_fragments"]
-        rows += [("from fragments vs float", f"{_db(ff['psnr_db_vs_float'])} (max {ff['max_lsb_vs_float']} LSB)"),
+        rows += [("from fragments vs float", f"{db_text(ff['psnr_db_vs_float'])} (max {ff['max_lsb_vs_float']} LSB)"),
                  *depth_rows(report)]
     rows += [("verdict", f"{'pass' if report['verdict']['pass'] else 'FAIL'} (bound {args.max_lsb} LSB from (a))"),
              ("RTL pixels/s", f"{report['pixels_per_second']:,}"),
              ("seconds", f"{wall:.1f} wall, simulator {result['sim_cpu_seconds']:.1f} CPU, build "
                          f"{result['build_seconds']:.1f}"),
              ("output", str(out_dir))]
-    print(_table(rows))
+    print(summary_table(rows))
     if mismatches or not result.ok or not clocks_ok:
         print(result.describe(), file=sys.stderr)
         if not clocks_ok:
@@ -247,18 +243,13 @@ def sim_scene(args) -> int:
     return tell(report, name)
 
 
-def _db(value) -> str:
-    """A report's PSNR for the table (``None``: the frames are identical)."""
-    return "identical (exact)" if value is None else f"{value} dB"
-
-
 def model_only(args, report: dict, out_dir: Path, name: str) -> int:
     """``--model-only``: the model side's report judged and written (``"rtl": null``), no RTL build."""
     from host.render import judge, tell
     judge(report, args.max_lsb)
     report.update({"rtl": None, "preset": args.preset, "simulator": args.sim})
     atomic_json(out_dir / "report.json", report)
-    print(_table([("scene", name), ("PSNR vs float", f"{_db(report['psnr_db_vs_float'])} (max "
+    print(summary_table([("scene", name), ("PSNR vs float", f"{db_text(report['psnr_db_vs_float'])} (max "
                                                       f"{report['max_lsb_vs_float']} LSB)"),
                   ("verdict", f"{'pass' if report['verdict']['pass'] else 'FAIL'} (model only, no RTL)"),
                   ("output", str(out_dir))]))
@@ -292,14 +283,14 @@ def sim_depth(args, tframe, report, out_dir, t0) -> int:
                    "build_seconds": result["build_seconds"], "wall_seconds": round(wall, 2)})
     atomic_json(out_dir / "report.json", report)
     tv = report["triangles_vs_fragments"]
-    print(_table([
+    print(summary_table([
         ("scene", name), ("input", f"{report['triangles']} triangles -> {report['fragments']:,} fragments "
                                    f"({dt['fragments_per_covered_pixel']} per covered pixel)"),
         ("simulator", args.sim), ("mismatches", f"{result['mismatches']} pixels (frame read from memory)"),
         ("depth test", f"{dt['passed']:,} passed, {dt['failed']:,} failed"),
         ("memory traffic", f"{dt['bytes_read_per_pixel']} B read, {dt['bytes_written_per_pixel']} B written per "
                            f"covered pixel (RTL {result['rtl_bytes_read']:,} / {result['rtl_bytes_written']:,} B)"),
-        ("from triangles vs float", f"{_db(tv['psnr_db_vs_float'])} (max {tv['max_lsb_vs_float']} LSB)"),
+        ("from triangles vs float", f"{db_text(tv['psnr_db_vs_float'])} (max {tv['max_lsb_vs_float']} LSB)"),
         ("wall seconds", f"{wall:.1f}"), ("output", str(out_dir))]))
     if result["mismatches"] or not traffic_ok or result["status"]:
         print(f"RTL differs from the model: {result['mismatches']} pixels, traffic {result['rtl_bytes_read']} / "
@@ -321,7 +312,7 @@ def sim_unit(args) -> int:
     out = build_dir("sim") / re.sub(r"[^A-Za-z0-9_-]", "_", f"{args.unit}_{args.preset}")
     out.mkdir(parents=True, exist_ok=True)
     atomic_json(out / "report.json", {"unit": args.unit, "preset": args.preset, **result})
-    print(_table([("unit", f"{args.unit} ({args.preset})"), ("simulator", args.sim),
+    print(summary_table([("unit", f"{args.unit} ({args.preset})"), ("simulator", args.sim),
                   ("vectors", f"{result['vectors']:,}"), ("mismatches", str(result["mismatches"])),
                   ("vectors/s", f"{result['vectors_per_second']:,.0f}"), ("report", str(out / "report.json"))]))
     if not result.ok:

@@ -10,7 +10,7 @@ import numpy as np
 from host.atomic import atomic_save_png
 from host.reference import max_lsb, psnr
 
-__all__ = ["DIFF_GAIN", "save_png", "compose", "diff_image", "psnr_db", "metrics"]
+__all__ = ["DIFF_GAIN", "save_png", "compose", "diff_image", "psnr_db", "metrics", "summary_table", "db_text"]
 
 #: Gain of the difference images (``diff.png``): one 8-bit step shows as this many.
 DIFF_GAIN = 16
@@ -52,3 +52,14 @@ def metrics(model: np.ndarray, float_a: np.ndarray, ideal_b: np.ndarray) -> dict
             "psnr_db_float_vs_ideal": psnr_db(float_a, ideal_b),
             "exact_vs_float": bool(np.array_equal(model, float_a)),
             "exact_vs_ideal": bool(np.array_equal(model, ideal_b))}
+
+
+def summary_table(rows) -> str:
+    """``(label, value)`` rows as the aligned two-column summary the commands print (``bumpmap sim``, ``render``)."""
+    width = max(len(k) for k, _ in rows)
+    return "\n".join(f"  {k:<{width}}  {v}" for k, v in rows)
+
+
+def db_text(value) -> str:
+    """A report's PSNR for a summary (``None``: the frames are identical)."""
+    return "identical (exact)" if value is None else f"{value} dB"

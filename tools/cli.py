@@ -131,6 +131,21 @@ def cmd_errors(args) -> int:
     return 0
 
 
+def render_summary(args, report: dict) -> str:
+    """The few lines ``bumpmap render`` prints (``--json``: the whole report instead)."""
+    from host.images import db_text, summary_table
+    verdict = report["verdict"]
+    rows = [("scene", f"{report.get('scene', args.scene)} ({report['width']}x{report['height']}, preset "
+                      f"{args.preset})"),
+            ("drawn from", "triangles (the engine)" if args.triangles else "fragments (the float front end)"),
+            ("pixels", f"{report['pixels']:,}"),
+            ("vs float (a)", f"{db_text(report['psnr_db_vs_float'])} (max {report['max_lsb_vs_float']} LSB)"),
+            ("vs ideal (b)", f"{db_text(report['psnr_db_vs_ideal'])} (max {report['max_lsb_vs_ideal']} LSB)"),
+            ("verdict", f"{'pass' if verdict['pass'] else 'FAIL'} (bound {verdict['bound_lsb']} LSB from (a))"),
+            ("output", args.output + (f", references in {args.refs}" if args.refs else ""))]
+    return summary_table(rows)
+
+
 def cmd_render(args) -> int:
     from host.render import (
         from_triangles,
@@ -158,7 +173,7 @@ def cmd_render(args) -> int:
         report = render(frame, args.refs)
         save_png(args.output, frame.image(report.pop("_model_bytes")))
     judge(report, args.max_lsb)
-    print(strict_json(report))
+    print(strict_json(report) if args.json else render_summary(args, report))
     if not report["pixels"]:
         print(f"warning: {args.scene}: nothing is drawn: no triangle covers a pixel of the {report['width']}x"
               f"{report['height']} frame (camera behind or inside the geometry, or everything clipped or culled); "
@@ -227,6 +242,7 @@ def add_render_arguments(p):
                    help="texels per reflectance-cube face edge, 1 .. 1024 (default: the preset's, 64 "
                         "unless a preset file sets it)")
     p.add_argument("--refs", metavar="DIR", help="also write the float references' images (and diff.png) into DIR")
+    p.add_argument("--json", action="store_true", help="print the whole report as JSON instead of the summary")
     p.add_argument("--triangles", action="store_true", help="draw from triangles (the engine's set-up, scan "
                    "converter and interpolators; the report adds the frame from fragments beside it)")
     from host.render import bound_args

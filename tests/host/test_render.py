@@ -49,7 +49,7 @@ def test_render_command_exit_codes(tmp_path, capsys):
     assert main(["render", str(WIDE), out, "--size", "32", "--allow-clamp"]) == 1     # drawn, but over the bound
     err = capsys.readouterr().err
     assert "clamped fragment inputs" in err and "over the bound" in err
-    assert main(["render", str(TIN), out, "--size", "24"]) == 0
+    assert main(["render", str(TIN), out, "--size", "24", "--json"]) == 0
     rep = json.loads(capsys.readouterr().out)
     assert rep["verdict"]["pass"] and rep["verdict"]["bound_lsb"] == SCENE_BOUND_LSB
 

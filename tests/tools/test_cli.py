@@ -126,7 +126,7 @@ def test_render_from_triangles(tmp_path, capsys):
     """``bumpmap render --triangles``: the frame the engine draws, judged, with the fragments' beside it."""
     from tools.main import main
     assert main(["render", "tests/scenes/steep-sphere.toml", str(tmp_path / "t.png"), "--triangles",
-                 "--cube-size", "8"]) == 0
+                 "--cube-size", "8", "--json"]) == 0
     rep = json.loads(capsys.readouterr().out)
     assert rep["input"] == "triangles" and rep["verdict"]["pass"] and rep["from_fragments"]["max_lsb_vs_float"] <= 1
     assert (tmp_path / "t.png").stat().st_size > 0

@@ -277,7 +277,7 @@ def test_an_empty_frame_is_a_warning_in_render_and_a_refusal_in_fit_and_sim(sand
     """Camera below the floor (back faces culled): render drew a black PNG with "pass": true and no word, fit
     'succeeded' with 1-bit formats, make sim ended in a traceback ('no inputs: nothing to check')."""
     path = scene(sandbox, camera_y="-1.0")
-    assert bumpmap(["render", str(path), str(sandbox / "x.png")]) == 0
+    assert bumpmap(["render", str(path), str(sandbox / "x.png"), "--json"]) == 0
     captured = capsys.readouterr()
     assert "warning:" in captured.err and "nothing is drawn" in captured.err
     report = json.loads(captured.out)                       # strict JSON: no Infinity for the empty frame

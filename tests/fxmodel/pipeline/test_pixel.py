@@ -72,6 +72,9 @@ def test_shipped_scenes_within_one_lsb_of_the_float_reference(path):
 def test_render_command_writes_png_and_report(tmp_path, capsys):
     out = tmp_path / "x.png"
     assert main(["render", str(ROOT / "scenes" / "tin-plane.toml"), str(out), "--size", "40"]) == 0
+    summary = capsys.readouterr().out                        # the short summary by default
+    assert "verdict       pass" in summary and str(out) in summary and "{" not in summary
+    assert main(["render", str(ROOT / "scenes" / "tin-plane.toml"), str(out), "--size", "40", "--json"]) == 0
     rep = json.loads(capsys.readouterr().out)
     from PIL import Image
     img = np.asarray(Image.open(out))

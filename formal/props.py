@@ -32,8 +32,9 @@ class Harness:
     Parameters
     ----------
     bounded : bool
-        Include the checks marked ``bounded`` (those that k-induction cannot prove without invariants over a
-        memory's contents): the run is then a bounded model check.
+        The bounded run: only the checks marked ``bounded`` (those that k-induction cannot prove without
+        invariants over a memory's contents), checked to a depth; without it, only the others, for a proof by
+        k-induction. Assumptions are in both.
     """
 
     def __init__(self, bounded: bool = False):
@@ -66,9 +67,9 @@ class Harness:
         return cnt
 
     def check(self, cond, name: str, *, assume: bool = False, bounded: bool = False):
-        """``Assert(cond)`` (or ``Assume``), named ``name`` in the solver's report; ``bounded`` checks only in
-        the bounded run."""
-        if bounded and not self.bounded:
+        """``Assert(cond)`` (or ``Assume``), named ``name`` in the solver's report; a ``bounded`` assertion is in
+        the bounded run only, any other in the proof only."""
+        if bounded != self.bounded and not assume:
             return
         self.names.append(name)
         self.m.d.comb += (Assume if assume else Assert)(cond, name)

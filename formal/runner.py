@@ -11,6 +11,7 @@ from __future__ import annotations
 import os
 import re
 import shutil
+import signal
 import subprocess
 import time
 from dataclasses import dataclass, field
@@ -108,12 +109,19 @@ def run_job(job: Job, folder: Path) -> Result:
     cmd = [SBY, "--yosys", YOSYS, "--smtbmc", SMTBMC, "-f", "job.sby"]
     env = dict(os.environ)
     start = time.monotonic()
+    # its own process group, so that a timeout ends the solver processes sby started too
+    proc = subprocess.Popen(cmd, cwd=where, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env,
+                            start_new_session=True)
     try:
-        proc = subprocess.run(cmd, cwd=where, capture_output=True, text=True, timeout=job.timeout, env=env)
-        log = proc.stdout + proc.stderr
-    except subprocess.TimeoutExpired as exc:
-        log = (exc.stdout or b"").decode() if isinstance(exc.stdout, bytes) else (exc.stdout or "")
-        _write(where / "sby.log", log)
+        log, _ = proc.communicate(timeout=job.timeout)
+    except subprocess.TimeoutExpired:
+        os.killpg(proc.pid, signal.SIGTERM)
+        try:
+            log, _ = proc.communicate(timeout=10)
+        except subprocess.TimeoutExpired:
+            os.killpg(proc.pid, signal.SIGKILL)
+            log, _ = proc.communicate()
+        _write(where / "sby.log", log or "")
         return Result(job.name, job.mode, job.depth, "TIMEOUT", time.monotonic() - start)
     seconds = time.monotonic() - start
     _write(where / "sby.log", log)

@@ -17,7 +17,10 @@ from __future__ import annotations
 
 from amaranth.hdl import Assert, Assume, ClockDomain, Cover, Module, Signal, Value
 
-__all__ = ["Harness", "bits_for"]
+__all__ = ["Harness", "bits_for", "KINDS"]
+
+#: What a harness checks: see :class:`Harness`.
+KINDS = ("proof", "bounded", "cover")
 
 
 def bits_for(n: int) -> int:
@@ -31,18 +34,21 @@ class Harness:
 
     Parameters
     ----------
-    bounded : bool
-        The bounded run: only the checks marked ``bounded`` (those that k-induction cannot prove without
-        invariants over a memory's contents), checked to a depth; without it, only the others, for a proof by
-        k-induction. Assumptions are in both.
+    kind : str
+        ``proof``: the assertions not marked ``bounded``, for k-induction (or a bounded check of a broken
+        variant); ``bounded``: only those marked ``bounded`` (k-induction cannot prove them), checked to a depth;
+        ``cover``: only the ``Cover`` statements (reachability), without assertions, so the solver sees only
+        their cone. Assumptions are in every kind.
     """
 
-    def __init__(self, bounded: bool = False):
+    def __init__(self, kind: str = "proof"):
+        if kind not in KINDS:
+            raise ValueError(f"kind={kind!r}: must be one of {', '.join(KINDS)}")
+        self.kind = kind
         self.m = Module()
         # one clock, no reset: registers start from their initial values (the solver's first step)
         self.m.domains.sync = sync = ClockDomain("sync", reset_less=True)
         self.ports: list[Signal] = [sync.clk]
-        self.bounded = bounded
         self.started = Signal(name="f_started")
         self.m.d.sync += self.started.eq(1)
         self.names: list[str] = []
@@ -69,12 +75,14 @@ class Harness:
     def check(self, cond, name: str, *, assume: bool = False, bounded: bool = False):
         """``Assert(cond)`` (or ``Assume``), named ``name`` in the solver's report; a ``bounded`` assertion is in
         the bounded run only, any other in the proof only."""
-        if bounded != self.bounded and not assume:
+        if not assume and (self.kind == "cover" or bounded != (self.kind == "bounded")):
             return
         self.names.append(name)
         self.m.d.comb += (Assume if assume else Assert)(cond, name)
 
     def cover(self, cond, name: str):
+        if self.kind != "cover":
+            return
         self.names.append(name)
         self.m.d.comb += Cover(cond, name)
 

@@ -52,9 +52,9 @@ def _copies(frag, stem: str) -> list:
     return out
 
 
-def raster_set(params: RasterParams | None = None, *, bounded: bool = False, wrap=None) -> Harness:
+def raster_set(params: RasterParams | None = None, *, kind: str = "proof", wrap=None) -> Harness:
     P = params or small_raster()
-    h = Harness(bounded)
+    h = Harness(kind)
     m = h.m
     inner = Raster(P)
     dut = wrap(inner) if wrap else inner
@@ -114,8 +114,8 @@ def raster_set(params: RasterParams | None = None, *, bounded: bool = False, wra
     return h
 
 
-def raster_independence(params: RasterParams | None = None, *, wrap=None) -> Harness:
+def raster_independence(params: RasterParams | None = None, *, kind: str = "proof", wrap=None) -> Harness:
     P = params or small_raster()
-    h = Harness(bounded=True)
+    h = Harness(kind)
     independence(h, lambda: wrap(Raster(P)) if wrap else Raster(P), record_layout(P).size)
     return h

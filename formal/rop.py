@@ -36,9 +36,9 @@ def small_rop(**kw) -> RopParams:
     return RopParams(**(args | kw))
 
 
-def rop_set(params: RopParams | None = None, *, bounded: bool = False, wrap=None) -> Harness:
+def rop_set(params: RopParams | None = None, *, kind: str = "proof", wrap=None) -> Harness:
     P = params or small_rop()
-    h = Harness(bounded)
+    h = Harness(kind)
     m = h.m
     inner = Rop(P)
     dut = wrap(inner) if wrap else inner

@@ -42,10 +42,10 @@ def side_layout(params) -> data.StructLayout:
     return data.StructLayout({"tag": tag_bits(params)})
 
 
-def stream_unit(params, *, bounded: bool = False, wrap=None) -> Harness:
+def stream_unit(params, *, kind: str = "proof", wrap=None) -> Harness:
     """The property set of ``StreamUnit(params)`` with a sequence-number sideband; ``wrap`` (a broken variant
     of :mod:`formal.broken`) wraps the unit."""
-    h = Harness(bounded)
+    h = Harness(kind)
     m = h.m
     depth, lat, t = buffer_depth(params), params.latency, tag_bits(params)
     inner = StreamUnit(params, side_layout(params))
@@ -72,14 +72,28 @@ def stream_unit(params, *, bounded: bool = False, wrap=None) -> Harness:
     h.check(~x_out | (out != 0), "o_no_dup")
     h.check(used == out, "o_used")
     h.check(out == level + pop, "o_inflight")
-    h.check(~dut.o.valid | (dut.o.payload.side.tag == n_out), "o_order", bounded=True)
+    h.check(~dut.o.valid | (dut.o.payload.side.tag == n_out), "o_order")
+    h.check(n_in == (n_out + out)[:t], "seq_counts")
+    # the numbers inside (for induction): the k-th valid bit of the delay line (k = latency the oldest) carries
+    # the number after those of the FIFO and of the older bits; the FIFO is written in order, its head is
+    # the oldest (``SyncFIFO``'s contract: what is read was written, in order), assumed where it is read
+    fifo = whitebox.origin(frag, pre + "fifo", SyncFIFO)
+    sides = [whitebox.signal(frag, f"side{k}", pre + "core")[:t] for k in range(1, lat + 1)]
+    for k in range(lat):
+        older = sum(line[j] for j in range(k + 1, lat))
+        h.check(~line[k] | (sides[k] == (n_out + level + older)[:t]), f"line{k + 1}_seq")
+    h.check(~(fifo.w_en & fifo.w_rdy) | (fifo.w_data[-t:] == (n_out + level)[:t]), "fifo_write_seq")
+    h.check(~fifo.r_rdy | (fifo.r_data[-t:] == n_out), "fifo_read_seq", assume=True)
+    # rule 3 as a bound: with fragments in flight and ``o.valid`` low, the oldest is in the delay line and
+    # reaches the output within the latency, whatever ``o.ready`` does
     wait = Signal(range(lat + 2), name="f_wait")
     with m.If((out != 0) & ~dut.o.valid):
         with m.If(wait <= lat):
             m.d.sync += wait.eq(wait + 1)
     with m.Else():
         m.d.sync += wait.eq(0)
-    h.check(wait < lat, "o_wait", bounded=True)
+    h.check(wait < lat, "o_wait")
+    h.check((wait == 0) | Cat(line[k] & (wait <= k) for k in range(lat)).any(), "o_wait_oldest")
     # reachability: a full FIFO with the input held off, the longest stall released, a wrap of the numbers
     run = Signal(range(depth + 2), name="f_run")
     with m.If(dut.o.valid & ~dut.o.ready):
@@ -97,9 +111,9 @@ def stream_unit(params, *, bounded: bool = False, wrap=None) -> Harness:
     return h
 
 
-def stream_independence(params, *, wrap=None) -> Harness:
+def stream_independence(params, *, kind: str = "proof", wrap=None) -> Harness:
     """The independence miter (:mod:`formal.miter`) on two copies of ``StreamUnit(params)``."""
-    h = Harness(bounded=True)
+    h = Harness(kind)
     def make():
         inner = StreamUnit(params, side_layout(params))
         return wrap(inner) if wrap else inner

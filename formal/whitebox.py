@@ -24,7 +24,7 @@ def elaborate(dut) -> Fragment:
 
 def subfragment(frag: Fragment, path: str) -> Fragment:
     """The fragment at ``path`` (submodule names joined by ``/``, e.g. ``"core/unit"``)."""
-    for part in path.split("/") if path else ():
+    for part in [p for p in path.split("/") if p]:
         found = [sub for sub, name, _ in frag.subfragments if name == part]
         if not found:
             names = [name for _, name, _ in frag.subfragments]

@@ -1,0 +1,7 @@
+"""``python -m formal``: see :mod:`formal.cli`."""
+
+import sys
+
+from .cli import main
+
+sys.exit(main())

@@ -20,7 +20,7 @@ SCENE_ARGS = $(if $(filter-out file default undefined,$(origin PRESET) $(origin 
 export PATH := $(CURDIR)/$(VENV)/bin:$(PATH)
 export SIM
 
-.PHONY: setup test verilog sim render bench fpga exhaustive exhaustive-wide clean help
+.PHONY: setup test verilog sim render bench fpga exhaustive exhaustive-wide formal clean help
 
 help:
 	@echo "make sim        draw SCENE (default tin-plane) from triangles through the RTL engine, bit-exact check"
@@ -37,6 +37,8 @@ help:
 	@echo "make exhaustive exhaustive RTL equivalence (streaming co-simulation) -> build/exhaustive/report.json"
 	@echo "make exhaustive-wide  the 2^32-input proof of recip rcp32: model vs exact math, RTL vs model on Verilator"
 	@echo "                (long: Dask, --jobs \$$JOBS local workers or DASK_SCHEDULER_ADDRESS; resumes where it stopped)"
+	@echo "make formal     SymbiYosys proofs of the handshakes (streams, AXI4 port, depth-test hazard) and the broken"
+	@echo "                variants that must fail -> build/formal/, record docs/formal/proofs.json"
 	@echo "make setup      create .venv, install everything, install iverilog if missing"
 
 setup: $(STAMP) iverilog-check
@@ -85,6 +87,9 @@ exhaustive: setup
 # nice 10; WIDE_ARGS="--select A:B" checks pieces A..B only (a rerun without it resumes from them).
 exhaustive-wide: setup
 	nice -n 10 $(PY) -m tools.exhaustive --sim exact,verilator --only recip:rcp32 --jobs $(JOBS) $(WIDE_ARGS)
+
+formal: setup
+	$(PY) -m formal --record docs/formal/proofs.json
 
 clean:
 	rm -rf build sim_build .pytest_cache .hypothesis

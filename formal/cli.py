@@ -37,6 +37,18 @@ def _write_json(path: Path, obj):
     os.replace(tmp, path)
 
 
+def _command(args) -> str:
+    """The command line that reruns this run (from the parsed arguments)."""
+    words = ["python -m formal"]
+    if args.only:
+        words.append("--only " + " ".join(args.only))
+    words += [flag for flag, on in (("--fast", args.fast), ("--no-covers", args.no_covers),
+                                    ("--no-broken", args.no_broken)) if on]
+    if args.record:
+        words.append(f"--record {args.record}")
+    return " ".join(words)
+
+
 def run(args) -> int:
     from .sets import FAST_SETS, FAST_VARIANTS, machine, property_sets, run_set, run_variant, variants
     sets, vars_ = property_sets(), variants()
@@ -63,8 +75,7 @@ def run(args) -> int:
     if missing:
         print(f"error: {missing}", file=sys.stderr)
         return 2
-    record = {"command": "python -m formal " + " ".join(sys.argv[1:]) if sys.argv[0].endswith("formal")
-              else "python -m formal", "machine": machine(), "sets": [], "broken": []}
+    record = {"command": _command(args), "machine": machine(), "sets": [], "broken": []}
     start = time.monotonic()
     ok = True
     for s in sets:

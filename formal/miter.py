@@ -17,8 +17,10 @@ from .props import Harness
 __all__ = ["independence"]
 
 
-def independence(h: Harness, make, in_payload_shape):
-    """Add the miter of two copies of ``make()`` (a component with stream ports ``i`` and ``o``) to ``h``."""
+def independence(h: Harness, make, in_payload_shape, payload: bool = True):
+    """Add the miter of two copies of ``make()`` (a component with stream ports ``i`` and ``o``) to ``h``;
+    ``payload=False`` compares ``o.valid`` only (for a run whose datapath is cut: the copies' cut values
+    differ)."""
     m = h.m
     a, b = make(), make()
     m.submodules.copy_a, m.submodules.copy_b = a, b
@@ -33,7 +35,9 @@ def independence(h: Harness, make, in_payload_shape):
     for copy, fv, fr in ((a, 0, 0), (b, flip_v, flip_r)):
         m.d.comb += [copy.i.valid.eq(i_valid ^ fv), copy.i.payload.eq(i_payload), copy.o.ready.eq(o_ready ^ fr)]
     h.check(~flip_v | (a.i.ready == b.i.ready), "ready_indep_of_valid")
-    h.check(~flip_r | ((a.o.valid == b.o.valid) & (a.o.payload.as_value() == b.o.payload.as_value())),
-            "valid_indep_of_ready")
+    # the payload counts only while valid (a free-running datapath's output is undefined otherwise: a
+    # memory's read register has no initial value, so the copies may differ there)
+    same_payload = (a.o.payload.as_value() == b.o.payload.as_value()) if payload else 1
+    h.check(~flip_r | ((a.o.valid == b.o.valid) & (~a.o.valid | same_payload)), "valid_indep_of_ready")
     h.cover(flip_v & ~probed & a.i.ready, "probe_valid_reach")
     h.cover(flip_r & ~probed & a.o.valid, "probe_ready_reach")

@@ -51,7 +51,9 @@ class Harness:
         self.ports: list[Signal] = [sync.clk]
         self.started = Signal(name="f_started")
         self.m.d.sync += self.started.eq(1)
-        self.names: list[str] = []
+        self.asserted: list[str] = []
+        self.assumed: list[str] = []
+        self.covered: list[str] = []
 
     def free(self, shape, name: str) -> Signal:
         """A free input (an RTLIL port of the top)."""
@@ -77,13 +79,13 @@ class Harness:
         the bounded run only, any other in the proof only."""
         if not assume and (self.kind == "cover" or bounded != (self.kind == "bounded")):
             return
-        self.names.append(name)
+        (self.assumed if assume else self.asserted).append(name)
         self.m.d.comb += (Assume if assume else Assert)(cond, name)
 
     def cover(self, cond, name: str):
         if self.kind != "cover":
             return
-        self.names.append(name)
+        self.covered.append(name)
         self.m.d.comb += Cover(cond, name)
 
     def stream_hold(self, valid, ready, payload, name: str, *, assume: bool = False):

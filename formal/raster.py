@@ -117,5 +117,5 @@ def raster_set(params: RasterParams | None = None, *, kind: str = "proof", wrap=
 def raster_independence(params: RasterParams | None = None, *, kind: str = "proof", wrap=None) -> Harness:
     P = params or small_raster()
     h = Harness(kind)
-    independence(h, lambda: wrap(Raster(P)) if wrap else Raster(P), record_layout(P).size)
+    independence(h, lambda: wrap(Raster(P)) if wrap else Raster(P), record_layout(P).size, payload=False)
     return h

@@ -23,11 +23,13 @@ def markdown_table(record: dict) -> str:
     record : dict
         As written by ``python -m formal --record PATH`` (keys ``sets``, ``broken``, ``command``, ``machine``).
     """
-    lines = ["| Property set | Design | Properties | Verdict | Status | Solver time (s) | Runs |",
-             "|---|---|---|---|---|---:|---|"]
+    lines = ["| Property set | Design | Properties | Checks | Verdict | Status | Solver time (s) | Runs |",
+             "|---|---|---|---|---|---|---:|---|"]
     for s in record.get("sets", []):
         verdict = s["verdict"] + (f" ({s['why']})" if s.get("why") else "")
-        lines.append(f"| {_cell(s['name'])} | {_cell(s['design'])} | {_cell(s['properties'])} | {_cell(verdict)} "
+        checks = f"{len(s.get('checks', []))} asserted, {len(s.get('covers', []))} covered"
+        lines.append(f"| {_cell(s['name'])} | {_cell(s['design'])} | {_cell(s['properties'])} | {checks} "
+                     f"| {_cell(verdict)} "
                      f"| {s['status']} | {s['seconds']:.1f} | {_cell(_runs(s))} |")
     if record.get("broken"):
         lines += ["", "| Broken variant | Bug | Must fail | Failed | Caught | Solver time (s) |",

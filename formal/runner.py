@@ -115,6 +115,8 @@ def run_job(job: Job, folder: Path) -> Result:
     try:
         log, _ = proc.communicate(timeout=job.timeout)
     except subprocess.TimeoutExpired:
+        for pid in _descendants(proc.pid):           # sby runs its engines in process groups of their own
+            _kill(pid)
         os.killpg(proc.pid, signal.SIGTERM)
         try:
             log, _ = proc.communicate(timeout=10)
@@ -128,19 +130,41 @@ def run_job(job: Job, folder: Path) -> Result:
     return _verdict(job, where, log, seconds)
 
 
+def _descendants(pid: int) -> list[int]:
+    """The processes below ``pid`` (by their parent ids in ``/proc``), deepest last."""
+    children: dict[int, list[int]] = {}
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+        except OSError:
+            continue
+        children.setdefault(int(fields[1]), []).append(int(stat.parent.name))
+    out, todo = [], [pid]
+    while todo:
+        for child in children.get(todo.pop(), []):
+            out.append(child)
+            todo.append(child)
+    return out
+
+
+def _kill(pid: int):
+    try:
+        os.kill(pid, signal.SIGTERM)
+    except ProcessLookupError:
+        pass
+
+
 _STATUS = re.compile(r"DONE \((PASS|FAIL|UNKNOWN|ERROR|TIMEOUT)")
 
 
 def _verdict(job: Job, where: Path, log: str, seconds: float) -> Result:
     found = _STATUS.findall(log)
     status = found[-1] if found else "ERROR"
-    failed = sorted(set(re.findall(r"(?:Assert failed|Unreached cover statement|Assumptions are unsatisfiable)"
-                                   r"[^\n]*?(?:at|in) [^\n]*?: ?([A-Za-z0-9_]+)\s*$", log, re.M)))
-    failed = failed or sorted(set(re.findall(r"(?:failed|Unreached cover statement)[^\n]*\b(f_[a-z0-9_]+|"
-                                             r"[a-z][a-z0-9_]*_(?:hold|bound|order|count|level|used|free|"
-                                             r"hazard|wlast|stable|4k|size|burst|dup|seq|wait|indep|reach))\b",
-                                             log)))
-    steps = re.findall(r"(?:BMC failed|Assert failed|failed assertion)[^\n]*step (\d+)", log)
+    # the summary names each failed assertion and each unreached cover as ``top.<name> at <source>``
+    failed = sorted(set(re.findall(r"(?:Assert failed in top: |failed assertion top\.|^.*summary:\s+top\.)"
+                                   r"([A-Za-z0-9_]+)", log, re.M)))
+    cut = log.find("Assert failed")
+    steps = re.findall(r"in step (\d+)", log[:cut] if cut >= 0 else "")
     traces = sorted(str(p) for p in where.glob("job/engine_*/trace*.vcd"))
     return Result(job.name, job.mode, job.depth, status, seconds, failed, traces,
                   int(steps[-1]) if steps else None)

@@ -50,7 +50,7 @@ def _command(args) -> str:
 
 
 def run(args) -> int:
-    from .sets import FAST_SETS, FAST_VARIANTS, machine, property_sets, run_set, run_variant, variants
+    from .sets import FAST_SETS, FAST_VARIANTS, SCOPE, machine, property_sets, run_set, run_variant, variants
     sets, vars_ = property_sets(), variants()
     if args.list:
         for s in sets:
@@ -75,7 +75,7 @@ def run(args) -> int:
     if missing:
         print(f"error: {missing}", file=sys.stderr)
         return 2
-    record = {"command": _command(args), "machine": machine(), "sets": [], "broken": []}
+    record = {"command": _command(args), "machine": machine(), "scope": list(SCOPE), "sets": [], "broken": []}
     start = time.monotonic()
     ok = True
     for s in sets:

@@ -38,6 +38,8 @@ def markdown_table(record: dict) -> str:
             failed = ", ".join(b["failed"]) or b["status"]
             lines.append(f"| {_cell(b['name'])} | {_cell(b['bug'])} | {_cell(b['expect'])}* | {_cell(failed)} "
                          f"| {'yes' if b['caught'] else 'NO'} | {b['seconds']:.1f} |")
+    if record.get("scope"):
+        lines += [""] + [f"- {_cell(note)}" for note in record["scope"]]
     m = record.get("machine", {})
     load = ", ".join(str(x) for x in m.get("loadavg", []))
     lines += ["", f"Command: `{record.get('command', '?')}`; {m.get('nproc', '?')} cores, load average {load} "

@@ -12,7 +12,7 @@
 
 from __future__ import annotations
 
-from amaranth.hdl import Array, Cat, Mux, Signal
+from amaranth.hdl import Array, Cat, Mux
 from amaranth.lib import wiring
 
 from fxmodel.fixed import Fmt

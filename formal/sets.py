@@ -148,16 +148,16 @@ SCOPE = (
     "properties read only registers; the stream versions run every unit's default preset whole otherwise.",
     "The scan converter and the ROP run small parameters (16-pixel viewport, one attribute; 4 x 4 frame, 3 "
     "slots, 4-bit depths): their control logic is the same for any size, only widths change.",
-    "The engine (rtl/pipeline.py TrianglePipeline) is covered by composition: its streams are wires between "
-    "the scan converter's o, the pixel pipeline's StreamUnit and the ROP's i (or the engine's o); each side "
-    "is proven to guarantee what the other assumes (rule 2), so no separate engine run is made.",
+    "The engine (rtl/pipeline.py TrianglePipeline) has no run of its own: its streams are wires from the scan "
+    "converter's o (proven) through the pixel pipeline's StreamUnit (see the next note) to the ROP's i (proven "
+    "under rule 2 assumed) or the engine's o; each proven side guarantees the rule 2 the next one assumes.",
     "Not in the run: the stream version of the whole pixel pipeline (latency 74, FIFO 75): its induction did "
     "not close within 7 minutes at k = 3 nor 4 minutes at k = 1, even with its units cut; its stream "
     "wrapper is the code proven on the eight units above (rtl/streams.py, generic in the latency).",
     "White-box invariants read the designs' internal registers by name (formal/whitebox.py); the FIFOs' own "
     "contract (Amaranth's SyncFIFO returns what was written, in order) is assumed where they are read.",
-    "The memory behind the AXI4 port is free within the AXI4 rules, with stalls and response latencies of "
-    "at most 3 cycles (a bound the proofs need; the ROP's correctness does not depend on its value).",
+    "The memory behind the AXI4 port is free within the AXI4 rules, with stalls and response latencies "
+    "assumed of at most 3 cycles.",
 )
 
 #: The fast subset of ``make test`` (tests/test_formal.py).

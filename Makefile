@@ -23,7 +23,7 @@ SCENE_ARGS = $(if $(filter-out file default undefined,$(origin PRESET) $(origin 
 export PATH := $(CURDIR)/$(VENV)/bin:$(PATH)
 export SIM
 
-.PHONY: setup test verilog sim render bench fpga bitstream exhaustive exhaustive-wide docs clean help
+.PHONY: setup test verilog sim render bench fpga bitstream exhaustive exhaustive-wide docs formal clean help
 
 help:
 	@echo "make sim        draw SCENE (default tin-plane) from triangles through the RTL engine, bit-exact check"
@@ -44,6 +44,8 @@ help:
 	@echo "                (long: Dask, --jobs \$$JOBS local workers or DASK_SCHEDULER_ADDRESS; resumes where it stopped)"
 	@echo "make docs       regenerate docs/generated/ from the presets, the code and docs/records/, then build the"
 	@echo "                site into build/site (mkdocs build --strict: warnings are errors)"
+	@echo "make formal     SymbiYosys proofs of the handshakes (streams, AXI4 port, depth-test hazard) and the broken"
+	@echo "                variants that must fail -> build/formal/, record docs/formal/proofs.json"
 	@echo "make setup      create .venv, install everything, install iverilog if missing"
 
 setup: $(STAMP) iverilog-check
@@ -100,6 +102,9 @@ exhaustive-wide: setup
 docs: setup
 	$(BUMPMAP) docs
 	NO_MKDOCS_2_WARNING=1 $(PY) -m mkdocs build --strict
+
+formal: setup
+	$(BUMPMAP) formal --record docs/formal/proofs.json
 
 clean:
 	rm -rf build sim_build .pytest_cache .hypothesis

@@ -23,7 +23,7 @@ import pytest
 
 from fxmodel.core.paths import ROOT
 
-PACKAGES = ("fxmodel", "host", "rtl", "board", "cosim", "tools")
+PACKAGES = ("fxmodel", "host", "rtl", "board", "cosim", "formal", "tools")
 #: Modules in no layer: the golden model's (empty) package ``__init__`` files.
 UNLAYERED = {"fxmodel", "fxmodel.core", "fxmodel.units", "fxmodel.pipeline"}
 

@@ -41,6 +41,7 @@ COMMANDS: dict[str, tuple[str, str | None]] = {
     "fpga": ("tools.fpga", "ECP5-85 synthesis, place and route of units and pipelines"),
     "bench": ("tools.bench", "model and co-simulation throughput, then the speed-against-error sweep"),
     "sweep": ("tools.sweep", "the reciprocal's and the units' speed-against-error sweep"),
+    "formal": ("formal.cli", "SymbiYosys proofs of the handshakes and the broken variants that must fail"),
     "exhaustive": ("tools.exhaustive", "exhaustive RTL equivalence runs and the 2^32 proof (Dask)"),
     "scenes-stress": ("tools.scenes_stress", "random valid scenes rendered in bulk against the bound"),
     "depth": ("tools.depth", "overdraw, depth disagreements and frame-buffer traffic of the shipped scenes"),

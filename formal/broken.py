@@ -1,0 +1,103 @@
+"""Broken variants: small wrappers that put one realistic bug around a correct design, to show that each
+property can fail (the proof must fail on them with a counterexample, written as a waveform).
+
+Each wrapper has the design's own ports and holds the design as submodule ``dut``; the property sets find the
+white-box signals under ``dut/``. ``hazard_off`` needs no wrapper: ``RopParams(hazard=False)`` exists for it.
+"""
+
+from __future__ import annotations
+
+from amaranth.hdl import Module, Signal
+from amaranth.lib import wiring
+
+__all__ = ["Wrap", "PayloadWhileStalled", "ReadyFromValid", "DroppedToken", "ValidWaitsForReady", "WlastEarly",
+           "ArChangesWhileStalled"]
+
+
+class Wrap(wiring.Component):
+    """Passes every port of ``inner`` through, except what :meth:`change` drives itself."""
+
+    #: port members (``(interface, member)``) that :meth:`change` drives
+    CHANGED: tuple = ()
+
+    def __init__(self, inner):
+        self.inner = inner
+        super().__init__(dict(inner.signature.members))
+
+    def elaborate(self, platform):
+        m = Module()
+        m.submodules.dut = self.inner
+        for name, member in self.signature.members.items():
+            outer, inner = getattr(self, name), getattr(self.inner, name)
+            if member.is_port:
+                pairs = [((), outer, inner, member.flow)]
+            else:
+                # an In member's signature is already flipped: each sub-member's flow is the component's view
+                pairs = [((name, sub), getattr(outer, sub), getattr(inner, sub), m2.flow)
+                         for sub, m2 in member.signature.members.items()]
+            for key, o, i, flow in pairs:
+                if key in self.CHANGED:
+                    continue
+                m.d.comb += (o.eq(i) if flow == wiring.Out else i.eq(o))
+        self.change(m)
+        return m
+
+    def change(self, m: Module):
+        raise NotImplementedError
+
+
+class PayloadWhileStalled(Wrap):
+    """``o.payload``'s lowest bit flips in the cycle after a stall (an output register reloaded while held)."""
+    CHANGED = (("o", "payload"),)
+
+    def change(self, m):
+        stalled = Signal()
+        m.d.sync += stalled.eq(self.o.valid & ~self.o.ready)
+        m.d.comb += self.o.payload.eq(self.inner.o.payload.as_value() ^ stalled)
+
+
+class ReadyFromValid(Wrap):
+    """``i.ready`` combinationally from ``i.valid`` (the stream version promises registers only)."""
+    CHANGED = (("i", "ready"),)
+
+    def change(self, m):
+        m.d.comb += self.i.ready.eq(self.inner.i.ready & self.i.valid)
+
+
+class DroppedToken(Wrap):
+    """The third result is taken from the unit and never offered (a token lost)."""
+    CHANGED = (("o", "valid"), ("o", "ready"))
+
+    def change(self, m):
+        seen = Signal(2)
+        drop = self.inner.o.valid & (seen == 2)
+        with m.If(self.inner.o.valid & self.inner.o.ready & (seen != 3)):
+            m.d.sync += seen.eq(seen + 1)
+        m.d.comb += [self.o.valid.eq(self.inner.o.valid & ~drop), self.inner.o.ready.eq(self.o.ready | drop)]
+
+
+class ValidWaitsForReady(Wrap):
+    """``o.valid`` only while ``o.ready`` (rule 3 broken: a consumer that waits for valid deadlocks)."""
+    CHANGED = (("o", "valid"),)
+
+    def change(self, m):
+        m.d.comb += self.o.valid.eq(self.inner.o.valid & self.o.ready)
+
+
+class WlastEarly(Wrap):
+    """Every write announced as a 2-beat burst (``AWLEN = 1``) while its one beat carries ``WLAST``: the last
+    beat flagged one beat early."""
+    CHANGED = (("axi", "awlen"),)
+
+    def change(self, m):
+        m.d.comb += self.axi.awlen.eq(1)
+
+
+class ArChangesWhileStalled(Wrap):
+    """``ARADDR`` moves to the next word while ``AR`` waits for ready."""
+    CHANGED = (("axi", "araddr"),)
+
+    def change(self, m):
+        stalled = Signal()
+        m.d.sync += stalled.eq(self.axi.arvalid & ~self.axi.arready)
+        m.d.comb += self.axi.araddr.eq(self.inner.axi.araddr + (stalled << 3))

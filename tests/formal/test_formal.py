@@ -1,0 +1,96 @@
+"""The fast subset of the formal proofs (``make formal`` runs them all, ``formal/``): one stream unit's rules
+proven by k-induction, the ROP's AXI4 port and hazard rule proven, a broken variant failing with a
+counterexample waveform; the record's table, and clear errors for a missing solver or a bad name."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from formal.report import markdown_table
+from formal.runner import tools_missing
+from formal.sets import property_sets, run_set, run_variant, variants
+from fxmodel.core.paths import ROOT, build_dir  # noqa: E402
+
+#: YoWASP maps /tmp to a private folder, so the jobs run under the repository's build folder
+OUT = build_dir("formal", "test")
+
+needs_tools = pytest.mark.skipif(tools_missing() is not None, reason=str(tools_missing()))
+
+
+def _set(name):
+    (ps,) = [s for s in property_sets() if s.name == name]
+    return ps
+
+
+@needs_tools
+def test_stream_unit_rules_are_proven_by_induction():
+    entry = run_set(_set("stream_recip"), OUT, covers=False)
+    assert entry["status"] == "PASS", entry
+    assert entry["runs"][0]["mode"] == "prove" and entry["verdict"].startswith("proven")
+
+
+@needs_tools
+def test_rop_axi_port_and_hazard_are_proven_and_reachable():
+    entry = run_set(_set("rop_axi"), OUT)
+    assert entry["status"] == "PASS", entry
+    assert [r["kind"] for r in entry["runs"]] == ["proof", "cover"]
+
+
+@needs_tools
+def test_broken_variant_fails_with_a_waveform():
+    (v,) = [v for v in variants() if v.name == "payload_while_stalled"]
+    entry = run_variant(v, OUT)
+    assert entry["status"] == "FAIL" and entry["caught"], entry
+    assert "o_hold" in entry["failed"]
+    vcd = Path(entry["trace"])
+    text = (vcd if vcd.is_absolute() else ROOT / vcd).read_text()
+    assert "$enddefinitions" in text and "o__payload" in text
+
+
+def _run_cli(*args, env=None):
+    return subprocess.run([sys.executable, "-m", "tools", "formal", *args], cwd=ROOT, capture_output=True, text=True,
+                          env=env, timeout=120)
+
+
+def test_missing_solver_is_a_clear_error(monkeypatch, capsys):
+    """No tool in the interpreter's folder nor on PATH: one line naming the tool and its package, exit 2."""
+    from tools.main import main
+    monkeypatch.setattr(sys, "executable", "/nonexistent/python")
+    monkeypatch.setenv("PATH", "/nonexistent")
+    assert main(["formal", "--only", "rop_axi"]) == 2
+    err = capsys.readouterr().err
+    assert "not found on PATH" in err and "yowasp" in err
+
+
+def test_unknown_set_is_refused_by_name():
+    run = _run_cli("--only", "no_such_set", env={**os.environ, "PYTHONPATH": str(ROOT)})
+    assert run.returncode == 2 and "no_such_set" in run.stderr
+
+
+def test_markdown_table_lists_every_set_and_variant():
+    record = {"command": "bumpmap formal", "machine": {"nproc": 2, "loadavg": [1.0, 0.5, 0.2]}, "seconds": 12,
+              "sets": [{"name": "a_set", "design": "D", "properties": "p | q", "verdict": "bounded (depth 9)",
+                        "why": "latency 4", "status": "PASS", "seconds": 1.5,
+                        "runs": [{"kind": "bounded", "mode": "bmc", "depth": 9, "status": "PASS", "seconds": 1.5}]}],
+              "broken": [{"name": "bug", "bug": "B", "expect": "o_hold", "failed": ["o_hold"], "status": "FAIL",
+                          "caught": True, "seconds": 0.5}]}
+    table = markdown_table(record)
+    rows = [line for line in table.splitlines() if line.startswith("| ")]
+    assert len(rows) == 4                                   # two headers, one set, one variant
+    assert "p \\| q" in table and "bounded (depth 9) (latency 4)" in table and "| yes |" in table
+    assert "load average 1.0, 0.5, 0.2" in table
+
+
+def test_committed_record_covers_every_set_and_catches_every_variant():
+    record = json.loads((ROOT / "docs" / "formal" / "proofs.json").read_text())
+    assert {s["name"] for s in record["sets"]} == {s.name for s in property_sets()}
+    assert {b["name"] for b in record["broken"]} == {v.name for v in variants()}
+    assert all(s["status"] == "PASS" for s in record["sets"])
+    assert all(b["caught"] for b in record["broken"])
+    assert record["machine"]["nproc"] >= 1 and record["command"].startswith("bumpmap formal")

@@ -18,7 +18,8 @@ import numpy as np
 
 from fxmodel.core.paths import atomic_writer
 
-__all__ = ["atomic_write_bytes", "atomic_write_text", "atomic_save_png", "atomic_json", "atomic_save_npy",
+__all__ = ["atomic_write_bytes", "atomic_write_text", "atomic_save_png", "atomic_savefig", "atomic_json",
+           "atomic_save_npy",
            "strict_json", "check_output_file", "check_output_dir"]
 
 
@@ -41,6 +42,13 @@ def atomic_save_png(path, img: np.ndarray) -> Path:
     from PIL import Image
     buf = io.BytesIO()
     Image.fromarray(np.asarray(img)).save(buf, format="PNG")
+    return atomic_write_bytes(path, buf.getvalue())
+
+
+def atomic_savefig(path, fig, **kwargs) -> Path:
+    """Write a matplotlib figure as a PNG atomically (``kwargs`` go to ``fig.savefig``); returns the path."""
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", **kwargs)
     return atomic_write_bytes(path, buf.getvalue())
 
 

@@ -35,7 +35,6 @@ default preset and cheapest front point (cached under ``build/fpga``; ``--no-fpg
 from __future__ import annotations
 
 import argparse
-import json
 import platform
 import shutil
 import statistics
@@ -52,6 +51,7 @@ from fxmodel.core.rounding import Overflow, Rounding, narrow
 from fxmodel.core.unit import preset
 from fxmodel.units.apy_oracle import OVERFLOW, QUANTIZATION, codes_of, narrow_apy, to_apy
 from host.args import int_range
+from host.atomic import atomic_json
 from tools.record import add_record_option, machine, write_if_asked
 
 
@@ -154,7 +154,7 @@ def icarus_profile(unit: str, name: str = "default", pattern: str = "none", stan
     report = {"unit": unit, "preset": name, "pattern": pattern, "stand_in": stand_in, "runs": runs,
               "instructions_per_cycle": round(di / dc), "instructions_per_vector": round(di / dv),
               "cycles_per_vector": round(dc / dv, 3)}
-    (out / "icarus_profile.json").write_text(json.dumps(report, indent=2))
+    atomic_json((out / "icarus_profile.json"), report, indent=2)
     return report
 
 
@@ -244,7 +244,7 @@ def run(args: argparse.Namespace) -> int:
     out = build_dir("bench")
     out.mkdir(parents=True, exist_ok=True)
     meta = {"machine": platform.platform(), "python": platform.python_version(), "repeat": args.repeat}
-    (out / "bench.json").write_text(json.dumps({"meta": meta, "results": rows}, indent=2))
+    atomic_json((out / "bench.json"), {"meta": meta, "results": rows}, indent=2)
     print("\n| measurement | workload | per second | per CPU second |\n|---|---|---:|---:|")
     for r in rows:
         cpu = f"{r['per_cpu_second']:,.0f}" if "per_cpu_second" in r else ""

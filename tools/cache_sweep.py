@@ -32,7 +32,6 @@ import os
 import platform
 import shlex
 import sys
-import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -41,6 +40,7 @@ from fxmodel.core.cost import bram_blocks
 from fxmodel.core.paths import ROOT, SCENES
 from fxmodel.units.sampler import Texels
 from fxmodel.units.texcache import Layout, TexCacheParams, footprints, simulate
+from host.atomic import atomic_write_bytes
 
 #: Scenes swept by default: every shipped scene and the grazing floor (a regression scene of ``tests/scenes``).
 DEFAULT_SCENES = tuple(sorted(p.stem for p in SCENES.glob("*.toml"))) + (str(ROOT / "tests/scenes/grazing-floor.toml"),)
@@ -151,20 +151,6 @@ def sustained(data: dict, res: dict, sdram: float, burst_ns: float, engine_mhz: 
 def machine() -> dict:
     return {"nproc": os.cpu_count(), "load_average": [round(v, 2) for v in os.getloadavg()],
             "platform": platform.platform(), "python": platform.python_version()}
-
-
-def write_atomic(path: Path, data: bytes) -> Path:
-    """Write ``data`` to ``path`` through a temporary file in the same folder and a rename."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix=".tmp")
-    with os.fdopen(fd, "wb") as f:
-        f.write(data)
-    mask = os.umask(0)
-    os.umask(mask)
-    os.chmod(tmp, 0o666 & ~mask)
-    os.replace(tmp, path)
-    return path
 
 
 def sweep(datas: dict, sizes_kb, blocks, ways_list, progress=None) -> list[dict]:
@@ -361,8 +347,8 @@ def run(args: argparse.Namespace) -> int:
               "level": args.level, "chosen_params": params.info(), "per_scene": per_scene,
               "bram": bram, "variants": variants(datas, params, sdram, args.burst_overhead_ns), "sweep": rows}
     if args.record:
-        write_atomic(args.record, (json.dumps(record, indent=1) + "\n").encode())
+        atomic_write_bytes(args.record, (json.dumps(record, indent=1) + "\n").encode())
     if args.picture:
-        write_atomic(args.picture, picture(rows, names, {s: datas[s]["name"] for s in names}, chosen))
+        atomic_write_bytes(args.picture, picture(rows, names, {s: datas[s]["name"] for s in names}, chosen))
     print(table(record))
     return 0

@@ -21,16 +21,15 @@ without regenerating fails the test suite with the command to run. ``make docs``
 from __future__ import annotations
 
 import argparse
-import os
 import re
 import sys
-import tempfile
 from fractions import Fraction
 from pathlib import Path
 
 from fxmodel.core.fixed import Fmt
 from fxmodel.core.paths import ROOT
 from fxmodel.core.unit import preset, unit_class, units
+from host.atomic import atomic_write_text
 
 from . import docs_records as rec
 from . import docs_reference as ref
@@ -246,19 +245,6 @@ def render_pages(names=None) -> dict[str, str]:
     return {name: fn() for name, fn in PAGES.items() if names is None or name in names}
 
 
-def _write(path: Path, text: str) -> None:
-    """Write ``text`` atomically (a temporary file beside ``path``, then ``os.replace``)."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as f:
-            f.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-
-
 def write_pages(folder: Path = GENERATED, pages: dict | None = None) -> list[Path]:
     """Write every generated page into ``folder`` (``<name>.md``) and remove pages no longer generated; the paths
     whose content changed."""
@@ -267,7 +253,7 @@ def write_pages(folder: Path = GENERATED, pages: dict | None = None) -> list[Pat
     for name, text in pages.items():
         path = folder / f"{name}.md"
         if not path.is_file() or path.read_text(encoding="utf-8") != text:
-            _write(path, text)
+            atomic_write_text(path, text)
             changed.append(path)
     for path in folder.glob("*.md"):
         if path.stem not in pages:
@@ -337,7 +323,7 @@ def run(args: argparse.Namespace) -> int:
         text = path.read_text(encoding="utf-8")
         new = regenerate(text, rel, pages)
         if new != text:
-            _write(path, new)
+            atomic_write_text(path, new)
             print(f"updated {rel}")
     return 0
 

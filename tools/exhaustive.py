@@ -55,7 +55,6 @@ Exit status: 0 when every record is bit-exact, 1 on any mismatch or valid-protoc
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import sys
 import time
@@ -66,6 +65,7 @@ from pathlib import Path
 from cosim.harness import simulator
 from cosim.stream import AHEAD, Space, full_space, grid_space, parse_pair, parse_shard, run_stream, shard_range
 from fxmodel.core.unit import preset
+from host.atomic import atomic_json
 from rtl.digest import params_key
 
 from . import jobs as jobrunner
@@ -188,7 +188,7 @@ def run_target(t: Target, sim: str, *, shard: tuple[int, int] | None = None, ful
                 chunk=chunk)
     if shard:
         SHARDS.mkdir(parents=True, exist_ok=True)
-        _shard_file(t, sim, *shard).write_text(json.dumps(rec, indent=1))
+        atomic_json(_shard_file(t, sim, *shard), rec, indent=1)
     return rec
 
 
@@ -403,10 +403,10 @@ def _run_throughput(args: argparse.Namespace, targets: list, sims: list) -> int:
     out = [throughput(t, sim, args.throughput, full=args.full, repeat=args.repeat) for t in targets
            for sim in sims]
     OUT.mkdir(parents=True, exist_ok=True)
-    (OUT / "throughput.json").write_text(json.dumps(out, indent=1))
+    atomic_json((OUT / "throughput.json"), out, indent=1)
     if args.record:
         Path(args.record).parent.mkdir(parents=True, exist_ok=True)
-        Path(args.record).write_text(json.dumps(out, indent=1) + "\n")
+        atomic_json(Path(args.record), out, indent=1)
     for r in out:
         runs = ", ".join(f"{x['workers']} worker(s) {x['vectors_per_second']:,.0f} vectors/s (x{x['speedup']:.2f})"
                          for x in r["summary"])

@@ -18,13 +18,13 @@ import json
 import math
 import os
 import sys
-import tempfile
 import time
 from pathlib import Path
 
 import numpy as np
 
 from fxmodel.core.paths import ROOT, SCENES
+from host.atomic import atomic_save_png, atomic_write_text
 from host.shipped import scene_preset
 
 __all__ = ["add_arguments", "run", "study_choices", "CHOSEN", "flicker", "measure_scene"]
@@ -81,21 +81,6 @@ def add_arguments(ap) -> None:
                     help="JSON record to write (default: docs/records/filtering.json)")
     ap.add_argument("--picture", type=Path, default=ROOT / "docs" / "img" / "grazing-floor.png",
                     help="picture none | ours | truth of the grazing floor (default: docs/img/grazing-floor.png)")
-
-
-def _atomic_write(path: Path, write) -> Path:
-    """Write through ``write(file_object)`` to a temporary file beside ``path``, then rename it into place."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "wb") as f:
-            write(f)
-        os.replace(tmp, path)
-    except BaseException:
-        os.unlink(tmp)
-        raise
-    return path
 
 
 def _load(name: str, size):
@@ -303,11 +288,10 @@ def lod_check(name: str, size=None) -> dict:
 
 
 def _picture(path: Path, images: dict) -> None:
-    from PIL import Image
 
     from host.render import compose
     img = compose(images["none"], images["ours"], images["truth"])
-    _atomic_write(path, lambda f: Image.fromarray(img).save(f, format="PNG"))
+    atomic_save_png(path, img)
 
 
 def run(args) -> int:
@@ -353,6 +337,6 @@ def run(args) -> int:
         record["flicker"] = flicker("grazing-floor", args.samples, args.pan_frames, args.pan_degrees, args.size)
     record["seconds"] = round(time.perf_counter() - t0, 1)
     text = json.dumps(record, indent=1, allow_nan=False) + "\n"
-    _atomic_write(args.record, lambda f: f.write(text.encode()))
+    atomic_write_text(args.record, text)
     print(json.dumps({k: record[k] for k in ("chosen", "seconds")}, indent=1))
     return 0

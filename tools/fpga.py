@@ -52,6 +52,7 @@ from importlib import metadata
 from pathlib import Path
 
 from fxmodel.core.paths import ROOT, build_dir
+from host.atomic import atomic_json, atomic_write_text
 from rtl.digest import params_key, text_key
 
 from . import jobs as jobrunner
@@ -280,7 +281,7 @@ def _prepare(label: dict, params, flow: Flow, freq: float | None, build: Path, u
     if use_cache and _cached_result(rdir, synth_only) is not None:
         job.result, job.cached = _cached_result(rdir, synth_only), True
     else:
-        (rdir / f"{top}.v").write_text(text)
+        atomic_write_text(rdir / f"{top}.v", text)
         job.text = text
     return job
 
@@ -311,10 +312,10 @@ def place_and_route(piece: PlaceAndRoute) -> dict:
         return cached
     verilog = rdir / f"{piece.top}.v"
     if not verilog.exists() or verilog.read_text() != piece.text:
-        verilog.write_text(piece.text)
+        atomic_write_text(verilog, piece.text)
     result = _run_tools(rdir, piece.top, piece.settings, **({"synth_only": True} if piece.synth_only else {}))
     if "error" not in result:
-        (rdir / _result_name(piece.synth_only)).write_text(json.dumps(result, indent=2))
+        atomic_json(rdir / _result_name(piece.synth_only), result)
     return result
 
 
@@ -326,7 +327,7 @@ def _finish(job: _Job) -> dict:
     """The report record of a job whose result is known."""
     if "error" not in job.result:
         job.index.parent.mkdir(parents=True, exist_ok=True)
-        job.index.write_text(json.dumps({"run": job.rdir.name}))
+        atomic_json(job.index, {"run": job.rdir.name})
     P = job.params
     res = dict(job.result)
     fmax = res.get("fmax_mhz")
@@ -380,7 +381,7 @@ def run_designs(designs, *, flow: Flow = FLOW, freq: float | None = None, jobs: 
     for rdir, result in results.items():
         if "error" not in result and not (rdir / _result_name(synth_only)).exists():   # run on another machine
             rdir.mkdir(parents=True, exist_ok=True)
-            (rdir / _result_name(synth_only)).write_text(json.dumps(result, indent=2))
+            atomic_json(rdir / _result_name(synth_only), result)
     for job in prepared:
         if job.result is None:
             job.result = results[job.rdir]
@@ -477,7 +478,7 @@ def record_resources(records, path: Path = RESOURCES, command: str = "") -> dict
             "command": command or old.get("command", ""), "tools": tool_versions(),
             "designs": sorted(designs.values(), key=lambda d: (d["unit"], d.get("scene") or "", d["preset"]))}
     path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(data, indent=1) + "\n")
+    atomic_json(path, data, indent=1)
     return data
 
 
@@ -532,12 +533,10 @@ def run(args: argparse.Namespace) -> int:
     records = run_designs(designs, flow=flow, freq=args.freq, jobs=args.jobs, build=out,
                           use_cache=not args.no_cache, scheduler=args.scheduler, synth_only=args.synth_only)
     out.mkdir(parents=True, exist_ok=True)
-    (out / "report.json").write_text(json.dumps({"flow": asdict(flow), "tools": tool_versions(),
-                                                 "designs": records}, indent=2))
+    atomic_json(out / "report.json", {"flow": asdict(flow), "tools": tool_versions(), "designs": records})
     table = markdown_table(records)
-    (out / "report.md").write_text(f"ECP5 {records[0]['device']}, seed {flow.seed}, {flow.router}, "
-                                   "`bumpmap fpga`; "
-                                   "one result per clock.\n\n" + table + "\n")
+    atomic_write_text(out / "report.md", f"ECP5 {records[0]['device']}, seed {flow.seed}, {flow.router}, "
+                      "`bumpmap fpga`; one result per clock.\n\n" + table + "\n")
     print(table)
     print(f"\n(written to {out / 'report.json'} and {out / 'report.md'})")
     if args.record:

@@ -19,11 +19,11 @@ import os
 import shlex
 import subprocess
 import sys
-import tempfile
 import time
 from pathlib import Path
 
 from fxmodel.core.paths import ROOT
+from host.atomic import atomic_json
 
 __all__ = ["RECORDS", "command_line", "machine", "write", "read", "transcript", "add_record_option",
            "write_if_asked", "add_arguments", "run"]
@@ -75,21 +75,10 @@ def write(path, command: str, data, machine_before: dict | None = None) -> Path:
         :func:`machine` taken when the measurement started; the record keeps it as ``machine_at_start`` beside the
         machine at the end (the load average of a long run changes).
     """
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
     record = {"command": command, "machine": machine(), "result": data}
     if machine_before is not None:
         record["machine_at_start"] = machine_before
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as f:
-            json.dump(record, f, indent=1, sort_keys=False)
-            f.write("\n")
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    return path
+    return atomic_json(path, record, indent=1)
 
 
 def read(path) -> dict:

@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from fxmodel.core.paths import build_dir
+from host.atomic import atomic_json, atomic_write_text
 from host.render import SCENE_BOUND_LSB, ClampError, judge, prepare, render
 from host.scene import parse_scene
 from host.scenegen import random_scene
@@ -95,13 +96,13 @@ def run(args: argparse.Namespace) -> int:
     summ["seconds_per_scene"] = round(summ["seconds"] / max(1, args.count), 2)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    (out / "report.json").write_text(json.dumps({"summary": summ, "scenes": [
-        {k: v for k, v in r.items() if k != "text"} for r in results]}, indent=1))
+    atomic_json(out / "report.json", {"summary": summ, "scenes": [
+        {k: v for k, v in r.items() if k != "text"} for r in results]}, indent=1)
     if args.keep:
         for r in results:
             if r["status"] == "drawn" and r["max_lsb_well"] > 1:
                 Path(args.keep).mkdir(parents=True, exist_ok=True)
-                (Path(args.keep) / f"random-{r['seed']}.toml").write_text(r["text"])
+                atomic_write_text(Path(args.keep) / f"random-{r['seed']}.toml", r["text"])
     print(json.dumps(summ, indent=1))
     write_if_asked(args, summ, before)
     return 0 if summ["drawn_within_bound"] == summ["drawn"] else 1

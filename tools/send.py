@@ -8,12 +8,11 @@ after a CLEAR, naming the error. ``--dry-run FILE`` writes the bytes instead (th
 from __future__ import annotations
 
 import argparse
-import os
 import sys
-import tempfile
 from pathlib import Path
 
 from host.args import int_range
+from host.atomic import atomic_write_bytes
 
 __all__ = ["add_arguments", "run", "scene_bytes"]
 
@@ -43,15 +42,6 @@ def scene_bytes(args) -> list[bytes]:
     frame = prepare(scene_path(args.scene), size=args.size, preset=args.preset, cube_size=args.cube_size)
     tframe = from_triangles(frame)
     return scene_frames(frame.params, tframe.params.raster.record, tframe.records.matrix())
-
-
-def _write_atomic(path: Path, data: bytes) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name + ".")
-    with os.fdopen(fd, "wb") as f:
-        f.write(data)
-    os.chmod(tmp, 0o644)
-    os.replace(tmp, path)
 
 
 def _send(frames: list[bytes], args) -> int:
@@ -97,7 +87,7 @@ def run(args: argparse.Namespace) -> int:
     total = sum(map(len, frames))
     print(f"{args.scene}: {len(frames)} frames, {total} bytes, {total * 10 / args.baud:.2f} s at {args.baud} baud")
     if args.dry_run:
-        _write_atomic(args.dry_run, b"".join(frames))
+        atomic_write_bytes(args.dry_run, b"".join(frames))
         print(f"wrote {args.dry_run}")
         return 0
     return _send(frames, args)

@@ -51,7 +51,6 @@ against cost for the pipeline); with ``--docs`` also both pictures in ``docs/img
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import platform
 import sys
@@ -67,6 +66,7 @@ from fxmodel.core.paths import ROOT, build_dir
 from fxmodel.core.unit import preset
 from fxmodel.units.exact import recip_error_ulp
 from fxmodel.units.recip import RecipParams
+from host.atomic import atomic_json, atomic_write_text
 from tools.record import add_record_option, machine, write_if_asked
 
 from .sweep_plots import ANCHORS, plot, plot_units
@@ -445,8 +445,8 @@ def write_outputs(result: dict, out: Path = OUT, docs: bool = False) -> list[Pat
     under ``out``, and with ``docs`` the PNGs also to ``docs/img/``."""
     out.mkdir(parents=True, exist_ok=True)
     paths = [out / "speed_vs_error.json", out / "speed_vs_error.md"]
-    paths[0].write_text(json.dumps(result, indent=2))
-    paths[1].write_text("# Design-space sweep, `bumpmap sweep`\n\n" + markdown(result) + "\n")
+    atomic_json(paths[0], result, indent=2)
+    atomic_write_text(paths[1], "# Design-space sweep, `bumpmap sweep`\n\n" + markdown(result) + "\n")
     pictures = []
     if _points(result, "recip"):
         pictures.append(("pareto.png", plot))

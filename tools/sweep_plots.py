@@ -8,6 +8,8 @@ import math
 import textwrap
 from pathlib import Path
 
+from host.atomic import atomic_savefig
+
 __all__ = ["ANCHORS", "unit_points", "declutter", "plot", "plot_units"]
 
 #: Published reference points: ``(label, table_bits, multipliers, correct_bits)``.
@@ -109,7 +111,7 @@ def plot(result: dict, path: Path) -> None:
     fig.tight_layout()
     declutter(fig, labels)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=130)
+    atomic_savefig(path, fig, dpi=130)
     plt.close(fig)
 
 
@@ -142,7 +144,7 @@ def plot_units(result: dict, path: Path) -> None:
     fig.tight_layout()
     declutter(fig, labels)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=120)
+    atomic_savefig(path, fig, dpi=120)
     plt.close(fig)
 
 

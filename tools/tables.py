@@ -19,13 +19,13 @@
 from __future__ import annotations
 
 import argparse
-import json
 import math
 
 import numpy as np
 
 from fxmodel.core.fixed import Fmt
 from fxmodel.units.recip import TABLE_MODES, RecipParams
+from host.atomic import atomic_json
 
 __all__ = ["approx_params", "approx_bits", "sampled_bits", "faithful_width", "table_study", "markdown", "add_arguments",
            "run"]
@@ -131,6 +131,5 @@ def run(args: argparse.Namespace) -> int:
         return 2
     print(markdown(rows))
     if args.json:
-        with open(args.json, "w") as f:
-            json.dump(rows, f, indent=2)
+        atomic_json(args.json, rows)
     return 0

@@ -2,7 +2,7 @@ r"""Random valid scenes, for the scene-level properties of the pipeline (paper s
 
 :func:`random_scene` draws one scene file (TOML text, parsed by :func:`host.scene.parse_scene`) from a numpy
 random generator: the tests turn a hypothesis-drawn seed into a scene (``tests/host/test_scenegen.py``), and
-``python -m host.scenegen`` renders a numbered series of them and prints the figures the README quotes.
+``bumpmap scenes-stress`` renders a numbered series of them and records the figures the docs quote.
 
 What a scene may hold (each choice independent):
 

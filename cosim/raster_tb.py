@@ -20,26 +20,21 @@ from __future__ import annotations
 import json
 import os
 import random
-from pathlib import Path
 
 import cocotb
-from cocotb.clock import Clock
 from cocotb.triggers import FallingEdge, ReadOnly
 from tqdm import tqdm
+
+from cosim.tb_common import job_meta, start
 
 
 @cocotb.test()
 async def raster(dut):
-    job = Path(os.environ["COSIM_JOB"])
-    meta = json.loads((job / "job.json").read_text())
+    job, meta = job_meta()
     records = [int(r, 16) for r in meta["records"]]
     p_valid, p_ready = meta["p_valid"], meta["p_ready"]
     rng = random.Random(meta["seed"])
-    cocotb.start_soon(Clock(dut.clk, 10, unit="ns").start())
-    dut.rst.value = 1
-    dut.i__valid.value = 0
-    dut.i__payload.value = 0
-    dut.o__ready.value = 0
+    start(dut)
     for _ in range(2):
         await FallingEdge(dut.clk)
     dut.rst.value = 0

@@ -14,48 +14,28 @@ frame (or, on chip, the words read out through ``fb``) and the counts into ``fra
 from __future__ import annotations
 
 import json
-import logging
-import os
 import random
-from pathlib import Path
 
 import cocotb
-from cocotb.clock import Clock
 from cocotb.triggers import FallingEdge, ReadOnly
 
-
-def _pauses(rng: random.Random, p: float):
-    while True:
-        yield rng.random() < p
+from cosim.tb_common import axi_ram, job_meta, start
 
 
 @cocotb.test()
 async def rop(dut):
-    job = Path(os.environ["COSIM_JOB"])
-    meta = json.loads((job / "job.json").read_text())
+    job, meta = job_meta()
     frags = [int(f, 16) for f in meta["words"]]
     rng = random.Random(meta["seed"])
-    cocotb.start_soon(Clock(dut.clk, 10, unit="ns").start())
     on_chip = meta["on_chip"]
-    dut.rst.value = 1
-    dut.i__valid.value = 0
-    dut.i__payload.value = 0
+    start(dut, output_ready=False)
     ram = None
     if on_chip:
         dut.fb__read.value = 0
         dut.fb__addr.value = 0
     else:
-        from cocotbext.axi import AxiBus, AxiRam
         dut.lat.value = meta["latency"]
-        size = 1 << max(12, (meta["base"] + meta["frame_bytes"] - 1).bit_length())
-        ram = AxiRam(AxiBus.from_prefix(dut, "mem_"), dut.clk, dut.rst, size=size)
-        ram.write(meta["base"], bytes.fromhex(meta["init"]))
-        for side in (ram.write_if, ram.read_if):
-            side.log.setLevel(logging.WARNING)           # one line per transfer otherwise
-        for k, ch in enumerate((ram.write_if.aw_channel, ram.write_if.w_channel, ram.write_if.b_channel,
-                                ram.read_if.ar_channel, ram.read_if.r_channel)):
-            if meta["p_pause"] > 0:
-                ch.set_pause_generator(_pauses(random.Random(meta["seed"] * 7 + k), meta["p_pause"]))
+        ram = axi_ram(dut, meta["base"], bytes.fromhex(meta["init"]), meta["seed"], meta["p_pause"])
     for _ in range(3):
         await FallingEdge(dut.clk)
     dut.rst.value = 0

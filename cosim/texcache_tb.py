@@ -10,42 +10,22 @@ and length, counts the ``R`` beats and collects the outputs, and writes them to 
 from __future__ import annotations
 
 import json
-import logging
-import os
 import random
-from pathlib import Path
 
 import cocotb
-from cocotb.clock import Clock
 from cocotb.triggers import FallingEdge, ReadOnly
 
-
-def _pauses(rng: random.Random, p: float):
-    while True:
-        yield rng.random() < p
+from cosim.tb_common import axi_ram, job_meta, start
 
 
 @cocotb.test()
 async def texcache(dut):
-    from cocotbext.axi import AxiBus, AxiRam
-    job = Path(os.environ["COSIM_JOB"])
-    meta = json.loads((job / "job.json").read_text())
+    job, meta = job_meta()
     reqs = [int(r, 16) for r in meta["requests"]]
     rng = random.Random(meta["seed"])
-    cocotb.start_soon(Clock(dut.clk, 10, unit="ns").start())
-    dut.rst.value = 1
-    dut.i__valid.value = 0
-    dut.i__payload.value = 0
-    dut.o__ready.value = 0
-    image = bytes.fromhex(meta["image"])
-    size = 1 << max(12, (meta["base"] + len(image)).bit_length())
-    ram = AxiRam(AxiBus.from_prefix(dut, "mem_"), dut.clk, dut.rst, size=size)
-    ram.write(meta["base"], image)
-    for side in (ram.write_if, ram.read_if):
-        side.log.setLevel(logging.WARNING)
-    for k, ch in enumerate((ram.read_if.ar_channel, ram.read_if.r_channel)):
-        if meta["p_pause"] > 0:
-            ch.set_pause_generator(_pauses(random.Random(meta["seed"] * 7 + k), meta["p_pause"]))
+    start(dut)
+    _ram = axi_ram(dut, meta["base"], bytes.fromhex(meta["image"]), meta["seed"], meta["p_pause"],
+                   write=False)                            # the memory model lives as long as the test
     for _ in range(3):
         await FallingEdge(dut.clk)
     dut.rst.value = 0

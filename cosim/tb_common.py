@@ -1,0 +1,56 @@
+"""What the cocotb testbenches share (no tests here: cocotb collects the tests of the module it is given, so the
+helpers live apart from them): the job's inputs, the clock and reset, random pause generators, and an AXI4 memory
+model (cocotbext-axi's ``AxiRam``) with the design's memory image and optional random wait states."""
+
+from __future__ import annotations
+
+import json
+import logging
+import os
+import random
+from pathlib import Path
+
+import cocotb
+from cocotb.clock import Clock
+
+__all__ = ["job_meta", "pauses", "start", "axi_ram"]
+
+
+def job_meta(variable: str = "COSIM_JOB") -> tuple[Path, dict]:
+    """The job folder named by the environment ``variable`` and its ``job.json``."""
+    job = Path(os.environ[variable])
+    return job, json.loads((job / "job.json").read_text())
+
+
+def pauses(rng: random.Random, p: float):
+    """An endless pause pattern: each cycle paused with probability ``p``."""
+    while True:
+        yield rng.random() < p
+
+
+def start(dut, *, output_ready: bool = True) -> None:
+    """Start the 10 ns clock and hold the design in reset with its input stream idle (and, with ``output_ready``,
+    its output stream not ready)."""
+    cocotb.start_soon(Clock(dut.clk, 10, unit="ns").start())
+    dut.rst.value = 1
+    dut.i__valid.value = 0
+    dut.i__payload.value = 0
+    if output_ready:
+        dut.o__ready.value = 0
+
+
+def axi_ram(dut, base: int, image: bytes, seed: int, p_pause: float, write: bool = True):
+    """An ``AxiRam`` on the design's ``mem_`` AXI4 port holding ``image`` at ``base`` (size a power of two, at least
+    4 KB), its channels (the read channels only unless ``write``) paused at random with probability ``p_pause``."""
+    from cocotbext.axi import AxiBus, AxiRam
+    size = 1 << max(12, (base + len(image) - 1).bit_length())
+    ram = AxiRam(AxiBus.from_prefix(dut, "mem_"), dut.clk, dut.rst, size=size)
+    ram.write(base, image)
+    for side in (ram.write_if, ram.read_if):
+        side.log.setLevel(logging.WARNING)               # one line per transfer otherwise
+    channels = ((ram.write_if.aw_channel, ram.write_if.w_channel, ram.write_if.b_channel) if write else ()) \
+        + (ram.read_if.ar_channel, ram.read_if.r_channel)
+    for k, ch in enumerate(channels):
+        if p_pause > 0:
+            ch.set_pause_generator(pauses(random.Random(seed * 7 + k), p_pause))
+    return ram

@@ -64,7 +64,7 @@ import numpy as np
 from fxmodel.core.paths import build_dir
 from host.args import SIZE_HELP, cube_size_arg, float_range, int_range, size_arg
 from host.atomic import atomic_json, check_output_dir
-from host.images import db_text, summary_table
+from host.images import db_text, summary_table, truth_rows
 
 from .harness import simulator
 from .stream import PATTERNS, ArraySpace, FullSpace, Space, run_records, run_stream
@@ -103,12 +103,13 @@ def depth_rows(report: dict) -> list:
 def run_key(args, scene_file) -> str:
     """The name of a scene run's folders (output and simulator jobs): the scene file's stem made safe (letters,
     digits, ``-``, ``_``; at most 40 characters) and 10 hex digits of a SHA-1 over the resolved file and every
-    option that changes the run (size, preset, cube size, simulator, input, depth, clamping). Never taken from
-    the file's contents, so it cannot climb out of the build folder; distinct for concurrent runs that differ."""
+    option that changes the run (size, preset, cube size, simulator, input, depth, clamping, reference (c)). Never
+    taken from the file's contents, so it cannot climb out of the build folder; distinct for concurrent runs that
+    differ."""
     path = Path(scene_file)
     stem = re.sub(r"[^A-Za-z0-9_-]", "_", path.stem)[:40].strip("_-") or "scene"
     what = [str(path.resolve()), args.size, args.preset, args.cube_size, args.sim, args.input, args.depth,
-            args.allow_clamp]
+            args.allow_clamp] + ([args.truth] if getattr(args, "truth", 0) else [])     # (c): only when asked
     return f"{stem}-{hashlib.sha1(repr(what).encode()).hexdigest()[:10]}"
 
 
@@ -143,16 +144,16 @@ def _draw(args):
         print(f"error: {exc}", file=sys.stderr)
         return 2
     name = frame.scene.name
-    for stale in ("report.json", "rtl.png"):                # never leave an old result looking current
+    for stale in ("report.json", "rtl.png", "truth.png"):   # never leave an old result looking current
         (out_dir / stale).unlink(missing_ok=True)           # (in this run's own folder, under build/sim)
     size = f"{frame.scene.width}x{frame.scene.height}, " + ("model only" if args.model_only else f"RTL on {args.sim}")
     if triangles:
         print(f"{name}: {len(tframe.records)} triangles, {len(tframe.out)} fragments, {size}")
-        report = render_triangles(tframe, out_dir)
+        report = render_triangles(tframe, out_dir, truth_samples=args.truth)
         report.pop("_triangle_bytes")
     else:
         print(f"{name}: {len(frame.codes)} fragments, {size}")
-        report = render(frame, out_dir)
+        report = render(frame, out_dir, truth_samples=args.truth)
         report.pop("_model_bytes")
     return name, frame, tframe, report, out_dir
 
@@ -222,7 +223,8 @@ def sim_scene(args) -> int:
         rows += [("pixels", f"{report['pixels']:,}")]
     rows += [("mismatches", str(mismatches)),
              ("PSNR vs float", f"{db_text(report['psnr_db_vs_float'])} (max {report['max_lsb_vs_float']} LSB)"),
-             ("PSNR vs ideal", f"{db_text(report['psnr_db_vs_ideal'])} (max {report['max_lsb_vs_ideal']} LSB)")]
+             ("PSNR vs ideal", f"{db_text(report['psnr_db_vs_ideal'])} (max {report['max_lsb_vs_ideal']} LSB)"),
+             *truth_rows(report)]
     if tframe is not None:
         ff = report["from_fragments"]
         rows += [("from fragments vs float", f"{db_text(ff['psnr_db_vs_float'])} (max {ff['max_lsb_vs_float']} LSB)"),
@@ -250,9 +252,10 @@ def model_only(args, report: dict, out_dir: Path, name: str) -> int:
     report.update({"rtl": None, "preset": args.preset, "simulator": args.sim})
     atomic_json(out_dir / "report.json", report)
     print(summary_table([("scene", name), ("PSNR vs float", f"{db_text(report['psnr_db_vs_float'])} (max "
-                                                      f"{report['max_lsb_vs_float']} LSB)"),
-                  ("verdict", f"{'pass' if report['verdict']['pass'] else 'FAIL'} (model only, no RTL)"),
-                  ("output", str(out_dir))]))
+                                                             f"{report['max_lsb_vs_float']} LSB)"),
+                         *truth_rows(report),
+                         ("verdict", f"{'pass' if report['verdict']['pass'] else 'FAIL'} (model only, no RTL)"),
+                         ("output", str(out_dir))]))
     return tell(report, name)
 
 
@@ -343,6 +346,9 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
     ap.add_argument("--wait-states", type=float_range(0.0, 0.99), default=0.0, metavar="P",
                     help="--depth: probability that each AXI channel of the memory model pauses in a cycle "
                          "(random wait states, 0 .. 0.99; default %(default)s)")
+    ap.add_argument("--truth", type=int_range(0, 32), default=0, metavar="K",
+                    help="also judge the frame against reference (c), the true image: K x K samples per pixel "
+                         "(0, the default, leaves it out)")
     ap.add_argument("--unit", help="co-simulate one unit instead of a scene")
     ap.add_argument("--vectors", type=int_range(0, 1 << 30), default=100_000,
                     help="random vectors besides the hard cases (--unit)")

@@ -10,7 +10,8 @@ import numpy as np
 from host.atomic import atomic_save_png
 from host.reference import max_lsb, psnr
 
-__all__ = ["DIFF_GAIN", "save_png", "compose", "diff_image", "psnr_db", "metrics", "summary_table", "db_text"]
+__all__ = ["DIFF_GAIN", "save_png", "compose", "diff_image", "psnr_db", "metrics", "summary_table", "db_text",
+           "truth_rows"]
 
 #: Gain of the difference images (``diff.png``): one 8-bit step shows as this many.
 DIFF_GAIN = 16
@@ -63,3 +64,14 @@ def summary_table(rows) -> str:
 def db_text(value) -> str:
     """A report's PSNR for a summary (``None``: the frames are identical)."""
     return "identical (exact)" if value is None else f"{value} dB"
+
+
+def truth_rows(report: dict) -> list:
+    """Summary rows of the model and float (a) against reference (c), when the report has them (``--truth``)."""
+    vt = report.get("vs_truth")
+    if not vt:
+        return []
+    return [(f"{label} vs truth (c)", f"{db_text(vt[k]['full']['psnr_db'])}, FLIP {vt[k]['full']['flip_mean']}, "
+                                      f"p99 {vt[k]['full']['p99_lsb']} LSB ({vt['full_pixels']:,} covered pixels, "
+                                      f"{vt['samples']}x{vt['samples']} samples)")
+            for k, label in (("model", "model"), ("float", "float (a)"))]

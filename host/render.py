@@ -399,13 +399,17 @@ def engine_params(scene, preset: str | dict = "default", *, cube_size: int | Non
     return EngineParams(raster=raster_params(frame.units), pipeline=frame.params)
 
 
-def render(frame: Frame, out_dir=None, *, references: bool = True, model=None, exclude=None) -> dict:
+def render(frame: Frame, out_dir=None, *, references: bool = True, model=None, exclude=None,
+           truth_samples: int = 0) -> dict:
     """Run the bit-exact model (and the references) on a prepared frame; write the images if ``out_dir``.
 
     ``model``: the frame's outputs ``(K, 4)`` (``r, g, b, flags`` per fragment of ``frame.frags``) when they come
     from elsewhere (the engine from the triangle, :func:`render_triangles`) instead of the pipeline's model on
     ``frame.codes``. ``exclude``: a mask ``(K,)`` of fragments left out of the comparisons with the references
-    (the depth disagreements of :func:`render_triangles`, which show another surface than the references)."""
+    (the depth disagreements of :func:`render_triangles`, which show another surface than the references).
+    ``truth_samples``: also judge the model, (a) and (b) against reference (c), the true image with that many
+    samples per pixel along each axis (:func:`host.truth.against_truth`: report ``vs_truth``, image ``truth.png``);
+    0 (the default) leaves it out."""
     t0 = time.perf_counter()
     if model is not None:
         out = np.asarray(model, dtype=np.int64)
@@ -434,6 +438,8 @@ def render(frame: Frame, out_dir=None, *, references: bool = True, model=None, e
         images["ideal"] = frame.image(b)
         images["diff"] = compose(frame.image(diff_image(model, a)), frame.image(diff_image(model, b)))
         images["compare"] = compose(images["model"], images["ideal"])
+        if truth_samples:
+            _against_truth(frame, images, report, exclude, truth_samples)
     if out_dir is not None:
         for name, img in images.items():
             save_png(Path(out_dir) / f"{name}.png", img)
@@ -545,7 +551,21 @@ def from_triangles(frame: Frame, raster: RasterParams | None = None, depth: bool
     return tframe
 
 
-def render_triangles(tframe: TriangleFrame, out_dir=None) -> dict:
+def _against_truth(frame: Frame, images: dict, report: dict, exclude, samples: int) -> None:
+    """Reference (c) beside (a) and (b): ``report["vs_truth"]`` and the images ``truth`` and ``compare`` (model,
+    ideal, truth)."""
+    from host.truth import against_truth
+    ex = None
+    if exclude is not None:
+        mask = np.asarray(exclude, bool)
+        ex = (frame.frags.x[mask], frame.frags.y[mask])
+    report["vs_truth"], truth = against_truth(frame.scene, {k: images[k] for k in ("model", "float", "ideal")},
+                                              samples, exclude=ex)
+    images["truth"] = truth.image
+    images["compare"] = compose(images["model"], images["ideal"], truth.image)
+
+
+def render_triangles(tframe: TriangleFrame, out_dir=None, truth_samples: int = 0) -> dict:
     """Render from triangles: the report and images of :func:`render` are those of the frame the engine from the
     triangle draws (``model.png``; its distance from reference (a) is what :func:`judge` judges), with the frame
     from float-interpolated fragments beside it, so that the interpolators' share of the error shows:
@@ -561,7 +581,8 @@ def render_triangles(tframe: TriangleFrame, out_dir=None) -> dict:
     frame = tframe.frame
     frag = render(frame)
     frag_bytes = frag.pop("_model_bytes")
-    report = render(frame, out_dir, model=tframe.in_frame_order(), exclude=tframe.disagreements_in_frame_order())
+    report = render(frame, out_dir, model=tframe.in_frame_order(), exclude=tframe.disagreements_in_frame_order(),
+                    truth_samples=truth_samples)
     tri_bytes = report.pop("_model_bytes")
     report.pop("model_pixels_per_second")
     report["model_seconds"] = tframe.stats["seconds_model"]

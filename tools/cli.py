@@ -133,7 +133,7 @@ def cmd_errors(args) -> int:
 
 def render_summary(args, report: dict) -> str:
     """The few lines ``bumpmap render`` prints (``--json``: the whole report instead)."""
-    from host.images import db_text, summary_table
+    from host.images import db_text, summary_table, truth_rows
     verdict = report["verdict"]
     rows = [("scene", f"{report.get('scene', args.scene)} ({report['width']}x{report['height']}, preset "
                       f"{args.preset})"),
@@ -141,6 +141,7 @@ def render_summary(args, report: dict) -> str:
             ("pixels", f"{report['pixels']:,}"),
             ("vs float (a)", f"{db_text(report['psnr_db_vs_float'])} (max {report['max_lsb_vs_float']} LSB)"),
             ("vs ideal (b)", f"{db_text(report['psnr_db_vs_ideal'])} (max {report['max_lsb_vs_ideal']} LSB)"),
+            *truth_rows(report),
             ("verdict", f"{'pass' if verdict['pass'] else 'FAIL'} (bound {verdict['bound_lsb']} LSB from (a))"),
             ("output", args.output + (f", references in {args.refs}" if args.refs else ""))]
     return summary_table(rows)
@@ -167,10 +168,10 @@ def cmd_render(args) -> int:
     except (SceneError, OSError) as exc:
         raise SystemExit(f"error: {exc}") from None
     if tframe is not None:
-        report = render_triangles(tframe, args.refs)
+        report = render_triangles(tframe, args.refs, truth_samples=args.truth)
         save_png(args.output, tframe.image(report.pop("_triangle_bytes")[:, 2:5].astype("uint8")))
     else:
-        report = render(frame, args.refs)
+        report = render(frame, args.refs, truth_samples=args.truth)
         save_png(args.output, frame.image(report.pop("_model_bytes")))
     judge(report, args.max_lsb)
     print(strict_json(report) if args.json else render_summary(args, report))
@@ -243,6 +244,9 @@ def add_render_arguments(p):
                         "unless a preset file sets it)")
     p.add_argument("--refs", metavar="DIR", help="also write the float references' images (and diff.png) into DIR")
     p.add_argument("--json", action="store_true", help="print the whole report as JSON instead of the summary")
+    p.add_argument("--truth", type=int_range(0, 32), default=0, metavar="K",
+                   help="also judge the frame against reference (c), the true image: K x K samples per pixel "
+                        "(8 is the documented choice; 0, the default, leaves it out)")
     p.add_argument("--triangles", action="store_true", help="draw from triangles (the engine's set-up, scan "
                    "converter and interpolators; the report adds the frame from fragments beside it)")
     from host.render import bound_args

@@ -113,3 +113,32 @@ def test_grazing_floor_is_refused_for_its_texture_addresses():
         prepare(ROOT / "tests" / "scenes" / "grazing-floor.toml", size=48)
     assert not info.value.clamped and "U, V (bump-map address)" in info.value.imprecise
     assert "more fraction bits" in str(info.value)
+
+
+def test_reference_c_is_reported_only_when_asked(tmp_path, capsys):
+    """``render --truth K`` (and ``render(truth_samples=K)``): the model, (a) and (b) judged against the true image
+    on the covered pixels, ``truth.png`` written; without it, no ``vs_truth`` and no picture."""
+    frame = prepare(TIN, size=24)
+    plain = render(frame, tmp_path / "plain")
+    assert "vs_truth" not in plain and not (tmp_path / "plain" / "truth.png").exists()
+    rep = render(frame, tmp_path / "c", truth_samples=4)
+    vt = rep["vs_truth"]
+    assert vt["samples"] == 4 and 0 < vt["full_pixels"] <= rep["pixels"] and vt["edge_pixels"] > 0
+    assert {"model", "float", "ideal"} <= set(vt) and (tmp_path / "c" / "truth.png").stat().st_size > 0
+    assert main(["render", str(TIN), str(tmp_path / "x.png"), "--size", "24", "--truth", "4"]) == 0
+    assert "model vs truth (c)" in capsys.readouterr().out
+    with pytest.raises(SystemExit) as exc:                                            # ranged: 0..32
+        main(["render", str(TIN), str(tmp_path / "x.png"), "--truth", "99"])
+    assert exc.value.code == 2 and "--truth: 99 is out of range" in capsys.readouterr().err
+
+
+def test_sim_folder_names_reference_c_only_when_asked():
+    """``sim --truth``: a run judged against (c) has a folder of its own; the default run's name is unchanged."""
+    import argparse
+
+    from cosim.sim import run_key
+    base = dict(size=None, preset="default", cube_size=None, sim="icarus", input="triangles", depth=False,
+                allow_clamp=False)
+    plain = run_key(argparse.Namespace(**base, truth=0), TIN)
+    assert run_key(argparse.Namespace(**base), TIN) == plain
+    assert run_key(argparse.Namespace(**base, truth=8), TIN) != plain

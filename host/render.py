@@ -38,6 +38,7 @@ from host.frontend import rasterize, triangle_records
 from host.images import compose, diff_image, metrics, save_png
 from host.reference import float_pipeline, ideal_phong, max_lsb, perturbed
 from host.scene import load_scene, scene_path
+from host.truth import add_truth
 from host.visibility import disagreement_picture, resolve
 
 __all__ = ["Frame", "prepare", "pipeline_params", "render", "save_png", "compose", "ClampError", "SCENE_BOUND_LSB",
@@ -439,7 +440,7 @@ def render(frame: Frame, out_dir=None, *, references: bool = True, model=None, e
         images["diff"] = compose(frame.image(diff_image(model, a)), frame.image(diff_image(model, b)))
         images["compare"] = compose(images["model"], images["ideal"])
         if truth_samples:
-            _against_truth(frame, images, report, exclude, truth_samples)
+            add_truth(frame, images, report, exclude, truth_samples)
     if out_dir is not None:
         for name, img in images.items():
             save_png(Path(out_dir) / f"{name}.png", img)
@@ -549,20 +550,6 @@ def from_triangles(frame: Frame, raster: RasterParams | None = None, depth: bool
         stats["depth_test"] = {**rop_stats, **{k: v for k, v in stats["memory"].items() if k.endswith("_per_pixel")},
                                "fragments_per_covered_pixel": stats["depth"]["overdraw"]}
     return tframe
-
-
-def _against_truth(frame: Frame, images: dict, report: dict, exclude, samples: int) -> None:
-    """Reference (c) beside (a) and (b): ``report["vs_truth"]`` and the images ``truth`` and ``compare`` (model,
-    ideal, truth)."""
-    from host.truth import against_truth
-    ex = None
-    if exclude is not None:
-        mask = np.asarray(exclude, bool)
-        ex = (frame.frags.x[mask], frame.frags.y[mask])
-    report["vs_truth"], truth = against_truth(frame.scene, {k: images[k] for k in ("model", "float", "ideal")},
-                                              samples, exclude=ex)
-    images["truth"] = truth.image
-    images["compare"] = compose(images["model"], images["ideal"], truth.image)
 
 
 def render_triangles(tframe: TriangleFrame, out_dir=None, truth_samples: int = 0) -> dict:

@@ -37,7 +37,8 @@ from host.bumpmap import perturbations, scene_maps
 from host.reference import perturbed, sample_float
 from host.supersample import scene_samples
 
-__all__ = ["Truth", "material_lighting", "bump_float", "radiance", "true_image", "against_truth", "DEFAULT_SAMPLES"]
+__all__ = ["Truth", "material_lighting", "bump_float", "radiance", "true_image", "against_truth", "add_truth",
+           "DEFAULT_SAMPLES"]
 
 #: Samples per pixel along each axis of reference (c) by default.
 DEFAULT_SAMPLES = 8
@@ -156,3 +157,18 @@ def against_truth(scene, images: dict, samples: int = DEFAULT_SAMPLES, exclude=N
         out[name] = {"full": compare(img, truth.image, full, flip=flip),
                      "edge": compare(img, truth.image, edge, flip=flip)}
     return out, truth
+
+
+def add_truth(frame, images: dict, report: dict, exclude, samples: int) -> None:
+    """Reference (c) beside (a) and (b) in a rendered frame (:func:`host.render.render`'s ``truth_samples``):
+    ``report["vs_truth"]`` (:func:`against_truth` of the model, (a) and (b), the fragments ``exclude`` left out)
+    and the images ``truth`` and ``compare`` (model, ideal, truth side by side)."""
+    from host.images import compose
+    ex = None
+    if exclude is not None:
+        mask = np.asarray(exclude, bool)
+        ex = (frame.frags.x[mask], frame.frags.y[mask])
+    report["vs_truth"], truth = against_truth(frame.scene, {k: images[k] for k in ("model", "float", "ideal")},
+                                              samples, exclude=ex)
+    images["truth"] = truth.image
+    images["compare"] = compose(images["model"], images["ideal"], truth.image)

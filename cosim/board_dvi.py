@@ -8,7 +8,6 @@ symbols and picture, and the video timing is measured from the decoded syncs alo
 from __future__ import annotations
 
 import hashlib
-import json
 
 import numpy as np
 
@@ -16,7 +15,8 @@ from board.dvi import CLOCK_WORD, DisplayTest
 from board.video import VideoTiming, frame_lanes, pattern_rgb, tmds_decode
 from fxmodel.core.paths import source_digest
 
-from .harness import build_and_test, component_build, simulator
+from .harness import component_build, run_testbench, simulator
+from .job import job_folder, remove_job
 
 __all__ = ["run", "symbols_from_serial", "decode", "measure"]
 
@@ -81,14 +81,11 @@ def run(timing: VideoTiming, *, serial: bool, clocks: int, sim: str | None = Non
     simulation's times."""
     sim = simulator(sim)
     top, bdir, src = _build(timing, sim)
-    job = bdir / ("job_serial" if serial else "job_words")
-    job.mkdir(exist_ok=True)
-    out = job / "samples.npy"
-    if out.exists():
-        out.unlink()
-    (job / "job.json").write_text(json.dumps({"serial": serial, "clocks": clocks, "out": str(out)}))
-    build_seconds, seconds = build_and_test(sim, src, top, bdir, job, "cosim.board_dvi_tb")
+    job = job_folder(bdir, "serial" if serial else "words", {"serial": serial, "clocks": clocks})
+    out, build_seconds, seconds = run_testbench(sim, src, top, bdir, job, "cosim.board_dvi_tb",
+                                                {"serial": serial, "clocks": clocks}, "samples.npy")
     raw = np.load(out)
+    remove_job(job)
     if serial:
         symbols = symbols_from_serial(raw)
     else:

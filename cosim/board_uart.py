@@ -11,7 +11,8 @@ import json
 from board.command import CommandLink
 from fxmodel.core.paths import source_digest
 
-from .harness import build_and_test, component_build, simulator
+from .harness import component_build, run_testbench, simulator
+from .job import job_folder, remove_job
 
 __all__ = ["run", "CLOCK_NS", "DIVISOR"]
 
@@ -25,15 +26,12 @@ def run(data: bytes, record_len: int, *, sim: str | None = None) -> dict:
     sim = simulator(sim)
     key = hashlib.sha1(f"{DIVISOR} {record_len}".encode() + source_digest(("board", "host"))).hexdigest()[:12]
     top, bdir, src = component_build("command_link", key, sim, lambda: CommandLink(DIVISOR, record_len))
-    job = bdir / f"job_{hashlib.sha1(data).hexdigest()[:8]}"
-    job.mkdir(exist_ok=True)
-    out = job / "parsed.json"
-    if out.exists():
-        out.unlink()
-    (job / "job.json").write_text(json.dumps({"data": data.hex(), "clock_ns": CLOCK_NS, "divisor": DIVISOR,
-                                              "out": str(out)}))
-    build_seconds, seconds = build_and_test(sim, src, top, bdir, job, "cosim.board_uart_tb")
+    job = job_folder(bdir, "uart", {"data": hashlib.sha1(data).hexdigest(), "record_len": record_len})
+    out, build_seconds, seconds = run_testbench(sim, src, top, bdir, job, "cosim.board_uart_tb",
+                                                {"data": data.hex(), "clock_ns": CLOCK_NS, "divisor": DIVISOR},
+                                                "parsed.json")
     res = json.loads(out.read_text())
+    remove_job(job)
     res["commands"] = [(c, bytes.fromhex(p)) for c, p in res["commands"]]
     res["replies"] = bytes.fromhex(res["replies"])
     res.update(build_seconds=build_seconds, seconds=seconds, simulator=sim)

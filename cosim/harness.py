@@ -27,8 +27,8 @@ from .simulators import SIMULATORS, build_args, simulator, verilator_env, waves_
 
 BUILD = build_dir("cosim")
 
-__all__ = ["component_build", "run", "simulator", "build_and_test", "build_folder", "CosimResult", "SIMULATORS",
-           "verilator_env", "params_key"]
+__all__ = ["component_build", "run_testbench", "run", "simulator", "build_and_test", "build_folder", "CosimResult",
+           "SIMULATORS", "verilator_env", "params_key"]
 
 
 class CosimResult(dict):
@@ -101,6 +101,19 @@ def build_and_test(sim: str, src, top: str, bdir: Path, job: Path, test_module: 
     runner.test(hdl_toplevel=top, test_module=test_module, build_dir=bdir, test_dir=job, extra_env=env,
                 waves=waves, results_xml=str(job / "results.xml"))
     return round(t1 - t0, 2), round(time.perf_counter() - t1, 2)
+
+
+def run_testbench(sim: str, src, top: str, bdir: Path, job: Path, test_module: str, meta: dict,
+                  result: str) -> tuple[Path, float, float]:
+    """One testbench run in its job folder: write its inputs (``job.json``: ``meta`` and ``out``, the path of the
+    ``result`` file it writes), build and run the cocotb ``test_module`` (:func:`build_and_test`), and return
+    ``(result path, build seconds, test seconds)``; ``RuntimeError`` when the testbench wrote no result."""
+    out = job / result
+    (job / "job.json").write_text(json.dumps({**meta, "out": str(out)}))
+    build_seconds, seconds = build_and_test(sim, src, top, bdir, job, test_module)
+    if not out.exists():
+        raise RuntimeError(f"the testbench wrote no results ({out}); see the simulator log above")
+    return out, build_seconds, seconds
 
 
 def run(params, inputs: np.ndarray, *, sim: str | None = None, waves: bool | None = None,

@@ -10,7 +10,7 @@ import numpy as np
 
 from fxmodel.units.raster import RasterParams, scan
 
-from .harness import build_and_test, build_folder, simulator
+from .harness import build_folder, run_testbench, simulator
 from .job import remove_job
 
 __all__ = ["run", "pack", "unpack"]
@@ -63,16 +63,12 @@ def run(params, records, *, p_valid: float = 1.0, p_ready: float = 1.0, seed: in
         want = expected.matrix(params)
         ports = params.fragment
     top, bdir, src, job = build_folder(params, sim, tag)
-    out = job / "fragments.json"
     budget = int(expected.clocks.sum() / max(min(p_valid, p_ready), 0.05) * 4) + 1000 + 2 * len(mat)
     meta = {"records": [format(w, "x") for w in pack(raster.record, mat)], "p_valid": p_valid,
             "p_ready": p_ready, "seed": seed, "max_cycles": budget,
             "expected": int(len(want))}
     meta["drain"] = raster.latency + (params.latency if engine else 0) + 8   # the fill latency, the pipeline's
-    (job / "job.json").write_text(json.dumps(meta))
-    build_seconds, seconds = build_and_test(sim, src, top, bdir, job, "cosim.raster_tb")
-    if not out.exists():
-        raise RuntimeError(f"the testbench wrote no results ({out}); see the simulator log above")
+    out, build_seconds, seconds = run_testbench(sim, src, top, bdir, job, "cosim.raster_tb", meta, "fragments.json")
     res = json.loads(out.read_text())
     remove_job(job)                                        # (kept, with the simulator's output, if the run failed)
     got = unpack(ports, [int(w, 16) for w in res["fragments"]])

@@ -8,9 +8,9 @@ a cycle and the probability that the sink is ready. Each cycle the testbench set
 ``valid & ready`` (taken at the next rising edge); a record once offered stays offered until taken (the stream
 rule). It writes the packed fragments, the number of cycles with ``busy`` high and ``busy_span``, the cycles from
 the first to the last with ``busy`` high (equal to the busy cycles when no clock between rows is lost)
-(``fragments.json``). ``drain`` in ``job.json`` is how long the testbench waits with everything idle after the
-last record was taken: the scan converter's fill latency, plus the pixel pipeline's latency for the engine from
-the triangle (``rtl/engine.py``'s ``Engine``).
+(``meta["out"]``, ``fragments.json``). ``drain`` in ``job.json`` is how long the testbench waits with everything idle
+after the last record was taken: the scan converter's fill latency, plus the pixel pipeline's latency for the engine
+from the triangle (``rtl/engine.py``'s ``Engine``).
 A hand-written driver rather than cocotbext-axi's AXI-Stream source/sink: the payloads are single words of
 hundreds to thousands of bits with no byte lanes, which the AXI-Stream classes would split into ``tdata`` bytes.
 """
@@ -20,6 +20,7 @@ from __future__ import annotations
 import json
 import os
 import random
+from pathlib import Path
 
 import cocotb
 from cocotb.triggers import FallingEdge, ReadOnly
@@ -30,7 +31,7 @@ from cosim.tb_common import job_meta, start
 
 @cocotb.test()
 async def raster(dut):
-    job, meta = job_meta()
+    _, meta = job_meta()
     records = [int(r, 16) for r in meta["records"]]
     p_valid, p_ready = meta["p_valid"], meta["p_ready"]
     rng = random.Random(meta["seed"])
@@ -69,5 +70,5 @@ async def raster(dut):
         idle = idle + 1 if (done and not int(dut.busy.value) and not int(o_valid.value)) else 0
     bar.close()
     span = 0 if first_busy is None else last_busy - first_busy + 1
-    (job / "fragments.json").write_text(json.dumps({"fragments": frags, "busy_cycles": busy, "cycles": cycles,
+    Path(meta["out"]).write_text(json.dumps({"fragments": frags, "busy_cycles": busy, "cycles": cycles,
                                                       "busy_span": span}))

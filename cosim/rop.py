@@ -26,7 +26,7 @@ from fxmodel.units.rop import DEPTH_BYTES, PIXEL_BYTES, RopParams, clear_frame, 
 from rtl.digest import params_key
 from rtl.rop import Rop, axi_signature, ring_next
 
-from .harness import build_and_test, component_build, simulator
+from .harness import component_build, run_testbench, simulator
 from .job import job_folder, remove_job
 from .raster import pack
 
@@ -185,7 +185,6 @@ def _simulate(params, words, want, fb, *, latency, p_valid, p_pause, seed, sim, 
     top, bdir, src = _build(params, sim)
     job = job_folder(bdir, tag or "job", {"design": top, "words": len(words), "latency": latency, "seed": seed,
                                            "p_valid": p_valid, "p_pause": p_pause, "tag": tag})
-    out = job / "frame.json"
     init = write_frame(P, *(fb if fb is not None else clear_frame(P)))
     work = max(len(words), expected or 0)
     budget = int(work * (latency + 8) / max(min(p_valid, 1 - p_pause), 0.05)) * 4 + 4000 + 64 * len(words)
@@ -193,10 +192,7 @@ def _simulate(params, words, want, fb, *, latency, p_valid, p_pause, seed, sim, 
             "p_pause": p_pause, "seed": seed, "latency": latency, "max_cycles": budget,
             "on_chip": P.on_chip, "base": P.base, "frame_bytes": P.frame_bytes,
             "pixels": P.pixels, "init": init.hex(), "engine": not isinstance(params, RopParams)}
-    (job / "job.json").write_text(json.dumps(meta))
-    build_seconds, seconds = build_and_test(sim, src, top, bdir, job, "cosim.rop_tb")
-    if not out.exists():
-        raise RuntimeError(f"the testbench wrote no results ({out}); see the simulator log above")
+    out, build_seconds, seconds = run_testbench(sim, src, top, bdir, job, "cosim.rop_tb", meta, "frame.json")
     res = json.loads(out.read_text())
     remove_job(job)
     if P.on_chip:

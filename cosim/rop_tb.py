@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import json
 import random
+from pathlib import Path
 
 import cocotb
 from cocotb.triggers import FallingEdge, ReadOnly
@@ -24,7 +25,7 @@ from cosim.tb_common import axi_ram, job_meta, start
 
 @cocotb.test()
 async def rop(dut):
-    job, meta = job_meta()
+    _, meta = job_meta()
     frags = [int(f, 16) for f in meta["words"]]
     rng = random.Random(meta["seed"])
     on_chip = meta["on_chip"]
@@ -73,4 +74,4 @@ async def rop(dut):
         result["words"] = words
     else:
         result["image"] = ram.read(meta["base"], meta["frame_bytes"]).hex()
-    (job / "frame.json").write_text(json.dumps(result))
+    Path(meta["out"]).write_text(json.dumps(result))

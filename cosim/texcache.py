@@ -15,7 +15,7 @@ from fxmodel.units.texcache import TexCacheParams, Trace, simulate
 from rtl.digest import params_key
 from rtl.texcache import TexCache
 
-from .harness import build_and_test, component_build, simulator
+from .harness import component_build, run_testbench, simulator
 from .job import job_folder, remove_job
 
 __all__ = ["run", "memory_image", "pack_requests"]
@@ -65,16 +65,12 @@ def run(params: TexCacheParams, words: np.ndarray, trace: Trace, *, base: int = 
     top, bdir, src = _build(cache, key, sim)
     job = job_folder(bdir, tag or "texcache", {"key": repr(key), "sim": sim, "lookups": len(trace), "seed": seed,
                                                "p": [p_valid, p_ready, p_pause]})
-    out = job / "result.json"
     reqs = pack_requests(cache, trace)
     meta = {"requests": [format(r, "x") for r in reqs], "image": memory_image(cache, words).hex(), "base": base,
             "p_valid": p_valid, "p_ready": p_ready, "p_pause": p_pause, "seed": seed,
             "max_cycles": 200 + len(reqs) * 12 + int(res_model.totals["beats"] * 3 / max(1 - p_pause, 0.05))
             * 4 + 2000}
-    (job / "job.json").write_text(json.dumps(meta))
-    build_seconds, seconds = build_and_test(sim, src, top, bdir, job, "cosim.texcache_tb")
-    if not out.exists():
-        raise RuntimeError(f"the testbench wrote no results ({out}); see the simulator log above")
+    out, build_seconds, seconds = run_testbench(sim, src, top, bdir, job, "cosim.texcache_tb", meta, "result.json")
     got = json.loads(out.read_text())
     remove_job(job)
     x, y = trace.corners()

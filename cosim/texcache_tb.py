@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 import random
+from pathlib import Path
 
 import cocotb
 from cocotb.triggers import FallingEdge, ReadOnly
@@ -20,7 +21,7 @@ from cosim.tb_common import axi_ram, job_meta, start
 
 @cocotb.test()
 async def texcache(dut):
-    job, meta = job_meta()
+    _, meta = job_meta()
     reqs = [int(r, 16) for r in meta["requests"]]
     rng = random.Random(meta["seed"])
     start(dut)
@@ -49,4 +50,4 @@ async def texcache(dut):
         if int(dut.mem__arvalid.value) and int(dut.mem__arready.value):
             ar.append([int(dut.mem__araddr.value), int(dut.mem__arlen.value)])
         beats += int(dut.mem__rvalid.value) & int(dut.mem__rready.value)
-    (job / "result.json").write_text(json.dumps({"outputs": outputs, "ar": ar, "beats": beats, "cycles": cycles}))
+    Path(meta["out"]).write_text(json.dumps({"outputs": outputs, "ar": ar, "beats": beats, "cycles": cycles}))

@@ -65,6 +65,7 @@ from fxmodel.core.paths import build_dir
 from host.args import SIZE_HELP, cube_size_arg, float_range, int_range, size_arg
 from host.atomic import atomic_json, check_output_dir
 from host.images import db_text, summary_table, truth_rows
+from host.truth import DEFAULT_SAMPLES
 
 from .harness import simulator
 from .stream import PATTERNS, ArraySpace, FullSpace, Space, run_records, run_stream
@@ -109,7 +110,7 @@ def run_key(args, scene_file) -> str:
     path = Path(scene_file)
     stem = re.sub(r"[^A-Za-z0-9_-]", "_", path.stem)[:40].strip("_-") or "scene"
     what = [str(path.resolve()), args.size, args.preset, args.cube_size, args.sim, args.input, args.depth,
-            args.allow_clamp] + ([args.truth] if getattr(args, "truth", 0) else [])     # (c): only when asked
+            args.allow_clamp] + ([args.truth] if getattr(args, "truth", 0) else [])     # (c), when on
     return f"{stem}-{hashlib.sha1(repr(what).encode()).hexdigest()[:10]}"
 
 
@@ -346,9 +347,9 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
     ap.add_argument("--wait-states", type=float_range(0.0, 0.99), default=0.0, metavar="P",
                     help="--depth: probability that each AXI channel of the memory model pauses in a cycle "
                          "(random wait states, 0 .. 0.99; default %(default)s)")
-    ap.add_argument("--truth", type=int_range(0, 32), default=0, metavar="K",
-                    help="also judge the frame against reference (c), the true image: K x K samples per pixel "
-                         "(0, the default, leaves it out)")
+    ap.add_argument("--truth", type=int_range(0, 32), default=DEFAULT_SAMPLES, metavar="K",
+                    help="judge the frame against reference (c), the true image: K x K samples per pixel, a power "
+                         "of two (default: %(default)s; 0 leaves it out)")
     ap.add_argument("--unit", help="co-simulate one unit instead of a scene")
     ap.add_argument("--vectors", type=int_range(0, 1 << 30), default=100_000,
                     help="random vectors besides the hard cases (--unit)")

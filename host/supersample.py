@@ -74,7 +74,7 @@ def _cover(st, j, cx, cy):
 
 
 def scene_samples(scene, gains, k: int, pattern: str = "grid", seed: int = 0, rows: int | None = None,
-                  max_points: int = 1 << 21):
+                  max_points: int = 1 << 16):
     """Yield ``(y0, y1, coverage, samples)`` for each band of pixel rows ``[y0, y1)`` of ``scene`` sampled with
     ``k x k`` samples per pixel (:func:`offsets`); ``coverage`` ``(y1 - y0, width)`` counts the covered samples,
     ``samples`` a :class:`Samples` of them. ``gains`` the ``a_gain`` per material (as

@@ -50,6 +50,7 @@ from host.atomic import (
     check_output_file,
     strict_json,
 )
+from host.truth import DEFAULT_SAMPLES
 
 EXHAUSTIVE_LIMIT = 1 << 26
 
@@ -244,9 +245,9 @@ def add_render_arguments(p):
                         "unless a preset file sets it)")
     p.add_argument("--refs", metavar="DIR", help="also write the float references' images (and diff.png) into DIR")
     p.add_argument("--json", action="store_true", help="print the whole report as JSON instead of the summary")
-    p.add_argument("--truth", type=int_range(0, 32), default=0, metavar="K",
-                   help="also judge the frame against reference (c), the true image: K x K samples per pixel "
-                        "(8 is the documented choice; 0, the default, leaves it out)")
+    p.add_argument("--truth", type=int_range(0, 32), default=DEFAULT_SAMPLES, metavar="K",
+                   help="judge the frame against reference (c), the true image: K x K samples per pixel, a power "
+                        "of two (default: %(default)s, the documented choice; 0 leaves it out)")
     p.add_argument("--triangles", action="store_true", help="draw from triangles (the engine's set-up, scan "
                    "converter and interpolators; the report adds the frame from fragments beside it)")
     from host.render import bound_args

@@ -2,6 +2,7 @@
 
 import dataclasses
 import json
+import re
 import warnings
 
 import numpy as np
@@ -73,7 +74,8 @@ def test_render_command_writes_png_and_report(tmp_path, capsys):
     out = tmp_path / "x.png"
     assert main(["render", str(ROOT / "scenes" / "tin-plane.toml"), str(out), "--size", "40"]) == 0
     summary = capsys.readouterr().out                        # the short summary by default
-    assert "verdict       pass" in summary and str(out) in summary and "{" not in summary
+    assert re.search(r"verdict\s+pass", summary) and str(out) in summary and "{" not in summary
+    assert re.search(r"model vs truth \(c\)\s+[\d.]+ dB, FLIP", summary)      # reference (c) by default
     assert main(["render", str(ROOT / "scenes" / "tin-plane.toml"), str(out), "--size", "40", "--json"]) == 0
     rep = json.loads(capsys.readouterr().out)
     from PIL import Image

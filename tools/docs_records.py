@@ -105,14 +105,29 @@ def timed_commands(names=("quickstart-sim", "sim-verilator", "quickstart-test", 
 
 # -- results ---------------------------------------------------------------------------------------------------
 def scene_results() -> str:
-    """The shipped scenes through the bit-exact model from fragments, against references (a) and (b)."""
+    """The shipped scenes through the bit-exact model from fragments, against references (a), (b) and (c)."""
     record, path = _load("figures")
     if record is None:
         return _missing(path, "bumpmap figures build/figures --record docs/records/figures.json")
-    rows = [(f"`{s}`", f"{r['pixels']:,}", _db(r["psnr_db_vs_float"]), _lsb(r["max_lsb_vs_float"]),
-             _db(r["psnr_db_vs_ideal"]), _lsb(r["max_lsb_vs_ideal"])) for s, r in record["result"].items()]
-    return _table(("scene", "pixels", "PSNR vs (a)", "max vs (a)", "PSNR vs (b)", "max vs (b)"), rows) \
-        + "\n" + provenance(record, path)
+    rows = []
+    for s, r in record["result"].items():
+        c = r.get("vs_truth", {}).get("model")
+        rows.append((f"`{s}`", f"{r['pixels']:,}", _db(r["psnr_db_vs_float"]), _lsb(r["max_lsb_vs_float"]),
+                     _db(r["psnr_db_vs_ideal"]), _lsb(r["max_lsb_vs_ideal"]),
+                     _db(c["psnr_db"]) if c else "not measured", f"{c['flip_mean']:.4f}" if c else "",
+                     _lsb(round(c["p99_lsb"])) if c else ""))
+    head = ("scene", "pixels", "PSNR vs (a)", "max vs (a)", "PSNR vs (b)", "max vs (b)", "PSNR vs (c)",
+            "FLIP vs (c)", "p99 vs (c)")
+    return _table(head, rows) + "\n\n(c): the true image, " + _truth_note(record) + "\n\n" + provenance(record, path)
+
+
+def _truth_note(record) -> str:
+    """How reference (c) was sampled in ``record`` (the samples per pixel; fully covered pixels only)."""
+    k = {r["vs_truth"]["samples"] for r in record["result"].values() if "vs_truth" in r}
+    if not k:
+        return "not in this record."
+    return f"{' / '.join(f'{v} x {v}' for v in sorted(k))} samples per pixel (host/truth.py), on the fully " \
+        "covered pixels; FLIP is the mean over them, p99 the 99th-percentile difference."
 
 
 def triangle_results() -> str:

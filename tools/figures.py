@@ -23,6 +23,7 @@ from fxmodel.core.paths import ROOT
 from host.bumpmap import bump_rgb
 from host.render import compose, from_triangles, prepare, render, render_triangles, save_png
 from host.shipped import scene_preset
+from host.truth import DEFAULT_SAMPLES
 from tools.record import add_record_option, machine, write_if_asked
 
 # cross layout: (row, column) of each face 0..5 = +X, -X, +Y, -Y, +Z, -Z
@@ -76,12 +77,15 @@ def run(args: argparse.Namespace) -> int:
     summary = {}
     for path in sorted((ROOT / "scenes").glob("*.toml")):
         frame = prepare(path, preset=scene_preset(path))
-        report = render(frame)
+        report = render(frame, truth_samples=DEFAULT_SAMPLES)
         model = frame.image(report.pop("_model_bytes"))
         a, b = frame.references()
         save_png(out / f"{path.stem}.png", compose(model, frame.image(b)))
         summary[path.stem] = {k: report[k] for k in ("pixels", "psnr_db_vs_float", "max_lsb_vs_float",
                                                      "psnr_db_vs_ideal", "max_lsb_vs_ideal")}
+        truth = report["vs_truth"]
+        summary[path.stem]["vs_truth"] = {"samples": truth["samples"], "full_pixels": truth["full_pixels"],
+                                          **{k: truth[k]["full"] for k in ("model", "float", "ideal")}}
         summary[path.stem]["triangles"] = triangle_figures(frame)
         if frame.maps.bump is not None and path.stem in ("tin-plane", "berlin-wall"):
             pic = bump_picture(frame.maps)

@@ -34,7 +34,7 @@ from amaranth.lib.wiring import In, Out
 from host.protocol import Cmd
 from rtl.fixed import const_mul
 
-__all__ = ["rgb565", "expand565", "display_frame", "EngineSystem", "QUIET"]
+__all__ = ["rgb565", "expand565", "display_frame", "board_engine", "EngineSystem", "BoardSim", "QUIET"]
 
 #: Clocks the engine must be quiet before SWAP copies its tile: beyond the pixel pipeline's latency and the scan
 #: converter's set-up, at the engine's clock a negligible wait.
@@ -62,6 +62,22 @@ def display_frame(color: np.ndarray, h_active: int = 640, v_active: int = 480) -
     out = np.zeros((v_active, h_active, 3), dtype=np.int64)
     out[:h, :w] = expand565(rgb565(color[..., :3]))
     return out
+
+
+def board_engine(scene: str = "tin-plane", preset: str = "default", size: int = 128):
+    """``(params, frame, tframe)``: the engine of the board for a scene (name or path) drawn at ``size`` x ``size``
+    (the tile): the set-up's engine (:func:`host.render.from_triangles` with its depth test) with the frame buffer on
+    chip, the texel memories holding the scene's tables."""
+    import dataclasses
+
+    from fxmodel.pipeline.engine import EngineParams
+    from host.render import from_triangles, prepare
+    from host.scene import scene_path
+    frame = prepare(scene_path(scene), size=size, preset=preset)
+    tframe = from_triangles(frame, depth=True)
+    p = tframe.params
+    return EngineParams(raster=p.raster, pipeline=p.pipeline, rop=dataclasses.replace(p.rop, on_chip=True)), \
+        frame, tframe
 
 
 def _toggle_sync(m: Module, name: str, src, domain: str):

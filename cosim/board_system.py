@@ -14,7 +14,6 @@ built from the scene's tables (as ``make sim`` does), and the uploads are 99.8 %
 
 from __future__ import annotations
 
-import dataclasses
 import hashlib
 import json
 import time
@@ -31,7 +30,7 @@ from .board_dvi import measure
 from .harness import component_build, run_testbench, simulator
 from .job import job_folder, remove_job
 
-__all__ = ["simulate", "split_frames", "decode_words", "engine_params", "PIXEL_NS", "ENGINE_NS", "DIVISOR"]
+__all__ = ["simulate", "split_frames", "decode_words", "PIXEL_NS", "ENGINE_NS", "DIVISOR"]
 
 #: The pixel clock (25 MHz, the board's), the engine's (100 MHz), pixel clocks a UART bit (1 MBd).
 PIXEL_NS, ENGINE_NS, DIVISOR = 40, 10, 25
@@ -67,13 +66,6 @@ def decode_words(words: np.ndarray) -> np.ndarray:
             hs, vs = c0 & 1, c0 >> 1
         out[k] = (de, hs, vs, r, g, b)
     return out
-
-
-def engine_params(tframe):
-    """The engine of the board: ``tframe``'s (with its depth test) with the frame buffer on chip (the tile)."""
-    from fxmodel.pipeline.engine import EngineParams
-    p = tframe.params
-    return EngineParams(raster=p.raster, pipeline=p.pipeline, rop=dataclasses.replace(p.rop, on_chip=True))
 
 
 def simulate(params, records, data: bytes, *, timing: VideoTiming = VGA_640x480, sim: str | None = None) -> dict:

@@ -12,7 +12,8 @@ from pathlib import Path
 
 import numpy as np
 
-from cosim.board_system import engine_params, simulate, split_frames
+from board.frame import board_engine
+from cosim.board_system import simulate, split_frames
 from host.protocol import Cmd
 
 __all__ = ["add_arguments", "run"]
@@ -41,15 +42,12 @@ def run(args) -> int:
 
     from host.images import save_png
     from host.protocol import scene_frames, triangle_frames
-    from host.render import from_triangles, prepare
-    from host.scene import SceneError, scene_path
+    from host.scene import SceneError
 
     before = machine()
     t0 = time.perf_counter()
     try:
-        frame = prepare(scene_path(args.scene), size=args.size, preset=args.preset)
-        tframe = from_triangles(frame, depth=True)
-        params = engine_params(tframe)
+        params, frame, tframe = board_engine(args.scene, args.preset, args.size)
         mat = tframe.records.matrix()
         data = args.bytes.read_bytes() if args.bytes else b"".join(
             scene_frames(frame.params, params.raster.record, mat))

@@ -9,6 +9,7 @@ and the simulated times.
 from __future__ import annotations
 
 import json
+import logging
 import os
 from pathlib import Path
 
@@ -32,6 +33,8 @@ async def system(dut):
     cocotb.start_soon(Clock(dut.clk, pix_ns, unit="ns").start())
     cocotb.start_soon(Clock(dut.engine_clk, eng_ns, unit="ns").start())
     source, sink = UartSource(dut.rx, baud=baud, bits=8), UartSink(dut.tx, baud=baud, bits=8)
+    for side in (source, sink):                  # not a log line per byte
+        side.log.setLevel(logging.WARNING)
     for _ in range(3):
         await FallingEdge(dut.clk)
     dut.rst.value = 0

@@ -7,8 +7,8 @@ section 3.2) into the picture, compared on every pixel with the model's (the eng
 and the video timing measured from the decoded syncs (``cosim.board_dvi.measure``).
 
 The upload frames (TEXTURE, CUBE) are left out of the simulated stream: this stage's RTL holds the texel memories
-built from the scene's tables (as ``make sim`` does), and the uploads are 99.8 % of the tin plane's bytes (about
-4.5 minutes of UART time at 1 MBd, hours of simulation). The clocks: the board's 25 MHz pixel clock (UART at
+built from the scene's tables (as ``make sim`` does), and the uploads are nearly all of the bytes (hours
+of simulation at the board's 1 MBd). The clocks: the board's 25 MHz pixel clock (UART at
 1 MBd, 25 clocks a bit) and the engine at 100 MHz.
 """
 

@@ -433,3 +433,25 @@ def board_bitstream() -> str:
             + _table(["resource", "used", "available"], res, _align("lrr"))
             + f"\n*Measured by `{r['command']}` in {r['seconds']} s; record: [`board/bitstream.json`]"
               "(board/bitstream.json).*\n")
+
+
+def board_sim() -> str:
+    """The board's end-to-end simulation (``make board-sim``): host bytes to the decoded DVI frame."""
+    record, path = _load("board-sim")
+    if record is None:
+        return _missing(path, "bumpmap board-sim --record docs/records/board-sim.json")
+    r = record["result"]
+    t, ms = r["timing"], r["sim_ms"]
+    rows = [["scene, frame (the tile)", f"{r['scene']}, {r['tile'][0]} x {r['tile'][1]}, {r['triangles']} triangles"],
+            ["host bytes into the UART", f"{r['bytes_sent']} in {r['frames_sent']} frames (uploads left out: "
+                                         f"{r['frames_left_out']} frames, {r['bytes_left_out']} bytes)"],
+            ["answers", f"{len(r['replies']) // 2} bytes, all ACK: {'yes' if r['acks_ok'] else '**no**'}"],
+            ["pixels compared (640 x 480)", f"{r['pixels']:,}"], ["mismatches", str(r["mismatches"])],
+            ["line / hsync / active (clocks)", f"{t['line_periods']} / {t['hsync_widths']} / {t['active_widths']}"],
+            ["vsync / frame (clocks), lines", f"{t['vsync_widths']} / {t['frame_periods']}, {t['lines_per_frame']}"],
+            ["timing as the mode's", "yes" if r["timing_ok"] else "**no**"],
+            ["simulated time", f"{ms['uart_done']:.2f} ms UART, buffer shown at {ms['shown']:.2f} ms, "
+                               f"end {ms['end']:.2f} ms"],
+            ["seconds (Verilog, Verilator build, simulation, wall)",
+             f"{r['verilog_seconds']}, {r['build_seconds']}, {r['sim_seconds']}, {r['wall_seconds']}"]]
+    return _table(["quantity", "value"], rows, _align("lr")) + "\n" + provenance(record, path)

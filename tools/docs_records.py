@@ -455,3 +455,21 @@ def board_sim() -> str:
             ["seconds (Verilog, Verilator build, simulation, wall)",
              f"{r['verilog_seconds']}, {r['build_seconds']}, {r['sim_seconds']}, {r['wall_seconds']}"]]
     return _table(["quantity", "value"], rows, _align("lr")) + "\n" + provenance(record, path)
+
+
+def board_animation() -> str:
+    """Frames per second of the board at 640 x 480 for every shipped scene (``bumpmap animate``)."""
+    record, path = _load("animation")
+    if record is None:
+        return _missing(path, "bumpmap animate --record docs/records/animation.json")
+    r = record["result"]
+    rows = [[f"`{s['scene']}`" + (" (clamped)" if s["clamped"] else ""), str(s["frames"]), str(s["triangles"]),
+             f"{s['engine_clocks_per_frame_max']:,}", f"{s['engine_fps']:,}", f"{s['link_bytes_per_frame_max']:,}",
+             f"{s['link_fps']:,}", f"{s['shown_fps']:,}",
+             f"{s['sdram_MBps_total']} ({100 * s['sdram_share_of_peak']:.1f} %)"] for s in r["scenes"]]
+    head = ["scene", "frames", "triangles", "engine clocks a frame (max)", "engine frames/s",
+            "UART bytes a frame (max)", "UART frames/s", "shown frames/s", f"SDRAM MB/s (of {r['sdram_peak_MBps']:g})"]
+    note = (f"\n*Engine at {r['engine_mhz']:g} MHz ({r['engine_clock']}), UART at {r['baud']:,} baud, "
+            f"{r['mode']}; the SDRAM figure is scan-out plus the finished tiles' write-back at the rate shown "
+            "(texel-cache misses not counted).*\n")
+    return _table(head, rows, _align("lrrrrrrrr")) + note + "\n" + provenance(record, path)

@@ -37,7 +37,7 @@ help:
 	@echo "make fpga       ECP5-85 synthesis, place and route of every unit and preset -> build/fpga/report.{json,md};"
 	@echo "                with PRESET= and/or SCENE=: the pipeline with that preset and the scene's tables;"
 	@echo "                ROUTER=router2 for a quick check of the pipeline (nextpnr's router1 is the default)"
-	@echo "make bitstream  BOARD=ulx3s: the board top (PLL, DVI test picture, UART link) through Yosys, nextpnr-ecp5 and"
+	@echo "make bitstream  BOARD=ulx3s: the board top (PLL, the engine, DVI, UART link) through Yosys, nextpnr-ecp5 and"
 	@echo "                ecppack -> build/bitstream/\$$BOARD/top.bit and report.json (Fmax per clock, resources)"
 	@echo "make board-sim  BOARD=ulx3s: the board simulated end to end on Verilator: bumpmap send's bytes of SCENE into"
 	@echo "                the UART, the engine, its tile, the DVI output decoded and compared with the model's frame"

@@ -42,19 +42,22 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
 
 
 def _engine_hz() -> tuple[float, str]:
-    """The engine's clock: its target if the last bitstream met it, else its Fmax; the PLL's target without one."""
+    """The engine's clock: its target if the last bitstream met it, else its Fmax (after routing, or nextpnr's
+    estimate after placement when routing did not finish: ``docs/board/engine-placement.json``); the PLL's target
+    without either."""
     from board.top import ENGINE_HZ
     from fxmodel.core.paths import ROOT
-    path = ROOT / "docs" / "board" / "bitstream.json"
-    try:
-        clocks = json.loads(path.read_text())["clocks"]
-    except (OSError, ValueError, KeyError):
-        return ENGINE_HZ, "the PLL's target (no bitstream record)"
-    for name, c in clocks.items():
-        if "engine" in name:
-            mhz = c["target_mhz"] if c["met"] else c["fmax_mhz"]
-            return mhz * 1e6, f"placed: {'target met' if c['met'] else 'Fmax'} ({name})"
-    return ENGINE_HZ, "the PLL's target (the bitstream record has no engine clock)"
+    for name, what in (("bitstream", "placed and routed"), ("engine-placement", "placed, estimate before routing")):
+        try:
+            clocks = json.loads((ROOT / "docs" / "board" / f"{name}.json").read_text())["clocks"]
+        except (OSError, ValueError, KeyError):
+            continue
+        for clock, c in clocks.items():
+            if "engine" in clock:
+                met = c["met"]
+                return (c["target_mhz"] if met else c["fmax_mhz"]) * 1e6, \
+                    f"{what}: {'target met' if met else 'Fmax, target not met'}"
+    return ENGINE_HZ, "the PLL's target (no placed engine clock on record)"
 
 
 def _prepare(scene, size, preset):

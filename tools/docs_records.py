@@ -473,3 +473,17 @@ def board_animation() -> str:
             f"{r['mode']}; the SDRAM figure is scan-out plus the finished tiles' write-back at the rate shown "
             "(texel-cache misses not counted).*\n")
     return _table(head, rows, _align("lrrrrrrrr")) + note + "\n" + provenance(record, path)
+
+
+def board_engine_placement() -> str:
+    """The board top with the engine, placed (nextpnr's estimate before routing): Fmax per clock and resources."""
+    r, path = _board_record("engine-placement")
+    if r is None:
+        return _missing(path, "make bitstream BOARD=ulx3s")
+    clocks = [[f"`{name}`", f"{c['target_mhz']} MHz", f"{c['fmax_mhz']} MHz", "yes" if c["met"] else "**no**"]
+              for name, c in r["clocks"].items()]
+    res = [[kind, used, avail] for kind, (used, avail) in r["resources"].items()]
+    return (_table(["clock", "target", "Fmax (placed)", "met"], clocks, _align("lrrl")) + "\n"
+            + _table(["resource", "used", "available"], res, _align("lrr"))
+            + f"\n*{r['design']}: {r['stage']}. `{r['command']}`, {r['date']}; record: "
+              "[`board/engine-placement.json`](board/engine-placement.json).*\n")

@@ -23,7 +23,7 @@ SCENE_ARGS = $(if $(filter-out file default undefined,$(origin PRESET) $(origin 
 export PATH := $(CURDIR)/$(VENV)/bin:$(PATH)
 export SIM
 
-.PHONY: setup test verilog sim render bench fpga bitstream exhaustive exhaustive-wide docs formal clean help
+.PHONY: setup test verilog sim board-sim render bench fpga bitstream exhaustive exhaustive-wide docs formal clean help
 
 help:
 	@echo "make sim        draw SCENE (default tin-plane) from triangles through the RTL engine, bit-exact check"
@@ -37,8 +37,10 @@ help:
 	@echo "make fpga       ECP5-85 synthesis, place and route of every unit and preset -> build/fpga/report.{json,md};"
 	@echo "                with PRESET= and/or SCENE=: the pipeline with that preset and the scene's tables;"
 	@echo "                ROUTER=router2 for a quick check of the pipeline (nextpnr's router1 is the default)"
-	@echo "make bitstream  BOARD=ulx3s: the board top (PLL, DVI test picture, UART link) through Yosys, nextpnr-ecp5 and"
+	@echo "make bitstream  BOARD=ulx3s: the board top (PLL, the engine, DVI, UART link) through Yosys, nextpnr-ecp5 and"
 	@echo "                ecppack -> build/bitstream/\$$BOARD/top.bit and report.json (Fmax per clock, resources)"
+	@echo "make board-sim  BOARD=ulx3s: the board simulated end to end on Verilator: bumpmap send's bytes of SCENE into"
+	@echo "                the UART, the engine, its tile, the DVI output decoded and compared with the model's frame"
 	@echo "make exhaustive exhaustive RTL equivalence (streaming co-simulation) -> build/exhaustive/report.json"
 	@echo "make exhaustive-wide  the 2^32-input proof of recip rcp32: model vs exact math, RTL vs model on Verilator"
 	@echo "                (long: Dask, --jobs \$$JOBS local workers or DASK_SCHEDULER_ADDRESS; resumes where it stopped)"
@@ -88,6 +90,12 @@ fpga: setup
 bitstream: setup
 	@test "$(BOARD)" = ulx3s || { echo "BOARD=$(BOARD): the board top exists for ulx3s only" >&2; exit 2; }
 	$(BUMPMAP) bitstream --out build/bitstream/$(BOARD)
+
+# the board end to end (tools/board_sim.py): the host tool's bytes, written by `bumpmap send`, are the input
+board-sim: setup
+	@test "$(BOARD)" = ulx3s || { echo "BOARD=$(BOARD): the board top exists for ulx3s only" >&2; exit 2; }
+	$(BUMPMAP) send --scene $(SCENE) --preset $(PRESET) --size 128 --dry-run build/board-sim/$(SCENE).bin
+	$(BUMPMAP) board-sim --scene $(SCENE) --preset $(PRESET) --size 128 --bytes build/board-sim/$(SCENE).bin
 
 exhaustive: setup
 	HYPOTHESIS_PROFILE=thorough $(PY) -m pytest -n $(JOBS) -q -m slow -k "not test_exhaustive_target"

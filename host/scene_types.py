@@ -218,6 +218,8 @@ class Scene:
     lights : tuple of Light
     materials : tuple of Material
     meshes : tuple of Mesh
+    animation : host.scene_animation.Animation or None
+        A camera path and a turn of the lights (``[animation]``), or none.
     """
 
     path: Path | None
@@ -230,6 +232,7 @@ class Scene:
     lights: tuple[Light, ...]
     materials: tuple[Material, ...]
     meshes: tuple[Mesh, ...]
+    animation: object = None
 
     def with_size(self, width: int, height: int | None = None) -> Scene:
         """The same scene at another image size; ``height`` defaults to keeping the aspect ratio."""

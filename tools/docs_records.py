@@ -448,3 +448,57 @@ def board_bitstream() -> str:
             + _table(["resource", "used", "available"], res, _align("lrr"))
             + f"\n*Measured by `{r['command']}` in {r['seconds']} s; record: [`board/bitstream.json`]"
               "(board/bitstream.json).*\n")
+
+
+def board_sim() -> str:
+    """The board's end-to-end simulation (``make board-sim``): host bytes to the decoded DVI frame."""
+    record, path = _load("board-sim")
+    if record is None:
+        return _missing(path, "bumpmap board-sim --record docs/records/board-sim.json")
+    r = record["result"]
+    t, ms = r["timing"], r["sim_ms"]
+    rows = [["scene, frame (the tile)", f"{r['scene']}, {r['tile'][0]} x {r['tile'][1]}, {r['triangles']} triangles"],
+            ["host bytes into the UART", f"{r['bytes_sent']} in {r['frames_sent']} frames (uploads left out: "
+                                         f"{r['frames_left_out']} frames, {r['bytes_left_out']} bytes)"],
+            ["answers", f"{len(r['replies']) // 2} bytes, all ACK: {'yes' if r['acks_ok'] else '**no**'}"],
+            ["pixels compared (640 x 480)", f"{r['pixels']:,}"], ["mismatches", str(r["mismatches"])],
+            ["line / hsync / active (clocks)", f"{t['line_periods']} / {t['hsync_widths']} / {t['active_widths']}"],
+            ["vsync / frame (clocks), lines", f"{t['vsync_widths']} / {t['frame_periods']}, {t['lines_per_frame']}"],
+            ["timing as the mode's", "yes" if r["timing_ok"] else "**no**"],
+            ["simulated time", f"{ms['uart_done']:.2f} ms UART, buffer shown at {ms['shown']:.2f} ms, "
+                               f"end {ms['end']:.2f} ms"],
+            ["seconds (Verilog, Verilator build, simulation, wall)",
+             f"{r['verilog_seconds']}, {r['build_seconds']}, {r['sim_seconds']}, {r['wall_seconds']}"]]
+    return _table(["quantity", "value"], rows, _align("lr")) + "\n" + provenance(record, path)
+
+
+def board_animation() -> str:
+    """Frames per second of the board at 640 x 480 for every shipped scene (``bumpmap animate``)."""
+    record, path = _load("animation")
+    if record is None:
+        return _missing(path, "bumpmap animate --record docs/records/animation.json")
+    r = record["result"]
+    rows = [[f"`{s['scene']}`" + (" (clamped)" if s["clamped"] else ""), str(s["frames"]), str(s["triangles"]),
+             f"{s['engine_clocks_per_frame_max']:,}", f"{s['engine_fps']:,}", f"{s['link_bytes_per_frame_max']:,}",
+             f"{s['link_fps']:,}", f"{s['shown_fps']:,}",
+             f"{s['sdram_MBps_total']} ({100 * s['sdram_share_of_peak']:.1f} %)"] for s in r["scenes"]]
+    head = ["scene", "frames", "triangles", "engine clocks a frame (max)", "engine frames/s",
+            "UART bytes a frame (max)", "UART frames/s", "shown frames/s", f"SDRAM MB/s (of {r['sdram_peak_MBps']:g})"]
+    note = (f"\n*Engine at {r['engine_mhz']:g} MHz ({r['engine_clock']}), UART at {r['baud']:,} baud, "
+            f"{r['mode']}; the SDRAM figure is scan-out plus the finished tiles' write-back at the rate shown "
+            "(texel-cache misses not counted).*\n")
+    return _table(head, rows, _align("lrrrrrrrr")) + note + "\n" + provenance(record, path)
+
+
+def board_engine_placement() -> str:
+    """The board top with the engine, placed (nextpnr's estimate before routing): Fmax per clock and resources."""
+    r, path = _board_record("engine-placement")
+    if r is None:
+        return _missing(path, "make bitstream BOARD=ulx3s")
+    clocks = [[f"`{name}`", f"{c['target_mhz']} MHz", f"{c['fmax_mhz']} MHz", "yes" if c["met"] else "**no**"]
+              for name, c in r["clocks"].items()]
+    res = [[kind, used, avail] for kind, (used, avail) in r["resources"].items()]
+    return (_table(["clock", "target", "Fmax (placed)", "met"], clocks, _align("lrrl")) + "\n"
+            + _table(["resource", "used", "available"], res, _align("lrr"))
+            + f"\n*{r['design']}: {r['stage']}. `{r['command']}`, {r['date']}; record: "
+              "[`board/engine-placement.json`](board/engine-placement.json).*\n")

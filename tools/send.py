@@ -1,7 +1,9 @@
 """``bumpmap send``: a scene drawn on the board. The host's set-up (:func:`host.render.prepare` and
 :func:`host.render.from_triangles`: the triangle records of the scan converter, the preset's texel memories) is sent
 over the UART as the protocol's frames (``host/protocol.py``, ``docs/protocol.md``): the four texel memories,
-FRAME_START, the triangles, SWAP. Each frame waits for the board's answer; an error byte stops the send (exit 1)
+FRAME_START, the triangles, SWAP; with ``--animate`` the frames of the scene's animation (``[animation]``,
+``host/scene_animation.py``) in turn, each after the first with its reflectance cubes again when the lights move.
+Each frame waits for the board's answer; an error byte stops the send (exit 1)
 after a CLEAR, naming the error. ``--dry-run FILE`` writes the bytes instead (the co-simulation's input).
 """
 
@@ -31,17 +33,29 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
                     help="the board's rate (default %(default)s: board/ulx3s.py)")
     ap.add_argument("--timeout", type=float, default=1.0, help="seconds to wait for each answer")
     ap.add_argument("--dry-run", type=Path, metavar="FILE", help="write the bytes to FILE instead of a port")
+    ap.add_argument("--animate", action="store_true",
+                    help="send the frames of the scene's [animation] in turn (default: its first frame)")
 
 
 def scene_bytes(args) -> list[bytes]:
     """The frames of the scene (``args.scene``, ``args.preset``, ``args.size``, ``args.cube_size``)."""
-    from host.protocol import scene_frames
+    from host.protocol import Cmd, scene_frames
     from host.render import from_triangles, prepare
-    from host.scene import scene_path
+    from host.scene import load_scene, scene_path
+    from host.scene_animation import frames as animation_frames
 
-    frame = prepare(scene_path(args.scene), size=args.size, preset=args.preset, cube_size=args.cube_size)
-    tframe = from_triangles(frame)
-    return scene_frames(frame.params, tframe.params.raster.record, tframe.records.matrix())
+    scene = load_scene(scene_path(args.scene))
+    out = []
+    for k, s in enumerate(animation_frames(scene) if getattr(args, "animate", False) else [scene]):
+        frame = prepare(s, size=args.size, preset=args.preset, cube_size=args.cube_size)
+        tframe = from_triangles(frame)
+        sent = scene_frames(frame.params, tframe.params.raster.record, tframe.records.matrix())
+        if k and (scene.animation is None or scene.animation.light_turn == 0):
+            sent = [f for f in sent if f[1] not in (Cmd.TEXTURE, Cmd.CUBE)]
+        elif k:                                         # the maps stay; the cubes follow the lights
+            sent = [f for f in sent if f[1] != Cmd.TEXTURE]
+        out += sent
+    return out
 
 
 def _send(frames: list[bytes], args) -> int:

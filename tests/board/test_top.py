@@ -36,3 +36,11 @@ def test_top_prepares_with_pll_and_ddr_outputs():
     lpf = plan.files["top.lpf"]
     lpf = lpf.decode() if isinstance(lpf, bytes) else lpf
     assert all(pin in lpf for pin in ("A16", "A14", "A12", "A17", "M1", "L4", "G2"))   # HDMI data, clock, UART, clk25
+
+
+@pytest.mark.slow
+def test_the_top_with_the_engine_prepares_with_the_pll_third_output():
+    from board.frame import board_engine
+    plan = _platform().prepare(Top(board_engine(size=32)[0]), name="top")
+    rtlil = plan.files["top.il"]
+    assert "EHXPLLL" in rtlil and "CLKOS2" in rtlil and "ODDRX1F" in rtlil

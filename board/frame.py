@@ -1,0 +1,244 @@
+"""The engine on the board (``docs/board.md``): triangle records from the UART link handed to the engine's clock
+domain, the engine drawing into its on-chip tile (the depth test's block RAM, ``rtl/rop.py`` with ``on_chip``),
+the finished tile copied into the display's double-buffered frame store in the display's color format (RGB565),
+and the display scanning the front buffer out (paper, section 4 and Fig. 5: the engine's colors go to a frame
+buffer, which the display reads).
+
+Clock domains: ``sync`` is the pixel clock (the UART link, the display, the frame store's read port), ``engine``
+the engine's (the engine, the tile, the copy, the frame store's write port). What crosses:
+
+- a TRIANGLE frame's record: assembled in ``sync`` as its bytes arrive (a shift register), moved at the frame's
+  ``done`` (CRC matched) into a holding register, announced by a toggle (two-register synchroniser) and taken in
+  ``engine`` into the engine's input register, acknowledged by a toggle back. A record that arrives while the
+  previous one is still held sets ``overrun`` (sticky): the host waits for each frame's ACK, and one record takes
+  longer on the UART (about 3 ms at 1 MBd) than the engine needs for a frame-sized triangle, so it does not happen
+  in use;
+- SWAP: a toggle to ``engine``; there, once the engine has been quiet (no record waiting, the scan converter and the
+  depth test idle) for :data:`QUIET` clocks (more than the pipeline's latency), the tile is read out through the
+  depth test's read port, each pixel narrowed to RGB565 (:func:`rgb565`: TRUNC of each channel's low bits) and
+  written to the back buffer; a toggle back tells ``sync``, which shows that buffer from the next vertical
+  blanking (no tearing) and acknowledges with a toggle, before which no other copy starts.
+
+The frame is ``width x height`` pixels at the top left of the 640 x 480 picture, black around it (the reduced frame
+of this stage: the tile holds the whole frame; ``docs/board.md``). The picture's model is :func:`display_frame`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from amaranth import Cat, DomainRenamer, Module, Mux, Signal
+from amaranth.lib import memory, wiring
+from amaranth.lib.cdc import FFSynchronizer
+from amaranth.lib.wiring import In, Out
+
+from host.protocol import Cmd
+from rtl.fixed import const_mul
+
+__all__ = ["rgb565", "expand565", "display_frame", "board_engine", "EngineSystem", "BoardSim", "QUIET"]
+
+#: Clocks the engine must be quiet before SWAP copies its tile: beyond the pixel pipeline's latency and the scan
+#: converter's set-up, at the engine's clock a negligible wait.
+QUIET = 1024
+
+
+def rgb565(color: np.ndarray) -> np.ndarray:
+    """``(..., 3)`` bytes -> RGB565 words (each channel's high 5, 6, 5 bits: TRUNC; red in the high bits)."""
+    c = np.asarray(color, dtype=np.int64)
+    return (c[..., 0] >> 3) << 11 | (c[..., 1] >> 2) << 5 | (c[..., 2] >> 3)
+
+
+def expand565(word: np.ndarray) -> np.ndarray:
+    """RGB565 words -> ``(..., 3)`` bytes as the display sends them (each channel's bits repeated from the top:
+    31 -> 255, 0 -> 0)."""
+    w = np.asarray(word, dtype=np.int64)
+    r, g, b = w >> 11 & 31, w >> 5 & 63, w & 31
+    return np.stack([r << 3 | r >> 2, g << 2 | g >> 4, b << 3 | b >> 2], axis=-1)
+
+
+def display_frame(color: np.ndarray, h_active: int = 640, v_active: int = 480) -> np.ndarray:
+    """The picture the display shows, ``(v_active, h_active, 3)`` bytes: the engine's frame ``color`` ``(H, W,
+    >=3)`` through RGB565 at the top left, black around it."""
+    h, w = color.shape[:2]
+    out = np.zeros((v_active, h_active, 3), dtype=np.int64)
+    out[:h, :w] = expand565(rgb565(color[..., :3]))
+    return out
+
+
+def board_engine(scene: str = "tin-plane", preset: str = "default", size: int = 128):
+    """``(params, frame, tframe)``: the engine of the board for a scene (name or path) drawn at ``size`` x ``size``
+    (the tile): the set-up's engine (:func:`host.render.from_triangles` with its depth test) with the frame buffer on
+    chip, the texel memories holding the scene's tables."""
+    import dataclasses
+
+    from fxmodel.pipeline.engine import EngineParams
+    from host.render import from_triangles, prepare
+    from host.scene import scene_path
+    frame = prepare(scene_path(scene), size=size, preset=preset)
+    tframe = from_triangles(frame, depth=True)
+    p = tframe.params
+    return EngineParams(raster=p.raster, pipeline=p.pipeline, rop=dataclasses.replace(p.rop, on_chip=True)), \
+        frame, tframe
+
+
+def _toggle_sync(m: Module, name: str, src, domain: str):
+    """``(pulse, synced)``: ``src`` (a toggle of another domain) through two registers of ``domain``, and a pulse
+    in ``domain`` for each of its changes."""
+    synced, last = Signal(name=f"{name}_s"), Signal(name=f"{name}_last")
+    m.submodules[f"{name}_ff"] = FFSynchronizer(src, synced, o_domain=domain)
+    m.d[domain] += last.eq(synced)
+    return synced ^ last
+
+
+class EngineSystem(wiring.Component):
+    """Link (``sync``) -> engine with its on-chip tile (``engine``) -> frame store -> display (``sync``).
+
+    Parameters
+    ----------
+    params : EngineParams
+        With ``rop`` on chip: the tile is the frame (``rop.width x rop.height``).
+    timing : VideoTiming
+    divisor : int
+        Pixel clocks a UART bit.
+
+    Ports: ``rx``, ``tx`` (the UART), ``words`` (the three TMDS lanes' 10-bit words, lane 0 low), ``error`` (the
+    link's sticky error), ``good`` (a pulse per good frame), ``overrun`` (sticky: a record arrived while the
+    last was held), ``front`` (the buffer shown), ``status`` (the depth test's sticky flags, ``engine``).
+    """
+
+    def __init__(self, params, timing, divisor: int):
+        from rtl.engine import Engine
+
+        from .command import CommandLink
+        from .dvi import Display
+        if params.rop is None or not params.rop.on_chip:
+            raise ValueError("EngineSystem needs the engine with its depth test on chip (RopParams.on_chip)")
+        if timing.h_active < params.rop.width or timing.v_active < params.rop.height:
+            raise ValueError(f"the {params.rop.width}x{params.rop.height} frame exceeds the display's "
+                             f"{timing.h_active}x{timing.v_active}")
+        self.params, self.timing, self.divisor = params, timing, divisor
+        self.record_bits = sum(p.fmt.width for p in params.raster.record)
+        self.record_len = -(-self.record_bits // 8)
+        self._engine = Engine(params)
+        self._link = CommandLink(divisor, self.record_len)
+        self._display = Display(timing, latency=2)
+        super().__init__({"rx": In(1, init=1), "tx": Out(1, init=1), "words": Out(30), "error": Out(1),
+                          "good": Out(1), "overrun": Out(1), "front": Out(1),
+                          "status": Out(self._engine.status.shape())})
+
+    def elaborate(self, platform):
+        m = Module()
+        P = self.params.rop
+        pixels = P.width * P.height
+        m.submodules.link = link = self._link
+        eng = self._engine
+        m.submodules.engine = DomainRenamer("engine")(eng)          # the engine's own clock
+        m.submodules.display = disp = self._display
+        m.d.comb += [link.rx.eq(self.rx), self.tx.eq(link.tx), self.error.eq(link.error), self.good.eq(link.done),
+                     self.status.eq(eng.status)]
+        # frame store: two buffers of RGB565, the buffer's index in the address's top bit
+        store = memory.Memory(shape=16, depth=2 * pixels, init=[])
+        m.submodules.store = store
+        wr = store.write_port(domain="engine")
+        rd = store.read_port(domain="sync")
+
+        # -- the record, sync -> engine
+        nbytes = self.record_len
+        shift, hold = Signal(8 * nbytes), Signal(8 * nbytes)
+        req, ack, pending = Signal(), Signal(), Signal()
+        with m.If(link.data_valid & (link.cmd == Cmd.TRIANGLE)):
+            m.d.sync += shift.eq(Cat(shift[8:], link.data))
+        ack_seen = _toggle_sync(m, "rec_ack", ack, "sync")
+        with m.If(ack_seen):
+            m.d.sync += pending.eq(0)
+        with m.If(link.done & (link.cmd == Cmd.TRIANGLE)):
+            with m.If(pending & ~ack_seen):
+                m.d.sync += self.overrun.eq(1)
+            with m.Else():
+                m.d.sync += [hold.eq(shift), req.eq(~req), pending.eq(1)]
+        req_seen = _toggle_sync(m, "rec_req", req, "engine")
+        rec_valid, req_pend = Signal(), Signal()
+        with m.If(eng.i.ready):
+            m.d.engine += rec_valid.eq(0)
+        with m.If(req_seen):
+            m.d.engine += req_pend.eq(1)
+        with m.If((req_pend | req_seen) & (~rec_valid | eng.i.ready)):   # the input register free: take it
+            m.d.engine += [eng.i.payload.eq(hold[:self.record_bits]), rec_valid.eq(1), req_pend.eq(0),
+                           ack.eq(~ack)]
+        m.d.comb += eng.i.valid.eq(rec_valid)
+
+        # -- SWAP: quiet engine -> copy the tile into the back buffer -> shown from the next vertical blanking
+        swap_req, copied, shown = Signal(), Signal(), Signal()
+        with m.If(link.done & (link.cmd == Cmd.SWAP)):
+            m.d.sync += swap_req.eq(~swap_req)
+        swap_seen = _toggle_sync(m, "swap", swap_req, "engine")
+        shown_seen = _toggle_sync(m, "shown", shown, "engine")
+        quiet = Signal(range(QUIET + 1))
+        with m.If(rec_valid | req_pend | eng.busy | eng.rop_busy):
+            m.d.engine += quiet.eq(0)
+        with m.Elif(quiet != QUIET):
+            m.d.engine += quiet.eq(quiet + 1)
+        back = Signal(init=1)
+        want, waiting = Signal(), Signal()              # a SWAP to serve; a copy shown not yet acknowledged
+        addr = Signal(range(pixels + 1))
+        reading, wvalid, waddr = Signal(), Signal(), Signal(range(pixels))
+        with m.If(swap_seen):
+            m.d.engine += want.eq(1)
+        with m.If(shown_seen):
+            m.d.engine += waiting.eq(0)
+        zb = P.z_fmt.width
+        data = eng.fb.data
+        word565 = Cat(data[zb + 19:zb + 24], data[zb + 10:zb + 16], data[zb + 3:zb + 8])
+        m.d.comb += [eng.fb.read.eq(reading), eng.fb.addr.eq(addr[:len(eng.fb.addr)]),
+                     wr.addr.eq(Cat(waddr, back)), wr.data.eq(word565), wr.en.eq(wvalid)]
+        m.d.engine += [wvalid.eq(reading & (addr < pixels)), waddr.eq(addr[:len(waddr)])]
+        with m.FSM(domain="engine"):
+            with m.State("idle"):
+                with m.If(want & ~waiting & ~swap_seen & (quiet == QUIET)):
+                    m.d.engine += [want.eq(0), addr.eq(0), reading.eq(1)]
+                    m.next = "copy"
+            with m.State("copy"):
+                m.d.engine += addr.eq(addr + 1)
+                with m.If(addr == pixels):
+                    m.d.engine += [reading.eq(0), copied.eq(~copied), back.eq(~back), waiting.eq(1)]
+                    m.next = "idle"
+        # -- display: the front buffer at the top left, black around it (two clocks: address, then memory)
+        copied_seen = _toggle_sync(m, "copied", copied, "sync")
+        flip = Signal()
+        with m.If(copied_seen):
+            m.d.sync += flip.eq(1)
+        t = self.timing
+        with m.If(flip & (disp.x == 0) & (disp.y == t.v_active)):
+            m.d.sync += [self.front.eq(~self.front), flip.eq(0), shown.eq(~shown)]
+        inside = (disp.x < P.width) & (disp.y < P.height)
+        index = (const_mul(disp.y, P.width) + disp.x)[:len(waddr)]
+        raddr, in1, in2 = Signal.like(rd.addr), Signal(), Signal()
+        m.d.sync += [raddr.eq(Cat(Mux(inside, index, 0), self.front)), in1.eq(inside), in2.eq(in1)]
+        m.d.comb += rd.addr.eq(raddr)
+        px = rd.data
+        r, g, b = px[11:16], px[5:11], px[0:5]
+        m.d.comb += [disp.r.eq(Mux(in2, Cat(r[2:], r), 0)), disp.g.eq(Mux(in2, Cat(g[4:], g), 0)),
+                     disp.b.eq(Mux(in2, Cat(b[2:], b), 0)), self.words.eq(disp.words)]
+        return m
+
+
+class BoardSim(wiring.Component):
+    """:class:`EngineSystem` with its two clocks as ports, for simulation (no I/O primitives, no PLL, no
+    serializer: the display's encoded words are the output): ``clk``/``rst`` of the top are the pixel clock's,
+    ``engine_clk``/``engine_rst`` the engine's."""
+
+    def __init__(self, params, timing, divisor: int):
+        self._sys = EngineSystem(params, timing, divisor)
+        super().__init__({"engine_clk": In(1), "engine_rst": In(1), "rx": In(1, init=1), "tx": Out(1, init=1),
+                          "words": Out(30), "error": Out(1), "good": Out(1), "overrun": Out(1), "front": Out(1),
+                          "status": Out(self._sys.status.shape())})
+
+    def elaborate(self, platform):
+        from amaranth import ClockDomain, ClockSignal, ResetSignal
+        m = Module()
+        m.domains.engine = ClockDomain("engine")
+        m.d.comb += [ClockSignal("engine").eq(self.engine_clk), ResetSignal("engine").eq(self.engine_rst)]
+        m.submodules.system = s = self._sys
+        m.d.comb += [s.rx.eq(self.rx), self.tx.eq(s.tx), self.words.eq(s.words), self.error.eq(s.error),
+                     self.good.eq(s.good), self.overrun.eq(s.overrun), self.front.eq(s.front),
+                     self.status.eq(s.status)]
+        return m

@@ -1,0 +1,79 @@
+"""``bumpmap board-sim`` (``make board-sim``): the end-to-end simulation of the board (``cosim/board_system.py``):
+the host tool's bytes through the UART, the engine, its on-chip tile, the frame store and the DVI display, the
+decoded frame compared with the model's on every pixel and the video timing checked; ``--record`` keeps the result
+(``docs/records/board-sim.json``).
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+
+from board.frame import board_engine
+from cosim.board_system import simulate, split_frames
+from host.protocol import Cmd
+
+__all__ = ["add_arguments", "run"]
+
+from .record import add_record_option, machine, write_if_asked
+
+
+def add_arguments(ap) -> None:
+    """``bumpmap board-sim``: the end-to-end simulation of the board drawing a scene."""
+    from host.args import int_range
+    ap.add_argument("--scene", default="tin-plane", help="scene name in scenes/ or a .toml path")
+    ap.add_argument("--preset", default="default", help="pipeline preset (built in or presets/<name>.toml)")
+    ap.add_argument("--size", type=int_range(1, 256), default=128,
+                    help="the frame's edge in pixels (the on-chip tile; default %(default)s)")
+    ap.add_argument("--bytes", type=Path, metavar="FILE",
+                    help="the host's bytes (bumpmap send --dry-run FILE, same scene, preset and size); default: "
+                         "the same frames made here")
+    ap.add_argument("--sim", default="verilator", choices=("verilator", "icarus"), help="simulator")
+    ap.add_argument("--out", type=Path, default=Path("build/board-sim"), help="output folder (the decoded PNG)")
+    add_record_option(ap, "the result")
+
+
+def run(args) -> int:
+    """Draw the scene through the simulated board and compare the decoded DVI frame with the model's."""
+    import sys
+
+    from host.images import save_png
+    from host.protocol import scene_frames, triangle_frames
+    from host.scene import SceneError
+
+    before = machine()
+    t0 = time.perf_counter()
+    try:
+        params, frame, tframe = board_engine(args.scene, args.preset, args.size)
+        mat = tframe.records.matrix()
+        data = args.bytes.read_bytes() if args.bytes else b"".join(
+            scene_frames(frame.params, params.raster.record, mat))
+        tri = [f for f in split_frames(data) if f[1] == Cmd.TRIANGLE]
+    except (SceneError, ValueError, OSError) as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    if tri != triangle_frames(params.raster.record, mat):
+        print(f"error: {args.bytes}: its TRIANGLE frames are not the records of {args.scene} at --size {args.size} "
+              f"with --preset {args.preset}", file=sys.stderr)
+        return 2
+    print(f"{frame.scene.name}: {len(mat)} triangles, {params.rop.width}x{params.rop.height} tile, "
+          f"{len(data)} bytes from the host, RTL on {args.sim}")
+    rep = simulate(params, mat, data, sim=args.sim)
+    out = args.out / frame.scene.name
+    save_png(out / "model.png", rep.pop("want").astype(np.uint8))
+    if "picture" in rep:
+        save_png(out / "dvi.png", rep.pop("picture").astype(np.uint8))
+    rep.update(scene=frame.scene.name, preset=args.preset, tile=[params.rop.width, params.rop.height],
+               triangles=len(mat), wall_seconds=round(time.perf_counter() - t0, 1))
+    from host.atomic import atomic_json
+    atomic_json(out / "report.json", rep)
+    ok = rep["shown"] and rep["mismatches"] == 0 and rep["timing_ok"] and rep["acks_ok"] and not rep["error"] \
+        and not rep["overrun"] and not rep["rop_status"]
+    print(json.dumps({k: v for k, v in rep.items() if k not in ("timing", "timing_expected")}, indent=1))
+    print(("  decoded DVI frame == model's frame on every pixel, video timing as the mode's" if ok else
+           "  FAIL: the decoded frame, the timing or the link differ (report above)") + f"; output {out}")
+    write_if_asked(args, rep, before)
+    return 0 if ok else 1

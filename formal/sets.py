@@ -19,6 +19,7 @@ from rtl.streams import buffer_depth
 
 from . import broken
 from .raster import raster_independence, raster_set
+from .readers import READ_MANAGERS, read_manager_set
 from .rop import STALL, rop_set, small_rop
 from .runner import Job, Result, run_job
 from .streamunit import CUT, cover_depth, stream_independence, stream_unit
@@ -94,9 +95,19 @@ def _unit_sets() -> list[PropertySet]:
     return out
 
 
+def _reader_sets() -> list[PropertySet]:
+    return [PropertySet(
+        e.name, e.design,
+        "AXI4 read channels (AR held until ready, declared burst, 4 KB, RLAST assumed on the last beat, no R "
+        "without AR, outstanding bound, no writes); rule 2 on o assumed on i; no answer without a request, at "
+        f"most {e.capacity} inside",
+        lambda kind, wrap=None, e=e: read_manager_set(e, kind=kind, wrap=wrap), e.mode, e.depth, e.cover_depth,
+        why=e.why) for e in READ_MANAGERS]
+
+
 def property_sets() -> list[PropertySet]:
     rp = small_rop()
-    return _unit_sets() + [
+    return _unit_sets() + _reader_sets() + [
         PropertySet("raster", "Raster (1 attribute, 16-pixel viewport, multipliers cut)",
                     "rule 2 on o, row and output credit FIFOs never overflow, rows and pixels conserved, "
                     "control copies agree",
@@ -116,6 +127,7 @@ def property_sets() -> list[PropertySet]:
 
 def variants() -> list[Variant]:
     small = preset("recip", "small")
+    (tc,) = [e for e in READ_MANAGERS if e.name == "texcache_axi"]
     return [
         Variant("payload_while_stalled", "o.payload changes while o.valid & ~o.ready", "stream_recip_small",
                 "o_hold", small.latency + 4, broken.PayloadWhileStalled,
@@ -135,6 +147,13 @@ def variants() -> list[Variant]:
                 lambda kind, wrap: rop_set(kind=kind, wrap=wrap)),
         Variant("ar_changes_while_stalled", "ARADDR moves while AR waits", "rop_axi", "ar_hold", 8,
                 broken.ArChangesWhileStalled, lambda kind, wrap: rop_set(kind=kind, wrap=wrap)),
+        Variant("texcache_rlast_early", "the cache takes RLAST one beat early", "texcache_axi", "fill_", 16,
+                broken.RlastEarly, lambda kind, wrap: read_manager_set(tc, kind=kind, wrap=wrap), cut=""),
+        Variant("texcache_arlen_short", "ARLEN one beat short of the line", "texcache_axi", "ar_len_declared", 6,
+                broken.ArlenShort, lambda kind, wrap: read_manager_set(tc, kind=kind, wrap=wrap), cut=""),
+        Variant("texcache_ar_changes_while_stalled", "ARADDR moves while AR waits", "texcache_axi", "ar_hold", 8,
+                broken.MemArChangesWhileStalled, lambda kind, wrap: read_manager_set(tc, kind=kind, wrap=wrap),
+                cut=""),
         Variant("hazard_off", "RopParams(hazard=False): no same-pixel check", "rop_axi", "hazard_", 8, None,
                 lambda kind, wrap: rop_set(small_rop(hazard=False), kind=kind)),
     ]

@@ -68,10 +68,7 @@ def rop_set(params: RopParams | None = None, *, kind: str = "proof", wrap=None) 
     freed = was & ~busy
     h.check(~h.started | (sum(freed[k] for k in range(N)) <= h.past(fail, "fail") + h.past(b_x, "b")),
             "slot_freed_by_fail_or_b")
-    # ``aw_done`` is the one signal rtl/rop.py leaves unnamed (``aw_done, w_done = Signal(), Signal()``: Amaranth
-    # names only the last of a tuple), so it is found under Amaranth's default name
-    q_count, w_done = sig("q_count"), sig("w_done")
-    aw_done = sig("aw_done") if whitebox.has_signal(top, "aw_done") else sig("$signal")
+    q_count, w_done, aw_done = sig("q_count"), sig("w_done"), sig("aw_done")
     issued_pending = axi.aw_pend - aw_done
     h.check(axi.wb_pend - w_done == issued_pending, "w_matches_aw")
     h.check(sum(busy[k] for k in range(N)) == axi.ar_pend + c_valid + q_count + issued_pending, "slots_count")

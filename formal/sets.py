@@ -18,6 +18,7 @@ from fxmodel.core.unit import preset, units
 from rtl.streams import buffer_depth
 
 from . import broken
+from .abstract import Abstract
 from .raster import raster_independence, raster_set
 from .readers import READ_MANAGERS, read_manager_set
 from .rop import STALL, rop_set, small_rop
@@ -83,6 +84,14 @@ def _unit_sets() -> list[PropertySet]:
             "transfers in - out = FIFO level + delay line, FIFO never above its depth",
             lambda kind, wrap=None, p=p: stream_unit(p, kind=kind, wrap=wrap), "prove", 1, cover_depth(p),
             CUT + (f"; {PIPELINE_UNITS}" if unit == "pipeline" else "")))
+    p = Abstract.of(preset("pipeline", "default"))
+    lat, depth = p.latency, buffer_depth(p)
+    out.append(PropertySet(
+        "stream_pipeline", f"StreamUnit(pipeline default), datapath abstracted (formal/abstract.py): latency {lat}, "
+        f"FIFO {depth}",
+        "as the units: rules 2 and 3 on o, no loss/duplication/reordering, used = in - out = FIFO level + delay "
+        "line, FIFO never above its depth (the control of the real wrapper: the datapath is data to it)",
+        lambda kind, wrap=None, p=p: stream_unit(p, kind=kind, wrap=wrap), "prove", 1, cover_depth(p)))
     p = preset("recip", "small")
     out.append(PropertySet(
         "stream_independence", "StreamUnit(recip small), two copies (the miter)",

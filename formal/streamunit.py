@@ -82,22 +82,31 @@ def stream_unit(params, *, kind: str = "proof", wrap=None) -> Harness:
     used = whitebox.signal(frag, "used", pre)
     level = whitebox.origin(frag, pre + "fifo", SyncFIFO).level
     line = Cat(*(whitebox.signal(frag, f"valid{k}", pre + "core/unit") for k in range(1, lat + 1)))
-    pop = sum(line[k] for k in range(lat))
     h.check(out <= depth, "o_capacity")
     h.check(~x_out | (out != 0), "o_no_dup")
     h.check(used == out, "o_used")
-    h.check(out == level + pop, "o_inflight")
     h.check(~dut.o.valid | (dut.o.payload.side.tag == n_out), "o_order")
     h.check(n_in == (n_out + out)[:t], "seq_counts")
-    # the numbers inside (for induction): the k-th valid bit of the delay line (k = latency the oldest) carries
-    # the number after those of the FIFO and of the older bits; the FIFO is written in order, its head is
-    # the oldest (``SyncFIFO``'s contract: what is read was written, in order), assumed where it is read
+    # the numbers inside (for induction), without counting the delay line's valid bits (a population count
+    # defeats the solver at latency 74): a ghost line g beside the delay line, g[0] the inputs accepted so far,
+    # g[k] = g[k - 1] one cycle ago. Stage k holds the input accepted k cycles ago, so g[k - 1] - g[k] is stage
+    # k's valid bit, a valid stage k carries the number g[k], and g[latency] (the next number to leave the delay
+    # line) follows those output and in the FIFO. Widths: 2 depth > FIFO + delay line, so nothing wraps.
+    w = bits_for(2 * depth + 1)
+    g = [h.counter(x_in, w, "in_wide")] + [Signal(w, name=f"f_g{k}") for k in range(1, lat + 1)]
+    n_out_w = h.counter(x_out, w, "out_wide")
+    m.d.sync += [g[k].eq(g[k - 1]) for k in range(1, lat + 1)]
+    h.check(g[0] == (n_out_w + out)[:w], "counts_wide")
+    h.check(n_out_w[:t] == n_out, "counts_narrow")
+    h.check(g[lat] == (n_out_w + level)[:w], "line_end_seq")
+    h.check(out == (level + g[0] - g[lat])[:w], "o_inflight")
     fifo = whitebox.origin(frag, pre + "fifo", SyncFIFO)
     sides = [whitebox.signal(frag, f"side{k}", pre + "core")[:t] for k in range(1, lat + 1)]
-    expect = (n_out + level)[:t]                    # the oldest position's number, then one more per valid bit
-    for k in reversed(range(lat)):
-        h.check(~line[k] | (sides[k] == expect), f"line{k + 1}_seq")
-        expect = (expect + line[k])[:t]
+    for k in range(1, lat + 1):
+        h.check((g[k - 1] - g[k])[:w] == line[k - 1], f"line{k}_step")
+        h.check(~line[k - 1] | (sides[k - 1] == g[k][:t]), f"line{k}_seq")
+    # the FIFO is written in order, its head is the oldest (``SyncFIFO``'s contract: what is read was written,
+    # in order), assumed where it is read
     h.check(~(fifo.w_en & fifo.w_rdy) | (fifo.w_data[-t:] == (n_out + level)[:t]), "fifo_write_seq")
     h.check(~fifo.r_rdy | (fifo.r_data[-t:] == n_out), "fifo_read_seq", assume=True)
     # rule 3 as a bound: with fragments in flight and ``o.valid`` low, the oldest is in the delay line and

@@ -15,6 +15,8 @@ independence miter of :mod:`formal.miter`; rule 4 means nothing is assumed about
 
 from __future__ import annotations
 
+from contextlib import contextmanager
+
 from amaranth.hdl import Assert, Assume, ClockDomain, Cover, Module, Signal, Value
 
 __all__ = ["Harness", "bits_for", "KINDS"]
@@ -51,9 +53,20 @@ class Harness:
         self.ports: list[Signal] = [sync.clk]
         self.started = Signal(name="f_started")
         self.m.d.sync += self.started.eq(1)
+        self.prefix = ""               # prepended to the names of checks and covers (see :meth:`scope`)
         self.asserted: list[str] = []
         self.assumed: list[str] = []
         self.covered: list[str] = []
+
+    @contextmanager
+    def scope(self, prefix: str):
+        """Checks and covers added inside are named ``prefix + name`` (one design's properties beside another's
+        in a composition)."""
+        outer, self.prefix = self.prefix, self.prefix + prefix
+        try:
+            yield self
+        finally:
+            self.prefix = outer
 
     def free(self, shape, name: str) -> Signal:
         """A free input (an RTLIL port of the top)."""
@@ -79,12 +92,14 @@ class Harness:
         the bounded run only, any other in the proof only."""
         if not assume and (self.kind == "cover" or bounded != (self.kind == "bounded")):
             return
+        name = self.prefix + name
         (self.assumed if assume else self.asserted).append(name)
         self.m.d.comb += (Assume if assume else Assert)(cond, name)
 
     def cover(self, cond, name: str):
         if self.kind != "cover":
             return
+        name = self.prefix + name
         self.covered.append(name)
         self.m.d.comb += Cover(cond, name)
 

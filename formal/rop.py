@@ -12,6 +12,8 @@
 
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 from amaranth.hdl import Array, Cat, Mux
 from amaranth.lib import wiring
 
@@ -23,7 +25,7 @@ from . import whitebox
 from .axi import AxiManagerCheck
 from .props import Harness
 
-__all__ = ["small_rop", "rop_set", "STALL"]
+__all__ = ["small_rop", "rop_set", "rop_props", "STALL"]
 
 #: The memory's bounded stall (cycles) assumed by the ROP's proofs.
 STALL = 3
@@ -45,7 +47,6 @@ def rop_set(params: RopParams | None = None, *, kind: str = "proof", wrap=None) 
     frag = whitebox.elaborate(dut)
     m.submodules.dut = frag
     top = whitebox.subfragment(frag, "dut" if wrap else "")
-    sig = lambda name: whitebox.signal(top, name)        # noqa: E731
     # free inputs: the fragment stream and every input of the AXI port
     i_valid = h.free(1, "i_valid")
     i_payload = h.free(len(dut.i.payload.as_value()), "i_payload")
@@ -54,6 +55,15 @@ def rop_set(params: RopParams | None = None, *, kind: str = "proof", wrap=None) 
         if member.flow == wiring.In:
             m.d.comb += getattr(dut.axi, name).eq(h.free(member.shape, f"axi_{name}"))
     h.stream_hold(dut.i.valid, dut.i.ready, dut.i.payload.as_value(), "i", assume=True)
+    rop_props(h, P, dut, top)
+    return h
+
+
+def rop_props(h: Harness, P: RopParams, dut, top) -> SimpleNamespace:
+    """The ROP's properties (its AXI4 port, the hazard rule, the slot accounting) on ``dut`` (a
+    :class:`~rtl.rop.Rop` whose fragment is ``top``); rule 2 on its ``i`` is the caller's. Returns the checker and
+    the slot state."""
+    sig = lambda name: whitebox.signal(top, name)        # noqa: E731
     axi = AxiManagerCheck(h, dut.axi, max_out=P.outstanding, stall=STALL)
     N = P.outstanding
     busy = sig("slot_busy")
@@ -93,7 +103,7 @@ def rop_set(params: RopParams | None = None, *, kind: str = "proof", wrap=None) 
     for ch in ("aw", "ar"):
         h.cover((axi.stalls[ch] == STALL - 1) & getattr(dut.axi, f"{ch}valid") & getattr(dut.axi, f"{ch}ready"),
                 f"{ch}_longest_stall_reach")
-    return h
+    return SimpleNamespace(axi=axi, busy=busy, fail=fail, b_x=b_x, s_valid=s_valid, N=N)
 
 
 def _mod(value, n: int):

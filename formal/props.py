@@ -69,8 +69,10 @@ class Harness:
             self.prefix = outer
 
     def free(self, shape, name: str) -> Signal:
-        """A free input (an RTLIL port of the top)."""
+        """A free input (an RTLIL port of the top; of a layout's width for a layout)."""
         sig = Signal(shape, name=name)
+        if not isinstance(sig, Signal):                 # a View of a layout: its signal is the port
+            sig = sig.as_value()
         self.ports.append(sig)
         return sig
 

@@ -8,15 +8,15 @@ of stages, so the payload computed from a fragment leaves with its number. What 
 datapath is only its registers' values (never its arithmetic: the properties hold whatever the unit computes),
 so the runs cut multipliers and lookup tables (``cutpoint``: free values, a sound abstraction).
 
-Proven by k-induction at depth 3 (white-box invariants: the unit's ``used`` equals the transfers in minus
-out, which equals the FIFO's level plus the valid bits of the unit's delay line; each valid bit of the sideband's
-delay line carries the number after those of the FIFO and of the older bits): rule 2 on ``o``; the sequence on
-``o`` (no loss, duplication or reordering); no output without an input; ``used`` never above the FIFO's depth
-(the credit FIFO cannot overflow); rule 3 as a bound (with fragments in flight, ``o.valid`` rises within the
-latency whatever ``o.ready`` does). The FIFO's own contract (what is read was written, in order: Amaranth's
-``SyncFIFO``, which also asserts its pointers and level under the formal platform) is assumed where it is read
-and asserted where it is written. Rule 3 as a combinational independence is the miter of :mod:`formal.miter`
-(bounded).
+Proven by k-induction at k = 1 (white-box invariants: the unit's ``used`` equals the transfers in minus out,
+which equals the FIFO's level plus the valid bits of the unit's delay line, counted by a ghost line of input
+counts beside it: :func:`stream_counts`; each valid stage of the sideband's delay line carries its ghost stage's
+number): rule 2 on ``o``; the sequence on ``o`` (no loss, duplication or reordering); no output without an input;
+``used`` never above the FIFO's depth (the credit FIFO cannot overflow); rule 3 as a bound (with fragments in
+flight, ``o.valid`` rises within the latency whatever ``o.ready`` does). The FIFO's own contract (what is read was
+written, in order: Amaranth's ``SyncFIFO``, which also asserts its pointers and level under the formal platform) is
+assumed where it is read and asserted where it is written. Rule 3 as a combinational independence is the miter
+of :mod:`formal.miter` (bounded).
 """
 
 from __future__ import annotations

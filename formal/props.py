@@ -54,19 +54,21 @@ class Harness:
         self.started = Signal(name="f_started")
         self.m.d.sync += self.started.eq(1)
         self.prefix = ""               # prepended to the names of checks and covers (see :meth:`scope`)
+        self.covers_on = True
         self.asserted: list[str] = []
         self.assumed: list[str] = []
         self.covered: list[str] = []
 
     @contextmanager
-    def scope(self, prefix: str):
+    def scope(self, prefix: str, covers: bool = True):
         """Checks and covers added inside are named ``prefix + name`` (one design's properties beside another's
-        in a composition)."""
-        outer, self.prefix = self.prefix, self.prefix + prefix
+        in a composition); ``covers=False`` leaves the covers added inside out."""
+        outer = self.prefix, self.covers_on
+        self.prefix, self.covers_on = self.prefix + prefix, self.covers_on and covers
         try:
             yield self
         finally:
-            self.prefix = outer
+            self.prefix, self.covers_on = outer
 
     def free(self, shape, name: str) -> Signal:
         """A free input (an RTLIL port of the top; of a layout's width for a layout)."""
@@ -99,7 +101,7 @@ class Harness:
         self.m.d.comb += (Assume if assume else Assert)(cond, name)
 
     def cover(self, cond, name: str):
-        if self.kind != "cover":
+        if self.kind != "cover" or not self.covers_on:
             return
         name = self.prefix + name
         self.covered.append(name)

@@ -130,7 +130,7 @@ def property_sets() -> list[PropertySet]:
                     "the parts' properties composed (rule 2 on each internal stream asserted where its consumer "
                     "assumed it; credits; hazard; AXI4 rules on the port); fragments conserved from the scan "
                     "converter through the pipeline and the ROP",
-                    lambda kind, wrap=None: engine_set(kind=kind, wrap=wrap), "prove", 4, 0, "t:$mul"),
+                    lambda kind, wrap=None: engine_set(kind=kind, wrap=wrap), "prove", 4, 24, "t:$mul"),
         PropertySet("rop_axi", f"Rop behind AXI4 ({rp.width}x{rp.height} frame, {rp.outstanding} slots, "
                                f"memory stalls <= {STALL})",
                     "AXI4 manager rules on AW/W/AR/B/R, WLAST, outstanding bounds, 4 KB; hazard rule; slots "

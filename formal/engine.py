@@ -1,5 +1,5 @@
-"""Property set of the engine with its depth test (``rtl/engine.py``, :class:`~rtl.engine.Engine`, paper Fig. 5):
-the scan converter -> the pixel pipeline's stream unit -> the ROP behind its AXI4 port, composed.
+"""Property set of the engine with its depth test (``rtl/engine.py``, :class:`~rtl.engine.Engine`, the paper's
+figure 5): the scan converter -> the pixel pipeline's stream unit -> the ROP behind its AXI4 port, composed.
 
 The design is :class:`~rtl.engine.Engine` itself (its wiring, its sideband), with the pixel pipeline's datapath
 abstracted (:mod:`formal.abstract`: the same :class:`~rtl.streams.StreamUnit` around a delay line of the

@@ -10,41 +10,19 @@ Assumed of the memory: ``B`` and ``R`` hold until ready; no response without a r
 whose address and last data beat were sent, ``R`` only for an accepted ``AR``, ``RLAST`` on the last beat of the
 oldest read burst); the manager's ID on every response; bounded stalls: each ready within ``stall`` cycles of
 its valid, a response owed arrives within ``stall`` cycles.
+
+The read channels are :class:`formal.axiread.AxiReadCheck` (the set every AXI4 read manager gets); this class adds
+the write channels.
 """
 
 from __future__ import annotations
 
-from amaranth.hdl import Array, Cat, Mux, Signal
+from amaranth.hdl import Cat, Mux, Signal
 
+from .axiread import AxiReadCheck, LenQueue, burst_legal, owed_bound
 from .props import Harness, bits_for
 
 __all__ = ["AxiManagerCheck"]
-
-
-class _LenQueue:
-    """Burst lengths in a ring of registers (push at the tail, pop at the head)."""
-
-    def __init__(self, h: Harness, n: int, name: str):
-        self.n = n
-        self.regs = Array(Signal(8, name=f"f_{name}_len{k}") for k in range(n))
-        self.head = Signal(range(n), name=f"f_{name}_head")
-        self.count = Signal(range(n + 1), name=f"f_{name}_count")
-        self.h, self.name = h, name
-
-    def head_len(self):
-        return self.regs[self.head]
-
-    def update(self, push, value, pop):
-        m = self.m = self.h.m
-        tail = Signal(range(self.n), name=f"f_{self.name}_tail")
-        m.d.comb += tail.eq(Mux(self.head + self.count >= self.n, self.head + self.count - self.n,
-                                self.head + self.count))
-        with m.If(push):
-            m.d.sync += self.regs[tail].eq(value)
-        with m.If(pop):
-            m.d.sync += self.head.eq(Mux(self.head == self.n - 1, 0, self.head + 1))
-        m.d.sync += self.count.eq(self.count + push - pop)
-        self.h.check(~push | pop | (self.count < self.n), f"{self.name}_queue_room")
 
 
 class AxiManagerCheck:
@@ -68,40 +46,17 @@ class AxiManagerCheck:
         a = axi
         h.stream_hold(a.awvalid, a.awready, Cat(a.awid, a.awaddr, a.awlen, a.awsize, a.awburst), "aw")
         h.stream_hold(a.wvalid, a.wready, Cat(a.wdata, a.wstrb, a.wlast), "w")
-        h.stream_hold(a.arvalid, a.arready, Cat(a.arid, a.araddr, a.arlen, a.arsize, a.arburst), "ar")
         h.stream_hold(a.bvalid, a.bready, Cat(a.bid, a.bresp), "b", assume=True)
-        h.stream_hold(a.rvalid, a.rready, Cat(a.rid, a.rdata, a.rresp, a.rlast), "r", assume=True)
-        for ch in ("aw", "ar"):
-            self._burst_legal(ch, data_bytes)
-            h.check(~getattr(a, f"{ch}valid") | (getattr(a, f"{ch}id") == id_value), f"{ch}_one_id")
+        burst_legal(h, a, "aw", data_bytes)
+        h.check(~a.awvalid | (a.awid == id_value), "aw_one_id")
         h.check(~a.bvalid | (a.bid == id_value), "b_id", assume=True)
-        h.check(~a.rvalid | (a.rid == id_value), "r_id", assume=True)
         self.stalls = {ch: h.stall_bound(getattr(a, f"{ch}valid"), getattr(a, f"{ch}ready"), stall, ch, assume=True)
-                       for ch in ("aw", "w", "ar")}
+                       for ch in ("aw", "w")}
         self._writes()
-        self._reads()
-
-    def _burst_legal(self, ch: str, data_bytes: int):
-        h, a = self.h, self.axi
-        valid, addr, ln, size, burst = (getattr(a, f"{ch}{f}") for f in ("valid", "addr", "len", "size", "burst"))
-        nbytes = (ln + 1) << size
-        page = addr[:12]
-        h.check(~valid | (burst != 3), f"{ch}_burst_type")
-        h.check(~valid | (size <= (data_bytes - 1).bit_length()), f"{ch}_size")
-        h.check(~valid | (burst != 1) | (page + nbytes <= 4096), f"{ch}_4k")
-        h.check(~valid | (burst != 2) | (ln == 1) | (ln == 3) | (ln == 7) | (ln == 15), f"{ch}_wrap_len")
-        h.check(~valid | (burst != 0) | (ln <= 15), f"{ch}_fixed_len")
-
-    def _owed(self, owed, valid, name: str):
-        """A response owed arrives within ``stall`` cycles (assumed)."""
-        h = self.h
-        wait = Signal(bits_for(self.stall + 1), name=f"f_owed_{name}")
-        with h.m.If(owed & ~valid):
-            with h.m.If(wait <= self.stall):
-                h.m.d.sync += wait.eq(wait + 1)
-        with h.m.Else():
-            h.m.d.sync += wait.eq(0)
-        h.check(~owed | valid | (wait < self.stall), f"{name}_latency_bound", assume=True)
+        # the read channels: the property set of any AXI4 read manager (formal/axiread.py)
+        self.read = rd = AxiReadCheck(h, a, max_out=max_out, stall=stall, id_value=id_value)
+        self.stalls["ar"] = rd.stall_run
+        self.ar_pend, self.r_beat, self.ar_queue = rd.ar_pend, rd.r_beat, rd.queue
 
     def _writes(self):
         h, a, m = self.h, self.axi, self.h.m
@@ -112,11 +67,11 @@ class AxiManagerCheck:
         self.wb_pend = wb_pend = Signal(cw, name="f_wb_pending")     # W bursts complete, no B yet
         m.d.sync += [aw_pend.eq(aw_pend + aw_x - b_x), wb_pend.eq(wb_pend + (w_x & a.wlast) - b_x)]
         h.check(~a.bvalid | ((aw_pend != 0) & (wb_pend != 0)), "b_after_request", assume=True)
-        self._owed((aw_pend != 0) & (wb_pend != 0), a.bvalid, "b")
+        owed_bound(h, (aw_pend != 0) & (wb_pend != 0), a.bvalid, self.stall, "b")
         h.check(aw_pend <= self.max_out, "aw_outstanding")
         h.check(wb_pend <= self.max_out, "w_outstanding")
         # WLAST: the current W burst's length from the AW queue, or from the AW accepted in this cycle
-        q = _LenQueue(h, n, "aw")
+        q = LenQueue(h, n, "aw")
         w_beat = Signal(9, name="f_w_beat")
         early, early_beats = Signal(name="f_w_early"), Signal(9, name="f_w_early_beats")
         known = (q.count != 0) | (aw_x & ~early)
@@ -135,21 +90,3 @@ class AxiManagerCheck:
         pop = (q.count != 0) & ends_now
         q.update(push, a.awlen, pop)
         self.w_beat, self.w_early, self.w_early_beats, self.aw_queue = w_beat, early, early_beats, q
-
-    def _reads(self):
-        h, a, m = self.h, self.axi, self.h.m
-        n = self.max_out + 1
-        ar_x, r_x = a.arvalid & a.arready, a.rvalid & a.rready
-        self.ar_pend = ar_pend = Signal(bits_for(n + 2), name="f_ar_pending")
-        last_x = r_x & a.rlast
-        m.d.sync += ar_pend.eq(ar_pend + ar_x - last_x)
-        h.check(~a.rvalid | (ar_pend != 0), "r_after_request", assume=True)
-        self._owed(ar_pend != 0, a.rvalid, "r")
-        h.check(ar_pend <= self.max_out, "ar_outstanding")
-        q = _LenQueue(h, n, "ar")
-        r_beat = Signal(9, name="f_r_beat")
-        h.check(~a.rvalid | (q.count == 0) | (a.rlast == (r_beat == q.head_len())), "r_last", assume=True)
-        with m.If(r_x):
-            m.d.sync += r_beat.eq(Mux(a.rlast, 0, r_beat + 1))
-        q.update(ar_x, a.arlen, last_x)
-        self.r_beat, self.ar_queue = r_beat, q

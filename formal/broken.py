@@ -7,11 +7,11 @@ white-box signals under ``dut/``. ``hazard_off`` needs no wrapper: ``RopParams(h
 
 from __future__ import annotations
 
-from amaranth.hdl import Module, Signal
+from amaranth.hdl import Module, Mux, Signal
 from amaranth.lib import wiring
 
 __all__ = ["Wrap", "PayloadWhileStalled", "ReadyFromValid", "DroppedToken", "ValidWaitsForReady", "WlastEarly",
-           "ArChangesWhileStalled"]
+           "ArChangesWhileStalled", "MemArChangesWhileStalled", "RlastEarly", "ArlenShort"]
 
 
 class Wrap(wiring.Component):
@@ -95,9 +95,38 @@ class WlastEarly(Wrap):
 
 class ArChangesWhileStalled(Wrap):
     """``ARADDR`` moves to the next word while ``AR`` waits for ready."""
+    PORT = "axi"
     CHANGED = (("axi", "araddr"),)
 
     def change(self, m):
+        outer, inner = getattr(self, self.PORT), getattr(self.inner, self.PORT)
         stalled = Signal()
-        m.d.sync += stalled.eq(self.axi.arvalid & ~self.axi.arready)
-        m.d.comb += self.axi.araddr.eq(self.inner.axi.araddr + (stalled << 3))
+        m.d.sync += stalled.eq(outer.arvalid & ~outer.arready)
+        m.d.comb += outer.araddr.eq(inner.araddr + (stalled << 3))
+
+
+class MemArChangesWhileStalled(ArChangesWhileStalled):
+    """As :class:`ArChangesWhileStalled`, on a port named ``mem`` (the texel caches)."""
+    PORT = "mem"
+    CHANGED = (("mem", "araddr"),)
+
+
+class RlastEarly(Wrap):
+    """The manager takes ``RLAST`` one beat early: it sees ``RLAST`` on the next-to-last beat of each burst of
+    ``ARLEN + 1`` beats (a beat counter off by one), ends the burst there and leaves the last beat owed."""
+    CHANGED = (("mem", "rlast"),)
+
+    def change(self, m):
+        a = self.mem
+        beat = Signal(9)
+        with m.If(a.rvalid & a.rready):
+            m.d.sync += beat.eq(Mux(a.rlast, 0, beat + 1))
+        m.d.comb += self.inner.mem.rlast.eq(a.rlast | (beat + 2 == self.inner.mem.arlen + 1))
+
+
+class ArlenShort(Wrap):
+    """``ARLEN`` one less than the line's beats (the burst length off by one)."""
+    CHANGED = (("mem", "arlen"),)
+
+    def change(self, m):
+        m.d.comb += self.mem.arlen.eq(self.inner.mem.arlen - 1)

@@ -15,6 +15,8 @@ independence miter of :mod:`formal.miter`; rule 4 means nothing is assumed about
 
 from __future__ import annotations
 
+from contextlib import contextmanager
+
 from amaranth.hdl import Assert, Assume, ClockDomain, Cover, Module, Signal, Value
 
 __all__ = ["Harness", "bits_for", "KINDS"]
@@ -51,13 +53,28 @@ class Harness:
         self.ports: list[Signal] = [sync.clk]
         self.started = Signal(name="f_started")
         self.m.d.sync += self.started.eq(1)
+        self.prefix = ""               # prepended to the names of checks and covers (see :meth:`scope`)
+        self.covers_on = True
         self.asserted: list[str] = []
         self.assumed: list[str] = []
         self.covered: list[str] = []
 
+    @contextmanager
+    def scope(self, prefix: str, covers: bool = True):
+        """Checks and covers added inside are named ``prefix + name`` (one design's properties beside another's
+        in a composition); ``covers=False`` leaves the covers added inside out."""
+        outer = self.prefix, self.covers_on
+        self.prefix, self.covers_on = self.prefix + prefix, self.covers_on and covers
+        try:
+            yield self
+        finally:
+            self.prefix, self.covers_on = outer
+
     def free(self, shape, name: str) -> Signal:
-        """A free input (an RTLIL port of the top)."""
+        """A free input (an RTLIL port of the top; of a layout's width for a layout)."""
         sig = Signal(shape, name=name)
+        if not isinstance(sig, Signal):                 # a View of a layout: its signal is the port
+            sig = sig.as_value()
         self.ports.append(sig)
         return sig
 
@@ -79,12 +96,14 @@ class Harness:
         the bounded run only, any other in the proof only."""
         if not assume and (self.kind == "cover" or bounded != (self.kind == "bounded")):
             return
+        name = self.prefix + name
         (self.assumed if assume else self.asserted).append(name)
         self.m.d.comb += (Assume if assume else Assert)(cond, name)
 
     def cover(self, cond, name: str):
-        if self.kind != "cover":
+        if self.kind != "cover" or not self.covers_on:
             return
+        name = self.prefix + name
         self.covered.append(name)
         self.m.d.comb += Cover(cond, name)
 

@@ -32,7 +32,7 @@ from . import whitebox
 from .miter import independence
 from .props import Harness, bits_for
 
-__all__ = ["small_raster", "raster_set", "raster_independence"]
+__all__ = ["small_raster", "raster_set", "raster_props", "raster_independence"]
 
 CUT = "t:$mul"
 
@@ -61,12 +61,20 @@ def raster_set(params: RasterParams | None = None, *, kind: str = "proof", wrap=
     pre = "dut" if wrap else ""
     frag = whitebox.elaborate(dut)
     m.submodules.dut = frag
-    top = whitebox.subfragment(frag, pre)
-    sig = lambda name: whitebox.signal(top, name)        # noqa: E731
     i_valid, o_ready = h.free(1, "i_valid"), h.free(1, "o_ready")
     i_payload = h.free(record_layout(P).size, "i_payload")
     m.d.comb += [dut.i.valid.eq(i_valid), dut.i.payload.eq(i_payload), dut.o.ready.eq(o_ready)]
     h.stream_hold(dut.i.valid, dut.i.ready, dut.i.payload.as_value(), "i", assume=True)
+    raster_props(h, P, dut, frag, pre)
+    return h
+
+
+def raster_props(h: Harness, P: RasterParams, dut, frag, pre: str):
+    """The scan converter's properties (rule 2 on ``o``, the credits, the conservation of rows and pixels) on
+    ``dut`` (a :class:`~rtl.raster.Raster`, at path ``pre`` of ``frag``); rule 2 on its ``i`` is the caller's."""
+    m = h.m
+    top = whitebox.subfragment(frag, pre)
+    sig = lambda name: whitebox.signal(top, name)        # noqa: E731
     h.stream_hold(dut.o.valid, dut.o.ready, dut.o.payload.as_value(), "o")
     rows = whitebox.origin(frag, f"{pre}/rows" if pre else "rows", SyncFIFO)
     out = whitebox.origin(frag, f"{pre}/out" if pre else "out", SyncFIFO)
@@ -111,7 +119,6 @@ def raster_set(params: RasterParams | None = None, *, kind: str = "proof", wrap=
     h.cover(used == odepth - 1, "out_credit_full_reach")
     h.cover(dut.o.valid & dut.o.ready & (f_px > 1), "fragment_reach")
     h.cover(dut.i.valid & ~dut.i.ready & gv, "input_stall_reach")
-    return h
 
 
 def raster_independence(params: RasterParams | None = None, *, kind: str = "proof", wrap=None) -> Harness:

@@ -12,6 +12,8 @@
 
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 from amaranth.hdl import Array, Cat, Mux
 from amaranth.lib import wiring
 
@@ -23,7 +25,7 @@ from . import whitebox
 from .axi import AxiManagerCheck
 from .props import Harness
 
-__all__ = ["small_rop", "rop_set", "STALL"]
+__all__ = ["small_rop", "rop_set", "rop_props", "STALL"]
 
 #: The memory's bounded stall (cycles) assumed by the ROP's proofs.
 STALL = 3
@@ -45,7 +47,6 @@ def rop_set(params: RopParams | None = None, *, kind: str = "proof", wrap=None) 
     frag = whitebox.elaborate(dut)
     m.submodules.dut = frag
     top = whitebox.subfragment(frag, "dut" if wrap else "")
-    sig = lambda name: whitebox.signal(top, name)        # noqa: E731
     # free inputs: the fragment stream and every input of the AXI port
     i_valid = h.free(1, "i_valid")
     i_payload = h.free(len(dut.i.payload.as_value()), "i_payload")
@@ -54,6 +55,15 @@ def rop_set(params: RopParams | None = None, *, kind: str = "proof", wrap=None) 
         if member.flow == wiring.In:
             m.d.comb += getattr(dut.axi, name).eq(h.free(member.shape, f"axi_{name}"))
     h.stream_hold(dut.i.valid, dut.i.ready, dut.i.payload.as_value(), "i", assume=True)
+    rop_props(h, P, dut, top)
+    return h
+
+
+def rop_props(h: Harness, P: RopParams, dut, top) -> SimpleNamespace:
+    """The ROP's properties (its AXI4 port, the hazard rule, the slot accounting) on ``dut`` (a
+    :class:`~rtl.rop.Rop` whose fragment is ``top``); rule 2 on its ``i`` is the caller's. Returns the checker and
+    the slot state."""
+    sig = lambda name: whitebox.signal(top, name)        # noqa: E731
     axi = AxiManagerCheck(h, dut.axi, max_out=P.outstanding, stall=STALL)
     N = P.outstanding
     busy = sig("slot_busy")
@@ -68,10 +78,7 @@ def rop_set(params: RopParams | None = None, *, kind: str = "proof", wrap=None) 
     freed = was & ~busy
     h.check(~h.started | (sum(freed[k] for k in range(N)) <= h.past(fail, "fail") + h.past(b_x, "b")),
             "slot_freed_by_fail_or_b")
-    # ``aw_done`` is the one signal rtl/rop.py leaves unnamed (``aw_done, w_done = Signal(), Signal()``: Amaranth
-    # names only the last of a tuple), so it is found under Amaranth's default name
-    q_count, w_done = sig("q_count"), sig("w_done")
-    aw_done = sig("aw_done") if whitebox.has_signal(top, "aw_done") else sig("$signal")
+    q_count, w_done, aw_done = sig("q_count"), sig("w_done"), sig("aw_done")
     issued_pending = axi.aw_pend - aw_done
     h.check(axi.wb_pend - w_done == issued_pending, "w_matches_aw")
     h.check(sum(busy[k] for k in range(N)) == axi.ar_pend + c_valid + q_count + issued_pending, "slots_count")
@@ -96,7 +103,7 @@ def rop_set(params: RopParams | None = None, *, kind: str = "proof", wrap=None) 
     for ch in ("aw", "ar"):
         h.cover((axi.stalls[ch] == STALL - 1) & getattr(dut.axi, f"{ch}valid") & getattr(dut.axi, f"{ch}ready"),
                 f"{ch}_longest_stall_reach")
-    return h
+    return SimpleNamespace(axi=axi, busy=busy, fail=fail, b_x=b_x, s_valid=s_valid, N=N)
 
 
 def _mod(value, n: int):

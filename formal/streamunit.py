@@ -8,18 +8,20 @@ of stages, so the payload computed from a fragment leaves with its number. What 
 datapath is only its registers' values (never its arithmetic: the properties hold whatever the unit computes),
 so the runs cut multipliers and lookup tables (``cutpoint``: free values, a sound abstraction).
 
-Proven by k-induction at depth 3 (white-box invariants: the unit's ``used`` equals the transfers in minus
-out, which equals the FIFO's level plus the valid bits of the unit's delay line; each valid bit of the sideband's
-delay line carries the number after those of the FIFO and of the older bits): rule 2 on ``o``; the sequence on
-``o`` (no loss, duplication or reordering); no output without an input; ``used`` never above the FIFO's depth
-(the credit FIFO cannot overflow); rule 3 as a bound (with fragments in flight, ``o.valid`` rises within the
-latency whatever ``o.ready`` does). The FIFO's own contract (what is read was written, in order: Amaranth's
-``SyncFIFO``, which also asserts its pointers and level under the formal platform) is assumed where it is read
-and asserted where it is written. Rule 3 as a combinational independence is the miter of :mod:`formal.miter`
-(bounded).
+Proven by k-induction at k = 1 (white-box invariants: the unit's ``used`` equals the transfers in minus out,
+which equals the FIFO's level plus the valid bits of the unit's delay line, counted by a ghost line of input
+counts beside it: :func:`stream_counts`; each valid stage of the sideband's delay line carries its ghost stage's
+number): rule 2 on ``o``; the sequence on ``o`` (no loss, duplication or reordering); no output without an input;
+``used`` never above the FIFO's depth (the credit FIFO cannot overflow); rule 3 as a bound (with fragments in
+flight, ``o.valid`` rises within the latency whatever ``o.ready`` does). The FIFO's own contract (what is read was
+written, in order: Amaranth's ``SyncFIFO``, which also asserts its pointers and level under the formal platform) is
+assumed where it is read and asserted where it is written. Rule 3 as a combinational independence is the miter
+of :mod:`formal.miter` (bounded).
 """
 
 from __future__ import annotations
+
+from types import SimpleNamespace
 
 from amaranth.hdl import Cat, Signal
 from amaranth.lib import data
@@ -31,7 +33,7 @@ from . import whitebox
 from .miter import independence
 from .props import Harness, bits_for
 
-__all__ = ["stream_unit", "stream_independence", "tag_bits", "cover_depth", "CUT"]
+__all__ = ["stream_unit", "stream_counts", "stream_independence", "tag_bits", "cover_depth", "CUT"]
 
 #: The datapath abstraction of the unit runs: multipliers and lookup tables (memories without write ports).
 CUT = "t:$mul t:$mem_v2 r:WR_PORTS=0 %i %u"
@@ -77,39 +79,20 @@ def stream_unit(params, *, kind: str = "proof", wrap=None) -> Harness:
     n_in, n_out = h.counter(x_in, t, "in"), h.counter(x_out, t, "out")
     h.check(~dut.i.valid | (data.View(lay, i_payload).side.tag == n_in), "i_seq", assume=True)
     h.stream_hold(dut.o.valid, dut.o.ready, dut.o.payload.as_value(), "o")
-    out = Signal(range(depth + 2), name="f_outstanding")
-    m.d.sync += out.eq(out + x_in - x_out)
-    used = whitebox.signal(frag, "used", pre)
-    level = whitebox.origin(frag, pre + "fifo", SyncFIFO).level
-    line = Cat(*(whitebox.signal(frag, f"valid{k}", pre + "core/unit") for k in range(1, lat + 1)))
-    pop = sum(line[k] for k in range(lat))
-    h.check(out <= depth, "o_capacity")
-    h.check(~x_out | (out != 0), "o_no_dup")
-    h.check(used == out, "o_used")
-    h.check(out == level + pop, "o_inflight")
+    c = stream_counts(h, params, dut, frag, pre)
+    out, level, line, g = c.out, c.level, c.line, c.g
     h.check(~dut.o.valid | (dut.o.payload.side.tag == n_out), "o_order")
     h.check(n_in == (n_out + out)[:t], "seq_counts")
-    # the numbers inside (for induction): the k-th valid bit of the delay line (k = latency the oldest) carries
-    # the number after those of the FIFO and of the older bits; the FIFO is written in order, its head is
-    # the oldest (``SyncFIFO``'s contract: what is read was written, in order), assumed where it is read
+    h.check(c.n_out_w[:t] == n_out, "counts_narrow")
+    # a valid stage k carries the number g[k] (see :func:`stream_counts`)
     fifo = whitebox.origin(frag, pre + "fifo", SyncFIFO)
     sides = [whitebox.signal(frag, f"side{k}", pre + "core")[:t] for k in range(1, lat + 1)]
-    expect = (n_out + level)[:t]                    # the oldest position's number, then one more per valid bit
-    for k in reversed(range(lat)):
-        h.check(~line[k] | (sides[k] == expect), f"line{k + 1}_seq")
-        expect = (expect + line[k])[:t]
+    for k in range(1, lat + 1):
+        h.check(~line[k - 1] | (sides[k - 1] == g[k][:t]), f"line{k}_seq")
+    # the FIFO is written in order, its head is the oldest (``SyncFIFO``'s contract: what is read was written,
+    # in order), assumed where it is read
     h.check(~(fifo.w_en & fifo.w_rdy) | (fifo.w_data[-t:] == (n_out + level)[:t]), "fifo_write_seq")
     h.check(~fifo.r_rdy | (fifo.r_data[-t:] == n_out), "fifo_read_seq", assume=True)
-    # rule 3 as a bound: with fragments in flight and ``o.valid`` low, the oldest is in the delay line and
-    # reaches the output within the latency, whatever ``o.ready`` does
-    wait = Signal(range(lat + 2), name="f_wait")
-    with m.If((out != 0) & ~dut.o.valid):
-        with m.If(wait <= lat):
-            m.d.sync += wait.eq(wait + 1)
-    with m.Else():
-        m.d.sync += wait.eq(0)
-    h.check(wait < lat, "o_wait")
-    h.check((wait == 0) | Cat(line[k] & (wait <= k) for k in range(lat)).any(), "o_wait_oldest")
     # reachability: a full FIFO with the input held off, the longest stall released, a wrap of the numbers
     run = Signal(range(depth + 2), name="f_run")
     with m.If(dut.o.valid & ~dut.o.ready):
@@ -126,6 +109,48 @@ def stream_unit(params, *, kind: str = "proof", wrap=None) -> Harness:
     if wrap_cover(params):
         h.cover(x_out & (n_out == (1 << t) - 1), "seq_wrap_reach")
     return h
+
+
+def stream_counts(h: Harness, params, dut, frag, pre: str) -> SimpleNamespace:
+    """The counts of a :class:`~rtl.streams.StreamUnit` ``dut`` (at path ``pre``, ``""`` or ending in ``/``, of
+    ``frag``) that need no sideband: transfers in - out (``out``) = ``used`` = FIFO level + the delay line's valid
+    bits, never above the FIFO's depth; no output without an input; rule 3 as a bound. Returns the counters."""
+    m = h.m
+    depth, lat = buffer_depth(params), params.latency
+    x_in, x_out = dut.i.valid & dut.i.ready, dut.o.valid & dut.o.ready
+    out = Signal(range(depth + 2), name="f_outstanding")
+    m.d.sync += out.eq(out + x_in - x_out)
+    used = whitebox.signal(frag, "used", pre)
+    level = whitebox.origin(frag, pre + "fifo", SyncFIFO).level
+    line = Cat(*(whitebox.signal(frag, f"valid{k}", pre + "core/unit") for k in range(1, lat + 1)))
+    h.check(out <= depth, "o_capacity")
+    h.check(~x_out | (out != 0), "o_no_dup")
+    h.check(used == out, "o_used")
+    # the delay line counted without counting its valid bits (a population count defeats the solver at latency
+    # 74): a ghost line g beside the delay line, g[0] the inputs accepted so far, g[k] = g[k - 1] one cycle ago.
+    # Stage k holds the input accepted k cycles ago, so g[k - 1] - g[k] is stage k's valid bit (its number, in a
+    # sequence, is g[k]), and g[latency] (the next number to leave the delay line) follows those output and in
+    # the FIFO. Widths: 2 depth > FIFO + delay line, so nothing wraps.
+    w = bits_for(2 * depth + 1)
+    g = [h.counter(x_in, w, "in_wide")] + [Signal(w, name=f"f_g{k}") for k in range(1, lat + 1)]
+    n_out_w = h.counter(x_out, w, "out_wide")
+    m.d.sync += [g[k].eq(g[k - 1]) for k in range(1, lat + 1)]
+    h.check(g[0] == (n_out_w + out)[:w], "counts_wide")
+    h.check(g[lat] == (n_out_w + level)[:w], "line_end_seq")
+    h.check(out == (level + g[0] - g[lat])[:w], "o_inflight")
+    for k in range(1, lat + 1):
+        h.check((g[k - 1] - g[k])[:w] == line[k - 1], f"line{k}_step")
+    # rule 3 as a bound: with fragments in flight and ``o.valid`` low, the oldest is in the delay line and
+    # reaches the output within the latency, whatever ``o.ready`` does
+    wait = Signal(range(lat + 2), name="f_wait")
+    with m.If((out != 0) & ~dut.o.valid):
+        with m.If(wait <= lat):
+            m.d.sync += wait.eq(wait + 1)
+    with m.Else():
+        m.d.sync += wait.eq(0)
+    h.check(wait < lat, "o_wait")
+    h.check((wait == 0) | Cat(line[k] & (wait <= k) for k in range(lat)).any(), "o_wait_oldest")
+    return SimpleNamespace(out=out, used=used, level=level, line=line, g=g, w=w, n_out_w=n_out_w)
 
 
 def stream_independence(params, *, kind: str = "proof", wrap=None) -> Harness:

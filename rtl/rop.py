@@ -270,7 +270,7 @@ class Rop(wiring.Component):
         q_color = [Signal.like(s_color, name=f"wq{k}_color") for k in range(WRITE_QUEUE)]
         q_slot = [Signal(range(N), name=f"wq{k}_slot") for k in range(WRITE_QUEUE)]
         q_count = Signal(range(WRITE_QUEUE + 1))
-        aw_done, w_done = Signal(), Signal()
+        aw_done, w_done = Signal(name="aw_done"), Signal()       # a tuple names only its last signal
 
         # compare, in two stages: the R beat belongs to slot rd; its stored depth and the slot are registered
         # (``c_*``), the next cycle compares (one carry chain) and pushes a passing fragment into the queue

@@ -94,3 +94,50 @@ def test_committed_record_covers_every_set_and_catches_every_variant():
     assert all(s["status"] == "PASS" for s in record["sets"])
     assert all(b["caught"] for b in record["broken"])
     assert record["machine"]["nproc"] >= 1 and record["command"].startswith("bumpmap formal")
+
+
+@needs_tools
+def test_texcache_read_port_is_proven_and_an_early_rlast_is_caught():
+    entry = run_set(_set("texcache_axi"), OUT, covers=False)
+    assert entry["status"] == "PASS" and entry["verdict"].startswith("proven"), entry
+    assert {"ar_hold", "ar_4k", "ar_len_declared", "ar_outstanding"} <= set(entry["checks"])
+    (v,) = [v for v in variants() if v.name == "texcache_rlast_early"]
+    caught = run_variant(v, OUT)
+    assert caught["caught"] and "fill_is_outstanding" in caught["failed"], caught
+    assert (ROOT / caught["trace"]).exists() or Path(caught["trace"]).exists()
+
+
+def test_every_read_manager_entry_is_a_property_set():
+    from formal.readers import READ_MANAGERS
+    assert READ_MANAGERS and {e.name for e in READ_MANAGERS} <= {s.name for s in property_sets()}
+
+
+def test_abstract_unit_keeps_the_ports_and_the_valid_delay_line():
+    """The abstraction of formal/abstract.py has the unit's ports and latency, and its o_valid is i_valid delayed
+    by the latency (the only thing StreamUnit reads of a unit), in registers named as every unit's."""
+    from amaranth.sim import Simulator
+
+    from formal import whitebox
+    from formal.abstract import Abstract
+    from fxmodel.core.unit import preset
+    from rtl.unit import build
+    real = preset("recip", "small")
+    p = Abstract.of(real)
+    assert (p.inputs, p.outputs, p.latency) == (tuple(real.inputs), tuple(real.outputs), real.latency)
+    dut = build(p)
+    frag = whitebox.elaborate(build(p))
+    assert whitebox.has_signal(frag, f"valid{p.latency}") and not whitebox.has_signal(frag, f"valid{p.latency + 1}")
+    pattern = [1, 0, 1, 1, 0, 0, 1, 0] + [0] * p.latency
+    seen = []
+
+    async def bench(ctx):
+        for v in pattern:
+            ctx.set(dut.i_valid, v)
+            seen.append(ctx.get(dut.o_valid))
+            await ctx.tick()
+
+    sim = Simulator(dut)
+    sim.add_clock(1e-6)
+    sim.add_testbench(bench)
+    sim.run()
+    assert seen == [0] * p.latency + pattern[:len(pattern) - p.latency]

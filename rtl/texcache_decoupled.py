@@ -82,7 +82,7 @@ class DecoupledTexCache(wiring.Component):
 
     # ---- geometry -----------------------------------------------------------------------------------------------
     def _line_set(self, surf, x, y):
-        """Line number and set of texel ``(x, y)`` of surface ``surf`` (:meth:`Layout.blocks`, :meth:`Layout.set_of`)."""
+        """Line number and set of texel ``(x, y)`` of surface ``surf`` (``Layout.blocks``, ``Layout.set_of``)."""
         P, L = self.params, self.layout
         lb = P.block.bit_length() - 1
         bx, by = x >> lb, y >> lb

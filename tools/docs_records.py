@@ -327,6 +327,15 @@ def texcache(name: str = "texcache") -> str:
     return table(json.loads(path.read_text(encoding="utf-8"))) + "\n\n" + provenance(record, path)
 
 
+def texcache_rate() -> str:
+    """The decoupled texel cache's lookups per clock under memory latency (``bumpmap cache-rate``)."""
+    record, path = _load("texcache-rate")
+    if record is None:
+        return _missing(path, "bumpmap cache-rate --record docs/records/texcache-rate.json")
+    from .cache_rate import table
+    return table(record) + "\n" + provenance(record, path)
+
+
 def _align(spec: str) -> list[str]:
     """Column alignments of :func:`_table` from letters: ``l`` left, ``r`` right."""
     return ["---" if c == "l" else "---:" for c in spec]

@@ -89,7 +89,8 @@ class TexCacheParams:
         latency plus line transfer hidden. Cost: a FIFO of this many entries (:meth:`memories`).
     misses : int
         Lines the decoupled RTL may have outstanding (requested and not yet written into the data banks): the
-        bursts in flight and the fill buffer's lines (``misses x B^2`` texels, :meth:`memories`).
+        bursts in flight and the fill buffer's lines (``misses x B^2`` texels, :meth:`memories`). At least 4: a
+        lookup's fills are written when it reaches the data stage, after all of its lines are requested.
     """
 
     block: int = 4
@@ -121,8 +122,8 @@ class TexCacheParams:
                 self.texel_bits, f"must be an int in 1..{8 * self.texel_bytes}")
         require(_pow2(self.lookup_depth) and 2 <= self.lookup_depth <= 4096, "lookup_depth", self.lookup_depth,
                 "must be a power of two in 2..4096")
-        require(_pow2(self.misses) and 1 <= self.misses <= 256, "misses", self.misses,
-                "must be a power of two in 1..256")
+        require(_pow2(self.misses) and 4 <= self.misses <= 256, "misses", self.misses,
+                "must be a power of two in 4..256 (a lookup may hold four lines' fills before it can be served)")
 
     @property
     def line_texels(self) -> int:

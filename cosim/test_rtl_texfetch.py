@@ -128,3 +128,32 @@ def test_traffic_comparison_can_fail():
     check(res)
     other = TexCacheParams(block=params.block, sets=params.sets, ways=params.ways - 1)
     assert [a for a, _ in res["rtl_bursts"]] != simulate(other, layout, trace).burst_addresses().tolist()
+
+
+def engine_fetch(scene: str, size: int, n: int, cache: TexCacheParams):
+    """A scene's fragments from triangles (the first ``n``) as the texture fetch sees them: the engine with its
+    maps external (``EngineParams.textures``), its layout, caches, per-map footprints and the surfaces' words."""
+    from host.render import from_triangles, prepare
+    from host.scene import scene_path
+    from rtl.texfetch import MAPS
+    tframe = from_triangles(prepare(scene_path(scene), size=size))
+    eng = dataclasses.replace(tframe.params, textures=cache)
+    p = eng.pipeline
+    st = p.trace(np.stack([tframe.scan.codes[q.name] for q in p.inputs], axis=1)[:n])["st"]
+    traces = {k: footprints(getattr(p, k), st[:, 2 * j], st[:, 2 * j + 1], j) for j, k in enumerate(MAPS)}
+    words = [np.array(getattr(p, k).words, np.int64).reshape(getattr(p, k).texels.shape[1:3]) for k in MAPS]
+    return eng, traces, words
+
+
+@pytest.mark.parametrize("latency", LATENCIES)
+def test_fetch_both_maps_of_a_scene(latency):
+    """The tin plane's fragments through the texture fetch (both maps' caches on one read port): every fragment's
+    texels of both maps and its sideband exact, each map's bursts its cache's model (the engine's
+    ``texture_traffic``), under random gaps, backpressure and wait states."""
+    from cosim.texfetch import run_fetch
+    eng, traces, words = engine_fetch("tin-plane", 48, 600, TexCacheParams(block=8, sets=8, ways=2))
+    res = run_fetch(eng.texture_caches(), eng.texture_layout(), words, traces, latency=latency, p_valid=0.9,
+                    p_ready=0.8, p_pause=0.2, seed=latency, tag=f"fetch_{latency}")
+    assert res["outputs"] == res["fragments"] == 600 and res["mismatches"] == 0
+    assert res["bursts_equal"] and res["rtl_bytes"] == res["model_bytes"] > 0
+    assert all(v["model"]["misses"] > 0 for v in res["maps"].values())

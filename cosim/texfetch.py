@@ -24,19 +24,22 @@ from .harness import component_build, run_testbench, simulator
 from .job import job_folder, remove_job
 from .rop import LATENCY_BITS, _DelayQueue
 
-__all__ = ["FetchBench", "run", "layout_image", "pack_requests", "MAX_LATENCY"]
+__all__ = ["FetchBench", "run", "run_fetch", "layout_image", "pack_requests", "MAX_LATENCY"]
 
 #: Largest ``lat`` of the bench (its ``lat`` input's range).
 MAX_LATENCY = (1 << LATENCY_BITS) - 1
+#: Bursts the bench's ``AR`` delay queue holds (more than any design here has outstanding).
+DELAY_DEPTH = 16
 
 
 class FetchBench(wiring.Component):
-    """Simulation top: the decoupled cache, a delay queue of ``params.misses`` entries on ``AR`` (every burst
-    leaves it ``lat`` cycles after the cache issued it), the AXI4 port ``mem``. Ports: the cache's ``i``, ``o``,
+    """Simulation top: ``inner`` (a :class:`~rtl.texcache_decoupled.DecoupledTexCache` or a
+    :class:`~rtl.texfetch.TexFetch`), a delay queue of :data:`DELAY_DEPTH` entries on ``AR`` (every burst leaves
+    it ``lat`` cycles after the design issued it), the AXI4 port ``mem``. Ports: the design's ``i``, ``o``,
     ``mem``, ``busy``, and ``lat``."""
 
-    def __init__(self, params: TexCacheParams, layout: Layout, side_bits: int = 0):
-        self.inner = DecoupledTexCache(params, layout, side_bits)
+    def __init__(self, inner):
+        self.inner = inner
         sig = self.inner.signature.members
         super().__init__({"i": sig["i"], "o": sig["o"], "mem": sig["mem"], "busy": Out(1), "lat": In(LATENCY_BITS)})
 
@@ -52,7 +55,7 @@ class FetchBench(wiring.Component):
         fields = ("arid", "araddr", "arlen", "arsize", "arburst")
         payload = [getattr(src, f) for f in fields]
         width = sum(len(p) for p in payload)
-        m.submodules.delay_ar = q = _DelayQueue(width, max(2, c.params.misses))
+        m.submodules.delay_ar = q = _DelayQueue(width, DELAY_DEPTH)
         m.d.comb += [q.now.eq(now), q.lat.eq(self.lat), q.in_valid.eq(src.arvalid), q.in_data.eq(Cat(*payload)),
                      src.arready.eq(q.in_ready), dst.arvalid.eq(q.out_valid), q.out_ready.eq(dst.arready),
                      Cat(*(getattr(dst, f) for f in fields)).eq(q.out_data)]
@@ -101,23 +104,14 @@ def run(params: TexCacheParams, layout: Layout, maps: list, trace: Trace, *, sid
         ``lookups_per_clock``.
     """
     sim = simulator(sim)
-    if not 0 <= latency <= MAX_LATENCY:
-        raise ValueError(f"latency={latency}: must be in 0..{MAX_LATENCY}")
     model = simulate(params, layout, trace)
-    key = (params, layout, side_bits)
-    top, bdir, src = component_build("texfetch", params_key(key), sim, lambda: FetchBench(params, layout, side_bits))
-    job = job_folder(bdir, tag or "texfetch", {"key": repr(key), "sim": sim, "lookups": len(trace), "seed": seed,
-                                               "p": [p_valid, p_ready, p_pause], "latency": latency})
     side = np.arange(len(trace)) % (1 << side_bits) if side_bits else None
     reqs = pack_requests(request_layout(layout, side_bits), trace, side)
-    beats = model.totals["beats"]
-    meta = {"requests": [format(r, "x") for r in reqs], "image": layout_image(layout, maps).hex(),
-            "base": layout.base, "p_valid": p_valid, "p_ready": p_ready, "p_pause": p_pause, "seed": seed,
-            "latency": latency, "max_cycles": int((400 + len(reqs) * 6 + (beats + 40 * model.totals["bursts"])
-                                                   * 3) / max(min(p_valid, p_ready, 1 - p_pause), 0.05))}
-    out, build_seconds, seconds = run_testbench(sim, src, top, bdir, job, "cosim.texfetch_tb", meta, "result.json")
-    got = json.loads(out.read_text())
-    remove_job(job)
+    budget = 400 + len(reqs) * 6 + (model.totals["beats"] + 40 * model.totals["bursts"]) * 3
+    got, build_seconds, seconds = _simulate_bench(
+        lambda: DecoupledTexCache(params, layout, side_bits), (params, layout, side_bits), reqs,
+        layout_image(layout, maps), layout.base, budget=budget,
+        **dict(latency=latency, p_valid=p_valid, p_ready=p_ready, p_pause=p_pause, seed=seed, sim=sim, tag=tag))
     tb = params.texel_bits
     x, y = trace.corners()
     want = np.zeros((len(trace), 4), np.int64)
@@ -137,3 +131,80 @@ def run(params: TexCacheParams, layout: Layout, maps: list, trace: Trace, *, sid
             "rtl_bytes": 4 * got["beats"], "model_bytes": model.totals["memory_bytes"], "model": model.totals,
             "cycles": got["cycles"], "lookups_per_clock": len(trace) / max(got["cycles"], 1), "latency": latency,
             "simulator": sim, "build_seconds": build_seconds, "seconds": seconds}
+
+
+def _simulate_bench(make, key, reqs: list, image: bytes, base: int, *, latency, p_valid, p_ready, p_pause, seed,
+                    sim, tag, budget) -> tuple[dict, float, float]:
+    """Build (once per ``key``) and run the bench around the design ``make()`` builds; the testbench's result."""
+    if not 0 <= latency <= MAX_LATENCY:
+        raise ValueError(f"latency={latency}: must be in 0..{MAX_LATENCY}")
+    top, bdir, src = component_build("texfetch", params_key(key), sim, lambda: FetchBench(make()))
+    job = job_folder(bdir, tag or "texfetch", {"key": repr(key), "sim": sim, "lookups": len(reqs), "seed": seed,
+                                               "p": [p_valid, p_ready, p_pause], "latency": latency})
+    meta = {"requests": [format(r, "x") for r in reqs], "image": image.hex(), "base": base, "p_valid": p_valid,
+            "p_ready": p_ready, "p_pause": p_pause, "seed": seed, "latency": latency,
+            "max_cycles": int(budget / max(min(p_valid, p_ready, 1 - p_pause), 0.05))}
+    out, build_seconds, seconds = run_testbench(sim, src, top, bdir, job, "cosim.texfetch_tb", meta, "result.json")
+    got = json.loads(out.read_text())
+    remove_job(job)
+    return got, build_seconds, seconds
+
+
+def run_fetch(caches: dict, layout: Layout, maps: list, traces: dict, *, side_bits: int = 4, latency: int = 1,
+              p_valid: float = 1.0, p_ready: float = 1.0, p_pause: float = 0.0, seed: int = 1,
+              sim: str | None = None, tag: str = "") -> dict:
+    """Fragments through the texture fetch (``rtl/texfetch.py``): ``traces[map]`` (one row per fragment, the
+    same fragments) in the caches ``caches[map]`` over ``layout`` holding ``maps`` (one array per surface); the
+    texels of both maps and the sideband against the maps, and each map's bursts (the ``AR`` transfers to its
+    surfaces, in order) against its cache's model.
+
+    Returns
+    -------
+    dict
+        ``mismatches`` (fragments with a texel or the sideband wrong), ``outputs``, ``fragments``, per map
+        ``bursts_equal`` and ``model`` totals, ``bursts_equal`` (both), ``rtl_bytes``, ``model_bytes``, ``cycles``,
+        ``fragments_per_clock``.
+    """
+    from rtl.texfetch import MAPS, TexFetch
+    sim = simulator(sim)
+    n = len(traces[MAPS[0]])
+    models = {k: simulate(caches[k], layout, traces[k]) for k in MAPS}
+    lay, olay = TexFetch.payloads(caches, layout, side_bits)
+    side = np.arange(n) % (1 << side_bits)
+    reqs = np.asarray(side, dtype=object) * (1 << lay["side"].offset)
+    for k in MAPS:
+        sub = pack_requests(request_layout(layout), traces[k])
+        reqs = reqs + np.asarray(sub, dtype=object) * (1 << lay[k].offset)
+    beats = sum(v.totals["beats"] + 40 * v.totals["bursts"] for v in models.values())
+    got, build_seconds, seconds = _simulate_bench(
+        lambda: TexFetch(caches, layout, side_bits), (tuple(caches.items()), layout, side_bits, "fetch"),
+        [int(r) for r in reqs], layout_image(layout, maps), layout.base, budget=400 + 6 * n + 3 * beats,
+        **dict(latency=latency, p_valid=p_valid, p_ready=p_ready, p_pause=p_pause, seed=seed, sim=sim, tag=tag))
+    vals = [int(v, 16) for v in got["outputs"]]
+    bad = np.zeros(n, bool) if len(vals) == n else np.ones(n, bool)
+    if len(vals) == n:
+        for k in MAPS:
+            tb = caches[k].texel_bits
+            x, y = traces[k].corners()
+            want = np.zeros((n, 4), np.int64)
+            for s_ in range(len(maps)):
+                rows = np.flatnonzero(traces[k].surface == s_)
+                want[rows] = np.asarray(maps[s_], np.int64)[y[rows], x[rows]] & ((1 << tb) - 1)
+            off = olay[k].offset
+            rtl = np.array([[(v >> (off + tb * q)) & ((1 << tb) - 1) for q in range(4)] for v in vals], np.int64)
+            bad |= np.any(rtl != want, axis=1)
+        bad |= np.array([(v >> olay["side"].offset) & ((1 << side_bits) - 1) for v in vals]) != side
+    ar = [(int(a), int(ln)) for a, ln in got["ar"]]
+    per_map = {}
+    for k in MAPS:
+        surfaces = set(np.unique(traces[k].surface).tolist())
+        mine = [b for b in ar if (layout.texel_at(b[0]) or (None,))[0] in surfaces]
+        want_b = [(int(a), caches[k].beats_per_line - 1) for a in models[k].burst_addresses()]
+        per_map[k] = {"bursts_equal": mine == want_b, "bursts": len(mine), "model": models[k].totals}
+    model_bytes = sum(v.totals["memory_bytes"] for v in models.values())
+    return {"mismatches": int(bad.sum()), "outputs": len(vals), "fragments": n, "maps": per_map,
+            "bursts_equal": all(v["bursts_equal"] for v in per_map.values()) and len(ar) == sum(
+                v["bursts"] for v in per_map.values()),
+            "rtl_bytes": 4 * got["beats"], "model_bytes": model_bytes, "cycles": got["cycles"],
+            "fragments_per_clock": n / max(got["cycles"], 1), "latency": latency, "simulator": sim,
+            "build_seconds": build_seconds, "seconds": seconds}

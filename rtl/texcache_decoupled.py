@@ -222,44 +222,59 @@ class DecoupledTexCache(wiring.Component):
         f.t_valid = t_valid
 
     def _lookup_set(self, m, cq, q, tags, valid, age):
-        """Corner ``q``'s hit and way, and its set's victim (the lowest invalid way, else the oldest)."""
-        W = self.params.ways
+        """Corner ``q``'s hit and way, and its set's victim (the lowest invalid way, else the oldest): one
+        ``sets``-to-one multiplexer per way and field (the set's row), then ``ways`` comparators."""
+        P = self.params
+        W, S = P.ways, P.sets
         wb = max(1, (W - 1).bit_length())
-        tag_a, valid_a, age_a = Array(tags), Array(valid), Array(age)
+
+        def row(regs, name):
+            """The ``W`` registers of corner ``q``'s set."""
+            sigs = [Signal.like(regs[w], name=f"{name}{q}_{w}") for w in range(W)]
+            for w in range(W):
+                m.d.comb += sigs[w].eq(Array(regs[s * W + w] for s in range(S))[cq.set] if S > 1 else regs[w])
+            return sigs
+
+        tag_r, valid_r, cq.ages = row(tags, "tag"), row(valid, "valid"), row(age, "age")
         cq.hit, cq.hit_way = Signal(name=f"hit{q}"), Signal(wb, name=f"hit_way{q}")
         free, free_way, old_way = Signal(name=f"free{q}"), Signal(wb, name=f"free_way{q}"), Signal(wb, name=f"old{q}")
         for w in reversed(range(W)):                             # the lowest way wins
-            j = cq.set * W + w
-            with m.If(valid_a[j] & (tag_a[j] == cq.line)):
+            with m.If(valid_r[w] & (tag_r[w] == cq.line)):
                 m.d.comb += [cq.hit.eq(1), cq.hit_way.eq(w)]
-            with m.If(~valid_a[j]):
+            with m.If(~valid_r[w]):
                 m.d.comb += [free.eq(1), free_way.eq(w)]
-            with m.If(age_a[j] == W - 1):
+            with m.If(cq.ages[w] == W - 1):
                 m.d.comb += old_way.eq(w)
         cq.victim = Signal(wb, name=f"victim{q}")
         m.d.comb += cq.victim.eq(Mux(free, free_way, old_way))
-        cq.ages = [Signal(wb, name=f"age{q}_{w}") for w in range(W)]
-        for w in range(W):
-            m.d.comb += cq.ages[w].eq(age_a[cq.set * W + w])
 
     def _update(self, m, c, act, fire, way_now, tags, valid, age):
         """Each set touched in this step (at most one corner a set): LRU (the way used becomes the youngest,
-        the younger ones age by one) and, on a miss, the victim's tag."""
+        the younger ones age by one) and, on a miss, the victim's tag. A corner's new row is computed once; each
+        set takes the row of the corner that touches it."""
         P = self.params
         W = P.ways
+        wb = max(1, (W - 1).bit_length())
+        new_age, fill = [], []
+        for q in range(4):
+            used_age = Signal(wb, name=f"used_age{q}")
+            m.d.comb += used_age.eq(Array(c[q].ages)[way_now[q]])
+            ages = [Signal(wb, name=f"new_age{q}_{v}") for v in range(W)]
+            fills = [Signal(name=f"fill{q}_{v}") for v in range(W)]
+            for v in range(W):
+                m.d.comb += [ages[v].eq(Mux(way_now[q] == v, 0, Mux(c[q].ages[v] < used_age, c[q].ages[v] + 1,
+                                                                      c[q].ages[v]))),
+                             fills[v].eq(~c[q].hit & (way_now[q] == v))]
+            new_age.append(ages)
+            fill.append(fills)
         for s in range(P.sets):
             for q in range(4):
                 with m.If(fire & act[q] & (c[q].set == s)):
-                    w_used = way_now[q]
-                    used_age = Array(c[q].ages)[w_used]
                     for v in range(W):
                         j = s * W + v
-                        with m.If(w_used == v):
-                            m.d.sync += age[j].eq(0)
-                            with m.If(~c[q].hit):
-                                m.d.sync += [tags[j].eq(c[q].line), valid[j].eq(1)]
-                        with m.Elif(c[q].ages[v] < used_age):
-                            m.d.sync += age[j].eq(c[q].ages[v] + 1)
+                        m.d.sync += age[j].eq(new_age[q][v])
+                        with m.If(fill[q][v]):
+                            m.d.sync += [tags[j].eq(c[q].line), valid[j].eq(1)]
 
     def _memory_port(self, m, f):
         """``AR`` from the queue; ``R`` beats into the fill buffer (beat ``n`` = texel ``(n mod B, n div B)``)."""

@@ -24,17 +24,18 @@ import sys
 
 import numpy as np
 
+from fxmodel.core.paths import SCENES
 from fxmodel.pipeline.engine import TEXTURE_MAPS as MAPS
 from fxmodel.units.texcache import TexCacheParams, footprints
 
-from .cache_sweep import DEFAULT_SCENES
 from .record import add_record_option, machine, write_if_asked
 
 __all__ = ["add_arguments", "run", "measure", "table"]
 
 
 def add_arguments(ap: argparse.ArgumentParser) -> None:
-    ap.add_argument("--scenes", nargs="+", default=list(DEFAULT_SCENES), help="scene names or .toml paths")
+    ap.add_argument("--scenes", nargs="+", default=sorted(p.stem for p in SCENES.glob("*.toml")),
+                    help="scene names or .toml paths (default: every shipped scene)")
     ap.add_argument("--size", type=int, help="draw the scenes at this size (default: each scene's own)")
     ap.add_argument("--fragments", type=int, default=4000, help="the first N fragments of each scene (default 4000)")
     ap.add_argument("--latencies", nargs="+", type=int, default=[0, 1, 20, 40],
@@ -62,7 +63,8 @@ def fetch_inputs(scene: str, params: TexCacheParams, fragments: int, size=None) 
     st = p.trace(codes)["st"]
     traces = {k: footprints(getattr(p, k), st[:, 2 * j], st[:, 2 * j + 1], j) for j, k in enumerate(MAPS)}
     words = [np.array(getattr(p, k).words, np.int64).reshape(getattr(p, k).texels.shape[1:3]) for k in MAPS]
-    info = {"scene": tframe.frame.scene.name, "size": f"{tframe.frame.scene.width}x{tframe.frame.scene.height}",
+    sc = tframe.frame.scene
+    info = {"scene": sc.name, "source": str(scene), "size": f"{sc.width}x{sc.height}",
             "frame_fragments": len(tframe.scan), "fragments": len(codes)}
     return eng, traces, words, info
 

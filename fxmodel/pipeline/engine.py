@@ -6,7 +6,7 @@ test and frame buffer (:mod:`fxmodel.units.rop`). Its RTL is ``rtl/engine.py``.
 from __future__ import annotations
 
 import dataclasses
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import ClassVar
 
 import numpy as np
@@ -58,7 +58,9 @@ class EngineParams:
     raster: RasterParams
     pipeline: PipelineParams
     rop: RopParams | None = None
-    textures: TexCacheParams | None = None
+    #: Left out of ``repr`` while the engine's RTL does not read it: the recorded FPGA counts and the build folders
+    #: are keyed by the ``repr`` of the design they belong to (``tools/fpga_report.py``, ``rtl/digest.py``).
+    textures: TexCacheParams | None = field(default=None, repr=False)
 
     def __post_init__(self):
         require(isinstance(self.raster, RasterParams), "raster", type(self.raster).__name__, "must be RasterParams")

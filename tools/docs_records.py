@@ -327,11 +327,11 @@ def texcache(name: str = "texcache") -> str:
     return table(json.loads(path.read_text(encoding="utf-8"))) + "\n\n" + provenance(record, path)
 
 
-def texcache_rate() -> str:
-    """The decoupled texel cache's lookups per clock under memory latency (``bumpmap cache-rate``)."""
-    record, path = _load("texcache-rate")
+def texcache_rate(name: str = "texcache-rate") -> str:
+    """The texture fetch's fragments per clock under memory latency (``bumpmap cache-rate``)."""
+    record, path = _load(name)
     if record is None:
-        return _missing(path, "bumpmap cache-rate --record docs/records/texcache-rate.json")
+        return _missing(path, f"bumpmap cache-rate --record docs/records/{name}.json")
     from .cache_rate import table
     return table(record) + "\n" + provenance(record, path)
 

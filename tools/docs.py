@@ -235,6 +235,7 @@ PAGES = {
     "formal-proofs": formal_proofs, "records": rec.records_index, "scene-schema": scene_schema,
     "make-targets": make_targets, "recip-errors": rec.recip_errors, "rop-throughput": rec.rop_throughput,
     "texcache": rec.texcache, "texcache-level1": lambda: rec.texcache("texcache-level1"),
+    "texcache-rate": rec.texcache_rate, "texcache-rate-frame": lambda: rec.texcache_rate("texcache-rate-frame"),
     "filtering-scenes": rec.filtering_scenes, "filtering-study": rec.filtering_study,
     "board-budget": rec.board_budget, "board-bitstream": rec.board_bitstream, "board-sim": rec.board_sim,
     "board-animation": rec.board_animation, "board-engine-placement": rec.board_engine_placement,

@@ -342,6 +342,15 @@ def texcache(name: str = "texcache") -> str:
     return table(json.loads(path.read_text(encoding="utf-8"))) + "\n\n" + provenance(record, path)
 
 
+def texcache_rate(name: str = "texcache-rate") -> str:
+    """The texture fetch's fragments per clock under memory latency (``bumpmap cache-rate``)."""
+    record, path = _load(name)
+    if record is None:
+        return _missing(path, f"bumpmap cache-rate --record docs/records/{name}.json")
+    from .cache_rate import table
+    return table(record) + "\n" + provenance(record, path)
+
+
 def _align(spec: str) -> list[str]:
     """Column alignments of :func:`_table` from letters: ``l`` left, ``r`` right."""
     return ["---" if c == "l" else "---:" for c in spec]

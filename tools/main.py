@@ -56,6 +56,7 @@ COMMANDS: dict[str, tuple[str, str | None]] = {
     "maps": ("tools.measure", None),
     "rop-throughput": ("tools.measure", None),
     "cache-sweep": ("tools.cache_sweep", "size the texel cache in the model on the shipped scenes and grazing floor"),
+    "cache-rate": ("tools.cache_rate", "the decoupled texel cache's lookups per clock under memory latency (co-sim)"),
     "bitstream": ("board.top", "the board top (ULX3S) through Yosys, nextpnr-ecp5 and ecppack: bitstream and report"),
     "litedram": ("board.litedram", "generate the SDRAM controller core (LiteDRAM) from board/sdram.yml"),
     "board-budget": ("board.budget", "the board's memory bandwidth budget (frame-buffer strategy)"),

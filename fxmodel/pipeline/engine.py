@@ -5,7 +5,8 @@ test and frame buffer (:mod:`fxmodel.units.rop`). Its RTL is ``rtl/engine.py``.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import dataclasses
+from dataclasses import dataclass, field
 from typing import ClassVar
 
 import numpy as np
@@ -17,8 +18,13 @@ from fxmodel.pipeline.pixel import FLAG_BITS, PipelineParams
 from fxmodel.units.raster import RasterParams, scan
 from fxmodel.units.rop import RopParams
 from fxmodel.units.rop import draw as rop_draw
+from fxmodel.units.texcache import Layout, TexCacheParams, footprints, simulate
 
-__all__ = ["EngineParams", "RASTER_SATURATED_FLAG"]
+__all__ = ["EngineParams", "RASTER_SATURATED_FLAG", "TEXTURE_MAPS"]
+
+#: The maps that move to external memory with :attr:`EngineParams.textures`, in memory and lookup order (the
+#: reflectance cubes stay on chip).
+TEXTURE_MAPS = ("bump_map", "texture")
 
 
 @dataclass(frozen=True)
@@ -40,6 +46,11 @@ class EngineParams:
     rop : RopParams, optional
         ``max_size`` the raster's, ``z_in`` the raster's ``Z`` format, ``flag_bits`` the width of the outputs'
         ``flags``.
+    textures : TexCacheParams, optional
+        The bump map and the color texture in external memory (:meth:`texture_layout`), each behind a texel cache
+        of these parameters (:mod:`fxmodel.units.texcache`; ``texel_bits`` per map from its sampler,
+        :meth:`texture_caches`); ``None`` (default): on chip. The frame is the same either way; the caches'
+        traffic is :meth:`texture_traffic`.
     """
 
     NAME: ClassVar[str] = "engine"
@@ -47,6 +58,9 @@ class EngineParams:
     raster: RasterParams
     pipeline: PipelineParams
     rop: RopParams | None = None
+    #: Left out of ``repr`` while the engine's RTL does not read it: the recorded FPGA counts and the build folders
+    #: are keyed by the ``repr`` of the design they belong to (``tools/fpga_report.py``, ``rtl/digest.py``).
+    textures: TexCacheParams | None = field(default=None, repr=False)
 
     def __post_init__(self):
         require(isinstance(self.raster, RasterParams), "raster", type(self.raster).__name__, "must be RasterParams")
@@ -66,6 +80,39 @@ class EngineParams:
             require(R.flag_bits == self.outputs[-1].fmt.width, "rop.flag_bits", R.flag_bits,
                     f"must be the engine's flags width {self.outputs[-1].fmt.width}")
 
+        if self.textures is not None:
+            require(isinstance(self.textures, TexCacheParams), "textures", type(self.textures).__name__,
+                    "must be TexCacheParams or None")
+            for name in TEXTURE_MAPS:
+                smp = getattr(self.pipeline, name)
+                require(smp.faces == 1 and smp.word_bits <= 8 * self.textures.texel_bytes, f"pipeline.{name}",
+                        smp.word_bits, f"must be one face of at most {8 * self.textures.texel_bytes}-bit words")
+
+    def texture_layout(self, base: int = 0) -> Layout:
+        """The maps in external memory: the bump map then the color texture (surfaces ``(name, 0)``), blocked by
+        the caches' line, from ``base``."""
+        T = self.textures
+        require(T is not None, "textures", None, "the maps are on chip")
+        return Layout(tuple(((name, 0),) + tuple(getattr(self.pipeline, name).texels.shape[1:3])
+                            for name in TEXTURE_MAPS), T.block, T.texel_bytes, base)
+
+    def texture_caches(self) -> dict:
+        """Per map its cache's parameters: :attr:`textures` with the map's ``word_bits``."""
+        return {name: dataclasses.replace(self.textures, texel_bits=getattr(self.pipeline, name).word_bits)
+                for name in TEXTURE_MAPS}
+
+    def texture_traffic(self, records, base: int = 0) -> dict:
+        """Per map the :class:`~fxmodel.units.texcache.CacheResult` of its lookups (the fragments in drawing
+        order, the sampler's footprints at the perspective unit's coordinates) through its empty cache."""
+        res = scan(self.raster, records)
+        codes = np.stack([res.codes[p.name] for p in self.pipeline.inputs], axis=1) if len(res) else \
+            np.zeros((0, len(self.pipeline.inputs)), np.int64)
+        st = self.pipeline.trace(codes)["st"] if len(res) else np.zeros((0, 4), np.int64)
+        layout, caches = self.texture_layout(base), self.texture_caches()
+        return {name: simulate(caches[name], layout, footprints(getattr(self.pipeline, name), st[:, 2 * k],
+                                                                st[:, 2 * k + 1], k))
+                for k, name in enumerate(TEXTURE_MAPS)}
+
     @property
     def inputs(self) -> tuple:
         """The triangle record (:attr:`RasterParams.record`), the design's input payload."""
@@ -76,7 +123,12 @@ class EngineParams:
         return self.raster.products() + self.pipeline.products()
 
     def memories(self) -> tuple:
-        return self.raster.memories() + self.pipeline.memories()
+        mems = self.raster.memories() + self.pipeline.memories()
+        if self.textures is None:
+            return mems
+        maps = [m for name in TEXTURE_MAPS for m in getattr(self.pipeline, name).memories()]
+        return tuple(m for m in mems if m not in maps) + tuple(
+            m for c in self.texture_caches().values() for m in c.memories(decoupled=True))
 
     def cost(self) -> dict:
         """:func:`fxmodel.core.cost.estimate` of the whole engine."""

@@ -83,6 +83,14 @@ class TexCacheParams:
         Data width of the AXI4 read port in bytes (4: one texel a beat; or 8).
     texel_bits : int
         Bits of a texel as the data banks store it (for the block-RAM count), at most ``8 texel_bytes``.
+    lookup_depth : int
+        Lookups the decoupled RTL (``rtl/texcache_decoupled.py``) holds between its tag and data stages (Igehy et
+        al.'s lookup FIFO): a lookup waiting for its fill holds the ones behind it, so this bounds the memory
+        latency plus line transfer hidden. Cost: a FIFO of this many entries (:meth:`memories`).
+    misses : int
+        Lines the decoupled RTL may have outstanding (requested and not yet written into the data banks): the
+        bursts in flight and the fill buffer's lines (``misses x B^2`` texels, :meth:`memories`). At least 4: a
+        lookup's fills are written when it reaches the data stage, after all of its lines are requested.
     """
 
     block: int = 4
@@ -93,6 +101,8 @@ class TexCacheParams:
     texel_bytes: int = 4
     bus_bytes: int = 4
     texel_bits: int = 32
+    lookup_depth: int = 128
+    misses: int = 8
 
     def __post_init__(self):
         require(_pow2(self.block) and 2 <= self.block <= 32, "block", self.block, "must be a power of two in 2..32")
@@ -110,6 +120,10 @@ class TexCacheParams:
                 "gives a line over 4 KB (an AXI4 burst cannot cross 4 KB)")
         require(isinstance(self.texel_bits, int) and 1 <= self.texel_bits <= 8 * self.texel_bytes, "texel_bits",
                 self.texel_bits, f"must be an int in 1..{8 * self.texel_bytes}")
+        require(_pow2(self.lookup_depth) and 2 <= self.lookup_depth <= 4096, "lookup_depth", self.lookup_depth,
+                "must be a power of two in 2..4096")
+        require(_pow2(self.misses) and 4 <= self.misses <= 256, "misses", self.misses,
+                "must be a power of two in 4..256 (a lookup may hold four lines' fills before it can be served)")
 
     @property
     def line_texels(self) -> int:
@@ -136,14 +150,28 @@ class TexCacheParams:
     def bursts_per_line(self) -> int:
         return math.ceil(self.beats_per_line / AXI_MAX_BEATS)
 
-    def memories(self, address_bits: int = 32) -> tuple:
+    @property
+    def lookup_bits(self) -> int:
+        """Bits of one lookup-FIFO entry of the decoupled RTL without its sideband: a word address per data bank,
+        the bank of each corner (2 bits) and the lookup's fill count (0..4)."""
+        return 4 * max(1, (self.lines * self.line_texels // 4 - 1).bit_length()) + 4 * 2 + 3
+
+    def memories(self, address_bits: int = 32, side_bits: int = 0, decoupled: bool = False) -> tuple:
         """The RAMs an RTL cache builds (:class:`fxmodel.core.cost.Memory`): four data banks by texel parity, one
         read port each (the fill writes through the block RAM's second port), and the tags (the line number, of
-        ``address_bits - log2(line_bytes)`` bits, plus a valid bit, one word per set holding every way)."""
+        ``address_bits - log2(line_bytes)`` bits, plus a valid bit, one word per set holding every way). With
+        ``decoupled`` also the lookup FIFO (:attr:`lookup_depth` entries of :attr:`lookup_bits` plus
+        ``side_bits``) and the fill buffer (four banks by parity, :attr:`misses` lines)."""
         tag_bits = address_bits - self.line_bytes.bit_length() + 1 + 1
-        return (Memory(self.lines * self.line_texels // 4, self.texel_bits, 1, rom=False, count=4, kind="texels",
+        mems = (Memory(self.lines * self.line_texels // 4, self.texel_bits, 1, rom=False, count=4, kind="texels",
                        name="texel cache bank"),
                 Memory(self.sets, tag_bits * self.ways, 1, rom=False, kind="table", name="texel cache tags"))
+        if decoupled:
+            mems += (Memory(self.lookup_depth, self.lookup_bits + side_bits, 1, rom=False, kind="table",
+                            name="texel cache lookup FIFO"),
+                     Memory(self.misses * self.line_texels // 4, self.texel_bits, 1, rom=False, count=4,
+                            kind="table", name="texel cache fill buffer"))
+        return mems
 
     def info(self) -> dict:
         return {"block": self.block, "sets": self.sets, "ways": self.ways, "replacement": self.replacement,

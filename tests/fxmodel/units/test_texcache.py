@@ -212,10 +212,25 @@ def test_footprints_follow_the_sampler_and_interleave():
                                       ({"ways": 3, "replacement": "plru"}, "ways"), ({"replacement": "fifo"},
                                                                                      "replacement"),
                                       ({"bus_bytes": 16}, "bus_bytes"), ({"block": 64}, "block"),
-                                      ({"index": "hash"}, "index"), ({"texel_bits": 33}, "texel_bits")])
+                                      ({"index": "hash"}, "index"), ({"texel_bits": 33}, "texel_bits"),
+                                      ({"lookup_depth": 100}, "lookup_depth"), ({"misses": 2}, "misses")])
 def test_bad_parameters_name_themselves(kw, word):
     with pytest.raises(ValueError, match=f"^{word}="):
         TexCacheParams(**kw)
+
+
+def test_decoupled_cost_adds_the_lookup_fifo_and_the_fill_buffer():
+    """The decoupled RTL's memories: the blocking cache's, a lookup FIFO of ``lookup_depth`` entries (a word
+    address per bank, a bank per corner, the fill count, the sideband) and four fill-buffer banks of ``misses``
+    lines by parity."""
+    p = TexCacheParams(block=8, sets=32, ways=4, texel_bits=28, lookup_depth=64, misses=8)
+    base = p.memories()
+    mems = p.memories(side_bits=5, decoupled=True)
+    assert mems[:2] == base and len(mems) == 4
+    fifo, fill = mems[2:]
+    bank_words = p.lines * 64 // 4                                  # 2048 words: 11 address bits
+    assert (fifo.words, fifo.bits) == (64, 4 * (bank_words - 1).bit_length() + 4 * 2 + 3 + 5)
+    assert (fill.words, fill.bits, fill.count) == (8 * 64 // 4, 28, 4)
 
 
 def test_layout_and_cache_must_agree():

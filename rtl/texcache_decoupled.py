@@ -1,0 +1,350 @@
+"""Texel cache with its tag check decoupled from its data (Igehy, Eldridge & Proudfoot, EGGH 1998): the RTL of
+:mod:`fxmodel.units.texcache` that keeps taking lookups while its misses are in flight.
+
+The pixel pipeline (paper, sections 3.2 and 4) makes bilinear lookups into maps that live in external memory; a
+lookup is a footprint ``(x0 | x1, y0 | y1)`` on a surface of the model's blocked
+:class:`~fxmodel.units.texcache.Layout` (a map and a MIP level: more surfaces are more entries of the layout, the
+request names one by its index). Organisation (``docs/texcache.md``):
+
+- **Tag stage**: the lookup's up to four distinct lines in corner order ``(x0, y0), (x1, y0), (x0, y1), (x1, y1)``
+  against the tags, LRU, the lowest invalid way first, a duplicate line skipped -- exactly
+  :func:`fxmodel.units.texcache.simulate`. All remaining lines in one clock when they fall in distinct sets and at
+  most one of them misses (the common case: one line, or two neighbouring blocks, which the XOR index puts in
+  different sets); otherwise one line a clock, in order. A miss allocates its way at once and queues its line's
+  ``AR`` burst (``INCR``, ``B^2`` beats of one 32-bit texel), so several bursts are outstanding, in order (one ID).
+- **Lookup FIFO** (:attr:`~fxmodel.units.texcache.TexCacheParams.lookup_depth` entries): each lookup's four bank
+  word addresses, the bank of each corner, its fill count and its sideband, from the tag stage to the data stage.
+- **Fill buffer** (:attr:`~fxmodel.units.texcache.TexCacheParams.misses` lines, four banks by texel parity): the
+  ``R`` beats land there as they come (``rready`` is always high: a line's space is reserved when its miss is
+  queued). The data stage copies a lookup's fills into the data banks (four texels a clock) only when that lookup
+  is at the head of the FIFO, so a line replaced at tag time by a later miss is intact for every earlier lookup: no
+  line locking. Then it reads the four banks (one read per bank) and the texels leave on ``o`` with the sideband,
+  in order.
+- **Stalls** only through the streams: ``i.ready`` is low while the lookup FIFO is full, or a miss finds the
+  outstanding budget (``misses``) spent; ``o.ready`` low holds the data stage.
+
+The memory traffic is the model's, burst for burst (the ``AR`` sequence is ``simulate``'s fills). Limits: LRU,
+a 32-bit bus (``bus_bytes = texel_bytes = 4``), no bank conflicts and no self-evictions (the model counts both).
+"""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+from amaranth.hdl import Array, Cat, Const, Module, Mux, Signal
+from amaranth.lib import data, stream, wiring
+from amaranth.lib.fifo import SyncFIFOBuffered
+from amaranth.lib.memory import Memory
+from amaranth.lib.wiring import In, Out
+
+from fxmodel.core.unit import require
+from fxmodel.units.texcache import Layout, TexCacheParams
+from rtl.rop import axi_signature
+
+__all__ = ["DecoupledTexCache", "request_layout"]
+
+
+def request_layout(layout: Layout, side_bits: int = 0) -> data.StructLayout:
+    """A lookup: ``surface`` (index into ``layout.surfaces``), ``x0, x1, y0, y1`` (wide enough for the largest
+    surface), and ``side`` (``side_bits``, carried to the output untouched) when ``side_bits > 0``."""
+    cb = max(1, max(max(h, w) - 1 for _, h, w in layout.surfaces).bit_length())
+    fields = {"surface": max(1, (len(layout.surfaces) - 1).bit_length()), "x0": cb, "x1": cb, "y0": cb, "y1": cb}
+    if side_bits:
+        fields["side"] = side_bits
+    return data.StructLayout(fields)
+
+
+class DecoupledTexCache(wiring.Component):
+    """The decoupled cache of ``params`` over the surfaces of ``layout`` (module docstring).
+
+    Ports: ``i`` (stream of :func:`request_layout`), ``o`` (stream of ``texels``, four of ``texel_bits``, corner 0
+    in the low bits, and ``side``), ``mem`` (AXI4 manager, ``addr_bits`` address bits, 32-bit data; the read
+    channels only), ``busy`` (a lookup or a fill anywhere inside).
+    """
+
+    def __init__(self, params: TexCacheParams, layout: Layout, side_bits: int = 0, addr_bits: int = 32):
+        require(params.replacement == "lru", "replacement", params.replacement, "must be 'lru' in this RTL")
+        require(params.bus_bytes == 4 and params.texel_bytes == 4, "bus_bytes/texel_bytes",
+                (params.bus_bytes, params.texel_bytes), "must both be 4 in this RTL (one texel a beat)")
+        require(layout.block == params.block and layout.texel_bytes == params.texel_bytes, "layout",
+                (layout.block, layout.texel_bytes), "must have the cache's block and texel_bytes")
+        require(params.beats_per_line <= 256, "block", params.block, "must give a line of one burst (B^2 <= 256)")
+        require(layout.base + layout.size_bytes <= 1 << addr_bits, "addr_bits", addr_bits, "too few for the layout")
+        self.params, self.layout, self.side_bits, self.addr_bits = params, layout, side_bits, addr_bits
+        last_line = layout.base // layout.line_bytes + layout.size_bytes // layout.line_bytes
+        self.line_bits = max(1, (last_line - 1).bit_length())
+        self.req = request_layout(layout, side_bits)
+        out = {"texels": 4 * params.texel_bits}
+        if side_bits:
+            out["side"] = side_bits
+        super().__init__({"i": In(stream.Signature(self.req)), "o": Out(stream.Signature(data.StructLayout(out))),
+                          "mem": Out(axi_signature(addr_bits, 32)), "busy": Out(1)})
+
+    # ---- geometry -----------------------------------------------------------------------------------------------
+    def _line_set(self, surf, x, y):
+        """Line number and set of texel ``(x, y)`` of surface ``surf`` (``Layout.blocks``, ``Layout.set_of``)."""
+        P, L = self.params, self.layout
+        lb = P.block.bit_length() - 1
+        bx, by = x >> lb, y >> lb
+        lines = [(int(L.first_line[k]) + by * int(L.blocks_per_row[k]) + bx)[:self.line_bits]
+                 for k in range(len(L.surfaces))]
+        line = Array(lines)[surf] if len(lines) > 1 else lines[0]
+        if P.sets == 1:
+            return line, Const(0, 1)
+        s = P.sets.bit_length() - 1
+        if P.index == "linear":
+            return line, line[:s]
+        h = (s + 1) // 2
+        salt = Array(Const(int(v), self.line_bits) for v in L.first_line)[surf]
+        return line, (bx ^ (by << h) ^ (by >> (s - h)) ^ salt)[:s]
+
+    @property
+    def _words(self) -> int:
+        """Words a data bank holds per line (``B^2 / 4``)."""
+        return self.params.line_texels // 4
+
+    def _word(self, x, y):
+        """Word of texel ``(x, y)`` within its line's quarter in its parity bank."""
+        lb = self.params.block.bit_length() - 1
+        return Cat(x[1:lb], y[1:lb])
+
+    # ---- elaboration --------------------------------------------------------------------------------------------
+    def elaborate(self, platform):
+        m = Module()
+        P = self.params
+        slot_bits = max(1, (P.lines - 1).bit_length())
+        f = SimpleNamespace(
+            lfifo=SyncFIFOBuffered(width=self._entry_layout().size, depth=P.lookup_depth),
+            arq=SyncFIFOBuffered(width=self.line_bits, depth=P.misses),
+            slots=SyncFIFOBuffered(width=slot_bits, depth=P.misses),
+            inflight=Signal(range(P.misses + 1)), miss_now=Signal(), copy_done=Signal())
+        m.submodules.lfifo, m.submodules.arq, m.submodules.slots = f.lfifo, f.arq, f.slots
+        m.d.sync += f.inflight.eq(f.inflight + f.miss_now - f.copy_done)
+        self._tag_stage(m, f)
+        self._memory_port(m, f)
+        self._data_stage(m, f)
+        return m
+
+    def _entry_layout(self) -> data.StructLayout:
+        """One lookup-FIFO entry: a word address per data bank, the bank of each corner, the fill count, the
+        sideband (:attr:`fxmodel.units.texcache.TexCacheParams.lookup_bits` plus ``side_bits``)."""
+        ab = max(1, (self.params.lines * self._words - 1).bit_length())
+        fields = {"addr": data.ArrayLayout(ab, 4), "bank": data.ArrayLayout(2, 4), "fills": 3}
+        if self.side_bits:
+            fields["side"] = self.side_bits
+        return data.StructLayout(fields)
+
+    def _tag_stage(self, m, f):
+        """The held lookup's corners against the tags: a step of one or all remaining corners a clock."""
+        P = self.params
+        W, S = P.ways, P.sets
+        wb = max(1, (W - 1).bit_length())
+        req, t_valid = Signal(self.req), Signal()
+        k, nf = Signal(2), Signal(3)                             # next corner to check, fills so far
+        way_reg = [Signal(wb, name=f"way_reg{q}") for q in range(4)]
+        tags = [Signal(self.line_bits, name=f"tag{j}") for j in range(S * W)]
+        valid = [Signal(name=f"valid{j}") for j in range(S * W)]
+        age = [Signal(wb, init=j % W, name=f"age{j}") for j in range(S * W)]
+        xs = [req.x0, req.x1, req.x0, req.x1]
+        ys = [req.y0, req.y0, req.y1, req.y1]
+        c = [SimpleNamespace() for _ in range(4)]
+        for q in range(4):
+            line, set_ = self._line_set(req.surface, xs[q], ys[q])
+            c[q].line, c[q].set = Signal.like(line, name=f"line{q}"), Signal.like(set_, name=f"set{q}")
+            m.d.comb += [c[q].line.eq(line), c[q].set.eq(set_)]
+            self._lookup_set(m, c[q], q, tags, valid, age)
+            c[q].dup = Signal(name=f"dup{q}")
+            c[q].src = q                                         # corner whose way this corner's line has
+        srcsel = [Signal(2, name=f"src{q}") for q in range(4)]
+        for q in range(4):
+            m.d.comb += srcsel[q].eq(q)
+            for j in reversed(range(q)):                        # the earliest corner with the same line
+                with m.If(c[j].line == c[q].line):
+                    m.d.comb += [c[q].dup.eq(1), srcsel[q].eq(j)]
+        live = [Signal(name=f"live{q}") for q in range(4)]       # distinct and not yet checked
+        for q in range(4):
+            m.d.comb += live[q].eq(~c[q].dup & (q >= k))
+        clash = Signal()
+        for q in range(4):
+            for j in range(q):
+                with m.If(live[q] & live[j] & (c[q].set == c[j].set)):
+                    m.d.comb += clash.eq(1)
+        misses = sum(live[q] & ~c[q].hit for q in range(4))
+        allin = Signal()                                         # every remaining corner in this step
+        m.d.comb += allin.eq(~clash & (misses <= 1))
+        act = [Signal(name=f"act{q}") for q in range(4)]         # corners checked in this step
+        for q in range(4):
+            m.d.comb += act[q].eq(live[q] & Mux(allin, 1, k == q))
+        step_miss = Signal()
+        m.d.comb += step_miss.eq(sum(act[q] & ~c[q].hit for q in range(4)) != 0)
+        last = Signal()
+        m.d.comb += last.eq(allin | (k == 3))
+        fire = Signal()
+        m.d.comb += fire.eq(t_valid & f.lfifo.w_rdy & (~step_miss | (f.inflight < P.misses)))
+        m.d.comb += self.i.ready.eq(~t_valid | (fire & last))
+        with m.If(self.i.valid & self.i.ready):
+            m.d.sync += [req.eq(self.i.payload), t_valid.eq(1), k.eq(0), nf.eq(0)]
+        with m.Elif(fire & last):
+            m.d.sync += t_valid.eq(0)
+        with m.Elif(fire):
+            m.d.sync += [k.eq(k + 1), nf.eq(nf + step_miss)]
+        # ways: this step's, else the registered ones; a duplicate takes its source's
+        way_now = [Signal(wb, name=f"way_now{q}") for q in range(4)]
+        for q in range(4):
+            m.d.comb += way_now[q].eq(Mux(act[q], Mux(c[q].hit, c[q].hit_way, c[q].victim), way_reg[q]))
+            with m.If(fire & act[q]):
+                m.d.sync += way_reg[q].eq(way_now[q])
+        eff = Array(way_now)
+        ways = [Signal(wb, name=f"way_eff{q}") for q in range(4)]
+        for q in range(4):
+            m.d.comb += ways[q].eq(eff[srcsel[q]])
+        self._update(m, c, act, fire, way_now, tags, valid, age)
+        # the miss of this step (at most one) goes to the AR queue and the slot queue
+        mline, mslot = Signal(self.line_bits), Signal(f.slots.width)
+        for q in reversed(range(4)):
+            with m.If(act[q] & ~c[q].hit):
+                m.d.comb += [mline.eq(c[q].line), mslot.eq(c[q].set * W + c[q].victim)]
+        m.d.comb += [f.miss_now.eq(fire & step_miss), f.arq.w_en.eq(f.miss_now), f.arq.w_data.eq(mline),
+                     f.slots.w_en.eq(f.miss_now), f.slots.w_data.eq(mslot)]
+        # the lookup's entry when its last step fires
+        entry = Signal(self._entry_layout())
+        m.d.comb += entry.fills.eq(nf + step_miss)
+        if self.side_bits:
+            m.d.comb += entry.side.eq(req.side)
+        for q in range(4):
+            m.d.comb += entry.bank[q].eq(Cat(xs[q][0], ys[q][0]))
+        for b in range(4):
+            for q in reversed(range(4)):                         # the first corner of this bank's parity
+                with m.If(Cat(xs[q][0], ys[q][0]) == b):
+                    slot = c[q].set * W + ways[q]
+                    m.d.comb += entry.addr[b].eq(slot * self._words + self._word(xs[q], ys[q]))
+        m.d.comb += [f.lfifo.w_en.eq(fire & last), f.lfifo.w_data.eq(entry)]
+        f.t_valid = t_valid
+
+    def _lookup_set(self, m, cq, q, tags, valid, age):
+        """Corner ``q``'s hit and way, and its set's victim (the lowest invalid way, else the oldest): one
+        ``sets``-to-one multiplexer per way and field (the set's row), then ``ways`` comparators."""
+        P = self.params
+        W, S = P.ways, P.sets
+        wb = max(1, (W - 1).bit_length())
+
+        def row(regs, name):
+            """The ``W`` registers of corner ``q``'s set."""
+            sigs = [Signal.like(regs[w], name=f"{name}{q}_{w}") for w in range(W)]
+            for w in range(W):
+                m.d.comb += sigs[w].eq(Array(regs[s * W + w] for s in range(S))[cq.set] if S > 1 else regs[w])
+            return sigs
+
+        tag_r, valid_r, cq.ages = row(tags, "tag"), row(valid, "valid"), row(age, "age")
+        cq.hit, cq.hit_way = Signal(name=f"hit{q}"), Signal(wb, name=f"hit_way{q}")
+        free, free_way, old_way = Signal(name=f"free{q}"), Signal(wb, name=f"free_way{q}"), Signal(wb, name=f"old{q}")
+        for w in reversed(range(W)):                             # the lowest way wins
+            with m.If(valid_r[w] & (tag_r[w] == cq.line)):
+                m.d.comb += [cq.hit.eq(1), cq.hit_way.eq(w)]
+            with m.If(~valid_r[w]):
+                m.d.comb += [free.eq(1), free_way.eq(w)]
+            with m.If(cq.ages[w] == W - 1):
+                m.d.comb += old_way.eq(w)
+        cq.victim = Signal(wb, name=f"victim{q}")
+        m.d.comb += cq.victim.eq(Mux(free, free_way, old_way))
+
+    def _update(self, m, c, act, fire, way_now, tags, valid, age):
+        """Each set touched in this step (at most one corner a set): LRU (the way used becomes the youngest,
+        the younger ones age by one) and, on a miss, the victim's tag. A corner's new row is computed once; each
+        set takes the row of the corner that touches it."""
+        P = self.params
+        W = P.ways
+        wb = max(1, (W - 1).bit_length())
+        new_age, fill = [], []
+        for q in range(4):
+            used_age = Signal(wb, name=f"used_age{q}")
+            m.d.comb += used_age.eq(Array(c[q].ages)[way_now[q]])
+            ages = [Signal(wb, name=f"new_age{q}_{v}") for v in range(W)]
+            fills = [Signal(name=f"fill{q}_{v}") for v in range(W)]
+            for v in range(W):
+                m.d.comb += [ages[v].eq(Mux(way_now[q] == v, 0, Mux(c[q].ages[v] < used_age, c[q].ages[v] + 1,
+                                                                      c[q].ages[v]))),
+                             fills[v].eq(~c[q].hit & (way_now[q] == v))]
+            new_age.append(ages)
+            fill.append(fills)
+        for s in range(P.sets):
+            for q in range(4):
+                with m.If(fire & act[q] & (c[q].set == s)):
+                    for v in range(W):
+                        j = s * W + v
+                        m.d.sync += age[j].eq(new_age[q][v])
+                        with m.If(fill[q][v]):
+                            m.d.sync += [tags[j].eq(c[q].line), valid[j].eq(1)]
+
+    def _memory_port(self, m, f):
+        """``AR`` from the queue; ``R`` beats into the fill buffer (beat ``n`` = texel ``(n mod B, n div B)``)."""
+        P, axi = self.params, self.mem
+        lb = P.block.bit_length() - 1
+        m.d.comb += [axi.arid.eq(0), axi.arlen.eq(P.beats_per_line - 1), axi.arsize.eq(2), axi.arburst.eq(1),
+                     axi.araddr.eq(f.arq.r_data * P.line_bytes), axi.arvalid.eq(f.arq.r_rdy),
+                     f.arq.r_en.eq(axi.arready), axi.awvalid.eq(0), axi.wvalid.eq(0), axi.bready.eq(1),
+                     axi.rready.eq(1)]
+        beat, wring = Signal(range(P.line_texels)), Signal(range(P.misses))
+        f.filled = Signal(range(P.misses + 1))                  # complete lines in the buffer
+        f.line_in = Signal()
+        r = SimpleNamespace(c=beat[:lb], r=beat[lb:2 * lb])
+        word = Cat(r.c[1:], r.r[1:])
+        f.fill_banks = []
+        for b in range(4):
+            mem = Memory(shape=P.texel_bits, depth=P.misses * self._words, init=[])
+            m.submodules[f"fill{b}"] = mem
+            wp = mem.write_port()
+            addr = Cat(word, wring) if P.misses > 1 else word
+            m.d.comb += [wp.addr.eq(addr), wp.data.eq(axi.rdata[:P.texel_bits]),
+                         wp.en.eq(axi.rvalid & (Cat(r.c[0], r.r[0]) == b))]
+            f.fill_banks.append(mem.read_port(domain="sync"))
+        with m.If(axi.rvalid):
+            m.d.sync += beat.eq(beat + 1)
+            with m.If(beat == P.line_texels - 1):
+                m.d.comb += f.line_in.eq(1)
+                m.d.sync += wring.eq(wring + 1 if P.misses > 1 else 0)
+
+    def _data_stage(self, m, f):
+        """Copy the head lookup's fills into the data banks, then read its four texels (one read per bank)."""
+        P = self.params
+        Q = self._words
+        ent = Signal(self._entry_layout())
+        m.d.comb += ent.eq(f.lfifo.r_data)
+        m.d.sync += f.filled.eq(f.filled + f.line_in - f.copy_done)
+        done, copying, cc, rring = Signal(3), Signal(), Signal(range(Q + 1)), Signal(range(P.misses))
+        start = f.lfifo.r_rdy & (done != ent.fills) & (f.filled != 0) & ~copying
+        with m.If(start):
+            m.d.sync += [copying.eq(1), cc.eq(0)]
+        with m.If(copying):
+            m.d.sync += cc.eq(cc + 1)
+            with m.If(cc == Q):
+                m.d.comb += [f.copy_done.eq(1), f.slots.r_en.eq(1)]
+                m.d.sync += [copying.eq(0), done.eq(done + 1), rring.eq(rring + 1 if P.misses > 1 else 0)]
+        rd_word = cc[:(Q - 1).bit_length()]
+        for rp in f.fill_banks:
+            m.d.comb += rp.addr.eq(Cat(rd_word, rring) if P.misses > 1 else rd_word)
+        o_valid, sel = Signal(), Signal(data.ArrayLayout(2, 4))
+        side = Signal(max(1, self.side_bits))
+        advance = ~o_valid | self.o.ready
+        ready = f.lfifo.r_rdy & (done == ent.fills) & ~copying
+        banks = []
+        for b in range(4):
+            mem = Memory(shape=P.texel_bits, depth=P.lines * Q, init=[])
+            m.submodules[f"bank{b}"] = mem
+            wp, rp = mem.write_port(), mem.read_port(domain="sync")
+            banks.append(rp)
+            slot_word = (f.slots.r_data * Q + (cc - 1))[:len(wp.addr)]
+            m.d.comb += [wp.addr.eq(slot_word), wp.data.eq(f.fill_banks[b].data), wp.en.eq(copying & (cc != 0)),
+                         rp.addr.eq(ent.addr[b]), rp.en.eq(advance)]
+        with m.If(advance):
+            m.d.sync += o_valid.eq(ready)
+            with m.If(ready):
+                m.d.comb += f.lfifo.r_en.eq(1)
+                m.d.sync += [done.eq(0), sel.eq(ent.bank)]
+                if self.side_bits:
+                    m.d.sync += side.eq(ent.side)
+        rdata = Array(rp.data for rp in banks)
+        m.d.comb += [self.o.valid.eq(o_valid), self.o.payload.texels.eq(Cat(*(rdata[sel[q]] for q in range(4))))]
+        if self.side_bits:
+            m.d.comb += self.o.payload.side.eq(side)
+        m.d.comb += self.busy.eq(f.t_valid | f.lfifo.r_rdy | o_valid | (f.inflight != 0))

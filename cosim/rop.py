@@ -30,7 +30,7 @@ from .harness import component_build, run_testbench, simulator
 from .job import job_folder, remove_job
 from .raster import pack
 
-__all__ = ["RopBench", "run", "run_engine", "DELAY_DEPTH", "LATENCY_BITS"]
+__all__ = ["RopBench", "DelayQueue", "run", "run_engine", "DELAY_DEPTH", "LATENCY_BITS"]
 
 #: Transfers a delay queue holds: full throughput up to this latency.
 DELAY_DEPTH = 24
@@ -69,7 +69,7 @@ class RopBench(wiring.Component):
         src, dst = rop.axi, self.mem
         for ch, fields in _CHANNELS.items():
             payload = Cat(*(getattr(src, f) for f in fields))
-            q = _DelayQueue(len(payload), DELAY_DEPTH)
+            q = DelayQueue(len(payload), DELAY_DEPTH)
             setattr(m.submodules, f"delay_{ch}", q)
             m.d.comb += [q.now.eq(now), q.lat.eq(self.lat), q.in_valid.eq(getattr(src, f"{ch}valid")),
                          q.in_data.eq(payload), getattr(src, f"{ch}ready").eq(q.in_ready),
@@ -80,7 +80,7 @@ class RopBench(wiring.Component):
         return m
 
 
-class _DelayQueue(wiring.Component):
+class DelayQueue(wiring.Component):
     """A valid/ready FIFO of ``depth`` registers whose head leaves no earlier than ``lat`` cycles after it
     entered (``now``: a cycle counter)."""
 

@@ -22,7 +22,7 @@ from rtl.texcache_decoupled import DecoupledTexCache, request_layout
 
 from .harness import component_build, run_testbench, simulator
 from .job import job_folder, remove_job
-from .rop import LATENCY_BITS, _DelayQueue
+from .rop import LATENCY_BITS, DelayQueue
 
 __all__ = ["FetchBench", "run", "run_fetch", "layout_image", "pack_requests", "MAX_LATENCY"]
 
@@ -55,7 +55,7 @@ class FetchBench(wiring.Component):
         fields = ("arid", "araddr", "arlen", "arsize", "arburst")
         payload = [getattr(src, f) for f in fields]
         width = sum(len(p) for p in payload)
-        m.submodules.delay_ar = q = _DelayQueue(width, DELAY_DEPTH)
+        m.submodules.delay_ar = q = DelayQueue(width, DELAY_DEPTH)
         m.d.comb += [q.now.eq(now), q.lat.eq(self.lat), q.in_valid.eq(src.arvalid), q.in_data.eq(Cat(*payload)),
                      src.arready.eq(q.in_ready), dst.arvalid.eq(q.out_valid), q.out_ready.eq(dst.arready),
                      Cat(*(getattr(dst, f) for f in fields)).eq(q.out_data)]

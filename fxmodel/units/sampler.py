@@ -541,7 +541,7 @@ SamplerParams.PRESETS = {
                             channels=(Fmt(False, 2, 10),) * 3, coord_fmt=Fmt(False, 1, 16), edge="border",
                             names=("r", "g", "b")),
 }
-_TRI = Texels(np.random.default_rng(9).integers(0, 256, size=(1, 10, 12, 3)))
+_TRI = Texels(np.random.default_rng(9).integers(0, 256, size=(1, 6, 8, 3)))  # levels in logic, as synthesized
 SamplerParams.PRESETS["trilinear"] = SamplerParams(texels=_TRI, channels=(Fmt(False, 8, 0),) * 3, filter="trilinear",
                                                    coord_fmt=Fmt(True, 3, 14), names=("r", "g", "b"),
                                                    mips=mip_texels(_TRI), lod_fmt=Fmt(True, 6, 8))

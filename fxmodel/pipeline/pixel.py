@@ -56,6 +56,11 @@ FLAG_BITS = {"bump_saturated": 0, "shade_saturated": 1, "degenerate": 2, "w_zero
 #: :meth:`fxmodel.units.lod.LodParams.compute` after ``U, V, W``.
 LOD_INPUTS = ("Ucx", "Ucy", "Vcx", "Vcy", "Wx", "Wy")
 
+#: Formats of the increments with MIP mapping: the LOD unit's fraction bits, and integer bits for a frame of 64
+#: pixels (a triangle's per-pixel steps of ``Uc, Vc, W`` grow as the frame shrinks; the grazing floor at 128 pixels
+#: steps ``Vc`` by up to 77 a pixel on a sliver at the near plane, and ``W`` by up to 2.2).
+LOD_DUV_FMT, LOD_DW_FMT = Fmt(True, 9, 28), Fmt(True, 4, 30)
+
 
 @dataclass(frozen=True)
 class PipelineParams(Unit):
@@ -255,7 +260,7 @@ class PipelineParams(Unit):
         lod = None
         if min(top_value(units, "mip_levels"), max(texture.width, texture.height).bit_length()) >= 2:  # a level 1
             lod = LodParams(uv_fmt=persp.uv_fmt, w_fmt=persp.recip.in_fmt, size=(texture.width, texture.height),
-                            bias=top_value(units, "lod_bias"))
+                            bias=top_value(units, "lod_bias"), duv_fmt=LOD_DUV_FMT, dw_fmt=LOD_DW_FMT)
             mips = mip_texels(texture.texels, top_value(units, "mip_levels"))
             texture = texture.replace(filter="trilinear", mips=mips, lod_fmt=lod.out_fmt,
                                       level_bits=top_value(units, "level_bits"))

@@ -35,6 +35,10 @@ def add_arguments(ap) -> None:
                     "(default: %(default)s, -0.5 level)")
     ap.add_argument("--level-bits", type=int, default=8, help="bits of the blend between two levels "
                     "(default: %(default)s)")
+    ap.add_argument("--pan-frames", type=int, default=8, help="frames of the flicker pan over the grazing floor; 0: "
+                    "none (default: %(default)s)")
+    ap.add_argument("--pan-degrees", type=float, default=0.1, help="camera yaw per frame of the pan "
+                    "(default: %(default)s, as bumpmap filtering)")
     add_record_option(ap, "the rows")
 
 
@@ -65,6 +69,39 @@ def lod_worst(frame) -> dict:
             "levels": p.texture.levels}
 
 
+def flicker(args, name: str = "grazing-floor") -> dict:
+    """The pan of ``bumpmap filtering`` (``tools.filtering.flicker``: a slow yaw, the RMS over the pixels fully
+    covered in both frames of each frame-to-frame change less (c)'s own) with the bit-exact frames, without and
+    with MIP mapping."""
+    from host.render import prepare, render
+    from host.scene import load_scene
+    from host.shipped import scene_preset
+    from host.truth import true_image
+    from tools.filtering import _pan
+    base, preset = load_scene(SCENES / f"{name}.toml"), scene_preset(name)
+    units = {"none": preset, "mip": mip_units(preset, args.levels, args.bias, args.level_bits)}
+    seq = {"none": [], "mip": [], "truth": [], "full": []}
+    for i in range(args.pan_frames):
+        scene = _pan(base, i * args.pan_degrees)
+        for key, u in units.items():
+            frame = prepare(scene, preset=u)
+            seq[key].append(frame.image(render(frame, references=False)["_model_bytes"]).astype(np.float64))
+        truth = true_image(scene, args.samples)
+        seq["truth"].append(truth.image.astype(np.float64))
+        seq["full"].append(truth.full)
+    sq, n = {"none": 0.0, "mip": 0.0}, 0
+    for i in range(args.pan_frames - 1):
+        m = seq["full"][i] & seq["full"][i + 1]
+        dt = (seq["truth"][i + 1] - seq["truth"][i])[m]
+        for key in sq:
+            sq[key] += float((((seq[key][i + 1] - seq[key][i])[m] - dt) ** 2).sum())
+        n += dt.size
+    out = {"scene": name, "frames": args.pan_frames, "degrees_per_frame": args.pan_degrees,
+           **{f"flicker_{k}": round(math.sqrt(v / max(n, 1)), 3) for k, v in sq.items()}}
+    out["reduction"] = round(out["flicker_none"] / out["flicker_mip"], 2) if out["flicker_mip"] else None
+    return out
+
+
 def _scene(name: str, args) -> dict:
     from host.render import prepare, render
     from host.shipped import scene_preset
@@ -91,8 +128,10 @@ def run(args) -> int:
         if not (SCENES / f"{name}.toml").is_file():
             print(f"error: --scenes: no scene {name!r} in {SCENES}", file=sys.stderr)
             return 2
-    if not 1 <= args.samples <= 128 or not 1 <= args.levels <= 16 or not 1 <= args.level_bits <= 8:
-        print("error: --samples must be 1..128, --levels 1..16, --level-bits 1..8", file=sys.stderr)
+    if not 1 <= args.samples <= 128 or not 1 <= args.levels <= 16 or not 1 <= args.level_bits <= 8 \
+            or args.pan_frames < 0 or args.pan_frames == 1:
+        print("error: --samples must be 1..128, --levels 1..16, --level-bits 1..8, --pan-frames 0 or >= 2",
+              file=sys.stderr)
         return 2
     before, t0 = machine(), time.perf_counter()
     rows = {}
@@ -100,7 +139,11 @@ def run(args) -> int:
         print(f"mip: {name}", file=sys.stderr)
         rows[name] = _scene(name, args)
     data = {"samples": args.samples, "levels": args.levels, "bias": args.bias, "level_bits": args.level_bits,
-            "scenes": rows, "seconds": round(time.perf_counter() - t0, 1)}
+            "scenes": rows}
+    if args.pan_frames >= 2 and "grazing-floor" in names:
+        print("mip: flicker pan", file=sys.stderr)
+        data["flicker"] = flicker(args)
+    data["seconds"] = round(time.perf_counter() - t0, 1)
     print(table(data))
     write_if_asked(args, data, before)
     return 0
@@ -134,9 +177,14 @@ def table(data: dict) -> str:
             continue
         lod.append(f"| `{name}` | {v['levels']} | {v['level_range'][0]} .. {v['level_range'][1]} | "
                    f"{v['bound_levels']:.4f} | {v['worst_levels']:.4f} | {'yes' if v['within_bound'] else '**no**'} |")
+    fl = data.get("flicker")
+    pan = ("" if not fl else f"\n\nFlicker of the bit-exact frames on a pan of the `{fl['scene']}`, {fl['frames']} "
+           f"frames, {fl['degrees_per_frame']} degrees a frame (RMS of each frame-to-frame change less the truth's "
+           "own, as `bumpmap filtering`):\n\n| no filtering | MIP mapping | reduction |\n|---:|---:|---:|\n"
+           f"| {fl['flicker_none']} | {fl['flicker_mip']} | {fl['reduction']}x |")
     return "\n".join(out) + (f"\n\nReference (c): {data['samples']} x {data['samples']} samples per pixel, fully "
                              f"covered pixels. MIP mapping: up to {data['levels']} levels, LOD bias code "
                              f"{data['bias']} (8 fraction bits), {data['level_bits']}-bit blend between levels. The "
                              "largest distance from (a) is on the well-conditioned pixels.\n\nThe LOD unit on every "
                              "fragment against "
-                             "the exact level of the same codes:\n\n") + "\n".join(lod)
+                             "the exact level of the same codes:\n\n") + "\n".join(lod) + pan

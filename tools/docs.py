@@ -237,6 +237,7 @@ PAGES = {
     "texcache": rec.texcache, "texcache-level1": lambda: rec.texcache("texcache-level1"),
     "texcache-rate": rec.texcache_rate, "texcache-rate-frame": lambda: rec.texcache_rate("texcache-rate-frame"),
     "filtering-scenes": rec.filtering_scenes, "filtering-study": rec.filtering_study,
+    "filtering-mip": rec.filtering_mip,
     "board-budget": rec.board_budget, "board-bitstream": rec.board_bitstream, "board-sim": rec.board_sim,
     "board-animation": rec.board_animation, "board-engine-placement": rec.board_engine_placement,
 }

@@ -9,15 +9,19 @@ Stages (``LodParams.latency``):
 2. the products ``U_x W`` and ``U W_x`` (and for ``V`` and ``y``), exact;
 3. ``D = (U_x W << su) - (U W_x << sw)``, narrowed to ``d_bits`` (proven: ``|D| <= LodParams.d_bound``);
 4. the piece products of each square ``D^2`` (:meth:`LodParams.square_pieces`: ``D`` cut into 17-bit pieces, a
-   cross product once and doubled by a shift; one multiplier block each);
-5. ``D^2``, the pieces summed;
-6. ``Q_x = D_sx^2 w^2 + D_tx^2 h^2`` and ``Q_y`` (the map's size a constant: shifts, or shift-and-add);
-7. ``Q = max(Q_x, Q_y)`` (narrowed to ``q_bits``, proven), the flags ``Q = 0`` and ``W <= 0``;
-8. leading-zero counts of ``Q`` and ``W`` (balanced trees, ``rtl.recip.leading_zeros``);
-9. normalizing shifts: the ``table_bits`` bits after each leading one index the table;
-10. the ``log2`` table read for ``Q`` and ``W`` (one ROM, two synchronous read ports);
-11. ``2 lambda = log2 Q - 4 log2 W + const`` (``table_frac`` fraction bits);
-12. round half-up to ``lod_frac`` fraction bits, add the bias, saturate, the flags (the output register).
+   cross product once and doubled by a shift; one multiplier block each), the flag ``Q = 0`` (every ``D`` zero);
+5. 6. ``D^2``: the pieces' adder tree, half its levels a stage;
+7. ``Q_x = D_sx^2 w^2 + D_tx^2 h^2`` and ``Q_y`` (the map's size a constant: shifts, or shift-and-add);
+8. ``Q_x > Q_y``, the flag ``W <= 0``;
+9. ``Q = max(Q_x, Q_y)``, narrowed to ``q_bits`` (proven);
+10. leading-zero counts of ``Q`` and ``W`` (balanced trees, ``rtl.recip.leading_zeros``);
+11. normalizing shifts: the ``table_bits`` bits after each leading one index the table;
+12. the ``log2`` table read for ``Q`` and ``W`` (one ROM, two synchronous read ports);
+13. ``2 lambda = log2 Q - 4 log2 W + const`` (``table_frac`` fraction bits);
+14. round half-up to ``lod_frac`` fraction bits, add the bias, saturate, the flags (the output register).
+
+Each stage holds one carry chain or one product (the ~120-bit comparison and choice of ``max`` in one stage ran the
+unit at 69 MHz on ECP5, routing most of it).
 """
 
 from __future__ import annotations
@@ -34,7 +38,7 @@ from .fixed import const_mul, saturate, shift_round
 from .recip import leading_zeros, split_products
 from .unit import Pipe, UnitComponent, register
 
-__all__ = ["Lod", "square", "log2_index"]
+__all__ = ["Lod", "square_parts", "log2_index"]
 
 #: ``(D name, numerator increment, numerator, W increment)`` of the four ``D`` terms.
 _TERMS = (("sx", "Ux", "U", "Wx"), ("tx", "Vx", "V", "Wx"), ("sy", "Uy", "U", "Wy"), ("ty", "Vy", "V", "Wy"))
@@ -49,13 +53,22 @@ def square_parts(P: LodParams, d) -> dict:
             for i, j, *_ in P.square_pieces()}
 
 
-def square(P: LodParams, regs, name: str) -> Value:
-    """``D^2`` from the registered piece products ``regs.<name>_<ij>`` of :func:`square_parts`."""
+def square_terms(P: LodParams, regs, name: str) -> list:
+    """The shifted piece products of ``D^2`` (registered as ``regs.<name>_<ij>`` by :func:`square_parts`)."""
     cut = cut_pieces(P.d_bits, True)
-    terms = [getattr(regs, f"{name}_{i}{j}") << (cut[i][0] + cut[j][0] + (i != j)) for i, j, *_ in P.square_pieces()]
-    while len(terms) > 1:                                   # a balanced adder tree
+    return [getattr(regs, f"{name}_{i}{j}") << (cut[i][0] + cut[j][0] + (i != j)) for i, j, *_ in P.square_pieces()]
+
+
+def add_levels(terms: list, levels: int) -> list:
+    """``levels`` levels of a balanced adder tree over ``terms`` (pairs summed, an odd one passed on)."""
+    for _ in range(levels):
         terms = [terms[k] + terms[k + 1] if k + 1 < len(terms) else terms[k] for k in range(0, len(terms), 2)]
-    return terms[0]
+    return terms
+
+
+def tree_levels(n: int) -> int:
+    """Levels of a balanced adder tree over ``n`` terms."""
+    return max(0, (n - 1).bit_length())
 
 
 def log2_index(x: Value, lz: Value, table_bits: int) -> tuple[Value, Value]:
@@ -114,46 +127,53 @@ class Lod(UnitComponent):
             ds[d], _ = saturate((getattr(s, f"a{d}") << su) - (getattr(s, f"b{d}") << sw), dfmt, Overflow.PROVEN)
         s = pipe.stage(**ds, W=s.W)
 
-        # 4-5: the squares' piece products, then D^2
+        # 4-6: the squares' piece products, then D^2 over two stages (half the adder tree's levels each: the
+        # whole tree of ~120-bit carry chains in one stage ran at 69 MHz on ECP5)
         parts = {}
         for d, *_ in _TERMS:
             for k, (prod, _) in square_parts(P, getattr(s, d)).items():
                 parts[f"{d}_{k}"] = prod
-        s = pipe.stage(**parts, W=s.W)
-        s = pipe.stage(**{d: square(P, s, d) for d, *_ in _TERMS}, W=s.W)
+        # Q = 0 exactly when every D is 0 (Q_x = D_sx^2 w^2 + D_tx^2 h^2 with w, h >= 1)
+        s = pipe.stage(**parts, W=s.W, zero=Cat(*(getattr(s, d) == 0 for d, *_ in _TERMS)).all())
+        first = (tree_levels(len(P.square_pieces())) + 1) // 2
+        halves = {d: add_levels(square_terms(P, s, d), first) for d, *_ in _TERMS}
+        s = pipe.stage(**{f"{d}_{k}": t for d, ts in halves.items() for k, t in enumerate(ts)}, W=s.W, zero=s.zero)
+        s = pipe.stage(**{d: add_levels([getattr(s, f"{d}_{k}") for k in range(len(ts))], tree_levels(len(ts)))[0]
+                          for d, ts in halves.items()}, W=s.W, zero=s.zero)
 
-        # 6: Q_x, Q_y (the map's size squared: a constant)
+        # 7: Q_x, Q_y (the map's size squared: a constant)
         w2, h2 = P.size[0] ** 2, P.size[1] ** 2
         s = pipe.stage(qx=const_mul(s.sx, w2) + const_mul(s.tx, h2), qy=const_mul(s.sy, w2) + const_mul(s.ty, h2),
-                       W=s.W)
+                       W=s.W, zero=s.zero)
 
-        # 7: Q = max(Q_x, Q_y) in q_bits (proven), the flags
-        q, _ = saturate(Mux(s.qx > s.qy, s.qx, s.qy), Fmt(False, P.q_bits, 0), Overflow.PROVEN)
-        s = pipe.stage(q=q, zero=q == 0, bad=s.W <= 0, w=s.W[:wn])
+        # 8-9: Q = max(Q_x, Q_y) in q_bits (proven): the comparison, then the choice; the flag W <= 0
+        s = pipe.stage(gt=s.qx > s.qy, qx=s.qx, qy=s.qy, zero=s.zero, bad=s.W <= 0, w=s.W[:wn])
+        q, _ = saturate(Mux(s.gt, s.qx, s.qy), Fmt(False, P.q_bits, 0), Overflow.PROVEN)
+        s = pipe.stage(q=q, w=s.w, zero=s.zero, bad=s.bad)
 
-        # 8: leading-zero counts
+        # 10: leading-zero counts
         s = pipe.stage(q=s.q, w=s.w, lzq=leading_zeros(s.q), lzw=leading_zeros(s.w), zero=s.zero, bad=s.bad)
 
-        # 9: normalizing shifts -> table indices, and the leading ones' positions
+        # 11: normalizing shifts -> table indices, and the leading ones' positions
         pq, iq = log2_index(s.q, s.lzq, P.table_bits)
         pw, iw = log2_index(s.w, s.lzw, P.table_bits)
         s = pipe.stage(pq=pq, pw=pw, iq=iq, iw=iw, zero=s.zero, bad=s.bad)
 
-        # 10: the log2 table (synchronous read: its data register is this stage)
+        # 12: the log2 table (synchronous read: its data register is this stage)
         m.submodules.table = table = Memory(shape=P.table_word_bits, depth=1 << P.table_bits,
                                             init=[int(v) for v in P.table()])
         rq, rw = table.read_port(domain="sync"), table.read_port(domain="sync")
         m.d.comb += [rq.addr.eq(s.iq), rw.addr.eq(s.iw)]
         s = pipe.stage(pq=s.pq, pw=s.pw, zero=s.zero, bad=s.bad)
 
-        # 11: 2 lambda = log2 Q - 4 log2 W + const, table_frac fraction bits
+        # 13: 2 lambda = log2 Q - 4 log2 W + const, table_frac fraction bits
         g = P.table_frac
         log_q = (s.pq << g) + rq.data
         log_w = (s.pw << g) + rw.data
         const = (4 * P.w_fmt.frac_bits - 2 * F) << g
         s = pipe.stage(two=log_q - (log_w << 2) + const, zero=s.zero, bad=s.bad)
 
-        # 12: round half-up to lod_frac bits, bias, saturate; zero -> the format's minimum, W <= 0 -> 0
+        # 14: round half-up to lod_frac bits, bias, saturate; zero -> the format's minimum, W <= 0 -> 0
         fmt = P.out_fmt
         lam, sat = saturate(shift_round(s.two, g + 1 - P.lod_frac, Rounding.HALF_UP) + P.bias, fmt,
                             Overflow.SATURATE)

@@ -162,9 +162,9 @@ class LodParams(Unit):
     @property
     def latency(self) -> int:
         """Stages (``rtl/lod.py``): [partial products of the ``D`` products] | the two products of each ``D`` |
-        ``D`` | the square's piece products | ``D^2`` | ``Q_x, Q_y`` | ``Q``, flags | leading-zero counts |
-        normalizing shifts | table read | ``2 lambda`` | round, bias, saturate."""
-        return 11 + int(self.d_split)
+        ``D`` | the square's piece products | ``D^2`` in two | ``Q_x, Q_y`` | ``Q_x > Q_y`` | ``Q`` |
+        leading-zero counts | normalizing shifts | table read | ``2 lambda`` | round, bias, saturate."""
+        return 13 + int(self.d_split)
 
     @property
     def d_bound(self) -> int:

@@ -147,3 +147,19 @@ def test_q_fits_its_register_at_the_formats_extremes():
     fdu, fw = P.duv_fmt.frac_bits + P.w_fmt.frac_bits, P.uv_fmt.frac_bits + P.dw_fmt.frac_bits
     d = (big[3] * big[2] << (P.d_frac - fdu)) - (big[0] * big[7] << (P.d_frac - fw))
     assert abs(d) <= P.d_bound and (2 * d * d * P.size[0] ** 2).bit_length() <= P.q_bits
+
+
+def test_errors_measure_holds_the_bound_and_counts_the_flags():
+    """``bumpmap errors lod`` (:func:`fxmodel.units.exact.measure_lod`): the hard cases and random pixels within
+    the bound, each flag counted; an output moved by one ulp beyond the bound is caught."""
+    from fxmodel.units.exact import measure_lod
+    rows = np.concatenate([P.hard_cases(), P.random_inputs(np.random.default_rng(5), 3000)])
+    out = P.compute(rows)
+    rep = measure_lod(P, rows, out)
+    assert rep["within_bound"] and 0 < rep["max_error_levels"] <= rep["bound_levels"]
+    assert all(rep["flagged"][k] > 0 for k in ("zero", "bad_w", "saturated"))
+    worst = next(i for i in range(len(rows)) if rows[i].tolist() == rep["worst_input_codes"])
+    exact = P.exact(*rows[worst])
+    bad = out.copy()
+    bad[worst, 0] += int(np.sign(out[worst, 0] / (1 << P.lod_frac) - exact)) * 8    # 8 ulps further away
+    assert not measure_lod(P, rows, bad)["within_bound"]

@@ -17,6 +17,13 @@ each (plus the four memories inside the samplers) and checks that each stage's o
 stage's input format, so the chain is wired by codes, never re-scaled. The model is the composition of the
 units' models; ``rtl/pixel.py`` chains the units' components with delay lines, one fragment per clock.
 
+MIP mapping (optional, off by default; paper section 6 names "artifact reduced MIP mapping" as the next step):
+with :attr:`PipelineParams.lod` set, the fragment also carries the triangle's increments ``Ucx, Ucy, Vcx, Vcy,
+Wx, Wy`` (per-pixel steps of ``Uc, Vc, W`` along x and y, constants of the triangle), the LOD unit
+(:mod:`fxmodel.units.lod`) computes the color texture's level of detail from ``Uc, Vc, W`` and them, beside the
+perspective unit, and the color texture is sampled trilinearly (:mod:`fxmodel.units.sampler`, step 5) from its MIP
+pyramid (:mod:`fxmodel.units.mip`). The bump map stays unfiltered (the filtering study, ``docs/filtering.md``).
+
 Outputs: ``r, g, b`` bytes and ``flags``, a bit field: bit 0 bump engine saturated ``N'``, bit 1 shading
 saturated, bit 2 degenerate reflection (``N' = 0`` or ``E = 0``), bit 3 ``W = 0``.
 """
@@ -34,14 +41,20 @@ from fxmodel.pipeline.lighting import Light, Lighting, bake_cubes
 from fxmodel.pipeline.presets import preset_units, top_value
 from fxmodel.units.bump import BumpParams
 from fxmodel.units.cube import CubeParams
+from fxmodel.units.lod import LodParams
 from fxmodel.units.persp import PerspParams
 from fxmodel.units.reflect import ReflectParams
-from fxmodel.units.sampler import SamplerParams, Texels
+from fxmodel.units.sampler import SamplerParams, Texels, mip_texels
 from fxmodel.units.shade import ShadeParams
+from fxmodel.units.shapes import repr_without_defaults
 
-__all__ = ["PipelineParams", "FLAG_BITS"]
+__all__ = ["PipelineParams", "FLAG_BITS", "LOD_INPUTS"]
 
 FLAG_BITS = {"bump_saturated": 0, "shade_saturated": 1, "degenerate": 2, "w_zero": 3}
+
+#: The fragment inputs the LOD unit adds (the triangle's increments), in the order of
+#: :meth:`fxmodel.units.lod.LodParams.compute` after ``U, V, W``.
+LOD_INPUTS = ("Ucx", "Ucy", "Vcx", "Vcy", "Wx", "Wy")
 
 
 @dataclass(frozen=True)
@@ -54,6 +67,9 @@ class PipelineParams(Unit):
         The units' parameter objects.
     bump_map, texture, diffuse, specular : SamplerParams
         The four memories and how they are sampled.
+    lod : LodParams or None
+        The color texture's level-of-detail unit (``texture`` then trilinear with ``lod_fmt = lod.out_fmt``);
+        ``None`` (the default): no MIP mapping.
     """
 
     NAME = "pipeline"
@@ -67,6 +83,12 @@ class PipelineParams(Unit):
     diffuse: SamplerParams
     specular: SamplerParams
     shade: ShadeParams
+    lod: LodParams | None = None
+
+    def __repr__(self):
+        """The dataclass ``repr`` without ``lod`` when it is ``None`` (the same as before MIP mapping: build caches
+        and recorded resource counts are keyed by it)."""
+        return repr_without_defaults(self, ("lod",))
 
     def __post_init__(self):
         require(self.persp.color, "persp.color", self.persp.color,
@@ -93,6 +115,17 @@ class PipelineParams(Unit):
                     f"must be a cube of three {fmt} channels")
             require(smp.coord_fmt == self.cube.st_fmt, f"{name}.coord_fmt", smp.coord_fmt,
                     f"must be the cube unit's st_fmt {self.cube.st_fmt}")
+        if self.lod is None:
+            require(not self.texture.trilinear, "texture.filter", self.texture.filter, "trilinear needs lod")
+            return
+        L = self.lod
+        require(isinstance(L, LodParams), "lod", L, "must be LodParams or None")
+        require(self.texture.trilinear and self.texture.lod_fmt == L.out_fmt, "texture.filter/lod_fmt",
+                (self.texture.filter, self.texture.lod_fmt), f"must be trilinear with lod_fmt {L.out_fmt}")
+        require(L.uv_fmt == self.persp.uv_fmt and L.w_fmt == self.persp.recip.in_fmt, "lod.uv_fmt/w_fmt",
+                (L.uv_fmt, L.w_fmt), f"must be the fragment's {self.persp.uv_fmt}, {self.persp.recip.in_fmt}")
+        require(tuple(L.size) == (self.texture.width, self.texture.height), "lod.size", L.size,
+                f"must be the color texture's (width, height) {(self.texture.width, self.texture.height)}")
 
     # -- ports --------------------------------------------------------------------------------------------
     @property
@@ -100,7 +133,10 @@ class PipelineParams(Unit):
         return (self.persp.inputs
                 + tuple(Port(f"N{c}", self.bump.n_fmt, "interpolated normal") for c in "xyz")
                 + tuple(Port(f"E{c}", self.reflect.e_fmt, "eye vector") for c in "xyz")
-                + self.bump.inputs[5:])                                  # A00 .. A21
+                + self.bump.inputs[5:]                                   # A00 .. A21
+                + (() if self.lod is None else
+                   tuple(Port(n, self.lod.duv_fmt if n[0] != "W" else self.lod.dw_fmt, "the triangle's increment")
+                         for n in LOD_INPUTS)))
 
     @property
     def outputs(self):
@@ -110,7 +146,9 @@ class PipelineParams(Unit):
     def stage_latency(self) -> dict:
         """When each stage's result is ready (cycles after the fragment), as the RTL schedules it."""
         t = {"persp": self.persp.latency}
-        t["samples"] = t["persp"] + max(self.bump_map.latency, self.texture.latency)
+        if self.lod is not None:                                        # beside persp, from the fragment
+            t["lod"] = getattr(self.lod, "latency", 0)
+        t["samples"] = max(t["persp"], t.get("lod", 0)) + max(self.bump_map.latency, self.texture.latency)
         t["bump"] = t["samples"] + self.bump.latency
         t["reflect"] = t["bump"] + self.reflect.latency
         t["cubes"] = t["reflect"] + self.cube.latency
@@ -155,7 +193,11 @@ class PipelineParams(Unit):
         st = self.persp.compute(cols([p.name for p in self.persp.inputs]))
         sto = {p.name: st[:, i] for i, p in enumerate(self.persp.outputs)}
         duv = self.bump_map.compute(np.stack([sto["s"], sto["t"]], 1))
-        tex = self.texture.compute(np.stack([sto["sc"], sto["tc"]], 1))
+        if self.lod is None:
+            tex = self.texture.compute(np.stack([sto["sc"], sto["tc"]], 1))
+        else:
+            lod, _ = self.lod.compute(*(col[n] for n in ("Uc", "Vc", "W", *LOD_INPUTS)))
+            tex = self.texture.compute(np.stack([sto["sc"], sto["tc"], lod], 1))
         npr = self.bump.compute(np.column_stack([N, duv, A]))
         r = self.reflect.compute(np.column_stack([npr[:, :3], E]))
         cd = self.cube.compute(npr[:, :3])
@@ -165,8 +207,9 @@ class PipelineParams(Unit):
         out = self.shade.compute(np.column_stack([tex, d, sp]))
         flags = (npr[:, 3] << FLAG_BITS["bump_saturated"]) | (out[:, 3] << FLAG_BITS["shade_saturated"]) \
             | (r[:, 3] << FLAG_BITS["degenerate"]) | (sto["dbz"] << FLAG_BITS["w_zero"])
-        return {"st": st, "duv": duv, "tex": tex, "N'": npr, "R": r, "cube_n": cd, "cube_r": cs, "D": d, "S": sp,
-                "rgb": out[:, :3], "flags": flags}
+        extra = {} if self.lod is None else {"lod": lod}
+        return {"st": st, **extra, "duv": duv, "tex": tex, "N'": npr, "R": r, "cube_n": cd, "cube_r": cs, "D": d,
+                "S": sp, "rgb": out[:, :3], "flags": flags}
 
     def _compute(self, cols):
         tr = self.trace(np.stack(cols, axis=1))
@@ -199,11 +242,22 @@ class PipelineParams(Unit):
         to 255) within a quarter step of the exact blend; 12 (the default) also keep a steep bump map (strength
         up to 8) from moving ``N'`` enough to shift a highlight by a step; the cube lookups' lighting is smooth,
         8 bits there. ``None``: the preset's ``weight_bits`` (12 unless a preset file sets it). ``preset`` is a
-        preset name or a units dict (see :func:`fxmodel.pipeline.presets.preset_units`)."""
+        preset name or a units dict (see :func:`fxmodel.pipeline.presets.preset_units`). The preset's ``mip_levels``
+        (0: none), ``lod_bias`` and ``level_bits`` turn on MIP mapping of the color texture (:attr:`lod`)."""
         units = preset_units(preset)
         if weight_bits is None:
             weight_bits = top_value(units, "weight_bits")
         persp, bump, reflect, cube, shade = (units[k] for k in ("persp", "bump", "reflect", "cube", "shade"))
+        texture = SamplerParams(texels=Texels(np.asarray(texture_bytes)[None]), channels=(shade.tex_fmt,) * 3,
+                                coord_fmt=persp.coord_fmt, filter=texture_filter, edge="repeat",
+                                weight_bits=weight_bits, names=("r", "g", "b"))
+        lod = None
+        if top_value(units, "mip_levels"):
+            lod = LodParams(uv_fmt=persp.uv_fmt, w_fmt=persp.recip.in_fmt, size=(texture.width, texture.height),
+                            bias=top_value(units, "lod_bias"))
+            mips = mip_texels(texture.texels, top_value(units, "mip_levels"))
+            texture = texture.replace(filter="trilinear", mips=mips, lod_fmt=lod.out_fmt,
+                                      level_bits=top_value(units, "level_bits"))
         diffuse, specular, info = bake_cubes(lighting, cube_face, shade.diffuse_fmt, shade.specular_fmt,
                                              border=1 if cube_edge == "border" else 0)
         coord = persp.coord_fmt
@@ -212,13 +266,11 @@ class PipelineParams(Unit):
             bump_map=SamplerParams(texels=Texels(np.asarray(bump_codes)[None]), channels=(bump.d_fmt,) * 2,
                                    coord_fmt=coord, filter=bump_filter, edge="repeat", weight_bits=weight_bits,
                                    names=("du", "dv")),
-            texture=SamplerParams(texels=Texels(np.asarray(texture_bytes)[None]), channels=(shade.tex_fmt,) * 3,
-                                  coord_fmt=coord, filter=texture_filter, edge="repeat", weight_bits=weight_bits,
-                                  names=("r", "g", "b")),
+            texture=texture,
             diffuse=SamplerParams(texels=diffuse, channels=(shade.diffuse_fmt,) * 3, coord_fmt=cube.st_fmt,
                                   edge=cube_edge, names=("r", "g", "b")),
             specular=SamplerParams(texels=specular, channels=(shade.specular_fmt,) * 3, coord_fmt=cube.st_fmt,
-                                   edge=cube_edge, names=("r", "g", "b")))
+                                   edge=cube_edge, names=("r", "g", "b")), lod=lod)
         return params, info
 
 

@@ -46,7 +46,12 @@ __all__ = ["TOP_KEYS", "UNIT_KEYS", "UNIT_TYPES", "PRESET_KEYS", "PipelinePreset
 #: ``(edge + 2)**2`` words each); ``raster_guard``: the scan converter's interpolators' guard bits beyond the
 #: proof's minimum (:class:`fxmodel.units.raster.RasterParams` ``extra_guard``: 1 keeps the accumulated error within a
 #: quarter of an output ulp).
-TOP_KEYS = {"weight_bits": (12, 1, 16), "cube_size": (64, 1, 1024), "raster_guard": (1, 0, 8)}
+#: ``mip_levels``: MIP levels of the color texture's trilinear filter, 0 for none (the default: bilinear at level 0),
+#: capped at the full pyramid; ``lod_bias``: the level-of-detail bias, a code of the LOD unit's ``lod_frac`` (8)
+#: fraction bits (-128: half a level sharper); ``level_bits``: the blend weight between two levels
+#: (:mod:`fxmodel.units.sampler`, step 5).
+TOP_KEYS = {"weight_bits": (12, 1, 16), "cube_size": (64, 1, 1024), "raster_guard": (1, 0, 8),
+            "mip_levels": (0, 0, 16), "lod_bias": (0, -4096, 4096), "level_bits": (8, 1, 8)}
 
 #: Widest number format a preset file may give a field (sign included): the model's integer arithmetic and the
 #: RTL's ports are sized from it; the default preset's widest is 26 bits.
@@ -97,9 +102,10 @@ class PipelinePreset(Mapping):
     ----------
     persp, bump, reflect, cube, shade
         The units' parameter objects (classes in :data:`UNIT_TYPES`).
-    weight_bits, cube_size, raster_guard : int
+    weight_bits, cube_size, raster_guard, mip_levels, lod_bias, level_bits : int
         The bilinear weights' bits of the bump map and texture, texels per reflectance-cube face edge, guard bits
-        of the scan converter's interpolators (ranges and defaults in :data:`TOP_KEYS`).
+        of the scan converter's interpolators, the color texture's MIP mapping (ranges and defaults in
+        :data:`TOP_KEYS`).
     """
 
     persp: PerspParams
@@ -110,6 +116,9 @@ class PipelinePreset(Mapping):
     weight_bits: int = TOP_KEYS["weight_bits"][0]
     cube_size: int = TOP_KEYS["cube_size"][0]
     raster_guard: int = TOP_KEYS["raster_guard"][0]
+    mip_levels: int = TOP_KEYS["mip_levels"][0]
+    lod_bias: int = TOP_KEYS["lod_bias"][0]
+    level_bits: int = TOP_KEYS["level_bits"][0]
 
     def __post_init__(self):
         for key, cls in UNIT_TYPES.items():

@@ -28,8 +28,20 @@ Coordinates ``s, t`` are codes of ``coord_fmt`` with ``T`` fraction bits.
    ``Rounding.HALF_UP`` and ``Overflow.PROVEN`` (a convex combination of four codes of a format, rounded to
    nearest, stays within their range: the result lies between the smallest and largest of the four texels).
 
+5. **Trilinear** (MIP mapping, paper section 6's next step): a third input ``lod`` (``lod_fmt``, the LOD unit's
+   ``out_fmt``, ``F`` fraction bits) and the MIP levels ``mips`` (:func:`fxmodel.units.mip.mip_pyramid`, each level
+   its own size). Level ``L = floor(lod)``, blend weight ``g`` = the fraction of ``lod`` truncated to
+   ``level_bits = C`` bits (``Rounding.TRUNC``); ``lod < 0`` (magnified) gives ``L = 0, g = 0``, ``lod >= levels -
+   1`` the last level (``1 x 1``) with ``g = 0``. Steps 2-4 at levels ``L`` and ``L + 1`` (same ``s, t``; the blends
+   before narrowing, ``2 B + frac`` fraction bits: ``v0, v1``), one exact blend ``v = v0 2**C + g (v1 - v0)`` and one
+   narrowing, ``Rounding.HALF_UP``, ``Overflow.PROVEN`` (a convex combination of eight codes, rounded to nearest,
+   stays within their range). At ``g = 0`` it is bilinear at level ``L`` exactly. Levels ``L`` and ``L + 1`` differ
+   in parity: the RTL keeps even and odd levels in two memories and reads both in one clock (:meth:`memories`).
+
 Properties (tested): periodic with the map size under ``repeat``; a bilinear sample lies within the range of
-its four texels and equals a texel exactly at its center (``fx = fy = 0``); nearest returns a stored texel.
+its four texels and equals a texel exactly at its center (``fx = fy = 0``); nearest returns a stored texel;
+a trilinear sample lies within the range of its eight texels, equals bilinear at level ``L`` at an integer
+``lod``, equals bilinear at level 0 when magnified.
 Hard cases (each has a test): coordinates 0, 1 - ulp, 1, texel centers and texel edges, negative coordinates and
 coordinates far outside ``[0, 1)``, every face.
 """
@@ -42,14 +54,16 @@ from functools import cached_property
 
 import numpy as np
 
-from fxmodel.core.cost import Memory, Product, pieces
+from fxmodel.core.cost import Memory, Product
 from fxmodel.core.fixed import Fmt
 from fxmodel.core.rounding import Overflow, Rounding, narrow
 from fxmodel.core.unit import Port, Unit, register, require
+from fxmodel.units.mip import mip_pyramid, mip_sizes
+from fxmodel.units.shapes import _add, _interleave, _is_split, _product_shape, _shl, _sub, repr_without_defaults
 
-__all__ = ["Texels", "SamplerParams", "FILTERS", "EDGES"]
+__all__ = ["Texels", "SamplerParams", "FILTERS", "EDGES", "mip_texels"]
 
-FILTERS = ("nearest", "bilinear")
+FILTERS = ("nearest", "bilinear", "trilinear")
 EDGES = ("repeat", "clamp", "border")
 
 
@@ -82,6 +96,14 @@ class Texels:
         return f"Texels(shape={self.shape}, sha1={self.digest[:12]})"
 
 
+def mip_texels(texels: Texels, levels: int | None = None) -> tuple:
+    """The MIP levels 1, 2, ... of a one-face map (``mips`` of :class:`SamplerParams`), by
+    :func:`fxmodel.units.mip.mip_pyramid`: down to ``1 x 1``, or ``levels`` levels in all (level 0 included)."""
+    faces = texels.shape[0]
+    if faces != 1:
+        raise ValueError(f"texels: a MIP pyramid needs one face, not {faces}")
+    return tuple(Texels(lv[None]) for lv in mip_pyramid(texels.codes[0], levels)[1:])
+
 
 
 @dataclass(frozen=True)
@@ -105,6 +127,13 @@ class SamplerParams(Unit):
         Bits of the bilinear weights ``fx, fy`` (``u0.weight_bits``).
     names : tuple of str
         Output port names, one per channel.
+    mips : tuple of Texels
+        ``trilinear`` only: MIP levels 1, 2, ... (:func:`mip_texels`), each of one face and the size
+        :func:`fxmodel.units.mip.mip_sizes` gives.
+    lod_fmt : Fmt or None
+        ``trilinear`` only: format of the ``lod`` input (the LOD unit's ``out_fmt``, signed).
+    level_bits : int
+        ``trilinear`` only: bits of the blend weight between two levels (at most ``lod_fmt``'s fraction bits).
     """
 
     NAME = "sampler"
@@ -116,6 +145,9 @@ class SamplerParams(Unit):
     edge: str = "repeat"
     weight_bits: int = 8
     names: tuple = ()
+    mips: tuple = ()
+    lod_fmt: Fmt | None = None
+    level_bits: int = 8
 
     def __post_init__(self):
         require(isinstance(self.texels, Texels), "texels", self.texels, "must be a Texels")
@@ -142,6 +174,34 @@ class SamplerParams(Unit):
                  f"must be empty or name all {ch} channels")
         require(max(w, h).bit_length() + self.coord_fmt.frac_bits + 2 <= 62, "texels", self.texels,
                  "map too large for int64 texel positions")
+        if self.trilinear:
+            self._check_trilinear()
+        else:
+            require(self.mips == () and self.lod_fmt is None, "mips/lod_fmt", (self.mips, self.lod_fmt),
+                    "only for filter='trilinear'")
+
+    def __repr__(self):
+        """The dataclass ``repr`` without the trilinear fields at their defaults: complete (a missing field is at
+        its default), and the same as before MIP mapping for every other sampler (build caches and recorded
+        resource counts are keyed by it)."""
+        return repr_without_defaults(self, ("mips", "lod_fmt", "level_bits"))
+
+    def _check_trilinear(self):
+        require(self.faces == 1 and self.edge in ("repeat", "clamp"), "filter", self.filter,
+                "trilinear needs one face and the repeat or clamp edge rule")
+        require(isinstance(self.lod_fmt, Fmt) and self.lod_fmt.signed, "lod_fmt", self.lod_fmt,
+                "must be a signed Fmt (the LOD unit's out_fmt)")
+        require(isinstance(self.level_bits, int) and 1 <= self.level_bits <= self.lod_fmt.frac_bits, "level_bits",
+                self.level_bits, f"must be an int in 1..{self.lod_fmt.frac_bits} (lod_fmt's fraction bits)")
+        sizes = mip_sizes(self.height, self.width, 1 + len(self.mips))
+        require(isinstance(self.mips, tuple) and all(isinstance(m, Texels) for m in self.mips)
+                and [m.shape for m in self.mips] == [(1, h, w, len(self.channels)) for h, w in sizes[1:]],
+                "mips", self.mips, f"must be Texels of the level sizes {sizes[1:]} (mip_texels)")
+        for m in self.mips:
+            for k, fmt in enumerate(self.channels):
+                col = m.codes[..., k]
+                require(bool(np.all((col >= fmt.min_code) & (col <= fmt.max_code))), "mips", m,
+                        f"channel {k} has codes outside {fmt}")
 
     # -- shape facts (the RTL reads these) ----------------------------------------------------------------
     @property
@@ -170,7 +230,42 @@ class SamplerParams(Unit):
 
     @property
     def bilinear(self) -> bool:
-        return self.filter == "bilinear"
+        """Bilinear lookups (also within each level of ``trilinear``)."""
+        return self.filter in ("bilinear", "trilinear")
+
+    @property
+    def trilinear(self) -> bool:
+        return self.filter == "trilinear"
+
+    @property
+    def levels(self) -> int:
+        """MIP levels (1 unless trilinear)."""
+        return 1 + len(self.mips)
+
+    @cached_property
+    def level_sizes(self) -> tuple:
+        """``(height, width)`` of each level."""
+        return tuple((self.height, self.width) if lv == 0 else self.mips[lv - 1].shape[1:3]
+                     for lv in range(self.levels))
+
+    @cached_property
+    def level_bases(self) -> tuple:
+        """Base address of each level in its parity's memory (even levels in one, odd in the other)."""
+        bases, used = [], [0, 0]
+        for lv, (h, w) in enumerate(self.level_sizes):
+            bases.append(used[lv % 2])
+            used[lv % 2] += h * w
+        return tuple(bases)
+
+    def level_codes(self, lv: int) -> np.ndarray:
+        """Codes ``(1, H_l, W_l, channels)`` of level ``lv``."""
+        return self.texels.codes if lv == 0 else self.mips[lv - 1].codes
+
+    @cached_property
+    def parity_words(self) -> tuple:
+        """The two level memories' words (even levels, odd levels), each level row-major at its base."""
+        return tuple(sum((self._pack(self.level_codes(lv)) for lv in range(par, self.levels, 2)), [])
+                     for par in (0, 1))
 
     @cached_property
     def out_names(self) -> tuple:
@@ -199,7 +294,8 @@ class SamplerParams(Unit):
         That stores the map once instead of twice (a block RAM has two read ports), for two more pipeline stages. Not
         for ``repeat`` with an odd map size, where ``i0 = W - 1`` and ``i1 = 0`` share a parity: one memory with four
         read ports there."""
-        return self.bilinear and (self.edge != "repeat" or (self.width % 2 == 0 and self.height % 2 == 0))
+        return (self.filter == "bilinear"
+                and (self.edge != "repeat" or (self.width % 2 == 0 and self.height % 2 == 0)))
 
     @property
     def bank_shape(self) -> tuple:
@@ -217,7 +313,11 @@ class SamplerParams(Unit):
 
     def memories(self) -> tuple:
         """The physical texel memories the RTL instantiates (:class:`fxmodel.core.cost.Memory`): four banks of one
-        read port when :attr:`banked`, else one memory with a read port per corner."""
+        read port when :attr:`banked`, else one memory with a read port per corner; trilinear: the even levels and
+        the odd levels, one memory each with four read ports (the two lookups of a pixel in the same clock)."""
+        if self.trilinear:
+            return tuple(Memory(max(1, len(w)), self.word_bits, 4, kind="texels", name=f"{par} MIP levels")
+                         for par, w in zip(("even", "odd"), self.parity_words))
         if self.banked:
             return (Memory(int(np.prod(self.bank_shape)), self.word_bits, 1, count=4, kind="texels",
                            name="texel bank"),)
@@ -236,11 +336,17 @@ class SamplerParams(Unit):
         first = [Product(*_interleave(weight, _sub(t, t)), count=2, split=True, name="f*texel difference")
                  for t in texels]                                       # fx (b - a), fx (d - c)
         cut = any(_is_split(p) for p in first)                          # one split_products call for all
-        out = []
+        out, vs = [], []
         for t, p in zip(texels, first):
             top = _add(_shl(t, B), _product_shape(p, cut))              # top = (a << B) + fx (b - a)
-            out += [p, Product(*_interleave(weight, _sub(top, top)), split=True, name="f*row difference")]
-        return tuple(out)
+            q = Product(*_interleave(weight, _sub(top, top)), split=True, name="f*row difference")
+            out += [p, q]
+            vs.append(_add(_shl(top, B), _product_shape(q, _is_split(q))))  # v = (top << B) + fy (bot - top)
+        if not self.trilinear:
+            return tuple(out)
+        g = (self.level_bits, False)
+        return tuple(out) * 2 + tuple(Product(*_interleave(g, _sub(v, v)), split=True, name="g*level difference")
+                                      for v in vs)
 
     @property
     def word_bits(self) -> int:
@@ -251,6 +357,8 @@ class SamplerParams(Unit):
     def inputs(self):
         ports = (Port("s", self.coord_fmt, "horizontal texture coordinate"),
                  Port("t", self.coord_fmt, "vertical texture coordinate"))
+        if self.trilinear:
+            ports += (Port("lod", self.lod_fmt, "level of detail (the LOD unit's output)"),)
         if self.faces == 6:
             ports = (Port("face", Fmt(False, 3, 0), "cube face 0..5"),) + ports
         return ports
@@ -263,7 +371,11 @@ class SamplerParams(Unit):
     def latency(self) -> int:
         """Scaled position | indices and weights | texel address | memory read | [bank words registered | bank to
         corner routing, when :attr:`banked`] | [six blend stages, one operation each] | rounding
-        (``rtl/sampler.py``: one carry chain or one product per stage, ECP5 timing)."""
+        (``rtl/sampler.py``: one carry chain or one product per stage, ECP5 timing); trilinear: one stage more in
+        front (level and blend weight) and three after the two bilinear blends (level difference, ``g`` product,
+        level blend)."""
+        if self.trilinear:
+            return 15
         return (11 + 2 * self.banked) if self.bilinear else 5
 
     # -- bit-exact model ----------------------------------------------------------------------------------
@@ -295,14 +407,51 @@ class SamplerParams(Unit):
             i1 = np.clip(i1, 0, size - 1)
         return i0, i1, f                                 # border: i0 in [0, W], i1 in [1, W + 1]
 
-    def blend(self, a, b, c, d, fx, fy, fmt: Fmt):
-        """Step 4: exact bilinear blend of codes, one half-up narrowing to ``fmt``."""
+    def blend(self, a, b, c, d, fx, fy, fmt: Fmt, exact: bool = False):
+        """Step 4: exact bilinear blend of codes, one half-up narrowing to ``fmt`` (``exact``: the blend before
+        it, ``2 B + frac`` fraction bits)."""
         B = self.weight_bits
         top = (a << B) + fx * (b - a)
         bot = (c << B) + fx * (d - c)
         v = (top << B) + fy * (bot - top)
+        if exact:
+            return v
         out, _ = narrow(v, 2 * B + fmt.frac_bits, fmt, Rounding.HALF_UP, Overflow.PROVEN, "sampler blend")
         return out
+
+    def level(self, lod):
+        """Step 5: ``(L, L + 1 clamped, g)`` from ``lod`` codes: the level, the next one and the blend weight."""
+        F, C, top = self.lod_fmt.frac_bits, self.level_bits, self.levels - 1
+        lod = np.asarray(lod, dtype=np.int64)
+        L = lod >> F
+        g = (lod & ((1 << F) - 1)) >> (F - C)
+        g = np.where((lod < 0) | (L >= top), 0, g)
+        L = np.clip(L, 0, top)
+        return L, np.minimum(L + 1, top), g
+
+    def _raw(self, lv, s, t):
+        """Exact bilinear blends ``(K, channels)`` before narrowing, at level ``lv[k]`` per sample."""
+        out = np.zeros((len(s), len(self.channels)), dtype=np.int64)
+        for v in np.unique(lv):
+            sel = np.flatnonzero(lv == v)
+            h, w = self.level_sizes[v]
+            tex = self.level_codes(int(v))[0]
+            i0, i1, fx = self.positions(s[sel], w)
+            j0, j1, fy = self.positions(t[sel], h)
+            a, b, c, d = tex[j0, i0], tex[j0, i1], tex[j1, i0], tex[j1, i1]
+            for k, fmt in enumerate(self.channels):
+                out[sel, k] = self.blend(a[:, k], b[:, k], c[:, k], d[:, k], fx, fy, fmt, exact=True)
+        return out
+
+    def sample_trilinear(self, s, t, lod):
+        """Channel codes ``(K, channels)`` at ``(s, t)`` and level of detail ``lod`` (step 5)."""
+        s, t = np.asarray(s, dtype=np.int64), np.asarray(t, dtype=np.int64)
+        L0, L1, g = self.level(lod)
+        v0, v1 = self._raw(L0, s, t), self._raw(L1, s, t)
+        C, B = self.level_bits, self.weight_bits
+        v = (v0 << C) + g[:, None] * (v1 - v0)
+        return np.stack([narrow(v[:, k], 2 * B + C + fmt.frac_bits, fmt, Rounding.HALF_UP, Overflow.PROVEN,
+                                "sampler level blend")[0] for k, fmt in enumerate(self.channels)], axis=1)
 
     def sample(self, face, s, t):
         """Channel codes ``(K, channels)`` at ``(face, s, t)`` code arrays."""
@@ -316,6 +465,9 @@ class SamplerParams(Unit):
                          for k, fmt in enumerate(self.channels)], axis=1)
 
     def _compute(self, cols):
+        if self.trilinear:
+            out = self.sample_trilinear(*cols)
+            return [out[:, k] for k in range(out.shape[1])]
         if self.faces == 6:
             face, s, t = cols
             if np.any(face > 5):
@@ -330,6 +482,11 @@ class SamplerParams(Unit):
         cols = super().random_inputs(rng, k)
         if self.faces == 6:
             cols[:, 0] %= 6
+        if self.trilinear:                          # levels -1 .. levels: magnified, every level, past the last
+            F = self.lod_fmt.frac_bits
+            lo = max(self.lod_fmt.min_code, -(1 << F))
+            hi = min(self.lod_fmt.max_code, (self.levels + 1) << F)
+            cols[:, 2] = rng.integers(lo, hi + 1, size=len(cols))
         return cols
 
     def hard_cases(self) -> np.ndarray:
@@ -344,62 +501,25 @@ class SamplerParams(Unit):
         grid = np.array(np.meshgrid(vals, vals[:: max(1, len(vals) // 24)])).reshape(2, -1).T
         if self.faces == 6:
             grid = np.concatenate([np.column_stack([np.full(len(grid), f), grid]) for f in range(6)])
+        if self.trilinear:                          # each grid point at the level boundaries and past both ends
+            F, fmt = self.lod_fmt.frac_bits, self.lod_fmt
+            lods = {fmt.min_code, fmt.max_code, -1, 0, 1, (1 << F) - 1}
+            for lv in range(self.levels + 1):
+                lods |= {(lv << F) - 1, lv << F, (lv << F) + 1, (lv << F) + (1 << F) // 2}
+            lods = sorted(v for v in lods if fmt.min_code <= v <= fmt.max_code)
+            grid = grid[:: max(1, len(grid) // 200)]
+            grid = np.concatenate([np.column_stack([grid, np.full(len(grid), v)]) for v in lods])
         return grid
 
     def _info(self):
         return {"texels": list(self.texels.shape), "filter": self.filter, "edge": self.edge,
-                "weight_bits": self.weight_bits, "memory_bits": self.depth * self.word_bits, "banked": self.banked,
+                "weight_bits": self.weight_bits, "banked": self.banked,
+                "memory_bits": sum(len(w) for w in self.parity_words) * self.word_bits if self.trilinear
+                else self.depth * self.word_bits,
+                **({"levels": [list(x) for x in self.level_sizes], "level_bits": self.level_bits}
+                   if self.trilinear else {}),
                 "max_error": {n: float(f.ulp / 2) if self.bilinear else 0.0
                               for n, f in zip(self.out_names, self.channels)}}
-
-
-def _unify(a: tuple, b: tuple) -> tuple:
-    """Amaranth's common shape ``(width, signed)`` of two operands: an unsigned one gains a bit next to a signed
-    one."""
-    if a[1] == b[1]:
-        return max(a[0], b[0]), a[1]
-    return max(a[0] + (not a[1]), b[0] + (not b[1])), True
-
-
-def _add(a: tuple, b: tuple) -> tuple:
-    """Shape of an Amaranth sum ``a + b``."""
-    w, s = _unify(a, b)
-    return w + 1, s
-
-
-def _sub(a: tuple, b: tuple) -> tuple:
-    """Shape of an Amaranth difference ``a - b`` (always signed)."""
-    return _unify(a, b)[0] + 1, True
-
-
-def _shl(a: tuple, c: int) -> tuple:
-    """Shape of an Amaranth shift ``a << c`` by a constant: the constant is a ``Const`` of ``bit_length(c)``
-    bits, and the shape allows its largest value, ``2**bits - 1`` (wider than ``c`` itself; Yosys trims the
-    constant-zero bits)."""
-    return a[0] + (1 << max(1, c.bit_length())) - 1, a[1]
-
-
-def _interleave(a: tuple, b: tuple) -> tuple:
-    """``(a_bits, b_bits, a_signed, b_signed)`` of two shapes (the order of :class:`~fxmodel.core.cost.Product`)."""
-    return a[0], b[0], a[1], b[1]
-
-
-def _is_split(p: Product) -> bool:
-    """Whether ``p`` has an operand of more than one :func:`~fxmodel.core.cost.pieces`."""
-    return len(pieces(p.a_bits, p.a_signed)) > 1 or len(pieces(p.b_bits, p.b_signed)) > 1
-
-
-def _product_shape(p: Product, cut: bool) -> tuple:
-    """Shape of one product ``p`` as the RTL forms it: the registered product, or, when its
-    ``rtl.recip.split_products`` call cuts (``cut``: some product of the call is wider than one block), the
-    sum ``0 + sum(partial << shift)`` of its registered partial products."""
-    if not cut:
-        return p.a_bits + p.b_bits, p.a_signed or p.b_signed
-    total = (1, False)                                                  # Python's sum starts from 0
-    for lo_a, wa, sa in pieces(p.a_bits, p.a_signed):
-        for lo_b, wb, sb in pieces(p.b_bits, p.b_signed):
-            total = _add(total, _shl((wa + wb, sa or sb), lo_a + lo_b))
-    return total
 
 
 def _demo_texels() -> Texels:

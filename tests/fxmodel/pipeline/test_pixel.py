@@ -102,3 +102,46 @@ def test_reference_metrics_and_float_sampler():
     # the centre of texel (1, 0) returns it exactly; repeat wraps
     got = sample_float(tex, np.array([0, 0]), np.array([0.5, 1.5]), np.array([0.25, 0.25]), "bilinear", "repeat")
     assert np.allclose(got, [tex[0, 0, 1], tex[0, 0, 1]])
+
+
+def _mip_pipeline(**top):
+    from fxmodel.pipeline.lighting import Light, Lighting
+    from fxmodel.pipeline.pixel import PipelineParams
+    from fxmodel.pipeline.presets import BUILTIN_PRESET_UNITS
+    base = preset("pipeline")
+    tex = np.random.default_rng(4).integers(0, 256, size=(12, 10, 3))
+    lighting = Lighting(lights=(Light((0.0, 0.5, 1.0), (1.0, 1.0, 1.0)),), ambient=(0.1, 0.1, 0.1),
+                        specular=(0.5, 0.5, 0.5), shininess=10.0)
+    units = {**BUILTIN_PRESET_UNITS["default"], **top}
+    return PipelineParams.assemble(bump_codes=base.bump_map.texels.codes[0], texture_bytes=tex, lighting=lighting,
+                                   cube_face=8, preset=units)[0]
+
+
+def test_mip_mapping_is_off_by_default_and_composes_lod_and_trilinear():
+    """Off by default (no LOD unit, no increments among the inputs); with mip_levels the color texture is sampled
+    trilinearly at the LOD unit's level of the fragment's Uc, Vc, W and the triangle's increments."""
+    from fxmodel.pipeline.pixel import LOD_INPUTS
+    off = _mip_pipeline()
+    assert off.lod is None and off.texture.filter == "bilinear"
+    assert not {p.name for p in off.inputs} & set(LOD_INPUTS)
+    on = _mip_pipeline(mip_levels=16, lod_bias=-128, level_bits=6)
+    assert on.lod.bias == -128 and on.texture.level_bits == 6 and on.texture.level_sizes[-1] == (1, 1)
+    assert [p.name for p in on.inputs][-6:] == list(LOD_INPUTS)
+    codes = np.concatenate([on.hard_cases(), on.random_inputs(np.random.default_rng(2), 300)])
+    tr = on.trace(codes)
+    col = {p.name: codes[:, i] for i, p in enumerate(on.inputs)}
+    lod, _ = on.lod.compute(*(col[n] for n in ("Uc", "Vc", "W", *LOD_INPUTS)))
+    assert np.array_equal(tr["lod"], lod)
+    sc, tc = tr["st"][:, 2], tr["st"][:, 3]
+    assert np.array_equal(tr["tex"], on.texture.compute(np.stack([sc, tc, lod], 1)))
+    assert len(np.unique(np.clip(lod >> 8, 0, on.texture.levels - 1))) > 1       # several levels reached
+    two = _mip_pipeline(mip_levels=2)
+    assert two.texture.levels == 2
+
+
+def test_mip_mapping_mismatch_names_the_field():
+    on = _mip_pipeline(mip_levels=16)
+    with pytest.raises(ValueError, match="lod.size"):
+        dataclasses.replace(on, lod=dataclasses.replace(on.lod, size=(4, 4)))
+    with pytest.raises(ValueError, match="texture.filter"):
+        dataclasses.replace(on, lod=None)

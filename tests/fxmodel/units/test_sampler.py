@@ -159,3 +159,122 @@ def test_border_faces_never_clamp_and_reach_the_border_texels():
     assert out.tolist() == want
     corner_sums = tex[2, 0:2, 0:2].reshape(4, 3).sum(0)
     assert out[0].tolist() == [math.floor(Fraction(int(c), 4) + Fraction(1, 2)) for c in corner_sums]
+
+
+# -- trilinear (MIP mapping) ---------------------------------------------------------------------------------------
+LOD = Fmt(True, 6, 8)
+
+
+def make_trilinear(shape, seed, **kw):
+    from fxmodel.units.sampler import mip_texels
+    codes = Texels(np.random.default_rng(seed).integers(-512, 512, size=(1, *shape, 2)))
+    return SamplerParams(texels=codes, channels=(Fmt(True, 1, 9),) * 2, filter="trilinear", mips=mip_texels(codes),
+                         lod_fmt=LOD, **kw)
+
+
+def exact_bilinear(params, tex, s, t):
+    """Exact (Fraction) bilinear value of each channel of level ``tex`` (H, W, C) and its four corners."""
+    T, B = params.coord_fmt.frac_bits, params.weight_bits
+
+    def axis(code, size):
+        v = Fraction(code, 1 << T)
+        v = v - math.floor(v) if params.edge == "repeat" else min(max(v, Fraction(0)), Fraction(1))
+        x = v * size - Fraction(1, 2)
+        i0 = math.floor(x)
+        f = Fraction(math.floor((x - i0) * (1 << B)), 1 << B)
+        i1 = i0 + 1
+        if params.edge == "repeat":
+            return i0 % size, i1 % size, f
+        return min(max(i0, 0), size - 1), min(max(i1, 0), size - 1), f
+
+    i0, i1, fx = axis(s, tex.shape[1])
+    j0, j1, fy = axis(t, tex.shape[0])
+    vals, corners = [], []
+    for k in range(tex.shape[2]):
+        a, b, c, d = (Fraction(int(tex[j, i, k])) for j, i in ((j0, i0), (j0, i1), (j1, i0), (j1, i1)))
+        vals.append((a * (1 - fx) + b * fx) * (1 - fy) + (c * (1 - fx) + d * fx) * fy)
+        corners.append((a, b, c, d))
+    return vals, corners
+
+
+def exact_trilinear(params, s, t, lod):
+    F, C, top = params.lod_fmt.frac_bits, params.level_bits, params.levels - 1
+    lam = Fraction(lod, 1 << F)
+    L = math.floor(lam)
+    g = Fraction(math.floor((lam - L) * (1 << C)), 1 << C)
+    if lam < 0 or L >= top:
+        L, g = min(max(L, 0), top), Fraction(0)
+    v0, c0 = exact_bilinear(params, params.level_codes(L)[0], s, t)
+    v1, c1 = exact_bilinear(params, params.level_codes(min(L + 1, top))[0], s, t)
+    return [math.floor(a * (1 - g) + b * g + Fraction(1, 2)) for a, b in zip(v0, v1)], [a + b for a, b in zip(c0, c1)]
+
+
+@given(st.integers(1, 12), st.integers(1, 12), st.integers(0, 2**31 - 1), st.sampled_from(["repeat", "clamp"]),
+       st.integers(1, 8), st.integers(1, 8),
+       st.lists(st.tuples(st.integers(-(1 << 19), (1 << 19) - 1), st.integers(-(1 << 19), (1 << 19) - 1),
+                          st.integers(LOD.min_code, LOD.max_code)), min_size=1, max_size=12))
+def test_trilinear_matches_exact_rule_within_its_eight_texels(h, w, seed, edge, wb, cb, rows):
+    """Odd and even sizes down to the 1 x 1 level, any LOD code (magnified, between levels, past the last): the
+    exact rule in Fractions, rounded half-up once, and within the range of the eight texels."""
+    params = make_trilinear((h, w), seed, edge=edge, weight_bits=wb, level_bits=cb)
+    out = params.compute(np.array(rows, dtype=np.int64))
+    for (s, t, lod), got in zip(rows, out.tolist()):
+        want, corners = exact_trilinear(params, s, t, lod)
+        assert got == want
+        for k, cs in enumerate(corners):
+            assert min(cs) <= got[k] <= max(cs)
+
+
+@pytest.mark.parametrize("shape", [(8, 8), (40, 40), (5, 12), (1, 1)])
+def test_trilinear_is_bilinear_at_integer_lod_and_level_0_when_magnified(shape):
+    """An integer LOD L gives bilinear at level L exactly (level boundaries included); any negative LOD gives
+    level 0; LOD at or past the last level (1 x 1) gives its single texel."""
+    params = make_trilinear(shape, 7)
+    rng = np.random.default_rng(1)
+    st_codes = rng.integers(-(1 << 17), 1 << 17, size=(300, 2))
+    F = LOD.frac_bits
+    for lv in range(params.levels):
+        bil = SamplerParams(texels=Texels(params.level_codes(lv)), channels=params.channels, filter="bilinear",
+                            coord_fmt=params.coord_fmt, weight_bits=params.weight_bits)
+        got = params.compute(np.column_stack([st_codes, np.full(300, lv << F)]))
+        assert np.array_equal(got, bil.compute(st_codes))
+        if lv == 0:
+            for lod in (-1, -(1 << F), LOD.min_code):
+                assert np.array_equal(params.compute(np.column_stack([st_codes, np.full(300, lod)])), got)
+    last = params.compute(np.column_stack([st_codes, np.full(300, LOD.max_code)]))
+    assert params.level_sizes[-1] == (1, 1)
+    assert (last == params.level_codes(params.levels - 1)[0, 0, 0]).all()
+
+
+@given(st.integers(1, 10), st.integers(1, 10), st.integers(-(1 << 18), 1 << 18), st.integers(-(1 << 18), 1 << 18),
+       st.integers(LOD.min_code, LOD.max_code), st.integers(-4, 4))
+def test_trilinear_repeat_is_periodic(h, w, s, t, lod, k):
+    params = make_trilinear((h, w), h * 31 + w)
+    one = 1 << params.coord_fmt.frac_bits
+    assert np.array_equal(params.compute(np.array([[s, t, lod]])),
+                          params.compute(np.array([[s + k * one, t - k * one, lod]])))
+
+
+def test_trilinear_levels_alternate_between_two_memories():
+    """Levels L and L + 1 always sit in different memories (even, odd), each at its base address."""
+    params = make_trilinear((40, 40), 2)
+    assert [s[0] for s in params.level_sizes] == [40, 20, 10, 5, 2, 1]
+    even, odd = params.parity_words
+    assert len(even) == 40 * 40 + 10 * 10 + 2 * 2 and len(odd) == 20 * 20 + 5 * 5 + 1
+    assert params.level_bases == (0, 0, 1600, 400, 1700, 425)
+    assert [m.words for m in params.memories()] == [len(even), len(odd)]
+    assert len(params.hard_cases()) and params.latency > 0
+
+
+@pytest.mark.parametrize("kw, name", [
+    (dict(lod_fmt=None), "lod_fmt"), (dict(lod_fmt=Fmt(False, 6, 8)), "lod_fmt"), (dict(level_bits=9), "level_bits"),
+    (dict(mips=(Texels(np.zeros((1, 2, 2, 2), np.int64)),)), "mips"), (dict(edge="border"), "filter")])
+def test_trilinear_bad_parameters_name_the_parameter(kw, name):
+    base = make_trilinear((6, 6), 1)
+    with pytest.raises(ValueError, match=name):
+        base.replace(**kw)
+
+
+def test_mips_only_for_trilinear():
+    with pytest.raises(ValueError, match="mips"):
+        make((4, 4), 1, lod_fmt=LOD)

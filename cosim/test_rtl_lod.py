@@ -69,3 +69,47 @@ def test_lod_bias_and_narrow_formats(sim):
     rng = np.random.default_rng(11)
     vectors = np.concatenate([params.hard_cases(), pixels(params, rng, 400)])
     assert_bit_exact(run(params, vectors, sim=sim, tag="narrow"))
+
+
+def scene_pixels(name: str, width: int, height: int):
+    """``(LodParams, codes)`` of every fragment of a shipped scene drawn from triangles by the scan converter's
+    model: ``Uc, Vc, W`` the fragment's, the increments the triangle record's ``Uc_dx ... W_dy`` (the
+    interpolators' own, in their accumulator formats ``RasterParams.acc_fmt``) -- what the engine from the
+    triangle hands the LOD unit when the scan converter passes a triangle's increments on with its fragments --
+    and the LOD of the color texture's size."""
+    from types import SimpleNamespace
+
+    from fxmodel.units.lod import LodParams
+    from fxmodel.units.raster import scan
+    from host.bumpmap import bump_gain
+    from host.frontend import triangle_records
+    from host.render import prepare, raster_params
+    from host.scene import load_scene, scene_path
+    from host.shipped import scene_preset
+
+    scene = load_scene(scene_path(name)).with_size(width, height)
+    frame = prepare(scene, preset=scene_preset(name))
+    raster = raster_params(frame.units)
+    mi = int(frame.frags.material[0])
+    gains = [frame.maps if i == mi else SimpleNamespace(a_gain=bump_gain(m)) for i, m in enumerate(scene.materials)]
+    recs, _, mat = triangle_records(scene, raster, gains, frame.exponent)
+    res = scan(raster, recs)
+    keep = mat[res.record] == mi
+    p = frame.params
+    params = LodParams(uv_fmt=p.persp.uv_fmt, w_fmt=p.persp.recip.in_fmt, duv_fmt=raster.acc_fmt("Uc"),
+                       dw_fmt=raster.acc_fmt("W"), size=(p.texture.width, p.texture.height))
+    cols = [res.codes[n][keep] for n in ("Uc", "Vc", "W")]
+    cols += [recs.codes[f"{n}_{d}"][res.record[keep]] for n in ("Uc", "Vc", "W") for d in ("dx", "dy")]
+    return params, np.stack(cols, axis=1)             # U, V, W, Ux, Uy, Vx, Vy, Wx, Wy
+
+
+@pytest.mark.parametrize("name", ["grazing-floor", "tin-plane"])
+def test_lod_on_scene_fragments_from_triangles(sim, name):
+    """The grazing floor (levels from magnified to a dozen levels down at the horizon) and the tin plane, every
+    fragment of a reduced frame, with the increments as the triangle records hold them."""
+    params, vectors = scene_pixels(name, 128, 96)
+    assert len(vectors) > 1000
+    result = run(params, vectors, sim=sim, tag=name)
+    assert_bit_exact(result)
+    flags = result.rtl[:, 1]
+    assert (flags & FLAG_BAD_W == 0).all()                          # the front end never sends W <= 0

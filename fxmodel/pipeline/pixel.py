@@ -164,13 +164,19 @@ class PipelineParams(Unit):
     #: The stages in RTL order (``cube`` twice: the normal's and the reflection's address units).
     STAGES = ("persp", "bump_map", "texture", "bump", "reflect", "cube", "cube", "diffuse", "specular", "shade")
 
+    @property
+    def stages(self) -> tuple:
+        """:data:`STAGES`, and ``lod`` when MIP mapping (``rtl/pixel.py`` builds it after ``persp``)."""
+        return self.STAGES[:1] + (("lod",) if self.lod is not None else ()) + self.STAGES[1:]
+
     def products(self) -> tuple:
-        """Every stage's products (:data:`STAGES`), the samplers' blends included."""
-        return tuple(p for name in self.STAGES for p in getattr(self, name).products())
+        """Every stage's products (:attr:`stages`), the samplers' blends and the LOD unit's included."""
+        return tuple(p for name in self.stages for p in getattr(self, name).products())
 
     def memories(self) -> tuple:
-        """Every stage's memories: the reciprocal tables and the four texel memories."""
-        return tuple(m for name in self.STAGES for m in getattr(self, name).memories())
+        """Every stage's memories: the reciprocal tables, the four texel memories (the texture's MIP levels), the
+        LOD unit's ``log2`` table."""
+        return tuple(m for name in self.stages for m in getattr(self, name).memories())
 
     def _info(self):
         mems = {n: getattr(self, n).info()["texels"] for n in ("bump_map", "texture", "diffuse", "specular")}

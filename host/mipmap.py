@@ -21,6 +21,9 @@ What filters linearly is what the bump engine adds to ``N``: the slopes ``B = (d
 ``M - B B^T`` the covariance of the slopes the filter averaged away, which must widen the specular lobe
 (averaging the slopes alone flattens the bumps: a flat band at the horizon where the truth is grey).
 
+The hardware's pyramid is :func:`fxmodel.units.mip.mip_pyramid` (the same box, in exact integers from level 0, rounded
+once; :func:`reference_texture` gives its levels to reference (a)).
+
 Level of detail
 ---------------
 With ``s = U / W`` (``U``, ``W`` linear in screen space with per-triangle increments ``U_x``, ``W_x``):
@@ -38,7 +41,8 @@ from host.frontend import clip_space
 from host.reference import sample_float
 
 __all__ = ["downsample", "pyramid", "lean_pyramid", "screen_derivatives", "texel_derivatives", "level_of_detail",
-           "sample_trilinear", "sample_anisotropic", "anisotropic_taps", "KERNELS"]
+           "sample_trilinear", "sample_anisotropic", "anisotropic_taps", "KERNELS", "lod_increments",
+           "reference_texture"]
 
 #: Downsampling kernels: ``box`` (area average, the default) and ``tent`` (the box followed by a
 #: ``[1, 2, 1] / 4`` blur of the new level, with wrap-around: wider, no ringing, for comparison).
@@ -181,3 +185,40 @@ def sample_anisotropic(levels, s, t, dtex, shape, max_taps: int = 16, bias: floa
             acc += sample_trilinear(levels, s[sel] + o * axis[sel, 0], t[sel] + o * axis[sel, 1], lod[sel])
         out[sel] = acc / taps
     return out
+
+
+def lod_increments(scene, frags, repeat) -> dict:
+    """The triangle's increments of the color texture's homogeneous coordinates per fragment, in the units of the
+    fragment's ``Uc, Vc, W`` per pixel: ``{"Ucx", "Ucy", "Vcx", "Vcy", "Wx", "Wy"}`` float arrays ``(K,)``,
+    exact from the scene triangle's plane (:func:`screen_derivatives`' ``alpha, beta, gamma``):
+    ``W_x = k (1/w)_x``, ``Uc_x = k (rep u_x - tile (1/w)_x)`` with ``k`` the fragment's ``wscale`` and ``tile`` its
+    color tile offset (``frags.tile_c``). ``repeat``: the color texture's ``(u, v)`` repeat."""
+    tris = scene.triangles()
+    coef = np.linalg.solve(clip_space(scene, tris.positions),
+                           np.concatenate([tris.uvs, np.ones(tris.uvs.shape[:2] + (1,))], -1))[np.asarray(frags.tri)]
+    px = np.array([2.0 / scene.width, -2.0 / scene.height])
+    k, tile = np.asarray(frags.wscale, np.float64), np.asarray(frags.tile_c, np.float64)
+    out = {}
+    for ax, axn in ((0, "x"), (1, "y")):
+        out["W" + axn] = k * coef[:, ax, 2] * px[ax]
+        for i, n in enumerate(("Uc", "Vc")):
+            out[n + axn] = k * (repeat[i] * coef[:, ax, i] - tile[:, i] * coef[:, ax, 2]) * px[ax]
+    return out
+
+
+def reference_texture(params, codes) -> dict:
+    """What reference (a) and (b) need to sample the color texture as a pipeline with MIP mapping does
+    (:attr:`fxmodel.pipeline.pixel.PipelineParams.lod`): ``{"texture_levels": [float levels], "texture_lod": (K,)}``,
+    the stored pyramid (the data the hardware holds) and the LOD unit's level of each fragment (``codes``: the
+    pipeline's input codes), in levels; ``{}`` without MIP mapping. The level is the unit's, proven against exact
+    arithmetic on its own (:meth:`fxmodel.units.lod.LodParams.error_bound`): so the distance from (a) is the
+    sampler's and the rest of the pipeline's fixed-point error, as before."""
+    if params.lod is None:
+        return {}
+    from fxmodel.pipeline.pixel import LOD_INPUTS
+    names = [p.name for p in params.inputs]
+    cols = [np.asarray(codes)[:, names.index(n)] for n in ("Uc", "Vc", "W", *LOD_INPUTS)]
+    lod, _ = params.lod.compute(*cols) if len(codes) else (np.zeros(0, np.int64), None)
+    tex = params.texture
+    return {"texture_levels": [tex.level_codes(lv)[0].astype(np.float64) for lv in range(tex.levels)],
+            "texture_lod": np.asarray(lod, np.float64) / (1 << params.lod.lod_frac)}

@@ -11,6 +11,11 @@ lighting evaluated exactly at the pixel's normal and reflection direction instea
 difference from (a) is what the reflectance-cube method itself costs (lighting sampled at texel centres).
 
 Both produce bytes by one rounding (half-up) and clipping to ``[0, 255]``, as the hardware's shading does.
+
+With MIP mapping (``texture_levels`` and ``texture_lod``, :func:`host.mipmap.reference_texture`), both sample the
+color texture trilinearly in float (:func:`host.mipmap.sample_trilinear`: exact bilinear weights in the two levels
+around the level of detail, clamped to the pyramid, and an exact blend between them) from the stored pyramid at the
+LOD unit's level: the same algorithm as the trilinear sampler without its quantization.
 """
 
 from __future__ import annotations
@@ -82,13 +87,23 @@ def perturbed(frags, bump_float, bump_filter):
     return frags["N"] + duv[:, :1] * A[:, :, 0] + duv[:, 1:2] * A[:, :, 1]
 
 
+def _texture(frags, texture, texture_filter, texture_levels, texture_lod) -> np.ndarray:
+    """The color texture's float sample ``(K, 3)``: bilinear at level 0, or trilinear (module docstring)."""
+    if texture_levels is not None:
+        from host.mipmap import sample_trilinear  # host.mipmap uses this module's sampler
+        return sample_trilinear(texture_levels, frags["sc"], frags["tc"], texture_lod)
+    return sample_float(np.asarray(texture, dtype=np.float64)[None], np.zeros(len(frags["sc"]), np.int64),
+                        frags["sc"], frags["tc"], texture_filter, "repeat")
+
+
 def float_pipeline(frags: dict, *, bump_float, texture, diffuse_cube, specular_cube, bump_filter="bilinear",
-                   texture_filter="bilinear", cube_edge="border") -> np.ndarray:
+                   texture_filter="bilinear", cube_edge="border", texture_levels=None, texture_lod=None) -> np.ndarray:
     """Reference (a): bytes ``(K, 3)``.
 
     ``frags`` holds float arrays: ``s, t, sc, tc`` (exact ``U/W`` ...), ``N (K, 3)``, ``E (K, 3)``,
     ``A (K, 3, 2)``; ``bump_float (H, W, 2)`` the unquantized perturbations in the units ``A`` expects;
-    ``texture (H, W, 3)`` bytes; the cubes ``(6, F, F, 3)`` unquantized lighting at texel centres.
+    ``texture (H, W, 3)`` bytes; the cubes ``(6, F, F, 3)`` unquantized lighting at texel centres;
+    ``texture_levels``, ``texture_lod``: MIP mapping (module docstring), ``None``: none.
     """
     n = perturbed(frags, bump_float, bump_filter)
     E = frags["E"]
@@ -97,13 +112,12 @@ def float_pipeline(frags: dict, *, bump_float, texture, diffuse_cube, specular_c
     fs, ss, ts = cube_address_float(R)
     D = sample_float(diffuse_cube, fd, sd, td, "bilinear", cube_edge)
     S = sample_float(specular_cube, fs, ss, ts, "bilinear", cube_edge)
-    tex = sample_float(np.asarray(texture, dtype=np.float64)[None], np.zeros(len(n), np.int64), frags["sc"],
-                       frags["tc"], texture_filter, "repeat")
+    tex = _texture(frags, texture, texture_filter, texture_levels, texture_lod)
     return to_bytes(tex * D + S)
 
 
 def ideal_phong(frags: dict, *, bump_float, texture, lighting, bump_filter="bilinear",
-                texture_filter="bilinear") -> np.ndarray:
+                texture_filter="bilinear", texture_levels=None, texture_lod=None) -> np.ndarray:
     """Reference (b): bytes ``(K, 3)`` from normalized vectors and exact lighting (see the module docstring)."""
     n = perturbed(frags, bump_float, bump_filter)
     n = n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
@@ -111,8 +125,7 @@ def ideal_phong(frags: dict, *, bump_float, texture, lighting, bump_filter="bili
     r = 2 * n * np.sum(n * e, 1, keepdims=True) - e
     D = lighting.diffuse_factor(n)
     S = lighting.specular_bytes(r)
-    tex = sample_float(np.asarray(texture, dtype=np.float64)[None], np.zeros(len(n), np.int64), frags["sc"],
-                       frags["tc"], texture_filter, "repeat")
+    tex = _texture(frags, texture, texture_filter, texture_levels, texture_lod)
     return to_bytes(tex * D + S)
 
 

@@ -29,13 +29,14 @@ import numpy as np
 from fxmodel.core.rounding import Overflow, Rounding, quantize
 from fxmodel.pipeline.engine import EngineParams
 from fxmodel.pipeline.lighting import Light, Lighting, face_directions
-from fxmodel.pipeline.pixel import FLAG_BITS, PipelineParams
+from fxmodel.pipeline.pixel import FLAG_BITS, LOD_INPUTS, PipelineParams
 from fxmodel.pipeline.presets import preset_units, top_value
 from fxmodel.units.raster import ATTRIBUTE_FORMATS, RasterParams, Records
 from fxmodel.units.rop import RopParams
 from host.bumpmap import block_exponent, bump_gain, perturbations, scene_maps
 from host.frontend import rasterize, triangle_records
 from host.images import compose, diff_image, metrics, save_png
+from host.mipmap import lod_increments, reference_texture
 from host.reference import float_pipeline, ideal_phong, max_lsb, perturbed
 from host.scene import load_scene, scene_path
 from host.truth import add_truth
@@ -55,7 +56,7 @@ SCENE_BOUND_LSB = 2
 ILL_CONDITIONED = 0.25
 
 #: Where each fragment input's format lives in a preset file (what to widen when a scene needs more range).
-INPUT_KNOBS = {**ATTRIBUTE_FORMATS, "Ae": "bump.exp_bits"}
+INPUT_KNOBS = {**ATTRIBUTE_FORMATS, "Ae": "bump.exp_bits", **{n: "lod.duv_fmt, lod.dw_fmt" for n in LOD_INPUTS}}
 
 
 #: The largest texture-address error (texels) a fragment may have before the scene is refused: about half a step
@@ -251,7 +252,7 @@ class Frame:
         bump_float = self.bump_float()
         dirs = face_directions(p.diffuse.width, p.diffuse.border)
         common = dict(bump_float=bump_float, texture=maps.color, bump_filter=p.bump_map.filter,
-                      texture_filter=p.texture.filter)
+                      texture_filter=p.texture.filter, **reference_texture(p, self.codes))
         a = float_pipeline(self.float_inputs(), diffuse_cube=self.lighting.diffuse_factor(dirs),
                            specular_cube=self.lighting.specular_bytes(dirs), cube_edge=p.diffuse.edge, **common)
         b = ideal_phong(self.float_inputs(), lighting=self.lighting, **common)
@@ -344,6 +345,8 @@ def _build(scene, units: dict, cube_size: int | None, t0: float):
               "Nx": N[:, 0], "Ny": N[:, 1], "Nz": N[:, 2], "Ex": E[:, 0], "Ey": E[:, 1], "Ez": E[:, 2],
               "Ae": e.astype(np.float64)}
     values |= {f"A{i}{j}": np.ldexp(A[:, i, j], -e) for i in range(3) for j in range(2)}
+    if params.lod is not None:                                      # MIP mapping: the triangle's increments
+        values |= lod_increments(scene, frags, mm.color_repeat)
     # what a format holds, in the scene's units (A: with the largest block exponent)
     unit = {f"A{i}{j}": 2.0 ** bp.e_max for i in range(3) for j in range(2)}
     cols, clamped = [], {}

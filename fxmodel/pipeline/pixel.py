@@ -48,13 +48,22 @@ from fxmodel.units.sampler import SamplerParams, Texels, mip_texels
 from fxmodel.units.shade import ShadeParams
 from fxmodel.units.shapes import repr_without_defaults
 
-__all__ = ["PipelineParams", "FLAG_BITS", "LOD_INPUTS"]
+__all__ = ["PipelineParams", "FLAG_BITS", "LOD_INPUTS", "lod_slopes"]
 
 FLAG_BITS = {"bump_saturated": 0, "shade_saturated": 1, "degenerate": 2, "w_zero": 3}
 
 #: The fragment inputs the LOD unit adds (the triangle's increments), in the order of
 #: :meth:`fxmodel.units.lod.LodParams.compute` after ``U, V, W``.
 LOD_INPUTS = ("Ucx", "Ucy", "Vcx", "Vcy", "Wx", "Wy")
+
+
+def lod_slopes(lod) -> tuple:
+    """The scan converter's ``slopes`` (:class:`fxmodel.units.raster.RasterParams`) that hand the LOD unit ``lod``
+    its increments from triangles: each of :data:`LOD_INPUTS` the step of ``Uc``, ``Vc`` or ``W`` along ``x`` or
+    ``y``, in ``lod.duv_fmt`` / ``lod.dw_fmt``; none without MIP mapping (``lod`` None)."""
+    if lod is None:
+        return ()
+    return tuple((n, n[:-1], n[-1], lod.dw_fmt if n[0] == "W" else lod.duv_fmt) for n in LOD_INPUTS)
 
 
 @dataclass(frozen=True)

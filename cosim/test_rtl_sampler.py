@@ -26,3 +26,22 @@ def test_banked_and_replicated_texel_memories(sim, shape, edge, banked):
     assert params.banked == banked
     vectors = np.concatenate([params.hard_cases(), params.random_inputs(rng, 2000)])
     assert_bit_exact(run(params, vectors, sim=sim, tag=f"{edge}{shape[1]}x{shape[2]}"))
+
+
+@pytest.mark.parametrize("shape, edge", [
+    ((1, 40, 40, 2), "repeat"),           # the paper's 40 x 40 bump map: levels 40, 20, 10, 5, 2, 1 (odd sizes)
+    ((1, 6, 16, 2), "repeat"),            # non-square: the last levels 1 wide
+    ((1, 5, 3, 2), "clamp"),              # odd, clamped at the edges
+])
+def test_trilinear_level_memories(sim, shape, edge):
+    """Trilinear (MIP mapping): the even and odd level memories, every level boundary, magnified (negative LOD),
+    the last level (1 x 1) and past it, against the model bit for bit."""
+    from fxmodel.core.fixed import Fmt
+    from fxmodel.units.sampler import SamplerParams, Texels, mip_texels
+    rng = np.random.default_rng([*shape, len(edge), 3])
+    coord = Fmt(True, 3, 12) if edge == "repeat" else Fmt(False, 1, 12)
+    tex = Texels(rng.integers(-512, 512, size=shape))
+    params = SamplerParams(texels=tex, channels=(Fmt(True, 1, 9),) * 2, coord_fmt=coord, edge=edge, weight_bits=6,
+                           filter="trilinear", mips=mip_texels(tex), lod_fmt=Fmt(True, 5, 6), level_bits=5)
+    vectors = np.concatenate([params.hard_cases(), params.random_inputs(rng, 2000)])
+    assert_bit_exact(run(params, vectors, sim=sim, tag=f"tri{edge}{shape[1]}x{shape[2]}"))

@@ -3,7 +3,10 @@
 The texels are Amaranth ``Memory`` blocks initialised from the model's packed words: for bilinear filtering
 four banks by texel parity with one read port each (``SamplerParams.banked``, ``bank_words``; the map stored
 once), or, for ``repeat`` with an odd map size, one memory (``words``) with four read ports (replicated block
-RAM on an FPGA). Nearest filtering: one memory, one port.
+RAM on an FPGA). Nearest filtering: one memory, one port. Trilinear (MIP mapping): the even levels in one memory
+and the odd levels in another (``SamplerParams.parity_words``), four read ports each, so the two bilinear lookups
+of a pixel (levels ``L`` and ``L + 1``, always of different parity) are read in the same clock: one pixel per
+clock (``rtl/sampler_mip.py``).
 """
 
 from __future__ import annotations
@@ -51,6 +54,10 @@ class Sampler(UnitComponent):
     def elaborate(self, platform):
         m = Module()
         pipe = Pipe(m)
+        if self.params.trilinear:
+            from .sampler_mip import trilinear
+            self.finish(m, pipe, trilinear(self, m, pipe))
+            return m
         s2 = self._indices(pipe)
         s3, memories, weights, parity, corners = self._addresses(pipe, s2)
         data, late = self._read(m, pipe, s3, memories, weights, parity, corners)

@@ -384,6 +384,15 @@ def filtering_study() -> str:
     return "\n".join(out)
 
 
+def filtering_mip() -> str:
+    """The bit-exact pipeline with MIP mapping against (c) on every shipped scene (``bumpmap mip``)."""
+    record, path = _load("mip")
+    if record is None:
+        return _missing(path, "bumpmap mip --record docs/records/mip.json")
+    from .mip import table
+    return table(record["result"]) + "\n\n" + provenance(record, path)
+
+
 # -- the board --------------------------------------------------------------------------------------------------
 BOARD = DOCS / "board"
 

@@ -55,6 +55,7 @@ COMMANDS: dict[str, tuple[str, str | None]] = {
     "frontend": ("tools.measure", None),
     "maps": ("tools.measure", None),
     "rop-throughput": ("tools.measure", None),
+    "mip": ("tools.mip", "the bit-exact pipeline with MIP mapping of the color texture against the true image"),
     "cache-sweep": ("tools.cache_sweep", "size the texel cache in the model on the shipped scenes and grazing floor"),
     "bitstream": ("board.top", "the board top (ULX3S) through Yosys, nextpnr-ecp5 and ecppack: bitstream and report"),
     "litedram": ("board.litedram", "generate the SDRAM controller core (LiteDRAM) from board/sdram.yml"),

@@ -258,7 +258,8 @@ class PipelineParams(Unit):
         up to 8) from moving ``N'`` enough to shift a highlight by a step; the cube lookups' lighting is smooth,
         8 bits there. ``None``: the preset's ``weight_bits`` (12 unless a preset file sets it). ``preset`` is a
         preset name or a units dict (see :func:`fxmodel.pipeline.presets.preset_units`). The preset's ``mip_levels``
-        (0: none), ``lod_bias`` and ``level_bits`` turn on MIP mapping of the color texture (:attr:`lod`)."""
+        (0: none), ``lod_bias`` and ``level_bits`` turn on MIP mapping of the color texture (:attr:`lod`), when the
+        texture has a level beyond level 0 (not for a one-texel texture)."""
         units = preset_units(preset)
         if weight_bits is None:
             weight_bits = top_value(units, "weight_bits")
@@ -267,7 +268,7 @@ class PipelineParams(Unit):
                                 coord_fmt=persp.coord_fmt, filter=texture_filter, edge="repeat",
                                 weight_bits=weight_bits, names=("r", "g", "b"))
         lod = None
-        if top_value(units, "mip_levels"):
+        if min(top_value(units, "mip_levels"), max(texture.width, texture.height).bit_length()) >= 2:  # a level 1
             lod = LodParams(uv_fmt=persp.uv_fmt, w_fmt=persp.recip.in_fmt, size=(texture.width, texture.height),
                             bias=top_value(units, "lod_bias"))
             mips = mip_texels(texture.texels, top_value(units, "mip_levels"))

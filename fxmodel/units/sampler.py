@@ -193,6 +193,7 @@ class SamplerParams(Unit):
                 "must be a signed Fmt (the LOD unit's out_fmt)")
         require(isinstance(self.level_bits, int) and 1 <= self.level_bits <= self.lod_fmt.frac_bits, "level_bits",
                 self.level_bits, f"must be an int in 1..{self.lod_fmt.frac_bits} (lod_fmt's fraction bits)")
+        require(len(self.mips) >= 1, "mips", self.mips, "trilinear needs at least one level beyond level 0")
         sizes = mip_sizes(self.height, self.width, 1 + len(self.mips))
         require(isinstance(self.mips, tuple) and all(isinstance(m, Texels) for m in self.mips)
                 and [m.shape for m in self.mips] == [(1, h, w, len(self.channels)) for h, w in sizes[1:]],
@@ -540,4 +541,8 @@ SamplerParams.PRESETS = {
                             channels=(Fmt(False, 2, 10),) * 3, coord_fmt=Fmt(False, 1, 16), edge="border",
                             names=("r", "g", "b")),
 }
+_TRI = Texels(np.random.default_rng(9).integers(0, 256, size=(1, 10, 12, 3)))
+SamplerParams.PRESETS["trilinear"] = SamplerParams(texels=_TRI, channels=(Fmt(False, 8, 0),) * 3, filter="trilinear",
+                                                   coord_fmt=Fmt(True, 3, 14), names=("r", "g", "b"),
+                                                   mips=mip_texels(_TRI), lod_fmt=Fmt(True, 6, 8))
 register(SamplerParams)

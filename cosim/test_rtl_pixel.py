@@ -25,6 +25,23 @@ def test_shipped_scene_rtl_equals_model(sim, path):
     assert np.array_equal(result.rtl, frame.params.compute(frame.codes))
 
 
+def test_mip_mapping_rtl_equals_model(sim):
+    """MIP mapping of the color texture (preset ``grazing-floor-mip``): the LOD unit beside the perspective unit
+    and the trilinear sampler, on the grazing floor (levels from magnified to the pyramid's top; at this reduced
+    size the steepest increments are clamped to the LOD's formats, which changes the inputs, not the check), under
+    every stimulus pattern."""
+    frame = prepare(SCENE_DIR / "grazing-floor.toml", size=48, cube_size=16, preset="grazing-floor-mip",
+                    allow_clamp=True)
+    P = frame.params
+    assert P.lod is not None and P.texture.trilinear
+    lod = P.trace(frame.codes)["lod"] >> P.lod.lod_frac
+    assert lod.min() < 0 and lod.max() >= P.texture.levels - 1                  # magnified .. the last level
+    result = run_stream(P, frame.codes, sim=sim, chunk=-(-len(frame.codes) // len(PATTERNS)),
+                        pattern=list(PATTERNS), dump=True)
+    assert result.ok, result.describe()
+    assert np.array_equal(result.rtl, P.compute(frame.codes))
+
+
 def _stream_equals_model(frame, sim):
     result = run_stream(frame.params, frame.codes, sim=sim, pattern="random", dump=True)
     assert result.ok, result.describe()

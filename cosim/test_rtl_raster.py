@@ -66,6 +66,30 @@ def test_raster_rtl_matches_the_model(sim, preset, p_valid, p_ready, size, n):
         assert res["busy_span"] == res["busy_cycles"], res
 
 
+def test_raster_carries_the_triangles_slopes(sim):
+    """The ``slopes`` (the increments the level of detail of MIP mapping reads, ``fxmodel/units/lod.py``): every
+    fragment carries its triangle's exact steps of ``U`` and ``W`` along x and y, rounded once by the set-up (wide
+    formats: a sliver's steps are large), bit for bit, under gaps and backpressure."""
+    import dataclasses
+
+    from fxmodel.core.fixed import Fmt
+    slope = Fmt(True, 30, 14)
+    params = dataclasses.replace(RasterParams.PRESETS["small"], slopes=(
+        ("Ux", "U", "x", slope), ("Uy", "U", "y", slope), ("Wx", "W", "x", slope), ("Wy", "W", "y", slope)))
+    recs = hard_and_random(params, 24, 20, 8, seed=5)
+    # the set-up's step is the exact plane's rounded half-up, as the interpolator's own (which wraps modulo its
+    # accumulator): both within half an ulp of the same exact step
+    acc = params.acc_fmt("U")
+    k = acc.frac_bits - slope.frac_bits
+    diff = ((recs.codes["Ux"] << k) - recs.codes["U_dx"]) % (1 << acc.width)
+    diff = np.where(diff >= 1 << (acc.width - 1), diff - (1 << acc.width), diff)
+    assert np.abs(diff).max() <= (1 << (k - 1)) + 1 and len(recs) > 10
+    res = run(params, recs, p_valid=0.6, p_ready=0.6, sim=sim, tag="slopes")
+    assert res["expected"] > 60 and res["mismatches"] == 0, res
+    frags = scan(params, recs)
+    assert np.array_equal(frags.codes["Wy"], recs.codes["Wy"][frags.record])
+
+
 @pytest.mark.slow
 def test_make_sim_from_triangles(sim):
     """``make sim`` (from triangles) on a small sphere: the engine's RTL equals the model on every output and

@@ -29,7 +29,7 @@ import numpy as np
 from fxmodel.core.rounding import Overflow, Rounding, quantize
 from fxmodel.pipeline.engine import EngineParams
 from fxmodel.pipeline.lighting import Light, Lighting, face_directions
-from fxmodel.pipeline.pixel import FLAG_BITS, LOD_INPUTS, PipelineParams
+from fxmodel.pipeline.pixel import FLAG_BITS, LOD_INPUTS, PipelineParams, lod_slopes
 from fxmodel.pipeline.presets import preset_units, top_value
 from fxmodel.units.raster import ATTRIBUTE_FORMATS, RasterParams, Records
 from fxmodel.units.rop import RopParams
@@ -390,17 +390,19 @@ def pipeline_params(scene, preset: str | dict = "default", *, cube_size: int | N
     return prepare(scene_path(scene), preset=preset, cube_size=cube_size, allow_clamp=True).params
 
 
-def raster_params(units: dict) -> RasterParams:
+def raster_params(units: dict, lod=None) -> RasterParams:
     """The scan converter and interpolators of a pipeline preset's units: the pixel pipeline's input formats
-    (:meth:`RasterParams.for_pipeline`) and the preset's ``raster_guard`` (``extra_guard``)."""
-    return RasterParams.for_pipeline(units, extra_guard=top_value(units, "raster_guard"))
+    (:meth:`RasterParams.for_pipeline`) and the preset's ``raster_guard`` (``extra_guard``); with the pipeline's
+    LOD unit ``lod`` (MIP mapping), the triangle's increments it reads carried with every fragment
+    (:func:`fxmodel.pipeline.pixel.lod_slopes`)."""
+    return RasterParams.for_pipeline(units, extra_guard=top_value(units, "raster_guard"), slopes=lod_slopes(lod))
 
 
 def engine_params(scene, preset: str | dict = "default", *, cube_size: int | None = None) -> EngineParams:
     """The engine from the triangle that draws ``scene``: :func:`raster_params` of ``preset`` feeding
     :func:`pipeline_params` (for ``make fpga``)."""
     frame = prepare(scene_path(scene), preset=preset, cube_size=cube_size, allow_clamp=True)
-    return EngineParams(raster=raster_params(frame.units), pipeline=frame.params)
+    return EngineParams(raster=raster_params(frame.units, frame.params.lod), pipeline=frame.params)
 
 
 def render(frame: Frame, out_dir=None, *, references: bool = True, model=None, exclude=None,
@@ -513,8 +515,9 @@ def from_triangles(frame: Frame, raster: RasterParams | None = None, depth: bool
     """
     p = frame.params
     if raster is None:
-        raster = raster_params(frame.units) if frame.units is not None else \
-            RasterParams.for_pipeline({"persp": p.persp, "bump": p.bump, "reflect": p.reflect})
+        raster = raster_params(frame.units, p.lod) if frame.units is not None else \
+            RasterParams.for_pipeline({"persp": p.persp, "bump": p.bump, "reflect": p.reflect},
+                                      slopes=lod_slopes(p.lod))
     scene = frame.scene
     rop = None
     if depth:

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from amaranth.hdl import Cat, Module
 
-from fxmodel.pipeline.pixel import FLAG_BITS, PipelineParams
+from fxmodel.pipeline.pixel import FLAG_BITS, LOD_INPUTS, PipelineParams
 
 from .unit import Pipe, UnitComponent, build, register
 
@@ -30,6 +30,9 @@ class Pipeline(UnitComponent):
     Ex, Ey, Ez : Signal(signed), in -- ``reflect.e_fmt``
     A00, A10, A20, A01, A11, A21 : Signal(signed), in -- ``bump.a_fmt``: the triangle's ``A 2^-e``
     Ae : Signal(unsigned), in -- ``bump.e_fmt``: the triangle's block exponent ``e`` (if ``bump.exp_bits``)
+    Ucx, Ucy, Vcx, Vcy, Wx, Wy : Signal(signed), in -- only with ``lod`` (MIP mapping): the triangle's increments
+        (``lod.duv_fmt``, ``lod.dw_fmt``); the LOD unit (``rtl/lod.py``) runs beside ``persp`` on ``Uc, Vc, W``
+        and them, and the trilinear color sampler starts when both are ready
     o_valid : Signal(1), out
     r, g, b : Signal(unsigned(8)), out -- the pixel's color
     flags : Signal(unsigned(4)), out -- see ``fxmodel.pipeline.pixel.FLAG_BITS``
@@ -58,7 +61,16 @@ class Pipeline(UnitComponent):
         persp = unit("persp", P.persp, self.i_valid, **{p.name: getattr(self, p.name) for p in P.persp.inputs})
         t0 = T["persp"]
         bmap = unit("bump_map", P.bump_map, persp.o_valid, s=persp.s, t=persp.t)
-        tex = unit("texture", P.texture, persp.o_valid, s=persp.sc, t=persp.tc)
+        if P.lod is None:
+            tex = unit("texture", P.texture, persp.o_valid, s=persp.sc, t=persp.tc)
+            t_tex = t0
+        else:                   # MIP mapping: the LOD beside persp, the texture when both are ready
+            names = ("Uc", "Vc", "W") + LOD_INPUTS
+            lod = unit("lod", P.lod, self.i_valid, **{p.name: getattr(self, n) for p, n in zip(P.lod.inputs, names)})
+            t_lod, t_tex = T["lod"], max(t0, T["lod"])
+            tex = unit("texture", P.texture, late(persp.o_valid, t0, t_tex, "v_tex"),
+                       s=late(persp.sc, t0, t_tex, "sc"), t=late(persp.tc, t0, t_tex, "tc"),
+                       lod=late(lod.level, t_lod, t_tex, "lod"))
         ts = T["samples"]
         du = late(bmap.du, t0 + P.bump_map.latency, ts, "du")
         dv = late(bmap.dv, t0 + P.bump_map.latency, ts, "dv")
@@ -82,7 +94,7 @@ class Pipeline(UnitComponent):
             return late(getattr(smp, c), tc + params.latency, tl, f"{smp.params.NAME}_{c}")
 
         shade = unit("shade", P.shade, late(cube_n.o_valid, tc, tl, "v_l"),
-                     **{f"t{c}": late(getattr(tex, c), t0 + P.texture.latency, tl, f"tex_{c}") for c in "rgb"},
+                     **{f"t{c}": late(getattr(tex, c), t_tex + P.texture.latency, tl, f"tex_{c}") for c in "rgb"},
                      **{f"d{c}": late(getattr(diff, c), tc + P.diffuse.latency, tl, f"d_{c}") for c in "rgb"},
                      **{f"s{c}": late(getattr(spec, c), tc + P.specular.latency, tl, f"s_{c}") for c in "rgb"})
         tsh = T["shade"]

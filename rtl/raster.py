@@ -30,8 +30,9 @@ carry chain or one product (the house rule of the pixel pipeline); only the row 
 - **Pixel Calculator**: takes a row from the FIFO in the last clock of the previous one; ``x += 1``,
   ``a += a_x`` per pixel of the span, ``max(1, span)`` clocks a row; a down-counter of the pixels left gives
   the row's last clock as a register.
-- **Per-triangle constants** (``params.consts``, the bump engine's block exponent ``Ae``): carried with every
-  row, copied into every fragment of the triangle.
+- **Per-triangle constants** (``params.carried``: the ``consts``, the bump engine's block exponent ``Ae``, and the
+  ``slopes``, the increments the level of detail of MIP mapping reads): carried with every row, copied into every
+  fragment of the triangle.
 - **Output**: each attribute rounded half-up (one register stage) and saturated to its output format, into
   an output FIFO (:attr:`~fxmodel.units.raster.RasterParams.OUT_FIFO_DEPTH` fragments, LUT RAM) whose head is ``o``.
   The consumer's ``ready`` reaches only the FIFO's read side: the Pixel Calculator and the rounding stage move
@@ -94,7 +95,7 @@ def row_layout(params: RasterParams) -> data.StructLayout:
     fields = {"y": pf, "xl": pf, "n": pf, "nonempty": 1, "single": 1}
     for n in params.names:
         fields |= {f"{n}_start": shape(params.acc_fmt(n)), f"{n}_dx": shape(params.acc_fmt(n))}
-    return data.StructLayout(fields | {n: shape(f) for n, f in params.consts})
+    return data.StructLayout(fields | {n: shape(f) for n, f in params.carried})
 
 
 def _tree(pipe: Pipe, terms: dict, levels: int, carry: dict) -> tuple[dict, dict]:
@@ -180,7 +181,7 @@ class Raster(wiring.Component):
         k_md = [Signal(signed(shape(ef["d"]).width + 1), name=f"k_e{e}_md") for e in range(3)]
         g.k_dx = {n: _sig(P.acc_fmt(n), f"k_{n}_dx") for n in P.names}
         k_dy = {n: _sig(P.acc_fmt(n), f"k_{n}_dy") for n in P.names}
-        g.k_c = {n: _sig(f, f"k_{n}") for n, f in P.consts}
+        g.k_c = {n: _sig(f, f"k_{n}") for n, f in P.carried}
         g.s_v = [_sig(ef["p"], f"s_e{e}_v") for e in range(3)]
         s_r = [_sig(ef["r"], f"s_e{e}_r") for e in range(3)]
         g.s_a = {n: _sig(P.acc_fmt(n), f"s_{n}_row") for n in P.names}
@@ -312,7 +313,7 @@ class Raster(wiring.Component):
         cx, cy = _sig(pf, "cx"), _sig(pf, "cy")
         acc = {n: _sig(P.acc_fmt(n), f"acc_{n}") for n in P.names}
         pdx = {n: _sig(P.acc_fmt(n), f"pc_{n}_dx") for n in P.names}
-        pc_c = {n: _sig(f, f"pc_{n}") for n, f in P.consts}
+        pc_c = {n: _sig(f, f"pc_{n}") for n, f in P.carried}
 
         # the output FIFO: the consumer's ready reaches only its read side; the Pixel Calculator and the rounding
         # stage move under ``advance``, a flip-flop: fragments in the rounding stage and the FIFO leave a place
@@ -355,7 +356,7 @@ class Raster(wiring.Component):
         self._rounded = rounded
         r_valid, r_x, r_y = Signal(name="rnd_valid"), _sig(pf, "rnd_x"), _sig(pf, "rnd_y")
         r_a = {n: Signal(rounded[n].shape(), name=f"rnd_{n}") for n in P.names}
-        r_c = {n: _sig(f, f"rnd_{n}") for n, f in P.consts}
+        r_c = {n: _sig(f, f"rnd_{n}") for n, f in P.carried}
         frag = data.View(fragment_layout(P), ofifo.w_data)
         m.d.comb += [frag.x.eq(r_x), frag.y.eq(r_y)]
         flags = []

@@ -112,6 +112,8 @@ def _bound(p) -> str:
         return "½ ulp (bilinear)" if p.bilinear else "exact (nearest)"
     if name == "shade":
         return "½ LSB unless saturated"
+    if name == "lod":
+        return f"{_num(p.error_bound())} level unless saturated"
     if name == "pipeline":
         return "see Results"
     return f"`bumpmap info {name}`"

@@ -25,7 +25,7 @@ __all__ = ["UNIT_ORDER", "parsers", "commands", "contract_layers", "layout", "mo
            "parameters"]
 
 #: Units in the order of the pixel's path; registered units not listed here follow in name order.
-UNIT_ORDER = ("recip", "divide", "persp", "sampler", "bump", "reflect", "cube", "shade", "pipeline")
+UNIT_ORDER = ("recip", "divide", "persp", "lod", "sampler", "bump", "reflect", "cube", "shade", "pipeline")
 
 def parsers() -> dict[str, argparse.ArgumentParser]:
     """``{command: parser}``: the console script's one parser (:func:`tools.main.build_parser`, one subparser per
@@ -175,11 +175,10 @@ def _extra_classes() -> list[type]:
     from fxmodel.core.fixed import Fmt
     from fxmodel.core.unit import Port, Unit
     from fxmodel.pipeline.engine import EngineParams
-    from fxmodel.units.lod import LodParams
     from fxmodel.units.raster import RasterParams
     from fxmodel.units.rop import RopParams
     from fxmodel.units.texcache import TexCacheParams
-    return [EngineParams, RasterParams, RopParams, TexCacheParams, LodParams, Unit, Port, Fmt]
+    return [EngineParams, RasterParams, RopParams, TexCacheParams, Unit, Port, Fmt]
 
 
 def parameters() -> str:

@@ -283,7 +283,7 @@ def lod_check(name: str, size=None) -> dict:
                       "max_error_vs_float_levels": round(float(np.abs(got[ok] - flt).max(initial=0)), 5),
                       "flagged": int((~ok).sum()), "level_range": [round(float(got[ok].min()), 3),
                                                                    round(float(got[ok].max()), 3)],
-                      "table_entries": 1 << lp.table_bits, "products_per_pixel": lp.products()}
+                      "table_entries": 1 << lp.table_bits, "products_per_pixel": lp.products_per_pixel()}
     return out
 
 

@@ -184,7 +184,7 @@ def register(cls):
 
 #: Modules of the units (importing registers them); a unit's RTL lives under the same file stem in ``rtl/``.
 UNIT_MODULES = tuple(f"fxmodel.units.{s}" for s in ("recip", "divide", "persp", "reflect", "cube", "bump", "sampler",
-                                                     "shade")) + ("fxmodel.pipeline.pixel",)
+                                                     "shade", "lod")) + ("fxmodel.pipeline.pixel",)
 
 
 #: Blocks with a parameter object and presets but not a unit's one-result-per-input contract (a variable number of

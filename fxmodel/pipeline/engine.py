@@ -66,7 +66,7 @@ class EngineParams:
         require(isinstance(self.raster, RasterParams), "raster", type(self.raster).__name__, "must be RasterParams")
         require(isinstance(self.pipeline, PipelineParams), "pipeline", type(self.pipeline).__name__,
                 "must be PipelineParams")
-        attrs = dict(self.raster.attrs + self.raster.consts)
+        attrs = dict(self.raster.attrs + self.raster.carried)
         for p in self.pipeline.inputs:
             require(attrs.get(p.name) == p.fmt, f"raster.attrs[{p.name!r}]", str(attrs.get(p.name)),
                     f"must be the pipeline's input format {p.fmt}")

@@ -48,7 +48,7 @@ from fxmodel.units.sampler import SamplerParams, Texels, mip_texels
 from fxmodel.units.shade import ShadeParams
 from fxmodel.units.shapes import repr_without_defaults
 
-__all__ = ["PipelineParams", "FLAG_BITS", "LOD_INPUTS"]
+__all__ = ["PipelineParams", "FLAG_BITS", "LOD_INPUTS", "lod_slopes"]
 
 FLAG_BITS = {"bump_saturated": 0, "shade_saturated": 1, "degenerate": 2, "w_zero": 3}
 
@@ -60,6 +60,15 @@ LOD_INPUTS = ("Ucx", "Ucy", "Vcx", "Vcy", "Wx", "Wy")
 #: pixels (a triangle's per-pixel steps of ``Uc, Vc, W`` grow as the frame shrinks; the grazing floor at 128 pixels
 #: steps ``Vc`` by up to 77 a pixel on a sliver at the near plane, and ``W`` by up to 2.2).
 LOD_DUV_FMT, LOD_DW_FMT = Fmt(True, 9, 28), Fmt(True, 4, 30)
+
+
+def lod_slopes(lod) -> tuple:
+    """The scan converter's ``slopes`` (:class:`fxmodel.units.raster.RasterParams`) that hand the LOD unit ``lod``
+    its increments from triangles: each of :data:`LOD_INPUTS` the step of ``Uc``, ``Vc`` or ``W`` along ``x`` or
+    ``y``, in ``lod.duv_fmt`` / ``lod.dw_fmt``; none without MIP mapping (``lod`` None)."""
+    if lod is None:
+        return ()
+    return tuple((n, n[:-1], n[-1], lod.dw_fmt if n[0] == "W" else lod.duv_fmt) for n in LOD_INPUTS)
 
 
 @dataclass(frozen=True)
@@ -169,13 +178,19 @@ class PipelineParams(Unit):
     #: The stages in RTL order (``cube`` twice: the normal's and the reflection's address units).
     STAGES = ("persp", "bump_map", "texture", "bump", "reflect", "cube", "cube", "diffuse", "specular", "shade")
 
+    @property
+    def stages(self) -> tuple:
+        """:data:`STAGES`, and ``lod`` when MIP mapping (``rtl/pixel.py`` builds it after ``persp``)."""
+        return self.STAGES[:1] + (("lod",) if self.lod is not None else ()) + self.STAGES[1:]
+
     def products(self) -> tuple:
-        """Every stage's products (:data:`STAGES`), the samplers' blends included."""
-        return tuple(p for name in self.STAGES for p in getattr(self, name).products())
+        """Every stage's products (:attr:`stages`), the samplers' blends and the LOD unit's included."""
+        return tuple(p for name in self.stages for p in getattr(self, name).products())
 
     def memories(self) -> tuple:
-        """Every stage's memories: the reciprocal tables and the four texel memories."""
-        return tuple(m for name in self.STAGES for m in getattr(self, name).memories())
+        """Every stage's memories: the reciprocal tables, the four texel memories (the texture's MIP levels), the
+        LOD unit's ``log2`` table."""
+        return tuple(m for name in self.stages for m in getattr(self, name).memories())
 
     def _info(self):
         mems = {n: getattr(self, n).info()["texels"] for n in ("bump_map", "texture", "diffuse", "specular")}

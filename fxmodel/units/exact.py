@@ -409,5 +409,31 @@ def _st_float(Rf, rf) -> float:
     return float(np.max(np.maximum(np.abs(sa - sb), np.abs(ta - tb))[same], initial=0.0))
 
 
+def measure_lod(params, rows, out) -> dict:
+    """Worst and mean distance in levels between the LOD unit's unflagged outputs and the exact level of the same
+    codes (:meth:`fxmodel.units.lod.LodParams.exact`, exact fractions); flagged rows counted apart, a saturated
+    one checked to lie beyond the format's end it stops at."""
+    rows = np.asarray(rows, dtype=np.int64)
+    lam, flags = out[:, 0], out[:, 1]
+    scale = 1 << params.lod_frac
+    worst, worst_row, total, count, sat_ok = 0.0, None, 0.0, 0, True
+    for i in np.flatnonzero(flags & 0b011 == 0):
+        exact = params.exact(*rows[i])
+        got = lam[i] / scale
+        if flags[i]:                              # saturated: the exact level lies at or beyond the end
+            sat_ok &= bool(exact >= got if lam[i] == params.out_fmt.max_code else exact <= got)
+            continue
+        err = abs(got - exact)
+        total, count = total + err, count + 1
+        if err > worst:
+            worst, worst_row = err, rows[i].tolist()
+    bound = params.error_bound()
+    return {"vectors": count, "max_error_levels": worst, "mean_error_levels": total / count if count else 0.0,
+            "worst_input_codes": worst_row, "within_bound": bool(worst <= bound + 1e-12 and sat_ok),
+            "bound_levels": bound, "flagged": {"zero": int((flags & 1 != 0).sum()),
+                                               "bad_w": int((flags & 2 != 0).sum()),
+                                               "saturated": int((flags & 4 != 0).sum())}}
+
+
 MEASURES = {"recip": measure_recip, "divide": measure_divide, "persp": measure_persp, "bump": measure_bump,
-            "cube": measure_cube, "reflect": measure_reflect}
+            "cube": measure_cube, "reflect": measure_reflect, "lod": measure_lod}

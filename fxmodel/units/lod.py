@@ -42,7 +42,9 @@ from fractions import Fraction
 
 import numpy as np
 
+from fxmodel.core.cost import DSP_BITS, Memory, Product, pieces
 from fxmodel.core.fixed import Fmt
+from fxmodel.core.unit import Port, Unit, register
 
 __all__ = ["LodParams", "FLAG_ZERO", "FLAG_BAD_W", "FLAG_SATURATED"]
 
@@ -52,7 +54,7 @@ _bitlen = np.frompyfunc(int.bit_length, 1, 1)
 
 
 @dataclass(frozen=True)
-class LodParams:
+class LodParams(Unit):
     """Parameters of the level-of-detail unit.
 
     Parameters
@@ -72,6 +74,8 @@ class LodParams:
     bias : int
         LOD bias, a code of ``lod_frac`` fraction bits.
     """
+
+    NAME = "lod"
 
     uv_fmt: Fmt = Fmt(True, 6, 20)
     w_fmt: Fmt = Fmt(True, 2, 22)
@@ -129,10 +133,108 @@ class LodParams:
         """Bound on ``|lambda - lambda_exact|`` in levels (module docstring)."""
         return 2.5 * self.table_error() + 2.0 ** -(self.lod_frac + 1)
 
-    def products(self) -> int:
-        """Multipliers per pixel: eight for the ``D`` terms, four by the size (shifts for a power of two), four
-        squares."""
+    def products_per_pixel(self) -> int:
+        """Products per pixel: eight for the ``D`` terms, four by the size (shifts for a power of two; the RTL
+        makes the others constant shift-and-add products, no multiplier block), four squares."""
         return 8 + sum(2 for n in self.size if n & (n - 1)) + 4
+
+    # -- the unit contract (fxmodel.core.unit.Unit): ports, latency, hardware -------------------------------
+    FLAGS_FMT = Fmt(False, 3, 0)
+
+    @property
+    def inputs(self):
+        u, w, du, dw = self.uv_fmt, self.w_fmt, self.duv_fmt, self.dw_fmt
+        return (Port("U", u, "u/w at the pixel"), Port("V", u, "v/w at the pixel"), Port("W", w, "1/w at the pixel"),
+                Port("Ux", du, "dU/dx of the triangle"), Port("Uy", du, "dU/dy"), Port("Vx", du, "dV/dx"),
+                Port("Vy", du, "dV/dy"), Port("Wx", dw, "dW/dx of the triangle"), Port("Wy", dw, "dW/dy"))
+
+    @property
+    def outputs(self):
+        return (Port("level", self.out_fmt, "level plus bias, saturated"),
+                Port("flags", self.FLAGS_FMT, "bit 0 Q = 0, bit 1 W <= 0, bit 2 saturated"))
+
+    @property
+    def d_split(self) -> bool:
+        """Whether an operand of the ``D`` products is wider than one multiplier block (the RTL then registers
+        their partial products, ``rtl.recip.split_products``: one stage more)."""
+        return max(self.uv_fmt.width, self.w_fmt.width, self.duv_fmt.width, self.dw_fmt.width) > DSP_BITS
+
+    @property
+    def latency(self) -> int:
+        """Stages (``rtl/lod.py``): [partial products of the ``D`` products] | the two products of each ``D`` |
+        ``D`` | the square's piece products | ``D^2`` in two | ``Q_x, Q_y`` | ``Q_x > Q_y`` | ``Q`` |
+        leading-zero counts | normalizing shifts | table read | ``2 lambda`` | round, bias, saturate."""
+        return 13 + int(self.d_split)
+
+    @property
+    def d_bound(self) -> int:
+        """Largest ``|D|`` code (at ``d_frac`` fraction bits) the input formats allow."""
+        F = self.d_frac
+        su = F - self.duv_fmt.frac_bits - self.w_fmt.frac_bits
+        sw = F - self.uv_fmt.frac_bits - self.dw_fmt.frac_bits
+        big = lambda f: -f.min_code                                     # noqa: E731 -- the largest magnitude
+        return (big(self.duv_fmt) * big(self.w_fmt) << su) + (big(self.uv_fmt) * big(self.dw_fmt) << sw)
+
+    @property
+    def d_bits(self) -> int:
+        """Width of the signed ``D`` registers: ``|D| <= d_bound`` (a proven narrowing)."""
+        return self.d_bound.bit_length() + 1
+
+    @property
+    def q_bits(self) -> int:
+        """Width of the unsigned ``Q`` register: ``Q <= d_bound^2 (w_tex^2 + h_tex^2)`` (a proven narrowing)."""
+        return (self.d_bound ** 2 * (self.size[0] ** 2 + self.size[1] ** 2)).bit_length()
+
+    @property
+    def table_word_bits(self) -> int:
+        """Bits of a ``log2`` table entry (the largest entry's)."""
+        return max(1, int(self.table().max()).bit_length())
+
+    def square_pieces(self) -> list[tuple[int, int, int, int, bool, bool]]:
+        """The piece products of ``D^2`` (``D`` cut by :func:`fxmodel.core.cost.pieces`): ``(i, j, a_bits, b_bits,
+        a_signed, b_signed)`` for ``i <= j``, a cross product (``i < j``) once and doubled by a shift; one
+        multiplier block each (``rtl/lod.py`` builds exactly these)."""
+        cut = pieces(self.d_bits, True)
+        return [(i, j, cut[i][1], cut[j][1], cut[i][2], cut[j][2]) for i in range(len(cut)) for j in range(i, len(cut))]
+
+    def products(self) -> tuple:
+        """Eight ``D`` products (``U_x W`` and ``U W_x`` and the others; split into registered partial products
+        when an operand is wider than a block), the piece products of four squares ``D^2``; the map's size is a
+        constant (shifts, or shift-and-add: ``rtl.fixed.const_mul``)."""
+        split = self.d_split
+        du, w, u, dw = self.duv_fmt, self.w_fmt, self.uv_fmt, self.dw_fmt
+        sq = [Product(a, b, sa, sb, count=4, name=f"D^2 piece {i}{j}") for i, j, a, b, sa, sb in self.square_pieces()]
+        return (Product(du.width, w.width, True, True, count=4, split=split, name="U_x W"),
+                Product(u.width, dw.width, True, True, count=4, split=split, name="U W_x"), *sq)
+
+    def memories(self) -> tuple:
+        """The ``log2`` table, read for ``Q`` and for ``W`` (two read ports)."""
+        return (Memory(1 << self.table_bits, self.table_word_bits, read_ports=2, name="log2 table"),)
+
+    def _compute(self, cols):
+        return list(self.levels(*cols))
+
+    def hard_cases(self) -> np.ndarray:
+        """Grazing (``W`` small, ``W_x`` large), magnified (increments of a few ulps), degenerate (zero
+        increments: ``Q = 0``), ``W`` at its far end (one ulp) and at its largest, ``W <= 0``, saturation (the
+        largest increments at the smallest ``W``; a minimal footprint beyond the format's bottom), powers of two."""
+        u, w, du, dw = self.uv_fmt, self.w_fmt, self.duv_fmt, self.dw_fmt
+        one_w = 1 << w.frac_bits
+        ws = [min(v, w.max_code) for v in (1, 2, 3, one_w >> 12, one_w >> 1, one_w - 1, one_w, w.max_code)]
+        ws += [0, -1, w.min_code]
+        uvs = [0, 1, -1, u.max_code, u.min_code, min(3 << u.frac_bits, u.max_code)]
+        incs = [(0, 0, 0, 0, 0, 0), (1, 0, 0, 1, 0, 0), (0, 0, 0, 0, 1, 0),          # degenerate, magnified
+                (1 << max(0, du.frac_bits - 6), 0, 0, 1 << max(0, du.frac_bits - 6), 0, 0),       # one texel a pixel
+                (du.max_code, du.min_code, du.min_code, du.max_code, dw.max_code, dw.min_code),   # saturation
+                (3, -2, 5, 7, dw.max_code, -dw.max_code),                              # grazing: W_x large
+                (1 << max(0, du.frac_bits - 10), 1 << max(0, du.frac_bits - 4), 0, 1, 0,
+                 -(1 << max(0, dw.frac_bits - 3)))]
+        rows = [[a, b, ww, *inc] for ww in ws for a in uvs for b in uvs[::2] for inc in incs]
+        return np.array(rows, dtype=np.int64)
+
+    def _info(self) -> dict:
+        return {"error_bound_levels": self.error_bound(), "table_error_levels": self.table_error(),
+                "d_bits": self.d_bits, "q_bits": self.q_bits, "products_per_pixel": self.products_per_pixel()}
 
     def _log2(self, x):
         """``log2 x`` in ``table_frac`` fraction bits for positive integers ``x`` (object array)."""
@@ -142,7 +244,15 @@ class LodParams:
         idx = np.array([int(i) & ((1 << t) - 1) for i in idx], dtype=np.int64)
         return np.array([int(q) << self.table_frac for q in p], dtype=object) + self.table()[idx].astype(object)
 
-    def compute(self, U, V, W, Ux, Uy, Vx, Vy, Wx, Wy):
+    def compute(self, *cols):
+        """``compute(U, V, W, Ux, Uy, Vx, Vy, Wx, Wy)``: :meth:`levels`; ``compute(codes)`` with one array of
+        shape ``(K, 9)`` (the unit contract of :meth:`fxmodel.core.unit.Unit.compute`): codes ``(K, 2)`` of the
+        level and the flags, range-checked."""
+        if len(cols) == 1:
+            return Unit.compute(self, cols[0])
+        return self.levels(*cols)
+
+    def levels(self, U, V, W, Ux, Uy, Vx, Vy, Wx, Wy):
         """Level codes and flags (two ``int64`` arrays) from the integer codes of the pixel's ``U, V, W`` and the
         triangle's increments (see the module docstring)."""
         # exact Python ints: the products exceed 64 bits
@@ -195,3 +305,11 @@ class LodParams:
         if r == 0:
             return -math.inf
         return (math.log2(r.numerator) - math.log2(r.denominator)) / 2 + self.bias / (1 << self.lod_frac)
+
+
+LodParams.PRESETS = {
+    "default": LodParams(),
+    # a 40 x 24 map (the size a constant shift-and-add product), six fraction bits, a negative bias
+    "npot": LodParams(size=(40, 24), table_bits=7, lod_frac=6, bias=-13, guard=3),
+}
+register(LodParams)

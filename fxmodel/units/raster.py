@@ -128,6 +128,7 @@ from fxmodel.core.cost import DSP_BITS, Product, estimate
 from fxmodel.core.fixed import Fmt
 from fxmodel.core.rounding import Overflow, Rounding, narrow
 from fxmodel.core.unit import Port, require
+from fxmodel.units.shapes import repr_without_defaults
 
 from .raster_setup import (
     EDGE_LEFT,
@@ -193,6 +194,11 @@ class RasterParams:
     consts : tuple of (str, Fmt)
         Per-triangle constants (integer formats): carried by the record and passed to every fragment of the
         triangle unchanged (the bump engine's block exponent ``Ae``).
+    slopes : tuple of (str, str, str, Fmt)
+        Per-triangle increments carried with every fragment like ``consts`` (the level of detail of MIP mapping
+        needs them, ``fxmodel/units/lod.py``): ``(field, attribute, axis, fmt)``, the step of the exact plane of
+        ``attribute`` per pixel along ``axis`` (``"x"`` or ``"y"``), rounded half-up once by the set-up to the
+        signed ``fmt``; a triangle whose step lies outside ``fmt`` is refused, as a vertex value outside its format.
     """
 
     NAME: ClassVar[str] = "raster"
@@ -219,6 +225,12 @@ class RasterParams:
     guard_pixels: int = 4096
     extra_guard: int = 1
     consts: tuple = ()
+    slopes: tuple = ()
+
+    def __repr__(self):
+        """The dataclass ``repr`` without ``slopes`` when there are none (as before they existed: build caches and
+        recorded resource counts are keyed by it)."""
+        return repr_without_defaults(self, ("slopes",))
 
     def __post_init__(self):
         require(isinstance(self.attrs, tuple) and len(self.attrs) > 0, "attrs", self.attrs,
@@ -235,7 +247,16 @@ class RasterParams:
                     and isinstance(item[1], Fmt) and item[1].frac_bits == 0 and item[1].width <= 32, "consts",
                     item, "each entry must be (name, integer Fmt of at most 32 bits)")
             names.append(item[0])
-        require(len(set(names)) == len(names), "attrs", names, "names (attrs and consts) must be unique")
+        attrs = [n for n, _ in self.attrs]
+        require(isinstance(self.slopes, tuple), "slopes", self.slopes, "must be a tuple of (field, attribute, axis, "
+                "Fmt) entries")
+        for item in self.slopes:
+            require(isinstance(item, tuple) and len(item) == 4 and isinstance(item[0], str) and item[1] in attrs
+                    and item[2] in ("x", "y") and isinstance(item[3], Fmt) and item[3].signed
+                    and item[3].width <= 48, "slopes", item,
+                    "each entry must be (field, an attribute's name, 'x' or 'y', signed Fmt of at most 48 bits)")
+            names.append(item[0])
+        require(len(set(names)) == len(names), "attrs", names, "names (attrs, consts, slopes) must be unique")
         for name in ("max_size", "subpixel_bits", "guard_pixels", "extra_guard"):
             value = getattr(self, name)
             require(isinstance(value, int) and not isinstance(value, bool), name, value, "must be an int")
@@ -315,6 +336,7 @@ class RasterParams:
         for e in range(3):
             ports += [Port(f"e{e}_{k}", f, f"edge {e}: {k}") for k, f in self.edge_fmts.items()]
         ports += [Port(name, f, "per-triangle constant") for name, f in self.consts]
+        ports += [Port(name, f, f"d{a}/d{ax}, per-triangle") for name, a, ax, f in self.slopes]
         for name, _ in self.attrs:
             f = self.acc_fmt(name)
             ports += [Port(f"{name}_0", f, f"{name} at (x0, y0)"), Port(f"{name}_dx", f, f"d{name}/dx"),
@@ -326,7 +348,13 @@ class RasterParams:
         """The fragment (the RTL's output payload): ``x``, ``y``, the attributes, the triangle's constants,
         ``flags`` (bit 0: an attribute saturated at the output rounding)."""
         return ((Port("x", self.pixel_fmt), Port("y", self.pixel_fmt))
-                + tuple(Port(n, f) for n, f in self.attrs + self.consts) + (Port("flags", Fmt(False, 1, 0)),))
+                + tuple(Port(n, f) for n, f in self.attrs + self.carried) + (Port("flags", Fmt(False, 1, 0)),))
+
+    @property
+    def carried(self) -> tuple:
+        """``(name, Fmt)`` of the record's fields every fragment of the triangle carries unchanged: :attr:`consts`,
+        then the :attr:`slopes`."""
+        return self.consts + tuple((n, f) for n, _, _, f in self.slopes)
 
     # the design's stream payloads under the names every streaming harness reads (cosim/stream.py)
     @property
@@ -504,7 +532,7 @@ def scan(params: RasterParams, records) -> ScanResult:
         out, sat = narrow(word, fa.frac_bits, fo, Rounding.HALF_UP, Overflow.SATURATE, f"raster {name}")
         codes[name] = out
         flags |= sat.astype(np.int64)
-    for name, _ in P.consts:                          # per triangle: every fragment carries the record's code
+    for name, _ in P.carried:                         # per triangle: every fragment carries the record's code
         codes[name] = mat[:, names.index(name)][rec_idx]
     codes["flags"] = flags
     return ScanResult(codes=codes, record=rec_idx, acc=acc, clocks=clocks)

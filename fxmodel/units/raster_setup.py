@@ -150,6 +150,13 @@ def append_planes(P, fields: dict, tri: dict, values: dict, t: int):
         fields[f"{name}_0"].append(_wrap(_round_half_up(num0 / abs(a2), fb), acc))
         fields[f"{name}_dx"].append(_wrap(_round_half_up(numx / abs(a2), fb), acc))
         fields[f"{name}_dy"].append(_wrap(_round_half_up(numy / abs(a2), fb), acc))
+        for field, attr, axis, sf in P.slopes:           # the exact step, rounded once to its own format
+            if attr == name:
+                code = _round_half_up((numx if axis == "x" else numy) / abs(a2), sf.frac_bits)
+                if not sf.min_code <= code <= sf.max_code:
+                    raise ValueError(f"triangle {t}: {field} = d{name}/d{axis} is {float(code * sf.ulp)}, outside "
+                                     f"its format {sf}: a triangle this preset cannot draw")
+                fields[field].append(code)
 
 
 # ------------------------------------------------------------------------------------------------------------

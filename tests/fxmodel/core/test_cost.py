@@ -107,6 +107,19 @@ def test_pipeline_declares_every_stage_sampler_blends_included():
     assert any(p.name.startswith("f*") for p in P.products())           # the blends are in
 
 
+def test_pipeline_with_mip_mapping_declares_its_lod_unit_and_trilinear_texture():
+    """MIP mapping (``lod``): the RTL's LOD unit and trilinear color sampler are what the pipeline declares, and the
+    cost is the stages' own, the LOD unit's included."""
+    from host.render import pipeline_params
+    P = pipeline_params("grazing-floor", "grazing-floor-mip")
+    assert P.lod is not None and P.texture.trilinear
+    assert built(P) == declared(P)
+    stages = [P.persp, P.lod, P.bump_map, P.texture, P.bump, P.reflect, P.cube, P.cube, P.diffuse, P.specular,
+              P.shade]
+    assert P.cost()["dsp"] == sum(s.cost()["dsp"] for s in stages) > P.replace(
+        lod=None, texture=P.texture.replace(filter="bilinear", mips=(), lod_fmt=None)).cost()["dsp"]
+
+
 @given(st.integers(1, 80), st.booleans(), st.data())
 def test_pieces_reassemble_every_operand(width, signed, data):
     """Exact integers: the pieces of any code sum back to it; each fits an 18-bit operand, and all but the top

@@ -106,3 +106,60 @@ def test_vectorized_equals_one_at_a_time():
     for i in range(50):
         o, f = P.compute(*[[c[i]] for c in cols])
         assert o[0] == out[i] and f[0] == flags[i]
+
+
+# -- the unit contract (fxmodel.core.unit.Unit): what the RTL, the harness and the cost model read ----------------
+def test_unit_compute_on_a_code_matrix_equals_the_levels():
+    from fxmodel.core.unit import preset
+    for p in (preset("lod"), preset("lod", "npot")):
+        codes = np.concatenate([p.hard_cases(), p.random_inputs(np.random.default_rng(3), 200)])
+        out = p.compute(codes)
+        lam, flags = p.levels(*codes.T)
+        assert out.shape == (len(codes), 2) and (out[:, 0] == lam).all() and (out[:, 1] == flags).all()
+        assert [q.name for q in p.inputs] == ["U", "V", "W", "Ux", "Uy", "Vx", "Vy", "Wx", "Wy"]
+        # the hard cases reach a level, each flag and both ends of the format
+        assert {FLAG_ZERO, FLAG_BAD_W, FLAG_SATURATED} <= {int(f) & b for f in out[:, 1] for b in (1, 2, 4)}
+        assert p.out_fmt.max_code in out[:, 0] and (out[out[:, 1] == 0, 0] < 0).any()
+
+
+def test_unit_rejects_codes_outside_the_formats():
+    with pytest.raises(ValueError, match="lod input W"):
+        P.compute(np.array([[0, 0, P.w_fmt.max_code + 1, 0, 0, 0, 0, 0, 0]]))
+
+
+@given(st.integers(-P.d_bound, P.d_bound))
+def test_square_pieces_reassemble_d_squared(d):
+    """The RTL's ``D^2``: the pieces of :func:`fxmodel.core.cost.pieces`, each cross product once, doubled."""
+    from fxmodel.core.cost import pieces
+    cut = pieces(P.d_bits, True)
+    bits = d & ((1 << P.d_bits) - 1)
+    vals = []
+    for lo, n, signed in cut:
+        v = (bits >> lo) & ((1 << n) - 1)
+        vals.append(v - (1 << n) if signed and v >> (n - 1) else v)
+    total = sum((vals[i] * vals[j]) << (cut[i][0] + cut[j][0] + (i != j)) for i, j, *_ in P.square_pieces())
+    assert total == d * d and abs(d) < 1 << (P.d_bits - 1)
+
+
+def test_q_fits_its_register_at_the_formats_extremes():
+    big = [P.uv_fmt.min_code, P.uv_fmt.min_code, P.w_fmt.min_code, P.duv_fmt.min_code, P.duv_fmt.min_code,
+           P.duv_fmt.min_code, P.duv_fmt.min_code, P.dw_fmt.max_code, P.dw_fmt.max_code]
+    fdu, fw = P.duv_fmt.frac_bits + P.w_fmt.frac_bits, P.uv_fmt.frac_bits + P.dw_fmt.frac_bits
+    d = (big[3] * big[2] << (P.d_frac - fdu)) - (big[0] * big[7] << (P.d_frac - fw))
+    assert abs(d) <= P.d_bound and (2 * d * d * P.size[0] ** 2).bit_length() <= P.q_bits
+
+
+def test_errors_measure_holds_the_bound_and_counts_the_flags():
+    """``bumpmap errors lod`` (:func:`fxmodel.units.exact.measure_lod`): the hard cases and random pixels within
+    the bound, each flag counted; an output moved by one ulp beyond the bound is caught."""
+    from fxmodel.units.exact import measure_lod
+    rows = np.concatenate([P.hard_cases(), P.random_inputs(np.random.default_rng(5), 3000)])
+    out = P.compute(rows)
+    rep = measure_lod(P, rows, out)
+    assert rep["within_bound"] and 0 < rep["max_error_levels"] <= rep["bound_levels"]
+    assert all(rep["flagged"][k] > 0 for k in ("zero", "bad_w", "saturated"))
+    worst = next(i for i in range(len(rows)) if rows[i].tolist() == rep["worst_input_codes"])
+    exact = P.exact(*rows[worst])
+    bad = out.copy()
+    bad[worst, 0] += int(np.sign(out[worst, 0] / (1 << P.lod_frac) - exact)) * 8    # 8 ulps further away
+    assert not measure_lod(P, rows, bad)["within_bound"]

@@ -207,6 +207,29 @@ def test_a_vertex_value_outside_its_format_is_refused_naming_the_triangle():
         setup(small, X, Y, vals, 300, 16)
 
 
+def test_slopes_are_the_exact_steps_rounded_once_and_refused_outside_their_format():
+    """``slopes`` (MIP mapping's increments): the exact plane's step, rounded half-up, carried by every fragment;
+    a step outside its format refused naming the triangle; no slopes, the ``repr`` of before (caches keyed by it)."""
+    import dataclasses
+    assert "slopes" not in repr(small)
+    fine, coarse = Fmt(True, 4, 20), Fmt(True, 1, 6)
+    X, Y = np.array([[0, 5 * S, 0]]), np.array([[0, 0, 4 * S]])
+    vals = {"U": np.array([[0.0, 3.0, 1.0]]), "W": np.ones((1, 3))}
+    p = dataclasses.replace(small, slopes=(("Ux", "U", "x", fine), ("Uy", "U", "y", fine)))
+    assert "slopes" in repr(p) and p.record[-len(p.names) * 3 - 2].name == "Ux"
+    recs = setup(p, X, Y, vals, 16, 16)
+    # U = 3 x / 5 + y / 4 in pixels: steps 0.6 and 0.25, rounded half-up at 20 fraction bits
+    assert recs.codes["Ux"][0] == int(Fraction(3, 5) * (1 << 20) + Fraction(1, 2)) and \
+        recs.codes["Uy"][0] == 1 << 18
+    frags = scan(p, recs)
+    assert len(frags) == 10 and (frags.codes["Ux"] == recs.codes["Ux"][0]).all()
+    with pytest.raises(ValueError, match="triangle 0: Wy = dW/dy"):
+        setup(dataclasses.replace(small, slopes=(("Wy", "W", "y", coarse),)), X, np.array([[0, 0, S]]),
+              {"U": vals["U"], "W": np.array([[0.1, 0.1, 1.9]])}, 16, 16)          # dW/dy = 1.8, above 1
+    with pytest.raises(ValueError, match="slopes"):
+        dataclasses.replace(small, slopes=(("Ux", "Q", "x", fine),))
+
+
 def test_cli_info_prints_the_formats(capsys):
     from tools.main import main
     assert main(["info", "raster"]) == 0
@@ -232,6 +255,31 @@ def test_shipped_scenes_from_triangles_within_one_lsb_of_reference_a(name):
     assert report["input"] == "triangles" and report["fragments"] == len(tframe.frame.frags) > 1000
     assert report["triangles_vs_fragments"]["max_lsb_vs_float"] <= 1
     assert report["clocks_per_fragment"] <= 1.25 and report["raster_saturated"] == 0
+
+
+def test_grazing_floor_with_mip_mapping_draws_from_triangles():
+    """MIP mapping from triangles: the scan converter hands the LOD unit its triangle's increments (``slopes``),
+    which are the steps of the very planes it interpolates: ``Uc(x, y + 1) - Uc(x, y)`` on every vertical pair of a
+    triangle's fragments, and the same along x for ``W``."""
+    from host.render import from_triangles, prepare, render_triangles
+    tframe = from_triangles(prepare("scenes/grazing-floor.toml", preset="grazing-floor-mip", cube_size=16))
+    P = tframe.params
+    assert P.pipeline.lod is not None and [n for n, *_ in P.raster.slopes] == ["Ucx", "Ucy", "Vcx", "Vcy", "Wx", "Wy"]
+    res = tframe.scan
+    c = res.codes
+    at = {(int(r), int(x), int(y)): i for i, (r, x, y) in enumerate(zip(res.record, c["x"], c["y"]))}
+    pairs = 0
+    for attr, slope, dx, dy in (("Uc", "Ucy", 0, 1), ("Vc", "Vcy", 0, 1), ("W", "Wx", 1, 0)):
+        fo, fs = P.raster.out_fmt(attr).frac_bits, dict(P.raster.carried)[slope].frac_bits
+        for i in range(0, len(res), 7):
+            j = at.get((int(res.record[i]), int(c["x"][i]) + dx, int(c["y"][i]) + dy))
+            if j is not None:
+                step = Fraction(int(c[attr][j] - c[attr][i]), 1 << fo)
+                assert abs(step - Fraction(int(c[slope][i]), 1 << fs)) <= Fraction(1, 1 << fo), (attr, i)
+                pairs += 1
+    assert pairs > 1000
+    report = render_triangles(tframe)
+    assert report["input"] == "triangles" and report["raster_saturated"] == 0
 
 
 def test_engine_parameters_check_the_formats():

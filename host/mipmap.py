@@ -38,7 +38,7 @@ from __future__ import annotations
 import numpy as np
 
 from host.frontend import clip_space
-from host.reference import sample_float
+from host.reference import sample_trilinear
 
 __all__ = ["downsample", "pyramid", "lean_pyramid", "screen_derivatives", "texel_derivatives", "level_of_detail",
            "sample_trilinear", "sample_anisotropic", "anisotropic_taps", "KERNELS", "lod_increments",
@@ -127,34 +127,6 @@ def level_of_detail(dtex: np.ndarray, bias: float = 0.0) -> np.ndarray:
     coordinates ``dtex`` ``(K, 2, 2)`` (OpenGL's scale factor); not clamped (negative: magnified)."""
     rho = np.maximum(np.hypot(dtex[:, 0, 0], dtex[:, 1, 0]), np.hypot(dtex[:, 0, 1], dtex[:, 1, 1]))
     return np.log2(np.maximum(rho, 1e-300)) + bias
-
-
-def _bilinear(level: np.ndarray, s, t) -> np.ndarray:
-    return sample_float(level[None], np.zeros(len(s), np.int64), s, t, "bilinear", "repeat")
-
-
-def sample_trilinear(levels: list[np.ndarray], s, t, lod, trilinear: bool = True) -> np.ndarray:
-    """Sample a pyramid at ``(s, t)`` (1 = one tile, repeating) with level ``lod`` per fragment, clamped to the
-    pyramid: bilinear in the two levels around it and a linear blend between them (``trilinear=False``: the
-    nearest level only). Returns ``(K, C)``."""
-    s, t = np.asarray(s, np.float64), np.asarray(t, np.float64)
-    lam = np.clip(np.asarray(lod, np.float64), 0.0, len(levels) - 1)
-    if not trilinear:
-        lam = np.floor(lam + 0.5)
-    l0 = np.minimum(np.floor(lam).astype(np.int64), len(levels) - 1)
-    f = lam - l0
-    out = np.zeros((len(s), levels[0].shape[-1]))
-    for lv in np.unique(l0):
-        sel = np.flatnonzero(l0 == lv)
-        lo = _bilinear(levels[lv], s[sel], t[sel])
-        if lv + 1 < len(levels):
-            hi_sel = f[sel] > 0
-            hi = lo.copy()
-            if hi_sel.any():
-                hi[hi_sel] = _bilinear(levels[lv + 1], s[sel][hi_sel], t[sel][hi_sel])
-            lo = lo + f[sel][:, None] * (hi - lo)
-        out[sel] = lo
-    return out
 
 
 def anisotropic_taps(dtex: np.ndarray, max_taps: int = 16):

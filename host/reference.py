@@ -13,7 +13,7 @@ difference from (a) is what the reflectance-cube method itself costs (lighting s
 Both produce bytes by one rounding (half-up) and clipping to ``[0, 255]``, as the hardware's shading does.
 
 With MIP mapping (``texture_levels`` and ``texture_lod``, :func:`host.mipmap.reference_texture`), both sample the
-color texture trilinearly in float (:func:`host.mipmap.sample_trilinear`: exact bilinear weights in the two levels
+color texture trilinearly in float (:func:`sample_trilinear`: exact bilinear weights in the two levels
 around the level of detail, clamped to the pyramid, and an exact blend between them) from the stored pyramid at the
 LOD unit's level: the same algorithm as the trilinear sampler without its quantization.
 """
@@ -24,8 +24,8 @@ import numpy as np
 
 from fxmodel.units.cube import FLIP_S, FLIP_T, CubeParams
 
-__all__ = ["sample_float", "cube_address_float", "perturbed", "float_pipeline", "ideal_phong", "to_bytes", "psnr",
-           "max_lsb"]
+__all__ = ["sample_float", "sample_trilinear", "cube_address_float", "perturbed", "float_pipeline", "ideal_phong",
+           "to_bytes", "psnr", "max_lsb"]
 
 
 def sample_float(texels: np.ndarray, face, s, t, filter: str, edge: str) -> np.ndarray:
@@ -62,6 +62,34 @@ def sample_float(texels: np.ndarray, face, s, t, filter: str, edge: str) -> np.n
     return top * (1 - fy) + bot * fy
 
 
+def _bilinear(level: np.ndarray, s, t) -> np.ndarray:
+    return sample_float(level[None], np.zeros(len(s), np.int64), s, t, "bilinear", "repeat")
+
+
+def sample_trilinear(levels: list[np.ndarray], s, t, lod, trilinear: bool = True) -> np.ndarray:
+    """Sample a pyramid at ``(s, t)`` (1 = one tile, repeating) with level ``lod`` per fragment, clamped to the
+    pyramid: bilinear in the two levels around it and a linear blend between them (``trilinear=False``: the
+    nearest level only). Returns ``(K, C)``."""
+    s, t = np.asarray(s, np.float64), np.asarray(t, np.float64)
+    lam = np.clip(np.asarray(lod, np.float64), 0.0, len(levels) - 1)
+    if not trilinear:
+        lam = np.floor(lam + 0.5)
+    l0 = np.minimum(np.floor(lam).astype(np.int64), len(levels) - 1)
+    f = lam - l0
+    out = np.zeros((len(s), levels[0].shape[-1]))
+    for lv in np.unique(l0):
+        sel = np.flatnonzero(l0 == lv)
+        lo = _bilinear(levels[lv], s[sel], t[sel])
+        if lv + 1 < len(levels):
+            hi_sel = f[sel] > 0
+            hi = lo.copy()
+            if hi_sel.any():
+                hi[hi_sel] = _bilinear(levels[lv + 1], s[sel][hi_sel], t[sel][hi_sel])
+            lo = lo + f[sel][:, None] * (hi - lo)
+        out[sel] = lo
+    return out
+
+
 def cube_address_float(v: np.ndarray):
     """``(face, s, t)`` of vectors ``v (K, 3)`` by the cube unit's table and tie rule, with exact division."""
     face, ma, a, b = CubeParams.select(v[:, 0], v[:, 1], v[:, 2])
@@ -90,7 +118,6 @@ def perturbed(frags, bump_float, bump_filter):
 def _texture(frags, texture, texture_filter, texture_levels, texture_lod) -> np.ndarray:
     """The color texture's float sample ``(K, 3)``: bilinear at level 0, or trilinear (module docstring)."""
     if texture_levels is not None:
-        from host.mipmap import sample_trilinear  # host.mipmap uses this module's sampler
         return sample_trilinear(texture_levels, frags["sc"], frags["tc"], texture_lod)
     return sample_float(np.asarray(texture, dtype=np.float64)[None], np.zeros(len(frags["sc"]), np.int64),
                         frags["sc"], frags["tc"], texture_filter, "repeat")

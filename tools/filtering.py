@@ -27,7 +27,7 @@ from fxmodel.core.paths import ROOT, SCENES
 from host.atomic import atomic_save_png, atomic_write_text
 from host.shipped import scene_preset
 
-__all__ = ["add_arguments", "run", "study_choices", "CHOSEN", "flicker", "measure_scene"]
+__all__ = ["add_arguments", "run", "study_choices", "CHOSEN", "flicker", "measure_scene", "pan"]
 
 #: Scenes of the study and of the flicker measure.
 STUDY_SCENES = ("grazing-floor", "tin-plane")
@@ -185,7 +185,7 @@ def pattern_study(name: str, samples: int, check: int, reference: int, size=None
     return out
 
 
-def _pan(scene, degrees: float):
+def pan(scene, degrees: float):
     """``scene`` with its camera turned by ``degrees`` about the world's y axis (a yaw pan)."""
     cam = scene.camera
     d = np.subtract(cam.target, cam.position)
@@ -206,7 +206,7 @@ def flicker(name: str, samples: int, frames: int, degrees: float, size=None) -> 
     trilinear = Choice(color="trilinear")
     seq = {"none": [], "trilinear": [], "ours": [], "truth": [], "full": []}
     for i in range(frames):
-        scene = _pan(base, i * degrees)
+        scene = pan(base, i * degrees)
         frame = _frame(scene, name)
         truth = true_image(scene, samples)
         seq["none"].append(frame.image(render(frame, references=False)["_model_bytes"]).astype(np.float64))

@@ -77,12 +77,12 @@ def flicker(args, name: str = "grazing-floor") -> dict:
     from host.scene import load_scene
     from host.shipped import scene_preset
     from host.truth import true_image
-    from tools.filtering import _pan
+    from tools.filtering import pan
     base, preset = load_scene(SCENES / f"{name}.toml"), scene_preset(name)
     units = {"none": preset, "mip": mip_units(preset, args.levels, args.bias, args.level_bits)}
     seq = {"none": [], "mip": [], "truth": [], "full": []}
     for i in range(args.pan_frames):
-        scene = _pan(base, i * args.pan_degrees)
+        scene = pan(base, i * args.pan_degrees)
         for key, u in units.items():
             frame = prepare(scene, preset=u)
             seq[key].append(frame.image(render(frame, references=False)["_model_bytes"]).astype(np.float64))

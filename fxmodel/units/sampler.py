@@ -59,7 +59,15 @@ from fxmodel.core.fixed import Fmt
 from fxmodel.core.rounding import Overflow, Rounding, narrow
 from fxmodel.core.unit import Port, Unit, register, require
 from fxmodel.units.mip import mip_pyramid, mip_sizes
-from fxmodel.units.shapes import _add, _interleave, _is_split, _product_shape, _shl, _sub, repr_without_defaults
+from fxmodel.units.shapes import (
+    add_shape,
+    interleave_shape,
+    is_split,
+    product_shape,
+    repr_without_defaults,
+    shl_shape,
+    sub_shape,
+)
 
 __all__ = ["Texels", "SamplerParams", "FILTERS", "EDGES", "mip_texels"]
 
@@ -327,27 +335,27 @@ class SamplerParams(Unit):
     def products(self) -> tuple:
         """The bilinear blend's products per channel (``rtl/sampler.py``): ``fx (b - a)``, ``fx (d - c)``, then
         ``fy (bot - top)``, each split into registered partial products when an operand is wider than one
-        multiplier block. Operand widths follow the RTL's expressions (Amaranth's shape rules: :func:`_add`,
-        :func:`_sub`, :func:`_shl`); none for nearest filtering."""
+        multiplier block. Operand widths follow the RTL's expressions (Amaranth's shape rules: :func:`add_shape`,
+        :func:`sub_shape`, :func:`shl_shape`); none for nearest filtering."""
         if not self.bilinear:
             return ()
         B = self.weight_bits
         weight = (B, False)
         texels = [(fmt.width, fmt.signed) for fmt in self.channels]
-        first = [Product(*_interleave(weight, _sub(t, t)), count=2, split=True, name="f*texel difference")
+        first = [Product(*interleave_shape(weight, sub_shape(t, t)), count=2, split=True, name="f*texel difference")
                  for t in texels]                                       # fx (b - a), fx (d - c)
-        cut = any(_is_split(p) for p in first)                          # one split_products call for all
+        cut = any(is_split(p) for p in first)                          # one split_products call for all
         out, vs = [], []
         for t, p in zip(texels, first):
-            top = _add(_shl(t, B), _product_shape(p, cut))              # top = (a << B) + fx (b - a)
-            q = Product(*_interleave(weight, _sub(top, top)), split=True, name="f*row difference")
+            top = add_shape(shl_shape(t, B), product_shape(p, cut))              # top = (a << B) + fx (b - a)
+            q = Product(*interleave_shape(weight, sub_shape(top, top)), split=True, name="f*row difference")
             out += [p, q]
-            vs.append(_add(_shl(top, B), _product_shape(q, _is_split(q))))  # v = (top << B) + fy (bot - top)
+            vs.append(add_shape(shl_shape(top, B), product_shape(q, is_split(q))))  # v = (top << B) + fy (bot - top)
         if not self.trilinear:
             return tuple(out)
         g = (self.level_bits, False)
-        return tuple(out) * 2 + tuple(Product(*_interleave(g, _sub(v, v)), split=True, name="g*level difference")
-                                      for v in vs)
+        return tuple(out) * 2 + tuple(
+            Product(*interleave_shape(g, sub_shape(v, v)), split=True, name="g*level difference") for v in vs)
 
     @property
     def word_bits(self) -> int:

@@ -8,7 +8,8 @@ import dataclasses
 
 from fxmodel.core.cost import Product, pieces
 
-__all__ = ["repr_without_defaults"]
+__all__ = ["repr_without_defaults", "unify_shape", "add_shape", "sub_shape", "shl_shape", "interleave_shape",
+           "is_split", "product_shape"]
 
 
 def repr_without_defaults(obj, names) -> str:
@@ -18,7 +19,7 @@ def repr_without_defaults(obj, names) -> str:
     return f"{type(obj).__qualname__}({', '.join(parts)})"
 
 
-def _unify(a: tuple, b: tuple) -> tuple:
+def unify_shape(a: tuple, b: tuple) -> tuple:
     """Amaranth's common shape ``(width, signed)`` of two operands: an unsigned one gains a bit next to a signed
     one."""
     if a[1] == b[1]:
@@ -26,35 +27,35 @@ def _unify(a: tuple, b: tuple) -> tuple:
     return max(a[0] + (not a[1]), b[0] + (not b[1])), True
 
 
-def _add(a: tuple, b: tuple) -> tuple:
+def add_shape(a: tuple, b: tuple) -> tuple:
     """Shape of an Amaranth sum ``a + b``."""
-    w, s = _unify(a, b)
+    w, s = unify_shape(a, b)
     return w + 1, s
 
 
-def _sub(a: tuple, b: tuple) -> tuple:
+def sub_shape(a: tuple, b: tuple) -> tuple:
     """Shape of an Amaranth difference ``a - b`` (always signed)."""
-    return _unify(a, b)[0] + 1, True
+    return unify_shape(a, b)[0] + 1, True
 
 
-def _shl(a: tuple, c: int) -> tuple:
+def shl_shape(a: tuple, c: int) -> tuple:
     """Shape of an Amaranth shift ``a << c`` by a constant: the constant is a ``Const`` of ``bit_length(c)``
     bits, and the shape allows its largest value, ``2**bits - 1`` (wider than ``c`` itself; Yosys trims the
     constant-zero bits)."""
     return a[0] + (1 << max(1, c.bit_length())) - 1, a[1]
 
 
-def _interleave(a: tuple, b: tuple) -> tuple:
+def interleave_shape(a: tuple, b: tuple) -> tuple:
     """``(a_bits, b_bits, a_signed, b_signed)`` of two shapes (the order of :class:`~fxmodel.core.cost.Product`)."""
     return a[0], b[0], a[1], b[1]
 
 
-def _is_split(p: Product) -> bool:
+def is_split(p: Product) -> bool:
     """Whether ``p`` has an operand of more than one :func:`~fxmodel.core.cost.pieces`."""
     return len(pieces(p.a_bits, p.a_signed)) > 1 or len(pieces(p.b_bits, p.b_signed)) > 1
 
 
-def _product_shape(p: Product, cut: bool) -> tuple:
+def product_shape(p: Product, cut: bool) -> tuple:
     """Shape of one product ``p`` as the RTL forms it: the registered product, or, when its
     ``rtl.recip.split_products`` call cuts (``cut``: some product of the call is wider than one block), the
     sum ``0 + sum(partial << shift)`` of its registered partial products."""
@@ -63,5 +64,5 @@ def _product_shape(p: Product, cut: bool) -> tuple:
     total = (1, False)                                                  # Python's sum starts from 0
     for lo_a, wa, sa in pieces(p.a_bits, p.a_signed):
         for lo_b, wb, sb in pieces(p.b_bits, p.b_signed):
-            total = _add(total, _shl((wa + wb, sa or sb), lo_a + lo_b))
+            total = add_shape(total, shl_shape((wa + wb, sa or sb), lo_a + lo_b))
     return total

@@ -142,30 +142,7 @@ class EngineSystem(wiring.Component):
         wr = store.write_port(domain="engine")
         rd = store.read_port(domain="sync")
 
-        # -- the record, sync -> engine
-        nbytes = self.record_len
-        shift, hold = Signal(8 * nbytes), Signal(8 * nbytes)
-        req, ack, pending = Signal(), Signal(), Signal()
-        with m.If(link.data_valid & (link.cmd == Cmd.TRIANGLE)):
-            m.d.sync += shift.eq(Cat(shift[8:], link.data))
-        ack_seen = _toggle_sync(m, "rec_ack", ack, "sync")
-        with m.If(ack_seen):
-            m.d.sync += pending.eq(0)
-        with m.If(link.done & (link.cmd == Cmd.TRIANGLE)):
-            with m.If(pending & ~ack_seen):
-                m.d.sync += self.overrun.eq(1)
-            with m.Else():
-                m.d.sync += [hold.eq(shift), req.eq(~req), pending.eq(1)]
-        # the engine reads the record straight from the holding register, which stays unchanged until the
-        # acknowledgement (sent when the scan converter takes the record) is back in ``sync``; the record's bits
-        # settled at least the synchroniser's two clocks before ``rec_valid`` rises
-        req_seen = _toggle_sync(m, "rec_req", req, "engine")
-        rec_valid = Signal()
-        with m.If(req_seen):
-            m.d.engine += rec_valid.eq(1)
-        with m.If(rec_valid & eng.i.ready):
-            m.d.engine += [rec_valid.eq(0), ack.eq(~ack)]
-        m.d.comb += [eng.i.valid.eq(rec_valid), eng.i.payload.eq(hold[:self.record_bits])]
+        rec_valid = self._record(m, link, eng)
 
         # -- SWAP: quiet engine -> copy the tile into the back buffer -> shown from the next vertical blanking
         swap_req, copied, shown = Signal(), Signal(), Signal()
@@ -227,6 +204,35 @@ class EngineSystem(wiring.Component):
                      disp.b.eq(Mux(in2, Cat(b[2:], b), 0))]
         m.d.comb += self.words.eq(disp.words)
         return m
+
+
+    def _record(self, m: Module, link, eng):
+        """The record, ``sync`` -> ``engine`` (module docstring); returns ``rec_valid`` (the engine's input
+        valid)."""
+        nbytes = self.record_len
+        shift, hold = Signal(8 * nbytes), Signal(8 * nbytes)
+        req, ack, pending = Signal(), Signal(), Signal()
+        with m.If(link.data_valid & (link.cmd == Cmd.TRIANGLE)):
+            m.d.sync += shift.eq(Cat(shift[8:], link.data))
+        ack_seen = _toggle_sync(m, "rec_ack", ack, "sync")
+        with m.If(ack_seen):
+            m.d.sync += pending.eq(0)
+        with m.If(link.done & (link.cmd == Cmd.TRIANGLE)):
+            with m.If(pending & ~ack_seen):
+                m.d.sync += self.overrun.eq(1)
+            with m.Else():
+                m.d.sync += [hold.eq(shift), req.eq(~req), pending.eq(1)]
+        # the engine reads the record straight from the holding register, which stays unchanged until the
+        # acknowledgement (sent when the scan converter takes the record) is back in ``sync``; the record's bits
+        # settled at least the synchroniser's two clocks before ``rec_valid`` rises
+        req_seen = _toggle_sync(m, "rec_req", req, "engine")
+        rec_valid = Signal()
+        with m.If(req_seen):
+            m.d.engine += rec_valid.eq(1)
+        with m.If(rec_valid & eng.i.ready):
+            m.d.engine += [rec_valid.eq(0), ack.eq(~ack)]
+        m.d.comb += [eng.i.valid.eq(rec_valid), eng.i.payload.eq(hold[:self.record_bits])]
+        return rec_valid
 
 
 class BoardSim(wiring.Component):

@@ -8,8 +8,9 @@ Clock domains: ``sync`` is the pixel clock (the UART link, the display, the fram
 the engine's (the engine, the tile, the copy, the frame store's write port). What crosses:
 
 - a TRIANGLE frame's record: assembled in ``sync`` as its bytes arrive (a shift register), moved at the frame's
-  ``done`` (CRC matched) into a holding register, announced by a toggle (two-register synchroniser) and taken in
-  ``engine`` into the engine's input register, acknowledged by a toggle back. A record that arrives while the
+  ``done`` (CRC matched) into a holding register, announced by a toggle (two-register synchroniser); the engine
+  reads the holding register as its input (unchanged until the acknowledgement, a toggle back sent when the scan
+  converter takes the record, has reached ``sync``). A record that arrives while the
   previous one is still held sets ``overrun`` (sticky): the host waits for each frame's ACK, and one record takes
   longer on the UART (about 3 ms at 1 MBd) than the engine needs for a frame-sized triangle, so it does not happen
   in use;
@@ -120,7 +121,7 @@ class EngineSystem(wiring.Component):
         self.record_len = -(-self.record_bits // 8)
         self._engine = Engine(params)
         self._link = CommandLink(divisor, self.record_len)
-        self._display = Display(timing, latency=2)
+        self._display = Display(timing, latency=3)
         super().__init__({"rx": In(1, init=1), "tx": Out(1, init=1), "words": Out(30), "error": Out(1),
                           "good": Out(1), "overrun": Out(1), "front": Out(1),
                           "status": Out(self._engine.status.shape())})
@@ -141,30 +142,7 @@ class EngineSystem(wiring.Component):
         wr = store.write_port(domain="engine")
         rd = store.read_port(domain="sync")
 
-        # -- the record, sync -> engine
-        nbytes = self.record_len
-        shift, hold = Signal(8 * nbytes), Signal(8 * nbytes)
-        req, ack, pending = Signal(), Signal(), Signal()
-        with m.If(link.data_valid & (link.cmd == Cmd.TRIANGLE)):
-            m.d.sync += shift.eq(Cat(shift[8:], link.data))
-        ack_seen = _toggle_sync(m, "rec_ack", ack, "sync")
-        with m.If(ack_seen):
-            m.d.sync += pending.eq(0)
-        with m.If(link.done & (link.cmd == Cmd.TRIANGLE)):
-            with m.If(pending & ~ack_seen):
-                m.d.sync += self.overrun.eq(1)
-            with m.Else():
-                m.d.sync += [hold.eq(shift), req.eq(~req), pending.eq(1)]
-        req_seen = _toggle_sync(m, "rec_req", req, "engine")
-        rec_valid, req_pend = Signal(), Signal()
-        with m.If(eng.i.ready):
-            m.d.engine += rec_valid.eq(0)
-        with m.If(req_seen):
-            m.d.engine += req_pend.eq(1)
-        with m.If((req_pend | req_seen) & (~rec_valid | eng.i.ready)):   # the input register free: take it
-            m.d.engine += [eng.i.payload.eq(hold[:self.record_bits]), rec_valid.eq(1), req_pend.eq(0),
-                           ack.eq(~ack)]
-        m.d.comb += eng.i.valid.eq(rec_valid)
+        rec_valid = self._record(m, link, eng)
 
         # -- SWAP: quiet engine -> copy the tile into the back buffer -> shown from the next vertical blanking
         swap_req, copied, shown = Signal(), Signal(), Signal()
@@ -173,7 +151,7 @@ class EngineSystem(wiring.Component):
         swap_seen = _toggle_sync(m, "swap", swap_req, "engine")
         shown_seen = _toggle_sync(m, "shown", shown, "engine")
         quiet = Signal(range(QUIET + 1))
-        with m.If(rec_valid | req_pend | eng.busy | eng.rop_busy):
+        with m.If(rec_valid | eng.busy | eng.rop_busy):
             m.d.engine += quiet.eq(0)
         with m.Elif(quiet != QUIET):
             m.d.engine += quiet.eq(quiet + 1)
@@ -188,9 +166,14 @@ class EngineSystem(wiring.Component):
         zb = P.z_fmt.width
         data = eng.fb.data
         word565 = Cat(data[zb + 19:zb + 24], data[zb + 10:zb + 16], data[zb + 3:zb + 8])
+        # the tile's word is registered before the frame store's write port: both memories span the device's
+        # block RAM rows, and the read-out's output straight into the other's inputs was a path through two
+        # die-wide routes (the engine's clock at a third of its target after placement)
+        w2valid, w2addr, w2data = Signal(), Signal.like(wr.addr), Signal.like(wr.data)
         m.d.comb += [eng.fb.read.eq(reading), eng.fb.addr.eq(addr[:len(eng.fb.addr)]),
-                     wr.addr.eq(Cat(waddr, back)), wr.data.eq(word565), wr.en.eq(wvalid)]
-        m.d.engine += [wvalid.eq(reading & (addr < pixels)), waddr.eq(addr[:len(waddr)])]
+                     wr.addr.eq(w2addr), wr.data.eq(w2data), wr.en.eq(w2valid)]
+        m.d.engine += [wvalid.eq(reading & (addr < pixels)), waddr.eq(addr[:len(waddr)]),
+                       w2valid.eq(wvalid), w2addr.eq(Cat(waddr, back)), w2data.eq(word565)]
         with m.FSM(domain="engine"):
             with m.State("idle"):
                 with m.If(want & ~waiting & ~swap_seen & (quiet == QUIET)):
@@ -201,7 +184,8 @@ class EngineSystem(wiring.Component):
                 with m.If(addr == pixels):
                     m.d.engine += [reading.eq(0), copied.eq(~copied), back.eq(~back), waiting.eq(1)]
                     m.next = "idle"
-        # -- display: the front buffer at the top left, black around it (two clocks: address, then memory)
+        # -- display: the front buffer at the top left, black around it (three clocks: address, memory, the
+        # expanded color registered)
         copied_seen = _toggle_sync(m, "copied", copied, "sync")
         flip = Signal()
         with m.If(copied_seen):
@@ -216,9 +200,39 @@ class EngineSystem(wiring.Component):
         m.d.comb += rd.addr.eq(raddr)
         px = rd.data
         r, g, b = px[11:16], px[5:11], px[0:5]
-        m.d.comb += [disp.r.eq(Mux(in2, Cat(r[2:], r), 0)), disp.g.eq(Mux(in2, Cat(g[4:], g), 0)),
-                     disp.b.eq(Mux(in2, Cat(b[2:], b), 0)), self.words.eq(disp.words)]
+        m.d.sync += [disp.r.eq(Mux(in2, Cat(r[2:], r), 0)), disp.g.eq(Mux(in2, Cat(g[4:], g), 0)),
+                     disp.b.eq(Mux(in2, Cat(b[2:], b), 0))]
+        m.d.comb += self.words.eq(disp.words)
         return m
+
+
+    def _record(self, m: Module, link, eng):
+        """The record, ``sync`` -> ``engine`` (module docstring); returns ``rec_valid`` (the engine's input
+        valid)."""
+        nbytes = self.record_len
+        shift, hold = Signal(8 * nbytes), Signal(8 * nbytes)
+        req, ack, pending = Signal(), Signal(), Signal()
+        with m.If(link.data_valid & (link.cmd == Cmd.TRIANGLE)):
+            m.d.sync += shift.eq(Cat(shift[8:], link.data))
+        ack_seen = _toggle_sync(m, "rec_ack", ack, "sync")
+        with m.If(ack_seen):
+            m.d.sync += pending.eq(0)
+        with m.If(link.done & (link.cmd == Cmd.TRIANGLE)):
+            with m.If(pending & ~ack_seen):
+                m.d.sync += self.overrun.eq(1)
+            with m.Else():
+                m.d.sync += [hold.eq(shift), req.eq(~req), pending.eq(1)]
+        # the engine reads the record straight from the holding register, which stays unchanged until the
+        # acknowledgement (sent when the scan converter takes the record) is back in ``sync``; the record's bits
+        # settled at least the synchroniser's two clocks before ``rec_valid`` rises
+        req_seen = _toggle_sync(m, "rec_req", req, "engine")
+        rec_valid = Signal()
+        with m.If(req_seen):
+            m.d.engine += rec_valid.eq(1)
+        with m.If(rec_valid & eng.i.ready):
+            m.d.engine += [rec_valid.eq(0), ack.eq(~ack)]
+        m.d.comb += [eng.i.valid.eq(rec_valid), eng.i.payload.eq(hold[:self.record_bits])]
+        return rec_valid
 
 
 class BoardSim(wiring.Component):

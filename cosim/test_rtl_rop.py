@@ -91,9 +91,9 @@ def test_the_hazard_test_can_fail(sim, on_chip):
 
 @pytest.mark.parametrize("p_valid", [0.8, 1.0])
 def test_on_chip_frame_buffer(sim, p_valid):
-    """Random fragments, then pairs on one pixel back to back (the first one's write forwarded to the second's
-    compare) and with one or two fragments between them (seen through the transparent read port), with and
-    without input gaps."""
+    """Random fragments, then pairs on one pixel back to back and with one fragment between them (the first one's
+    write forwarded to the second's compare) and with two between them (seen through the transparent read port),
+    with and without input gaps."""
     P = RopParams.PRESETS["on_chip"]
     frags = np.concatenate([random_fragments(P, 300, seed=3, hot=4), hazard_pairs(P, "nearer_first"),
                             hazard_pairs(P, "equal"), hazard_pairs(P, "nearer_first", gap=1)[:40],

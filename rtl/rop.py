@@ -39,13 +39,17 @@ round trip of that many clocks (:data:`SLOT_OVERHEAD`). ``AR``/``AW``/``W`` vali
 ready; ``R.ready`` and ``B.ready`` come from registers (``B`` is always taken).
 
 On chip (:class:`Rop`, ``on_chip=True``): the same read-compare-write on one Amaranth ``Memory`` of ``width
-height`` words (``z_fmt`` depth, r, g, b, flags, from the low bits), initialised to the clear value, in three
-stages: the read port is addressed by the accepted fragment; the next cycle registers the stored depth (with the
-block RAM's slow output and the compare in one cycle the unit ran at 99 MHz on ECP5); the next compares and
-writes. The read port is transparent for the write port, so a fragment sees every write up to the one of the
-fragment just ahead of it, which is forwarded (its depth replaces the stored one when the pixel is the same).
+height`` words (``z_fmt`` depth, r, g, b, flags, from the low bits), initialised to the clear value, in five
+stages: the accepted fragment is registered (its pixel index and depth computed from the stream's payload); the
+read port is addressed from that register; the next cycle registers the stored depth (with the block RAM's slow
+output and the compare in one cycle the unit ran at 99 MHz on ECP5); the next compares; the next writes, from
+registers. The frame's block RAMs span the device's block-RAM rows, so the read address and the write port's
+enable, address and data each leave a flip-flop (with the stream's payload, or the compare, in front of the
+block RAM's pins the board's engine ran at a third of its clock after placement). The read port is transparent
+for the write port, so a fragment sees every write up to the one of the fragment three ahead of it; the two just
+ahead of it are forwarded (the nearer first: its depth replaces the stored one when the pixel is the same).
 ``i.ready`` is always 1, except while the frame is read out through ``fb`` (``fb.read``: the read port takes
-``fb.addr``; ``fb.data`` holds the word one cycle later).
+``fb.addr``; ``fb.data`` holds the word one cycle later; an accepted fragment waits in the first stage).
 """
 
 from __future__ import annotations
@@ -169,29 +173,36 @@ class Rop(wiring.Component):
         zc, zsat, inside, index, color = self._accept(m)
         m.d.comb += self.i.ready.eq(~self.fb.read)
         take = self.i.valid & self.i.ready
-        # stage 1: the accepted fragment, its read in flight
+        # stage 0: the accepted fragment registered (held while the read-out has the read port)
+        a_valid = Signal(name="acc_valid")
+        a_z, a_color, a_index = Signal(P.z_fmt.width, name="acc_z"), Signal(24 + P.flag_bits, name="acc_color"), \
+            Signal.like(wp.addr, name="acc_index")
+        with m.If(~self.fb.read):
+            m.d.sync += [a_valid.eq(take & inside), a_z.eq(zc), a_color.eq(color), a_index.eq(index)]
+        # stage 1: its read in flight
         s_valid = Signal()
-        s_z = Signal(P.z_fmt.width)
-        s_color = Signal(24 + P.flag_bits)
-        s_index = Signal.like(wp.addr)
-        m.d.sync += [s_valid.eq(take & inside), s_z.eq(zc), s_color.eq(color), s_index.eq(index)]
-        m.d.comb += [rp.addr.eq(Mux(self.fb.read, self.fb.addr, index)), rp.en.eq(1), self.fb.data.eq(rp.data)]
-        # stage 2: the stored depth registered; whether the fragment ahead (now comparing) has the same pixel
+        s_z, s_color, s_index = Signal.like(a_z), Signal.like(a_color), Signal.like(a_index)
+        m.d.sync += [s_valid.eq(a_valid & ~self.fb.read), s_z.eq(a_z), s_color.eq(a_color), s_index.eq(a_index)]
+        m.d.comb += [rp.addr.eq(Mux(self.fb.read, self.fb.addr, a_index)), rp.en.eq(1), self.fb.data.eq(rp.data)]
+        # stage 2: the stored depth registered; whether the two fragments ahead (comparing, writing) have the
+        # same pixel and write it
         c_valid = Signal(name="cmp_valid")
         c_z, c_color, c_index = Signal.like(s_z, name="cmp_z"), Signal.like(s_color, name="cmp_color"), \
             Signal.like(s_index, name="cmp_index")
         c_stored = Signal(P.z_fmt.width, name="cmp_stored")
-        c_same = Signal(name="cmp_same")
+        w_en, w_z, w_color, w_index = Signal(name="write"), Signal.like(s_z, name="write_z"), \
+            Signal.like(s_color, name="write_color"), Signal.like(s_index, name="write_index")
+        c_same1, c_same2, w2_z = Signal(name="cmp_same1"), Signal(name="cmp_same2"), Signal.like(s_z, name="wrote_z")
         m.d.sync += [c_valid.eq(s_valid), c_z.eq(s_z), c_color.eq(s_color), c_index.eq(s_index),
-                     c_stored.eq(rp.data[:P.z_fmt.width]), c_same.eq(c_valid & (c_index == s_index))]
-        # stage 3: compare and write; the write of the fragment just ahead is not in the stored word (its read
-        # was issued before that write), so it is forwarded: its depth replaces the stored one
-        w_en = Signal(name="write")
-        w_z = Signal.like(s_z, name="written_z")
-        stored = Mux(c_same & w_en, w_z, c_stored) if P.hazard else c_stored
-        m.d.comb += [wp.addr.eq(c_index), wp.data.eq(Cat(c_z, c_color)), wp.en.eq(c_valid & (c_z > stored))]
-        m.d.sync += [w_en.eq(wp.en), w_z.eq(c_z)]
-        m.d.comb += self.busy.eq(s_valid | c_valid)
+                     c_stored.eq(rp.data[:P.z_fmt.width]), c_same1.eq(c_valid & (c_index == s_index)),
+                     c_same2.eq(w_en & (w_index == s_index)), w2_z.eq(w_z)]
+        # stage 3: compare; stage 4: write (registered: the write port's enable, address and data come from
+        # flip-flops). The writes of the two fragments ahead are not in the stored word (their reads were issued
+        # before those writes), so they are forwarded, the nearer first: its depth replaces the stored one
+        stored = Mux(c_same1 & w_en, w_z, Mux(c_same2, w2_z, c_stored)) if P.hazard else c_stored
+        m.d.sync += [w_en.eq(c_valid & (c_z > stored)), w_z.eq(c_z), w_color.eq(c_color), w_index.eq(c_index)]
+        m.d.comb += [wp.addr.eq(w_index), wp.data.eq(Cat(w_z, w_color)), wp.en.eq(w_en)]
+        m.d.comb += self.busy.eq(a_valid | s_valid | c_valid | w_en)
         self._sticky(m, take & ~inside, take & inside & zsat, Const(0))
         return m
 

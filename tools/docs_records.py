@@ -509,14 +509,16 @@ def board_animation() -> str:
 
 
 def board_engine_placement() -> str:
-    """The board top with the engine, placed (nextpnr's estimate before routing): Fmax per clock and resources."""
+    """The board top with the engine, placed (nextpnr's estimate before routing) or routed with a clock below its
+    target (the record's ``routed``): Fmax per clock and resources."""
     r, path = _board_record("engine-placement")
     if r is None:
         return _missing(path, "make bitstream BOARD=ulx3s")
     clocks = [[f"`{name}`", f"{c['target_mhz']} MHz", f"{c['fmax_mhz']} MHz", "yes" if c["met"] else "**no**"]
               for name, c in r["clocks"].items()]
     res = [[kind, used, avail] for kind, (used, avail) in r["resources"].items()]
-    return (_table(["clock", "target", "Fmax (placed)", "met"], clocks, _align("lrrl")) + "\n"
+    stage = "routed" if r.get("routed") else "placed"
+    return (_table(["clock", "target", f"Fmax ({stage})", "met"], clocks, _align("lrrl")) + "\n"
             + _table(["resource", "used", "available"], res, _align("lrr"))
             + f"\n*{r['design']}: {r['stage']}. `{r['command']}`, {r['date']}; record: "
               "[`board/engine-placement.json`](board/engine-placement.json).*\n")

@@ -185,9 +185,9 @@ class RopParams:
 
     @property
     def latency(self) -> int | None:
-        """On chip: cycles from a fragment accepted to its write in the memory (read, stored depth registered,
-        then compare and write); behind the port it depends on the memory (``None``)."""
-        return 3 if self.on_chip else None
+        """On chip: cycles from a fragment accepted to its write in the memory (fragment registered, read, stored
+        depth registered, compare, write); behind the port it depends on the memory (``None``)."""
+        return 5 if self.on_chip else None
 
     def products(self) -> tuple:
         """None: the pixel address ``y width + x`` is shifted copies of ``y`` (``rtl.fixed.const_mul``)."""

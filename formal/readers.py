@@ -53,8 +53,10 @@ class ReadManager:
     capacity : int
         Requests accepted and not yet answered at most.
     invariants : callable, optional
-        ``invariants(h, sig, rd, inside)``: the design's white-box invariants (``sig(name)`` finds a signal the
-        design assigns, ``rd`` the :class:`~formal.axiread.AxiReadCheck`, ``inside`` the requests inside).
+        ``invariants(h, sig, rd, inside, inner=, top=)``: the design's white-box invariants (``sig(name, path)``
+        finds a signal the design (or its submodule at ``path``) assigns, ``rd`` the
+        :class:`~formal.axiread.AxiReadCheck`, ``inside`` the requests inside, ``inner`` the design unwrapped,
+        ``top`` its elaborated fragment); they may add their own checks and covers too.
     mode, depth, cover_depth : the run (``prove`` at ``k = depth``, or ``bmc`` to ``depth`` with ``why``).
     """
 
@@ -104,7 +106,7 @@ def read_manager_set(entry: ReadManager, *, kind: str = "proof", wrap=None) -> H
     frag = whitebox.elaborate(dut)
     m.submodules.dut = frag
     top = whitebox.subfragment(frag, "dut" if wrap else "")
-    sig = lambda name: whitebox.signal(top, name)        # noqa: E731
+    sig = lambda name, path="": whitebox.signal(top, name, path)        # noqa: E731
     drive_inputs(h, dut)
     h.stream_hold(dut.i.valid, dut.i.ready, Value.cast(dut.i.payload), "i", assume=True)
     h.stream_hold(dut.o.valid, dut.o.ready, Value.cast(dut.o.payload), "o")
@@ -118,7 +120,7 @@ def read_manager_set(entry: ReadManager, *, kind: str = "proof", wrap=None) -> H
                       arburst=entry.arburst, read_only=True)
     rd.invariants(entry.arlen)
     if entry.invariants is not None:
-        entry.invariants(h, sig, rd, inside)
+        entry.invariants(h, sig, rd, inside, inner=inner, top=top)
     run = Signal(bits_for(STALL + 2), name="f_o_stall")
     with m.If(dut.o.valid & ~dut.o.ready):
         m.d.sync += run.eq(Mux(run > STALL, run, run + 1))
@@ -146,7 +148,7 @@ def small_texcache() -> TexCache:
     return TexCache(p, 8, 8, base=4096 - 4 * p.line_bytes, addr_bits=16)
 
 
-def _texcache_invariants(h: Harness, sig, rd, inside):
+def _texcache_invariants(h: Harness, sig, rd, inside, **_):
     """The blocking cache: filling iff a burst is outstanding; a request inside iff the FSM is not idle."""
     state = sig("fsm_state")
     idle, fill = (state_value(state, s) for s in ("IDLE", "FILL"))
@@ -155,8 +157,14 @@ def _texcache_invariants(h: Harness, sig, rd, inside):
     h.check(state < 6, "fsm_range")
 
 
+def _decoupled_entries() -> list:
+    from .fetch import ENTRIES  # the decoupled cache and the texture fetch (formal/fetch.py)
+    return ENTRIES
+
+
 #: The read managers ``make formal`` checks (add one entry per new design).
 READ_MANAGERS = [
     ReadManager("texcache_axi", "TexCache blocking (block 2, 2 sets x 2 ways, 8x8 map across 4 KB, memory stalls "
                 f"<= {STALL})", small_texcache, arlen=_TC_PARAMS.beats_per_line - 1, invariants=_texcache_invariants),
 ]
+READ_MANAGERS += _decoupled_entries()

@@ -108,7 +108,7 @@ def _reader_sets() -> list[PropertySet]:
         e.name, e.design,
         "AXI4 read channels (AR held until ready, declared burst, 4 KB, RLAST assumed on the last beat, no R "
         "without AR, outstanding bound, no writes); rule 2 on o assumed on i; no answer without a request, at "
-        f"most {e.capacity} inside",
+        f"most {e.capacity} inside" + e.extra.get("covers", ""),
         lambda kind, wrap=None, e=e: read_manager_set(e, kind=kind, wrap=wrap), e.mode, e.depth, e.cover_depth,
         why=e.why) for e in READ_MANAGERS]
 

@@ -27,8 +27,8 @@ from rtl.texfetch import MAPS, TexFetch
 
 from . import whitebox
 from .axiread import LenQueue
+from .manager import STALL, ReadManager
 from .props import Harness, bits_for
-from .readers import STALL, ReadManager
 
 __all__ = ["ENTRIES", "DEC_PARAMS", "small_decoupled", "small_texfetch", "FETCH_DEPTH", "cache_invariants"]
 
@@ -45,12 +45,13 @@ def small_decoupled() -> DecoupledTexCache:
     return DecoupledTexCache(p, layout, addr_bits=16)
 
 
-def small_texfetch() -> TexFetch:
+def small_texfetch(cls=TexFetch) -> TexFetch:
     """Both maps' caches of :data:`DEC_PARAMS` over two 4 x 4 maps, the first line of the second map the first
-    line after a 4 KB boundary (16-bit addresses), a 1-bit sideband."""
+    line after a 4 KB boundary (16-bit addresses), a 1-bit sideband (``cls``: the class, or a function of its
+    arguments that builds a variant)."""
     p = DEC_PARAMS
     layout = Layout(tuple(((k, 0), 4, 4) for k in MAPS), p.block, p.texel_bytes, base=4096 - 4 * p.line_bytes)
-    return TexFetch({k: p for k in MAPS}, layout, side_bits=1, addr_bits=16)
+    return cls({k: p for k in MAPS}, layout, side_bits=1, addr_bits=16)
 
 
 def _capacity(p: TexCacheParams) -> int:

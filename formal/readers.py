@@ -15,9 +15,6 @@ The harness (:func:`read_manager_set`) drives every input of the design freely a
 
 from __future__ import annotations
 
-from collections.abc import Callable
-from dataclasses import dataclass, field
-
 from amaranth.hdl import Mux, Signal, Value
 from amaranth.lib import wiring
 
@@ -26,56 +23,11 @@ from rtl.texcache import TexCache
 
 from . import whitebox
 from .axiread import AxiReadCheck
+from .fetch import ENTRIES as DECOUPLED_ENTRIES
+from .manager import STALL, ReadManager
 from .props import Harness, bits_for
 
 __all__ = ["ReadManager", "READ_MANAGERS", "read_manager_set", "drive_inputs", "state_value", "STALL"]
-
-#: The memory's bounded stall (cycles) assumed of every read manager's memory.
-STALL = 3
-
-
-@dataclass(frozen=True)
-class ReadManager:
-    """One AXI4 read manager with stream ports ``i`` (requests) and ``o`` (answers).
-
-    Parameters
-    ----------
-    name, design : str
-        The property set's name and what it runs (for the record).
-    make : callable
-        ``make()`` -> the component (a fresh one each call).
-    arlen, arsize, arburst : int
-        The one burst the design issues (asserted on every ``AR``).
-    port : str
-        The name of its AXI4 port.
-    max_out : int
-        Read bursts outstanding at most.
-    capacity : int
-        Requests accepted and not yet answered at most.
-    invariants : callable, optional
-        ``invariants(h, sig, rd, inside, inner=, top=)``: the design's white-box invariants (``sig(name, path)``
-        finds a signal the design (or its submodule at ``path``) assigns, ``rd`` the
-        :class:`~formal.axiread.AxiReadCheck`, ``inside`` the requests inside, ``inner`` the design unwrapped,
-        ``top`` its elaborated fragment); they may add their own checks and covers too.
-    mode, depth, cover_depth : the run (``prove`` at ``k = depth``, or ``bmc`` to ``depth`` with ``why``).
-    """
-
-    name: str
-    design: str
-    make: Callable
-    arlen: int
-    arsize: int = 2
-    arburst: int = 1
-    port: str = "mem"
-    max_out: int = 1
-    capacity: int = 1
-    invariants: Callable | None = None
-    mode: str = "prove"
-    depth: int = 1
-    cover_depth: int = 30
-    why: str = ""
-    extra: dict = field(default_factory=dict)
-
 
 def drive_inputs(h: Harness, dut, prefix: str = ""):
     """Every input of ``dut`` (its own ports and its interfaces' members) from a free input of the harness."""
@@ -157,14 +109,9 @@ def _texcache_invariants(h: Harness, sig, rd, inside, **_):
     h.check(state < 6, "fsm_range")
 
 
-def _decoupled_entries() -> list:
-    from .fetch import ENTRIES  # the decoupled cache and the texture fetch (formal/fetch.py)
-    return ENTRIES
-
-
 #: The read managers ``make formal`` checks (add one entry per new design).
 READ_MANAGERS = [
     ReadManager("texcache_axi", "TexCache blocking (block 2, 2 sets x 2 ways, 8x8 map across 4 KB, memory stalls "
                 f"<= {STALL})", small_texcache, arlen=_TC_PARAMS.beats_per_line - 1, invariants=_texcache_invariants),
 ]
-READ_MANAGERS += _decoupled_entries()
+READ_MANAGERS += DECOUPLED_ENTRIES            # the decoupled cache and the texture fetch (formal/fetch.py)

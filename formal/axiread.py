@@ -151,6 +151,7 @@ class AxiReadCheck:
         outstanding)."""
         h, q = self.h, self.queue
         h.check(q.count == self.ar_pend, "ar_queue_count")
+        h.check(q.head < q.n, "ar_queue_head")
         for j in range(q.n):
             slot = Mux(q.head + j >= q.n, q.head + j - q.n, q.head + j)
             h.check((q.count <= j) | (q.regs[slot] == arlen), f"ar_queue_len{j}")

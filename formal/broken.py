@@ -11,7 +11,8 @@ from amaranth.hdl import Module, Mux, Signal
 from amaranth.lib import wiring
 
 __all__ = ["Wrap", "PayloadWhileStalled", "ReadyFromValid", "DroppedToken", "ValidWaitsForReady", "WlastEarly",
-           "ArChangesWhileStalled", "MemArChangesWhileStalled", "RlastEarly", "ArlenShort"]
+           "ArChangesWhileStalled", "MemArChangesWhileStalled", "RlastEarly", "ArlenShort", "ExtraBurst",
+           "texfetch_wrong_owner"]
 
 
 class Wrap(wiring.Component):
@@ -130,3 +131,38 @@ class ArlenShort(Wrap):
 
     def change(self, m):
         m.d.comb += self.mem.arlen.eq(self.inner.mem.arlen - 1)
+
+
+class ExtraBurst(Wrap):
+    """A read manager that, with its whole budget (``misses``) outstanding, issues one more ``AR`` (a copy of its
+    last burst), as a cache would that compared its owed lines against ``misses`` one too late."""
+    CHANGED = (("mem", "arvalid"), ("mem", "arready"), ("mem", "araddr"))
+
+    def change(self, m):
+        outer, inner = self.mem, self.inner.mem
+        pend, sent, held, addr = Signal(8), Signal(), Signal(), Signal.like(inner.araddr)
+        extra = Signal()
+        m.d.comb += extra.eq(((pend == self.inner.params.misses) & ~sent) | held)
+        m.d.sync += held.eq(extra & ~outer.arready)
+        fire = outer.arvalid & outer.arready
+        m.d.sync += pend.eq(pend + fire - (outer.rvalid & outer.rready & outer.rlast))
+        with m.If(fire):
+            m.d.sync += [addr.eq(outer.araddr), sent.eq(sent | extra)]
+        m.d.comb += [outer.arvalid.eq(inner.arvalid | extra), outer.araddr.eq(Mux(extra, addr, inner.araddr)),
+                     inner.arready.eq(outer.arready & ~extra)]
+
+
+def texfetch_wrong_owner(caches, layout, **kw):
+    """A :class:`rtl.texfetch.TexFetch` whose owner FIFO records the other cache for each burst (the ``R`` beats
+    of a burst routed to the cache that did not ask for them)."""
+    from rtl.texfetch import TexFetch
+
+    class WrongOwner(TexFetch):
+        def _read_port(self, m, caches):
+            super()._read_port(m, caches)
+            owners = m.submodules.owners
+            grant = Signal()
+            m.d.comb += grant.eq(caches[1].mem.arvalid & caches[1].mem.arready)
+            m.d.comb += owners.w_data.eq(~grant)
+
+    return WrongOwner(caches, layout, **kw)

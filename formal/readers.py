@@ -15,9 +15,6 @@ The harness (:func:`read_manager_set`) drives every input of the design freely a
 
 from __future__ import annotations
 
-from collections.abc import Callable
-from dataclasses import dataclass, field
-
 from amaranth.hdl import Mux, Signal, Value
 from amaranth.lib import wiring
 
@@ -26,54 +23,11 @@ from rtl.texcache import TexCache
 
 from . import whitebox
 from .axiread import AxiReadCheck
+from .fetch import ENTRIES as DECOUPLED_ENTRIES
+from .manager import STALL, ReadManager
 from .props import Harness, bits_for
 
 __all__ = ["ReadManager", "READ_MANAGERS", "read_manager_set", "drive_inputs", "state_value", "STALL"]
-
-#: The memory's bounded stall (cycles) assumed of every read manager's memory.
-STALL = 3
-
-
-@dataclass(frozen=True)
-class ReadManager:
-    """One AXI4 read manager with stream ports ``i`` (requests) and ``o`` (answers).
-
-    Parameters
-    ----------
-    name, design : str
-        The property set's name and what it runs (for the record).
-    make : callable
-        ``make()`` -> the component (a fresh one each call).
-    arlen, arsize, arburst : int
-        The one burst the design issues (asserted on every ``AR``).
-    port : str
-        The name of its AXI4 port.
-    max_out : int
-        Read bursts outstanding at most.
-    capacity : int
-        Requests accepted and not yet answered at most.
-    invariants : callable, optional
-        ``invariants(h, sig, rd, inside)``: the design's white-box invariants (``sig(name)`` finds a signal the
-        design assigns, ``rd`` the :class:`~formal.axiread.AxiReadCheck`, ``inside`` the requests inside).
-    mode, depth, cover_depth : the run (``prove`` at ``k = depth``, or ``bmc`` to ``depth`` with ``why``).
-    """
-
-    name: str
-    design: str
-    make: Callable
-    arlen: int
-    arsize: int = 2
-    arburst: int = 1
-    port: str = "mem"
-    max_out: int = 1
-    capacity: int = 1
-    invariants: Callable | None = None
-    mode: str = "prove"
-    depth: int = 1
-    cover_depth: int = 30
-    why: str = ""
-    extra: dict = field(default_factory=dict)
-
 
 def drive_inputs(h: Harness, dut, prefix: str = ""):
     """Every input of ``dut`` (its own ports and its interfaces' members) from a free input of the harness."""
@@ -104,7 +58,7 @@ def read_manager_set(entry: ReadManager, *, kind: str = "proof", wrap=None) -> H
     frag = whitebox.elaborate(dut)
     m.submodules.dut = frag
     top = whitebox.subfragment(frag, "dut" if wrap else "")
-    sig = lambda name: whitebox.signal(top, name)        # noqa: E731
+    sig = lambda name, path="": whitebox.signal(top, name, path)        # noqa: E731
     drive_inputs(h, dut)
     h.stream_hold(dut.i.valid, dut.i.ready, Value.cast(dut.i.payload), "i", assume=True)
     h.stream_hold(dut.o.valid, dut.o.ready, Value.cast(dut.o.payload), "o")
@@ -118,7 +72,7 @@ def read_manager_set(entry: ReadManager, *, kind: str = "proof", wrap=None) -> H
                       arburst=entry.arburst, read_only=True)
     rd.invariants(entry.arlen)
     if entry.invariants is not None:
-        entry.invariants(h, sig, rd, inside)
+        entry.invariants(h, sig, rd, inside, inner=inner, top=top)
     run = Signal(bits_for(STALL + 2), name="f_o_stall")
     with m.If(dut.o.valid & ~dut.o.ready):
         m.d.sync += run.eq(Mux(run > STALL, run, run + 1))
@@ -146,7 +100,7 @@ def small_texcache() -> TexCache:
     return TexCache(p, 8, 8, base=4096 - 4 * p.line_bytes, addr_bits=16)
 
 
-def _texcache_invariants(h: Harness, sig, rd, inside):
+def _texcache_invariants(h: Harness, sig, rd, inside, **_):
     """The blocking cache: filling iff a burst is outstanding; a request inside iff the FSM is not idle."""
     state = sig("fsm_state")
     idle, fill = (state_value(state, s) for s in ("IDLE", "FILL"))
@@ -160,3 +114,4 @@ READ_MANAGERS = [
     ReadManager("texcache_axi", "TexCache blocking (block 2, 2 sets x 2 ways, 8x8 map across 4 KB, memory stalls "
                 f"<= {STALL})", small_texcache, arlen=_TC_PARAMS.beats_per_line - 1, invariants=_texcache_invariants),
 ]
+READ_MANAGERS += DECOUPLED_ENTRIES            # the decoupled cache and the texture fetch (formal/fetch.py)

@@ -8,6 +8,7 @@ induction step): it must fail, naming the property, with its trace written as a 
 
 from __future__ import annotations
 
+import dataclasses
 import platform
 import time
 from collections.abc import Callable
@@ -20,6 +21,7 @@ from rtl.streams import buffer_depth
 from . import broken
 from .abstract import Abstract
 from .engine import engine_set
+from .fetch import DEC_PARAMS, small_texfetch
 from .raster import raster_independence, raster_set
 from .readers import READ_MANAGERS, read_manager_set
 from .rop import STALL, rop_set, small_rop
@@ -108,7 +110,7 @@ def _reader_sets() -> list[PropertySet]:
         e.name, e.design,
         "AXI4 read channels (AR held until ready, declared burst, 4 KB, RLAST assumed on the last beat, no R "
         "without AR, outstanding bound, no writes); rule 2 on o assumed on i; no answer without a request, at "
-        f"most {e.capacity} inside",
+        f"most {e.capacity} inside" + e.extra.get("covers", ""),
         lambda kind, wrap=None, e=e: read_manager_set(e, kind=kind, wrap=wrap), e.mode, e.depth, e.cover_depth,
         why=e.why) for e in READ_MANAGERS]
 
@@ -142,6 +144,9 @@ def property_sets() -> list[PropertySet]:
 def variants() -> list[Variant]:
     small = preset("recip", "small")
     (tc,) = [e for e in READ_MANAGERS if e.name == "texcache_axi"]
+    (dec,) = [e for e in READ_MANAGERS if e.name == "texcache_decoupled_axi"]
+    (tf,) = [e for e in READ_MANAGERS if e.name == "texfetch_axi"]
+    wrong = dataclasses.replace(tf, make=lambda: small_texfetch(broken.texfetch_wrong_owner))
     return [
         Variant("payload_while_stalled", "o.payload changes while o.valid & ~o.ready", "stream_recip_small",
                 "o_hold", small.latency + 4, broken.PayloadWhileStalled,
@@ -168,6 +173,15 @@ def variants() -> list[Variant]:
         Variant("texcache_ar_changes_while_stalled", "ARADDR moves while AR waits", "texcache_axi", "ar_hold", 8,
                 broken.MemArChangesWhileStalled, lambda kind, wrap: read_manager_set(tc, kind=kind, wrap=wrap),
                 cut=""),
+        Variant("decoupled_extra_burst", f"a 5th burst issued with misses = {DEC_PARAMS.misses} outstanding",
+                "texcache_decoupled_axi", "ar_outstanding", 16, broken.ExtraBurst,
+                lambda kind, wrap: read_manager_set(dec, kind=kind, wrap=wrap), cut=""),
+        Variant("texfetch_wrong_owner", "the owner FIFO records the other cache: R beats routed to the wrong one",
+                "texfetch_axi", "r_to_owner", 12, None,
+                lambda kind, wrap: read_manager_set(wrong, kind=kind), cut=""),
+        Variant("texfetch_ar_changes_while_stalled", "ARADDR moves while AR waits", "texfetch_axi", "ar_hold", 8,
+                broken.MemArChangesWhileStalled, lambda kind, wrap: read_manager_set(tf, kind=kind, wrap=wrap),
+                cut=""),
         Variant("hazard_off", "RopParams(hazard=False): no same-pixel check", "rop_axi", "hazard_", 8, None,
                 lambda kind, wrap: rop_set(small_rop(hazard=False), kind=kind)),
     ]
@@ -180,8 +194,8 @@ SCOPE = (
     "Datapath abstraction: multipliers and lookup tables are cut (yosys cutpoint: free values, sound), the "
     "properties read only registers; the stream versions run every unit's default preset whole otherwise.",
     "The scan converter, the ROP and the texel cache run small parameters (16-pixel viewport, one attribute; "
-    "4 x 4 frame, 3 slots, 4-bit depths; 2 x 2 texel lines, 2 sets of 2 ways): their control logic is the same "
-    "for any size, only widths change.",
+    "4 x 4 frame, 3 slots, 4-bit depths; 2 x 2 texel lines, 2 sets of 2 ways, for the decoupled cache a lookup FIFO "
+    "of 2 and 4 lines owed at most): their control logic is the same for any size, only widths change.",
     "The pixel pipeline (latency 74, FIFO 75): stream_pipeline is the real one with its units cut (the valid "
     "delay line and the wrapper kept), stream_pipeline_abstract the same wrapper around a valid delay line of the "
     "same latency with an opaque token (formal/abstract.py; it carries the covers). The wrapper reads of the "
@@ -190,8 +204,9 @@ SCOPE = (
     "The engine (rtl/engine.py Engine, with the ROP) is composed of the parts' own properties, each internal "
     "stream's rule 2 asserted of its producer where its consumer assumed it, the pipeline's datapath abstracted "
     "as above; fragments conserved from the scan converter to the ROP's finished fragments.",
-    "The texel cache's AXI4 read port: formal/axiread.py (any read manager; the ROP's read half too), "
-    "formal/readers.py (one READ_MANAGERS entry per cache).",
+    "The texel caches' AXI4 read ports (the blocking cache, the decoupled cache, the texture fetch's one port "
+    "shared by both maps' decoupled caches): formal/axiread.py (any read manager; the ROP's read half too), "
+    "formal/readers.py (one READ_MANAGERS entry per design; the decoupled ones in formal/fetch.py).",
     "White-box invariants read the designs' internal registers by name (formal/whitebox.py); the FIFOs' own "
     "contract (Amaranth's SyncFIFO returns what was written, in order) is assumed where they are read.",
     "The memory behind each AXI4 port is free within the AXI4 rules, with stalls and response latencies "

@@ -117,7 +117,8 @@ class DecoupledTexCache(wiring.Component):
             lfifo=SyncFIFOBuffered(width=self._entry_layout().size, depth=P.lookup_depth),
             arq=SyncFIFOBuffered(width=self.line_bits, depth=P.misses),
             slots=SyncFIFOBuffered(width=slot_bits, depth=P.misses),
-            inflight=Signal(range(P.misses + 1)), miss_now=Signal(), copy_done=Signal())
+            inflight=Signal(range(P.misses + 1), name="inflight"), miss_now=Signal(name="miss_now"),
+            copy_done=Signal(name="copy_done"))
         m.submodules.lfifo, m.submodules.arq, m.submodules.slots = f.lfifo, f.arq, f.slots
         m.d.sync += f.inflight.eq(f.inflight + f.miss_now - f.copy_done)
         self._tag_stage(m, f)
@@ -139,8 +140,8 @@ class DecoupledTexCache(wiring.Component):
         P = self.params
         W, S = P.ways, P.sets
         wb = max(1, (W - 1).bit_length())
-        req, t_valid = Signal(self.req), Signal()
-        k, nf = Signal(2), Signal(3)                             # next corner to check, fills so far
+        req, t_valid = Signal(self.req, name="req"), Signal(name="t_valid")
+        k, nf = Signal(2, name="k"), Signal(3, name="nf")  # next corner to check, fills so far
         way_reg = [Signal(wb, name=f"way_reg{q}") for q in range(4)]
         tags = [Signal(self.line_bits, name=f"tag{j}") for j in range(S * W)]
         valid = [Signal(name=f"valid{j}") for j in range(S * W)]
@@ -284,7 +285,7 @@ class DecoupledTexCache(wiring.Component):
                      axi.araddr.eq(f.arq.r_data * P.line_bytes), axi.arvalid.eq(f.arq.r_rdy),
                      f.arq.r_en.eq(axi.arready), axi.awvalid.eq(0), axi.wvalid.eq(0), axi.bready.eq(1),
                      axi.rready.eq(1)]
-        beat, wring = Signal(range(P.line_texels)), Signal(range(P.misses))
+        beat, wring = Signal(range(P.line_texels), name="beat"), Signal(range(P.misses), name="wring")
         f.filled = Signal(range(P.misses + 1))                  # complete lines in the buffer
         f.line_in = Signal()
         r = SimpleNamespace(c=beat[:lb], r=beat[lb:2 * lb])
@@ -311,7 +312,8 @@ class DecoupledTexCache(wiring.Component):
         ent = Signal(self._entry_layout())
         m.d.comb += ent.eq(f.lfifo.r_data)
         m.d.sync += f.filled.eq(f.filled + f.line_in - f.copy_done)
-        done, copying, cc, rring = Signal(3), Signal(), Signal(range(Q + 1)), Signal(range(P.misses))
+        done, copying = Signal(3, name="done"), Signal(name="copying")
+        cc, rring = Signal(range(Q + 1), name="cc"), Signal(range(P.misses), name="rring")
         start = f.lfifo.r_rdy & (done != ent.fills) & (f.filled != 0) & ~copying
         with m.If(start):
             m.d.sync += [copying.eq(1), cc.eq(0)]
@@ -323,7 +325,7 @@ class DecoupledTexCache(wiring.Component):
         rd_word = cc[:(Q - 1).bit_length()]
         for rp in f.fill_banks:
             m.d.comb += rp.addr.eq(Cat(rd_word, rring) if P.misses > 1 else rd_word)
-        o_valid, sel = Signal(), Signal(data.ArrayLayout(2, 4))
+        o_valid, sel = Signal(name="o_valid"), Signal(data.ArrayLayout(2, 4), name="sel")
         side = Signal(max(1, self.side_bits))
         advance = ~o_valid | self.o.ready
         ready = f.lfifo.r_rdy & (done == ent.fills) & ~copying

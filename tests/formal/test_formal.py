@@ -107,6 +107,19 @@ def test_texcache_read_port_is_proven_and_an_early_rlast_is_caught():
     assert (ROOT / caught["trace"]).exists() or Path(caught["trace"]).exists()
 
 
+@needs_tools
+def test_decoupled_cache_read_port_is_proven_and_an_extra_burst_is_caught():
+    """The decoupled cache (several bursts outstanding, a lookup FIFO) proven by k-induction; one burst beyond its
+    budget fails ar_outstanding with a waveform."""
+    entry = run_set(_set("texcache_decoupled_axi"), OUT, covers=False)
+    assert entry["status"] == "PASS" and entry["verdict"].startswith("proven"), entry
+    assert {"ar_outstanding", "owed_lines", "inside_is_stages", "o_capacity"} <= set(entry["checks"])
+    (v,) = [v for v in variants() if v.name == "decoupled_extra_burst"]
+    caught = run_variant(v, OUT)
+    assert caught["caught"] and "ar_outstanding" in caught["failed"], caught
+    assert (ROOT / caught["trace"]).exists() or Path(caught["trace"]).exists()
+
+
 def test_every_read_manager_entry_is_a_property_set():
     from formal.readers import READ_MANAGERS
     assert READ_MANAGERS and {e.name for e in READ_MANAGERS} <= {s.name for s in property_sets()}

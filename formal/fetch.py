@@ -1,0 +1,162 @@
+"""Read-manager entries (:data:`formal.readers.READ_MANAGERS`) of the decoupled texel cache
+(``rtl/texcache_decoupled.py``, Igehy et al.: several bursts outstanding, a lookup FIFO) and of the texture fetch
+(``rtl/texfetch.py``: both maps' caches forked and joined per fragment on one AXI4 read port), for the texture
+lookups of the pixel pipeline (paper, sections 3.2 and 4).
+
+Besides the generic harness's properties (AXI4 read channels, stream rules, no answer without a request, the
+capacity), each entry adds:
+
+- the decoupled cache: its white-box invariants (lines owed = lines queued for ``AR`` + bursts outstanding + lines
+  complete in the fill buffer, never above ``misses``; the slot queue as long; the beat counter the burst's; a copy
+  only of a complete line; lookups inside = the tag stage + the lookup FIFO + the output register), which make
+  k-induction close; covers: ``misses`` bursts outstanding, the lookup FIFO full;
+- the texture fetch: each ``AR`` comes from exactly one cache's handshake with its fields (``ar_from_one``), each
+  cache's own bursts outstanding at most its ``misses`` (``c*_outstanding``), and every ``R`` beat routed to
+  exactly the cache that issued its burst (``r_to_owner``, against a queue of the issuing caches kept by the
+  harness), none lost (``r_routed``); checked to a bounded depth (:data:`FETCH_DEPTH`, why below).
+"""
+
+from __future__ import annotations
+
+from amaranth.hdl import Cat, Signal
+from amaranth.lib.fifo import SyncFIFOBuffered
+
+from fxmodel.units.texcache import Layout, TexCacheParams
+from rtl.texcache_decoupled import DecoupledTexCache
+from rtl.texfetch import MAPS, TexFetch
+
+from . import whitebox
+from .axiread import LenQueue
+from .manager import STALL, ReadManager
+from .props import Harness, bits_for
+
+__all__ = ["ENTRIES", "DEC_PARAMS", "small_decoupled", "small_texfetch", "FETCH_DEPTH", "cache_invariants"]
+
+#: The smallest decoupled cache that builds: 2 x 2 texel lines (4-beat bursts), 2 sets of 2 ways, 4-bit texels, a
+#: lookup FIFO of 2, 4 lines owed at most (the least ``misses`` allowed).
+DEC_PARAMS = TexCacheParams(block=2, sets=2, ways=2, index="linear", texel_bits=4, lookup_depth=2, misses=4)
+
+
+def small_decoupled() -> DecoupledTexCache:
+    """The decoupled cache of :data:`DEC_PARAMS` over an 8 x 8 map placed across a 4 KB boundary (16-bit
+    addresses)."""
+    p = DEC_PARAMS
+    layout = Layout(((("m", 0), 8, 8),), p.block, p.texel_bytes, base=4096 - 4 * p.line_bytes)
+    return DecoupledTexCache(p, layout, addr_bits=16)
+
+
+def small_texfetch(cls=TexFetch) -> TexFetch:
+    """Both maps' caches of :data:`DEC_PARAMS` over two 4 x 4 maps, the first line of the second map the first
+    line after a 4 KB boundary (16-bit addresses), a 1-bit sideband (``cls``: the class, or a function of its
+    arguments that builds a variant)."""
+    p = DEC_PARAMS
+    layout = Layout(tuple(((k, 0), 4, 4) for k in MAPS), p.block, p.texel_bytes, base=4096 - 4 * p.line_bytes)
+    return cls({k: p for k in MAPS}, layout, side_bits=1, addr_bits=16)
+
+
+def _capacity(p: TexCacheParams) -> int:
+    """Lookups a decoupled cache holds at most: the tag stage's, the lookup FIFO's, the output register's."""
+    return 1 + p.lookup_depth + 1
+
+
+def buffered_fifo_invariants(h: Harness, sig, fifo, name: str):
+    """An Amaranth ``SyncFIFOBuffered`` (depth at least 2; ``sig(n)`` finds its signals): its level is the inner
+    FIFO's plus the output register's, and the output register is empty only right after a write into an empty
+    FIFO (the inner FIFO holds at most that one entry)."""
+    inner = sig("inner_level")
+    h.check(fifo.level == inner + fifo.r_rdy, f"{name}_level_split")
+    h.check(fifo.r_rdy | (inner <= 1), f"{name}_output_refilled")
+
+
+def cache_invariants(h: Harness, sig, top, path: str, cache, pend, beat_ref, inside, *, prove: bool = True):
+    """The decoupled cache at ``path`` (``cache``, its component): ``pend`` its bursts outstanding, ``beat_ref``
+    the beat count of its current burst, ``inside`` its lookups inside. Covers: ``misses`` bursts outstanding,
+    the lookup FIFO full."""
+    p = cache.params
+    s = lambda name: sig(name, path)                   # noqa: E731
+    lfifo = whitebox.origin(top, f"{path}/lfifo".strip("/"), SyncFIFOBuffered)
+    arq = whitebox.origin(top, f"{path}/arq".strip("/"), SyncFIFOBuffered)
+    slots = whitebox.origin(top, f"{path}/slots".strip("/"), SyncFIFOBuffered)
+    inflight, filled, beat, copying = s("inflight"), s("filled"), s("beat"), s("copying")
+    if prove:
+        for name, fifo in (("lfifo", lfifo), ("arq", arq), ("slots", slots)):
+            buffered_fifo_invariants(h, lambda n, name=name: sig(n, f"{path}/{name}".strip("/")),
+                                     fifo, name)
+        h.check(slots.r_rdy | ((slots.level == arq.level) & ~arq.r_rdy), "slot_queue_ahead")
+        h.check(inflight == arq.level + pend + filled, "owed_lines")
+        h.check(inflight <= p.misses, "owed_bound")
+        h.check(slots.level == inflight, "slot_queue")
+        h.check(~copying | (filled != 0), "copy_of_complete_line")
+        h.check(beat == beat_ref, "beat_is_burst_beat")
+        h.check(inside == s("t_valid") + lfifo.level + s("o_valid"), "inside_is_stages")
+    h.cover(pend == p.misses, "misses_outstanding_reach")
+    h.cover((lfifo.level == p.lookup_depth) & s("t_valid"), "lookup_fifo_full_reach")
+
+
+def _decoupled_invariants(h: Harness, sig, rd, inside, *, inner, top):
+    cache_invariants(h, sig, top, "", inner, rd.ar_pend, rd.r_beat, inside)
+
+
+#: Depth of the texture fetch's bounded check (cycles from reset).
+FETCH_DEPTH = 14
+
+FETCH_WHY = (
+    "k-induction would need the contents of four FIFOs tied to each other (the owner FIFO to each cache's bursts); "
+    f"bounded instead to {FETCH_DEPTH} cycles from reset (the solver's time grows steeply with the depth), enough "
+    f"for a fragment's misses to be queued in both caches, their 2 x {DEC_PARAMS.misses} bursts granted "
+    f"alternately (an AR waits at most {STALL} cycles) and the first of them returned and routed (a lookup FIFO full "
+    "and bursts of both caches outstanding at once are reached inside this depth, the rest in the cover run); each "
+    "cache alone is proven for all time (texcache_decoupled_axi)")
+
+
+def _fetch_invariants(h: Harness, sig, rd, inside, *, inner, top):
+    """Routing: AR from one cache, each cache's outstanding bound, R beats to the issuing cache."""
+    m, axi = h.m, inner.mem
+    caches = [inner.caches[k] for k in MAPS]
+    subs = [c.mem for c in caches]
+    ar_x = [s.arvalid & s.arready for s in subs]
+    top_ar = axi.arvalid & axi.arready
+    h.check(top_ar == (ar_x[0] | ar_x[1]), "ar_from_one")
+    h.check(~(ar_x[0] & ar_x[1]), "ar_one_cache")
+    for k, sub in enumerate(subs):
+        fields = Cat(sub.araddr, sub.arlen, sub.arsize, sub.arburst, sub.arid)
+        h.check(~ar_x[k] | (fields == Cat(axi.araddr, axi.arlen, axi.arsize, axi.arburst, axi.arid)),
+                f"ar_fields_c{k}")
+    owners = LenQueue(h, rd.max_out + 1, "owner")          # the cache that issued each outstanding burst
+    r_x = axi.rvalid & axi.rready
+    owners.update(top_ar, ar_x[1], r_x & axi.rlast)
+    head = owners.head_len()[0]
+    got = [s.rvalid for s in subs]
+    h.check(~(got[0] | got[1]) | (owners.count != 0), "r_owner_known")
+    for k in range(2):
+        h.check(~got[k] | (head == k), f"r_to_owner_c{k}")
+        h.check(~got[k] | (subs[k].rlast == axi.rlast) & (subs[k].rdata == axi.rdata), f"r_beat_c{k}")
+    h.check(~axi.rvalid | (got[0] ^ got[1]), "r_routed")
+    h.check(~r_x | (subs[0].rready & got[0]) | (subs[1].rready & got[1]), "r_taken_by_owner")
+    for k, (c, sub) in enumerate(zip(caches, subs)):
+        pend = Signal(bits_for(c.params.misses + 2), name=f"f_c{k}_pend")
+        m.d.sync += pend.eq(pend + ar_x[k] - (sub.rvalid & sub.rready & sub.rlast))
+        h.check(pend <= c.params.misses, f"c{k}_outstanding")
+        with h.scope(f"c{k}_"):
+            cache_invariants(h, sig, top, MAPS[k], c, pend, 0, inside, prove=False)
+    h.cover((owners.count >= 2) & (owners.head_len()[0] != owners.regs[(owners.head + 1) % owners.n][0]),
+            "both_caches_outstanding_reach")
+
+
+ENTRIES = [
+    ReadManager("texcache_decoupled_axi",
+                f"DecoupledTexCache (block 2, 2 sets x 2 ways, lookup FIFO {DEC_PARAMS.lookup_depth}, misses "
+                f"{DEC_PARAMS.misses}, 8x8 map across 4 KB, memory stalls <= {STALL})", small_decoupled,
+                arlen=DEC_PARAMS.beats_per_line - 1, max_out=DEC_PARAMS.misses, capacity=_capacity(DEC_PARAMS),
+                invariants=_decoupled_invariants, cover_depth=30,
+                extra={"covers": "; lines owed = queued + outstanding + filled <= misses, inside = tag stage + lookup "
+                                 "FIFO + output"}),
+    ReadManager("texfetch_axi",
+                f"TexFetch: two DecoupledTexCache as above on one AXI4 port (two 4x4 maps, the second across 4 KB, "
+                f"memory stalls <= {STALL})", small_texfetch, arlen=DEC_PARAMS.beats_per_line - 1,
+                max_out=2 * DEC_PARAMS.misses, capacity=_capacity(DEC_PARAMS), invariants=_fetch_invariants,
+                mode="bmc", depth=FETCH_DEPTH, cover_depth=24, why=FETCH_WHY,
+                extra={"covers": "; fork/join: fragments in = out + inside; each AR from one cache with its fields, "
+                                 "each cache's outstanding <= misses, every R beat to the cache that issued its "
+                                 "burst, none lost"}),
+]

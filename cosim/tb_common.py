@@ -12,8 +12,9 @@ from pathlib import Path
 
 import cocotb
 from cocotb.clock import Clock
+from cocotb.triggers import FallingEdge, ReadOnly
 
-__all__ = ["job_meta", "pauses", "start", "axi_ram"]
+__all__ = ["job_meta", "pauses", "start", "axi_ram", "read_manager_walk"]
 
 
 def job_meta(variable: str = "COSIM_JOB") -> tuple[Path, dict]:
@@ -54,3 +55,42 @@ def axi_ram(dut, base: int, image: bytes, seed: int, p_pause: float, write: bool
         if p_pause > 0:
             ch.set_pause_generator(pauses(random.Random(seed * 7 + k), p_pause))
     return ram
+
+
+async def read_manager_walk(dut, latency: int | None = None) -> None:
+    """Drive a stream-in/stream-out AXI4 read manager (a texel cache, the texture fetch) from ``job.json``: requests
+    offered with probability ``p_valid``, the sink ready with ``p_ready``, an ``AxiRam`` with wait states behind
+    ``mem``; record every ``AR`` (address, length), the ``R`` beats, the outputs and the cycles into the result
+    file. ``latency``: the value of the bench's ``lat`` input (the fetch bench's delay queue), if it has one."""
+    _, meta = job_meta()
+    reqs = [int(r, 16) for r in meta["requests"]]
+    rng = random.Random(meta["seed"])
+    start(dut)
+    if latency is not None:
+        dut.lat.value = latency
+    _ram = axi_ram(dut, meta["base"], bytes.fromhex(meta["image"]), meta["seed"], meta["p_pause"],
+                   write=False)                            # the memory model lives as long as the test
+    for _ in range(3):
+        await FallingEdge(dut.clk)
+    dut.rst.value = 0
+    k, offered, cycles, beats, ar, outputs = 0, False, 0, 0, [], []
+    while len(outputs) < len(reqs):
+        await FallingEdge(dut.clk)
+        cycles += 1
+        assert cycles < meta["max_cycles"], f"no progress after {cycles} cycles ({len(outputs)} of {len(reqs)})"
+        if k < len(reqs) and not offered:
+            offered = rng.random() < meta["p_valid"]
+            if offered:
+                dut.i__payload.value = reqs[k]
+        dut.i__valid.value = int(offered)
+        dut.o__ready.value = int(rng.random() < meta["p_ready"])
+        await ReadOnly()
+        if offered and int(dut.i__ready.value):
+            k += 1
+            offered = False
+        if int(dut.o__valid.value) and int(dut.o__ready.value):
+            outputs.append(format(int(dut.o__payload.value), "x"))
+        if int(dut.mem__arvalid.value) and int(dut.mem__arready.value):
+            ar.append([int(dut.mem__araddr.value), int(dut.mem__arlen.value)])
+        beats += int(dut.mem__rvalid.value) & int(dut.mem__rready.value)
+    Path(meta["out"]).write_text(json.dumps({"outputs": outputs, "ar": ar, "beats": beats, "cycles": cycles}))

@@ -11,46 +11,12 @@ output; written to ``result.json``.
 
 from __future__ import annotations
 
-import json
-import random
-from pathlib import Path
-
 import cocotb
-from cocotb.triggers import FallingEdge, ReadOnly
 
-from cosim.tb_common import axi_ram, job_meta, start
+from cosim.tb_common import job_meta, read_manager_walk
 
 
 @cocotb.test()
 async def texfetch(dut):
     _, meta = job_meta()
-    reqs = [int(r, 16) for r in meta["requests"]]
-    rng = random.Random(meta["seed"])
-    start(dut)
-    dut.lat.value = meta["latency"]
-    _ram = axi_ram(dut, meta["base"], bytes.fromhex(meta["image"]), meta["seed"], meta["p_pause"],
-                   write=False)                            # the memory model lives as long as the test
-    for _ in range(3):
-        await FallingEdge(dut.clk)
-    dut.rst.value = 0
-    k, offered, cycles, beats, ar, outputs = 0, False, 0, 0, [], []
-    while len(outputs) < len(reqs):
-        await FallingEdge(dut.clk)
-        cycles += 1
-        assert cycles < meta["max_cycles"], f"no progress after {cycles} cycles ({len(outputs)} of {len(reqs)})"
-        if k < len(reqs) and not offered:
-            offered = rng.random() < meta["p_valid"]
-            if offered:
-                dut.i__payload.value = reqs[k]
-        dut.i__valid.value = int(offered)
-        dut.o__ready.value = int(rng.random() < meta["p_ready"])
-        await ReadOnly()
-        if offered and int(dut.i__ready.value):
-            k += 1
-            offered = False
-        if int(dut.o__valid.value) and int(dut.o__ready.value):
-            outputs.append(format(int(dut.o__payload.value), "x"))
-        if int(dut.mem__arvalid.value) and int(dut.mem__arready.value):
-            ar.append([int(dut.mem__araddr.value), int(dut.mem__arlen.value)])
-        beats += int(dut.mem__rvalid.value) & int(dut.mem__rready.value)
-    Path(meta["out"]).write_text(json.dumps({"outputs": outputs, "ar": ar, "beats": beats, "cycles": cycles}))
+    await read_manager_walk(dut, meta["latency"])

@@ -19,7 +19,7 @@ from .fixed import narrow, saturate, shift_round
 from .unit import Pipe, UnitComponent, register
 
 __all__ = ["Recip", "scale", "scale_stages", "times_reciprocal", "leading_zeros", "pieces", "split_product",
-           "split_products"]
+           "split_products", "product_stage"]
 
 
 def pieces(x, limit: int = RecipParams.DSP_BITS) -> list[tuple[Value, int]]:
@@ -51,6 +51,18 @@ def split_products(pipe: Pipe, products: dict, carry: dict, name: str = "pp"):
     s = pipe.stage(**parts, **carry)
     totals = {k: sum(getattr(s, p) << sh for p, (kk, sh) in shifts.items() if kk == k) for k in products}
     return totals, {k: getattr(s, k) for k in carry}
+
+
+def product_stage(pipe: Pipe, products: dict, carry: dict, name: str = "pp"):
+    """One product stage: :func:`split_products`, and when every product fits one multiplier block (no partial-product
+    stage was added) the products registered as a stage of their own with the signals of ``carry``. Returns the
+    products' values for the next stage (exact: the partials' sum) and the carried registers."""
+    before = pipe.depth
+    values, regs = split_products(pipe, products, carry, name)
+    if pipe.depth == before:
+        r = pipe.stage(**values, **carry)
+        values, regs = {k: getattr(r, k) for k in values}, {k: getattr(r, k) for k in carry}
+    return values, regs
 
 
 def split_product(pipe: Pipe, a, b, carry: dict, name: str = "pp"):

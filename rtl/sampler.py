@@ -18,7 +18,7 @@ from fxmodel.core.rounding import Overflow, Rounding
 from fxmodel.units.sampler import SamplerParams
 
 from .fixed import const_mul, narrow
-from .recip import split_products
+from .recip import product_stage
 from .unit import Pipe, UnitComponent, register
 
 __all__ = ["Sampler"]
@@ -185,18 +185,7 @@ class Sampler(UnitComponent):
                        **{f"dab{k}": texel[k][1] - texel[k][0] for k in ch},
                        **{f"dcd{k}": texel[k][3] - texel[k][2] for k in ch})
 
-        def products(prods: dict, carry: dict):
-            """A product stage: ``prods`` (name -> (a, b)) registered, or, when an operand is wider than one
-            multiplier block, their 18 x 18 partial products (``split_products``); returns the products' values
-            for the next stage (exact: the partials' sum) and the carried registers."""
-            before = pipe.depth
-            values, regs = split_products(pipe, prods, carry, "pp")
-            if pipe.depth == before:
-                r = pipe.stage(**values, **carry)
-                values, regs = {k: getattr(r, k) for k in values}, {k: getattr(r, k) for k in carry}
-            return values, regs
-
-        pt, c = products({f"pt{k}": (s.fx, getattr(s, f"dab{k}")) for k in ch}
+        pt, c = product_stage(pipe, {f"pt{k}": (s.fx, getattr(s, f"dab{k}")) for k in ch}
                          | {f"pb{k}": (s.fx, getattr(s, f"dcd{k}")) for k in ch},
                          {"fy": s.fy} | {f"a{k}": getattr(s, f"a{k}") for k in ch}
                          | {f"c{k}": getattr(s, f"c{k}") for k in ch})
@@ -204,7 +193,7 @@ class Sampler(UnitComponent):
                        **{f"bot{k}": (c[f"c{k}"] << B) + pt[f"pb{k}"] for k in ch})
         s = pipe.stage(fy=s.fy, **{f"top{k}": getattr(s, f"top{k}") for k in ch},
                        **{f"dtb{k}": getattr(s, f"bot{k}") - getattr(s, f"top{k}") for k in ch})
-        pv, c = products({f"pv{k}": (s.fy, getattr(s, f"dtb{k}")) for k in ch},
+        pv, c = product_stage(pipe, {f"pv{k}": (s.fy, getattr(s, f"dtb{k}")) for k in ch},
                          {f"top{k}": getattr(s, f"top{k}") for k in ch})
         s = pipe.stage(**{f"v{k}": (c[f"top{k}"] << B) + pv[f"pv{k}"] for k in ch})
         outs = {}

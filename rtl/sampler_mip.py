@@ -21,7 +21,7 @@ from amaranth.lib.memory import Memory
 from fxmodel.core.rounding import Overflow, Rounding
 
 from .fixed import const_mul, narrow
-from .recip import split_products
+from .recip import product_stage
 
 __all__ = ["trilinear"]
 
@@ -113,16 +113,6 @@ def wts_of(s) -> dict:
     return {f"f{ax}{p}": getattr(s, f"f{ax}{p}") for p in (0, 1) for ax in "xy"}
 
 
-def _products(pipe, prods: dict, carry: dict):
-    """One product stage (as ``rtl/sampler.py``): registered products, or their registered partial products."""
-    before = pipe.depth
-    values, regs = split_products(pipe, prods, carry, "pp")
-    if pipe.depth == before:
-        r = pipe.stage(**values, **carry)
-        values, regs = {k: getattr(r, k) for k in values}, {k: getattr(r, k) for k in carry}
-    return values, regs
-
-
 def _blends(c, pipe, data, late) -> dict:
     """The two bilinear blends (exact, before narrowing), then the blend between the levels and the rounding."""
     P = c.params
@@ -135,7 +125,7 @@ def _blends(c, pipe, data, late) -> dict:
                    **{f"c{p}{k}": tex[(p, k)][2] for p, k in keys},
                    **{f"dab{p}{k}": tex[(p, k)][1] - tex[(p, k)][0] for p, k in keys},
                    **{f"dcd{p}{k}": tex[(p, k)][3] - tex[(p, k)][2] for p, k in keys})
-    pt, cr = _products(pipe, {f"pt{p}{k}": (getattr(s, f"fx{p}"), getattr(s, f"dab{p}{k}")) for p, k in keys}
+    pt, cr = product_stage(pipe, {f"pt{p}{k}": (getattr(s, f"fx{p}"), getattr(s, f"dab{p}{k}")) for p, k in keys}
                        | {f"pb{p}{k}": (getattr(s, f"fx{p}"), getattr(s, f"dcd{p}{k}")) for p, k in keys},
                        {"g": s.g, "odd": s.odd, "fy0": s.fy0, "fy1": s.fy1}
                        | {f"a{p}{k}": getattr(s, f"a{p}{k}") for p, k in keys}
@@ -145,14 +135,14 @@ def _blends(c, pipe, data, late) -> dict:
                    **{f"bot{p}{k}": (cr[f"c{p}{k}"] << B) + pt[f"pb{p}{k}"] for p, k in keys})
     s = pipe.stage(g=s.g, odd=s.odd, fy0=s.fy0, fy1=s.fy1, **{f"top{p}{k}": getattr(s, f"top{p}{k}") for p, k in keys},
                    **{f"dtb{p}{k}": getattr(s, f"bot{p}{k}") - getattr(s, f"top{p}{k}") for p, k in keys})
-    pv, cr = _products(pipe, {f"pv{p}{k}": (getattr(s, f"fy{p}"), getattr(s, f"dtb{p}{k}")) for p, k in keys},
+    pv, cr = product_stage(pipe, {f"pv{p}{k}": (getattr(s, f"fy{p}"), getattr(s, f"dtb{p}{k}")) for p, k in keys},
                        {"g": s.g, "odd": s.odd} | {f"top{p}{k}": getattr(s, f"top{p}{k}") for p, k in keys})
     s = pipe.stage(g=cr["g"], odd=cr["odd"], **{f"v{p}{k}": (cr[f"top{p}{k}"] << B) + pv[f"pv{p}{k}"] for p, k in keys})
     # level L's lookup is the memory of its parity: v0 from it, v1 from the other
     s = pipe.stage(g=s.g, **{f"v{k}": Mux(s.odd, getattr(s, f"v1{k}"), getattr(s, f"v0{k}")) for k in ch},
                    **{f"dl{k}": Mux(s.odd, getattr(s, f"v0{k}") - getattr(s, f"v1{k}"),
                                     getattr(s, f"v1{k}") - getattr(s, f"v0{k}")) for k in ch})
-    pl, cr = _products(pipe, {f"pl{k}": (s.g, getattr(s, f"dl{k}")) for k in ch},
+    pl, cr = product_stage(pipe, {f"pl{k}": (s.g, getattr(s, f"dl{k}")) for k in ch},
                        {f"v{k}": getattr(s, f"v{k}") for k in ch})
     s = pipe.stage(**{f"w{k}": (cr[f"v{k}"] << C) + pl[f"pl{k}"] for k in ch})
     outs = {}

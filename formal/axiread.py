@@ -71,15 +71,9 @@ def burst_legal(h: Harness, axi, ch: str, data_bytes: int):
 
 
 def owed_bound(h: Harness, owed, valid, stall: int, name: str):
-    """A response owed arrives within ``stall`` cycles (assumed)."""
-    wait = Signal(bits_for(stall + 1), name=f"f_owed_{name}")
-    with h.m.If(owed & ~valid):
-        with h.m.If(wait <= stall):
-            h.m.d.sync += wait.eq(wait + 1)
-    with h.m.Else():
-        h.m.d.sync += wait.eq(0)
-    h.check(~owed | valid | (wait < stall), f"{name}_latency_bound", assume=True)
-    return wait
+    """A response owed arrives within ``stall`` cycles (assumed): :meth:`Harness.stall_bound` with the response's
+    ``valid`` in the place of ``ready`` (counter ``f_owed_<name>``, property ``<name>_latency_bound``)."""
+    return h.stall_bound(owed, valid, stall, name, counter="owed", check="latency_bound")
 
 
 class AxiReadCheck:

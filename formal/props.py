@@ -114,13 +114,15 @@ class Harness:
         prev = self.past(payload, f"{name}_payload")
         self.check(~stalled | (valid & (Value.cast(payload) == prev)), f"{name}_hold", assume=assume)
 
-    def stall_bound(self, valid, ready, limit: int, name: str, *, assume: bool = True):
-        """``valid & ~ready`` for at most ``limit`` cycles in a row (a bounded stall: assumed of a memory)."""
-        run = Signal(bits_for(limit + 1), name=f"f_stall_{name}")
+    def stall_bound(self, valid, ready, limit: int, name: str, *, assume: bool = True, counter: str = "stall",
+                    check: str = "stall_bound"):
+        """``valid & ~ready`` for at most ``limit`` cycles in a row (a bounded stall: assumed of a memory). The
+        counter is named ``f_<counter>_<name>`` and the property ``<name>_<check>``; returns the counter."""
+        run = Signal(bits_for(limit + 1), name=f"f_{counter}_{name}")
         with self.m.If(valid & ~ready):
             with self.m.If(run <= limit):
                 self.m.d.sync += run.eq(run + 1)
         with self.m.Else():
             self.m.d.sync += run.eq(0)
-        self.check(~(valid & ~ready) | (run < limit), f"{name}_stall_bound", assume=assume)
+        self.check(~(valid & ~ready) | (run < limit), f"{name}_{check}", assume=assume)
         return run

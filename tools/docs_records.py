@@ -454,16 +454,22 @@ def board_budget() -> str:
         f"[`board/budget.json`](board/budget.json).*\n"
 
 
+def _clock_tables(r: dict, fmax_head: str) -> str:
+    """A board record's two tables: Fmax per clock domain against its target (column ``fmax_head``), and the
+    resources used against the device's."""
+    clocks = [[f"`{name}`", f"{c['target_mhz']} MHz", f"{c['fmax_mhz']} MHz", "yes" if c["met"] else "**no**"]
+              for name, c in r["clocks"].items()]
+    res = [[kind, used, avail] for kind, (used, avail) in r["resources"].items()]
+    return (_table(["clock", "target", fmax_head, "met"], clocks, _align("lrrl")) + "\n"
+            + _table(["resource", "used", "available"], res, _align("lrr")))
+
+
 def board_bitstream() -> str:
     """The board top's last bitstream: Fmax per clock domain against its target, and resources."""
     r, path = _board_record("bitstream")
     if r is None:
         return _missing(path, "make bitstream BOARD=ulx3s")
-    clocks = [[f"`{name}`", f"{c['target_mhz']} MHz", f"{c['fmax_mhz']} MHz", "yes" if c["met"] else "**no**"]
-              for name, c in r["clocks"].items()]
-    res = [[kind, used, avail] for kind, (used, avail) in r["resources"].items()]
-    return (_table(["clock", "target", "Fmax", "met"], clocks, _align("lrrl")) + "\n"
-            + _table(["resource", "used", "available"], res, _align("lrr"))
+    return (_clock_tables(r, "Fmax")
             + f"\n*Measured by `{r['command']}` in {r['seconds']} s; record: [`board/bitstream.json`]"
               "(board/bitstream.json).*\n")
 
@@ -514,11 +520,7 @@ def board_engine_placement() -> str:
     r, path = _board_record("engine-placement")
     if r is None:
         return _missing(path, "make bitstream BOARD=ulx3s")
-    clocks = [[f"`{name}`", f"{c['target_mhz']} MHz", f"{c['fmax_mhz']} MHz", "yes" if c["met"] else "**no**"]
-              for name, c in r["clocks"].items()]
-    res = [[kind, used, avail] for kind, (used, avail) in r["resources"].items()]
     stage = "routed" if r.get("routed") else "placed"
-    return (_table(["clock", "target", f"Fmax ({stage})", "met"], clocks, _align("lrrl")) + "\n"
-            + _table(["resource", "used", "available"], res, _align("lrr"))
+    return (_clock_tables(r, f"Fmax ({stage})")
             + f"\n*{r['design']}: {r['stage']}. `{r['command']}`, {r['date']}; record: "
               "[`board/engine-placement.json`](board/engine-placement.json).*\n")

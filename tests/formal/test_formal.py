@@ -96,27 +96,27 @@ def test_committed_record_covers_every_set_and_catches_every_variant():
     assert record["machine"]["nproc"] >= 1 and record["command"].startswith("bumpmap formal")
 
 
-@needs_tools
-def test_texcache_read_port_is_proven_and_an_early_rlast_is_caught():
-    entry = run_set(_set("texcache_axi"), OUT, covers=False)
-    assert entry["status"] == "PASS" and entry["verdict"].startswith("proven"), entry
-    assert {"ar_hold", "ar_4k", "ar_len_declared", "ar_outstanding"} <= set(entry["checks"])
-    (v,) = [v for v in variants() if v.name == "texcache_rlast_early"]
-    caught = run_variant(v, OUT)
-    assert caught["caught"] and "fill_is_outstanding" in caught["failed"], caught
-    assert (ROOT / caught["trace"]).exists() or Path(caught["trace"]).exists()
+READ_PORTS = [
+    # (set, checks it must hold, broken variant, the check the variant must fail)
+    ("texcache_axi", {"ar_hold", "ar_4k", "ar_len_declared", "ar_outstanding"}, "texcache_rlast_early",
+     "fill_is_outstanding"),
+    # the decoupled cache (several bursts outstanding, a lookup FIFO); one burst beyond its budget
+    ("texcache_decoupled_axi", {"ar_outstanding", "owed_lines", "inside_is_stages", "o_capacity"},
+     "decoupled_extra_burst", "ar_outstanding"),
+]
 
 
 @needs_tools
-def test_decoupled_cache_read_port_is_proven_and_an_extra_burst_is_caught():
-    """The decoupled cache (several bursts outstanding, a lookup FIFO) proven by k-induction; one burst beyond its
-    budget fails ar_outstanding with a waveform."""
-    entry = run_set(_set("texcache_decoupled_axi"), OUT, covers=False)
+@pytest.mark.parametrize("name, checks, variant, failed", READ_PORTS, ids=[r[0] for r in READ_PORTS])
+def test_cache_read_port_is_proven_and_its_broken_variant_caught(name, checks, variant, failed):
+    """Each texel cache's AXI4 read port proven by k-induction; its broken variant fails ``failed`` with a
+    waveform."""
+    entry = run_set(_set(name), OUT, covers=False)
     assert entry["status"] == "PASS" and entry["verdict"].startswith("proven"), entry
-    assert {"ar_outstanding", "owed_lines", "inside_is_stages", "o_capacity"} <= set(entry["checks"])
-    (v,) = [v for v in variants() if v.name == "decoupled_extra_burst"]
+    assert checks <= set(entry["checks"])
+    (v,) = [v for v in variants() if v.name == variant]
     caught = run_variant(v, OUT)
-    assert caught["caught"] and "ar_outstanding" in caught["failed"], caught
+    assert caught["caught"] and failed in caught["failed"], caught
     assert (ROOT / caught["trace"]).exists() or Path(caught["trace"]).exists()
 
 

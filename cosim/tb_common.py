@@ -57,12 +57,11 @@ def axi_ram(dut, base: int, image: bytes, seed: int, p_pause: float, write: bool
     return ram
 
 
-async def read_manager_walk(dut, latency: int | None = None) -> None:
+async def read_manager_walk(dut, meta: dict, latency: int | None = None) -> None:
     """Drive a stream-in/stream-out AXI4 read manager (a texel cache, the texture fetch) from ``job.json``: requests
     offered with probability ``p_valid``, the sink ready with ``p_ready``, an ``AxiRam`` with wait states behind
     ``mem``; record every ``AR`` (address, length), the ``R`` beats, the outputs and the cycles into the result
     file. ``latency``: the value of the bench's ``lat`` input (the fetch bench's delay queue), if it has one."""
-    _, meta = job_meta()
     reqs = [int(r, 16) for r in meta["requests"]]
     rng = random.Random(meta["seed"])
     start(dut)

@@ -11,9 +11,10 @@ from __future__ import annotations
 
 import cocotb
 
-from cosim.tb_common import read_manager_walk
+from cosim.tb_common import job_meta, read_manager_walk
 
 
 @cocotb.test()
 async def texcache(dut):
-    await read_manager_walk(dut)
+    _, meta = job_meta()
+    await read_manager_walk(dut, meta)

@@ -19,4 +19,4 @@ from cosim.tb_common import job_meta, read_manager_walk
 @cocotb.test()
 async def texfetch(dut):
     _, meta = job_meta()
-    await read_manager_walk(dut, meta["latency"])
+    await read_manager_walk(dut, meta, meta["latency"])

@@ -45,6 +45,8 @@ COMMANDS: dict[str, tuple[str, str | None]] = {
     "exhaustive": ("tools.exhaustive", "exhaustive RTL equivalence runs and the 2^32 proof (Dask)"),
     "scenes-stress": ("tools.scenes_stress", "random valid scenes rendered in bulk against the bound"),
     "depth": ("tools.depth", "overdraw, depth disagreements and frame-buffer traffic of the shipped scenes"),
+    "precision": ("tools.precision", "where the fixed-point error goes against the true image, unit by unit, and "
+                  "what a wider diffuse factor buys"),
     "filtering": ("tools.filtering", "every shipped scene against the true image (reference (c)), and the "
                   "filtering study: MIP maps, LEAN bump maps, level of detail"),
     "figures": ("tools.figures", "re-render the documentation's scene pictures"),

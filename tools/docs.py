@@ -232,6 +232,7 @@ PAGES = {
     "refusal": lambda: rec.quickstart("refusal", head=20),
     "timed-commands": rec.timed_commands, "scene-results": rec.scene_results,
     "triangle-results": rec.triangle_results, "scenes-stress": rec.scenes_stress, "depth": rec.depth,
+    "precision": rec.precision,
     "exhaustive-rcp32": rec.exhaustive_rcp32, "exhaustive-throughput": rec.exhaustive_throughput,
     "fpga-resources": rec.fpga_resources, "bench": rec.bench, "raster-guard": rec.raster_guard,
     "formal-proofs": formal_proofs, "records": rec.records_index, "scene-schema": scene_schema,

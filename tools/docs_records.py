@@ -19,7 +19,7 @@ from fxmodel.core.paths import ROOT
 from .record import RECORDS, read
 
 __all__ = ["provenance", "quickstart", "timed_commands", "scene_results", "triangle_results", "scenes_stress",
-           "depth", "exhaustive_rcp32", "exhaustive_throughput", "fpga_resources", "bench", "raster_guard",
+           "depth", "precision", "exhaustive_rcp32", "exhaustive_throughput", "fpga_resources", "bench", "raster_guard",
            "recip_errors", "rop_throughput", "records_index"]
 
 DOCS = ROOT / "docs"
@@ -175,6 +175,15 @@ def depth() -> str:
     if record is None:
         return _missing(path, "bumpmap depth --record docs/records/depth.json")
     from .depth import table
+    return table(record["result"]) + "\n\n" + provenance(record, path)
+
+
+def precision() -> str:
+    """Where the fixed-point error goes against the true image, unit by unit, and a wider diffuse factor."""
+    record, path = _load("precision")
+    if record is None:
+        return _missing(path, "bumpmap precision --diffuse-frac 11 12 13 --record docs/records/precision.json")
+    from .precision import table
     return table(record["result"]) + "\n\n" + provenance(record, path)
 
 

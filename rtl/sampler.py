@@ -175,7 +175,8 @@ class Sampler(UnitComponent):
 
     def _blend(self, pipe: Pipe, data, late) -> dict:
         """The exact blend of the model, top = a 2**B + fx (b - a), bot = c 2**B + fx (d - c),
-        v = top 2**B + fy (bot - top), one operation per stage, then the rounding: the outputs by name."""
+        v = top 2**B + fy (bot - top), one operation per stage, then the rounding to ``out_channels`` (the texels'
+        formats, or ``extra_frac`` fraction bits finer): the outputs by name."""
         P = self.params
         B = P.weight_bits
         ch = range(len(P.channels))
@@ -197,7 +198,7 @@ class Sampler(UnitComponent):
                          {f"top{k}": getattr(s, f"top{k}") for k in ch})
         s = pipe.stage(**{f"v{k}": (c[f"top{k}"] << B) + pv[f"pv{k}"] for k in ch})
         outs = {}
-        for k, (n, fmt) in enumerate(zip(P.out_names, P.channels)):
-            outs[n], _ = narrow(getattr(s, f"v{k}"), 2 * B + fmt.frac_bits, fmt, Rounding.HALF_UP,
+        for k, (n, fmt, out) in enumerate(zip(P.out_names, P.channels, P.out_channels)):
+            outs[n], _ = narrow(getattr(s, f"v{k}"), 2 * B + fmt.frac_bits, out, Rounding.HALF_UP,
                                 Overflow.PROVEN)
         return outs

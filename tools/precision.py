@@ -1,7 +1,8 @@
 """Where the pixel pipeline's fixed-point error goes against the true image, unit by unit, and what widening the
 diffuse factor buys (paper sections 2 and 4: the shading ``texture D + S`` from the two reflectance cubes).
 
-``bumpmap precision [--scenes tin-plane ...] [--samples 8] [--diffuse-frac 11 12] [--json] [--record PATH]``
+``bumpmap precision [--scenes tin-plane ...] [--samples 8] [--diffuse-frac 11 12] [--extra-frac 0 2 3] [--json]
+[--record PATH]``
 
 Per shipped scene, with its preset (:func:`host.shipped.scene_preset`; presets without MIP mapping):
 
@@ -14,8 +15,11 @@ Per shipped scene, with its preset (:func:`host.shipped.scene_preset`; presets w
   each axis; PSNR and mean FLIP over the fully covered pixels), and against (a) (largest difference and PSNR): float
   (a); the model; the model with one unit's output swapped for (a)'s float value (``D`` or ``S``: what that
   unit's quantization costs); the model with the diffuse factor widened to each ``--diffuse-frac`` fraction bits
-  (``shade.diffuse_fmt``: the diffuse cube's texels, its sampler's blend and the shading unit's input), with the
-  hardware estimate of each frame's pipeline (MULT18X18D and DP16KD blocks, :mod:`fxmodel.core.cost`).
+  (``shade.diffuse_fmt``: the diffuse cube's texels, its sampler's blend and the shading unit's input, the blend
+  no finer than the texels), and with the preset's texels but the diffuse sampler's blend rounded to each
+  ``--extra-frac`` more fraction bits (the preset's ``diffuse_extra_frac``, ``SamplerParams.extra_frac``: no more
+  block RAM), with the hardware estimate of each frame's pipeline (MULT18X18D and DP16KD blocks,
+  :mod:`fxmodel.core.cost`).
 """
 
 from __future__ import annotations
@@ -29,7 +33,7 @@ import numpy as np
 
 from fxmodel.core.fixed import Fmt
 from fxmodel.pipeline.lighting import face_directions
-from fxmodel.pipeline.presets import preset_units
+from fxmodel.pipeline.presets import preset_units, top_problem
 from host.metrics import compare
 from host.reference import cube_address_float, perturbed, sample_float
 from host.render import prepare
@@ -97,9 +101,10 @@ def _row(frame, rgb, truth, a, flip: bool, cost=None) -> dict:
     return row
 
 
-def scene_figures(scene, samples: int = DEFAULT_SAMPLES, fracs=(11, 12), size=None, flip: bool = True) -> dict:
-    """One scene's figures (module docstring): ``{"scene", "preset", "diffuse_fmt", "pixels", "before_rounding",
-    "frames": {label: row}}``."""
+def scene_figures(scene, samples: int = DEFAULT_SAMPLES, fracs=(11, 12), size=None, flip: bool = True,
+                  extras=()) -> dict:
+    """One scene's figures (module docstring): ``{"scene", "preset", "diffuse_fmt", "diffuse_extra_frac", "pixels",
+    "before_rounding", "frames": {label: row}}`` (``diffuse_fmt``: the preset's diffuse texels)."""
     path = scene_path(scene)
     preset = scene_preset(path)
     frame = prepare(path, size=size, preset=preset)
@@ -112,13 +117,16 @@ def scene_figures(scene, samples: int = DEFAULT_SAMPLES, fracs=(11, 12), size=No
               "model": _row(frame, fm["rgb"].astype(np.uint8), truth, a_bytes, flip, frame.params.info()["cost"]),
               "model, D from (a)": _row(frame, _to_bytes(fm["t"] * fa["D"] + fm["S"]), truth, a_bytes, flip),
               "model, S from (a)": _row(frame, _to_bytes(fm["t"] * fm["D"] + fa["S"]), truth, a_bytes, flip)}
-    for frac in fracs:
-        wide = Fmt(False, fmt.int_bits, frac)
-        units = dataclasses.replace(base, shade=dataclasses.replace(base["shade"], diffuse_fmt=wide))
+    variants = {f"model, D {Fmt(False, fmt.int_bits, f)}": dataclasses.replace(
+        base, shade=dataclasses.replace(base["shade"], diffuse_fmt=Fmt(False, fmt.int_bits, f)), diffuse_extra_frac=0)
+        for f in fracs}
+    variants |= {f"model, D blend +{e} bits": dataclasses.replace(base, diffuse_extra_frac=e) for e in extras}
+    for label, units in variants.items():
         other = prepare(path, size=size, preset=units)
         rgb = other.params.compute(other.codes)[:, :3].astype(np.uint8)
-        frames[f"model, D {wide}"] = _row(frame, rgb, truth, a_bytes, flip, other.params.info()["cost"])
-    return {"scene": frame.scene.name, "preset": preset, "diffuse_fmt": str(fmt), "pixels": len(frame.codes),
+        frames[label] = _row(frame, rgb, truth, a_bytes, flip, other.params.info()["cost"])
+    return {"scene": frame.scene.name, "preset": preset, "diffuse_fmt": str(fmt),
+            "diffuse_extra_frac": base["diffuse_extra_frac"], "pixels": len(frame.codes),
             "samples": samples, "before_rounding": split(fm, fa), "frames": frames}
 
 
@@ -131,12 +139,14 @@ def table(rows) -> str:
     def rgb(v, sign=""):
         return " / ".join(format(x, f"{sign}.3f") for x in v)
 
-    lines = ["| scene (preset, D) | mean, LSB (r / g / b) | RMS | texture part | diffuse D part | specular S part |",
+    lines = ["| scene (preset, D texels, blend) | mean, LSB (r / g / b) | RMS | texture part | diffuse D part | "
+             "specular S part |",
              "|---|---:|---:|---:|---:|---:|"]
     for r in rows:
         b = r["before_rounding"]
         cells = [rgb(b["mean"], "+")] + [rgb(b[k]) for k in ("rms", "rms_texture", "rms_diffuse", "rms_specular")]
-        lines.append(f"| `{r['scene']}` ({r['preset']}, {r['diffuse_fmt']}) | " + " | ".join(cells) + " |")
+        lines.append(f"| `{r['scene']}` ({r['preset']}, {r['diffuse_fmt']}, +{r.get('diffuse_extra_frac', 0)} "
+                     f"bits) | " + " | ".join(cells) + " |")
     lines += ["", "| scene | frame | vs (c): PSNR dB | vs (c): FLIP | vs (a): max LSB | vs (a): PSNR dB | "
               "MULT18X18D | DP16KD |", "|---|---|---:|---:|---:|---:|---:|---:|"]
     for r in rows:
@@ -154,7 +164,11 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
     ap.add_argument("--samples", type=int, default=DEFAULT_SAMPLES,
                     help="samples per pixel along each axis of reference (c) (a power of two)")
     ap.add_argument("--diffuse-frac", type=int, nargs="*", default=[11, 12], metavar="F",
-                    help="also draw with the diffuse factor at F fraction bits (the preset's integer bits)")
+                    help="also draw with the diffuse factor at F fraction bits (the preset's integer bits; texels "
+                         "and blend)")
+    ap.add_argument("--extra-frac", type=int, nargs="*", default=[], metavar="E",
+                    help="also draw with the preset's diffuse texels and their sampler's blend E fraction bits finer "
+                         "(the preset's diffuse_extra_frac)")
     ap.add_argument("--size", type=int, help="override the image width (aspect kept)")
     ap.add_argument("--no-flip", action="store_true", help="leave out FLIP (faster)")
     ap.add_argument("--json", action="store_true", help="print JSON instead of the Markdown tables")
@@ -167,9 +181,13 @@ def run(args: argparse.Namespace) -> int:
         if not 1 <= f <= 24:
             print(f"error: --diffuse-frac {f}: must be 1..24 fraction bits", file=sys.stderr)
             return 2
+    for e in args.extra_frac:
+        if problem := top_problem("diffuse_extra_frac", e):
+            print(f"error: --extra-frac {e}: {problem}", file=sys.stderr)
+            return 2
     try:
-        rows = [scene_figures(s, args.samples, tuple(args.diffuse_frac), args.size, not args.no_flip)
-                for s in args.scenes]
+        rows = [scene_figures(s, args.samples, tuple(args.diffuse_frac), args.size, not args.no_flip,
+                              tuple(args.extra_frac)) for s in args.scenes]
     except (ValueError, OSError, KeyError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2

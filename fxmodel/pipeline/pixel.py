@@ -125,8 +125,8 @@ class PipelineParams(Unit):
                 f"its width {cube_bits} must equal R width {self.reflect.r_fmt.width}")
         for name, fmt in (("diffuse", self.shade.diffuse_fmt), ("specular", self.shade.specular_fmt)):
             smp = getattr(self, name)
-            require(smp.faces == 6 and smp.channels == (fmt,) * 3, f"{name}.channels/faces", (smp.channels, smp.faces),
-                    f"must be a cube of three {fmt} channels")
+            require(smp.faces == 6 and smp.out_channels == (fmt,) * 3, f"{name}.out_channels/faces",
+                    (smp.out_channels, smp.faces), f"must be a cube of three {fmt} output channels (shade's input)")
             require(smp.coord_fmt == self.cube.st_fmt, f"{name}.coord_fmt", smp.coord_fmt,
                     f"must be the cube unit's st_fmt {self.cube.st_fmt}")
         if self.lod is None:
@@ -264,7 +264,9 @@ class PipelineParams(Unit):
         8 bits there. ``None``: the preset's ``weight_bits`` (12 unless a preset file sets it). ``preset`` is a
         preset name or a units dict (see :func:`fxmodel.pipeline.presets.preset_units`). The preset's ``mip_levels``
         (0: none), ``lod_bias`` and ``level_bits`` turn on MIP mapping of the color texture (:attr:`lod`), when the
-        texture has a level beyond level 0 (not for a one-texel texture)."""
+        texture has a level beyond level 0 (not for a one-texel texture). The preset's ``shade.diffuse_fmt`` is the
+        diffuse cube's texel format; its sampler's blend keeps ``diffuse_extra_frac`` more fraction bits, and the
+        shading unit's ``diffuse_fmt`` is derived from the sampler's output format."""
         units = preset_units(preset)
         if weight_bits is None:
             weight_bits = top_value(units, "weight_bits")
@@ -281,6 +283,10 @@ class PipelineParams(Unit):
                                       level_bits=top_value(units, "level_bits"))
         diffuse, specular, info = bake_cubes(lighting, cube_face, shade.diffuse_fmt, shade.specular_fmt,
                                              border=1 if cube_edge == "border" else 0)
+        diffuse = SamplerParams(texels=diffuse, channels=(shade.diffuse_fmt,) * 3, coord_fmt=cube.st_fmt,
+                                edge=cube_edge, names=("r", "g", "b"),
+                                extra_frac=top_value(units, "diffuse_extra_frac"))
+        shade = shade.replace(diffuse_fmt=diffuse.out_channels[0])     # the preset's diffuse_fmt: the texels'
         coord = persp.coord_fmt
         params = cls(
             persp=persp, bump=bump, reflect=reflect, cube=cube, shade=shade,
@@ -288,8 +294,7 @@ class PipelineParams(Unit):
                                    coord_fmt=coord, filter=bump_filter, edge="repeat", weight_bits=weight_bits,
                                    names=("du", "dv")),
             texture=texture,
-            diffuse=SamplerParams(texels=diffuse, channels=(shade.diffuse_fmt,) * 3, coord_fmt=cube.st_fmt,
-                                  edge=cube_edge, names=("r", "g", "b")),
+            diffuse=diffuse,
             specular=SamplerParams(texels=specular, channels=(shade.specular_fmt,) * 3, coord_fmt=cube.st_fmt,
                                    edge=cube_edge, names=("r", "g", "b")), lod=lod)
         return params, info

@@ -13,7 +13,14 @@ A preset file holds one table per unit with that unit's parameter fields; nested
 (``[persp.recip]``, ``[cube.divide]``, ``[cube.divide.recip]``). Formats are written in their short form
 (``str(Fmt)``, a string), enums by name. A field that is missing keeps the ``default`` preset's value. Top-level
 keys: ``weight_bits`` (the bump-map and texture bilinear weights), ``cube_size`` (texels per reflectance-cube face
-edge) and the free-form ``[fit]`` table (what ``fit`` measured; not read back).
+edge), the other :data:`TOP_KEYS` and the free-form ``[fit]`` table (what ``fit`` measured; not read back). A missing
+top-level key keeps the ``default`` preset's value too, except those of :data:`FILE_MISSING` (``diffuse_extra_frac``):
+there a missing key means the value before the key existed (0), so a file written before keeps its meaning, and
+``write_preset`` always writes the key.
+
+``shade.diffuse_fmt`` of a preset is the diffuse reflectance cube's texel format; the pipeline's shading unit takes
+the diffuse sampler's output format, ``diffuse_extra_frac`` fraction bits finer (``PipelineParams.assemble`` derives
+it: :attr:`fxmodel.units.sampler.SamplerParams.out_channels`).
 
 The folder is ``presets/`` at the repository root, or the environment variable ``FXMODEL_PRESETS``.
 """
@@ -49,9 +56,16 @@ __all__ = ["TOP_KEYS", "UNIT_KEYS", "UNIT_TYPES", "PRESET_KEYS", "PipelinePreset
 #: ``mip_levels``: MIP levels of the color texture's trilinear filter, 0 for none (the default: bilinear at level 0),
 #: capped at the full pyramid; ``lod_bias``: the level-of-detail bias, a code of the LOD unit's ``lod_frac`` (8)
 #: fraction bits (-128: half a level sharper); ``level_bits``: the blend weight between two levels
-#: (:mod:`fxmodel.units.sampler`, step 5).
+#: (:mod:`fxmodel.units.sampler`, step 5). ``diffuse_extra_frac``: fraction bits the diffuse cube sampler's bilinear
+#: blend keeps beyond its texels' (``SamplerParams.extra_frac``; the shading unit's diffuse input is that much finer,
+#: the texels unchanged); the built-in ``default`` preset sets it.
 TOP_KEYS = {"weight_bits": (12, 1, 16), "cube_size": (64, 1, 1024), "raster_guard": (1, 0, 8),
-            "mip_levels": (0, 0, 16), "lod_bias": (0, -4096, 4096), "level_bits": (8, 1, 8)}
+            "mip_levels": (0, 0, 16), "lod_bias": (0, -4096, 4096), "level_bits": (8, 1, 8),
+            "diffuse_extra_frac": (0, 0, 8)}
+
+#: Top-level keys whose value in a preset file that leaves them out is fixed (the value before the key existed),
+#: not the base preset's: a file written before keeps its meaning.
+FILE_MISSING = {"diffuse_extra_frac": 0}
 
 #: Widest number format a preset file may give a field (sign included): the model's integer arithmetic and the
 #: RTL's ports are sized from it; the default preset's widest is 26 bits.
@@ -102,10 +116,10 @@ class PipelinePreset(Mapping):
     ----------
     persp, bump, reflect, cube, shade
         The units' parameter objects (classes in :data:`UNIT_TYPES`).
-    weight_bits, cube_size, raster_guard, mip_levels, lod_bias, level_bits : int
+    weight_bits, cube_size, raster_guard, mip_levels, lod_bias, level_bits, diffuse_extra_frac : int
         The bilinear weights' bits of the bump map and texture, texels per reflectance-cube face edge, guard bits
-        of the scan converter's interpolators, the color texture's MIP mapping (ranges and defaults in
-        :data:`TOP_KEYS`).
+        of the scan converter's interpolators, the color texture's MIP mapping, the diffuse cube blend's extra
+        fraction bits (ranges and defaults in :data:`TOP_KEYS`).
     """
 
     persp: PerspParams
@@ -119,6 +133,7 @@ class PipelinePreset(Mapping):
     mip_levels: int = TOP_KEYS["mip_levels"][0]
     lod_bias: int = TOP_KEYS["lod_bias"][0]
     level_bits: int = TOP_KEYS["level_bits"][0]
+    diffuse_extra_frac: int = TOP_KEYS["diffuse_extra_frac"][0]
 
     def __post_init__(self):
         for key, cls in UNIT_TYPES.items():
@@ -167,10 +182,14 @@ class PipelinePreset(Mapping):
 #: The keys of a pipeline preset, in file order: the units, then the :data:`TOP_KEYS`.
 PRESET_KEYS = (*UNIT_TYPES, *TOP_KEYS)
 
+#: The built-in ``default`` preset's ``diffuse_extra_frac``: the diffuse factor's second rounding (the cube
+#: sampler's blend) that much finer, no more block RAM (``bumpmap precision``, docs/design-space.md).
+DIFFUSE_EXTRA_FRAC = 3
+
 BUILTIN_PRESET_UNITS = {
     "default": PipelinePreset(persp=PerspParams.PRESETS["color"], bump=BumpParams.PRESETS["default"],
                               reflect=ReflectParams.PRESETS["default"], cube=CubeParams.PRESETS["default"],
-                              shade=ShadeParams.PRESETS["default"]),
+                              shade=ShadeParams.PRESETS["default"], diffuse_extra_frac=DIFFUSE_EXTRA_FRAC),
 }
 
 
@@ -368,7 +387,7 @@ def load_preset(name: str, directory=None, base: Mapping | None = None) -> Pipel
             raise PresetError(f"{path}: key {key}: unknown (have {', '.join(allowed)})")
     units = {key: _convert(base[key], data[key], path, key) if key in data else base[key] for key in UNIT_KEYS}
     for key in TOP_KEYS:
-        value = data.get(key, top_value(base, key))
+        value = data.get(key, FILE_MISSING[key] if key in FILE_MISSING else top_value(base, key))
         problem = top_problem(key, value)
         if problem:
             raise PresetError(f"{path}: key {key}: {problem}, got {value!r}")

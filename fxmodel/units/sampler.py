@@ -27,6 +27,11 @@ Coordinates ``s, t`` are codes of ``coord_fmt`` with ``T`` fraction bits.
    ``v = top 2**B + fy (bot - top)`` (``B = weight_bits``), then one narrowing to the channel's format,
    ``Rounding.HALF_UP`` and ``Overflow.PROVEN`` (a convex combination of four codes of a format, rounded to
    nearest, stays within their range: the result lies between the smallest and largest of the four texels).
+   ``extra_frac = e > 0`` (bilinear only): the narrowing keeps ``e`` more fraction bits than the texels, to the
+   output format :attr:`SamplerParams.out_channels` (same integer bits, ``frac + e`` fraction bits), still
+   ``Rounding.HALF_UP`` and ``Overflow.PROVEN``: the four texels are codes of the finer grid too (times ``2**e``),
+   so the rounded blend still lies between the smallest and largest of them, within the texels' range, which
+   the output format holds (same integer bits). The blend's own resolution, not the memory's: no more texel bits.
 
 5. **Trilinear** (MIP mapping, paper section 6's next step): a third input ``lod`` (``lod_fmt``, the LOD unit's
    ``out_fmt``, ``F`` fraction bits) and the MIP levels ``mips`` (:func:`fxmodel.units.mip.mip_pyramid`, each level
@@ -124,7 +129,7 @@ class SamplerParams(Unit):
         The memory, ``(faces, height, width, channels)`` codes; ``faces`` is 1 (a texture) or 6 (a cube map,
         with a ``face`` input port).
     channels : tuple of Fmt
-        Format of each channel (the outputs have the same formats).
+        Format of each channel (the outputs: :attr:`out_channels`, the same unless ``extra_frac``).
     coord_fmt : Fmt
         Format of the ``s, t`` inputs.
     filter : str
@@ -142,6 +147,9 @@ class SamplerParams(Unit):
         ``trilinear`` only: format of the ``lod`` input (the LOD unit's ``out_fmt``, signed).
     level_bits : int
         ``trilinear`` only: bits of the blend weight between two levels (at most ``lod_fmt``'s fraction bits).
+    extra_frac : int
+        ``bilinear`` only: fraction bits the blend's output keeps beyond the texels' (step 4; 0 to
+        ``2 weight_bits``): the outputs have the formats :attr:`out_channels`. 0 (the default): the texels' formats.
     """
 
     NAME = "sampler"
@@ -156,6 +164,7 @@ class SamplerParams(Unit):
     mips: tuple = ()
     lod_fmt: Fmt | None = None
     level_bits: int = 8
+    extra_frac: int = 0
 
     def __post_init__(self):
         require(isinstance(self.texels, Texels), "texels", self.texels, "must be a Texels")
@@ -182,6 +191,9 @@ class SamplerParams(Unit):
                  f"must be empty or name all {ch} channels")
         require(max(w, h).bit_length() + self.coord_fmt.frac_bits + 2 <= 62, "texels", self.texels,
                  "map too large for int64 texel positions")
+        require(isinstance(self.extra_frac, int) and 0 <= self.extra_frac <= 2 * self.weight_bits
+                and (self.extra_frac == 0 or self.filter == "bilinear"), "extra_frac", self.extra_frac,
+                f"must be an int in 0..{2 * self.weight_bits} (2 weight_bits), and 0 unless filter='bilinear'")
         if self.trilinear:
             self._check_trilinear()
         else:
@@ -189,10 +201,10 @@ class SamplerParams(Unit):
                     "only for filter='trilinear'")
 
     def __repr__(self):
-        """The dataclass ``repr`` without the trilinear fields at their defaults: complete (a missing field is at
-        its default), and the same as before MIP mapping for every other sampler (build caches and recorded
-        resource counts are keyed by it)."""
-        return repr_without_defaults(self, ("mips", "lod_fmt", "level_bits"))
+        """The dataclass ``repr`` without the trilinear fields and ``extra_frac`` at their defaults: complete (a
+        missing field is at its default), and the same as before MIP mapping for every other sampler (build caches
+        and recorded resource counts are keyed by it)."""
+        return repr_without_defaults(self, ("mips", "lod_fmt", "level_bits", "extra_frac"))
 
     def _check_trilinear(self):
         require(self.faces == 1 and self.edge in ("repeat", "clamp"), "filter", self.filter,
@@ -275,6 +287,11 @@ class SamplerParams(Unit):
         """The two level memories' words (even levels, odd levels), each level row-major at its base."""
         return tuple(sum((self._pack(self.level_codes(lv)) for lv in range(par, self.levels, 2)), [])
                      for par in (0, 1))
+
+    @cached_property
+    def out_channels(self) -> tuple:
+        """Format of each output: the channel's, with :attr:`extra_frac` more fraction bits."""
+        return tuple(Fmt(f.signed, f.int_bits, f.frac_bits + self.extra_frac) for f in self.channels)
 
     @cached_property
     def out_names(self) -> tuple:
@@ -374,7 +391,7 @@ class SamplerParams(Unit):
 
     @property
     def outputs(self):
-        return tuple(Port(n, f, "sampled channel") for n, f in zip(self.out_names, self.channels))
+        return tuple(Port(n, f, "sampled channel") for n, f in zip(self.out_names, self.out_channels))
 
     @property
     def latency(self) -> int:
@@ -416,17 +433,17 @@ class SamplerParams(Unit):
             i1 = np.clip(i1, 0, size - 1)
         return i0, i1, f                                 # border: i0 in [0, W], i1 in [1, W + 1]
 
-    def blend(self, a, b, c, d, fx, fy, fmt: Fmt, exact: bool = False):
-        """Step 4: exact bilinear blend of codes, one half-up narrowing to ``fmt`` (``exact``: the blend before
-        it, ``2 B + frac`` fraction bits)."""
+    def blend(self, a, b, c, d, fx, fy, fmt: Fmt, exact: bool = False, out: Fmt | None = None):
+        """Step 4: exact bilinear blend of codes of ``fmt``, one half-up narrowing to ``out`` (default ``fmt``;
+        the pipeline's: :attr:`out_channels`) (``exact``: the blend before it, ``2 B + frac`` fraction bits)."""
         B = self.weight_bits
         top = (a << B) + fx * (b - a)
         bot = (c << B) + fx * (d - c)
         v = (top << B) + fy * (bot - top)
         if exact:
             return v
-        out, _ = narrow(v, 2 * B + fmt.frac_bits, fmt, Rounding.HALF_UP, Overflow.PROVEN, "sampler blend")
-        return out
+        res, _ = narrow(v, 2 * B + fmt.frac_bits, out or fmt, Rounding.HALF_UP, Overflow.PROVEN, "sampler blend")
+        return res
 
     def level(self, lod):
         """Step 5: ``(L, L + 1 clamped, g)`` from ``lod`` codes: the level, the next one and the blend weight."""
@@ -470,8 +487,8 @@ class SamplerParams(Unit):
         if not self.bilinear:
             return tex[face, j0, i0]
         a, b, c, d = tex[face, j0, i0], tex[face, j0, i1], tex[face, j1, i0], tex[face, j1, i1]
-        return np.stack([self.blend(a[:, k], b[:, k], c[:, k], d[:, k], fx, fy, fmt)
-                         for k, fmt in enumerate(self.channels)], axis=1)
+        return np.stack([self.blend(a[:, k], b[:, k], c[:, k], d[:, k], fx, fy, fmt, out=o)
+                         for k, (fmt, o) in enumerate(zip(self.channels, self.out_channels))], axis=1)
 
     def _compute(self, cols):
         if self.trilinear:
@@ -527,8 +544,9 @@ class SamplerParams(Unit):
                 else self.depth * self.word_bits,
                 **({"levels": [list(x) for x in self.level_sizes], "level_bits": self.level_bits}
                    if self.trilinear else {}),
+                **({"extra_frac": self.extra_frac} if self.extra_frac else {}),
                 "max_error": {n: float(f.ulp / 2) if self.bilinear else 0.0
-                              for n, f in zip(self.out_names, self.channels)}}
+                              for n, f in zip(self.out_names, self.out_channels)}}
 
 
 def _demo_texels() -> Texels:

@@ -53,20 +53,26 @@ def exact_sample(params, face, s, t):
     if params.filter == "nearest":
         return [int(v) for v in tex[face, j0, i0]], None
     out, corners = [], []
+    scale = 1 << params.extra_frac                              # the output's finer grid, in texel codes
     for k in range(len(params.channels)):
         a, b, c, d = (Fraction(int(tex[face, j, i, k])) for j, i in ((j0, i0), (j0, i1), (j1, i0), (j1, i1)))
         v = (a * (1 - fx) + b * fx) * (1 - fy) + (c * (1 - fx) + d * fx) * fy
-        out.append(math.floor(v + Fraction(1, 2)))
-        corners.append((a, b, c, d))
+        out.append(math.floor(v * scale + Fraction(1, 2)))
+        corners.append(tuple(x * scale for x in (a, b, c, d)))
     return out, corners
 
 
 @given(texels_strategy(), st.sampled_from(["bilinear", "nearest"]), st.sampled_from(["repeat", "clamp", "border"]),
        st.integers(1, 8), st.lists(st.tuples(st.integers(-(1 << 23), (1 << 23) - 1),
-                                             st.integers(-(1 << 23), (1 << 23) - 1)), min_size=1, max_size=20))
-def test_matches_exact_sampling_rule(tex, flt, edge, wb, coords):
+                                             st.integers(-(1 << 23), (1 << 23) - 1)), min_size=1, max_size=20),
+       st.integers(0, 16))
+def test_matches_exact_sampling_rule(tex, flt, edge, wb, coords, extra):
+    """Every filter and edge rule against Fractions; bilinear also with ``extra_frac`` (the blend rounded half-up
+    to a grid up to ``2 weight_bits`` bits finer than the texels, within the four texels' range on that grid)."""
     h, w, seed = tex
-    params = make((h, w), seed, filter=flt, edge=edge, weight_bits=wb)
+    extra = min(extra, 2 * wb) if flt == "bilinear" else 0
+    params = make((h, w), seed, filter=flt, edge=edge, weight_bits=wb, extra_frac=extra)
+    assert params.out_channels == tuple(Fmt(True, 1, 9 + extra) for _ in range(2))
     st_codes = np.array(coords, dtype=np.int64)
     out = params.compute(st_codes)
     for (s, t), got in zip(coords, out.tolist()):
@@ -132,11 +138,27 @@ def test_cube_faces_and_clamped_edges():
                                       (dict(weight_bits=0), "weight_bits="), (dict(weight_bits=30), "weight_bits="),
                                       (dict(channels=(Fmt(True, 1, 9),)), "channels="),
                                       (dict(channels=(Fmt(True, 1, 5),) * 2), "texels="),
-                                      (dict(names=("a",)), "names=")])
+                                      (dict(names=("a",)), "names="),
+                                      (dict(extra_frac=-1), "extra_frac="), (dict(extra_frac=17), "extra_frac="),
+                                      (dict(extra_frac=1, filter="nearest"), "extra_frac=")])
 def test_invalid_parameters_name_the_parameter(kw, name):
     base = dict(texels=Texels(np.zeros((1, 2, 2, 2), dtype=np.int64) + 100), channels=(Fmt(True, 1, 9),) * 2)
     with pytest.raises(ValueError, match=name):
         SamplerParams(**(base | kw))
+
+
+def test_extra_frac_widens_only_the_outputs():
+    """``extra_frac`` changes the output ports' formats, nothing of the memory or the blend's products, and the
+    default leaves the ``repr`` (the build caches' key) as it was."""
+    base = make((3, 5), 1)
+    wide = base.replace(extra_frac=3)
+    assert [p.fmt for p in wide.outputs] == [Fmt(True, 1, 12)] * 2
+    assert [p.fmt for p in base.outputs] == [Fmt(True, 1, 9)] * 2
+    assert wide.memories() == base.memories() and wide.products() == base.products()
+    assert "extra_frac" not in repr(base) and "extra_frac=3" in repr(wide)
+    s = np.array([[0, 0], [1 << 15, 1 << 14], [12345, 54321]])
+    got, want = wide.compute(s), base.compute(s)
+    assert np.all(np.abs(got - (want << 3)) <= 4)        # both half-up roundings of the same exact blend
 
 
 def test_texels_compare_by_content():

@@ -92,7 +92,7 @@ def run(args: argparse.Namespace) -> int:
             save_png(out / f"{path.stem}-bump.png", _upscale(pic, 4) if pic.shape[0] < 100 else pic)
         if path.stem == "tin-plane":
             p = frame.params
-            d = cube_cross(p.diffuse.texels.codes, p.diffuse.border, 255 / (1 << p.shade.diffuse_fmt.frac_bits) / 1.5)
+            d = cube_cross(p.diffuse.texels.codes, p.diffuse.border, 255 / (1 << p.diffuse.channels[0].frac_bits) / 1.5)
             s = cube_cross(p.specular.texels.codes, p.specular.border, 1 / (1 << p.shade.specular_fmt.frac_bits))
             save_png(out / "tin-plane-cubes.png", np.concatenate([d, s], 0))
     print(json.dumps(summary, indent=2))

@@ -105,6 +105,7 @@ def units_of(k: dict, base: dict) -> dict:
         "weight_bits": k["weight_bits"],
         "cube_size": k["cube_size"],
         "raster_guard": k["raster_guard"],
+        "diffuse_extra_frac": base.get("diffuse_extra_frac", 0),        # not a knob: the base preset's
     }
 
 

@@ -97,6 +97,21 @@ def test_missing_fields_keep_default(presets):
     assert units["bump"] == DEFAULT["bump"] and units["weight_bits"] == TOP_KEYS["weight_bits"][0]
 
 
+def test_a_file_without_diffuse_extra_frac_keeps_its_meaning(presets):
+    """The key the built-in default sets (the diffuse blend finer than its texels): a file that leaves it out was
+    written before it existed and reads as 0, not the default's; a written preset names it."""
+    assert DEFAULT["diffuse_extra_frac"] > 0
+    (presets / "old.toml").write_text('[persp]\ncoord_bits = 20\n')
+    (presets / "new.toml").write_text('diffuse_extra_frac = 2\n')
+    assert load_preset("old")["diffuse_extra_frac"] == 0 and load_preset("new")["diffuse_extra_frac"] == 2
+    assert "diffuse_extra_frac = 3" in write_preset("w", {**DEFAULT, "diffuse_extra_frac": 3}).read_text()
+    for name, extra in (("old", 0), ("new", 2), ("default", DEFAULT["diffuse_extra_frac"])):
+        p = prepare(SCENE, size=16, preset=name).params
+        texels = preset_units(name)["shade"].diffuse_fmt
+        assert p.diffuse.extra_frac == extra and p.diffuse.channels == (texels,) * 3
+        assert p.shade.diffuse_fmt == p.diffuse.out_channels[0] == Fmt(False, texels.int_bits, texels.frac_bits + extra)
+
+
 @pytest.mark.parametrize("text, key", [
     ('[persp]\ncoord_bits = "wide"\n', "persp.coord_bits"),
     ('[persp.recip]\nm = 99\n', "persp.recip"),
@@ -106,6 +121,7 @@ def test_missing_fields_keep_default(presets):
     ('weight_bits = 40\n', "weight_bits"),
     ('cube_size = 0\n', "cube_size"),
     ('cube_size = "big"\n', "cube_size"),
+    ('diffuse_extra_frac = 9\n', "diffuse_extra_frac"),
     ('[bump]\nrounding = "SIDEWAYS"\n', "bump.rounding"),
 ])
 def test_bad_preset_file_names_file_and_key(presets, text, key):

@@ -49,6 +49,19 @@ def test_tin_plane_error_is_the_diffuse_factor_and_widening_it_moves_the_model_t
     assert wide["bram"] >= model["bram"] and wide["dsp"] == model["dsp"]
 
 
+def test_a_finer_diffuse_blend_moves_the_tin_plane_towards_float_at_no_block_ram():
+    """The ``--extra-frac`` frames: the preset's texels, the diffuse sampler's blend rounded finer; +0 is the blend
+    at the texels' format (no better than the shipped default), the block RAM the same."""
+    fig = scene_figures("tin-plane", samples=1, fracs=(), size=48, flip=False, extras=(0, 3))
+    frames = fig["frames"]
+    assert fig["diffuse_extra_frac"] == preset_units("default")["diffuse_extra_frac"]
+    coarse, fine = frames["model, D blend +0 bits"], frames["model, D blend +3 bits"]
+    assert fine["vs_a_psnr_db"] > coarse["vs_a_psnr_db"]
+    assert fine["bram"] == coarse["bram"] and fine["dsp"] == coarse["dsp"]
+
+
 def test_bad_fraction_bits_are_refused(capsys):
     assert main(["precision", "--scenes", "tin-plane", "--diffuse-frac", "0"]) == 2
     assert "--diffuse-frac 0" in capsys.readouterr().err
+    assert main(["precision", "--scenes", "tin-plane", "--extra-frac", "9"]) == 2
+    assert "--extra-frac 9" in capsys.readouterr().err

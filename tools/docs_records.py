@@ -182,7 +182,8 @@ def precision() -> str:
     """Where the fixed-point error goes against the true image, unit by unit, and a wider diffuse factor."""
     record, path = _load("precision")
     if record is None:
-        return _missing(path, "bumpmap precision --diffuse-frac 11 12 13 --record docs/records/precision.json")
+        return _missing(path, "bumpmap precision --diffuse-frac 11 12 13 --extra-frac 0 2 3 --record "
+                                  "docs/records/precision.json")
     from .precision import table
     return table(record["result"]) + "\n\n" + provenance(record, path)
 

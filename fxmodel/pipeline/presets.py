@@ -184,8 +184,9 @@ PRESET_KEYS = (*UNIT_TYPES, *TOP_KEYS)
 
 #: The built-in ``default`` preset's ``diffuse_extra_frac``: the diffuse factor's second rounding (the cube
 #: sampler's blend) that much finer, no more block RAM. Chosen by ``bumpmap precision --extra-frac 0 2 3``
-#: (docs/records/precision.json, docs/design-space.md): against the true image (c) 2 is as good as 3 on every shipped
-#: scene, and a little better on the tin plane (3 moves the model nearer float (a), which is not (c)); one bit less.
+#: (docs/records/precision.json, docs/design-space.md): against the true image (c) 2 is a little better than 3 on
+#: the tin plane (3 moves the model nearer float (a), which is not (c)) and the same PSNR on every other shipped
+#: scene (FLIP within a unit of its last recorded digit); one bit less.
 DIFFUSE_EXTRA_FRAC = 2
 
 BUILTIN_PRESET_UNITS = {

@@ -46,3 +46,14 @@ def test_a_memory_too_slow_for_the_display_is_caught():
     res = run(layout, MODE, frames(layout, 2, 9), p_pause=0.75, dram_ns=60, pixel_ns=10, seed=9)
     assert res["underrun"]
     assert not res["all_shown"] or not res["in_order"] or None in res["shown"]
+
+
+def test_frames_through_litedrams_simulation_core():
+    """LiteDRAM's simulation core (its controller and SDRAM model, ``bumpmap litedram``) behind the frame, its init
+    sequence run over the control port: the frames written and read back bit for bit, whole and in order."""
+    pytest.importorskip("litedram")
+    layout = FrameLayout(36, 10, burst=8)
+    res = run(layout, MODE, frames(layout, 3, 11), p_valid=0.8, seed=11, litedram=True, sim="verilator")
+    assert res["ready_ns"] is not None
+    assert res["copied"] == 3 and not res["error"] and not res["underrun"], res
+    assert res["in_order"] and res["all_shown"] and res["shown"][-1] == 2, res["shown"]

@@ -123,3 +123,46 @@ class SdramBoardSim(wiring.Component):
                      self.status.eq(s.status), self.underrun.eq(s.underrun), self.mem_error.eq(s.mem_error),
                      self.dram_ready.eq(d.ready)]
         return m
+
+
+#: The generated core's declaration of the data pins: ``input`` although they are its ``TRELLIS_IO`` tristate
+#: buffers' pads; the design is given the core with them as ``inout`` (``docs/board.md``).
+DQ_INPUT = "input  wire   [15:0] sdram_dq,"
+DQ_INOUT = "inout  wire   [15:0] sdram_dq,"
+
+
+def core_verilog(text: str) -> str:
+    """The generated board core's Verilog with its data pins an ``inout`` (``ValueError`` if the declaration is
+    not the one this was written for)."""
+    if text.count(DQ_INPUT) != 1:
+        raise ValueError(f"the generated litedram_core.v does not declare '{DQ_INPUT}' once: regenerate it "
+                         "(bumpmap litedram) or update board/sdram_system.py")
+    return text.replace(DQ_INPUT, DQ_INOUT)
+
+
+def wire_sdram(m: Module, platform, system) -> None:
+    """The board's SDRAM: LiteDRAM's board core (GENSDRPHY on the chip's pins, in the engine's clock) on the
+    system's AXI port, the chip's clock from a double-data-rate output at 180 degrees (its rising edge in the
+    middle of the engine clock's period, as LiteX's ULX3S target does), the core's Verilog added to the build
+    (generated into ``build/litedram`` when missing: :func:`board.litedram.generate`), LEDs 4 (underrun), 5 (an
+    AXI error response) and 6 (the SDRAM ready)."""
+    from amaranth.lib import io
+
+    from fxmodel.core.paths import build_dir
+
+    from .litedram import generate
+    from .sdram_core import LiteDram
+    pins = platform.request("sdram", 0, dir="-")
+    d = LiteDram(pins)
+    m.submodules.dram = DomainRenamer({"dram": "engine"})(d)
+    wiring.connect(m, system.mem, d.axi)
+    m.submodules.sdram_clk = clk = io.DDRBuffer("o", pins.clk, o_domain="engine")
+    m.d.comb += [clk.o[0].eq(0), clk.o[1].eq(1)]
+    leds = {k: io.Buffer("o", platform.request("led", k, dir="-")) for k in (4, 5, 6)}
+    for k, buf in leds.items():
+        m.submodules[f"led{k}"] = buf
+    m.d.comb += [leds[4].o.eq(system.underrun), leds[5].o.eq(system.mem_error), leds[6].o.eq(d.ready)]
+    path = build_dir("litedram") / "gateware" / "litedram_core.v"
+    if not path.exists():
+        path = generate(False)
+    platform.add_file("litedram_core.v", core_verilog(path.read_text()))

@@ -15,7 +15,7 @@ from pathlib import Path
 
 from .budget import write_text_atomic
 from .litedram import DATA_BITS, SDRAM_HZ
-from .sdram_frame import FrameLayout, SdramFrame, bandwidth
+from .sdram_frame import FIFO_DEPTH, FrameLayout, bandwidth
 from .sdram_system import BURST
 from .video import VGA_640x480
 
@@ -25,7 +25,7 @@ __all__ = ["record", "add_arguments", "run"]
 def record(sizes=((128, 128), (640, 480)), timing=VGA_640x480) -> dict:
     """The bandwidth of each frame size against the peak, the bursts and the line FIFO's reserve."""
     peak = SDRAM_HZ * DATA_BITS // 8
-    fifo = SdramFrame(FrameLayout(sizes[0][0], sizes[0][1], burst=BURST), timing).fifo_depth
+    fifo = FIFO_DEPTH
     rows = []
     for w, h in sizes:
         L = FrameLayout(w, h, burst=min(BURST, 1 << (w - 1).bit_length()))

@@ -40,10 +40,12 @@ from rtl.rop import axi_signature
 
 from .litedram import ADDR_BITS, DATA_BITS, ID_BITS
 
-__all__ = ["FrameLayout", "SdramFrame", "AW_AHEAD", "LATENCY", "bandwidth"]
+__all__ = ["FrameLayout", "SdramFrame", "AW_AHEAD", "LATENCY", "FIFO_DEPTH", "bandwidth"]
 
 #: Write bursts whose ``AW`` may be taken before their data (LiteDRAM's AXI port queues addresses).
 AW_AHEAD = 2
+#: Words of the line FIFO (a DP16KD's 1 024 x 18: more than a line of 640 ahead of the scan-out).
+FIFO_DEPTH = 1024
 #: Pixel clocks from the display's ``x``, ``y`` to :attr:`SdramFrame.color` (the pop, the registered word).
 LATENCY = 2
 
@@ -159,7 +161,7 @@ class SdramFrame(wiring.Component):
     the buffer shown, through a synchroniser), ``underrun`` (``sync``, sticky).
     """
 
-    def __init__(self, layout: FrameLayout, timing, fifo_depth: int = 1024):
+    def __init__(self, layout: FrameLayout, timing, fifo_depth: int = FIFO_DEPTH):
         if layout.width > timing.h_active or layout.height > timing.v_active:
             raise ValueError(f"the {layout.width}x{layout.height} frame exceeds the display's "
                              f"{timing.h_active}x{timing.v_active}")

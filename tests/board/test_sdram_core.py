@@ -69,3 +69,11 @@ def test_the_manager_makes_the_writes_in_order_with_their_waits():
     assert [(a, d) for a, d, _ in got] == [(a, d) for a, d, _ in want]
     for (_, _, t0), (_, _, t1), (_, _, wait) in zip(got, got[1:], want):
         assert t1 - t0 >= wait + 1
+
+
+def test_the_cores_data_pins_become_inout_or_the_build_stops():
+    from board.sdram_system import DQ_INOUT, DQ_INPUT, core_verilog
+    text = f"module litedram_core (\n    {DQ_INPUT}\n    input wire clk\n);"
+    assert DQ_INOUT in core_verilog(text) and DQ_INPUT not in core_verilog(text)
+    with pytest.raises(ValueError, match="sdram_dq"):
+        core_verilog(text.replace(DQ_INPUT, "inout wire [15:0] sdram_dq,"))

@@ -237,8 +237,11 @@ class SdramFrame(wiring.Component):
         owed = Signal(range(self.fifo_depth + 1))         # beats of taken ARs not yet in the FIFO
         ar_open = Signal(range(self.fifo_depth + 1))      # bursts taken and not finished
         blank_left = Signal(range(L.pixels + 1))
-        room = Signal()
-        m.d.comb += room.eq(fifo.w_level + owed + L.burst <= self.fifo_depth)
+        # the FIFO's words: its ``w_level`` counts a write two clocks later (its write pointer and the level are
+        # registers), so the word written in the last clock is counted here; then the sum only falls (reads)
+        # until the next AR, and ARVALID, once up, stays up until taken (formal/sdram_frame.py)
+        room, wrote = Signal(), Signal()
+        m.d.comb += room.eq(fifo.w_level + wrote + owed + L.burst <= self.fifo_depth)
         m.d.comb += [axi.arid.eq(0), axi.araddr.eq(ar.address(front)), axi.arlen.eq(ar.beats - 1),
                      axi.arsize.eq((L.beat_bytes - 1).bit_length()), axi.arburst.eq(1),
                      axi.arvalid.eq(fetching & ~blank & room), axi.rready.eq(fifo.w_rdy)]
@@ -246,6 +249,7 @@ class SdramFrame(wiring.Component):
         r_go = axi.rvalid & axi.rready
         blank_go = blank & (blank_left != 0) & fifo.w_rdy
         m.d.comb += [fifo.w_en.eq(r_go | blank_go), fifo.w_data.eq(Mux(blank, 0, axi.rdata))]
+        m.d.dram += wrote.eq(fifo.w_en & fifo.w_rdy)
         m.d.dram += [owed.eq(owed + Mux(ar_go, ar.beats, 0) - r_go),
                      ar_open.eq(ar_open + ar_go - (r_go & axi.rlast))]
         with m.If(ar_go):

@@ -26,10 +26,13 @@ LAYOUT, FIFO = FrameLayout(6, 2, burst=4), 8
 STALL, DEPTH = 3, 28
 
 
-def sdram_frame_set(kind: str = "proof", layout: FrameLayout = LAYOUT, fifo_depth: int = FIFO) -> Harness:
+def sdram_frame_set(kind: str = "proof", layout: FrameLayout = LAYOUT, fifo_depth: int = FIFO,
+                    broken: bool = False) -> Harness:
+    """The harness (module docstring); ``broken``: the frame without the last write in its read room
+    (``SdramFrame(count_last_write=False)``), which must fail ``ar_hold``."""
     h = Harness(kind)
     m = h.m
-    dut = SdramFrame(layout, SMALL, fifo_depth)
+    dut = SdramFrame(layout, SMALL, fifo_depth, count_last_write=not broken)
     m.submodules.dut = DomainRenamer({"dram": "sync"})(dut)
     m.d.comb += [dut.i.valid.eq(h.free(1, "i_valid")), dut.i.payload.eq(h.free(16, "i_payload")),
                  dut.x.eq(h.free(len(dut.x), "x")), dut.y.eq(h.free(len(dut.y), "y"))]

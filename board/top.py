@@ -3,7 +3,8 @@
 on-chip tile and the display scanning the double-buffered frame store out as DVI on the HDMI connector (640 x 480
 at 59.5 Hz; ``board/frame.py``). LEDs: 0 the link's error state, 1 a toggle per good frame, 2 a record overrun,
 3 the buffer shown. Without an engine (``Top(None)``, ``--no-engine``) the first stage: the display's test picture
-and the link. The SDRAM controller comes next (``docs/board.md``).
+and the link. ``frame="sdram"`` (``--frame sdram``): the frame in SDRAM behind LiteDRAM's core
+(``board/sdram_system.py``).
 
 ``bumpmap bitstream --out build/bitstream/ulx3s`` (``make bitstream BOARD=ulx3s``) runs the open flow through the
 platform (YoWASP's Yosys, nextpnr-ecp5 and ecppack) and writes ``report.json`` there: Fmax per clock domain against

@@ -106,7 +106,7 @@ class EngineSystem(wiring.Component):
     last was held), ``front`` (the buffer shown), ``status`` (the depth test's sticky flags, ``engine``).
     """
 
-    def __init__(self, params, timing, divisor: int):
+    def __init__(self, params, timing, divisor: int, frame: str = "chip"):
         from rtl.engine import Engine
 
         from .command import CommandLink
@@ -116,15 +116,20 @@ class EngineSystem(wiring.Component):
         if timing.h_active < params.rop.width or timing.v_active < params.rop.height:
             raise ValueError(f"the {params.rop.width}x{params.rop.height} frame exceeds the display's "
                              f"{timing.h_active}x{timing.v_active}")
-        self.params, self.timing, self.divisor = params, timing, divisor
+        if frame not in ("chip", "sdram"):
+            raise ValueError(f"frame={frame!r}: the frame store is 'chip' (block RAM) or 'sdram'")
+        self.params, self.timing, self.divisor, self.frame = params, timing, divisor, frame
         self.record_bits = sum(p.fmt.width for p in params.raster.record)
         self.record_len = -(-self.record_bits // 8)
         self._engine = Engine(params)
         self._link = CommandLink(divisor, self.record_len)
         self._display = Display(timing, latency=3)
-        super().__init__({"rx": In(1, init=1), "tx": Out(1, init=1), "words": Out(30), "error": Out(1),
-                          "good": Out(1), "overrun": Out(1), "front": Out(1),
-                          "status": Out(self._engine.status.shape())})
+        ports = {"rx": In(1, init=1), "tx": Out(1, init=1), "words": Out(30), "error": Out(1),
+                 "good": Out(1), "overrun": Out(1), "front": Out(1), "status": Out(self._engine.status.shape())}
+        if frame == "sdram":                    # the frame in SDRAM: its AXI4 port and flags (board/sdram_system.py)
+            from .sdram_system import members
+            ports |= members()
+        super().__init__(ports)
 
     def elaborate(self, platform):
         m = Module()
@@ -136,6 +141,11 @@ class EngineSystem(wiring.Component):
         m.submodules.display = disp = self._display
         m.d.comb += [link.rx.eq(self.rx), self.tx.eq(link.tx), self.error.eq(link.error), self.good.eq(link.done),
                      self.status.eq(eng.status)]
+        if self.frame == "sdram":
+            from .sdram_system import elaborate_swap
+            self._record(m, link, eng)
+            elaborate_swap(self, m, link, eng, disp)
+            return m
         # frame store: two buffers of RGB565, the buffer's index in the address's top bit
         store = memory.Memory(shape=16, depth=2 * pixels, init=[])
         m.submodules.store = store

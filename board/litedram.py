@@ -21,9 +21,19 @@ from fxmodel.core.paths import ROOT, build_dir
 
 from .budget import write_text_atomic
 
-__all__ = ["generate", "ports", "add_arguments", "run"]
+__all__ = ["generate", "ports", "add_arguments", "run", "ADDR_BITS", "DATA_BITS", "ID_BITS", "SDRAM_BYTES", "SDRAM_HZ"]
 
 CONFIG = ROOT / "board" / "sdram.yml"
+
+#: The ULX3S's SDRAM chip (IS42S16160 or MT48LC16M16, ``board/sdram.yml``): rows, columns, banks, data bits (x16).
+ROWS, COLUMNS, BANKS, DATA_BITS = 8192, 512, 4, 16
+SDRAM_BYTES = ROWS * COLUMNS * BANKS * DATA_BITS // 8
+#: The AXI4 user port's byte address bits (the whole chip) and its ID bits (``id_width`` in ``board/sdram.yml``);
+#: ``tests/board/test_litedram.py`` checks them against the generated core's ports (``docs/board/litedram.json``).
+ADDR_BITS = (SDRAM_BYTES - 1).bit_length()
+ID_BITS = 4
+#: The core's clock (``sys_clk_freq`` in ``board/sdram.yml``): one 16-bit word a clock at the peak.
+SDRAM_HZ = 100_000_000
 _PORT = re.compile(r"^\s*(input|output|inout)\s+wire\s+(?:\[(\d+):0\]\s+)?(\w+),?$")
 
 

@@ -3,7 +3,8 @@
 on-chip tile and the display scanning the double-buffered frame store out as DVI on the HDMI connector (640 x 480
 at 59.5 Hz; ``board/frame.py``). LEDs: 0 the link's error state, 1 a toggle per good frame, 2 a record overrun,
 3 the buffer shown. Without an engine (``Top(None)``, ``--no-engine``) the first stage: the display's test picture
-and the link. The SDRAM controller comes next (``docs/board.md``).
+and the link. ``frame="sdram"`` (``--frame sdram``): the frame in SDRAM behind LiteDRAM's core
+(``board/sdram_system.py``).
 
 ``bumpmap bitstream --out build/bitstream/ulx3s`` (``make bitstream BOARD=ulx3s``) runs the open flow through the
 platform (YoWASP's Yosys, nextpnr-ecp5 and ecppack) and writes ``report.json`` there: Fmax per clock domain against
@@ -44,8 +45,8 @@ class Top(Elaboratable):
     (``board/frame.py``), or ``None`` for the test picture and the link alone (``record_len``: the triangle
     record's bytes the link accepts then)."""
 
-    def __init__(self, engine=None, record_len: int = 290):
-        self.engine, self.record_len = engine, record_len
+    def __init__(self, engine=None, record_len: int = 290, frame: str = "chip"):
+        self.engine, self.record_len, self.frame = engine, record_len, frame
 
     def _clocks(self, m, platform):
         clk25 = io.Buffer("i", platform.request("clk25", 0, dir="-"))
@@ -87,7 +88,10 @@ class Top(Elaboratable):
             m.submodules.display = disp = Display(VGA_640x480)
             m.d.comb += [*pattern(disp), ser.words.eq(disp.words | (CLOCK_WORD << 30))]
         else:
-            m.submodules.system = system = EngineSystem(self.engine, VGA_640x480, PIXEL_HZ // BAUD)
+            m.submodules.system = system = EngineSystem(self.engine, VGA_640x480, PIXEL_HZ // BAUD, self.frame)
+            if self.frame == "sdram":           # LiteDRAM's core on the SDRAM pins (board/sdram_system.py)
+                from .sdram_system import wire_sdram
+                wire_sdram(m, platform, system)
             m.d.comb += ser.words.eq(system.words | (CLOCK_WORD << 30))
         hdmi = platform.request("hdmi", 0, dir="-")
         m.submodules.hdmi_d = d = io.DDRBuffer("o", hdmi.d, o_domain="tmds")
@@ -145,7 +149,7 @@ def report(tim: str) -> dict:
 ROUTERS = ("router2", "router1")
 
 
-def build(out: Path, engine=None, router: str = ROUTERS[0]) -> dict:
+def build(out: Path, engine=None, router: str = ROUTERS[0], frame: str = "chip") -> dict:
     """The bitstream ``out/top.bit`` of ``Top(engine)`` through the open flow (YoWASP tools unless ``YOSYS``,
     ``NEXTPNR_ECP5``, ``ECPPACK`` name others) with nextpnr's ``router``; returns :func:`report` with the flow's
     seconds. A clock below its target is reported (``all_met`` false), not an error of the flow."""
@@ -153,7 +157,7 @@ def build(out: Path, engine=None, router: str = ROUTERS[0]) -> dict:
     for var, tool in tools.items():
         os.environ.setdefault(var, tool)
     t0 = time.perf_counter()
-    _platform().build(Top(engine), name="top", build_dir=str(out), do_program=False,
+    _platform().build(Top(engine, frame=frame), name="top", build_dir=str(out), do_program=False,
                       nextpnr_opts=f"--router {router} --timing-allow-fail")
     rec = report((out / "top.tim").read_text())
     rec.update(router=router, seconds=round(time.perf_counter() - t0, 1), bitstream=str(out / "top.bit"))
@@ -167,6 +171,8 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
     ap.add_argument("--preset", default="default", help="pipeline preset (built in or presets/<name>.toml)")
     ap.add_argument("--size", type=int, default=128, help="the frame's edge in pixels (the on-chip tile)")
     ap.add_argument("--no-engine", action="store_true", help="the first stage: the test picture and the link")
+    ap.add_argument("--frame", choices=("chip", "sdram"), default="chip",
+                    help="the frame store: block RAM, or SDRAM behind LiteDRAM's core (default chip)")
     ap.add_argument("--router", choices=ROUTERS, default=ROUTERS[0], help="nextpnr's router")
     ap.add_argument("--record", type=Path, metavar="PATH", help="also write the report there (docs/board/)")
 
@@ -187,10 +193,11 @@ def run(args: argparse.Namespace) -> int:
         except (SceneError, ValueError, OSError) as exc:
             print(f"error: {exc}", file=sys.stderr)
             return 2
-    rec = build(args.out, engine, args.router)
+    rec = build(args.out, engine, args.router, args.frame)
     rec = {"command": "make bitstream BOARD=ulx3s (bumpmap bitstream " + " ".join(sys.argv[2:]) + ")",
            "design": "test picture and link" if engine is None else
-           f"engine ({args.scene}, preset {args.preset}, {args.size}x{args.size} tile), link, display", **rec}
+           f"engine ({args.scene}, preset {args.preset}, {args.size}x{args.size} tile), link, display"
+           + (", frame in SDRAM" if args.frame == "sdram" else ""), **rec}
     write_text_atomic(args.out / "report.json", json.dumps(rec, indent=1) + "\n")
     if args.record:
         write_text_atomic(args.record, json.dumps({k: v for k, v in rec.items() if k != "bitstream"}, indent=1)

@@ -68,9 +68,11 @@ def decode_words(words: np.ndarray) -> np.ndarray:
     return out
 
 
-def simulate(params, records, data: bytes, *, timing: VideoTiming = VGA_640x480, sim: str | None = None) -> dict:
+def simulate(params, records, data: bytes, *, timing: VideoTiming = VGA_640x480, sim: str | None = None,
+             frame: str = "chip") -> dict:
     """Simulate the board drawing ``records`` (codes) from the byte stream ``data``; the report (``pix`` the
-    decoded clocks, ``picture`` the decoded frame, ``want`` the model's)."""
+    decoded clocks, ``picture`` the decoded frame, ``want`` the model's). ``frame="sdram"``: the frame in SDRAM
+    behind LiteDRAM's simulation core (``board/sdram_system.py``)."""
     sim = simulator(sim)
     frames = split_frames(data)
     kept = [f for f in frames if f[1] not in (Cmd.TEXTURE, Cmd.CUBE)]
@@ -80,7 +82,13 @@ def simulate(params, records, data: bytes, *, timing: VideoTiming = VGA_640x480,
     key = hashlib.sha1(repr((params, timing, DIVISOR)).encode()
                        + source_digest(("fxmodel", "rtl", "board", "host"))).hexdigest()[:12]
     t0 = time.perf_counter()
-    top, bdir, src = component_build("board_sim", key, sim, lambda: BoardSim(params, timing, DIVISOR))
+    if frame == "sdram":
+        from board.sdram_system import SdramBoardSim
+
+        from .sdram_frame import litedram_sources
+        top, bdir, src = litedram_sources(sim, "board_sim_sdram", key, lambda: SdramBoardSim(params, timing, DIVISOR))
+    else:
+        top, bdir, src = component_build("board_sim", key, sim, lambda: BoardSim(params, timing, DIVISOR))
     verilog_seconds = time.perf_counter() - t0
     clocks = (timing.v_total - timing.v_active + timing.v_total + 2) * timing.h_total
     frame_ns = timing.frame_clocks * PIXEL_NS
@@ -97,6 +105,7 @@ def simulate(params, records, data: bytes, *, timing: VideoTiming = VGA_640x480,
            "bytes_sent": len(stream), "bytes_left_out": len(data) - len(stream),
            "replies": res["replies"], "acks_ok": bytes.fromhex(res["replies"]) == bytes(len(kept)),
            "error": res["error"], "overrun": res["overrun"], "rop_status": res["status"], "shown": shown,
+           "frame": frame, "underrun": res.get("underrun"), "mem_error": res.get("mem_error"),
            "sim_ms": {"uart_done": res["sent_ns"] / 1e6, "shown": res["shown_ns"] / 1e6, "end": res["end_ns"] / 1e6},
            "verilog_seconds": round(verilog_seconds, 1), "build_seconds": round(build_seconds, 1),
            "sim_seconds": round(seconds, 1), "want": want}

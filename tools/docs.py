@@ -242,6 +242,7 @@ PAGES = {
     "filtering-scenes": rec.filtering_scenes, "filtering-study": rec.filtering_study,
     "filtering-mip": rec.filtering_mip,
     "board-budget": rec.board_budget, "board-bitstream": rec.board_bitstream, "board-sim": rec.board_sim,
+    "board-sdram-bandwidth": rec.board_sdram_bandwidth, "board-sim-sdram": lambda: rec.board_sim("board-sim-sdram"),
     "board-animation": rec.board_animation, "board-engine-placement": rec.board_engine_placement,
 }
 

@@ -464,6 +464,22 @@ def board_budget() -> str:
         f"[`board/budget.json`](board/budget.json).*\n"
 
 
+def board_sdram_bandwidth() -> str:
+    """The SDRAM bandwidth of the frame in SDRAM (``bumpmap sdram-bandwidth``)."""
+    r, path = _board_record("sdram-bandwidth")
+    if r is None:
+        return _missing(path, "bumpmap sdram-bandwidth docs/board/sdram-bandwidth.json")
+    rows = [[f"{f['width']} x {f['height']}", f"{f['frame_bytes']:,}", f"{f['scanout_MBps']}", f"{f['copy_MBps']}",
+             f"{f['total_MBps']}", f"{100 * f['share_of_peak']:.1f} %",
+             f"{f['bursts_per_frame']:,} of {f['burst_beats']} beats"] for f in r["frames"]]
+    return (_table(["frame", "bytes", "scan-out MB/s", "copies MB/s", "total MB/s", f"of {r['sdram_peak_MBps']} MB/s",
+                    "bursts a frame (each way)"], rows, _align("lrrrrrr"))
+            + f"\n*{r['mode']}, a copy every display frame ({r['copies_per_s']} a second, the most the display shows); "
+              f"line FIFO {r['line_fifo_words']} words ({r['line_fifo_us_at_pixel_clock']} us of pixels, "
+              f"{r['line_fifo_lines_640']} lines of 640). Computed by `{r['command']}`; record: "
+              "[`board/sdram-bandwidth.json`](board/sdram-bandwidth.json).*\n")
+
+
 def _clock_tables(r: dict, fmax_head: str) -> str:
     """A board record's two tables: Fmax per clock domain against its target (column ``fmax_head``), and the
     resources used against the device's."""
@@ -484,11 +500,12 @@ def board_bitstream() -> str:
               "(board/bitstream.json).*\n")
 
 
-def board_sim() -> str:
-    """The board's end-to-end simulation (``make board-sim``): host bytes to the decoded DVI frame."""
-    record, path = _load("board-sim")
+def board_sim(name: str = "board-sim") -> str:
+    """The board's end-to-end simulation (``make board-sim``): host bytes to the decoded DVI frame; ``name`` the
+    record (``board-sim-sdram``: the frame in SDRAM, ``--frame sdram``)."""
+    record, path = _load(name)
     if record is None:
-        return _missing(path, "bumpmap board-sim --record docs/records/board-sim.json")
+        return _missing(path, f"bumpmap board-sim --record docs/records/{name}.json")
     r = record["result"]
     t, ms = r["timing"], r["sim_ms"]
     rows = [["scene, frame (the tile)", f"{r['scene']}, {r['tile'][0]} x {r['tile'][1]}, {r['triangles']} triangles"],
@@ -503,6 +520,9 @@ def board_sim() -> str:
                                f"end {ms['end']:.2f} ms"],
             ["seconds (Verilog, Verilator build, simulation, wall)",
              f"{r['verilog_seconds']}, {r['build_seconds']}, {r['sim_seconds']}, {r['wall_seconds']}"]]
+    if r.get("frame") == "sdram":
+        rows.insert(4, ["frame store; scan-out underrun, AXI error", f"SDRAM (LiteDRAM's simulation core); "
+                        f"{'**yes**' if r['underrun'] else 'no'}, {'**yes**' if r['mem_error'] else 'no'}"])
     return _table(["quantity", "value"], rows, _align("lr")) + "\n" + provenance(record, path)
 
 

@@ -63,6 +63,7 @@ COMMANDS: dict[str, tuple[str, str | None]] = {
     "bitstream": ("board.top", "the board top (ULX3S) through Yosys, nextpnr-ecp5 and ecppack: bitstream and report"),
     "litedram": ("board.litedram", "generate the SDRAM controller core (LiteDRAM) from board/sdram.yml"),
     "board-budget": ("board.budget", "the board's memory bandwidth budget (frame-buffer strategy)"),
+    "sdram-bandwidth": ("board.sdram_bandwidth", "the SDRAM bandwidth of the frame in SDRAM (scan-out and copies)"),
     "board-sim": ("tools.board_sim", "the board simulated end to end (host bytes, UART, engine, DVI), frame checked"),
     "animate": ("tools.animate", "a scene's animation as the board shows it (GIF) and frames per second at 640x480"),
     "send": ("tools.send", "send a scene to the board over the UART (or its bytes to a file: --dry-run)"),

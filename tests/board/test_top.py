@@ -44,3 +44,16 @@ def test_the_top_with_the_engine_prepares_with_the_pll_third_output():
     plan = _platform().prepare(Top(board_engine(size=32)[0]), name="top")
     rtlil = plan.files["top.il"]
     assert "EHXPLLL" in rtlil and "CLKOS2" in rtlil and "ODDRX1F" in rtlil
+
+
+@pytest.mark.slow
+def test_the_top_with_the_frame_in_sdram_prepares_with_litedrams_core():
+    pytest.importorskip("litedram")
+    from board.frame import board_engine
+    plan = _platform().prepare(Top(board_engine(size=16)[0], frame="sdram"), name="top")
+    rtlil = plan.files["top.il"]
+    rtlil = rtlil.decode() if isinstance(rtlil, bytes) else rtlil
+    lpf = plan.files["top.lpf"]
+    lpf = lpf.decode() if isinstance(lpf, bytes) else lpf
+    assert "litedram_core" in rtlil and "inout  wire   [15:0] sdram_dq" in plan.files["litedram_core.v"]
+    assert all(pin in lpf for pin in ("F19", "J16", "M20", "U19"))          # SDRAM clock, dq, a, dqm

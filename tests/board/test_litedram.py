@@ -1,0 +1,19 @@
+"""The SDRAM's widths the design is built with (``board/litedram.py``) are the generated core's AXI port's
+(``docs/board/litedram.json``, the record of ``bumpmap litedram``)."""
+
+from __future__ import annotations
+
+import json
+
+from board.litedram import ADDR_BITS, DATA_BITS, ID_BITS, SDRAM_BYTES
+from fxmodel.core.paths import ROOT
+
+
+def test_the_widths_are_the_generated_ports():
+    rec = json.loads((ROOT / "docs" / "board" / "litedram.json").read_text())
+    for variant in ("board", "sim"):
+        axi = rec[variant]["axi_port"]
+        assert axi["awaddr"] == ["input", ADDR_BITS] and axi["araddr"] == ["input", ADDR_BITS]
+        assert axi["wdata"] == ["input", DATA_BITS] and axi["rdata"] == ["output", DATA_BITS]
+        assert axi["awid"] == ["input", ID_BITS] and axi["wstrb"] == ["input", DATA_BITS // 8]
+    assert SDRAM_BYTES == 32 << 20 == 1 << ADDR_BITS

@@ -17,10 +17,12 @@ Environment: ``SIM`` (``icarus`` default, or ``verilator``).
 from __future__ import annotations
 
 import json
+import sys
 
 import numpy as np
 
 from fxmodel.pipeline.engine import TEXTURE_MAPS
+from fxmodel.units.texcache import TexCacheParams
 from rtl.digest import params_key
 
 from .harness import component_build, run_testbench, simulator
@@ -28,7 +30,10 @@ from .job import job_folder, remove_job
 from .raster import pack, unpack
 from .texfetch import MAX_LATENCY, FetchBench, layout_image
 
-__all__ = ["run_engine_fetch", "map_words"]
+__all__ = ["run_engine_fetch", "map_words", "sim_textures", "CHOSEN_CACHE"]
+
+#: The texel cache ``bumpmap cache-sweep`` chose (``docs/texcache.md``, ``docs/records/texcache.json``), one per map.
+CHOSEN_CACHE = TexCacheParams(block=8, sets=32, ways=4)
 
 
 def map_words(params) -> list:
@@ -47,7 +52,8 @@ def run_engine_fetch(params, records, *, latency: int = 1, p_valid: float = 1.0,
     -------
     dict
         ``mismatches`` (fragments that differ, missing or extra ones included), ``fragments``, ``outputs``,
-        ``first`` (a few differing rows), per map ``bursts_equal``, ``bursts`` and the model's ``totals``,
+        ``first`` (a few differing rows), per map (``maps``) ``bursts_equal``, ``bursts``, ``rtl_bursts``
+        (``(address, AXI length)`` in order) and the model's ``totals``,
         ``bursts_equal`` (both maps, none else), ``rtl_bytes``, ``model_bytes``, ``cycles`` (reset to the last
         fragment), ``clocks_per_fragment``, ``raster_clocks`` (the model's scan-converter clocks).
     """
@@ -87,7 +93,8 @@ def run_engine_fetch(params, records, *, latency: int = 1, p_valid: float = 1.0,
     for k, name in enumerate(TEXTURE_MAPS):
         mine = [b for b in ar if (layout.texel_at(b[0]) or (None,))[0] == k]
         model = [(int(a), caches[name].beats_per_line - 1) for a in traffic[name].burst_addresses()]
-        per_map[name] = {"bursts_equal": mine == model, "bursts": len(mine), "totals": traffic[name].totals}
+        per_map[name] = {"bursts_equal": mine == model, "bursts": len(mine), "totals": traffic[name].totals,
+                         "rtl_bursts": mine}
     model_bytes = sum(t.totals["memory_bytes"] for t in traffic.values())
     return {"mismatches": int(mismatches), "fragments": len(want), "outputs": len(rtl), "first": first,
             "maps": per_map, "rtl": rtl,
@@ -96,3 +103,53 @@ def run_engine_fetch(params, records, *, latency: int = 1, p_valid: float = 1.0,
             "rtl_bytes": 4 * got["beats"], "model_bytes": model_bytes, "cycles": got["cycles"],
             "clocks_per_fragment": got["cycles"] / max(len(want), 1), "raster_clocks": int(scan.clocks.sum()),
             "latency": latency, "simulator": sim, "build_seconds": build_seconds, "seconds": seconds}
+
+
+def sim_textures(args, tframe, report: dict, out_dir, t0: float) -> int:
+    """``bumpmap sim --textures external``: the scene's triangles through the engine with its maps in the memory
+    model (latency ``args.latency``, wait states ``args.wait_states``), every fragment and each map's bursts
+    compared with the model; ``rtl.png`` and ``report.json`` in ``out_dir``; exit 1 on any difference."""
+    import dataclasses
+    import time
+
+    from host.atomic import atomic_json
+    from host.images import summary_table
+    from host.render import save_png
+
+    name = tframe.frame.scene.name
+    params = dataclasses.replace(tframe.params, textures=CHOSEN_CACHE)
+    pause = args.wait_states
+    print(f"{name}: bump map and color texture behind the texel caches in an AXI4 memory model (latency "
+          f"{args.latency}, wait states {pause:g})")
+    res = run_engine_fetch(params, tframe.records, latency=args.latency, p_pause=pause,
+                           p_valid=0.9 if pause else 1.0, p_ready=0.8 if pause else 1.0, seed=args.seed,
+                           sim=args.sim, tag=f"scene_{out_dir.name}")
+    wall = time.perf_counter() - t0
+    rtl = res.pop("rtl")
+    if len(rtl) == len(tframe.out):
+        col = {p.name: rtl[:, i] for i, p in enumerate(params.outputs)}
+        save_png(out_dir / "rtl.png", tframe.image(np.stack([col[c] for c in "rgb"], 1).astype(np.uint8)))
+    ok = not res["mismatches"] and res["bursts_equal"] and res["rtl_bytes"] == res["model_bytes"]
+    report.update({"simulator": args.sim, "preset": args.preset, "textures": "external",
+                   "memory_latency": args.latency, "memory_wait_states": pause, "mismatches": res["mismatches"],
+                   "first_mismatches": res["first"], "texture_bursts_equal_model": res["bursts_equal"],
+                   "texture_bytes": {"rtl": res["rtl_bytes"], "model": res["model_bytes"]},
+                   "texture_misses": {k: v["totals"]["misses"] for k, v in res["maps"].items()},
+                   "rtl_cycles": res["cycles"], "rtl_clocks_per_fragment": round(res["clocks_per_fragment"], 4),
+                   "rtl_seconds": res["seconds"], "build_seconds": res["build_seconds"],
+                   "wall_seconds": round(wall, 2)})
+    atomic_json(out_dir / "report.json", report)
+    print(summary_table([
+        ("scene", name), ("input", f"{report['triangles']} triangles -> {report['fragments']:,} fragments"),
+        ("simulator", args.sim), ("mismatches", f"{res['mismatches']} fragments"),
+        ("texture traffic", f"{res['rtl_bytes']:,} B in {sum(v['bursts'] for v in res['maps'].values())} bursts "
+                            f"(model {res['model_bytes']:,} B; bursts {'equal' if res['bursts_equal'] else 'DIFFER'})"),
+        ("clocks / fragment", f"{res['clocks_per_fragment']:.3f} ({res['cycles']:,} cycles, scan converter "
+                              f"{res['raster_clocks']:,})"),
+        ("wall seconds", f"{wall:.1f}"), ("output", str(out_dir))]))
+    if not ok:
+        print(f"RTL differs from the model: {res['mismatches']} fragments, bursts equal {res['bursts_equal']}, "
+              f"bytes {res['rtl_bytes']} / {res['model_bytes']}; first: {res['first']}", file=sys.stderr)
+        return 1
+    print("  RTL == model on every fragment, texture bursts == model")
+    return 0

@@ -1,6 +1,6 @@
 """Co-simulation of the engine from the triangle with its bump map and color texture in external memory
 (``rtl/engine.py`` with :attr:`~fxmodel.pipeline.engine.EngineParams.textures`: the pixel pipeline split around the
-texture fetch, ``rtl/pixel_fetch.py``), paper Fig. 5 and sections 3.2 and 4.
+texture fetch, ``rtl/pixel_fetch.py``; the engine of the paper's Fig. 5, the maps of its sections 3.2 and 4).
 
 The bench is :class:`cosim.texfetch.FetchBench` around the engine (its texture port ``tex``): both maps in
 cocotbext-axi's ``AxiRam`` in the model's blocked layout (:meth:`~fxmodel.pipeline.engine.EngineParams.

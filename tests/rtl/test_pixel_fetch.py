@@ -56,9 +56,10 @@ def test_front_indices_have_the_request_widths(engine):
             assert widths[f"{m}_{c}"] == Shape.cast(req.members[c]).width
 
 
-def test_trilinear_has_no_single_texel_stage(engine):
+def test_trilinear_has_no_single_texel_stage():
+    from fxmodel.units.sampler import SamplerParams
     with pytest.raises(ValueError, match="trilinear"):
-        texel_stages(dataclasses.replace(engine.pipeline.texture, filter="trilinear"))
+        texel_stages(SamplerParams.PRESETS["trilinear"])
 
 
 def test_engine_ports(engine):

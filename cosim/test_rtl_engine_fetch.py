@@ -9,7 +9,7 @@ import dataclasses
 
 import pytest
 
-from cosim.engine_fetch import CHOSEN_CACHE, run_engine_fetch
+from cosim.engine_fetch import run_engine_fetch
 from fxmodel.units.texcache import TexCacheParams
 
 pytestmark = pytest.mark.cosim
@@ -52,12 +52,3 @@ def test_traffic_comparison_can_fail(tin_plane):
     model = other.texture_traffic(tframe.records.matrix())["bump_map"].burst_addresses().tolist()
     assert res["maps"]["bump_map"]["rtl_bursts"] and [a for a, _ in res["maps"]["bump_map"]["rtl_bursts"]] != model
 
-
-def test_chosen_cache_is_the_sweeps():
-    """The cache ``bumpmap sim --textures external`` and ``engine-rate`` use is the one the sweep chose."""
-    import json
-
-    from tools.record import RECORDS
-    chosen = json.loads((RECORDS / "texcache.json").read_text())["chosen"]["cache"]
-    keys = ("block", "sets", "ways", "replacement", "index")
-    assert {k: getattr(CHOSEN_CACHE, k) for k in keys} == {k: chosen[k] for k in keys}

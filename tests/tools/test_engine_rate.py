@@ -35,3 +35,14 @@ def test_bad_input_exits_2(capsys):
     assert main(["engine-rate", "--wait-states", "1.5"]) == 2
     assert main(["engine-rate", "--misses", "2"]) == 2
     assert "misses=2" in capsys.readouterr().err
+
+
+def test_chosen_cache_is_the_sweeps():
+    """The cache ``bumpmap sim --textures external`` and ``engine-rate`` use is the one ``cache-sweep`` chose."""
+    import json
+
+    from cosim.engine_fetch import CHOSEN_CACHE
+    from tools.record import RECORDS
+    chosen = json.loads((RECORDS / "texcache.json").read_text())["chosen"]["cache"]
+    keys = ("block", "sets", "ways", "replacement", "index")
+    assert {k: getattr(CHOSEN_CACHE, k) for k in keys} == {k: chosen[k] for k in keys}

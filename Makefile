@@ -12,6 +12,10 @@ SCENE    ?= tin-plane
 INPUT    ?= triangles
 # DEPTH=1 (with INPUT=triangles): the depth test and the frame buffer behind the AXI4 port, frame read from memory
 DEPTH    ?=
+# TEXTURES=external (with INPUT=triangles): the bump map and color texture in an AXI4 memory model behind the
+# texel caches (LATENCY: its latency in clocks)
+TEXTURES ?=
+LATENCY  ?= 20
 JOBS     ?= 2
 # nextpnr router of `make fpga` (router1: the README's figures; router2: quick checks of the pipeline)
 ROUTER   ?= router1
@@ -29,6 +33,7 @@ help:
 	@echo "make sim        draw SCENE (default tin-plane) from triangles through the RTL engine, bit-exact check"
 	@echo "                (SIM=icarus|verilator); INPUT=fragments: from the front end's fragments through the pixel pipeline"
 	@echo "                DEPTH=1: with the depth test and the frame buffer behind an AXI4 port (triangles only)"
+	@echo "                TEXTURES=external: the maps in a memory model behind the texel caches (LATENCY=20)"
 	@echo "make render     render SCENE through the bit-exact model only, with the float references"
 	@echo "make test       the test suite (model properties, RTL build, co-simulation on \$$SIM)"
 	@echo "make verilog    write build/verilog/<unit>_<preset>.v for every unit and preset;"
@@ -76,7 +81,8 @@ verilog: setup
 	$(BUMPMAP) verilog --out build/verilog $(SCENE_ARGS)
 
 sim: setup
-	$(BUMPMAP) sim --scene $(SCENE) --preset $(PRESET) --sim $(SIM) --input $(INPUT) $(if $(DEPTH),--depth)
+	$(BUMPMAP) sim --scene $(SCENE) --preset $(PRESET) --sim $(SIM) --input $(INPUT) $(if $(DEPTH),--depth) \
+		$(if $(TEXTURES),--textures $(TEXTURES) --latency $(LATENCY))
 
 render: setup
 	$(BUMPMAP) render scenes/$(SCENE).toml build/render/$(SCENE)/model.png --preset $(PRESET) --refs build/render/$(SCENE)

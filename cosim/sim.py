@@ -111,12 +111,15 @@ def run_key(args, scene_file) -> str:
     stem = re.sub(r"[^A-Za-z0-9_-]", "_", path.stem)[:40].strip("_-") or "scene"
     what = [str(path.resolve()), args.size, args.preset, args.cube_size, args.sim, args.input, args.depth,
             args.allow_clamp] + ([args.truth] if getattr(args, "truth", 0) else [])     # (c), when on
+    if getattr(args, "textures", "on-chip") != "on-chip":                              # the maps' memory, when not
+        what.append(args.textures)
     return f"{stem}-{hashlib.sha1(repr(what).encode()).hexdigest()[:10]}"
 
 
 def out_dir_of(args, scene_file) -> Path:
     """The run's output folder under ``build/sim`` (:func:`run_key`); checked to lie inside it."""
-    kind = "depth" if args.depth else args.input
+    kind = "depth" if args.depth else ("textures" if getattr(args, "textures", "on-chip") != "on-chip"
+                                       else args.input)
     root = build_dir("sim")
     out = root / f"{run_key(args, scene_file)}-{kind}"
     if out.resolve().parent != root.resolve():              # cannot happen with run_key's characters
@@ -173,6 +176,9 @@ def sim_scene(args) -> int:
     key = out_dir.name
     if args.depth:
         return sim_depth(args, tframe, report, out_dir, t0)
+    if args.textures != "on-chip":
+        from .engine_fetch import sim_textures
+        return sim_textures(args, tframe, report, out_dir, t0)
     if tframe is not None:                                  # records in, fragments out: compared here, in order
         counts = np.bincount(tframe.scan.record, minlength=len(tframe.records))
         with _bar(len(tframe.out), args, "px") as bar:
@@ -342,11 +348,15 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
     ap.add_argument("--depth", action="store_true",
                     help="with --input triangles: the engine with its depth test and frame buffer behind an AXI4 port "
                          "(cosim/rop.py); the frame is read from the memory model (build/sim/<scene>-depth/)")
-    ap.add_argument("--latency", type=int_range(0, 24), default=4,
-                    help="memory latency added by the bench (--depth; 0..24)")
+    ap.add_argument("--textures", choices=("on-chip", "external"), default="on-chip",
+                    help="with --input triangles (without --depth): the bump map and color texture in block RAM, or "
+                         "in an AXI4 memory model behind the texel caches (cosim/engine_fetch.py; "
+                         "build/sim/<scene>-textures/; default %(default)s)")
+    ap.add_argument("--latency", type=int_range(0, 63), default=4,
+                    help="memory latency added by the bench (--depth: 0..24; --textures external: 0..63)")
     ap.add_argument("--wait-states", type=float_range(0.0, 0.99), default=0.0, metavar="P",
-                    help="--depth: probability that each AXI channel of the memory model pauses in a cycle "
-                         "(random wait states, 0 .. 0.99; default %(default)s)")
+                    help="--depth, --textures external: probability that each AXI channel of the memory model pauses "
+                         "in a cycle (random wait states, 0 .. 0.99; default %(default)s)")
     ap.add_argument("--truth", type=int_range(0, 32), default=DEFAULT_SAMPLES, metavar="K",
                     help="judge the frame against reference (c), the true image: K x K samples per pixel, a power "
                          "of two (default: %(default)s; 0 leaves it out)")
@@ -374,6 +384,13 @@ def run(args: argparse.Namespace) -> int:
         return 2
     if args.depth and args.input != "triangles":
         print("error: --depth draws from triangles: add --input triangles", file=sys.stderr)
+        return 2
+    if args.textures != "on-chip" and (args.input != "triangles" or args.depth):
+        print("error: --textures external draws from triangles without the depth test: add --input triangles, "
+              "drop --depth", file=sys.stderr)
+        return 2
+    if args.depth and args.latency > 24:
+        print(f"error: --latency {args.latency}: the depth test's bench takes 0..24", file=sys.stderr)
         return 2
     if args.shards is None:
         args.shards = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)

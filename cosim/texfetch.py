@@ -35,13 +35,13 @@ DELAY_DEPTH = 16
 class FetchBench(wiring.Component):
     """Simulation top: ``inner`` (a :class:`~rtl.texcache_decoupled.DecoupledTexCache` or a
     :class:`~rtl.texfetch.TexFetch`), a delay queue of :data:`DELAY_DEPTH` entries on ``AR`` (every burst leaves
-    it ``lat`` cycles after the design issued it), the AXI4 port ``mem``. Ports: the design's ``i``, ``o``,
-    ``mem``, ``busy``, and ``lat``."""
+    it ``lat`` cycles after the design issued it), the AXI4 port ``mem`` (the design's port ``port``: the
+    engine's ``tex``). Ports: the design's ``i``, ``o``, ``mem``, ``busy``, and ``lat``."""
 
-    def __init__(self, inner):
-        self.inner = inner
+    def __init__(self, inner, port: str = "mem"):
+        self.inner, self.port = inner, port
         sig = self.inner.signature.members
-        super().__init__({"i": sig["i"], "o": sig["o"], "mem": sig["mem"], "busy": Out(1), "lat": In(LATENCY_BITS)})
+        super().__init__({"i": sig["i"], "o": sig["o"], "mem": sig[port], "busy": Out(1), "lat": In(LATENCY_BITS)})
 
     def elaborate(self, platform):
         m = Module()
@@ -51,7 +51,7 @@ class FetchBench(wiring.Component):
         m.d.comb += self.busy.eq(c.busy)
         now = Signal(32)
         m.d.sync += now.eq(now + 1)
-        src, dst = c.mem, self.mem
+        src, dst = getattr(c, self.port), self.mem
         fields = ("arid", "araddr", "arlen", "arsize", "arburst")
         payload = [getattr(src, f) for f in fields]
         width = sum(len(p) for p in payload)

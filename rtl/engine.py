@@ -45,6 +45,11 @@ class Engine(wiring.Component):
     def __init__(self, params: EngineParams):
         self.params = params
         members = {"i": In(stream.Signature(record_layout(params.raster))), "busy": Out(1)}
+        if params.textures is not None:
+            from .pixel_fetch import FetchPipeline
+            self._pixel = FetchPipeline(params.pipeline, params.texture_caches(), params.texture_layout(),
+                                        self._side_layout(params))
+            members["tex"] = Out(self._pixel.signature.members["mem"].signature)
         if params.rop is None:
             members["o"] = Out(stream.Signature(payload_layout(params.outputs)))
         else:
@@ -55,16 +60,25 @@ class Engine(wiring.Component):
                         "status": Out(self._rop.status.shape()), "rop_busy": Out(1)}
         super().__init__(members)
 
-    def elaborate(self, platform):
-        P = self.params
-        m = Module()
+    @staticmethod
+    def _side_layout(P: EngineParams) -> data.StructLayout:
+        """The pixel pipeline's sideband: the fragment's pixel, the raster's saturation flag, ``Z`` with the ROP."""
         pf = P.raster.pixel_fmt
         fields = {"x": shape(pf), "y": shape(pf), "rsat": 1}
         if P.rop is not None:
             fields["z"] = shape(P.raster.out_fmt("Z"))
-        side = data.StructLayout(fields)
+        return data.StructLayout(fields)
+
+    def elaborate(self, platform):
+        P = self.params
+        m = Module()
+        side = self._side_layout(P)
         m.submodules.raster = ras = Raster(P.raster)
-        m.submodules.pipeline = pix = StreamUnit(P.pipeline, side)
+        if P.textures is None:
+            m.submodules.pipeline = pix = StreamUnit(P.pipeline, side)
+        else:                                               # the maps through the texture fetch, port ``tex``
+            m.submodules.pipeline = pix = self._pixel
+            wiring.connect(m, wiring.flipped(self.tex), pix.mem)
         wiring.connect(m, wiring.flipped(self.i), ras.i)
         m.d.comb += [pix.i.valid.eq(ras.o.valid), ras.o.ready.eq(pix.i.ready), self.busy.eq(ras.busy)]
         m.d.comb += [pix.i.payload[p.name].eq(ras.o.payload[p.name]) for p in P.pipeline.inputs]

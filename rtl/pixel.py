@@ -71,38 +71,50 @@ class Pipeline(UnitComponent):
             tex = unit("texture", P.texture, late(persp.o_valid, t0, t_tex, "v_tex"),
                        s=late(persp.sc, t0, t_tex, "sc"), t=late(persp.tc, t0, t_tex, "tc"),
                        lod=late(lod.level, t_lod, t_tex, "lod"))
-        ts = T["samples"]
-        du = late(bmap.du, t0 + P.bump_map.latency, ts, "du")
-        dv = late(bmap.dv, t0 + P.bump_map.latency, ts, "dv")
-        ins = {f"N{c}": late(getattr(self, f"N{c}"), 0, ts, f"N{c}") for c in "xyz"}
-        ins |= {p.name: late(getattr(self, p.name), 0, ts, p.name) for p in P.bump.inputs[5:]}
-        bump = unit("bump", P.bump, late(persp.o_valid, t0, ts, "v_s"), du=du, dv=dv, **ins)
-        tb = T["bump"]
-        refl = unit("reflect", P.reflect, bump.o_valid,
-                    **{f"N{c}": getattr(bump, f"Np{c}") for c in "xyz"},
-                    **{f"E{c}": late(getattr(self, f"E{c}"), 0, tb, f"E{c}") for c in "xyz"})
-        tr = T["reflect"]
-        cube_n = unit("cube_n", P.cube, refl.o_valid,
-                      **{c: late(getattr(bump, f"Np{c}"), tb, tr, f"Np{c}") for c in "xyz"})
-        cube_r = unit("cube_r", P.cube, refl.o_valid, x=refl.Rx, y=refl.Ry, z=refl.Rz)
-        tc = T["cubes"]
-        diff = unit("diffuse", P.diffuse, cube_n.o_valid, face=cube_n.face, s=cube_n.s, t=cube_n.t)
-        spec = unit("specular", P.specular, cube_r.o_valid, face=cube_r.face, s=cube_r.s, t=cube_r.t)
-        tl = T["lookups"]
-
-        def looked(smp, params, c):
-            return late(getattr(smp, c), tc + params.latency, tl, f"{smp.params.NAME}_{c}")
-
-        shade = unit("shade", P.shade, late(cube_n.o_valid, tc, tl, "v_l"),
-                     **{f"t{c}": late(getattr(tex, c), t_tex + P.texture.latency, tl, f"tex_{c}") for c in "rgb"},
-                     **{f"d{c}": late(getattr(diff, c), tc + P.diffuse.latency, tl, f"d_{c}") for c in "rgb"},
-                     **{f"s{c}": late(getattr(spec, c), tc + P.specular.latency, tl, f"s_{c}") for c in "rgb"})
-        tsh = T["shade"]
-        bits = [None] * len(FLAG_BITS)
-        bits[FLAG_BITS["bump_saturated"]] = late(bump.saturated, tb, tsh, "f_bump")
-        bits[FLAG_BITS["shade_saturated"]] = shade.saturated
-        bits[FLAG_BITS["degenerate"]] = late(refl.degenerate, tr, tsh, "f_deg")
-        bits[FLAG_BITS["w_zero"]] = late(persp.dbz, t0, tsh, "f_dbz")
-        pipe.depth = tsh
-        self.finish(m, pipe, {"r": shade.r, "g": shade.g, "b": shade.b, "flags": Cat(*bits)})
+        rest = shade_half(m, pipe, unit, late, P, T, self, (persp.o_valid, t0),
+                          (bmap, t0 + P.bump_map.latency), (tex, t_tex + P.texture.latency), (persp.dbz, t0))
+        self.finish(m, pipe, rest)
         return m
+
+
+def shade_half(m, pipe: Pipe, unit, late, P: PipelineParams, T: dict, frag, valid, bmap, tex, dbz) -> dict:
+    """The pipeline from the samplers' results on (bump, reflection, cube addresses, cube lookups, shading and
+    flags), scheduled by ``T`` (:attr:`~fxmodel.pipeline.pixel.PipelineParams.stage_latency`, or it shifted);
+    ``frag`` has the fragment's inputs ``N``, ``E``, ``A`` (ready at cycle 0); ``valid``, ``bmap`` (``du, dv``),
+    ``tex`` (``r, g, b``) and ``dbz`` are ``(value, cycle ready)``. Sets ``pipe.depth`` to ``T['shade']`` and
+    returns the outputs (``r, g, b, flags``) for the output register. Shared by :class:`Pipeline` and the
+    pipeline split around the texture fetch (``rtl/pixel_fetch.py``)."""
+    ts = T["samples"]
+    du = late(bmap[0].du, bmap[1], ts, "du")
+    dv = late(bmap[0].dv, bmap[1], ts, "dv")
+    ins = {f"N{c}": late(getattr(frag, f"N{c}"), 0, ts, f"N{c}") for c in "xyz"}
+    ins |= {p.name: late(getattr(frag, p.name), 0, ts, p.name) for p in P.bump.inputs[5:]}
+    bump = unit("bump", P.bump, late(valid[0], valid[1], ts, "v_s"), du=du, dv=dv, **ins)
+    tb = T["bump"]
+    refl = unit("reflect", P.reflect, bump.o_valid,
+                **{f"N{c}": getattr(bump, f"Np{c}") for c in "xyz"},
+                **{f"E{c}": late(getattr(frag, f"E{c}"), 0, tb, f"E{c}") for c in "xyz"})
+    tr = T["reflect"]
+    cube_n = unit("cube_n", P.cube, refl.o_valid,
+                  **{c: late(getattr(bump, f"Np{c}"), tb, tr, f"Np{c}") for c in "xyz"})
+    cube_r = unit("cube_r", P.cube, refl.o_valid, x=refl.Rx, y=refl.Ry, z=refl.Rz)
+    tc = T["cubes"]
+    diff = unit("diffuse", P.diffuse, cube_n.o_valid, face=cube_n.face, s=cube_n.s, t=cube_n.t)
+    spec = unit("specular", P.specular, cube_r.o_valid, face=cube_r.face, s=cube_r.s, t=cube_r.t)
+    tl = T["lookups"]
+
+    def looked(smp, params, c):
+        return late(getattr(smp, c), tc + params.latency, tl, f"{smp.params.NAME}_{c}")
+
+    shade = unit("shade", P.shade, late(cube_n.o_valid, tc, tl, "v_l"),
+                 **{f"t{c}": late(getattr(tex[0], c), tex[1], tl, f"tex_{c}") for c in "rgb"},
+                 **{f"d{c}": late(getattr(diff, c), tc + P.diffuse.latency, tl, f"d_{c}") for c in "rgb"},
+                 **{f"s{c}": late(getattr(spec, c), tc + P.specular.latency, tl, f"s_{c}") for c in "rgb"})
+    tsh = T["shade"]
+    bits = [None] * len(FLAG_BITS)
+    bits[FLAG_BITS["bump_saturated"]] = late(bump.saturated, tb, tsh, "f_bump")
+    bits[FLAG_BITS["shade_saturated"]] = shade.saturated
+    bits[FLAG_BITS["degenerate"]] = late(refl.degenerate, tr, tsh, "f_deg")
+    bits[FLAG_BITS["w_zero"]] = late(dbz[0], dbz[1], tsh, "f_dbz")
+    pipe.depth = tsh
+    return {"r": shade.r, "g": shade.g, "b": shade.b, "flags": Cat(*bits)}

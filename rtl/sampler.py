@@ -21,7 +21,16 @@ from .fixed import const_mul, narrow
 from .recip import product_stage
 from .unit import Pipe, UnitComponent, register
 
-__all__ = ["Sampler"]
+__all__ = ["Sampler", "texel_stages"]
+
+
+def texel_stages(params: SamplerParams) -> int:
+    """Stages of the bilinear or nearest sampler ``params`` before its blend: the corner words of a lookup are
+    there after them (indices and weights, address, memory read, and the two bank stages when banked); the
+    blend and rounding take the other ``params.latency - texel_stages(params)``."""
+    if params.trilinear:
+        raise ValueError("a trilinear sampler reads two levels: no single point where its texels arrive")
+    return 4 + 2 * params.banked
 
 
 @register(SamplerParams)
@@ -58,16 +67,16 @@ class Sampler(UnitComponent):
             from .sampler_mip import trilinear
             self.finish(m, pipe, trilinear(self, m, pipe))
             return m
-        s2 = self._indices(pipe)
+        s2 = self.indices(pipe)
         s3, memories, weights, parity, corners = self._addresses(pipe, s2)
         data, late = self._read(m, pipe, s3, memories, weights, parity, corners)
         if not self.params.bilinear:
             self.finish(m, pipe, {n: self._channel(data[0], k) for k, n in enumerate(self.params.out_names)})
             return m
-        self.finish(m, pipe, self._blend(pipe, data, late))
+        self.finish(m, pipe, self.blend(pipe, data, late))
         return m
 
-    def _indices(self, pipe: Pipe):
+    def indices(self, pipe: Pipe):
         """Stages 1 and 2: the edge rule and the scaled position, then the texel indices along each axis (wraps
         and clamps) and the bilinear weights."""
         P = self.params
@@ -173,10 +182,11 @@ class Sampler(UnitComponent):
         bits = word[lo:lo + P.channels[k].width]
         return bits.as_signed() if P.channels[k].signed else bits
 
-    def _blend(self, pipe: Pipe, data, late) -> dict:
+    def blend(self, pipe: Pipe, data, late) -> dict:
         """The exact blend of the model, top = a 2**B + fx (b - a), bot = c 2**B + fx (d - c),
         v = top 2**B + fy (bot - top), one operation per stage, then the rounding to ``out_channels`` (the texels'
-        formats, or ``extra_frac`` fraction bits finer): the outputs by name."""
+        formats, or ``extra_frac`` fraction bits finer): the outputs by name. Also the back of a sampler whose corner
+        words ``data`` come from the texture fetch (``rtl/pixel_fetch.py``)."""
         P = self.params
         B = P.weight_bits
         ch = range(len(P.channels))

@@ -239,6 +239,7 @@ PAGES = {
     "make-targets": make_targets, "recip-errors": rec.recip_errors, "rop-throughput": rec.rop_throughput,
     "texcache": rec.texcache, "texcache-level1": lambda: rec.texcache("texcache-level1"),
     "texcache-rate": rec.texcache_rate, "texcache-rate-frame": lambda: rec.texcache_rate("texcache-rate-frame"),
+    "texcache-engine": rec.texcache_engine,
     "filtering-scenes": rec.filtering_scenes, "filtering-study": rec.filtering_study,
     "filtering-mip": rec.filtering_mip,
     "board-budget": rec.board_budget, "board-bitstream": rec.board_bitstream, "board-sim": rec.board_sim,

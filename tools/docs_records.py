@@ -361,6 +361,16 @@ def texcache_rate(name: str = "texcache-rate") -> str:
     return table(record) + "\n" + provenance(record, path)
 
 
+def texcache_engine(name: str = "texcache-engine") -> str:
+    """The engine from triangles with its maps in external memory: clocks per fragment under memory latency
+    (``bumpmap engine-rate``)."""
+    record, path = _load(name)
+    if record is None:
+        return _missing(path, f"bumpmap engine-rate --record docs/records/{name}.json")
+    from .engine_rate import table
+    return table(record) + "\n" + provenance(record, path)
+
+
 def _align(spec: str) -> list[str]:
     """Column alignments of :func:`_table` from letters: ``l`` left, ``r`` right."""
     return ["---" if c == "l" else "---:" for c in spec]

@@ -60,6 +60,8 @@ COMMANDS: dict[str, tuple[str, str | None]] = {
     "mip": ("tools.mip", "the bit-exact pipeline with MIP mapping of the color texture against the true image"),
     "cache-sweep": ("tools.cache_sweep", "size the texel cache in the model on the shipped scenes and grazing floor"),
     "cache-rate": ("tools.cache_rate", "the decoupled texel cache's lookups per clock under memory latency (co-sim)"),
+    "engine-rate": ("tools.engine_rate", "the engine from triangles with its maps in external memory: clocks per "
+                    "fragment under memory latency (co-sim)"),
     "bitstream": ("board.top", "the board top (ULX3S) through Yosys, nextpnr-ecp5 and ecppack: bitstream and report"),
     "litedram": ("board.litedram", "generate the SDRAM controller core (LiteDRAM) from board/sdram.yml"),
     "board-budget": ("board.budget", "the board's memory bandwidth budget (frame-buffer strategy)"),

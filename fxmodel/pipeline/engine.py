@@ -6,7 +6,7 @@ test and frame buffer (:mod:`fxmodel.units.rop`). Its RTL is ``rtl/engine.py``.
 from __future__ import annotations
 
 import dataclasses
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import ClassVar
 
 import numpy as np
@@ -18,6 +18,7 @@ from fxmodel.pipeline.pixel import FLAG_BITS, PipelineParams
 from fxmodel.units.raster import RasterParams, scan
 from fxmodel.units.rop import RopParams
 from fxmodel.units.rop import draw as rop_draw
+from fxmodel.units.shapes import repr_without_defaults
 from fxmodel.units.texcache import Layout, TexCacheParams, footprints, simulate
 
 __all__ = ["EngineParams", "RASTER_SATURATED_FLAG", "TEXTURE_MAPS"]
@@ -58,9 +59,14 @@ class EngineParams:
     raster: RasterParams
     pipeline: PipelineParams
     rop: RopParams | None = None
-    #: Left out of ``repr`` while the engine's RTL does not read it: the recorded FPGA counts and the build folders
-    #: are keyed by the ``repr`` of the design they belong to (``tools/fpga_report.py``, ``rtl/digest.py``).
-    textures: TexCacheParams | None = field(default=None, repr=False)
+    #: In ``repr`` only when set (:meth:`__repr__`): the recorded FPGA counts and the build folders are keyed by
+    #: the ``repr`` of the design they belong to (``tools/fpga_report.py``, ``rtl/digest.py``), and the engine
+    #: with its maps on chip keeps its keys.
+    textures: TexCacheParams | None = None
+
+    def __repr__(self):
+        """The dataclass ``repr`` without ``textures`` when it is ``None``."""
+        return repr_without_defaults(self, ("textures",))
 
     def __post_init__(self):
         require(isinstance(self.raster, RasterParams), "raster", type(self.raster).__name__, "must be RasterParams")

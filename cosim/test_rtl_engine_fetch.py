@@ -1,0 +1,54 @@
+"""Co-simulation of the engine from the triangle with its bump map and color texture in external memory
+(``rtl/engine.py`` with ``EngineParams.textures``, ``rtl/pixel_fetch.py``; :mod:`cosim.engine_fetch`): a scene's
+triangles through the scan converter, the split pixel pipeline and the texture fetch, both maps in ``AxiRam``, at
+memory latencies 1, 20 and 40 with random gaps in the records, backpressure on the fragments and wait states on
+both read channels; every fragment equals the model's, each map's bursts its cache's model, and the traffic
+comparison can fail."""
+
+import dataclasses
+
+import pytest
+
+from cosim.engine_fetch import run_engine_fetch
+from fxmodel.units.texcache import TexCacheParams
+
+pytestmark = pytest.mark.cosim
+
+#: A small cache, so that a small frame misses, evicts and refills.
+SMALL = TexCacheParams(block=4, sets=4, ways=2, lookup_depth=16, misses=4)
+
+
+@pytest.fixture(scope="module")
+def tin_plane():
+    from host.render import from_triangles, prepare
+    from host.scene import scene_path
+    tframe = from_triangles(prepare(scene_path("tin-plane"), size=32))
+    return dataclasses.replace(tframe.params, textures=SMALL), tframe
+
+
+def test_fetch_pipeline_is_the_pipeline(tin_plane):
+    """With the maps external the engine draws the same fragments: the model's frame is the on-chip engine's."""
+    eng, tframe = tin_plane
+    assert (eng.compute(tframe.records.matrix())[0] == tframe.out).all()
+    assert repr(eng) != repr(tframe.params) and "textures" not in repr(tframe.params)
+
+
+@pytest.mark.parametrize("latency", (1, 20, 40))
+def test_engine_with_textures_in_memory(tin_plane, latency):
+    eng, tframe = tin_plane
+    res = run_engine_fetch(eng, tframe.records, latency=latency, p_valid=0.8, p_ready=0.7, p_pause=0.2,
+                           seed=latency, tag=f"engine_fetch_{latency}")
+    assert res["outputs"] == res["fragments"] == len(tframe.out) > 0 and res["mismatches"] == 0
+    assert res["bursts_equal"] and res["rtl_bytes"] == res["model_bytes"] > 0
+    assert all(v["totals"]["misses"] > 0 for v in res["maps"].values())
+    assert (res["rtl"] == tframe.out).all()
+
+
+def test_traffic_comparison_can_fail(tin_plane):
+    """The bump map's bursts of the RTL are not those of a cache with one way less."""
+    eng, tframe = tin_plane
+    res = run_engine_fetch(eng, tframe.records, latency=5, tag="engine_fetch_fail")
+    other = dataclasses.replace(eng, textures=dataclasses.replace(SMALL, ways=1))
+    model = other.texture_traffic(tframe.records.matrix())["bump_map"].burst_addresses().tolist()
+    assert res["maps"]["bump_map"]["rtl_bursts"] and [a for a, _ in res["maps"]["bump_map"]["rtl_bursts"]] != model
+

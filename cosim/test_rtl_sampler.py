@@ -50,13 +50,15 @@ def test_trilinear_level_memories(sim, shape, edge):
 @pytest.mark.parametrize("extra, edge", [(2, "border"), (3, "border"), (3, "repeat")])
 def test_blend_kept_finer_than_the_texels(sim, extra, edge):
     """``extra_frac``: the blend rounded to ``extra`` more fraction bits than the texels (the pipeline's diffuse
-    cube: unsigned u2.10 texels, a bordered cube map, 8-bit weights; and a one-memory map under repeat), bit for
-    bit."""
+    cube: the default shading unit's ``diffuse_fmt`` texels, a bordered cube map, 8-bit weights; and a one-memory map
+    under repeat), bit for bit."""
     from fxmodel.core.fixed import Fmt
     from fxmodel.units.sampler import SamplerParams, Texels
+    from fxmodel.units.shade import ShadeParams
     rng = np.random.default_rng([extra, len(edge), 5])
     shape, coord = ((6, 6, 6, 3), Fmt(False, 1, 16)) if edge == "border" else ((1, 5, 4, 3), Fmt(True, 3, 12))
-    params = SamplerParams(texels=Texels(rng.integers(0, 4096, size=shape)), channels=(Fmt(False, 2, 10),) * 3,
+    fmt = ShadeParams().diffuse_fmt
+    params = SamplerParams(texels=Texels(rng.integers(0, 1 << fmt.width, size=shape)), channels=(fmt,) * 3,
                            coord_fmt=coord, edge=edge, extra_frac=extra, names=("r", "g", "b"))
     vectors = np.concatenate([params.hard_cases(), params.random_inputs(rng, 2000)])
     assert_bit_exact(run(params, vectors, sim=sim, tag=f"fine{extra}{edge}"))

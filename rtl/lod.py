@@ -54,8 +54,10 @@ def magnitude(x: Value) -> Value:
 def group_shift(width: int, lz: Value, bits: int) -> Value:
     """``max(0, L - (bits - 1))`` with ``L = width - lz`` the bit length of a ``width``-bit unsigned value of
     leading-zero count ``lz``."""
-    length = width - lz
-    return Mux(length > bits - 1, length - (bits - 1), 0)
+    top = width - (bits - 1)                               # the shift is top - lz when positive
+    if top <= 0:
+        return Const(0, 1)
+    return Mux(lz < top, (Const(top, top.bit_length() + 1) - lz)[:top.bit_length()], 0)
 
 
 def log2_index(x: Value, lz: Value, table_bits: int) -> tuple[Value, Value]:

@@ -57,8 +57,8 @@ Against the exact level of the same codes, on every unsaturated output with ``W 
   footprint far smaller than the coordinates' own size times the relative change of ``W`` per pixel. The bound is
   stated for ``kappa <= 2^kappa_bits`` (the documented domain, 1/16 of a level at the defaults); no bound on the
   codes alone exists there, since cancellation depends on the triangle, not on the level: ``bumpmap errors lod``
-  counts the vectors beyond it apart, and ``tests/fxmodel/units/test_lod.py`` measures ``kappa`` on every
-  fragment of the shipped scenes whose level the sampler does not clamp.
+  counts the vectors beyond it apart (each held to the bound at its own ``kappa``), and ``bumpmap mip`` measures
+  the largest ``kappa`` over every fragment of the shipped scenes (``docs/records/mip.json``).
 * Step 3: ``s_D`` drops less than ``2^(2 - sq_bits)`` times the largest ``|D|``, and ``sqrt Q >= |D| min(w_tex,
   h_tex)`` for every ``D``: a relative error ``delta = 2^(2 - sq_bits) sqrt(w_tex^2 + h_tex^2) / min(w_tex, h_tex)``.
   The two relative errors multiply; ``-log2(1 - a) >= log2(1 + a)`` bounds both directions.

@@ -49,9 +49,10 @@ __all__ = ["TOP_KEYS", "UNIT_KEYS", "UNIT_TYPES", "PRESET_KEYS", "PipelinePreset
 #: ``mip_levels``: MIP levels of the color texture's trilinear filter, 0 for none (the default: bilinear at level 0),
 #: capped at the full pyramid; ``lod_bias``: the level-of-detail bias, a code of the LOD unit's ``lod_frac`` (8)
 #: fraction bits (-128: half a level sharper); ``level_bits``: the blend weight between two levels
-#: (:mod:`fxmodel.units.sampler`, step 5).
+#: (:mod:`fxmodel.units.sampler`, step 5). ``span_dsp``: 1 builds the scan converter's span-start products on
+#: multiplier blocks, 0 in logic (``RasterParams.span_dsp``: the same sums).
 TOP_KEYS = {"weight_bits": (12, 1, 16), "cube_size": (64, 1, 1024), "raster_guard": (1, 0, 8),
-            "mip_levels": (0, 0, 16), "lod_bias": (0, -4096, 4096), "level_bits": (8, 1, 8)}
+            "mip_levels": (0, 0, 16), "lod_bias": (0, -4096, 4096), "level_bits": (8, 1, 8), "span_dsp": (1, 0, 1)}
 
 #: Widest number format a preset file may give a field (sign included): the model's integer arithmetic and the
 #: RTL's ports are sized from it; the default preset's widest is 26 bits.
@@ -102,10 +103,10 @@ class PipelinePreset(Mapping):
     ----------
     persp, bump, reflect, cube, shade
         The units' parameter objects (classes in :data:`UNIT_TYPES`).
-    weight_bits, cube_size, raster_guard, mip_levels, lod_bias, level_bits : int
+    weight_bits, cube_size, raster_guard, mip_levels, lod_bias, level_bits, span_dsp : int
         The bilinear weights' bits of the bump map and texture, texels per reflectance-cube face edge, guard bits
-        of the scan converter's interpolators, the color texture's MIP mapping (ranges and defaults in
-        :data:`TOP_KEYS`).
+        of the scan converter's interpolators, the color texture's MIP mapping, the span start's products on
+        multiplier blocks or in logic (ranges and defaults in :data:`TOP_KEYS`).
     """
 
     persp: PerspParams
@@ -119,6 +120,7 @@ class PipelinePreset(Mapping):
     mip_levels: int = TOP_KEYS["mip_levels"][0]
     lod_bias: int = TOP_KEYS["lod_bias"][0]
     level_bits: int = TOP_KEYS["level_bits"][0]
+    span_dsp: int = TOP_KEYS["span_dsp"][0]
 
     def __post_init__(self):
         for key, cls in UNIT_TYPES.items():

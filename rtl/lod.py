@@ -92,12 +92,10 @@ class Lod(UnitComponent):
     Latency: ``params.latency`` (module docstring).
     """
 
-    def elaborate(self, platform):
+    def _d_terms(self, pipe: Pipe):
+        """Stages 1-5: the four ``D`` terms (registers ``sx, tx, sy, ty``) and ``W`` (``w``)."""
         P = self.params
-        m = Module()
-        pipe = Pipe(m)
         su, sw = P._scales()
-        wn = P.w_fmt.width - 1                             # a positive W in its magnitude bits
         names = ("U", "V", "W", "Ux", "Uy", "Vx", "Vy", "Wx", "Wy")
         ins = {n: getattr(self, n) for n in names}
 
@@ -145,7 +143,14 @@ class Lod(UnitComponent):
         ds = {}
         for d, *_ in _TERMS:
             ds[d], _ = saturate(getattr(s, f"a{d}") - getattr(s, f"b{d}"), dfmt, Overflow.PROVEN)
-        s = pipe.stage(**ds, w=s.w)
+        return pipe.stage(**ds, w=s.w)
+
+    def elaborate(self, platform):
+        P = self.params
+        m = Module()
+        pipe = Pipe(m)
+        wn = P.w_fmt.width - 1                             # a positive W in its magnitude bits
+        s = self._d_terms(pipe)
 
         # 6: the four D's leading-zero count; Q = 0 exactly when every D is 0 (Q_x = D_sx^2 w^2 + D_tx^2 h^2)
         mag = magnitude(s.sx) | magnitude(s.tx) | magnitude(s.sy) | magnitude(s.ty)

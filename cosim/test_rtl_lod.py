@@ -59,16 +59,19 @@ def test_lod_random_and_hard_pixels(sim, name):
 
 
 def test_lod_bias_and_narrow_formats(sim):
-    """A positive bias, a 6-entry-bit table with no guard bits, narrow formats (no operand wider than one multiplier
-    block: no partial-product stage) and a non-square map."""
+    """A positive bias, a 6-entry-bit table with no guard bits, narrow formats (no operand group wider than one
+    multiplier block: no shift), a non-square map, and narrower shifted operands and ``D`` (12 and 10 bits)."""
     from fxmodel.core.fixed import Fmt
     params = preset("lod").replace(uv_fmt=Fmt(True, 3, 9), w_fmt=Fmt(True, 1, 12), duv_fmt=Fmt(True, 2, 14),
                                    dw_fmt=Fmt(True, 1, 15), size=(256, 8), table_bits=6, guard=0, lod_frac=4,
                                    lod_int=5, bias=9)
-    assert not params.d_split and params.latency == preset("lod").latency - 1
+    assert params.latency == preset("lod").latency
     rng = np.random.default_rng(11)
     vectors = np.concatenate([params.hard_cases(), pixels(params, rng, 400)])
     assert_bit_exact(run(params, vectors, sim=sim, tag="narrow"))
+    short = preset("lod").replace(op_bits=12, sq_bits=10)
+    vectors = np.concatenate([short.hard_cases(), pixels(short, rng, 400)])
+    assert_bit_exact(run(short, vectors, sim=sim, tag="short"))
 
 
 def scene_pixels(name: str, width: int, height: int):

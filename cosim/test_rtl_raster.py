@@ -66,6 +66,19 @@ def test_raster_rtl_matches_the_model(sim, preset, p_valid, p_ready, size, n):
         assert res["busy_span"] == res["busy_cycles"], res
 
 
+@pytest.mark.parametrize("preset, p_valid, p_ready, size, n", [
+    ("small", 1.0, 1.0, (48, 40), 24), ("default", 0.5, 0.5, (40, 32), 8)])
+def test_span_start_in_logic_matches_the_model(sim, preset, p_valid, p_ready, size, n):
+    """``span_dsp`` off: the span start's products as a carry-save tree of shifted copies in logic (no multiplier
+    block), the same sums modulo ``2**N``."""
+    import dataclasses
+    params = dataclasses.replace(RasterParams.PRESETS[preset], span_dsp=False)
+    assert params.products() == () and params.cost()["dsp"] == 0
+    recs = hard_and_random(params, *size, n, seed=5)
+    res = run(params, recs, p_valid=p_valid, p_ready=p_ready, sim=sim, tag=f"logic_{preset}")
+    assert res["expected"] > 60 and res["mismatches"] == 0, res
+
+
 def test_raster_carries_the_triangles_slopes(sim):
     """The ``slopes`` (the increments the level of detail of MIP mapping reads, ``fxmodel/units/lod.py``): every
     fragment carries its triangle's exact steps of ``U`` and ``W`` along x and y, rounded once by the set-up (wide

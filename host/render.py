@@ -395,7 +395,8 @@ def raster_params(units: dict, lod=None) -> RasterParams:
     (:meth:`RasterParams.for_pipeline`) and the preset's ``raster_guard`` (``extra_guard``); with the pipeline's
     LOD unit ``lod`` (MIP mapping), the triangle's increments it reads carried with every fragment
     (:func:`fxmodel.pipeline.pixel.lod_slopes`)."""
-    return RasterParams.for_pipeline(units, extra_guard=top_value(units, "raster_guard"), slopes=lod_slopes(lod))
+    return RasterParams.for_pipeline(units, extra_guard=top_value(units, "raster_guard"), slopes=lod_slopes(lod),
+                                     span_dsp=bool(top_value(units, "span_dsp")))
 
 
 def engine_params(scene, preset: str | dict = "default", *, cube_size: int | None = None) -> EngineParams:

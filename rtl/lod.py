@@ -4,24 +4,25 @@ the algorithm and its error bound). Fully pipelined, one result per clock.
 
 Stages (``LodParams.latency``):
 
-1. the eight ``D`` products' partial products, registered (only when an operand is wider than one multiplier block:
-   ``rtl.recip.split_products``);
-2. the products ``U_x W`` and ``U W_x`` (and for ``V`` and ``y``), exact;
-3. ``D = (U_x W << su) - (U W_x << sw)``, narrowed to ``d_bits`` (proven: ``|D| <= LodParams.d_bound``);
-4. the piece products of each square ``D^2`` (:meth:`LodParams.square_pieces`: ``D`` cut into 17-bit pieces, a
-   cross product once and doubled by a shift; one multiplier block each), the flag ``Q = 0`` (every ``D`` zero);
-5. 6. ``D^2``: the pieces' adder tree, half its levels a stage;
-7. ``Q_x = D_sx^2 w^2 + D_tx^2 h^2`` and ``Q_y`` (the map's size a constant: shifts, or shift-and-add);
-8. ``Q_x > Q_y``, the flag ``W <= 0``;
-9. ``Q = max(Q_x, Q_y)``, narrowed to ``q_bits`` (proven);
-10. leading-zero counts of ``Q`` and ``W`` (balanced trees, ``rtl.recip.leading_zeros``);
-11. normalizing shifts: the ``table_bits`` bits after each leading one index the table;
-12. the ``log2`` table read for ``Q`` and ``W`` (one ROM, two synchronous read ports);
-13. ``2 lambda = log2 Q - 4 log2 W + const`` (``table_frac`` fraction bits);
-14. round half-up to ``lod_frac`` fraction bits, add the bias, saturate, the flags (the output register).
+1. the leading-zero count of each operand group (``LodParams.GROUPS``: the magnitudes ``x ^ sign`` OR-ed);
+2. each group's shift ``max(0, L - (op_bits - 1))`` and the operands shifted (arithmetic: FLOOR) to ``op_bits``;
+3. the eight products ``U_x W``, ``U W_x`` ... (one multiplier block each), the exponents summed;
+4. each product shifted into place (``d_frac`` fraction bits), sliced to ``d_bits`` (proven: ``LodParams.d_bound``);
+5. ``D = U_x W - U W_x`` (and for ``V`` and ``y``), exact;
+6. the leading-zero count of the four ``D`` (magnitudes OR-ed), the flag ``Q = 0`` (every ``D`` zero);
+7. the shared shift ``s_D`` and the four ``D`` shifted (FLOOR) to ``sq_bits``;
+8. the squares ``D^2`` (one block each);
+9. ``Q_x = D_sx^2 w^2 + D_tx^2 h^2`` and ``Q_y`` (the map's size a constant: shifts, or shift-and-add);
+10. ``Q_x > Q_y``, the flag ``W <= 0``;
+11. ``Q = max(Q_x, Q_y)``, narrowed to ``q_bits`` (proven);
+12. leading-zero counts of ``Q`` and ``W`` (balanced trees, ``rtl.recip.leading_zeros``);
+13. normalizing shifts: the ``table_bits`` bits after each leading one index the table;
+14. the ``log2`` table read for ``Q`` and ``W`` (one ROM, two synchronous read ports);
+15. ``2 lambda = log2 Q + 2 s_D - 4 log2 W + const`` (``table_frac`` fraction bits);
+16. round half-up to ``lod_frac`` fraction bits, add the bias, saturate, the flags (the output register).
 
-Each stage holds one carry chain or one product (the ~120-bit comparison and choice of ``max`` in one stage ran the
-unit at 69 MHz on ECP5, routing most of it).
+Each stage holds one carry chain, one barrel shifter or one product (the ~120-bit comparison and choice of ``max``
+in one stage ran an earlier, exact version of this unit at 69 MHz on ECP5, routing most of it).
 """
 
 from __future__ import annotations
@@ -29,46 +30,34 @@ from __future__ import annotations
 from amaranth.hdl import Cat, Const, Module, Mux, Value
 from amaranth.lib.memory import Memory
 
-from fxmodel.core.cost import pieces as cut_pieces
 from fxmodel.core.fixed import Fmt
 from fxmodel.core.rounding import Overflow, Rounding
 from fxmodel.units.lod import FLAG_BAD_W, FLAG_SATURATED, FLAG_ZERO, LodParams
 
 from .fixed import const_mul, saturate, shift_round
-from .recip import leading_zeros, split_products
+from .recip import leading_zeros
 from .unit import Pipe, UnitComponent, register
 
-__all__ = ["Lod", "square_parts", "log2_index"]
+__all__ = ["Lod", "log2_index", "magnitude", "group_shift"]
 
 #: ``(D name, numerator increment, numerator, W increment)`` of the four ``D`` terms.
 _TERMS = (("sx", "Ux", "U", "Wx"), ("tx", "Vx", "V", "Wx"), ("sy", "Uy", "U", "Wy"), ("ty", "Vy", "V", "Wy"))
 
 
-def square_parts(P: LodParams, d) -> dict:
-    """The piece products of ``d * d`` (``d`` a ``P.d_bits``-bit signed value) by name, and their shifts:
-    ``{name: (product, shift)}`` with ``d^2 = sum(product << shift)`` (:meth:`LodParams.square_pieces`)."""
-    cut = cut_pieces(P.d_bits, True)
-    sl = [d[lo:lo + bits].as_signed() if signed else d[lo:lo + bits] for lo, bits, signed in cut]
-    return {f"{i}{j}": (sl[i] * sl[j], cut[i][0] + cut[j][0] + (i != j))
-            for i, j, *_ in P.square_pieces()}
+def magnitude(x: Value) -> Value:
+    """``x ^ sign`` of the signed ``x`` (``~x`` for a negative one) as an unsigned value of ``len(x)`` bits: its bit
+    length is the model's ``L`` (``fxmodel.units.lod._norm_shift``)."""
+    x = Value.cast(x)
+    return x.as_unsigned() ^ x[-1].replicate(len(x))
 
 
-def square_terms(P: LodParams, regs, name: str) -> list:
-    """The shifted piece products of ``D^2`` (registered as ``regs.<name>_<ij>`` by :func:`square_parts`)."""
-    cut = cut_pieces(P.d_bits, True)
-    return [getattr(regs, f"{name}_{i}{j}") << (cut[i][0] + cut[j][0] + (i != j)) for i, j, *_ in P.square_pieces()]
-
-
-def add_levels(terms: list, levels: int) -> list:
-    """``levels`` levels of a balanced adder tree over ``terms`` (pairs summed, an odd one passed on)."""
-    for _ in range(levels):
-        terms = [terms[k] + terms[k + 1] if k + 1 < len(terms) else terms[k] for k in range(0, len(terms), 2)]
-    return terms
-
-
-def tree_levels(n: int) -> int:
-    """Levels of a balanced adder tree over ``n`` terms."""
-    return max(0, (n - 1).bit_length())
+def group_shift(width: int, lz: Value, bits: int) -> Value:
+    """``max(0, L - (bits - 1))`` with ``L = width - lz`` the bit length of a ``width``-bit unsigned value of
+    leading-zero count ``lz``."""
+    top = width - (bits - 1)                               # the shift is top - lz when positive
+    if top <= 0:
+        return Const(0, 1)
+    return Mux(lz < top, (Const(top, top.bit_length() + 1) - lz)[:top.bit_length()], 0)
 
 
 def log2_index(x: Value, lz: Value, table_bits: int) -> tuple[Value, Value]:
@@ -103,77 +92,116 @@ class Lod(UnitComponent):
     Latency: ``params.latency`` (module docstring).
     """
 
+    def _d_terms(self, pipe: Pipe):
+        """Stages 1-5: the four ``D`` terms (registers ``sx, tx, sy, ty``) and ``W`` (``w``)."""
+        P = self.params
+        su, sw = P._scales()
+        names = ("U", "V", "W", "Ux", "Uy", "Vx", "Vy", "Wx", "Wy")
+        ins = {n: getattr(self, n) for n in names}
+
+        # 1: each group's leading-zero count (a group already within op_bits needs none)
+        lzs = {}
+        for k, (group, fmt) in enumerate(zip(P.GROUPS, P.group_fmts())):
+            if fmt.width > P.op_bits:
+                mag = magnitude(ins[group[0]])
+                for n in group[1:]:
+                    mag = mag | magnitude(ins[n])
+                lzs[f"lz{k}"] = leading_zeros(mag)
+        s = pipe.stage(**ins, **lzs)
+
+        # 2: the shifts and the shifted operands (arithmetic shift: FLOOR; they fit op_bits by the shift's choice)
+        ops, sh = {}, {}
+        for k, (group, fmt) in enumerate(zip(P.GROUPS, P.group_fmts())):
+            if fmt.width > P.op_bits:
+                shift = group_shift(fmt.width, getattr(s, f"lz{k}"), P.op_bits)
+                sh[f"e{k}"] = shift
+                for n in group:
+                    ops[n] = (getattr(s, n) >> shift)[:P.op_bits].as_signed()
+            else:
+                for n in group:
+                    ops[n] = getattr(s, n)
+        zero_e = Const(0, 1)
+        s = pipe.stage(**ops, **sh, w=s.W)
+        e = [getattr(s, f"e{k}", zero_e) for k in range(4)]          # exponents of (U, V), W, increments, W_x
+
+        # 3: the eight products (one block each), the exponents of the two kinds summed
+        prods = {}
+        for d, inc, num, winc in _TERMS:
+            prods[f"a{d}"] = getattr(s, inc) * s.W
+            prods[f"b{d}"] = getattr(s, num) * getattr(s, winc)
+        s = pipe.stage(**prods, ea=e[2] + e[1], eb=e[0] + e[3], w=s.w)
+
+        # 4: each product at d_frac fraction bits, sliced to d_bits (proven: |value| <= d_bound)
+        dfmt = Fmt(True, P.d_bits, 0)
+        placed = {}
+        for d, *_ in _TERMS:
+            placed[f"a{d}"], _ = saturate((getattr(s, f"a{d}") << su) << s.ea, dfmt, Overflow.PROVEN)
+            placed[f"b{d}"], _ = saturate((getattr(s, f"b{d}") << sw) << s.eb, dfmt, Overflow.PROVEN)
+        s = pipe.stage(**placed, w=s.w)
+
+        # 5: D, exact (|D| <= d_bound: proven)
+        ds = {}
+        for d, *_ in _TERMS:
+            ds[d], _ = saturate(getattr(s, f"a{d}") - getattr(s, f"b{d}"), dfmt, Overflow.PROVEN)
+        return pipe.stage(**ds, w=s.w)
+
     def elaborate(self, platform):
         P = self.params
         m = Module()
         pipe = Pipe(m)
-        F = P.d_frac
-        su = F - P.duv_fmt.frac_bits - P.w_fmt.frac_bits
-        sw = F - P.uv_fmt.frac_bits - P.dw_fmt.frac_bits
         wn = P.w_fmt.width - 1                             # a positive W in its magnitude bits
+        s = self._d_terms(pipe)
 
-        # 1-2: the eight products, exact (partial products registered first when wider than a block)
-        prods = {}
-        for d, inc, num, winc in _TERMS:
-            prods[f"a{d}"] = (getattr(self, inc), self.W)
-            prods[f"b{d}"] = (getattr(self, num), getattr(self, winc))
-        totals, c = split_products(pipe, prods, {"W": self.W}, "pd")
-        s = pipe.stage(**totals, **c)
+        # 6: the four D's leading-zero count; Q = 0 exactly when every D is 0 (Q_x = D_sx^2 w^2 + D_tx^2 h^2)
+        mag = magnitude(s.sx) | magnitude(s.tx) | magnitude(s.sy) | magnitude(s.ty)
+        s = pipe.stage(**{d: getattr(s, d) for d, *_ in _TERMS}, lzd=leading_zeros(mag), w=s.w,
+                       zero=Cat(*(getattr(s, d) == 0 for d, *_ in _TERMS)).all())
 
-        # 3: D at d_frac fraction bits, narrowed to d_bits (proven by the formats' bounds)
-        dfmt = Fmt(True, P.d_bits, 0)
-        ds = {}
-        for d, *_ in _TERMS:
-            ds[d], _ = saturate((getattr(s, f"a{d}") << su) - (getattr(s, f"b{d}") << sw), dfmt, Overflow.PROVEN)
-        s = pipe.stage(**ds, W=s.W)
+        # 7: the shared shift s_D and the four D at sq_bits (FLOOR)
+        if P.d_bits > P.sq_bits:
+            sd = group_shift(P.d_bits, s.lzd, P.sq_bits)
+            short = {d: (getattr(s, d) >> sd)[:P.sq_bits].as_signed() for d, *_ in _TERMS}
+        else:
+            sd, short = Const(0, 1), {d: getattr(s, d) for d, *_ in _TERMS}
+        s = pipe.stage(**short, sd=sd, w=s.w, zero=s.zero)
 
-        # 4-6: the squares' piece products, then D^2 over two stages (half the adder tree's levels each: the
-        # whole tree of ~120-bit carry chains in one stage ran at 69 MHz on ECP5)
-        parts = {}
-        for d, *_ in _TERMS:
-            for k, (prod, _) in square_parts(P, getattr(s, d)).items():
-                parts[f"{d}_{k}"] = prod
-        # Q = 0 exactly when every D is 0 (Q_x = D_sx^2 w^2 + D_tx^2 h^2 with w, h >= 1)
-        s = pipe.stage(**parts, W=s.W, zero=Cat(*(getattr(s, d) == 0 for d, *_ in _TERMS)).all())
-        first = (tree_levels(len(P.square_pieces())) + 1) // 2
-        halves = {d: add_levels(square_terms(P, s, d), first) for d, *_ in _TERMS}
-        s = pipe.stage(**{f"{d}_{k}": t for d, ts in halves.items() for k, t in enumerate(ts)}, W=s.W, zero=s.zero)
-        s = pipe.stage(**{d: add_levels([getattr(s, f"{d}_{k}") for k in range(len(ts))], tree_levels(len(ts)))[0]
-                          for d, ts in halves.items()}, W=s.W, zero=s.zero)
+        # 8: the squares (one block each)
+        s = pipe.stage(**{d: getattr(s, d) * getattr(s, d) for d, *_ in _TERMS}, sd=s.sd, w=s.w, zero=s.zero)
 
-        # 7: Q_x, Q_y (the map's size squared: a constant)
+        # 9: Q_x, Q_y (the map's size squared: a constant)
         w2, h2 = P.size[0] ** 2, P.size[1] ** 2
         s = pipe.stage(qx=const_mul(s.sx, w2) + const_mul(s.tx, h2), qy=const_mul(s.sy, w2) + const_mul(s.ty, h2),
-                       W=s.W, zero=s.zero)
+                       sd=s.sd, w=s.w, zero=s.zero)
 
-        # 8-9: Q = max(Q_x, Q_y) in q_bits (proven): the comparison, then the choice; the flag W <= 0
-        s = pipe.stage(gt=s.qx > s.qy, qx=s.qx, qy=s.qy, zero=s.zero, bad=s.W <= 0, w=s.W[:wn])
+        # 10-11: Q = max(Q_x, Q_y) in q_bits (proven): the comparison, then the choice; the flag W <= 0
+        s = pipe.stage(gt=s.qx > s.qy, qx=s.qx, qy=s.qy, sd=s.sd, zero=s.zero, bad=s.w <= 0, w=s.w[:wn])
         q, _ = saturate(Mux(s.gt, s.qx, s.qy), Fmt(False, P.q_bits, 0), Overflow.PROVEN)
-        s = pipe.stage(q=q, w=s.w, zero=s.zero, bad=s.bad)
+        s = pipe.stage(q=q, w=s.w, sd=s.sd, zero=s.zero, bad=s.bad)
 
-        # 10: leading-zero counts
-        s = pipe.stage(q=s.q, w=s.w, lzq=leading_zeros(s.q), lzw=leading_zeros(s.w), zero=s.zero, bad=s.bad)
+        # 12: leading-zero counts
+        s = pipe.stage(q=s.q, w=s.w, lzq=leading_zeros(s.q), lzw=leading_zeros(s.w), sd=s.sd, zero=s.zero,
+                       bad=s.bad)
 
-        # 11: normalizing shifts -> table indices, and the leading ones' positions
+        # 13: normalizing shifts -> table indices, and the leading ones' positions
         pq, iq = log2_index(s.q, s.lzq, P.table_bits)
         pw, iw = log2_index(s.w, s.lzw, P.table_bits)
-        s = pipe.stage(pq=pq, pw=pw, iq=iq, iw=iw, zero=s.zero, bad=s.bad)
+        s = pipe.stage(pq=pq, pw=pw, iq=iq, iw=iw, sd=s.sd, zero=s.zero, bad=s.bad)
 
-        # 12: the log2 table (synchronous read: its data register is this stage)
+        # 14: the log2 table (synchronous read: its data register is this stage)
         m.submodules.table = table = Memory(shape=P.table_word_bits, depth=1 << P.table_bits,
                                             init=[int(v) for v in P.table()])
         rq, rw = table.read_port(domain="sync"), table.read_port(domain="sync")
         m.d.comb += [rq.addr.eq(s.iq), rw.addr.eq(s.iw)]
-        s = pipe.stage(pq=s.pq, pw=s.pw, zero=s.zero, bad=s.bad)
+        s = pipe.stage(pq=s.pq, pw=s.pw, sd=s.sd, zero=s.zero, bad=s.bad)
 
-        # 13: 2 lambda = log2 Q - 4 log2 W + const, table_frac fraction bits
+        # 15: 2 lambda = log2 Q + 2 s_D - 4 log2 W + const, table_frac fraction bits
         g = P.table_frac
-        log_q = (s.pq << g) + rq.data
+        log_q = (s.pq << g) + rq.data + (s.sd << (g + 1))
         log_w = (s.pw << g) + rw.data
-        const = (4 * P.w_fmt.frac_bits - 2 * F) << g
+        const = (4 * P.w_fmt.frac_bits - 2 * P.d_frac) << g
         s = pipe.stage(two=log_q - (log_w << 2) + const, zero=s.zero, bad=s.bad)
 
-        # 14: round half-up to lod_frac bits, bias, saturate; zero -> the format's minimum, W <= 0 -> 0
+        # 16: round half-up to lod_frac bits, bias, saturate; zero -> the format's minimum, W <= 0 -> 0
         fmt = P.out_fmt
         lam, sat = saturate(shift_round(s.two, g + 1 - P.lod_frac, Rounding.HALF_UP) + P.bias, fmt,
                             Overflow.SATURATE)

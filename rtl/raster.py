@@ -62,7 +62,7 @@ from __future__ import annotations
 
 from types import SimpleNamespace
 
-from amaranth.hdl import Cat, Const, Module, Mux, Signal, signed
+from amaranth.hdl import Cat, Const, Module, Mux, Signal, Value, signed
 from amaranth.lib import data, stream, wiring
 from amaranth.lib.fifo import SyncFIFO
 from amaranth.lib.wiring import In, Out
@@ -115,6 +115,20 @@ def _tree(pipe: Pipe, terms: dict, levels: int, carry: dict) -> tuple[dict, dict
     if any(len(ts) > 1 for ts in terms.values()):
         raise ValueError("_tree: more terms than the levels can add")
     return {k: ts[0][0] for k, ts in terms.items()}, carry
+
+
+def _carry_save(terms: list, width: int) -> list:
+    """Two values whose sum equals the sum of ``terms`` modulo ``2**width`` (3:2 compressors, one LUT level each:
+    no carry chain; the span start's products in logic, ``RasterParams.span_dsp`` off)."""
+    terms = [Value.cast(t)[:width] for t in terms]
+    while len(terms) > 2:
+        nxt = []
+        for i in range(0, len(terms) - 2, 3):
+            a, b, c = terms[i:i + 3]
+            nxt += [a ^ b ^ c, (((a & b) | (a & c) | (b & c)) << 1)[:width]]
+        nxt += terms[len(terms) - len(terms) % 3:] if len(terms) % 3 else []
+        terms = nxt
+    return terms + [Const(0, width)] * (2 - len(terms))
 
 
 def _bits(*regs) -> int:
@@ -277,6 +291,11 @@ class Raster(wiring.Component):
         parts, shifts = {}, {}
         for n in P.names:
             dx = getattr(s2, f"dx_{n}")
+            if not P.span_dsp:               # in logic: a_x's copies shifted by L's bits, carry-saved to two terms
+                parts |= {f"pp_{n}_{k}": t for k, t in enumerate(_carry_save(
+                    [Mux(s2.L[i], dx << i, 0)[:acc_w[n]] for i in range(len(s2.L))], acc_w[n]))}
+                shifts[n] = [0, 0]
+                continue
             cut = [(dx[lo:lo + bits].as_signed() if signed else dx[lo:lo + bits], lo)
                    for lo, bits, signed in P.dx_pieces(n)]
             parts |= {f"pp_{n}_{k}": piece * s2.L for k, (piece, _) in enumerate(cut)}

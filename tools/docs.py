@@ -113,7 +113,7 @@ def _bound(p) -> str:
     if name == "shade":
         return "½ LSB unless saturated"
     if name == "lod":
-        return f"{_num(p.error_bound())} level unless saturated"
+        return f"{_num(p.error_bound())} level for kappa ≤ {2 ** p.kappa_bits}, unless saturated"
     if name == "pipeline":
         return "see Results"
     return f"`bumpmap info {name}`"

@@ -277,9 +277,13 @@ def lod_check(name: str, size=None) -> dict:
         exact = np.array([lp.exact(*[c[i] for c in cols]) for i in np.flatnonzero(ok)])
         flt = level_of_detail(texel_derivatives(duv, rep, shape))[ok]
         worst = np.abs(got[ok] - exact)
+        # the bound at each fragment's conditioning kappa (its domain kappa <= 2^kappa_bits: fxmodel/units/lod.py)
+        kappa = np.array([lp.conditioning(*[c[i] for c in cols]) for i in np.flatnonzero(ok)])
+        bounds = np.array([lp.error_bound(max(k * (1 + 1e-9), 2.0 ** lp.kappa_bits)) for k in kappa])
         out[label] = {"size": list(lp.size), "bound_levels": round(lp.error_bound(), 5),
                       "max_error_vs_exact_levels": round(float(worst.max(initial=0)), 5),
-                      "within_bound": bool((worst <= lp.error_bound() + 1e-12).all()),
+                      "within_bound": bool((worst <= bounds + 1e-12).all()),
+                      "kappa_max": round(float(kappa.max(initial=0.0)), 1),
                       "max_error_vs_float_levels": round(float(np.abs(got[ok] - flt).max(initial=0)), 5),
                       "flagged": int((~ok).sum()), "level_range": [round(float(got[ok].min()), 3),
                                                                    round(float(got[ok].max()), 3)],

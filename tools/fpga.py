@@ -508,6 +508,9 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
     ap.add_argument("--synth-only", action="store_true",
                     help="yosys alone: MULT18X18D and DP16KD counts against the estimate (no place and route)")
     ap.add_argument("--record", metavar="FILE", help="merge the counts into FILE (docs/fpga/resources.json)")
+    ap.add_argument("--placement-record", metavar="FILE",
+                    help="write the placed designs' Fmax, resources and critical paths as a record to FILE "
+                         "(docs/fpga/placement.json; not with --synth-only)")
     ap.add_argument("--compare", nargs="+", metavar="FOLDER",
                     help="print the router table of the runs in these output folders (no tools run)")
 
@@ -539,6 +542,14 @@ def run(args: argparse.Namespace) -> int:
                       "`bumpmap fpga`; one result per clock.\n\n" + table + "\n")
     print(table)
     print(f"\n(written to {out / 'report.json'} and {out / 'report.md'})")
+    if args.placement_record and not args.synth_only:
+        from .record import command_line, write
+        keep = ("unit", "preset", "scene", "device", "mode", "target_mhz", "fmax_mhz", "met", "LUT4", "FF", "DSP",
+                "BRAM", "DRAM", "critical_path", "error")
+        write(args.placement_record, command_line("bumpmap fpga"),
+              {"flow": asdict(flow), "tools": tool_versions(),
+               "designs": [{k: r[k] for k in keep if k in r} for r in records]})
+        print(f"(placement recorded in {args.placement_record})")
     if args.record:
         data = record_resources(records, Path(args.record), "bumpmap fpga --synth-only --record "
                                 f"{args.record} [--scene SCENE --preset PRESET]")

@@ -58,10 +58,11 @@ __all__ = ["TOP_KEYS", "UNIT_KEYS", "UNIT_TYPES", "PRESET_KEYS", "PipelinePreset
 #: fraction bits (-128: half a level sharper); ``level_bits``: the blend weight between two levels
 #: (:mod:`fxmodel.units.sampler`, step 5). ``diffuse_extra_frac``: fraction bits the diffuse cube sampler's bilinear
 #: blend keeps beyond its texels' (``SamplerParams.extra_frac``; the shading unit's diffuse input is that much finer,
-#: the texels unchanged); the built-in ``default`` preset sets it.
+#: the texels unchanged); the built-in ``default`` preset sets it. ``span_dsp``: 1 builds the scan converter's
+#: span-start products on multiplier blocks, 0 in logic (``RasterParams.span_dsp``: the same sums).
 TOP_KEYS = {"weight_bits": (12, 1, 16), "cube_size": (64, 1, 1024), "raster_guard": (1, 0, 8),
             "mip_levels": (0, 0, 16), "lod_bias": (0, -4096, 4096), "level_bits": (8, 1, 8),
-            "diffuse_extra_frac": (0, 0, 8)}
+            "diffuse_extra_frac": (0, 0, 8), "span_dsp": (1, 0, 1)}
 
 #: Top-level keys whose value in a preset file that leaves them out is fixed (the value before the key existed),
 #: not the base preset's: a file written before keeps its meaning.
@@ -116,10 +117,11 @@ class PipelinePreset(Mapping):
     ----------
     persp, bump, reflect, cube, shade
         The units' parameter objects (classes in :data:`UNIT_TYPES`).
-    weight_bits, cube_size, raster_guard, mip_levels, lod_bias, level_bits, diffuse_extra_frac : int
+    weight_bits, cube_size, raster_guard, mip_levels, lod_bias, level_bits, diffuse_extra_frac, span_dsp : int
         The bilinear weights' bits of the bump map and texture, texels per reflectance-cube face edge, guard bits
         of the scan converter's interpolators, the color texture's MIP mapping, the diffuse cube blend's extra
-        fraction bits (ranges and defaults in :data:`TOP_KEYS`).
+        fraction bits, the span start's products on multiplier blocks or in logic (ranges and defaults in
+        :data:`TOP_KEYS`).
     """
 
     persp: PerspParams
@@ -134,6 +136,7 @@ class PipelinePreset(Mapping):
     lod_bias: int = TOP_KEYS["lod_bias"][0]
     level_bits: int = TOP_KEYS["level_bits"][0]
     diffuse_extra_frac: int = TOP_KEYS["diffuse_extra_frac"][0]
+    span_dsp: int = TOP_KEYS["span_dsp"][0]
 
     def __post_init__(self):
         for key, cls in UNIT_TYPES.items():

@@ -411,12 +411,15 @@ def _st_float(Rf, rf) -> float:
 
 def measure_lod(params, rows, out) -> dict:
     """Worst and mean distance in levels between the LOD unit's unflagged outputs and the exact level of the same
-    codes (:meth:`fxmodel.units.lod.LodParams.exact`, exact fractions); flagged rows counted apart, a saturated
-    one checked to lie beyond the format's end it stops at."""
+    codes (:meth:`fxmodel.units.lod.LodParams.exact`, exact fractions), on the vectors of the bound's domain
+    (conditioning ``kappa <= 2^kappa_bits``, :meth:`~fxmodel.units.lod.LodParams.conditioning`); the vectors beyond
+    it counted apart and each held to the bound at its own ``kappa``; flagged rows counted apart, a saturated one
+    checked to lie beyond the format's end it stops at."""
     rows = np.asarray(rows, dtype=np.int64)
     lam, flags = out[:, 0], out[:, 1]
     scale = 1 << params.lod_frac
-    worst, worst_row, total, count, sat_ok = 0.0, None, 0.0, 0, True
+    domain = 2.0 ** params.kappa_bits
+    worst, worst_row, total, count, sat_ok, beyond, beyond_ok = 0.0, None, 0.0, 0, True, 0, True
     for i in np.flatnonzero(flags & 0b011 == 0):
         exact = params.exact(*rows[i])
         got = lam[i] / scale
@@ -424,15 +427,20 @@ def measure_lod(params, rows, out) -> dict:
             sat_ok &= bool(exact >= got if lam[i] == params.out_fmt.max_code else exact <= got)
             continue
         err = abs(got - exact)
+        kappa = params.conditioning(*rows[i])
+        if kappa > domain:
+            beyond += 1
+            beyond_ok &= bool(err <= params.error_bound(kappa * (1 + 1e-9)) + 1e-12)
+            continue
         total, count = total + err, count + 1
         if err > worst:
             worst, worst_row = err, rows[i].tolist()
     bound = params.error_bound()
     return {"vectors": count, "max_error_levels": worst, "mean_error_levels": total / count if count else 0.0,
-            "worst_input_codes": worst_row, "within_bound": bool(worst <= bound + 1e-12 and sat_ok),
-            "bound_levels": bound, "flagged": {"zero": int((flags & 1 != 0).sum()),
-                                               "bad_w": int((flags & 2 != 0).sum()),
-                                               "saturated": int((flags & 4 != 0).sum())}}
+            "worst_input_codes": worst_row, "within_bound": bool(worst <= bound + 1e-12 and sat_ok and beyond_ok),
+            "bound_levels": bound, "kappa_domain": domain, "beyond_domain": beyond,
+            "flagged": {"zero": int((flags & 1 != 0).sum()), "bad_w": int((flags & 2 != 0).sum()),
+                        "saturated": int((flags & 4 != 0).sum())}}
 
 
 MEASURES = {"recip": measure_recip, "divide": measure_divide, "persp": measure_persp, "bump": measure_bump,

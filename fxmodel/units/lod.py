@@ -14,22 +14,56 @@ footprint's two axes in texels (OpenGL's isotropic scale factor)::
 
 Algorithm (bit-exact, on the integer codes)
 -------------------------------------------
-1. Eight exact products and four differences give ``D_sx, D_sy, D_tx, D_ty`` at a common scale; four products by
-   the map's size and four squares give ``Q_x, Q_y``; ``Q = max(Q_x, Q_y)``.
-2. ``log2`` of ``Q`` and of ``W``'s code by a leading-one detector (the integer part ``p``) and a table of
+The exact ``D`` terms need eight wide products and four squares of ~60-bit numbers (72 multiplier blocks at the
+grazing floor's formats); this unit narrows both to one block each, by block floating point:
+
+1. **Operands to ``op_bits``.** Four groups share one shift each: ``(U, V)``, ``(W)``, ``(U_x, U_y, V_x, V_y)``,
+   ``(W_x, W_y)``. A group's shift ``s = max(0, L - (op_bits - 1))``, ``L`` the largest bit length of its codes'
+   magnitudes (``x`` or ``~x``), so every shifted code fits ``op_bits`` signed bits; the shift is arithmetic
+   (``Rounding.FLOOR``: truncation toward minus infinity, an error below ``2^s <= 2^(2 - op_bits)`` times the
+   group's largest magnitude; no overflow: the shifted codes fit by the choice of ``s``).
+2. **Eight products** ``U_x W``, ``U W_x``, ... of the shifted operands (one block each), exact, and the four
+   differences ``D = (U_x W << (s_duv + s_w + su)) - (U W_x << (s_uv + s_dw + sw))``, exact, at ``d_frac``
+   fraction bits (``|D| <= d_bound``: the shifted-back operands never exceed the formats' largest magnitudes).
+3. **``D`` to ``sq_bits``** by one shared shift ``s_D`` (the same rule, ``Rounding.FLOOR``), the four squares
+   (one block each), the products by the map's size (constants), ``Q_x, Q_y``; ``Q = max(Q_x, Q_y)`` at scale
+   ``2^(2 s_D)``.
+4. ``log2`` of ``Q`` and of ``W``'s code by a leading-one detector (the integer part ``p``) and a table of
    ``2^table_bits`` entries indexed by the ``table_bits`` bits after the leading one (``log2`` of the middle of
    each mantissa interval's start, ``guard`` fraction bits beyond ``lod_frac``: a power of two is exact).
-3. ``2 lambda = log2 Q - 4 log2 W + const``; halved, rounded half-up to ``lod_frac`` fraction bits, plus the
-   bias code; saturated to ``Fmt(True, lod_int, lod_frac)``.
+5. ``2 lambda = log2 Q + 2 s_D - 4 log2 W + const``; halved, rounded half-up to ``lod_frac`` fraction bits, plus
+   the bias code; saturated to ``Fmt(True, lod_int, lod_frac)``.
 
-Flags: bit 0 ``Q = 0`` (a footprint of zero size: constant coordinates or degenerate derivatives; the output is
-the format's minimum, the most magnified level), bit 1 ``W <= 0`` (never sent by the front end; output 0),
-bit 2 saturated.
+Flags: bit 0 ``Q = 0`` (every ``D`` is zero: a footprint of zero size, from constant coordinates, degenerate
+derivatives, or an ill-conditioned one, see below; the output is the format's minimum, the most magnified level),
+bit 1 ``W <= 0`` (never sent by the front end; output 0), bit 2 saturated.
 
-Error bound (:meth:`LodParams.error_bound`): the table's error ``e`` on each ``log2`` (mantissa truncation to
-``table_bits`` bits and the table's rounding; computed over every entry) enters as ``e / 2`` from ``Q`` and ``2 e``
-from ``W``, and the output rounding adds half an ulp: ``|lambda - lambda_exact| <= 5 e / 2 + 2^-(lod_frac + 1)``
-on every unsaturated output with ``W > 0`` and ``Q > 0``, against the exact level of the same codes.
+Error bound (:meth:`LodParams.error_bound`)
+-------------------------------------------
+Against the exact level of the same codes, on every unsaturated output with ``W > 0``:
+
+``|lambda - lambda_exact| <= 5 e / 2 + 2^-(lod_frac + 1) - log2(1 - eta kappa) - log2(1 - delta)``
+
+* ``e``: the table's error on each ``log2`` (mantissa truncation to ``table_bits`` bits and the table's rounding,
+  computed over every entry); it enters as ``e / 2`` from ``Q`` and ``2 e`` from ``W``; the output rounding adds
+  half an ulp.
+* Step 1: with ``eps = 2^(2 - op_bits)`` the shifted ``U_x`` is ``U_x - r`` with ``0 <= r < eps M_duv``
+  (``M_duv`` the group's largest magnitude), likewise for each operand; so ``|Delta(U_x W)| <= r W + |U_x| r_W
+  <= 2 eps M_duv W`` (``W > 0``) and ``|Delta(U W_x)| <= (2 eps + eps^2) M_uv M_dw``: each ``D`` is off by at most
+  ``eta M1``, ``eta = 2 eps + eps^2``, ``M1 = M_duv W 2^su + M_uv M_dw 2^sw``. ``sqrt Q`` is the largest of two
+  Euclidean norms of ``(D_s w_tex, D_t h_tex)``, so it moves by at most ``eta M1 sqrt(w_tex^2 + h_tex^2) =
+  eta kappa sqrt Q``, with the **conditioning** ``kappa = M1 sqrt(w_tex^2 + h_tex^2) / sqrt Q`` (exact, of the
+  input codes: :meth:`LodParams.conditioning`). ``kappa`` is large only where ``U_x W`` and ``U W_x`` cancel: a
+  footprint far smaller than the coordinates' own size times the relative change of ``W`` per pixel. The bound is
+  stated for ``kappa <= 2^kappa_bits`` (the documented domain, 1/16 of a level at the defaults); no bound on the
+  codes alone exists there, since cancellation depends on the triangle, not on the level: ``bumpmap errors lod``
+  counts the vectors beyond it apart (each held to the bound at its own ``kappa``), and ``bumpmap mip`` measures
+  the largest ``kappa`` over every fragment of the shipped scenes (``docs/records/mip.json``).
+* Step 3: ``s_D`` drops less than ``2^(2 - sq_bits)`` times the largest ``|D|``, and ``sqrt Q >= |D| min(w_tex,
+  h_tex)`` for every ``D``: a relative error ``delta = 2^(2 - sq_bits) sqrt(w_tex^2 + h_tex^2) / min(w_tex, h_tex)``.
+  The two relative errors multiply; ``-log2(1 - a) >= log2(1 + a)`` bounds both directions.
+
+A computed ``Q = 0`` with a nonzero exact footprint has ``eta kappa >= 1`` (every ``D`` lost): outside the domain.
 Hard cases (tested with hypothesis against exact fractions): grazing triangles (``W`` small with large ``W_x``),
 magnified (tiny increments), degenerate derivatives (zero increments, ``Q = 0``), the far end of ``W`` (one ulp).
 """
@@ -42,7 +76,7 @@ from fractions import Fraction
 
 import numpy as np
 
-from fxmodel.core.cost import DSP_BITS, Memory, Product, pieces
+from fxmodel.core.cost import DSP_BITS, Memory, Product
 from fxmodel.core.fixed import Fmt
 from fxmodel.core.unit import Port, Unit, register
 
@@ -51,6 +85,16 @@ __all__ = ["LodParams", "FLAG_ZERO", "FLAG_BAD_W", "FLAG_SATURATED"]
 FLAG_ZERO, FLAG_BAD_W, FLAG_SATURATED = 1, 2, 4
 
 _bitlen = np.frompyfunc(int.bit_length, 1, 1)
+
+
+def _norm_shift(cols, bits: int, n: int) -> np.ndarray:
+    """The shared shift of a group of signed codes (object arrays of length ``n``): ``max(0, L - (bits - 1))``,
+    ``L`` the largest bit length of ``x`` (``~x`` for a negative ``x``), so every ``x >> shift`` fits ``bits``
+    signed bits."""
+    m = np.zeros(n, dtype=object)
+    for x in cols:
+        m = m | np.array([~int(v) if v < 0 else int(v) for v in x], dtype=object)
+    return np.array([max(0, int(v).bit_length() - (bits - 1)) for v in m], dtype=object)
 
 
 @dataclass(frozen=True)
@@ -73,6 +117,12 @@ class LodParams(Unit):
         Fraction bits of the table entries beyond ``lod_frac``.
     bias : int
         LOD bias, a code of ``lod_frac`` fraction bits.
+    op_bits : int
+        Signed width of the products' operands after their group's shift (step 1; one multiplier block at 18).
+    sq_bits : int
+        Signed width of the ``D`` terms squared (step 3).
+    kappa_bits : int
+        The bound's domain: conditioning ``kappa <= 2^kappa_bits`` (module docstring).
     """
 
     NAME = "lod"
@@ -87,6 +137,9 @@ class LodParams(Unit):
     lod_int: int = 6
     guard: int = 2
     bias: int = 0
+    op_bits: int = 18
+    sq_bits: int = 18
+    kappa_bits: int = 9
 
     def __post_init__(self):
         for name in ("uv_fmt", "w_fmt", "duv_fmt", "dw_fmt"):
@@ -95,7 +148,8 @@ class LodParams(Unit):
                 raise ValueError(f"{name}={f!r}: must be a signed Fmt")
         if (len(self.size) != 2 or any(not isinstance(n, int) or isinstance(n, bool) or n < 1 for n in self.size)):
             raise ValueError(f"size={self.size!r}: must be two positive ints (width, height)")
-        for name, lo, hi in (("table_bits", 1, 12), ("lod_frac", 0, 12), ("lod_int", 2, 10), ("guard", 0, 8)):
+        for name, lo, hi in (("table_bits", 1, 12), ("lod_frac", 0, 12), ("lod_int", 2, 10), ("guard", 0, 8),
+                             ("op_bits", 4, DSP_BITS), ("sq_bits", 4, DSP_BITS), ("kappa_bits", 0, 20)):
             v = getattr(self, name)
             if not isinstance(v, int) or not lo <= v <= hi:
                 raise ValueError(f"{name}={v!r}: must be an int in {lo}..{hi}")
@@ -129,14 +183,61 @@ class LodParams(Unit):
         return max(max(abs(math.log2(1 + i / n) - tab[i]), abs(math.log2(1 + (i + 1) / n) - tab[i]))
                    for i in range(n))
 
-    def error_bound(self) -> float:
-        """Bound on ``|lambda - lambda_exact|`` in levels (module docstring)."""
-        return 2.5 * self.table_error() + 2.0 ** -(self.lod_frac + 1)
+    @property
+    def eta(self) -> float:
+        """Relative error of a ``D`` term against ``M1`` from the operands' shifts (module docstring)."""
+        eps = 2.0 ** (2 - self.op_bits)
+        return 2 * eps + eps * eps
+
+    @property
+    def delta(self) -> float:
+        """Relative error of ``sqrt Q`` from the shift of the ``D`` terms (module docstring)."""
+        w, h = self.size
+        return 2.0 ** (2 - self.sq_bits) * math.hypot(w, h) / min(w, h)
+
+    def error_bound(self, kappa: float | None = None) -> float:
+        """Bound on ``|lambda - lambda_exact|`` in levels on the inputs of conditioning at most ``kappa`` (default
+        ``2^kappa_bits``, the documented domain; module docstring)."""
+        kappa = 2.0 ** self.kappa_bits if kappa is None else kappa
+        if self.eta * kappa >= 1:
+            return math.inf
+        return (2.5 * self.table_error() + 2.0 ** -(self.lod_frac + 1) - math.log2(1 - self.eta * kappa)
+                - math.log2(1 - self.delta))
+
+    def conditioning(self, U, V, W, Ux, Uy, Vx, Vy, Wx, Wy) -> float:
+        """``kappa = M1 sqrt(w^2 + h^2) / sqrt Q`` of one pixel's codes, exact but for the final float (``inf`` for
+        ``Q = 0``; module docstring)."""
+        su, sw = self._scales()
+        m1 = ((max(abs(int(v)) for v in (Ux, Uy, Vx, Vy)) * int(W)) << su) + \
+            ((max(abs(int(U)), abs(int(V))) * max(abs(int(Wx)), abs(int(Wy)))) << sw)
+        d = {k: ((int(a) * int(W)) << su) - ((int(b) * int(c)) << sw)
+             for k, a, b, c in (("sx", Ux, U, Wx), ("tx", Vx, V, Wx), ("sy", Uy, U, Wy), ("ty", Vy, V, Wy))}
+        w, h = self.size
+        q = max((d["sx"] * w) ** 2 + (d["tx"] * h) ** 2, (d["sy"] * w) ** 2 + (d["ty"] * h) ** 2)
+        if q == 0:
+            return math.inf
+        return math.sqrt(Fraction(m1 * m1 * (w * w + h * h), q))
 
     def products_per_pixel(self) -> int:
         """Products per pixel: eight for the ``D`` terms, four by the size (shifts for a power of two; the RTL
         makes the others constant shift-and-add products, no multiplier block), four squares."""
         return 8 + sum(2 for n in self.size if n & (n - 1)) + 4
+
+    def _scales(self) -> tuple[int, int]:
+        """``(su, sw)``: the left shifts of ``U_x W`` and ``U W_x`` to ``d_frac`` fraction bits."""
+        F = self.d_frac
+        return (F - self.duv_fmt.frac_bits - self.w_fmt.frac_bits, F - self.uv_fmt.frac_bits - self.dw_fmt.frac_bits)
+
+    #: The operand groups of step 1 (input names): each shares one shift.
+    GROUPS = (("U", "V"), ("W",), ("Ux", "Uy", "Vx", "Vy"), ("Wx", "Wy"))
+
+    def group_fmts(self) -> tuple:
+        """The format of each of :data:`GROUPS`."""
+        return (self.uv_fmt, self.w_fmt, self.duv_fmt, self.dw_fmt)
+
+    def max_shift(self, width: int, bits: int) -> int:
+        """The largest group shift of ``width``-bit signed codes narrowed to ``bits`` (0 if they fit)."""
+        return max(0, width - bits)
 
     # -- the unit contract (fxmodel.core.unit.Unit): ports, latency, hardware -------------------------------
     FLAGS_FMT = Fmt(False, 3, 0)
@@ -154,24 +255,18 @@ class LodParams(Unit):
                 Port("flags", self.FLAGS_FMT, "bit 0 Q = 0, bit 1 W <= 0, bit 2 saturated"))
 
     @property
-    def d_split(self) -> bool:
-        """Whether an operand of the ``D`` products is wider than one multiplier block (the RTL then registers
-        their partial products, ``rtl.recip.split_products``: one stage more)."""
-        return max(self.uv_fmt.width, self.w_fmt.width, self.duv_fmt.width, self.dw_fmt.width) > DSP_BITS
-
-    @property
     def latency(self) -> int:
-        """Stages (``rtl/lod.py``): [partial products of the ``D`` products] | the two products of each ``D`` |
-        ``D`` | the square's piece products | ``D^2`` in two | ``Q_x, Q_y`` | ``Q_x > Q_y`` | ``Q`` |
-        leading-zero counts | normalizing shifts | table read | ``2 lambda`` | round, bias, saturate."""
-        return 13 + int(self.d_split)
+        """Stages (``rtl/lod.py``): the groups' leading-zero counts | the operands' shifts | the eight products |
+        the products shifted into place | ``D`` | ``D``'s leading-zero count | ``D``'s shift | the squares |
+        ``Q_x, Q_y`` | ``Q_x > Q_y`` | ``Q`` | leading-zero counts | normalizing shifts | table read |
+        ``2 lambda`` | round, bias, saturate."""
+        return 16
 
     @property
     def d_bound(self) -> int:
-        """Largest ``|D|`` code (at ``d_frac`` fraction bits) the input formats allow."""
-        F = self.d_frac
-        su = F - self.duv_fmt.frac_bits - self.w_fmt.frac_bits
-        sw = F - self.uv_fmt.frac_bits - self.dw_fmt.frac_bits
+        """Largest ``|D|`` code (at ``d_frac`` fraction bits) the input formats allow (also after the operands'
+        shifts: a shifted code times ``2^s`` lies between the code and the format's end)."""
+        su, sw = self._scales()
         big = lambda f: -f.min_code                                     # noqa: E731 -- the largest magnitude
         return (big(self.duv_fmt) * big(self.w_fmt) << su) + (big(self.uv_fmt) * big(self.dw_fmt) << sw)
 
@@ -180,32 +275,33 @@ class LodParams(Unit):
         """Width of the signed ``D`` registers: ``|D| <= d_bound`` (a proven narrowing)."""
         return self.d_bound.bit_length() + 1
 
+    def op_width(self, fmt: Fmt) -> int:
+        """Signed width of a group's operands after its shift."""
+        return min(fmt.width, self.op_bits)
+
+    @property
+    def sq_width(self) -> int:
+        """Signed width of the shifted ``D`` terms."""
+        return min(self.d_bits, self.sq_bits)
+
     @property
     def q_bits(self) -> int:
-        """Width of the unsigned ``Q`` register: ``Q <= d_bound^2 (w_tex^2 + h_tex^2)`` (a proven narrowing)."""
-        return (self.d_bound ** 2 * (self.size[0] ** 2 + self.size[1] ** 2)).bit_length()
+        """Width of the unsigned ``Q`` register: ``Q <= 2^(2 (sq_width - 1)) (w_tex^2 + h_tex^2)`` (proven)."""
+        return ((1 << 2 * (self.sq_width - 1)) * (self.size[0] ** 2 + self.size[1] ** 2)).bit_length()
 
     @property
     def table_word_bits(self) -> int:
         """Bits of a ``log2`` table entry (the largest entry's)."""
         return max(1, int(self.table().max()).bit_length())
 
-    def square_pieces(self) -> list[tuple[int, int, int, int, bool, bool]]:
-        """The piece products of ``D^2`` (``D`` cut by :func:`fxmodel.core.cost.pieces`): ``(i, j, a_bits, b_bits,
-        a_signed, b_signed)`` for ``i <= j``, a cross product (``i < j``) once and doubled by a shift; one
-        multiplier block each (``rtl/lod.py`` builds exactly these)."""
-        cut = pieces(self.d_bits, True)
-        return [(i, j, cut[i][1], cut[j][1], cut[i][2], cut[j][2]) for i in range(len(cut)) for j in range(i, len(cut))]
-
     def products(self) -> tuple:
-        """Eight ``D`` products (``U_x W`` and ``U W_x`` and the others; split into registered partial products
-        when an operand is wider than a block), the piece products of four squares ``D^2``; the map's size is a
-        constant (shifts, or shift-and-add: ``rtl.fixed.const_mul``)."""
-        split = self.d_split
-        du, w, u, dw = self.duv_fmt, self.w_fmt, self.uv_fmt, self.dw_fmt
-        sq = [Product(a, b, sa, sb, count=4, name=f"D^2 piece {i}{j}") for i, j, a, b, sa, sb in self.square_pieces()]
-        return (Product(du.width, w.width, True, True, count=4, split=split, name="U_x W"),
-                Product(u.width, dw.width, True, True, count=4, split=split, name="U W_x"), *sq)
+        """Eight ``D`` products of the shifted operands and four squares of the shifted ``D`` (one block each at
+        ``op_bits = sq_bits = 18``); the map's size is a constant (shifts, or shift-and-add:
+        ``rtl.fixed.const_mul``)."""
+        du, w, u, dw = (self.op_width(f) for f in (self.duv_fmt, self.w_fmt, self.uv_fmt, self.dw_fmt))
+        q = self.sq_width
+        return (Product(du, w, True, True, count=4, name="U_x W"), Product(u, dw, True, True, count=4, name="U W_x"),
+                Product(q, q, True, True, count=4, square=True, name="D^2"))
 
     def memories(self) -> tuple:
         """The ``log2`` table, read for ``Q`` and for ``W`` (two read ports)."""
@@ -234,6 +330,7 @@ class LodParams(Unit):
 
     def _info(self) -> dict:
         return {"error_bound_levels": self.error_bound(), "table_error_levels": self.table_error(),
+                "kappa_domain": 2 ** self.kappa_bits, "eta": self.eta, "delta": self.delta,
                 "d_bits": self.d_bits, "q_bits": self.q_bits, "products_per_pixel": self.products_per_pixel()}
 
     def _log2(self, x):
@@ -258,16 +355,28 @@ class LodParams(Unit):
         # exact Python ints: the products exceed 64 bits
         c = [np.array([int(v) for v in np.ravel(a)], dtype=object) for a in (U, V, W, Ux, Uy, Vx, Vy, Wx, Wy)]
         U, V, W, Ux, Uy, Vx, Vy, Wx, Wy = c
-        F = self.d_frac
-        su = F - self.duv_fmt.frac_bits - self.w_fmt.frac_bits
-        sw = F - self.uv_fmt.frac_bits - self.dw_fmt.frac_bits
+        su, sw = self._scales()
         sx, sy = self.size
+        named = dict(zip(("U", "V", "W", "Ux", "Uy", "Vx", "Vy", "Wx", "Wy"), c))
+        n = len(W)
+        shifts, op = {}, {}
+        for group in self.GROUPS:                                         # step 1: each group's shift, FLOOR
+            s = _norm_shift([named[k] for k in group], self.op_bits, n)
+            for k in group:
+                shifts[k] = s
+                op[k] = np.array([int(v) >> int(t) for v, t in zip(named[k], s)], dtype=object)
 
-        def d(num_inc, num, w_inc):
-            return ((num_inc * W) << su) - ((num * w_inc) << sw)
+        def d(num_inc, num, w_inc):                                       # step 2: exact products and D
+            ea = shifts[num_inc] + shifts["W"] + su
+            eb = shifts[num] + shifts[w_inc] + sw
+            return np.array([(int(a) * int(b) << int(x)) - (int(p) * int(r) << int(y)) for a, b, x, p, r, y in
+                             zip(op[num_inc], op["W"], ea, op[num], op[w_inc], eb)], dtype=object)
 
-        qx = (d(Ux, U, Wx) * sx) ** 2 + (d(Vx, V, Wx) * sy) ** 2
-        qy = (d(Uy, U, Wy) * sx) ** 2 + (d(Vy, V, Wy) * sy) ** 2
+        ds = [d("Ux", "U", "Wx"), d("Vx", "V", "Wx"), d("Uy", "U", "Wy"), d("Vy", "V", "Wy")]
+        s_d = _norm_shift(ds, self.sq_bits, n)                            # step 3: one shift for the four, FLOOR
+        sx_, tx_, sy_, ty_ = (np.array([int(v) >> int(t) for v, t in zip(x, s_d)], dtype=object) for x in ds)
+        qx = (sx_ * sx) ** 2 + (tx_ * sy) ** 2
+        qy = (sy_ * sx) ** 2 + (ty_ * sy) ** 2
         q = np.maximum(qx, qy)
         flags = np.zeros(len(q), np.int64)
         zero, bad = q == 0, W <= 0
@@ -277,8 +386,9 @@ class LodParams(Unit):
         out = np.zeros(len(q), dtype=object)
         if ok.any():
             g = self.table_frac
-            const = (4 * self.w_fmt.frac_bits - 2 * F) << g                     # 2 log2 of the scales
-            two = self._log2(q[ok]) - 4 * self._log2(W[ok]) + const              # 2 lambda, g fraction bits
+            const = (4 * self.w_fmt.frac_bits - 2 * self.d_frac) << g                    # 2 log2 of the scales
+            two = (self._log2(q[ok]) + (2 * s_d[ok] << g) - 4 * self._log2(W[ok])
+                   + const)                                                     # 2 lambda, g fraction bits
             shift = g + 1 - self.lod_frac
             out[ok] = ((two + (1 << (shift - 1))) >> shift) + self.bias
         fmt = self.out_fmt

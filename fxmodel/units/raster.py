@@ -226,11 +226,12 @@ class RasterParams:
     extra_guard: int = 1
     consts: tuple = ()
     slopes: tuple = ()
+    span_dsp: bool = True
 
     def __repr__(self):
-        """The dataclass ``repr`` without ``slopes`` when there are none (as before they existed: build caches and
-        recorded resource counts are keyed by it)."""
-        return repr_without_defaults(self, ("slopes",))
+        """The dataclass ``repr`` without ``slopes`` when there are none and without ``span_dsp`` at its default
+        (as before they existed: build caches and recorded resource counts are keyed by it)."""
+        return repr_without_defaults(self, ("slopes", "span_dsp"))
 
     def __post_init__(self):
         require(isinstance(self.attrs, tuple) and len(self.attrs) > 0, "attrs", self.attrs,
@@ -257,6 +258,7 @@ class RasterParams:
                     "each entry must be (field, an attribute's name, 'x' or 'y', signed Fmt of at most 48 bits)")
             names.append(item[0])
         require(len(set(names)) == len(names), "attrs", names, "names (attrs, consts, slopes) must be unique")
+        require(isinstance(self.span_dsp, bool), "span_dsp", self.span_dsp, "must be a bool")
         for name in ("max_size", "subpixel_bits", "guard_pixels", "extra_guard"):
             value = getattr(self, name)
             require(isinstance(value, int) and not isinstance(value, bool), name, value, "must be an int")
@@ -392,7 +394,11 @@ class RasterParams:
     def products(self) -> tuple:
         """Per attribute, the span start ``a(x0, y) + (L - x0) a_x``: the increment (``acc_fmt``, signed) cut
         into :meth:`dx_pieces`, each piece times the unsigned column offset (``pixel_fmt``), registered and
-        summed by the next two adder stages: one product per piece."""
+        summed by the next two adder stages: one product per piece. None with ``span_dsp`` off: the RTL then
+        adds the increment's copies shifted by each bit of the offset in logic (a carry-save tree, the same sum
+        modulo ``2**N``)."""
+        if not self.span_dsp:
+            return ()
         pw = self.pixel_fmt.width
         return tuple(Product(bits, pw, signed, False, name=f"{n}_dx[{lo}:{lo + bits}]*offset")
                      for n in self.names for lo, bits, signed in self.dx_pieces(n))

@@ -32,21 +32,26 @@ def pixel(p: LodParams):
 
 
 def check(p: LodParams, codes):
+    """The output against the exact level within the bound at the codes' own conditioning ``kappa`` (the theorem
+    of the module docstring, for every ``kappa`` with ``eta kappa < 1``; beyond, nothing is claimed)."""
     out, flags = p.compute(*[[c] for c in codes])
     exact = p.exact(*codes)
-    if flags[0] & FLAG_ZERO:
-        assert exact == -math.inf and out[0] == p.out_fmt.min_code
+    kappa = p.conditioning(*codes)
+    if flags[0] & FLAG_ZERO:                    # every D lost: an exact zero, or outside any bound's domain
+        assert (exact == -math.inf or p.eta * kappa >= 1) and out[0] == p.out_fmt.min_code
         return
     assert not flags[0] & FLAG_BAD_W
     lam = out[0] / (1 << p.lod_frac)
     if flags[0] & FLAG_SATURATED:               # beyond the format: at the end the exact level is beyond
         assert (out[0] == p.out_fmt.max_code and exact >= lam) or (out[0] == p.out_fmt.min_code and exact <= lam)
         return
-    assert abs(lam - exact) <= p.error_bound() + 1e-12, (codes, lam, exact)
+    assert abs(lam - exact) <= p.error_bound(kappa * (1 + 1e-9)) + 1e-12, (codes, lam, exact, kappa)
 
 
 def test_the_documented_bound_is_below_a_sixteenth_of_a_level():
     assert P.error_bound() <= 1 / 16 and NPOT.error_bound() <= 1 / 16
+    # the domain: kappa <= 2^kappa_bits; the bound grows with kappa and ends where eta kappa = 1
+    assert P.error_bound(1.0) < P.error_bound() < P.error_bound(2.0 ** 12) < math.inf == P.error_bound(1 / P.eta)
     # the table's error is about 1.44 / 2^table_bits: one bit less doubles it
     assert LodParams(table_bits=6).table_error() > 1.9 * P.table_error()
 
@@ -127,26 +132,44 @@ def test_unit_rejects_codes_outside_the_formats():
         P.compute(np.array([[0, 0, P.w_fmt.max_code + 1, 0, 0, 0, 0, 0, 0]]))
 
 
-@given(st.integers(-P.d_bound, P.d_bound))
-def test_square_pieces_reassemble_d_squared(d):
-    """The RTL's ``D^2``: the pieces of :func:`fxmodel.core.cost.pieces`, each cross product once, doubled."""
-    from fxmodel.core.cost import pieces
-    cut = pieces(P.d_bits, True)
-    bits = d & ((1 << P.d_bits) - 1)
-    vals = []
-    for lo, n, signed in cut:
-        v = (bits >> lo) & ((1 << n) - 1)
-        vals.append(v - (1 << n) if signed and v >> (n - 1) else v)
-    total = sum((vals[i] * vals[j]) << (cut[i][0] + cut[j][0] + (i != j)) for i, j, *_ in P.square_pieces())
-    assert total == d * d and abs(d) < 1 << (P.d_bits - 1)
+@given(st.lists(st.integers(-(1 << 60), 1 << 60), min_size=1, max_size=4), st.integers(4, 18))
+def test_group_shift_fits_and_truncates_within_its_bound(codes, bits):
+    """Step 1 and 3's shared shift: every shifted code fits ``bits`` signed bits; each loses less than
+    ``2^(2 - bits)`` times the group's largest magnitude (FLOOR), nothing when the group already fits."""
+    from fxmodel.units.lod import _norm_shift
+    s = int(_norm_shift([np.array([c], dtype=object) for c in codes], bits, 1)[0])
+    big = max(abs(c) for c in codes)
+    for c in codes:
+        t = c >> s
+        assert -(1 << (bits - 1)) <= t < 1 << (bits - 1)
+        assert 0 <= c - (t << s) < max(1, 2.0 ** (2 - bits) * big) and (s == 0 or c - (t << s) < 1 << s)
+    assert s == 0 or max(abs(c >> (s - 1)) for c in codes) >= 1 << (bits - 1)     # the shift is the smallest
 
 
 def test_q_fits_its_register_at_the_formats_extremes():
-    big = [P.uv_fmt.min_code, P.uv_fmt.min_code, P.w_fmt.min_code, P.duv_fmt.min_code, P.duv_fmt.min_code,
+    big = [P.uv_fmt.min_code, P.uv_fmt.min_code, P.w_fmt.max_code, P.duv_fmt.min_code, P.duv_fmt.min_code,
            P.duv_fmt.min_code, P.duv_fmt.min_code, P.dw_fmt.max_code, P.dw_fmt.max_code]
-    fdu, fw = P.duv_fmt.frac_bits + P.w_fmt.frac_bits, P.uv_fmt.frac_bits + P.dw_fmt.frac_bits
-    d = (big[3] * big[2] << (P.d_frac - fdu)) - (big[0] * big[7] << (P.d_frac - fw))
-    assert abs(d) <= P.d_bound and (2 * d * d * P.size[0] ** 2).bit_length() <= P.q_bits
+    su, sw = P._scales()
+    d = (big[3] * big[2] << su) - (big[0] * big[7] << sw)
+    assert abs(d) <= P.d_bound
+    lo = -(1 << (P.sq_width - 1))                 # the shifted D's largest magnitude, in both terms of Q
+    assert (lo * lo * (P.size[0] ** 2 + P.size[1] ** 2)).bit_length() <= P.q_bits
+    out, flags = P.compute(*[[c] for c in big])
+    assert flags[0] & FLAG_SATURATED or out[0] > 0
+
+
+@given(st.integers(1, 1 << 20), st.integers(0, 1 << 24), st.integers(-(1 << 10), 1 << 10), st.integers(1, 1 << 16))
+def test_cancellation_is_within_the_bound_at_its_conditioning(w, u, r, wx):
+    """The ill-conditioned case the bound's ``kappa`` measures: ``U_x W`` and ``U W_x`` nearly cancel (a large
+    texture coordinate ``s = U / W`` whose derivative is small), at every ``kappa`` within the bound's reach."""
+    su, sw = P._scales()
+    # U_x W << su = U W_x << sw + r: the exact D is r (a few ulps of d_frac), the terms as large as they come
+    num = ((u * wx) << sw) + r
+    ux = ((num >> su) + w // 2) // w
+    codes = (u, u // 3, w, max(P.duv_fmt.min_code, min(P.duv_fmt.max_code, ux)), 5, 7, ux // 2, wx, -wx)
+    if codes[2] > P.w_fmt.max_code or abs(codes[0]) > P.uv_fmt.max_code or abs(codes[6]) > P.duv_fmt.max_code:
+        return
+    check(P, codes)
 
 
 def test_errors_measure_holds_the_bound_and_counts_the_flags():

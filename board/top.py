@@ -26,11 +26,11 @@ from amaranth.lib.cdc import ResetSynchronizer
 from .budget import write_text_atomic
 from .command import CommandLink
 from .dvi import CLOCK_WORD, Display, Serializer, pattern
-from .frame import EngineSystem
+from .frame import BOARD_PRESET, EngineSystem
 from .ulx3s import BAUD, wire_link
 from .video import VGA_640x480
 
-__all__ = ["Top", "PLL", "build", "report", "add_arguments", "run"]
+__all__ = ["Top", "PLL", "build", "report", "critical_paths", "add_arguments", "run"]
 
 #: The PLL: 25 MHz in, VCO 500 MHz; CLKOP 125 MHz (TMDS, five times the pixel clock, fed back), CLKOS 25 MHz
 #: (pixel), CLKOS2 100 MHz (the engine).
@@ -137,7 +137,26 @@ def report(tim: str) -> dict:
                                         r"([\d.]+) MHz\)", tim):
         fmax[name] = {"fmax_mhz": float(mhz), "target_mhz": float(target), "met": float(mhz) >= float(target)}
     res = {k: [int(a), int(b)] for k, a, b in re.findall(r"Info: \s+(\w+):\s+(\d+)/\s*(\d+)", tim)}
-    return {"clocks": fmax, "resources": res, "all_met": bool(fmax) and all(v["met"] for v in fmax.values())}
+    return {"clocks": fmax, "resources": res, "all_met": bool(fmax) and all(v["met"] for v in fmax.values()),
+            "critical_paths": critical_paths(tim)}
+
+
+def critical_paths(tim: str) -> dict:
+    """Each clock's critical path from nextpnr's reports after routing (the last of each): its first source
+    and last sink cell, and the delay split into logic and routing (ns)."""
+    paths = {}
+    for block in re.split(r"Info: Critical path report for ", tim)[1:]:
+        if not block.startswith("clock '"):
+            continue                                    # a cross-domain path
+        name = block[len("clock '"):].split("'", 1)[0]
+        src = re.search(r"Source (\S+)", block)
+        sinks = re.findall(r"Sink (\S+)", block)
+        split = re.search(r"([\d.]+) ns logic, ([\d.]+) ns routing", block)
+        if src and sinks and split:
+            paths[name] = {"from": src.group(1), "to": sinks[-1], "logic_ns": float(split.group(1)),
+                           "routing_ns": float(split.group(2)),
+                           "total_ns": round(float(split.group(1)) + float(split.group(2)), 2)}
+    return paths
 
 
 #: nextpnr's routers; router2 is the default: router1 stalled on the board top with the engine (a device-wide
@@ -164,7 +183,8 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
     """The command line (``bumpmap top``, :mod:`tools.main`)."""
     ap.add_argument("--out", type=Path, default=Path("build/bitstream/ulx3s"), help="build folder")
     ap.add_argument("--scene", default="tin-plane", help="the scene whose tables the texel memories hold")
-    ap.add_argument("--preset", default="default", help="pipeline preset (built in or presets/<name>.toml)")
+    ap.add_argument("--preset", default=BOARD_PRESET,
+                    help="pipeline preset (built in or presets/<name>.toml; default %(default)s: docs/board.md)")
     ap.add_argument("--size", type=int, default=128, help="the frame's edge in pixels (the on-chip tile)")
     ap.add_argument("--no-engine", action="store_true", help="the first stage: the test picture and the link")
     ap.add_argument("--router", choices=ROUTERS, default=ROUTERS[0], help="nextpnr's router")

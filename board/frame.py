@@ -187,8 +187,8 @@ class EngineSystem(wiring.Component):
 
 
     def _record(self, m: Module, link, eng, stall):
-        """The record, ``sync`` -> ``engine`` (module docstring); returns ``rec_valid`` (a record waiting; the
-        engine's input valid unless ``stall``)."""
+        """The record, ``sync`` -> ``engine`` (module docstring); returns ``rec_valid`` (the engine's input
+        valid; a record arriving while ``stall`` waits)."""
         nbytes = self.record_len
         shift, hold = Signal(8 * nbytes), Signal(8 * nbytes)
         req, ack, pending = Signal(), Signal(), Signal()
@@ -205,13 +205,18 @@ class EngineSystem(wiring.Component):
         # the engine reads the record straight from the holding register, which stays unchanged until the
         # acknowledgement (sent when the scan converter takes the record) is back in ``sync``; the record's bits
         # settled at least the synchroniser's two clocks before ``rec_valid`` rises
+        # a record arriving while ``stall`` (a clear wanted) waits until the clear is done; one offered already
+        # stays offered (it came before FRAME_START). The engine's input valid is a register: a gate in front of
+        # it was the engine clock's critical path (into the scan converter's record-wide clock enable)
         req_seen = _toggle_sync(m, "rec_req", req, "engine")
-        rec_valid = Signal()
+        rec_valid, arrived = Signal(), Signal()
         with m.If(req_seen):
-            m.d.engine += rec_valid.eq(1)
-        with m.If(eng.i.valid & eng.i.ready):
+            m.d.engine += arrived.eq(1)
+        with m.If((arrived | req_seen) & ~stall & ~rec_valid):
+            m.d.engine += [rec_valid.eq(1), arrived.eq(0)]
+        with m.If(rec_valid & eng.i.ready):
             m.d.engine += [rec_valid.eq(0), ack.eq(~ack)]
-        m.d.comb += [eng.i.valid.eq(rec_valid & ~stall), eng.i.payload.eq(hold[:self.record_bits])]
+        m.d.comb += [eng.i.valid.eq(rec_valid), eng.i.payload.eq(hold[:self.record_bits])]
         return rec_valid
 
 

@@ -97,11 +97,13 @@ bitstream: setup
 	@test "$(BOARD)" = ulx3s || { echo "BOARD=$(BOARD): the board top exists for ulx3s only" >&2; exit 2; }
 	$(BUMPMAP) bitstream --out build/bitstream/$(BOARD)
 
-# the board end to end (tools/board_sim.py): the host tool's bytes, written by `bumpmap send`, are the input
+# the board end to end (tools/board_sim.py): the host tool's bytes, written by `bumpmap send`, are the input;
+# the board's own preset (board/frame.py BOARD_PRESET) unless PRESET is given
+BOARD_PRESET_ARG = $(if $(filter-out file default undefined,$(origin PRESET)),--preset $(PRESET))
 board-sim: setup
 	@test "$(BOARD)" = ulx3s || { echo "BOARD=$(BOARD): the board top exists for ulx3s only" >&2; exit 2; }
-	$(BUMPMAP) send --scene $(SCENE) --preset $(PRESET) --size 128 --dry-run build/board-sim/$(SCENE).bin
-	$(BUMPMAP) board-sim --scene $(SCENE) --preset $(PRESET) --size 128 --bytes build/board-sim/$(SCENE).bin
+	$(BUMPMAP) send --scene $(SCENE) $(BOARD_PRESET_ARG) --size 128 --dry-run build/board-sim/$(SCENE).bin
+	$(BUMPMAP) board-sim --scene $(SCENE) $(BOARD_PRESET_ARG) --size 128 --bytes build/board-sim/$(SCENE).bin
 
 exhaustive: setup
 	HYPOTHESIS_PROFILE=thorough $(PY) -m pytest -n $(JOBS) -q -m slow -k "not test_exhaustive_target"

@@ -27,7 +27,7 @@ of this stage: the tile holds the whole frame; ``docs/board.md``). The picture's
 from __future__ import annotations
 
 import numpy as np
-from amaranth import Cat, DomainRenamer, Module, Mux, Signal
+from amaranth import Cat, Const, DomainRenamer, Module, Mux, Signal
 from amaranth.lib import memory, wiring
 from amaranth.lib.cdc import FFSynchronizer
 from amaranth.lib.wiring import In, Out
@@ -35,11 +35,17 @@ from amaranth.lib.wiring import In, Out
 from host.protocol import Cmd
 from rtl.fixed import const_mul
 
-__all__ = ["rgb565", "expand565", "display_frame", "board_engine", "EngineSystem", "BoardSim", "QUIET"]
+__all__ = ["rgb565", "expand565", "display_frame", "board_engine", "EngineSystem", "BoardSim", "QUIET",
+           "BOARD_PRESET", "TileCopy"]
 
 #: Clocks the engine must be quiet before SWAP copies its tile: beyond the pixel pipeline's latency and the scan
 #: converter's set-up, at the engine's clock a negligible wait.
 QUIET = 1024
+
+#: The board's pipeline preset (``presets/tin-plane-board.toml``: the fitted tin plane's, 29-texel reflectance
+#: cubes): the ``default`` preset's engine (64-texel cubes) with the tile and the frame store used nearly all the
+#: ECP5-85F's block RAMs and multipliers and did not route (``docs/board.md``).
+BOARD_PRESET = "tin-plane-board"
 
 
 def rgb565(color: np.ndarray) -> np.ndarray:
@@ -65,7 +71,7 @@ def display_frame(color: np.ndarray, h_active: int = 640, v_active: int = 480) -
     return out
 
 
-def board_engine(scene: str = "tin-plane", preset: str = "default", size: int = 128):
+def board_engine(scene: str = "tin-plane", preset: str = BOARD_PRESET, size: int = 128):
     """``(params, frame, tframe)``: the engine of the board for a scene (name or path) drawn at ``size`` x ``size``
     (the tile): the set-up's engine (:func:`host.render.from_triangles` with its depth test) with the frame buffer on
     chip, the texel memories holding the scene's tables."""
@@ -124,6 +130,7 @@ class EngineSystem(wiring.Component):
         self._engine = Engine(params)
         self._link = CommandLink(divisor, self.record_len)
         self._display = Display(timing, latency=3)
+        self._copy = TileCopy(params.rop, self._engine.fb.signature)
         ports = {"rx": In(1, init=1), "tx": Out(1, init=1), "words": Out(30), "error": Out(1),
                  "good": Out(1), "overrun": Out(1), "front": Out(1), "status": Out(self._engine.status.shape())}
         if frame == "sdram":                    # the frame in SDRAM: its AXI4 port and flags (board/sdram_system.py)
@@ -143,7 +150,7 @@ class EngineSystem(wiring.Component):
                      self.status.eq(eng.status)]
         if self.frame == "sdram":
             from .sdram_system import elaborate_swap
-            self._record(m, link, eng)
+            self._record(m, link, eng, Const(0, 1))     # no FRAME_START clear on this path yet
             elaborate_swap(self, m, link, eng, disp)
             return m
         # frame store: two buffers of RGB565, the buffer's index in the address's top bit
@@ -152,48 +159,21 @@ class EngineSystem(wiring.Component):
         wr = store.write_port(domain="engine")
         rd = store.read_port(domain="sync")
 
-        rec_valid = self._record(m, link, eng)
-
-        # -- SWAP: quiet engine -> copy the tile into the back buffer -> shown from the next vertical blanking
-        swap_req, copied, shown = Signal(), Signal(), Signal()
+        # -- FRAME_START, SWAP: toggles to the engine's clock; the tile's clear and copy (TileCopy)
+        swap_req, start_req, shown = Signal(), Signal(), Signal()
         with m.If(link.done & (link.cmd == Cmd.SWAP)):
             m.d.sync += swap_req.eq(~swap_req)
-        swap_seen = _toggle_sync(m, "swap", swap_req, "engine")
-        shown_seen = _toggle_sync(m, "shown", shown, "engine")
-        quiet = Signal(range(QUIET + 1))
-        with m.If(rec_valid | eng.busy | eng.rop_busy):
-            m.d.engine += quiet.eq(0)
-        with m.Elif(quiet != QUIET):
-            m.d.engine += quiet.eq(quiet + 1)
-        back = Signal(init=1)
-        want, waiting = Signal(), Signal()              # a SWAP to serve; a copy shown not yet acknowledged
-        addr = Signal(range(pixels + 1))
-        reading, wvalid, waddr = Signal(), Signal(), Signal(range(pixels))
-        with m.If(swap_seen):
-            m.d.engine += want.eq(1)
-        with m.If(shown_seen):
-            m.d.engine += waiting.eq(0)
-        zb = P.z_fmt.width
-        data = eng.fb.data
-        word565 = Cat(data[zb + 19:zb + 24], data[zb + 10:zb + 16], data[zb + 3:zb + 8])
-        # the tile's word is registered before the frame store's write port: both memories span the device's
-        # block RAM rows, and the read-out's output straight into the other's inputs was a path through two
-        # die-wide routes (the engine's clock at a third of its target after placement)
-        w2valid, w2addr, w2data = Signal(), Signal.like(wr.addr), Signal.like(wr.data)
-        m.d.comb += [eng.fb.read.eq(reading), eng.fb.addr.eq(addr[:len(eng.fb.addr)]),
-                     wr.addr.eq(w2addr), wr.data.eq(w2data), wr.en.eq(w2valid)]
-        m.d.engine += [wvalid.eq(reading & (addr < pixels)), waddr.eq(addr[:len(waddr)]),
-                       w2valid.eq(wvalid), w2addr.eq(Cat(waddr, back)), w2data.eq(word565)]
-        with m.FSM(domain="engine"):
-            with m.State("idle"):
-                with m.If(want & ~waiting & ~swap_seen & (quiet == QUIET)):
-                    m.d.engine += [want.eq(0), addr.eq(0), reading.eq(1)]
-                    m.next = "copy"
-            with m.State("copy"):
-                m.d.engine += addr.eq(addr + 1)
-                with m.If(addr == pixels):
-                    m.d.engine += [reading.eq(0), copied.eq(~copied), back.eq(~back), waiting.eq(1)]
-                    m.next = "idle"
+        with m.If(link.done & (link.cmd == Cmd.FRAME_START)):
+            m.d.sync += start_req.eq(~start_req)
+        m.submodules.copy = tc = DomainRenamer("engine")(self._copy)
+        self._record(m, link, eng, tc.stall)
+        wiring.connect(m, tc.fb, eng.fb)
+        m.d.comb += [tc.swap.eq(_toggle_sync(m, "swap", swap_req, "engine")),
+                     tc.start.eq(_toggle_sync(m, "start", start_req, "engine")),
+                     tc.shown.eq(_toggle_sync(m, "shown", shown, "engine")),
+                     tc.active.eq(eng.i.valid | eng.busy | eng.rop_busy),
+                     wr.addr.eq(tc.w_addr), wr.data.eq(tc.w_data), wr.en.eq(tc.w_en)]
+        copied = tc.copied
         # -- display: the front buffer at the top left, black around it (three clocks: address, memory, the
         # expanded color registered)
         copied_seen = _toggle_sync(m, "copied", copied, "sync")
@@ -204,7 +184,7 @@ class EngineSystem(wiring.Component):
         with m.If(flip & (disp.x == 0) & (disp.y == t.v_active)):
             m.d.sync += [self.front.eq(~self.front), flip.eq(0), shown.eq(~shown)]
         inside = (disp.x < P.width) & (disp.y < P.height)
-        index = (const_mul(disp.y, P.width) + disp.x)[:len(waddr)]
+        index = (const_mul(disp.y, P.width) + disp.x)[:len(rd.addr) - 1]
         raddr, in1, in2 = Signal.like(rd.addr), Signal(), Signal()
         m.d.sync += [raddr.eq(Cat(Mux(inside, index, 0), self.front)), in1.eq(inside), in2.eq(in1)]
         m.d.comb += rd.addr.eq(raddr)
@@ -216,9 +196,9 @@ class EngineSystem(wiring.Component):
         return m
 
 
-    def _record(self, m: Module, link, eng):
+    def _record(self, m: Module, link, eng, stall):
         """The record, ``sync`` -> ``engine`` (module docstring); returns ``rec_valid`` (the engine's input
-        valid)."""
+        valid; a record arriving while ``stall`` waits)."""
         nbytes = self.record_len
         shift, hold = Signal(8 * nbytes), Signal(8 * nbytes)
         req, ack, pending = Signal(), Signal(), Signal()
@@ -235,14 +215,93 @@ class EngineSystem(wiring.Component):
         # the engine reads the record straight from the holding register, which stays unchanged until the
         # acknowledgement (sent when the scan converter takes the record) is back in ``sync``; the record's bits
         # settled at least the synchroniser's two clocks before ``rec_valid`` rises
+        # a record arriving while ``stall`` (a clear wanted) waits until the clear is done; one offered already
+        # stays offered (it came before FRAME_START). The engine's input valid is a register: a gate in front of
+        # it was the engine clock's critical path (into the scan converter's record-wide clock enable)
         req_seen = _toggle_sync(m, "rec_req", req, "engine")
-        rec_valid = Signal()
+        rec_valid, arrived = Signal(), Signal()
         with m.If(req_seen):
-            m.d.engine += rec_valid.eq(1)
+            m.d.engine += arrived.eq(1)
+        with m.If((arrived | req_seen) & ~stall & ~rec_valid):
+            m.d.engine += [rec_valid.eq(1), arrived.eq(0)]
         with m.If(rec_valid & eng.i.ready):
             m.d.engine += [rec_valid.eq(0), ack.eq(~ack)]
         m.d.comb += [eng.i.valid.eq(rec_valid), eng.i.payload.eq(hold[:self.record_bits])]
         return rec_valid
+
+
+class TileCopy(wiring.Component):
+    """The tile's clear and copy (one clock domain, ``sync``; the engine's on the board). SWAP (``swap``, a pulse):
+    once the engine has been quiet (``active`` low) for ``quiet`` clocks, the tile is read out through ``fb``, each
+    word narrowed to RGB565 and written (``w_en``, ``w_addr``, ``w_data``, from registers) into the back buffer of
+    the frame store (the buffer's index in the address's top bit); ``copied`` toggles when done, and no other copy
+    starts before ``shown`` (a pulse: the display shows it). FRAME_START (``start``): ``stall`` rises (the engine
+    takes no record) and, once quiet and no copy waiting, the tile is read out with ``fb.clear`` (every word to
+    the clear value, nothing written to the store); ``stall`` falls when the clear is done.
+
+    Parameters
+    ----------
+    params : RopParams
+        The tile (on chip).
+    fb : wiring.Signature
+        The depth test's read-out (``rtl.rop``), which this drives.
+    quiet : int
+        Clocks of quiet before a copy or clear (beyond the pixel pipeline's latency).
+    """
+
+    def __init__(self, params, fb: wiring.Signature, quiet: int = QUIET):
+        self.params, self.quiet = params, quiet
+        pixels = params.pixels
+        super().__init__({"swap": In(1), "start": In(1), "shown": In(1), "active": In(1), "fb": In(fb),
+                          "w_en": Out(1), "w_addr": Out(range(2 * pixels)), "w_data": Out(16), "stall": Out(1),
+                          "copied": Out(1)})
+
+    def elaborate(self, platform):
+        m = Module()
+        P, pixels = self.params, self.params.pixels
+        quiet = Signal(range(self.quiet + 1))
+        with m.If(self.active):
+            m.d.sync += quiet.eq(0)
+        with m.Elif(quiet != self.quiet):
+            m.d.sync += quiet.eq(quiet + 1)
+        back = Signal(init=1)
+        want, waiting, clear_want = Signal(), Signal(), Signal()   # a SWAP to serve; a copy not yet shown; a clear
+        addr = Signal(range(pixels + 1))
+        reading, clearing, wvalid, waddr = Signal(), Signal(), Signal(), Signal(range(pixels))
+        with m.If(self.swap):
+            m.d.sync += want.eq(1)
+        with m.If(self.start):
+            m.d.sync += clear_want.eq(1)
+        with m.If(self.shown):
+            m.d.sync += waiting.eq(0)
+        zb = P.z_fmt.width
+        data = self.fb.data
+        word565 = Cat(data[zb + 19:zb + 24], data[zb + 10:zb + 16], data[zb + 3:zb + 8])
+        # the tile's word is registered before the frame store's write port: both memories span the device's
+        # block RAM rows, and the read-out's output straight into the other's inputs was a path through two
+        # die-wide routes (the engine's clock at a third of its target after placement)
+        m.d.comb += [self.fb.read.eq(reading), self.fb.clear.eq(clearing), self.fb.addr.eq(addr[:len(self.fb.addr)]),
+                     self.stall.eq(clear_want)]
+        m.d.sync += [wvalid.eq(reading & ~clearing & (addr < pixels)), waddr.eq(addr[:len(waddr)]),
+                     self.w_en.eq(wvalid), self.w_addr.eq(Cat(waddr, back)), self.w_data.eq(word565)]
+        ready = (quiet == self.quiet) & ~self.swap & ~self.start
+        with m.FSM():
+            with m.State("idle"):
+                with m.If(want & ~waiting & ready):
+                    m.d.sync += [want.eq(0), addr.eq(0), reading.eq(1)]
+                    m.next = "walk"
+                with m.Elif(clear_want & ~want & ready):
+                    m.d.sync += [addr.eq(0), reading.eq(1), clearing.eq(1)]     # the copy's walk, clearing
+                    m.next = "walk"
+            with m.State("walk"):
+                m.d.sync += addr.eq(addr + 1)
+                with m.If((addr == pixels) & clearing):
+                    m.d.sync += [reading.eq(0), clearing.eq(0), clear_want.eq(0)]
+                    m.next = "idle"
+                with m.Elif(addr == pixels):
+                    m.d.sync += [reading.eq(0), self.copied.eq(~self.copied), back.eq(~back), waiting.eq(1)]
+                    m.next = "idle"
+        return m
 
 
 class BoardSim(wiring.Component):

@@ -195,8 +195,12 @@ def _simulate(params, words, want, fb, *, latency, p_valid, p_pause, seed, sim, 
     out, build_seconds, seconds = run_testbench(sim, src, top, bdir, job, "cosim.rop_tb", meta, "frame.json")
     res = json.loads(out.read_text())
     remove_job(job)
+    extra = {}
     if P.on_chip:
         depth, color = _unpack_words(P, [int(w, 16) for w in res["words"]])
+        cd, cc = _unpack_words(P, [int(w, 16) for w in res["cleared"]])    # after the read-out that clears
+        zd, zc = clear_frame(P)
+        extra["cleared_mismatches"] = int(np.sum((cd != zd) | np.any(cc != zc, axis=-1)))
     else:
         depth, color = read_frame(P, bytes.fromhex(res["image"]))
     want_d, want_c = want
@@ -207,7 +211,7 @@ def _simulate(params, words, want, fb, *, latency, p_valid, p_pause, seed, sim, 
             "mismatches": int(len(bad)), "first": first,
             "rtl_bytes_read": DEPTH_BYTES * res["reads"], "rtl_bytes_written": PIXEL_BYTES * res["writes"],
             "status": res["status"], "cycles": res["cycles"], "accept_cycles": res["accept_cycles"],
-            "build_seconds": build_seconds, "seconds": seconds}
+            "build_seconds": build_seconds, "seconds": seconds, **extra}
 
 
 def _unpack_words(params: RopParams, words):

@@ -33,6 +33,7 @@ async def rop(dut):
     ram = None
     if on_chip:
         dut.fb__read.value = 0
+        dut.fb__clear.value = 0
         dut.fb__addr.value = 0
     else:
         dut.lat.value = meta["latency"]
@@ -67,11 +68,19 @@ async def rop(dut):
         words = []
         await FallingEdge(dut.clk)                       # out of the read-only phase
         dut.fb__read.value = 1
+        dut.fb__clear.value = 1                      # the read-out clears: a second read-out sees the clear words
         for a in range(meta["pixels"]):              # the word of the address set one clock edge earlier
             dut.fb__addr.value = a
             await FallingEdge(dut.clk)
             words.append(format(int(dut.fb__data.value), "x"))
         result["words"] = words
+        dut.fb__clear.value = 0
+        cleared = []
+        for a in range(meta["pixels"]):
+            dut.fb__addr.value = a
+            await FallingEdge(dut.clk)
+            cleared.append(format(int(dut.fb__data.value), "x"))
+        result["cleared"] = cleared
     else:
         result["image"] = ram.read(meta["base"], meta["frame_bytes"]).hex()
     Path(meta["out"]).write_text(json.dumps(result))

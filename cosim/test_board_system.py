@@ -6,14 +6,14 @@ from __future__ import annotations
 
 import pytest
 
-from board.frame import board_engine
+from board.frame import BOARD_PRESET, board_engine
 from cosim.board_system import simulate
 from host.protocol import scene_frames
 
 
 @pytest.mark.slow
 def test_the_tin_plane_from_host_bytes_to_the_decoded_dvi_frame():
-    params, frame, tframe = board_engine("tin-plane", "default", 128)
+    params, frame, tframe = board_engine("tin-plane", BOARD_PRESET, 128)
     mat = tframe.records.matrix()
     data = b"".join(scene_frames(frame.params, params.raster.record, mat))
     rep = simulate(params, mat, data, sim="verilator")

@@ -38,8 +38,10 @@ Throughput: one fragment per clock while a slot is free and the memory keeps up;
 round trip of that many clocks (:data:`SLOT_OVERHEAD`). ``AR``/``AW``/``W`` valid never wait for their
 ready; ``R.ready`` and ``B.ready`` come from registers (``B`` is always taken).
 
-On chip (:class:`Rop`, ``on_chip=True``): the same read-compare-write on one Amaranth ``Memory`` of ``width
-height`` words (``z_fmt`` depth, r, g, b, flags, from the low bits), initialised to the clear value, in five
+On chip (:class:`Rop`, ``on_chip=True``): the same read-compare-write on a memory of ``width height`` words
+(``z_fmt`` depth, r, g, b, flags, from the low bits), initialised to the clear value, built as Amaranth
+``Memory`` slices of ``RopParams.slice_bits`` bits each one block RAM deep (no multiplexer from the blocks' slow
+outputs across the device's block-RAM rows: it was the board's critical path at 66 MHz, speed grade 6), in five
 stages: the accepted fragment is registered (its pixel index and depth computed from the stream's payload); the
 read port is addressed from that register; the next cycle registers the stored depth (with the block RAM's slow
 output and the compare in one cycle the unit ran at 99 MHz on ECP5); the next compares; the next writes, from
@@ -49,7 +51,9 @@ block RAM's pins the board's engine ran at a third of its clock after placement)
 for the write port, so a fragment sees every write up to the one of the fragment three ahead of it; the two just
 ahead of it are forwarded (the nearer first: its depth replaces the stored one when the pixel is the same).
 ``i.ready`` is always 1, except while the frame is read out through ``fb`` (``fb.read``: the read port takes
-``fb.addr``; ``fb.data`` holds the word one cycle later; an accepted fragment waits in the first stage).
+``fb.addr``; ``fb.data`` holds the word one cycle later; an accepted fragment waits in the first stage). With
+``fb.clear`` as well, the word read is also overwritten with the clear value, through the write stage's registers
+(a read-out that clears, or a clear of the frame: the next frame's depth test starts from the cleared frame).
 """
 
 from __future__ import annotations
@@ -94,7 +98,8 @@ def axi_signature(addr_bits: int, data_bits: int, id_bits: int = 1) -> wiring.Si
 
 
 def _readout_signature(params: RopParams) -> wiring.Signature:
-    return wiring.Signature({"read": In(1), "addr": In(range(params.pixels)), "data": Out(params.word_bits)})
+    return wiring.Signature({"read": In(1), "clear": In(1), "addr": In(range(params.pixels)),
+                             "data": Out(params.word_bits)})
 
 
 def _index(params: RopParams, x, y):
@@ -133,7 +138,8 @@ class Rop(wiring.Component):
         (``z_in``), ``r, g, b`` (bytes), ``flags`` (``flags_fmt``)
     axi : Out(axi_signature(addr_bits, data_bits)) -- the AXI4 manager port (``on_chip=False`` only)
     fb : the frame read-out (``on_chip=True`` only): ``read`` In(1), ``addr`` In (pixel index ``y width + x``),
-        ``data`` Out(``word_bits``): the word of the address given one cycle earlier
+        ``clear`` In(1) (with ``read``: the word at ``addr`` is overwritten with the clear value), ``data``
+        Out(``word_bits``): the word of the address given one cycle earlier
     busy : Out(1) -- a fragment accepted and not yet finished (its write not acknowledged, or it failed)
     status : Out(3) -- sticky: bit 0 a fragment outside the frame was dropped, bit 1 a depth saturated (the
         narrowing to ``z_fmt``), bit 2 an AXI error response (``fxmodel.units.rop.STATUS_BITS``)
@@ -167,23 +173,21 @@ class Rop(wiring.Component):
         m = Module()
         depth, color = clear_frame(P)
         clear = int(depth[0, 0]) | sum(int(c) << (P.z_fmt.width + 8 * k) for k, c in enumerate(color[0, 0]))
-        m.submodules.frame = mem = memory.Memory(shape=P.word_bits, depth=P.pixels, init=[clear] * P.pixels)
-        wp = mem.write_port()
-        rp = mem.read_port(transparent_for=(wp,) if P.hazard else ())
         zc, zsat, inside, index, color = self._accept(m)
         m.d.comb += self.i.ready.eq(~self.fb.read)
         take = self.i.valid & self.i.ready
         # stage 0: the accepted fragment registered (held while the read-out has the read port)
         a_valid = Signal(name="acc_valid")
         a_z, a_color, a_index = Signal(P.z_fmt.width, name="acc_z"), Signal(24 + P.flag_bits, name="acc_color"), \
-            Signal.like(wp.addr, name="acc_index")
+            Signal(range(P.pixels), name="acc_index")
         with m.If(~self.fb.read):
             m.d.sync += [a_valid.eq(take & inside), a_z.eq(zc), a_color.eq(color), a_index.eq(index)]
         # stage 1: its read in flight
         s_valid = Signal()
         s_z, s_color, s_index = Signal.like(a_z), Signal.like(a_color), Signal.like(a_index)
         m.d.sync += [s_valid.eq(a_valid & ~self.fb.read), s_z.eq(a_z), s_color.eq(a_color), s_index.eq(a_index)]
-        m.d.comb += [rp.addr.eq(Mux(self.fb.read, self.fb.addr, a_index)), rp.en.eq(1), self.fb.data.eq(rp.data)]
+        rdata = Signal(P.word_bits)
+        m.d.comb += self.fb.data.eq(rdata)
         # stage 2: the stored depth registered; whether the two fragments ahead (comparing, writing) have the
         # same pixel and write it
         c_valid = Signal(name="cmp_valid")
@@ -194,17 +198,35 @@ class Rop(wiring.Component):
             Signal.like(s_color, name="write_color"), Signal.like(s_index, name="write_index")
         c_same1, c_same2, w2_z = Signal(name="cmp_same1"), Signal(name="cmp_same2"), Signal.like(s_z, name="wrote_z")
         m.d.sync += [c_valid.eq(s_valid), c_z.eq(s_z), c_color.eq(s_color), c_index.eq(s_index),
-                     c_stored.eq(rp.data[:P.z_fmt.width]), c_same1.eq(c_valid & (c_index == s_index)),
+                     c_stored.eq(rdata[:P.z_fmt.width]), c_same1.eq(c_valid & (c_index == s_index)),
                      c_same2.eq(w_en & (w_index == s_index)), w2_z.eq(w_z)]
         # stage 3: compare; stage 4: write (registered: the write port's enable, address and data come from
         # flip-flops). The writes of the two fragments ahead are not in the stored word (their reads were issued
         # before those writes), so they are forwarded, the nearer first: its depth replaces the stored one
         stored = Mux(c_same1 & w_en, w_z, Mux(c_same2, w2_z, c_stored)) if P.hazard else c_stored
-        m.d.sync += [w_en.eq(c_valid & (c_z > stored)), w_z.eq(c_z), w_color.eq(c_color), w_index.eq(c_index)]
-        m.d.comb += [wp.addr.eq(w_index), wp.data.eq(Cat(w_z, w_color)), wp.en.eq(w_en)]
+        with m.If(self.fb.read & self.fb.clear):     # the read-out clears: the clear word written behind it
+            m.d.sync += [w_en.eq(1), w_z.eq(clear & ((1 << P.z_fmt.width) - 1)),
+                         w_color.eq(clear >> P.z_fmt.width), w_index.eq(self.fb.addr)]
+        with m.Else():
+            m.d.sync += [w_en.eq(c_valid & (c_z > stored)), w_z.eq(c_z), w_color.eq(c_color),
+                         w_index.eq(c_index)]
+        self._frame(m, clear, Mux(self.fb.read, self.fb.addr, a_index), rdata, w_en, w_index, Cat(w_z, w_color))
         m.d.comb += self.busy.eq(a_valid | s_valid | c_valid | w_en)
         self._sticky(m, take & ~inside, take & inside & zsat, Const(0))
         return m
+
+    def _frame(self, m, clear: int, raddr, rdata, w_en, w_index, wdata):
+        """The frame's memory in slices of ``slice_bits`` (``RopParams.slice_bits``: each slice one block RAM
+        deep, no read multiplexer between blocks), each read port transparent for its write port (``hazard``)."""
+        P = self.params
+        for k, lo in enumerate(range(0, P.word_bits, P.slice_bits)):
+            hi = min(lo + P.slice_bits, P.word_bits)
+            init = clear >> lo & ((1 << (hi - lo)) - 1)
+            m.submodules[f"frame{k}"] = mem = memory.Memory(shape=hi - lo, depth=P.pixels, init=[init] * P.pixels)
+            wp = mem.write_port()
+            rp = mem.read_port(transparent_for=(wp,) if P.hazard else ())
+            m.d.comb += [wp.addr.eq(w_index), wp.data.eq(wdata[lo:hi]), wp.en.eq(w_en), rp.addr.eq(raddr),
+                         rp.en.eq(1), rdata[lo:hi].eq(rp.data)]
 
     def _sticky(self, m, outside, zsat, bus_error):
         bits = [None] * len(STATUS_BITS)

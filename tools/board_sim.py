@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from board.frame import board_engine
+from board.frame import BOARD_PRESET, board_engine
 from cosim.board_system import simulate, split_frames
 from host.protocol import Cmd
 
@@ -25,7 +25,8 @@ def add_arguments(ap) -> None:
     """``bumpmap board-sim``: the end-to-end simulation of the board drawing a scene."""
     from host.args import int_range
     ap.add_argument("--scene", default="tin-plane", help="scene name in scenes/ or a .toml path")
-    ap.add_argument("--preset", default="default", help="pipeline preset (built in or presets/<name>.toml)")
+    ap.add_argument("--preset", default=BOARD_PRESET,
+                    help="pipeline preset (built in or presets/<name>.toml; default %(default)s, the board's)")
     ap.add_argument("--size", type=int_range(1, 256), default=128,
                     help="the frame's edge in pixels (the on-chip tile; default %(default)s)")
     ap.add_argument("--bytes", type=Path, metavar="FILE",

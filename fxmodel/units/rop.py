@@ -48,7 +48,7 @@ from typing import ClassVar
 
 import numpy as np
 
-from fxmodel.core.cost import Memory
+from fxmodel.core.cost import DP16KD_SHAPES, Memory
 from fxmodel.core.cost import estimate as _estimate
 from fxmodel.core.fixed import Fmt
 from fxmodel.core.rounding import Overflow, Rounding, narrow
@@ -175,6 +175,15 @@ class RopParams:
         return self.z_fmt.width + 24 + self.flag_bits
 
     @property
+    def slice_bits(self) -> int:
+        """Bits of each slice of the on-chip frame (the last may be narrower): the widest ECP5 block-RAM port
+        (``DP16KD_SHAPES``) whose depth holds the whole frame, so that no block's output is multiplexed with
+        another's (a read multiplexer across the device's block-RAM rows was the board's critical path); the
+        whole word when no port is that deep."""
+        fits = [w for d, w in DP16KD_SHAPES if d >= self.pixels]
+        return min(max(fits), self.word_bits) if fits else self.word_bits
+
+    @property
     def pixels(self) -> int:
         return self.width * self.height
 
@@ -194,10 +203,13 @@ class RopParams:
         return ()
 
     def memories(self) -> tuple:
-        """On chip: the frame buffer (``width * height`` words of :attr:`word_bits`, one read port, written)."""
+        """On chip: the frame buffer (``width * height`` words of :attr:`word_bits`, one read port, written), in
+        slices of :attr:`slice_bits`."""
         if not self.on_chip:
             return ()
-        return (Memory(self.pixels, self.word_bits, read_ports=1, rom=False, kind="frame", name="frame buffer"),)
+        n, rest = divmod(self.word_bits, self.slice_bits)
+        return tuple(Memory(self.pixels, bits, read_ports=1, rom=False, count=count, kind="frame",
+                            name="frame buffer") for bits, count in ((self.slice_bits, n), (rest, 1)) if bits)
 
     def cost(self) -> dict:
         return _estimate(self)

@@ -50,3 +50,89 @@ def test_the_system_needs_the_tile_on_chip_and_inside_the_display():
         EngineSystem(params, SMALL, 25)
     assert EngineSystem(params, VGA_640x480, 25).record_len == -(-sum(p.fmt.width for p in
                                                                       params.raster.record) // 8)
+
+
+def _fragments(P, rng, k, z_lo, z_hi):
+    """``k`` fragments (codes of ``P.inputs``) inside the tile, depth codes in ``[z_lo, z_hi)``."""
+    idx = rng.integers(0, P.pixels, k)
+    return np.stack([idx % P.width, idx // P.width, rng.integers(z_lo, z_hi, k),
+                     *(rng.integers(0, 256, k) for _ in range(3)), rng.integers(0, 1 << P.flag_bits, k)], axis=1)
+
+
+def test_frame_start_clears_the_tile_and_swap_copies_it_in_rgb565():
+    """The tile's control (``TileCopy``) with the on-chip depth test (``rtl/rop.py``) and a frame store, in
+    Amaranth's simulator: frame A drawn, SWAP copies it into the back buffer; FRAME_START stalls the input and
+    clears the tile; frame B, all farther than A (without the clear most of it would fail the depth test), drawn
+    and copied into the other buffer. Each buffer equals the model's frame (``fxmodel.units.rop.draw``) of its
+    fragments alone, through RGB565."""
+    from amaranth import Module
+    from amaranth.lib import memory, wiring
+    from amaranth.sim import Simulator
+
+    from board.frame import TileCopy
+    from cosim.raster import pack
+    from fxmodel.units.rop import RopParams, draw
+    from rtl.rop import Rop
+
+    P = RopParams(width=8, height=4, on_chip=True)
+    rng = np.random.default_rng(5)
+    half = 1 << (P.z_in.frac_bits - 1)
+    frame_a, frame_b = _fragments(P, rng, 40, half, 2 * half), _fragments(P, rng, 12, 1, half)
+    want = [rgb565(draw(P, f)[1][..., :3]).ravel() for f in (frame_a, frame_b)]
+    assert not np.array_equal(want[1], rgb565(draw(P, np.concatenate([frame_a, frame_b]))[1][..., :3]).ravel())
+
+    m = Module()
+    m.submodules.rop = rop = Rop(P)
+    m.submodules.copy = tc = TileCopy(P, rop.fb.signature, quiet=8)
+    m.submodules.store = store = memory.Memory(shape=16, depth=2 * P.pixels, init=[])
+    wr = store.write_port()
+    wiring.connect(m, tc.fb, rop.fb)
+    m.d.comb += [tc.active.eq(rop.i.valid | rop.busy), wr.addr.eq(tc.w_addr), wr.data.eq(tc.w_data),
+                 wr.en.eq(tc.w_en)]
+    seen = {}
+
+    async def bench(ctx):
+        async def draw_frame(frags):
+            for word in pack(P.inputs, frags):
+                ctx.set(rop.i.valid, 1)
+                ctx.set(rop.i.payload.as_value(), word)
+                await ctx.tick().until(rop.i.ready)
+            ctx.set(rop.i.valid, 0)
+
+        async def pulse(sig):
+            ctx.set(sig, 1)
+            await ctx.tick()
+            ctx.set(sig, 0)
+
+        async def copy():
+            before = ctx.get(tc.copied)
+            await pulse(tc.swap)
+            for _ in range(10 * P.pixels):
+                await ctx.tick()
+                if ctx.get(tc.copied) != before:
+                    break
+            for _ in range(4):                            # the store's write from its registers
+                await ctx.tick()
+
+        await draw_frame(frame_a)
+        await copy()
+        await pulse(tc.shown)
+        await pulse(tc.start)
+        seen["stall"] = ctx.get(tc.stall)
+        for _ in range(10 * P.pixels):
+            await ctx.tick()
+            if not ctx.get(tc.stall):
+                break
+        seen["cleared"] = not ctx.get(tc.stall)
+        await draw_frame(frame_b)
+        await copy()
+        seen["store"] = [ctx.get(store.data[a]) for a in range(2 * P.pixels)]
+
+    sim = Simulator(m)
+    sim.add_clock(1e-8)
+    sim.add_testbench(bench)
+    sim.run()
+    assert seen["stall"] and seen["cleared"]
+    store_words = np.array(seen["store"])
+    assert np.array_equal(store_words[P.pixels:], want[0])          # the back buffer first (index 1): frame A
+    assert np.array_equal(store_words[:P.pixels], want[1])          # then buffer 0: frame B on the cleared tile

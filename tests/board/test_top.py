@@ -8,7 +8,7 @@ import pytest
 
 pytest.importorskip("amaranth_boards")
 
-from board.top import Top, _platform, report  # noqa: E402
+from board.top import Top, _platform, critical_paths, report  # noqa: E402
 
 TIM = """Info: Max frequency for clock '$glbnet$tmds': 150.00 MHz (PASS at 125.00 MHz)
 Info: Max frequency for clock               '$glbnet$clk': 20.00 MHz (FAIL at 25.00 MHz)
@@ -26,6 +26,27 @@ def test_report_takes_the_last_figures_of_every_clock():
                              "$glbnet$clk": {"fmax_mhz": 30.0, "target_mhz": 25.0, "met": True}}
     assert rec["resources"] == {"TRELLIS_IO": [10, 365], "EHXPLLL": [1, 4]} and rec["all_met"]
     assert not report(TIM.rsplit("Info: Max", 1)[0])["all_met"]        # the clk FAIL is the last one seen then
+
+
+PATHS = """Info: Critical path report for clock '$glbnet$engine_clk' (posedge -> posedge):
+Info:   clk-to-q  5.83  5.83 Source a.DOB0
+Info:    routing  1.51  7.34 Net n1 (46,46) -> (54,40)
+Info:                          Sink b.B
+Info:      logic  0.24  7.58 Source b.F
+Info:                          Sink c.DI
+Info: 6.07 ns logic, 1.51 ns routing
+
+Info: Critical path report for cross-domain path 'posedge $glbnet$engine_clk' -> 'posedge $glbnet$clk':
+Info:   clk-to-q  0.52  0.52 Source d.Q
+Info:                          Sink e.M
+Info: 0.52 ns logic, 0.81 ns routing
+"""
+
+
+def test_critical_paths_name_each_clocks_first_source_and_last_sink():
+    assert critical_paths(PATHS) == {"$glbnet$engine_clk": {"from": "a.DOB0", "to": "c.DI", "logic_ns": 6.07,
+                                                            "routing_ns": 1.51, "total_ns": 7.58}}
+    assert report(TIM + PATHS)["critical_paths"] == critical_paths(PATHS)
 
 
 def test_top_prepares_with_pll_and_ddr_outputs():

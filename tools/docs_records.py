@@ -16,6 +16,7 @@ from pathlib import Path
 
 from fxmodel.core.paths import ROOT
 
+from .fpga_report import describe_path
 from .record import RECORDS, read
 
 __all__ = ["provenance", "quickstart", "timed_commands", "scene_results", "triangle_results", "scenes_stress",
@@ -261,6 +262,32 @@ def fpga_resources() -> str:
             + f"\n*Synthesized by `{data['command']}` ({data['tools']}); record: "
               f"[`{_rel(RESOURCES)}`]({_rel(RESOURCES)}).*\n")
 
+
+
+PLACEMENT = DOCS / "fpga" / "placement.json"
+
+
+def fpga_placement() -> str:
+    """Placed and routed designs (``bumpmap fpga ... --placement-record``): Fmax against the target, resources and
+    the critical path nextpnr names."""
+    if not PLACEMENT.is_file():
+        return _missing(PLACEMENT, "bumpmap fpga --unit engine --scene SCENE --preset PRESET "
+                        "--placement-record docs/fpga/placement.json")
+    record = read(PLACEMENT)
+    r = record["result"]
+    rows = []
+    for d in r["designs"]:
+        name = f"`{d['unit']}` {d['preset']}" + (f", {d['scene']} tables" if d.get("scene") else "")
+        if "error" in d:
+            rows.append((name, d.get("target_mhz", ""), f"failed: {d['error']}", "", "", "", "", "", ""))
+            continue
+        rows.append((name, f"{d['target_mhz']} MHz", f"{d['fmax_mhz']} MHz", "yes" if d["met"] else "**no**",
+                     d.get("LUT4", ""), d.get("FF", ""), d.get("DSP", ""), d.get("BRAM", ""),
+                     describe_path(d["critical_path"]) if d.get("critical_path") else ""))
+    head = ("design", "target", "Fmax (routed)", "met", "LUT4", "FF", "MULT18X18D", "DP16KD", "critical path")
+    flow = r.get("flow", {})
+    return (_table(head, rows, ["---"] + ["---:"] * 2 + ["---"] + ["---:"] * 4 + ["---"])
+            + f"\n*nextpnr {flow.get('router', '')}, seed {flow.get('seed', '')}.* " + provenance(record, PLACEMENT))
 
 # -- speed and design space ------------------------------------------------------------------------------------
 def bench(name: str = "bench") -> str:

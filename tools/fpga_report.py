@@ -11,8 +11,8 @@ import json
 import re
 from pathlib import Path
 
-__all__ = ["parse_results", "critical_path_summary", "route_seconds", "markdown_table", "params_digest",
-           "design_key", "compare_routers", "KNOWN_DIFFERENCES"]
+__all__ = ["parse_results", "critical_path_summary", "describe_path", "route_seconds", "markdown_table",
+           "params_digest", "design_key", "compare_routers", "KNOWN_DIFFERENCES"]
 
 #: Why a design's synthesized count differs from the estimate, by :func:`design_key`; written into the record
 #: (a difference without a reason fails ``tests/fxmodel/core/test_cost.py``).
@@ -128,11 +128,16 @@ def markdown_table(records) -> str:
         cp = r.get("critical_path")
         why = ""
         if cp and not r["met"]:
-            why = (f"{cp['from']} → {cp['to']}: {cp['delay_ns']} ns ({cp['logic_ns']} logic, "
-                   f"{cp['routing_ns']} routing, {cp['logic_levels']} levels)")
+            why = describe_path(cp)
         lines.append(f"{design}{r['LUT4']} | {r['FF']} | {dsp} | {bram} | {r['fmax_mhz']} "
                      f"| {r['target_mhz']:g} | {'yes' if r['met'] else 'no'} | {r['latency']} | {why} |")
     return "\n".join(lines)
+
+
+def describe_path(cp: dict) -> str:
+    """One line of a :func:`critical_path_summary`: its ends, delay and split."""
+    return (f"{cp['from']} → {cp['to']}: {cp['delay_ns']} ns ({cp['logic_ns']} logic, "
+            f"{cp['routing_ns']} routing, {cp['logic_levels']} levels)")
 
 
 def params_digest(params) -> str:

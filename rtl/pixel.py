@@ -13,7 +13,7 @@ from fxmodel.pipeline.pixel import FLAG_BITS, LOD_INPUTS, PipelineParams
 
 from .unit import Pipe, UnitComponent, build, register
 
-__all__ = ["Pipeline"]
+__all__ = ["Pipeline", "add_unit"]
 
 
 @register(PipelineParams)
@@ -47,12 +47,7 @@ class Pipeline(UnitComponent):
         pipe = Pipe(m)
 
         def unit(name, params, valid, **inputs):
-            comp = build(params)
-            setattr(m.submodules, name, comp)
-            m.d.comb += comp.i_valid.eq(valid)
-            for port, value in inputs.items():
-                m.d.comb += getattr(comp, port).eq(value)
-            return comp
+            return add_unit(m, name, params, valid, **inputs)
 
         def late(value, now, when, name):
             """``value``, ready at cycle ``now``, delayed to cycle ``when``."""
@@ -75,6 +70,17 @@ class Pipeline(UnitComponent):
                           (bmap, t0 + P.bump_map.latency), (tex, t_tex + P.texture.latency), (persp.dbz, t0))
         self.finish(m, pipe, rest)
         return m
+
+
+def add_unit(m: Module, name: str, params, valid, **inputs):
+    """The unit built from ``params`` as submodule ``name`` of ``m``, its ``i_valid`` and input ports driven by
+    ``valid`` and ``inputs`` (port name to value); returns the component."""
+    comp = build(params)
+    setattr(m.submodules, name, comp)
+    m.d.comb += comp.i_valid.eq(valid)
+    for port, value in inputs.items():
+        m.d.comb += getattr(comp, port).eq(value)
+    return comp
 
 
 def shade_half(m, pipe: Pipe, unit, late, P: PipelineParams, T: dict, frag, valid, bmap, tex, dbz) -> dict:

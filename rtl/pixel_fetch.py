@@ -33,12 +33,12 @@ from fxmodel.pipeline.pixel import PipelineParams
 from fxmodel.units.texcache import Layout
 
 from .fixed import shape
-from .pixel import shade_half
+from .pixel import add_unit, shade_half
 from .sampler import Sampler, texel_stages
 from .streams import StreamUnit, input_layout, output_layout
 from .texcache_decoupled import request_layout
 from .texfetch import MAPS, TexFetch
-from .unit import Pipe, UnitComponent, build, register
+from .unit import Pipe, UnitComponent, register
 
 __all__ = ["FrontParams", "BackParams", "FetchPipeline", "CORNERS"]
 
@@ -148,15 +148,6 @@ def _sampler(params):
     return smp
 
 
-def _unit(m, name, params, valid, **inputs):
-    comp = build(params)
-    setattr(m.submodules, name, comp)
-    m.d.comb += comp.i_valid.eq(valid)
-    for port, value in inputs.items():
-        m.d.comb += getattr(comp, port).eq(value)
-    return comp
-
-
 @register(FrontParams)
 class Front(UnitComponent):
     """The front (:class:`FrontParams`), flat ports as every unit's (``rtl/unit.py``)."""
@@ -166,7 +157,7 @@ class Front(UnitComponent):
         P = F.pipeline
         m = Module()
         pipe = Pipe(m)
-        persp = _unit(m, "persp", P.persp, self.i_valid, **{p.name: getattr(self, p.name) for p in P.persp.inputs})
+        persp = add_unit(m, "persp", P.persp, self.i_valid, **{p.name: getattr(self, p.name) for p in P.persp.inputs})
         outs = {}
         for name, (s, t) in zip(MAPS, ((persp.s, persp.t), (persp.sc, persp.tc))):
             smp = _sampler(getattr(P, name))
@@ -203,7 +194,7 @@ class Back(UnitComponent):
             return pipe.delay(value, when - now, name)
 
         def unit(name, params, valid, **inputs):
-            return _unit(m, name, params, valid, **inputs)
+            return add_unit(m, name, params, valid, **inputs)
 
         res = {}
         for name in MAPS:

@@ -30,7 +30,11 @@ from fxmodel.units.texcache import TexCacheParams, footprints
 
 from .record import add_record_option, machine, write_if_asked
 
-__all__ = ["add_arguments", "run", "measure", "table"]
+#: The cache's parameters the commands take as options and their records keep.
+CACHE_FIELDS = ("block", "sets", "ways", "lookup_depth", "misses")
+
+__all__ = ["add_arguments", "run", "measure", "table", "cache_and_simulator", "cache_fields", "measure_scenes",
+           "CACHE_FIELDS"]
 
 
 def add_arguments(ap: argparse.ArgumentParser) -> None:
@@ -115,32 +119,51 @@ def table(record: dict) -> str:
             f"fragments of each scene in drawing order; simulator {res['simulator']}.\n")
 
 
-def run(args: argparse.Namespace) -> int:
+def cache_and_simulator(args: argparse.Namespace) -> tuple:
+    """The texel cache of the command's options (``--block``, ``--sets``, ``--ways``, ``--lookup-depth``,
+    ``--misses``) and the simulator; ``ValueError`` or ``RuntimeError`` naming what was wrong. Shared with
+    ``bumpmap engine-rate``."""
     from cosim.harness import simulator
-    if args.fragments < 1 or not args.latencies or min(args.latencies) < 0:
-        print("error: --fragments must be positive and --latencies non-negative", file=sys.stderr)
-        return 2
+    return TexCacheParams(**{k: getattr(args, k) for k in CACHE_FIELDS}), simulator()
+
+
+def cache_fields(params: TexCacheParams) -> dict:
+    """The cache's parameters as a record keeps them."""
+    return {k: getattr(params, k) for k in CACHE_FIELDS}
+
+
+def measure_scenes(args: argparse.Namespace, measure_one, table_of, extra: dict):
+    """The body both rate commands share: the cache and simulator of ``args`` (:func:`cache_and_simulator`),
+    ``measure_one(scene, params)`` on each of ``args.scenes``, the table ``table_of`` printed and the record
+    written if asked. Returns the result, or ``None`` after printing an error that names the bad input."""
     try:
-        params = TexCacheParams(block=args.block, sets=args.sets, ways=args.ways, lookup_depth=args.lookup_depth,
-                                misses=args.misses)
-        sim = simulator()
+        params, sim = cache_and_simulator(args)
     except (ValueError, RuntimeError) as exc:
         print(f"error: {exc}", file=sys.stderr)
-        return 2
+        return None
     before = machine()
     scenes = []
     try:
         for s in args.scenes:
-            scenes.append(measure(s, params, args.latencies, args.fragments, args.size))
+            scenes.append(measure_one(s, params))
     except (ValueError, OSError) as exc:
         print(f"error: {exc}", file=sys.stderr)
-        return 2
-    result = {"latencies": args.latencies, "fragments": args.fragments, "simulator": sim,
-              "cache": {k: getattr(params, k) for k in ("block", "sets", "ways", "lookup_depth", "misses")},
+        return None
+    result = {"latencies": args.latencies, **extra, "simulator": sim, "cache": cache_fields(params),
               "scenes": scenes}
-    record = {"result": result}
-    print(table(record))
+    print(table_of({"result": result}))
     write_if_asked(args, result, before)
-    bad = [s["scene"] for s in scenes for r in s["rates"].values()
+    return result
+
+
+def run(args: argparse.Namespace) -> int:
+    if args.fragments < 1 or not args.latencies or min(args.latencies) < 0:
+        print("error: --fragments must be positive and --latencies non-negative", file=sys.stderr)
+        return 2
+    result = measure_scenes(args, lambda s, params: measure(s, params, args.latencies, args.fragments, args.size),
+                            table, {"fragments": args.fragments})
+    if result is None:
+        return 2
+    bad = [s["scene"] for s in result["scenes"] for r in s["rates"].values()
            if r["mismatches"] or not r["bursts_equal"] or r["rtl_bytes"] != r["model_bytes"]]
     return 1 if bad else 0

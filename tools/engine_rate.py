@@ -25,7 +25,8 @@ import sys
 
 from fxmodel.units.texcache import TexCacheParams
 
-from .record import add_record_option, machine, write_if_asked
+from .cache_rate import measure_scenes
+from .record import add_record_option
 
 __all__ = ["add_arguments", "run", "measure", "table", "SHIPPED"]
 
@@ -131,30 +132,13 @@ def table(record: dict) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
-    from cosim.harness import simulator
     if not args.latencies or min(args.latencies) < 0 or not 0 <= args.wait_states < 1:
         print("error: --latencies must be non-negative and --wait-states in [0, 1)", file=sys.stderr)
         return 2
-    try:
-        params = TexCacheParams(block=args.block, sets=args.sets, ways=args.ways, lookup_depth=args.lookup_depth,
-                                misses=args.misses)
-        sim = simulator()
-    except (ValueError, RuntimeError) as exc:
-        print(f"error: {exc}", file=sys.stderr)
+    result = measure_scenes(args, lambda s, params: measure(s, params, args.latencies, args.wait_states, args.size),
+                            table, {"wait_states": args.wait_states, "size": args.size})
+    if result is None:
         return 2
-    before = machine()
-    scenes = []
-    try:
-        for s in args.scenes:
-            scenes.append(measure(s, params, args.latencies, args.wait_states, args.size))
-    except (ValueError, OSError) as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
-    result = {"latencies": args.latencies, "wait_states": args.wait_states, "simulator": sim, "size": args.size,
-              "cache": {k: getattr(params, k) for k in ("block", "sets", "ways", "lookup_depth", "misses")},
-              "scenes": scenes}
-    print(table({"result": result}))
-    write_if_asked(args, result, before)
-    bad = [s["scene"] for s in scenes for r in list(s["rates"].values()) + list(s["stalled"].values())
+    bad = [s["scene"] for s in result["scenes"] for r in list(s["rates"].values()) + list(s["stalled"].values())
            if not _ok(r)]
     return 1 if bad else 0

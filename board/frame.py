@@ -29,18 +29,16 @@ from __future__ import annotations
 import numpy as np
 from amaranth import Cat, Const, DomainRenamer, Module, Mux, Signal
 from amaranth.lib import memory, wiring
-from amaranth.lib.cdc import FFSynchronizer
 from amaranth.lib.wiring import In, Out
 
 from host.protocol import Cmd
 from rtl.fixed import const_mul
 
+from .cdc import QUIET, toggle_sync
+
 __all__ = ["rgb565", "expand565", "display_frame", "board_engine", "EngineSystem", "BoardSim", "QUIET",
            "BOARD_PRESET", "TileCopy"]
 
-#: Clocks the engine must be quiet before SWAP copies its tile: beyond the pixel pipeline's latency and the scan
-#: converter's set-up, at the engine's clock a negligible wait.
-QUIET = 1024
 
 #: The board's pipeline preset (``presets/tin-plane-board.toml``: the fitted tin plane's, 29-texel reflectance
 #: cubes): the ``default`` preset's engine (64-texel cubes) with the tile and the frame store used nearly all the
@@ -85,15 +83,6 @@ def board_engine(scene: str = "tin-plane", preset: str = BOARD_PRESET, size: int
     p = tframe.params
     return EngineParams(raster=p.raster, pipeline=p.pipeline, rop=dataclasses.replace(p.rop, on_chip=True)), \
         frame, tframe
-
-
-def _toggle_sync(m: Module, name: str, src, domain: str):
-    """``(pulse, synced)``: ``src`` (a toggle of another domain) through two registers of ``domain``, and a pulse
-    in ``domain`` for each of its changes."""
-    synced, last = Signal(name=f"{name}_s"), Signal(name=f"{name}_last")
-    m.submodules[f"{name}_ff"] = FFSynchronizer(src, synced, o_domain=domain)
-    m.d[domain] += last.eq(synced)
-    return synced ^ last
 
 
 class EngineSystem(wiring.Component):
@@ -168,15 +157,15 @@ class EngineSystem(wiring.Component):
         m.submodules.copy = tc = DomainRenamer("engine")(self._copy)
         self._record(m, link, eng, tc.stall)
         wiring.connect(m, tc.fb, eng.fb)
-        m.d.comb += [tc.swap.eq(_toggle_sync(m, "swap", swap_req, "engine")),
-                     tc.start.eq(_toggle_sync(m, "start", start_req, "engine")),
-                     tc.shown.eq(_toggle_sync(m, "shown", shown, "engine")),
+        m.d.comb += [tc.swap.eq(toggle_sync(m, "swap", swap_req, "engine")),
+                     tc.start.eq(toggle_sync(m, "start", start_req, "engine")),
+                     tc.shown.eq(toggle_sync(m, "shown", shown, "engine")),
                      tc.active.eq(eng.i.valid | eng.busy | eng.rop_busy),
                      wr.addr.eq(tc.w_addr), wr.data.eq(tc.w_data), wr.en.eq(tc.w_en)]
         copied = tc.copied
         # -- display: the front buffer at the top left, black around it (three clocks: address, memory, the
         # expanded color registered)
-        copied_seen = _toggle_sync(m, "copied", copied, "sync")
+        copied_seen = toggle_sync(m, "copied", copied, "sync")
         flip = Signal()
         with m.If(copied_seen):
             m.d.sync += flip.eq(1)
@@ -204,7 +193,7 @@ class EngineSystem(wiring.Component):
         req, ack, pending = Signal(), Signal(), Signal()
         with m.If(link.data_valid & (link.cmd == Cmd.TRIANGLE)):
             m.d.sync += shift.eq(Cat(shift[8:], link.data))
-        ack_seen = _toggle_sync(m, "rec_ack", ack, "sync")
+        ack_seen = toggle_sync(m, "rec_ack", ack, "sync")
         with m.If(ack_seen):
             m.d.sync += pending.eq(0)
         with m.If(link.done & (link.cmd == Cmd.TRIANGLE)):
@@ -218,7 +207,7 @@ class EngineSystem(wiring.Component):
         # a record arriving while ``stall`` (a clear wanted) waits until the clear is done; one offered already
         # stays offered (it came before FRAME_START). The engine's input valid is a register: a gate in front of
         # it was the engine clock's critical path (into the scan converter's record-wide clock enable)
-        req_seen = _toggle_sync(m, "rec_req", req, "engine")
+        req_seen = toggle_sync(m, "rec_req", req, "engine")
         rec_valid, arrived = Signal(), Signal()
         with m.If(req_seen):
             m.d.engine += arrived.eq(1)

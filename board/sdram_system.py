@@ -5,11 +5,12 @@ front buffer out of SDRAM (paper, section 4 and Fig. 5: the engine's colors go t
 reads).
 
 SWAP as with the frame on chip: a toggle to the engine's clock; once the engine has been quiet for
-:data:`~board.frame.QUIET` clocks and the frame has no copy waiting to be shown, the tile is read out through the
+:data:`~board.cdc.QUIET` clocks and the frame has no copy waiting to be shown, the tile is read out through the
 depth test's read port (held for the whole copy, so no fragment is drawn into the tile meanwhile), each pixel
 narrowed to RGB565 and registered into a small FIFO feeding the copy's write bursts; the next copy waits for this
 one's last write response. The buffer shown changes between display frames (:class:`~board.sdram_frame.SdramFrame`).
-:class:`SdramBoardSim` is ``BoardSim`` with LiteDRAM's simulation core on the port.
+``board/sdram_sim.py`` (:class:`~board.sdram_sim.SdramBoardSim`) is ``BoardSim`` with LiteDRAM's simulation core on
+the port.
 """
 
 from __future__ import annotations
@@ -17,15 +18,16 @@ from __future__ import annotations
 from amaranth import Cat, DomainRenamer, Module, Signal
 from amaranth.lib import wiring
 from amaranth.lib.fifo import SyncFIFO
-from amaranth.lib.wiring import In, Out
+from amaranth.lib.wiring import Out
 
 from host.protocol import Cmd
 from rtl.rop import axi_signature
 
+from .cdc import QUIET, toggle_sync
 from .litedram import ADDR_BITS, DATA_BITS, ID_BITS
 from .sdram_frame import LATENCY, FrameLayout, SdramFrame
 
-__all__ = ["members", "elaborate_swap", "SdramBoardSim", "BURST", "COPY_FIFO"]
+__all__ = ["members", "elaborate_swap", "BURST", "COPY_FIFO"]
 
 #: Beats of the frame's bursts (128 bytes: a 128-pixel line is two).
 BURST = 64
@@ -41,7 +43,6 @@ def members() -> dict:
 
 def elaborate_swap(system, m: Module, link, eng, disp) -> None:
     """SWAP, the copy into SDRAM and the display's pixels (module docstring), into ``system``'s module ``m``."""
-    from .frame import QUIET, _toggle_sync
     P = system.params.rop
     pixels = P.width * P.height
     if disp.latency != LATENCY + 1:
@@ -58,7 +59,7 @@ def elaborate_swap(system, m: Module, link, eng, disp) -> None:
     swap_req = Signal()
     with m.If(link.done & (link.cmd == Cmd.SWAP)):
         m.d.sync += swap_req.eq(~swap_req)
-    swap_seen = _toggle_sync(m, "swap", swap_req, "engine")
+    swap_seen = toggle_sync(m, "swap", swap_req, "engine")
     quiet = Signal(range(QUIET + 1))
     with m.If(eng.i.valid | eng.busy | eng.rop_busy):
         m.d.engine += quiet.eq(0)
@@ -91,38 +92,6 @@ def elaborate_swap(system, m: Module, link, eng, disp) -> None:
     r, g, b = px[11:16], px[5:11], px[0:5]
     m.d.sync += [disp.r.eq(Cat(r[2:], r)), disp.g.eq(Cat(g[4:], g)), disp.b.eq(Cat(b[2:], b))]
     m.d.comb += system.words.eq(disp.words)
-
-
-class SdramBoardSim(wiring.Component):
-    """``BoardSim`` (``board/frame.py``) with the frame in SDRAM: the engine system's AXI port on LiteDRAM's
-    simulation core (:class:`~board.sdram_core.LiteDram`, its DRAM model inside) in the engine's clock, the core's
-    init sequence with a ``cke_delay``-clock power-up wait. Extra ports: ``underrun``, ``mem_error``,
-    ``dram_ready``."""
-
-    def __init__(self, params, timing, divisor: int, cke_delay: int = 200):
-        from .frame import EngineSystem
-        from .sdram_core import LiteDram
-        self._sys = EngineSystem(params, timing, divisor, frame="sdram")
-        self._dram = LiteDram(None, cke_delay)
-        super().__init__({"engine_clk": In(1), "engine_rst": In(1), "rx": In(1, init=1), "tx": Out(1, init=1),
-                          "words": Out(30), "error": Out(1), "good": Out(1), "overrun": Out(1), "front": Out(1),
-                          "status": Out(self._sys.status.shape()), "underrun": Out(1), "mem_error": Out(1),
-                          "dram_ready": Out(1)})
-
-    def elaborate(self, platform):
-        from amaranth import ClockDomain, ClockSignal, ResetSignal
-        m = Module()
-        m.domains.engine = ClockDomain("engine")
-        m.d.comb += [ClockSignal("engine").eq(self.engine_clk), ResetSignal("engine").eq(self.engine_rst)]
-        m.submodules.system = s = self._sys
-        d = self._dram
-        m.submodules.dram = DomainRenamer({"dram": "engine"})(d)
-        wiring.connect(m, s.mem, d.axi)
-        m.d.comb += [s.rx.eq(self.rx), self.tx.eq(s.tx), self.words.eq(s.words), self.error.eq(s.error),
-                     self.good.eq(s.good), self.overrun.eq(s.overrun), self.front.eq(s.front),
-                     self.status.eq(s.status), self.underrun.eq(s.underrun), self.mem_error.eq(s.mem_error),
-                     self.dram_ready.eq(d.ready)]
-        return m
 
 
 #: The generated core's declaration of the data pins: ``input`` although they are its ``TRELLIS_IO`` tristate

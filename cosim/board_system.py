@@ -83,7 +83,7 @@ def simulate(params, records, data: bytes, *, timing: VideoTiming = VGA_640x480,
                        + source_digest(("fxmodel", "rtl", "board", "host"))).hexdigest()[:12]
     t0 = time.perf_counter()
     if frame == "sdram":
-        from board.sdram_system import SdramBoardSim
+        from board.sdram_sim import SdramBoardSim
 
         from .sdram_frame import litedram_sources
         top, bdir, src = litedram_sources(sim, "board_sim_sdram", key, lambda: SdramBoardSim(params, timing, DIVISOR))

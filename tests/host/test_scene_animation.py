@@ -94,7 +94,7 @@ def test_send_sends_the_frames_in_turn(tmp_path):
     assert send.run(args) == 0
     from host.render import from_triangles, prepare
     scene = load_scene(scene_path("tin-plane"))
-    tf = from_triangles(prepare(scene, size=24))
+    tf = from_triangles(prepare(scene, size=24, preset=args.preset))      # send's preset (the board's by default)
     parsed = parse(out.read_bytes(), record_bytes(tf.params.raster.record))
     cmds = [c for c, _ in parsed.commands]
     n = scene.animation.frames

@@ -27,7 +27,7 @@ from fxmodel.core.paths import ROOT, SCENES
 from host.atomic import atomic_save_png, atomic_write_text
 from host.shipped import scene_preset
 
-__all__ = ["add_arguments", "run", "study_choices", "CHOSEN", "flicker", "measure_scene", "pan"]
+__all__ = ["add_arguments", "add_truth_options", "run", "study_choices", "CHOSEN", "flicker", "measure_scene", "pan"]
 
 #: Scenes of the study and of the flicker measure.
 STUDY_SCENES = ("grazing-floor", "tin-plane")
@@ -62,10 +62,20 @@ def study_choices() -> list:
     return rows
 
 
-def add_arguments(ap) -> None:
+def add_truth_options(ap, pan_degrees: str) -> None:
+    """The options ``bumpmap filtering`` and ``bumpmap mip`` share: the scenes, the samples of reference (c) and the
+    flicker pan (``pan_degrees`` ends the pan's help: what the default yaw is)."""
     ap.add_argument("--scenes", nargs="*", default=None, help="scene names in scenes/ (default: every shipped scene)")
     ap.add_argument("--samples", type=int, default=8, help="samples per pixel along each axis of reference (c) "
                     "(default: %(default)s)")
+    ap.add_argument("--pan-frames", type=int, default=8, help="frames of the flicker pan; 0: none "
+                    "(default: %(default)s)")
+    ap.add_argument("--pan-degrees", type=float, default=0.1, help="camera yaw per frame of the pan "
+                    f"(default: %(default)s, {pan_degrees})")
+
+
+def add_arguments(ap) -> None:
+    add_truth_options(ap, "about a fifth of a pixel")
     ap.add_argument("--check-samples", type=int, default=16, help="the convergence check of (c) on the study "
                     "scenes at this many samples per axis; 0: none (default: %(default)s)")
     ap.add_argument("--reference-samples", type=int, default=32, help="the sample-pattern study on the grazing "
@@ -73,10 +83,6 @@ def add_arguments(ap) -> None:
                     "at this many samples per axis; 0: none (default: %(default)s)")
     ap.add_argument("--size", type=int, default=None, help="render every scene at this width (aspect kept) "
                     "instead of its own size (quick runs)")
-    ap.add_argument("--pan-frames", type=int, default=8, help="frames of the flicker pan; 0: none "
-                    "(default: %(default)s)")
-    ap.add_argument("--pan-degrees", type=float, default=0.1, help="camera yaw per frame of the pan "
-                    "(default: %(default)s, about a fifth of a pixel)")
     ap.add_argument("--record", type=Path, default=ROOT / "docs" / "records" / "filtering.json",
                     help="JSON record to write (default: docs/records/filtering.json)")
     ap.add_argument("--picture", type=Path, default=ROOT / "docs" / "img" / "grazing-floor.png",

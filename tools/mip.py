@@ -26,19 +26,14 @@ __all__ = ["add_arguments", "run", "table", "mip_units", "lod_worst"]
 
 
 def add_arguments(ap) -> None:
-    ap.add_argument("--scenes", nargs="*", default=None, help="scene names in scenes/ (default: every shipped scene)")
-    ap.add_argument("--samples", type=int, default=8, help="samples per pixel along each axis of reference (c) "
-                    "(default: %(default)s)")
+    from tools.filtering import add_truth_options
+    add_truth_options(ap, "as bumpmap filtering")
     ap.add_argument("--levels", type=int, default=16, help="MIP levels, capped at the 1 x 1 level "
                     "(default: %(default)s)")
     ap.add_argument("--bias", type=int, default=-128, help="LOD bias, a code of 8 fraction bits "
                     "(default: %(default)s, -0.5 level)")
     ap.add_argument("--level-bits", type=int, default=8, help="bits of the blend between two levels "
                     "(default: %(default)s)")
-    ap.add_argument("--pan-frames", type=int, default=8, help="frames of the flicker pan over the grazing floor; 0: "
-                    "none (default: %(default)s)")
-    ap.add_argument("--pan-degrees", type=float, default=0.1, help="camera yaw per frame of the pan "
-                    "(default: %(default)s, as bumpmap filtering)")
     add_record_option(ap, "the rows")
 
 

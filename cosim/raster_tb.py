@@ -26,7 +26,7 @@ import cocotb
 from cocotb.triggers import FallingEdge, ReadOnly
 from tqdm import tqdm
 
-from cosim.tb_common import job_meta, start
+from cosim.tb_common import Source, job_meta, start
 
 
 @cocotb.test()
@@ -40,24 +40,20 @@ async def raster(dut):
         await FallingEdge(dut.clk)
     dut.rst.value = 0
     o_valid = dut.o__valid
-    frags, busy, k, offered, idle, cycles = [], 0, 0, False, 0, 0
+    src = Source.on(dut, records, rng, p_valid)
+    frags, busy, idle, cycles = [], 0, 0, 0
     first_busy = last_busy = None
     bar = tqdm(total=meta.get("expected", 0), desc=f"{dut._name} RTL", unit="px", mininterval=1.0,
                disable=os.environ.get("COSIM_PROGRESS", "0") == "0")
     while idle < meta.get("drain", 4):
         await FallingEdge(dut.clk)
         cycles += 1
-        assert cycles < meta["max_cycles"], f"no progress after {cycles} cycles ({len(frags)} fragments, {k} records)"
-        if k < len(records) and not offered:
-            offered = rng.random() < p_valid
-            if offered:
-                dut.i__payload.value = records[k]
-        dut.i__valid.value = int(offered)
+        assert cycles < meta["max_cycles"], \
+            f"no progress after {cycles} cycles ({len(frags)} fragments, {src.k} records)"
+        src.drive()
         dut.o__ready.value = int(rng.random() < p_ready)
         await ReadOnly()
-        if offered and int(dut.i__ready.value):
-            k += 1
-            offered = False
+        src.taken()
         if int(o_valid.value) and int(dut.o__ready.value):
             frags.append(format(int(dut.o__payload.value), "x"))
         if int(dut.busy.value):
@@ -66,8 +62,7 @@ async def raster(dut):
             last_busy = cycles
         if cycles % 4096 == 0:
             bar.update(len(frags) - bar.n)
-        done = k == len(records) and not offered
-        idle = idle + 1 if (done and not int(dut.busy.value) and not int(o_valid.value)) else 0
+        idle = idle + 1 if (src.done and not int(dut.busy.value) and not int(o_valid.value)) else 0
     bar.close()
     span = 0 if first_busy is None else last_busy - first_busy + 1
     Path(meta["out"]).write_text(json.dumps({"fragments": frags, "busy_cycles": busy, "cycles": cycles,

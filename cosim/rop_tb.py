@@ -20,7 +20,7 @@ from pathlib import Path
 import cocotb
 from cocotb.triggers import FallingEdge, ReadOnly
 
-from cosim.tb_common import axi_ram, job_meta, start
+from cosim.tb_common import Source, axi_ram, job_meta, start
 
 
 @cocotb.test()
@@ -42,26 +42,20 @@ async def rop(dut):
         await FallingEdge(dut.clk)
     dut.rst.value = 0
     busy = [dut.busy] + ([dut.rop_busy] if meta["on_chip"] and meta["engine"] else [])
-    k, offered, idle, cycles, reads, writes, accept_cycles = 0, False, 0, 0, 0, 0, 0
+    src = Source.on(dut, frags, rng, meta["p_valid"])
+    idle, cycles, reads, writes, accept_cycles = 0, 0, 0, 0, 0
     while idle < meta["drain"]:
         await FallingEdge(dut.clk)
         cycles += 1
-        assert cycles < meta["max_cycles"], f"no progress after {cycles} cycles ({k} of {len(frags)} fragments)"
-        if k < len(frags) and not offered:
-            offered = rng.random() < meta["p_valid"]
-            if offered:
-                dut.i__payload.value = frags[k]
-        dut.i__valid.value = int(offered)
+        assert cycles < meta["max_cycles"], f"no progress after {cycles} cycles ({src.k} of {len(frags)} fragments)"
+        src.drive()
         await ReadOnly()
-        if offered and int(dut.i__ready.value):
-            k += 1
-            offered = False
+        if src.taken():
             accept_cycles = cycles
         if not on_chip:
             reads += int(dut.mem__arvalid.value) & int(dut.mem__arready.value)
             writes += int(dut.mem__awvalid.value) & int(dut.mem__awready.value)
-        done = k == len(frags) and not offered
-        idle = idle + 1 if done and not any(int(b.value) for b in busy) else 0
+        idle = idle + 1 if src.done and not any(int(b.value) for b in busy) else 0
     status = int(dut.status.value)
     result = {"cycles": cycles, "accept_cycles": accept_cycles, "reads": reads, "writes": writes, "status": status}
     if on_chip:

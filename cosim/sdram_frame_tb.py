@@ -17,22 +17,17 @@ import numpy as np
 from cocotb.clock import Clock
 from cocotb.triggers import FallingEdge, ReadOnly
 
-from cosim.tb_common import job_meta, pauses
+from cosim.tb_common import Source, job_meta, pauses
 
 
 async def _feed(dut, frames, rng, p_valid, state):
     """Offer the frames' words on ``i`` (``dram`` clock), an offered word held until taken."""
-    words = [w for f in frames for w in f]
-    k, offered = 0, False
-    while k < len(words):
+    src = Source.on(dut, [w for f in frames for w in f], rng, p_valid)
+    while not src.done:
         await FallingEdge(dut.dram_clk)
-        if not offered:
-            offered = rng.random() < p_valid
-        dut.i__valid.value = int(offered)
-        dut.i__payload.value = words[k]
+        src.drive()
         await ReadOnly()
-        if offered and int(dut.i__ready.value):
-            k, offered = k + 1, False
+        src.taken()
     await FallingEdge(dut.dram_clk)
     dut.i__valid.value = 0
 

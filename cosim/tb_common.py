@@ -14,7 +14,7 @@ import cocotb
 from cocotb.clock import Clock
 from cocotb.triggers import FallingEdge, ReadOnly
 
-__all__ = ["job_meta", "pauses", "start", "axi_ram", "read_manager_walk"]
+__all__ = ["job_meta", "pauses", "start", "axi_ram", "Source", "read_manager_walk"]
 
 
 def job_meta(variable: str = "COSIM_JOB") -> tuple[Path, dict]:
@@ -57,6 +57,42 @@ def axi_ram(dut, base: int, image: bytes, seed: int, p_pause: float, write: bool
     return ram
 
 
+class Source:
+    """A stream source in a bench's clock loop: ``words`` offered on ``valid``/``payload`` with probability
+    ``p_valid`` a cycle (one draw of ``rng`` a cycle while a word waits to be offered), a word once offered held until
+    ``ready`` takes it (the stream rule). Call :meth:`drive` after the falling edge and :meth:`taken` in the
+    read-only phase that follows."""
+
+    def __init__(self, words, rng: random.Random, p_valid: float, valid, payload, ready):
+        self.words, self.rng, self.p_valid = list(words), rng, p_valid
+        self.valid, self.payload, self.ready = valid, payload, ready
+        self.k, self.offered = 0, False
+
+    def drive(self) -> None:
+        if self.k < len(self.words) and not self.offered:
+            self.offered = self.rng.random() < self.p_valid
+            if self.offered:
+                self.payload.value = self.words[self.k]
+        self.valid.value = int(self.offered)
+
+    def taken(self) -> bool:
+        """Whether the word offered this cycle was taken (then the next one waits)."""
+        if self.offered and int(self.ready.value):
+            self.k, self.offered = self.k + 1, False
+            return True
+        return False
+
+    @property
+    def done(self) -> bool:
+        """Every word taken."""
+        return self.k == len(self.words) and not self.offered
+
+    @classmethod
+    def on(cls, dut, words, rng: random.Random, p_valid: float, port: str = "i") -> Source:
+        """The source on the design's input stream ``port`` (``<port>__valid``, ``__payload``, ``__ready``)."""
+        return cls(words, rng, p_valid, *(getattr(dut, f"{port}__{s}") for s in ("valid", "payload", "ready")))
+
+
 async def read_manager_walk(dut, meta: dict, latency: int | None = None) -> None:
     """Drive a stream-in/stream-out AXI4 read manager (a texel cache, the texture fetch) from ``job.json``: requests
     offered with probability ``p_valid``, the sink ready with ``p_ready``, an ``AxiRam`` with wait states behind
@@ -74,22 +110,17 @@ async def read_manager_walk(dut, meta: dict, latency: int | None = None) -> None
     for _ in range(3):
         await FallingEdge(dut.clk)
     dut.rst.value = 0
-    k, offered, cycles, beats, ar, outputs = 0, False, 0, 0, [], []
+    src = Source.on(dut, reqs, rng, meta["p_valid"])
+    cycles, beats, ar, outputs = 0, 0, [], []
     wanted = meta.get("outputs", len(reqs))                 # the engine: fragments out of triangle records in
     while len(outputs) < wanted:
         await FallingEdge(dut.clk)
         cycles += 1
         assert cycles < meta["max_cycles"], f"no progress after {cycles} cycles ({len(outputs)} of {wanted})"
-        if k < len(reqs) and not offered:
-            offered = rng.random() < meta["p_valid"]
-            if offered:
-                dut.i__payload.value = reqs[k]
-        dut.i__valid.value = int(offered)
+        src.drive()
         dut.o__ready.value = int(rng.random() < meta["p_ready"])
         await ReadOnly()
-        if offered and int(dut.i__ready.value):
-            k += 1
-            offered = False
+        src.taken()
         if int(dut.o__valid.value) and int(dut.o__ready.value):
             outputs.append(format(int(dut.o__payload.value), "x"))
         if int(dut.mem__arvalid.value) and int(dut.mem__arready.value):

@@ -27,7 +27,7 @@ of this stage: the tile holds the whole frame; ``docs/board.md``). The picture's
 from __future__ import annotations
 
 import numpy as np
-from amaranth import Cat, Const, DomainRenamer, Module, Mux, Signal
+from amaranth import Cat, DomainRenamer, Module, Mux, Signal
 from amaranth.lib import memory, wiring
 from amaranth.lib.wiring import In, Out
 
@@ -137,19 +137,9 @@ class EngineSystem(wiring.Component):
         m.submodules.display = disp = self._display
         m.d.comb += [link.rx.eq(self.rx), self.tx.eq(link.tx), self.error.eq(link.error), self.good.eq(link.done),
                      self.status.eq(eng.status)]
-        if self.frame == "sdram":
-            from .sdram_system import elaborate_swap
-            self._record(m, link, eng, Const(0, 1))     # no FRAME_START clear on this path yet
-            elaborate_swap(self, m, link, eng, disp)
-            return m
-        # frame store: two buffers of RGB565, the buffer's index in the address's top bit
-        store = memory.Memory(shape=16, depth=2 * pixels, init=[])
-        m.submodules.store = store
-        wr = store.write_port(domain="engine")
-        rd = store.read_port(domain="sync")
-
-        # -- FRAME_START, SWAP: toggles to the engine's clock; the tile's clear and copy (TileCopy)
-        swap_req, start_req, shown = Signal(), Signal(), Signal()
+        # -- FRAME_START, SWAP: toggles to the engine's clock; the tile's clear and copy (TileCopy), whichever
+        # the frame store
+        swap_req, start_req = Signal(), Signal()
         with m.If(link.done & (link.cmd == Cmd.SWAP)):
             m.d.sync += swap_req.eq(~swap_req)
         with m.If(link.done & (link.cmd == Cmd.FRAME_START)):
@@ -159,8 +149,18 @@ class EngineSystem(wiring.Component):
         wiring.connect(m, tc.fb, eng.fb)
         m.d.comb += [tc.swap.eq(toggle_sync(m, "swap", swap_req, "engine")),
                      tc.start.eq(toggle_sync(m, "start", start_req, "engine")),
-                     tc.shown.eq(toggle_sync(m, "shown", shown, "engine")),
-                     tc.active.eq(eng.i.valid | eng.busy | eng.rop_busy),
+                     tc.active.eq(eng.i.valid | eng.busy | eng.rop_busy)]
+        if self.frame == "sdram":
+            from .sdram_system import elaborate_frame
+            elaborate_frame(self, m, tc, disp)
+            return m
+        # frame store: two buffers of RGB565, the buffer's index in the address's top bit
+        store = memory.Memory(shape=16, depth=2 * pixels, init=[])
+        m.submodules.store = store
+        wr = store.write_port(domain="engine")
+        rd = store.read_port(domain="sync")
+        shown = Signal()
+        m.d.comb += [tc.shown.eq(toggle_sync(m, "shown", shown, "engine")),
                      wr.addr.eq(tc.w_addr), wr.data.eq(tc.w_data), wr.en.eq(tc.w_en)]
         copied = tc.copied
         # -- display: the front buffer at the top left, black around it (three clocks: address, memory, the
@@ -226,7 +226,9 @@ class TileCopy(wiring.Component):
     the frame store (the buffer's index in the address's top bit); ``copied`` toggles when done, and no other copy
     starts before ``shown`` (a pulse: the display shows it). FRAME_START (``start``): ``stall`` rises (the engine
     takes no record) and, once quiet and no copy waiting, the tile is read out with ``fb.clear`` (every word to
-    the clear value, nothing written to the store); ``stall`` falls when the clear is done.
+    the clear value, nothing written to the store); ``stall`` falls when the clear is done. ``room`` (default high):
+    the copy's walk steps only while it is high (a FIFO behind the writes with room for the two words in flight;
+    the frame in SDRAM, ``board/sdram_system.py``); the clear's walk ignores it.
 
     Parameters
     ----------
@@ -241,7 +243,8 @@ class TileCopy(wiring.Component):
     def __init__(self, params, fb: wiring.Signature, quiet: int = QUIET):
         self.params, self.quiet = params, quiet
         pixels = params.pixels
-        super().__init__({"swap": In(1), "start": In(1), "shown": In(1), "active": In(1), "fb": In(fb),
+        super().__init__({"swap": In(1), "start": In(1), "shown": In(1), "active": In(1), "room": In(1, init=1),
+                          "fb": In(fb),
                           "w_en": Out(1), "w_addr": Out(range(2 * pixels)), "w_data": Out(16), "stall": Out(1),
                           "copied": Out(1)})
 
@@ -271,7 +274,7 @@ class TileCopy(wiring.Component):
         # die-wide routes (the engine's clock at a third of its target after placement)
         m.d.comb += [self.fb.read.eq(reading), self.fb.clear.eq(clearing), self.fb.addr.eq(addr[:len(self.fb.addr)]),
                      self.stall.eq(clear_want)]
-        m.d.sync += [wvalid.eq(reading & ~clearing & (addr < pixels)), waddr.eq(addr[:len(waddr)]),
+        m.d.sync += [wvalid.eq(reading & ~clearing & (addr < pixels) & self.room), waddr.eq(addr[:len(waddr)]),
                      self.w_en.eq(wvalid), self.w_addr.eq(Cat(waddr, back)), self.w_data.eq(word565)]
         ready = (quiet == self.quiet) & ~self.swap & ~self.start
         with m.FSM():
@@ -283,13 +286,14 @@ class TileCopy(wiring.Component):
                     m.d.sync += [addr.eq(0), reading.eq(1), clearing.eq(1)]     # the copy's walk, clearing
                     m.next = "walk"
             with m.State("walk"):
-                m.d.sync += addr.eq(addr + 1)
                 with m.If((addr == pixels) & clearing):
                     m.d.sync += [reading.eq(0), clearing.eq(0), clear_want.eq(0)]
                     m.next = "idle"
                 with m.Elif(addr == pixels):
                     m.d.sync += [reading.eq(0), self.copied.eq(~self.copied), back.eq(~back), waiting.eq(1)]
                     m.next = "idle"
+                with m.Elif(self.room | clearing):
+                    m.d.sync += addr.eq(addr + 1)
         return m
 
 

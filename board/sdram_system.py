@@ -4,30 +4,29 @@ back buffer in SDRAM (LiteDRAM's AXI4 port, in the engine's clock: the core runs
 front buffer out of SDRAM (paper, section 4 and Fig. 5: the engine's colors go to a frame buffer, which the display
 reads).
 
-SWAP as with the frame on chip: a toggle to the engine's clock; once the engine has been quiet for
-:data:`~board.cdc.QUIET` clocks and the frame has no copy waiting to be shown, the tile is read out through the
-depth test's read port (held for the whole copy, so no fragment is drawn into the tile meanwhile), each pixel
-narrowed to RGB565 and registered into a small FIFO feeding the copy's write bursts; the next copy waits for this
-one's last write response. The buffer shown changes between display frames (:class:`~board.sdram_frame.SdramFrame`).
+SWAP and FRAME_START as with the frame on chip, by the same :class:`~board.frame.TileCopy`: once the engine has
+been quiet for :data:`~board.cdc.QUIET` clocks and the frame has no copy waiting to be shown, the tile is read out
+through the depth test's read port (held for the whole copy, so no fragment is drawn into the tile meanwhile), each
+pixel narrowed to RGB565 and registered into a small FIFO feeding the copy's write bursts (the walk steps while the
+FIFO has room); the next copy waits for this one's last write response; FRAME_START clears the tile. The buffer
+shown changes between display frames (:class:`~board.sdram_frame.SdramFrame`).
 ``board/sdram_sim.py`` (:class:`~board.sdram_sim.SdramBoardSim`) is ``BoardSim`` with LiteDRAM's simulation core on
 the port.
 """
 
 from __future__ import annotations
 
-from amaranth import Cat, DomainRenamer, Module, Signal
+from amaranth import Cat, DomainRenamer, Module
 from amaranth.lib import wiring
 from amaranth.lib.fifo import SyncFIFO
 from amaranth.lib.wiring import Out
 
-from host.protocol import Cmd
 from rtl.rop import axi_signature
 
-from .cdc import QUIET, toggle_sync
 from .litedram import ADDR_BITS, DATA_BITS, ID_BITS
 from .sdram_frame import LATENCY, FrameLayout, SdramFrame
 
-__all__ = ["members", "elaborate_swap", "BURST", "COPY_FIFO"]
+__all__ = ["members", "elaborate_frame", "BURST", "COPY_FIFO"]
 
 #: Beats of the frame's bursts (128 bytes: a 128-pixel line is two).
 BURST = 64
@@ -41,51 +40,25 @@ def members() -> dict:
     return {"mem": Out(axi_signature(ADDR_BITS, DATA_BITS, ID_BITS)), "mem_error": Out(1), "underrun": Out(1)}
 
 
-def elaborate_swap(system, m: Module, link, eng, disp) -> None:
-    """SWAP, the copy into SDRAM and the display's pixels (module docstring), into ``system``'s module ``m``."""
+def elaborate_frame(system, m: Module, tc, disp) -> None:
+    """The frame in SDRAM (module docstring) into ``system``'s module ``m``: the tile copy ``tc``'s words into the
+    copy's FIFO and write bursts, the display's pixels from the front buffer."""
     P = system.params.rop
-    pixels = P.width * P.height
     if disp.latency != LATENCY + 1:
         raise AssertionError(f"the display's pixel latency must be {LATENCY + 1} (the frame's and a register)")
     frame = SdramFrame(FrameLayout(P.width, P.height, burst=min(BURST, 1 << (P.width - 1).bit_length())),
                        system.timing)
-    m.submodules.sdram_frame = DomainRenamer({"dram": "engine"})(frame)
-    f = frame
+    m.submodules.sdram_frame = f = DomainRenamer({"dram": "engine"})(frame)
     q = SyncFIFO(width=DATA_BITS, depth=COPY_FIFO)
     m.submodules.copy_fifo = DomainRenamer("engine")(q)
     wiring.connect(m, f.mem, wiring.flipped(system.mem))
+    # the copy steps while the FIFO has room for its word and the two in flight (the read's and the registered
+    # word's: TileCopy writes two clocks after a step), so a write never finds the FIFO full; the next copy waits
+    # for this one's last write response
     m.d.comb += [f.i.valid.eq(q.r_rdy), f.i.payload.eq(q.r_data), q.r_en.eq(f.i.ready),
+                 q.w_en.eq(tc.w_en), q.w_data.eq(tc.w_data), tc.room.eq(q.level < COPY_FIFO - 2),
+                 tc.shown.eq(f.copied),
                  system.mem_error.eq(f.error), system.underrun.eq(f.underrun), system.front.eq(f.front)]
-    swap_req = Signal()
-    with m.If(link.done & (link.cmd == Cmd.SWAP)):
-        m.d.sync += swap_req.eq(~swap_req)
-    swap_seen = toggle_sync(m, "swap", swap_req, "engine")
-    quiet = Signal(range(QUIET + 1))
-    with m.If(eng.i.valid | eng.busy | eng.rop_busy):
-        m.d.engine += quiet.eq(0)
-    with m.Elif(quiet != QUIET):
-        m.d.engine += quiet.eq(quiet + 1)
-    want, free = Signal(), Signal(init=1)               # a SWAP to serve; no copy in progress
-    with m.If(swap_seen):
-        m.d.engine += want.eq(1)
-    # the tile's read-out: the read port held for the whole copy, the address stepping while the FIFO has room
-    # for the words in flight (the read's and the registered word's)
-    addr = Signal(range(pixels + 1))
-    reading, d1, d2 = Signal(), Signal(), Signal()
-    step = reading & (addr != pixels) & (q.level + d1 + d2 < COPY_FIFO)
-    zb = P.z_fmt.width
-    data = eng.fb.data
-    word565 = Cat(data[zb + 19:zb + 24], data[zb + 10:zb + 16], data[zb + 3:zb + 8])
-    m.d.comb += [eng.fb.read.eq(reading), eng.fb.addr.eq(addr[:len(eng.fb.addr)]), q.w_en.eq(d2)]
-    m.d.engine += [d1.eq(step), d2.eq(d1), q.w_data.eq(word565)]
-    with m.If(step):
-        m.d.engine += addr.eq(addr + 1)
-    with m.If(f.copied):
-        m.d.engine += free.eq(1)
-    with m.If(want & free & ~reading & ~swap_seen & (quiet == QUIET)):
-        m.d.engine += [want.eq(0), free.eq(0), addr.eq(0), reading.eq(1)]
-    with m.If(reading & (addr == pixels) & ~d1):
-        m.d.engine += reading.eq(0)
     # the display: the frame's word (LATENCY clocks) expanded to bytes and registered
     m.d.comb += [f.x.eq(disp.x), f.y.eq(disp.y)]
     px = f.color

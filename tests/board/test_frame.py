@@ -59,12 +59,14 @@ def _fragments(P, rng, k, z_lo, z_hi):
                      *(rng.integers(0, 256, k) for _ in range(3)), rng.integers(0, 1 << P.flag_bits, k)], axis=1)
 
 
-def test_frame_start_clears_the_tile_and_swap_copies_it_in_rgb565():
+@pytest.mark.parametrize("gaps", [False, True], ids=["room", "gaps"])
+def test_frame_start_clears_the_tile_and_swap_copies_it_in_rgb565(gaps):
     """The tile's control (``TileCopy``) with the on-chip depth test (``rtl/rop.py``) and a frame store, in
     Amaranth's simulator: frame A drawn, SWAP copies it into the back buffer; FRAME_START stalls the input and
     clears the tile; frame B, all farther than A (without the clear most of it would fail the depth test), drawn
     and copied into the other buffer. Each buffer equals the model's frame (``fxmodel.units.rop.draw``) of its
-    fragments alone, through RGB565."""
+    fragments alone, through RGB565. ``gaps``: ``room`` (the SDRAM copy's FIFO) falls at random, half the clocks:
+    every word is still written once, at its address."""
     from amaranth import Module
     from amaranth.lib import memory, wiring
     from amaranth.sim import Simulator
@@ -107,7 +109,7 @@ def test_frame_start_clears_the_tile_and_swap_copies_it_in_rgb565():
         async def copy():
             before = ctx.get(tc.copied)
             await pulse(tc.swap)
-            for _ in range(10 * P.pixels):
+            for _ in range(20 * P.pixels):
                 await ctx.tick()
                 if ctx.get(tc.copied) != before:
                     break
@@ -128,11 +130,22 @@ def test_frame_start_clears_the_tile_and_swap_copies_it_in_rgb565():
         await copy()
         seen["store"] = [ctx.get(store.data[a]) for a in range(2 * P.pixels)]
 
+    async def room(ctx):
+        r = np.random.default_rng(9)
+        seen["writes"] = 0
+        while True:
+            if gaps:
+                ctx.set(tc.room, int(r.random() < 0.5))
+            await ctx.tick()
+            seen["writes"] += ctx.get(tc.w_en)
+
     sim = Simulator(m)
     sim.add_clock(1e-8)
     sim.add_testbench(bench)
+    sim.add_testbench(room, background=True)
     sim.run()
     assert seen["stall"] and seen["cleared"]
+    assert seen["writes"] == 2 * P.pixels                            # each word of each copy written once
     store_words = np.array(seen["store"])
     assert np.array_equal(store_words[P.pixels:], want[0])          # the back buffer first (index 1): frame A
     assert np.array_equal(store_words[:P.pixels], want[1])          # then buffer 0: frame B on the cleared tile

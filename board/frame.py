@@ -35,6 +35,7 @@ from host.protocol import Cmd
 from rtl.fixed import const_mul
 
 from .cdc import QUIET, toggle_sync
+from .upload import UploadWriter
 
 __all__ = ["rgb565", "expand565", "display_frame", "board_engine", "EngineSystem", "BoardSim", "QUIET",
            "BOARD_PRESET", "TileCopy"]
@@ -95,14 +96,21 @@ class EngineSystem(wiring.Component):
     timing : VideoTiming
     divisor : int
         Pixel clocks a UART bit.
+    frame : str
+        The frame store: ``chip`` (block RAM) or ``sdram`` (``board/sdram_system.py``).
+    blank : bool
+        The texel memories start at zero instead of holding the scene's tables: an upload must fill them
+        (TEXTURE and CUBE frames, ``board/upload.py``, write them either way).
 
     Ports: ``rx``, ``tx`` (the UART), ``words`` (the three TMDS lanes' 10-bit words, lane 0 low), ``error`` (the
-    link's sticky error), ``good`` (a pulse per good frame), ``overrun`` (sticky: a record arrived while the
+    link's sticky error), ``upload_bad`` (sticky: an upload's word named no map or lay beyond its map, not
+    written), ``good`` (a pulse per good frame), ``overrun`` (sticky: a record arrived while the
     last was held), ``front`` (the buffer shown), ``status`` (the depth test's sticky flags, ``engine``).
     """
 
-    def __init__(self, params, timing, divisor: int, frame: str = "chip"):
+    def __init__(self, params, timing, divisor: int, frame: str = "chip", blank: bool = False):
         from rtl.engine import Engine
+        from rtl.sampler import TexelWrites
 
         from .command import CommandLink
         from .dvi import Display
@@ -116,11 +124,12 @@ class EngineSystem(wiring.Component):
         self.params, self.timing, self.divisor, self.frame = params, timing, divisor, frame
         self.record_bits = sum(p.fmt.width for p in params.raster.record)
         self.record_len = -(-self.record_bits // 8)
-        self._engine = Engine(params)
+        self._writes = TexelWrites(params.pipeline, blank)
+        self._engine = Engine(params, self._writes)
         self._link = CommandLink(divisor, self.record_len)
         self._display = Display(timing, latency=3)
         self._copy = TileCopy(params.rop, self._engine.fb.signature)
-        ports = {"rx": In(1, init=1), "tx": Out(1, init=1), "words": Out(30), "error": Out(1),
+        ports = {"rx": In(1, init=1), "tx": Out(1, init=1), "words": Out(30), "error": Out(1), "upload_bad": Out(1),
                  "good": Out(1), "overrun": Out(1), "front": Out(1), "status": Out(self._engine.status.shape())}
         if frame == "sdram":                    # the frame in SDRAM: its AXI4 port and flags (board/sdram_system.py)
             from .sdram_system import members
@@ -137,6 +146,10 @@ class EngineSystem(wiring.Component):
         m.submodules.display = disp = self._display
         m.d.comb += [link.rx.eq(self.rx), self.tx.eq(link.tx), self.error.eq(link.error), self.good.eq(link.done),
                      self.status.eq(eng.status)]
+        # -- TEXTURE, CUBE: each word into its texel memory, in the engine's clock (board/upload.py)
+        m.submodules.upload = up = UploadWriter(self.params.pipeline, self._writes)
+        m.d.comb += [up.cmd.eq(link.cmd), up.index.eq(link.index), up.data.eq(link.data),
+                     up.data_valid.eq(link.data_valid), self.upload_bad.eq(up.bad)]
         # -- FRAME_START, SWAP: toggles to the engine's clock; the tile's clear and copy (TileCopy), whichever
         # the frame store
         swap_req, start_req = Signal(), Signal()

@@ -2,9 +2,9 @@
 25 MHz pixel clock, the engine's clock ``ENGINE_HZ``), the UART command link on the FTDI pins, the engine drawing
 into its on-chip tile and the display scanning the double-buffered frame store out as DVI on the HDMI connector
 (640 x 480 at 59.5 Hz; ``board/frame.py``). LEDs: 0 the link's error state, 1 a toggle per good frame, 2 a
-record overrun, 3 the buffer shown. Without an engine (``Top(None)``, ``--no-engine``) the first stage: the
-display's test picture and the link. ``frame="sdram"`` (``--frame sdram``): the frame in SDRAM behind LiteDRAM's
-core (``board/sdram_system.py``).
+record overrun, 3 the buffer shown, 7 an upload's word not written. Without an engine (``Top(None)``,
+``--no-engine``) the first stage: the display's test picture and the link. ``frame="sdram"`` (``--frame
+sdram``): the frame in SDRAM behind LiteDRAM's core (``board/sdram_system.py``).
 
 ``bumpmap bitstream --out build/bitstream/ulx3s`` (``make bitstream BOARD=ulx3s``) runs the open flow through the
 platform (YoWASP's Yosys, nextpnr-ecp5 and ecppack) and writes ``report.json`` there: Fmax per clock domain against
@@ -112,16 +112,17 @@ class Top(Elaboratable):
 
 
 def _wire_system(m: Module, platform, system) -> None:
-    """The engine system's UART on the FTDI pins (``uart_tx_enable`` high) and its flags on LEDs 0-3."""
+    """The engine system's UART on the FTDI pins (``uart_tx_enable`` high) and its flags on LEDs 0-3 and 7 (an
+    upload's word not written)."""
     uart = platform.request("uart", 0, dir="-")
     bufs = {"rx": io.Buffer("i", uart.rx), "tx": io.Buffer("o", uart.tx),
             "tx_en": io.Buffer("o", platform.request("uart_tx_enable", 0, dir="-"))}
-    bufs |= {f"led{k}": io.Buffer("o", platform.request("led", k, dir="-")) for k in range(4)}
+    bufs |= {f"led{k}": io.Buffer("o", platform.request("led", k, dir="-")) for k in (0, 1, 2, 3, 7)}
     for name, buf in bufs.items():
         m.submodules[name] = buf
     m.d.comb += [system.rx.eq(bufs["rx"].i), bufs["tx"].o.eq(system.tx), bufs["tx_en"].o.eq(1),
                  bufs["led0"].o.eq(system.error), bufs["led2"].o.eq(system.overrun),
-                 bufs["led3"].o.eq(system.front)]
+                 bufs["led3"].o.eq(system.front), bufs["led7"].o.eq(system.upload_bad)]
     with m.If(system.good):
         m.d.sync += bufs["led1"].o.eq(~bufs["led1"].o)
 

@@ -173,11 +173,11 @@ def parse(data: bytes, record_len: int) -> Parsed:
 def scene_frames(pipeline, raster_ports, records) -> list[bytes]:
     """The frames that draw one prepared frame on the board: the four texel memories of ``pipeline`` (a
     :class:`~fxmodel.pipeline.pixel.PipelineParams`: bump map and texture by TEXTURE, the diffuse and specular cubes
-    by CUBE, each memory's words in texel order), FRAME_START, one TRIANGLE per record (codes ``(T, fields)`` in
-    ``raster_ports`` order), SWAP."""
+    by CUBE, each map's words in the order its memories hold them, ``SamplerParams.upload_words``), FRAME_START,
+    one TRIANGLE per record (codes ``(T, fields)`` in ``raster_ports`` order), SWAP."""
     out = []
     for cmd, names in MEMORIES.items():
         for mem, name in enumerate(names):
             sampler = getattr(pipeline, name)
-            out += upload_frames(cmd, mem, sampler.words, sampler.word_bits)
+            out += upload_frames(cmd, mem, sampler.upload_words, sampler.word_bits)
     return out + [frame(Cmd.FRAME_START)] + triangle_frames(raster_ports, records) + [frame(Cmd.SWAP)]

@@ -12,6 +12,7 @@ from amaranth.lib.wiring import In, Out
 from fxmodel.pipeline.engine import EngineParams
 
 from .fixed import shape
+from .pixel import Pipeline
 from .raster import Raster, record_layout
 from .streams import StreamUnit, payload_layout
 from .unit import register
@@ -40,10 +41,15 @@ class Engine(wiring.Component):
     buffer; ports ``axi`` (its AXI4 manager port) or ``fb`` (its read-out, on chip), ``status`` (its sticky
     flags) and ``rop_busy`` (a fragment in the ROP not yet finished; fragments inside the pixel pipeline are not
     counted: wait its ``latency`` after the last one left the scan converter).
+
+    ``writes`` (:class:`rtl.sampler.TexelWrites`, optional): the texel memories' write bus, driven by the design
+    around the engine (the board's uploads); its signals are shared, not ports.
     """
 
-    def __init__(self, params: EngineParams):
-        self.params = params
+    def __init__(self, params: EngineParams, writes=None):
+        self.params, self.writes = params, writes
+        if writes is not None and params.textures is not None:
+            raise ValueError("writes: the texel memories' write bus is for maps on chip (EngineParams.textures unset)")
         members = {"i": In(stream.Signature(record_layout(params.raster))), "busy": Out(1)}
         if params.textures is not None:
             from .pixel_fetch import FetchPipeline
@@ -75,7 +81,8 @@ class Engine(wiring.Component):
         side = self._side_layout(P)
         m.submodules.raster = ras = Raster(P.raster)
         if P.textures is None:
-            m.submodules.pipeline = pix = StreamUnit(P.pipeline, side)
+            unit = None if self.writes is None else Pipeline(P.pipeline, self.writes)
+            m.submodules.pipeline = pix = StreamUnit(P.pipeline, side, unit)
         else:                                               # the maps through the texture fetch, port ``tex``
             m.submodules.pipeline = pix = self._pixel
             wiring.connect(m, wiring.flipped(self.tex), pix.mem)

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from amaranth.hdl import Cat, Module
 
-from fxmodel.pipeline.pixel import FLAG_BITS, LOD_INPUTS, PipelineParams
+from fxmodel.pipeline.pixel import FLAG_BITS, LOD_INPUTS, TEXEL_MAPS, PipelineParams
 
 from .unit import Pipe, UnitComponent, build, register
 
@@ -40,6 +40,10 @@ class Pipeline(UnitComponent):
     Latency: ``params.latency`` (``stage_latency['out']``).
     """
 
+    def __init__(self, params: PipelineParams, writes=None):
+        self.writes = writes                        # rtl.sampler.TexelWrites: the board's uploads, or None
+        super().__init__(params)
+
     def elaborate(self, platform):
         P = self.params
         T = P.stage_latency
@@ -47,6 +51,9 @@ class Pipeline(UnitComponent):
         pipe = Pipe(m)
 
         def unit(name, params, valid, **inputs):
+            if self.writes is not None and name in TEXEL_MAPS:
+                from .sampler import Sampler
+                return add_unit(m, name, params, valid, comp=Sampler(params, self.writes.port(name)), **inputs)
             return add_unit(m, name, params, valid, **inputs)
 
         def late(value, now, when, name):
@@ -72,10 +79,10 @@ class Pipeline(UnitComponent):
         return m
 
 
-def add_unit(m: Module, name: str, params, valid, **inputs):
-    """The unit built from ``params`` as submodule ``name`` of ``m``, its ``i_valid`` and input ports driven by
-    ``valid`` and ``inputs`` (port name to value); returns the component."""
-    comp = build(params)
+def add_unit(m: Module, name: str, params, valid, comp=None, **inputs):
+    """The unit built from ``params`` (or the component ``comp`` built from it) as submodule ``name`` of ``m``, its
+    ``i_valid`` and input ports driven by ``valid`` and ``inputs`` (port name to value); returns the component."""
+    comp = build(params) if comp is None else comp
     setattr(m.submodules, name, comp)
     m.d.comb += comp.i_valid.eq(valid)
     for port, value in inputs.items():

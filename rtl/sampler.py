@@ -11,17 +11,51 @@ clock (``rtl/sampler_mip.py``).
 
 from __future__ import annotations
 
-from amaranth.hdl import Const, Module, Mux
+from dataclasses import dataclass
+
+from amaranth.hdl import Const, Module, Mux, Signal, Value
 from amaranth.lib.memory import Memory
 
 from fxmodel.core.rounding import Overflow, Rounding
+from fxmodel.pipeline.pixel import TEXEL_MAPS
 from fxmodel.units.sampler import SamplerParams
 
 from .fixed import const_mul, narrow
 from .recip import product_stage
 from .unit import Pipe, UnitComponent, register
 
-__all__ = ["Sampler", "texel_stages"]
+__all__ = ["Sampler", "TexelPort", "TexelWrites", "texel_stages"]
+
+
+@dataclass(frozen=True)
+class TexelPort:
+    """One sampler's view of the texel memories' write bus: ``en`` (this map selected), ``addr`` (the word's index
+    in :attr:`~fxmodel.units.sampler.SamplerParams.upload_words`), ``data``; ``blank``: the memories start at zero
+    instead of the scene's tables (an upload must fill them)."""
+
+    en: Value
+    addr: Value
+    data: Value
+    blank: bool
+
+
+class TexelWrites:
+    """The texel memories' write bus of a pixel pipeline (the board's uploads, ``board/upload.py``): ``en`` (a word
+    this clock), ``sel`` (the map, its index in :data:`~fxmodel.pipeline.pixel.TEXEL_MAPS`), ``addr`` and ``data``
+    (wide enough for every map's). Plain signals, shared by the design that drives them and the samplers that
+    write (``rtl.pixel.Pipeline(..., writes=)``); no port of the units in between changes."""
+
+    def __init__(self, pipeline, blank: bool = False):
+        maps = [getattr(pipeline, name) for name in TEXEL_MAPS]
+        self.blank = blank
+        self.en = Signal(name="tw_en")
+        self.sel = Signal(range(len(TEXEL_MAPS)), name="tw_sel")
+        self.addr = Signal(range(max(2, *(len(s.upload_words) for s in maps))), name="tw_addr")
+        self.data = Signal(max(s.word_bits for s in maps), name="tw_data")
+
+    def port(self, name: str) -> TexelPort:
+        """The bus as the sampler ``name`` sees it."""
+        return TexelPort(self.en & (self.sel == TEXEL_MAPS.index(name)), self.addr, self.data, self.blank)
 
 
 def texel_stages(params: SamplerParams) -> int:
@@ -59,6 +93,12 @@ class Sampler(UnitComponent):
     routing to and from them costs about 4 ns each way; ``bumpmap fpga``). Constant products (map sizes)
     are shift-and-add (:func:`~rtl.fixed.const_mul`), not multiplier blocks.
     """
+
+    def __init__(self, params: SamplerParams, writes: TexelPort | None = None):
+        if writes is not None and params.trilinear:
+            raise ValueError("writes: uploads into a trilinear sampler's level memories are not built")
+        self.writes = writes
+        super().__init__(params)
 
     def elaborate(self, platform):
         m = Module()
@@ -154,14 +194,18 @@ class Sampler(UnitComponent):
         routing in this stage), then each corner's word from the bank of its parities (a 4:1 multiplexer).
         Returns ``(corner words, the stage holding the weights as the texels arrive)``."""
         P = self.params
-        data = []
+        data, mems = [], []
+        blank = self.writes is not None and self.writes.blank
         for k, (init, ports) in enumerate(memories):
-            mem = Memory(shape=P.word_bits, depth=len(init), init=init)
+            mem = Memory(shape=P.word_bits, depth=len(init), init=[] if blank else init)
             m.submodules[f"texels{k}" if P.banked else "texels"] = mem
+            mems.append(mem)
             for a in ports:
                 port = mem.read_port(domain="sync")
                 m.d.comb += port.addr.eq(getattr(s3, a))
                 data.append(port.data)
+        if self.writes is not None:
+            self._writes(m, mems)
         s4 = pipe.stage(**{k: getattr(s3, k) for k in (*weights, *parity)})
         if not P.banked:
             return data, s4
@@ -174,6 +218,22 @@ class Sampler(UnitComponent):
         s6 = pipe.stage(fx=s5.fx, fy=s5.fy, **{f"w{k}": bank(getattr(s5, f"p_{xi}"), getattr(s5, f"p_{yi}"))
                                                for k, (xi, yi) in enumerate(corners)})
         return [getattr(s6, f"w{k}") for k in range(4)], s6
+
+    def _writes(self, m, mems):
+        """The uploads (``self.writes``): word ``addr`` of :attr:`SamplerParams.upload_words` goes to the memory
+        whose bounds hold it, at ``addr`` less the memory's first index (a compare and a subtraction, registered
+        before the write port; the bus is slow, so the write's clock does not matter to the pixels)."""
+        P, w = self.params, self.writes
+        data = Signal(P.word_bits, name="up_data")
+        m.d.sync += data.eq(w.data[:P.word_bits])
+        first = 0
+        for k, (mem, words) in enumerate(zip(mems, P.memory_words)):
+            en, addr = Signal(name=f"up_en{k}"), Signal(range(max(2, len(words))), name=f"up_addr{k}")
+            m.d.sync += [en.eq(w.en & (w.addr >= first) & (w.addr < first + len(words))),
+                         addr.eq((w.addr - first)[:len(addr)])]
+            port = mem.write_port(domain="sync")
+            m.d.comb += [port.en.eq(en), port.addr.eq(addr), port.data.eq(data)]
+            first += len(words)
 
     def _channel(self, word, k: int):
         """Channel ``k``'s field of a texel word (signed if its format is)."""

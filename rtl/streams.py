@@ -73,15 +73,15 @@ def output_layout(params, side=None) -> data.StructLayout:
 class _Core(wiring.Component):
     """The flat unit and the sideband's delay line."""
 
-    def __init__(self, params, side):
-        self.params, self.side = params, side
+    def __init__(self, params, side, unit=None):
+        self.params, self.side, self.unit = params, side, unit
         members = {"i_valid": In(1), "i_payload": In(input_layout(params, side)),
                    "o_valid": Out(1), "o_payload": Out(output_layout(params, side))}
         super().__init__(members)
 
     def elaborate(self, platform):
         m = Module()
-        m.submodules.unit = unit = build(self.params)
+        m.submodules.unit = unit = build(self.params) if self.unit is None else self.unit
         m.d.comb += unit.i_valid.eq(self.i_valid)
         for p in self.params.inputs:
             m.d.comb += getattr(unit, p.name).eq(getattr(self.i_payload, p.name))
@@ -103,6 +103,9 @@ class StreamUnit(wiring.Component):
         The unit's parameter object (``rtl.build(params)`` is the flat pipeline inside).
     side : ShapeLike, optional
         Sideband layout carried from ``i.payload.side`` to ``o.payload.side`` with the unit's latency.
+    unit : UnitComponent, optional
+        The flat unit to wrap, built from ``params`` (default ``rtl.build(params)``; the pipeline with its texel
+        memories' write bus, ``rtl.pixel.Pipeline(params, writes)``).
 
     Ports
     -----
@@ -118,14 +121,14 @@ class StreamUnit(wiring.Component):
     ``o__payload``.
     """
 
-    def __init__(self, params, side=None):
-        self.params, self.side = params, side
+    def __init__(self, params, side=None, unit=None):
+        self.params, self.side, self.unit = params, side, unit
         super().__init__({"i": In(stream.Signature(input_layout(params, side))),
                           "o": Out(stream.Signature(output_layout(params, side)))})
 
     def elaborate(self, platform):
         m = Module()
-        m.submodules.core = core = _Core(self.params, self.side)
+        m.submodules.core = core = _Core(self.params, self.side, self.unit)
         depth = buffer_depth(self.params)
         lay = output_layout(self.params, self.side)
         m.submodules.fifo = fifo = SyncFIFO(width=lay.size, depth=depth)

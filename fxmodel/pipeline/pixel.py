@@ -48,13 +48,16 @@ from fxmodel.units.sampler import SamplerParams, Texels, mip_texels
 from fxmodel.units.shade import ShadeParams
 from fxmodel.units.shapes import repr_without_defaults
 
-__all__ = ["PipelineParams", "FLAG_BITS", "LOD_INPUTS", "lod_slopes"]
+__all__ = ["PipelineParams", "FLAG_BITS", "LOD_INPUTS", "TEXEL_MAPS", "lod_slopes"]
 
 FLAG_BITS = {"bump_saturated": 0, "shade_saturated": 1, "degenerate": 2, "w_zero": 3}
 
 #: The fragment inputs the LOD unit adds (the triangle's increments), in the order of
 #: :meth:`fxmodel.units.lod.LodParams.compute` after ``U, V, W``.
 LOD_INPUTS = ("Ucx", "Ucy", "Vcx", "Vcy", "Wx", "Wy")
+#: The samplers whose texel memories a board uploads into (``host.protocol.MEMORIES``), by their index on the
+#: texel memories' write bus (``rtl.sampler.TexelWrites``).
+TEXEL_MAPS = ("bump_map", "texture", "diffuse", "specular")
 
 #: Formats of the increments with MIP mapping: the LOD unit's fraction bits, and integer bits for a frame of 64
 #: pixels (a triangle's per-pixel steps of ``Uc, Vc, W`` grow as the frame shrinks; the grazing floor at 128 pixels

@@ -337,6 +337,24 @@ class SamplerParams(Unit):
         padded[:, :h, :w] = self.texels.codes
         return [self._pack(padded[:, py::2, px::2]) for py in (0, 1) for px in (0, 1)]
 
+    @cached_property
+    def memory_words(self) -> tuple:
+        """The words of each texel memory the RTL instantiates, in its order: the even and the odd MIP levels
+        (trilinear), the four banks (:attr:`banked`), or the one memory. An upload writes them one after the other
+        (:attr:`upload_words`)."""
+        if self.trilinear:
+            return tuple(self.parity_words)
+        if self.banked:
+            return tuple(self.bank_words)
+        return (self.words,)
+
+    @property
+    def upload_words(self) -> list:
+        """The words the board's upload of this map writes (``host.protocol.scene_frames``): the memories of
+        :attr:`memory_words` one after the other, so the board finds a word's memory and address by comparing its
+        index with the memories' bounds (no division by a map's width)."""
+        return [w for mem in self.memory_words for w in mem]
+
     def memories(self) -> tuple:
         """The physical texel memories the RTL instantiates (:class:`fxmodel.core.cost.Memory`): four banks of one
         read port when :attr:`banked`, else one memory with a read port per corner; trilinear: the even levels and

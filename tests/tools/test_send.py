@@ -41,7 +41,7 @@ def test_dry_run_bytes_are_the_scene_setup(tmp_path, capsys):
             wb = (s.word_bits + 7) // 8
             chunks = [p for c, p in parsed.commands if c == cmd and p[0] == mem]
             words = [int.from_bytes(p[5 + k:5 + k + wb], "little") for p in chunks for k in range(0, len(p) - 5, wb)]
-            assert words == s.words, name
+            assert words == s.upload_words, name
 
 
 def test_bad_arguments_exit_2(tmp_path, capsys):

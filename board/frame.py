@@ -313,13 +313,13 @@ class TileCopy(wiring.Component):
 class BoardSim(wiring.Component):
     """:class:`EngineSystem` with its two clocks as ports, for simulation (no I/O primitives, no PLL, no
     serializer: the display's encoded words are the output): ``clk``/``rst`` of the top are the pixel clock's,
-    ``engine_clk``/``engine_rst`` the engine's."""
+    ``engine_clk``/``engine_rst`` the engine's. ``blank``: the texel memories start at zero (uploads fill them)."""
 
-    def __init__(self, params, timing, divisor: int):
-        self._sys = EngineSystem(params, timing, divisor)
+    def __init__(self, params, timing, divisor: int, blank: bool = False):
+        self._sys = EngineSystem(params, timing, divisor, blank=blank)
         super().__init__({"engine_clk": In(1), "engine_rst": In(1), "rx": In(1, init=1), "tx": Out(1, init=1),
                           "words": Out(30), "error": Out(1), "good": Out(1), "overrun": Out(1), "front": Out(1),
-                          "status": Out(self._sys.status.shape())})
+                          "upload_bad": Out(1), "status": Out(self._sys.status.shape())})
 
     def elaborate(self, platform):
         from amaranth import ClockDomain, ClockSignal, ResetSignal
@@ -328,6 +328,7 @@ class BoardSim(wiring.Component):
         m.d.comb += [ClockSignal("engine").eq(self.engine_clk), ResetSignal("engine").eq(self.engine_rst)]
         m.submodules.system = s = self._sys
         m.d.comb += [s.rx.eq(self.rx), self.tx.eq(s.tx), self.words.eq(s.words), self.error.eq(s.error),
+                     self.upload_bad.eq(s.upload_bad),
                      self.good.eq(s.good), self.overrun.eq(s.overrun), self.front.eq(s.front),
                      self.status.eq(s.status)]
         return m

@@ -6,10 +6,12 @@ section 3.2) into the picture, compared on every pixel with the model's (the eng
 <fxmodel.pipeline.engine.EngineParams.draw>`, through the display's color format: :func:`board.frame.display_frame`),
 and the video timing measured from the decoded syncs (``cosim.board_dvi.measure``).
 
-The upload frames (TEXTURE, CUBE) are left out of the simulated stream: this stage's RTL holds the texel memories
-built from the scene's tables (as ``make sim`` does), and the uploads are nearly all of the bytes (hours
-of simulation at the board's 1 MBd). The clocks: the board's 25 MHz pixel clock (UART at
-1 MBd, 25 clocks a bit) and the engine at 100 MHz.
+The upload frames (TEXTURE, CUBE) are left out of the simulated stream by default: the RTL's texel memories hold
+the scene's tables (as ``make sim`` does), and the uploads are nearly all of the bytes (most of a second of the
+board's time at 1 MBd). With ``uploads`` they are sent, into texel memories that start at zero
+(``BoardSim(blank=True)``), with the UART at :data:`UPLOAD_DIVISOR` pixel clocks a bit, so the picture shows that
+every word reached its memory. The clocks: the board's 25 MHz pixel clock (UART at 1 MBd, 25 clocks a bit) and
+the engine at 100 MHz.
 """
 
 from __future__ import annotations
@@ -34,6 +36,8 @@ __all__ = ["simulate", "split_frames", "decode_words", "PIXEL_NS", "ENGINE_NS", 
 
 #: The pixel clock (25 MHz, the board's), the engine's (100 MHz), pixel clocks a UART bit (1 MBd).
 PIXEL_NS, ENGINE_NS, DIVISOR = 40, 10, 25
+#: Pixel clocks a UART bit when the uploads are simulated (6.25 MBd: the receiver samples each bit's middle).
+UPLOAD_DIVISOR = 4
 
 
 def split_frames(data: bytes) -> list[bytes]:
@@ -69,30 +73,34 @@ def decode_words(words: np.ndarray) -> np.ndarray:
 
 
 def simulate(params, records, data: bytes, *, timing: VideoTiming = VGA_640x480, sim: str | None = None,
-             frame: str = "chip") -> dict:
+             frame: str = "chip", uploads: bool = False) -> dict:
     """Simulate the board drawing ``records`` (codes) from the byte stream ``data``; the report (``pix`` the
     decoded clocks, ``picture`` the decoded frame, ``want`` the model's). ``frame="sdram"``: the frame in SDRAM
-    behind LiteDRAM's simulation core (``board/sdram_system.py``)."""
+    behind LiteDRAM's simulation core (``board/sdram_system.py``). ``uploads``: the TEXTURE and CUBE frames sent
+    into blank texel memories (module docstring; the frame on chip)."""
     sim = simulator(sim)
+    if uploads and frame != "chip":
+        raise ValueError("uploads: simulated with the frame on chip only")
     frames = split_frames(data)
-    kept = [f for f in frames if f[1] not in (Cmd.TEXTURE, Cmd.CUBE)]
+    kept = frames if uploads else [f for f in frames if f[1] not in (Cmd.TEXTURE, Cmd.CUBE)]
     stream = b"".join(kept)
+    divisor = UPLOAD_DIVISOR if uploads else DIVISOR
     _, color, _, _, _ = params.draw(records)
     want = display_frame(color, timing.h_active, timing.v_active)
-    key = hashlib.sha1(repr((params, timing, DIVISOR)).encode()
+    key = hashlib.sha1(repr((params, timing, divisor, uploads)).encode()
                        + source_digest(("fxmodel", "rtl", "board", "host"))).hexdigest()[:12]
     t0 = time.perf_counter()
     if frame == "sdram":
         from board.sdram_sim import SdramBoardSim
 
         from .sdram_frame import litedram_sources
-        top, bdir, src = litedram_sources(sim, "board_sim_sdram", key, lambda: SdramBoardSim(params, timing, DIVISOR))
+        top, bdir, src = litedram_sources(sim, "board_sim_sdram", key, lambda: SdramBoardSim(params, timing, divisor))
     else:
-        top, bdir, src = component_build("board_sim", key, sim, lambda: BoardSim(params, timing, DIVISOR))
+        top, bdir, src = component_build("board_sim", key, sim, lambda: BoardSim(params, timing, divisor, uploads))
     verilog_seconds = time.perf_counter() - t0
     clocks = (timing.v_total - timing.v_active + timing.v_total + 2) * timing.h_total
     frame_ns = timing.frame_clocks * PIXEL_NS
-    meta = {"data": stream.hex(), "pixel_ns": PIXEL_NS, "engine_ns": ENGINE_NS, "divisor": DIVISOR,
+    meta = {"data": stream.hex(), "pixel_ns": PIXEL_NS, "engine_ns": ENGINE_NS, "divisor": divisor,
             "clocks": clocks, "timeout_ns": 3 * frame_ns}
     job = job_folder(bdir, "system", {"data": hashlib.sha1(stream).hexdigest(), "clocks": clocks})
     out, build_seconds, seconds = run_testbench(sim, src, top, bdir, job, "cosim.board_system_tb", meta,
@@ -105,6 +113,7 @@ def simulate(params, records, data: bytes, *, timing: VideoTiming = VGA_640x480,
            "bytes_sent": len(stream), "bytes_left_out": len(data) - len(stream),
            "replies": res["replies"], "acks_ok": bytes.fromhex(res["replies"]) == bytes(len(kept)),
            "error": res["error"], "overrun": res["overrun"], "rop_status": res["status"], "shown": shown,
+           "uploads": uploads, "upload_bad": res.get("upload_bad"),
            "frame": frame, "underrun": res.get("underrun"), "mem_error": res.get("mem_error"),
            "sim_ms": {"uart_done": res["sent_ns"] / 1e6, "shown": res["shown_ns"] / 1e6, "end": res["end_ns"] / 1e6},
            "verilog_seconds": round(verilog_seconds, 1), "build_seconds": round(build_seconds, 1),

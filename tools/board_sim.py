@@ -35,6 +35,10 @@ def add_arguments(ap) -> None:
     ap.add_argument("--sim", default="verilator", choices=("verilator", "icarus"), help="simulator")
     ap.add_argument("--frame", choices=("chip", "sdram"), default="chip",
                     help="the frame store: block RAM, or SDRAM behind LiteDRAM's simulation core (default chip)")
+    ap.add_argument("--uploads", action="store_true",
+                    help="send the TEXTURE and CUBE frames too, into texel memories that start at zero, the UART "
+                         "faster in simulation (the frame on chip; without it the memories hold the scene's tables "
+                         "and the uploads are left out)")
     ap.add_argument("--out", type=Path, default=Path("build/board-sim"), help="output folder (the decoded PNG)")
     add_record_option(ap, "the result")
 
@@ -64,7 +68,10 @@ def run(args) -> int:
         return 2
     print(f"{frame.scene.name}: {len(mat)} triangles, {params.rop.width}x{params.rop.height} tile, "
           f"{len(data)} bytes from the host, RTL on {args.sim}")
-    rep = simulate(params, mat, data, sim=args.sim, frame=args.frame)
+    if args.uploads and args.frame != "chip":
+        print("error: --uploads: simulated with --frame chip only", file=sys.stderr)
+        return 2
+    rep = simulate(params, mat, data, sim=args.sim, frame=args.frame, uploads=args.uploads)
     out = args.out / frame.scene.name
     save_png(out / "model.png", rep.pop("want").astype(np.uint8))
     if "picture" in rep:
@@ -74,7 +81,8 @@ def run(args) -> int:
     from host.atomic import atomic_json
     atomic_json(out / "report.json", rep)
     ok = rep["shown"] and rep["mismatches"] == 0 and rep["timing_ok"] and rep["acks_ok"] and not rep["error"] \
-        and not rep["overrun"] and not rep["rop_status"] and not rep["underrun"] and not rep["mem_error"]
+        and not rep["overrun"] and not rep["rop_status"] and not rep["underrun"] and not rep["mem_error"] \
+        and not rep["upload_bad"]
     print(json.dumps({k: v for k, v in rep.items() if k not in ("timing", "timing_expected")}, indent=1))
     print(("  decoded DVI frame == model's frame on every pixel, video timing as the mode's" if ok else
            "  FAIL: the decoded frame, the timing or the link differ (report above)") + f"; output {out}")

@@ -69,22 +69,24 @@ def elaborate_swap(system, m: Module, link, eng, disp) -> None:
     with m.If(swap_seen):
         m.d.engine += want.eq(1)
     # the tile's read-out: the read port held for the whole copy, the address stepping while the FIFO has room
-    # for the words in flight (the read's and the registered word's)
+    # for the words in flight (the read-out's ``readout_latency`` and the registered word's); ``d[k]``: a word
+    # stepped ``k + 1`` clocks ago
     addr = Signal(range(pixels + 1))
-    reading, d1, d2 = Signal(), Signal(), Signal()
-    step = reading & (addr != pixels) & (q.level + d1 + d2 < COPY_FIFO)
+    reading = Signal()
+    d = [Signal(name=f"d{k + 1}") for k in range(P.readout_latency + 1)]
+    step = reading & (addr != pixels) & (q.level + sum(d) < COPY_FIFO)
     zb = P.z_fmt.width
     data = eng.fb.data
     word565 = Cat(data[zb + 19:zb + 24], data[zb + 10:zb + 16], data[zb + 3:zb + 8])
-    m.d.comb += [eng.fb.read.eq(reading), eng.fb.addr.eq(addr[:len(eng.fb.addr)]), q.w_en.eq(d2)]
-    m.d.engine += [d1.eq(step), d2.eq(d1), q.w_data.eq(word565)]
+    m.d.comb += [eng.fb.read.eq(reading), eng.fb.addr.eq(addr[:len(eng.fb.addr)]), q.w_en.eq(d[-1])]
+    m.d.engine += [d[0].eq(step), *(b.eq(a) for a, b in zip(d, d[1:])), q.w_data.eq(word565)]
     with m.If(step):
         m.d.engine += addr.eq(addr + 1)
     with m.If(f.copied):
         m.d.engine += free.eq(1)
     with m.If(want & free & ~reading & ~swap_seen & (quiet == QUIET)):
         m.d.engine += [want.eq(0), free.eq(0), addr.eq(0), reading.eq(1)]
-    with m.If(reading & (addr == pixels) & ~d1):
+    with m.If(reading & (addr == pixels) & ~Cat(*d[:-1]).any()):
         m.d.engine += reading.eq(0)
     # the display: the frame's word (LATENCY clocks) expanded to bytes and registered
     m.d.comb += [f.x.eq(disp.x), f.y.eq(disp.y)]

@@ -180,8 +180,9 @@ def build(out: Path, engine=None, router: str = ROUTERS[0], frame: str = "chip")
     for var, tool in tools.items():
         os.environ.setdefault(var, tool)
     t0 = time.perf_counter()
+    from rtl.rop import KEEP_COPIES
     _platform().build(Top(engine, frame=frame), name="top", build_dir=str(out), do_program=False,
-                      nextpnr_opts=f"--router {router} --timing-allow-fail")
+                      script_after_read=KEEP_COPIES, nextpnr_opts=f"--router {router} --timing-allow-fail")
     rec = report((out / "top.tim").read_text())
     rec.update(router=router, seconds=round(time.perf_counter() - t0, 1), bitstream=str(out / "top.bit"))
     return rec

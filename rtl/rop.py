@@ -87,8 +87,9 @@ SLOT_OVERHEAD = 7
 COPY_SUFFIX = "_kept_copy"
 
 #: The Yosys command (run right after reading the design, before any optimisation) that marks the cells driving
-#: the copies (:data:`COPY_SUFFIX`) ``keep``.
-KEEP_COPIES = f"setattr -set keep 1 w:*{COPY_SUFFIX} %ci1 t:* %i"
+#: the copies (:data:`COPY_SUFFIX`) ``keep`` (``%a``: Amaranth's RTLIL may name the register's output after a
+#: port it drives, the copy's name an alias of it).
+KEEP_COPIES = f"setattr -set keep 1 w:*{COPY_SUFFIX} %a %ci1 t:* %i"
 
 
 def axi_signature(addr_bits: int, data_bits: int, id_bits: int = 1) -> wiring.Signature:

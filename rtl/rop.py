@@ -41,19 +41,26 @@ ready; ``R.ready`` and ``B.ready`` come from registers (``B`` is always taken).
 On chip (:class:`Rop`, ``on_chip=True``): the same read-compare-write on a memory of ``width height`` words
 (``z_fmt`` depth, r, g, b, flags, from the low bits), initialised to the clear value, built as Amaranth
 ``Memory`` slices of ``RopParams.slice_bits`` bits each one block RAM deep (no multiplexer from the blocks' slow
-outputs across the device's block-RAM rows: it was the board's critical path at 66 MHz, speed grade 6), in five
-stages: the accepted fragment is registered (its pixel index and depth computed from the stream's payload); the
-read port is addressed from that register; the next cycle registers the stored depth (with the block RAM's slow
-output and the compare in one cycle the unit ran at 99 MHz on ECP5); the next compares; the next writes, from
-registers. The frame's block RAMs span the device's block-RAM rows, so the read address and the write port's
-enable, address and data each leave a flip-flop (with the stream's payload, or the compare, in front of the
-block RAM's pins the board's engine ran at a third of its clock after placement). The read port is transparent
-for the write port, so a fragment sees every write up to the one of the fragment three ahead of it; the two just
-ahead of it are forwarded (the nearer first: its depth replaces the stored one when the pixel is the same).
-``i.ready`` is always 1, except while the frame is read out through ``fb`` (``fb.read``: the read port takes
-``fb.addr``; ``fb.data`` holds the word one cycle later; an accepted fragment waits in the first stage). With
-``fb.clear`` as well, the word read is also overwritten with the clear value, through the write stage's registers
-(a read-out that clears, or a clear of the frame: the next frame's depth test starts from the cleared frame).
+outputs across the device's block-RAM rows: it was the board's critical path at 66 MHz, speed grade 6). The
+slices' block RAMs spread over the device, so every net to or from all of them crosses it in a cycle of its own
+between flip-flops: each slice has its own registers beside its block RAM (**Fan-out**): the read address, the
+word read, and the write's enable, address and data. A net from one flip-flop to the address pins of every
+block RAM (through the read-out's address multiplexer and the comparators Yosys adds for the transparent read
+port) was the board's engine clock's next critical path. Yosys's ``opt_merge`` merges flip-flops with one
+input, so the copies carry names ending in :data:`COPY_SUFFIX` and the board's synthesis marks their cells
+``keep`` (:data:`KEEP_COPIES`). Seven stages (``RopParams.latency``): the accepted fragment registered (its
+pixel index and depth computed from the stream's payload); its address in the registers beside the block RAMs;
+the read; the word in the registers beside the block RAMs; the stored depth registered (the block RAM's slow
+output never meets logic in the cycle it leaves the block); the compare; the write's central registers; the
+write from the registers beside the block RAMs. The read port is transparent for the write port, so a fragment
+sees every write up to the one of the fragment five ahead of it; the four just ahead of it are forwarded (the
+nearer first: its depth replaces the stored one when the pixel is the same): whether each has the same pixel
+is registered a cycle early, the three to four ahead (their writes decided) replace the stored depth as it is
+registered, the one just ahead in the compare. ``i.ready`` is always 1, except while the frame is read out
+through ``fb`` (``fb.read``: the read port takes ``fb.addr``; ``fb.data`` holds its word
+``RopParams.readout_latency`` cycles later; an accepted fragment waits in the first stage). With ``fb.clear`` as
+well, the word read is also overwritten with the clear value, through the write's registers (a read-out that
+clears, or a clear of the frame: the next frame's depth test starts from the cleared frame).
 """
 
 from __future__ import annotations
@@ -149,7 +156,7 @@ class Rop(wiring.Component):
     axi : Out(axi_signature(addr_bits, data_bits)) -- the AXI4 manager port (``on_chip=False`` only)
     fb : the frame read-out (``on_chip=True`` only): ``read`` In(1), ``addr`` In (pixel index ``y width + x``),
         ``clear`` In(1) (with ``read``: the word at ``addr`` is overwritten with the clear value), ``data``
-        Out(``word_bits``): the word of the address given one cycle earlier
+        Out(``word_bits``): the word of the address given ``readout_latency`` cycles earlier
     busy : Out(1) -- a fragment accepted and not yet finished (its write not acknowledged, or it failed)
     status : Out(3) -- sticky: bit 0 a fragment outside the frame was dropped, bit 1 a depth saturated (the
         narrowing to ``z_fmt``), bit 2 an AXI error response (``fxmodel.units.rop.STATUS_BITS``)

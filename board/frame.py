@@ -240,7 +240,8 @@ class TileCopy(wiring.Component):
     starts before ``shown`` (a pulse: the display shows it). FRAME_START (``start``): ``stall`` rises (the engine
     takes no record) and, once quiet and no copy waiting, the tile is read out with ``fb.clear`` (every word to
     the clear value, nothing written to the store); ``stall`` falls when the clear is done. ``room`` (default high):
-    the copy's walk steps only while it is high (a FIFO behind the writes with room for the two words in flight;
+    the copy's walk steps only while it is high (a FIFO behind the writes with room for the words in flight,
+    ``params.readout_latency + 1``;
     the frame in SDRAM, ``board/sdram_system.py``); the clear's walk ignores it.
 
     Parameters
@@ -271,8 +272,9 @@ class TileCopy(wiring.Component):
             m.d.sync += quiet.eq(quiet + 1)
         back = Signal(init=1)
         want, waiting, clear_want = Signal(), Signal(), Signal()   # a SWAP to serve; a copy not yet shown; a clear
-        addr = Signal(range(pixels + 1))
-        reading, clearing, wvalid, waddr = Signal(), Signal(), Signal(), Signal(range(pixels))
+        drained = pixels + P.readout_latency + 1        # the walk's address when its last word is in the store
+        addr = Signal(range(drained + 1))
+        reading, clearing, wvalid, waddr = Signal(), Signal(), Signal(), Signal(range(2 * pixels))
         with m.If(self.swap):
             m.d.sync += want.eq(1)
         with m.If(self.start):
@@ -285,10 +287,18 @@ class TileCopy(wiring.Component):
         # the tile's word is registered before the frame store's write port: both memories span the device's
         # block RAM rows, and the read-out's output straight into the other's inputs was a path through two
         # die-wide routes (the engine's clock at a third of its target after placement)
-        m.d.comb += [self.fb.read.eq(reading), self.fb.clear.eq(clearing), self.fb.addr.eq(addr[:len(self.fb.addr)]),
+        m.d.comb += [self.fb.read.eq(reading), self.fb.clear.eq(clearing & reading),
+                     self.fb.addr.eq(addr[:len(self.fb.addr)]),
                      self.stall.eq(clear_want)]
-        m.d.sync += [wvalid.eq(reading & ~clearing & (addr < pixels) & self.room), waddr.eq(addr[:len(waddr)]),
-                     self.w_en.eq(wvalid), self.w_addr.eq(Cat(waddr, back)), self.w_data.eq(word565)]
+        # the address's word comes ``readout_latency`` clocks later (``rtl/rop.py``): its valid and store address
+        # follow it in a delay line (the back buffer's index with it: it changes as the walk ends)
+        m.d.sync += [wvalid.eq(reading & ~clearing & (addr < pixels) & self.room),
+                     waddr.eq(Cat(addr[:len(waddr) - 1], back))]
+        for _ in range(P.readout_latency - 1):
+            v, a = Signal(), Signal.like(waddr)
+            m.d.sync += [v.eq(wvalid), a.eq(waddr)]
+            wvalid, waddr = v, a
+        m.d.sync += [self.w_en.eq(wvalid), self.w_addr.eq(waddr), self.w_data.eq(word565)]
         ready = (quiet == self.quiet) & ~self.swap & ~self.start
         with m.FSM():
             with m.State("idle"):
@@ -299,14 +309,19 @@ class TileCopy(wiring.Component):
                     m.d.sync += [addr.eq(0), reading.eq(1), clearing.eq(1)]     # the copy's walk, clearing
                     m.next = "walk"
             with m.State("walk"):
-                with m.If((addr == pixels) & clearing):
-                    m.d.sync += [reading.eq(0), clearing.eq(0), clear_want.eq(0)]
-                    m.next = "idle"
-                with m.Elif(addr == pixels):
-                    m.d.sync += [reading.eq(0), self.copied.eq(~self.copied), back.eq(~back), waiting.eq(1)]
-                    m.next = "idle"
+                with m.If(addr == pixels):
+                    m.d.sync += reading.eq(0)
+                    m.next = "drain"
                 with m.Elif(self.room | clearing):
                     m.d.sync += addr.eq(addr + 1)
+            with m.State("drain"):          # the last words through the read-out and the store's registers
+                m.d.sync += addr.eq(addr + 1)
+                with m.If((addr == drained) & clearing):
+                    m.d.sync += [clearing.eq(0), clear_want.eq(0)]
+                    m.next = "idle"
+                with m.Elif(addr == drained):
+                    m.d.sync += [self.copied.eq(~self.copied), back.eq(~back), waiting.eq(1)]
+                    m.next = "idle"
         return m
 
 

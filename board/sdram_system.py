@@ -52,11 +52,12 @@ def elaborate_frame(system, m: Module, tc, disp) -> None:
     q = SyncFIFO(width=DATA_BITS, depth=COPY_FIFO)
     m.submodules.copy_fifo = DomainRenamer("engine")(q)
     wiring.connect(m, f.mem, wiring.flipped(system.mem))
-    # the copy steps while the FIFO has room for its word and the two in flight (the read's and the registered
-    # word's: TileCopy writes two clocks after a step), so a write never finds the FIFO full; the next copy waits
-    # for this one's last write response
+    # the copy steps while the FIFO has room for its word and those in flight (the read-out's ``readout_latency``
+    # and the registered word's: TileCopy writes ``readout_latency + 1`` clocks after a step), so a write never finds
+    # the FIFO full; the next copy waits for this one's last write response
+    flight = P.readout_latency + 1
     m.d.comb += [f.i.valid.eq(q.r_rdy), f.i.payload.eq(q.r_data), q.r_en.eq(f.i.ready),
-                 q.w_en.eq(tc.w_en), q.w_data.eq(tc.w_data), tc.room.eq(q.level < COPY_FIFO - 2),
+                 q.w_en.eq(tc.w_en), q.w_data.eq(tc.w_data), tc.room.eq(q.level < COPY_FIFO - flight),
                  tc.shown.eq(f.copied),
                  system.mem_error.eq(f.error), system.underrun.eq(f.underrun), system.front.eq(f.front)]
     # the display: the frame's word (LATENCY clocks) expanded to bytes and registered

@@ -191,7 +191,8 @@ def _simulate(params, words, want, fb, *, latency, p_valid, p_pause, seed, sim, 
     meta = {"words": [format(w, "x") for w in words], "p_valid": p_valid, "drain": drain,
             "p_pause": p_pause, "seed": seed, "latency": latency, "max_cycles": budget,
             "on_chip": P.on_chip, "base": P.base, "frame_bytes": P.frame_bytes,
-            "pixels": P.pixels, "init": init.hex(), "engine": not isinstance(params, RopParams)}
+            "pixels": P.pixels, "readout_latency": P.readout_latency, "init": init.hex(),
+            "engine": not isinstance(params, RopParams)}
     out, build_seconds, seconds = run_testbench(sim, src, top, bdir, job, "cosim.rop_tb", meta, "frame.json")
     res = json.loads(out.read_text())
     remove_job(job)

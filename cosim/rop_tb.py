@@ -59,22 +59,24 @@ async def rop(dut):
     status = int(dut.status.value)
     result = {"cycles": cycles, "accept_cycles": accept_cycles, "reads": reads, "writes": writes, "status": status}
     if on_chip:
-        words = []
         await FallingEdge(dut.clk)                       # out of the read-only phase
         dut.fb__read.value = 1
         dut.fb__clear.value = 1                      # the read-out clears: a second read-out sees the clear words
-        for a in range(meta["pixels"]):              # the word of the address set one clock edge earlier
-            dut.fb__addr.value = a
-            await FallingEdge(dut.clk)
-            words.append(format(int(dut.fb__data.value), "x"))
-        result["words"] = words
+        result["words"] = await read_out(dut, meta["pixels"], meta["readout_latency"])
         dut.fb__clear.value = 0
-        cleared = []
-        for a in range(meta["pixels"]):
-            dut.fb__addr.value = a
-            await FallingEdge(dut.clk)
-            cleared.append(format(int(dut.fb__data.value), "x"))
-        result["cleared"] = cleared
+        result["cleared"] = await read_out(dut, meta["pixels"], meta["readout_latency"])
     else:
         result["image"] = ram.read(meta["base"], meta["frame_bytes"]).hex()
     Path(meta["out"]).write_text(json.dumps(result))
+
+
+async def read_out(dut, pixels: int, latency: int) -> list:
+    """The frame's words through ``fb`` (``fb.read`` set): an address each clock, its word ``latency`` clock
+    edges later (``RopParams.readout_latency``); returns them as hex strings."""
+    words = []
+    for a in range(pixels + latency):
+        dut.fb__addr.value = min(a, pixels - 1)
+        await FallingEdge(dut.clk)
+        if a >= latency - 1 and len(words) < pixels:
+            words.append(format(int(dut.fb__data.value), "x"))
+    return words

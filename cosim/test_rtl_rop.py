@@ -91,13 +91,16 @@ def test_the_hazard_test_can_fail(sim, on_chip):
 
 @pytest.mark.parametrize("p_valid", [0.8, 1.0])
 def test_on_chip_frame_buffer(sim, p_valid):
-    """Random fragments, then pairs on one pixel back to back and with one fragment between them (the first one's
-    write forwarded to the second's compare) and with two between them (seen through the transparent read port),
-    with and without input gaps; the read-out clears (``fb.clear``): a second read-out is the clear frame."""
+    """Random fragments, then pairs on one pixel back to back and with one to four fragments between them (the
+    first one's write forwarded to the second's compare: ``rtl/rop.py`` forwards the four writes just ahead) and
+    with five between them (seen through the transparent read port), with and without input gaps; the read-out
+    clears (``fb.clear``): a second read-out is the clear frame."""
     P = RopParams.PRESETS["on_chip"]
     frags = np.concatenate([random_fragments(P, 300, seed=3, hot=4), hazard_pairs(P, "nearer_first"),
                             hazard_pairs(P, "equal"), hazard_pairs(P, "nearer_first", gap=1)[:40],
-                            hazard_pairs(P, "farther_first", gap=1)[:40], hazard_pairs(P, "equal", gap=2)[:40]])
+                            hazard_pairs(P, "farther_first", gap=1)[:40], hazard_pairs(P, "equal", gap=2)[:40],
+                            hazard_pairs(P, "nearer_first", gap=3)[:40], hazard_pairs(P, "equal", gap=4)[:40],
+                            hazard_pairs(P, "nearer_first", gap=5)[:40]])
     res = run(P, frags, p_valid=p_valid, sim=sim, tag=f"onchip_{p_valid}")
     assert res["mismatches"] == 0, res["first"]
     assert res["cleared_mismatches"] == 0           # the read-out with fb.clear left the clear frame behind

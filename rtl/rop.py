@@ -41,19 +41,26 @@ ready; ``R.ready`` and ``B.ready`` come from registers (``B`` is always taken).
 On chip (:class:`Rop`, ``on_chip=True``): the same read-compare-write on a memory of ``width height`` words
 (``z_fmt`` depth, r, g, b, flags, from the low bits), initialised to the clear value, built as Amaranth
 ``Memory`` slices of ``RopParams.slice_bits`` bits each one block RAM deep (no multiplexer from the blocks' slow
-outputs across the device's block-RAM rows: it was the board's critical path at 66 MHz, speed grade 6), in five
-stages: the accepted fragment is registered (its pixel index and depth computed from the stream's payload); the
-read port is addressed from that register; the next cycle registers the stored depth (with the block RAM's slow
-output and the compare in one cycle the unit ran at 99 MHz on ECP5); the next compares; the next writes, from
-registers. The frame's block RAMs span the device's block-RAM rows, so the read address and the write port's
-enable, address and data each leave a flip-flop (with the stream's payload, or the compare, in front of the
-block RAM's pins the board's engine ran at a third of its clock after placement). The read port is transparent
-for the write port, so a fragment sees every write up to the one of the fragment three ahead of it; the two just
-ahead of it are forwarded (the nearer first: its depth replaces the stored one when the pixel is the same).
-``i.ready`` is always 1, except while the frame is read out through ``fb`` (``fb.read``: the read port takes
-``fb.addr``; ``fb.data`` holds the word one cycle later; an accepted fragment waits in the first stage). With
-``fb.clear`` as well, the word read is also overwritten with the clear value, through the write stage's registers
-(a read-out that clears, or a clear of the frame: the next frame's depth test starts from the cleared frame).
+outputs across the device's block-RAM rows: it was the board's critical path at 66 MHz, speed grade 6). The
+slices' block RAMs spread over the device, so every net to or from all of them crosses it in a cycle of its own
+between flip-flops: each slice has its own registers beside its block RAM (**Fan-out**): the read address, the
+word read, and the write's enable, address and data. A net from one flip-flop to the address pins of every
+block RAM (through the read-out's address multiplexer and the comparators Yosys adds for the transparent read
+port) was the board's engine clock's next critical path. Yosys's ``opt_merge`` merges flip-flops with one
+input, so the copies carry names ending in :data:`COPY_SUFFIX` and the board's synthesis marks their cells
+``keep`` (:data:`KEEP_COPIES`). Seven stages (``RopParams.latency``): the accepted fragment registered (its
+pixel index and depth computed from the stream's payload); its address in the registers beside the block RAMs;
+the read; the word in the registers beside the block RAMs; the stored depth registered (the block RAM's slow
+output never meets logic in the cycle it leaves the block); the compare; the write's central registers; the
+write from the registers beside the block RAMs. The read port is transparent for the write port, so a fragment
+sees every write up to the one of the fragment five ahead of it; the four just ahead of it are forwarded (the
+nearer first: its depth replaces the stored one when the pixel is the same): whether each has the same pixel
+is registered a cycle early, the three to four ahead (their writes decided) replace the stored depth as it is
+registered, the one just ahead in the compare. ``i.ready`` is always 1, except while the frame is read out
+through ``fb`` (``fb.read``: the read port takes ``fb.addr``; ``fb.data`` holds its word
+``RopParams.readout_latency`` cycles later; an accepted fragment waits in the first stage). With ``fb.clear`` as
+well, the word read is also overwritten with the clear value, through the write's registers (a read-out that
+clears, or a clear of the frame: the next frame's depth test starts from the cleared frame).
 """
 
 from __future__ import annotations
@@ -68,7 +75,7 @@ from .fixed import const_mul, narrow
 from .streams import payload_layout
 from .unit import register
 
-__all__ = ["Rop", "axi_signature", "ring_next", "SLOT_OVERHEAD", "WRITE_QUEUE"]
+__all__ = ["Rop", "axi_signature", "ring_next", "SLOT_OVERHEAD", "WRITE_QUEUE", "COPY_SUFFIX", "KEEP_COPIES"]
 
 #: Entries of the write queue between the compare and the ``AW``/``W`` channels: one being issued, one arriving,
 #: one for the beat in the compare stage, so that ``R.ready`` is one logic level from registers and one fragment
@@ -80,6 +87,16 @@ WRITE_QUEUE = 3
 #: keep one fragment per clock while ``2 L + SLOT_OVERHEAD <= outstanding`` (``cosim/test_rtl_rop.py`` checks both
 #: sides of that bound).
 SLOT_OVERHEAD = 7
+
+#: The name's end of every flip-flop copy of a net that reaches the whole on-chip frame (the registers beside
+#: each of its block RAMs). Yosys's ``opt_merge`` merges flip-flops with one input into one (a ``keep`` on the
+#: wire does not stop it), undoing the copies; a ``keep`` on the cell does: :data:`KEEP_COPIES`.
+COPY_SUFFIX = "_kept_copy"
+
+#: The Yosys command (run right after reading the design, before any optimisation) that marks the cells driving
+#: the copies (:data:`COPY_SUFFIX`) ``keep`` (``%a``: Amaranth's RTLIL may name the register's output after a
+#: port it drives, the copy's name an alias of it).
+KEEP_COPIES = f"setattr -set keep 1 w:*{COPY_SUFFIX} %a %ci1 t:* %i"
 
 
 def axi_signature(addr_bits: int, data_bits: int, id_bits: int = 1) -> wiring.Signature:
@@ -139,7 +156,7 @@ class Rop(wiring.Component):
     axi : Out(axi_signature(addr_bits, data_bits)) -- the AXI4 manager port (``on_chip=False`` only)
     fb : the frame read-out (``on_chip=True`` only): ``read`` In(1), ``addr`` In (pixel index ``y width + x``),
         ``clear`` In(1) (with ``read``: the word at ``addr`` is overwritten with the clear value), ``data``
-        Out(``word_bits``): the word of the address given one cycle earlier
+        Out(``word_bits``): the word of the address given ``readout_latency`` cycles earlier
     busy : Out(1) -- a fragment accepted and not yet finished (its write not acknowledged, or it failed)
     status : Out(3) -- sticky: bit 0 a fragment outside the frame was dropped, bit 1 a depth saturated (the
         narrowing to ``z_fmt``), bit 2 an AXI error response (``fxmodel.units.rop.STATUS_BITS``)
@@ -176,57 +193,80 @@ class Rop(wiring.Component):
         zc, zsat, inside, index, color = self._accept(m)
         m.d.comb += self.i.ready.eq(~self.fb.read)
         take = self.i.valid & self.i.ready
-        # stage 0: the accepted fragment registered (held while the read-out has the read port)
+        # stage A: the accepted fragment registered (held while the read-out has the read port)
         a_valid = Signal(name="acc_valid")
         a_z, a_color, a_index = Signal(P.z_fmt.width, name="acc_z"), Signal(24 + P.flag_bits, name="acc_color"), \
             Signal(range(P.pixels), name="acc_index")
         with m.If(~self.fb.read):
             m.d.sync += [a_valid.eq(take & inside), a_z.eq(zc), a_color.eq(color), a_index.eq(index)]
-        # stage 1: its read in flight
-        s_valid = Signal()
-        s_z, s_color, s_index = Signal.like(a_z), Signal.like(a_color), Signal.like(a_index)
-        m.d.sync += [s_valid.eq(a_valid & ~self.fb.read), s_z.eq(a_z), s_color.eq(a_color), s_index.eq(a_index)]
-        rdata = Signal(P.word_bits)
-        m.d.comb += self.fb.data.eq(rdata)
-        # stage 2: the stored depth registered; whether the two fragments ahead (comparing, writing) have the
-        # same pixel and write it
+        # stages R1..R3: its read (the address registered beside each block RAM, the block RAM, the word registered
+        # beside it); the fragment's own fields follow in central registers
+        rd = [(a_valid & ~self.fb.read, a_z, a_color, a_index)]
+        for n in (1, 2, 3):
+            st = (Signal(name=f"rd{n}_valid"), Signal.like(a_z, name=f"rd{n}_z"),
+                  Signal.like(a_color, name=f"rd{n}_color"), Signal.like(a_index, name=f"rd{n}_index"))
+            m.d.sync += [x.eq(y) for x, y in zip(st, rd[-1])]
+            rd.append(st)
+        (_, _, _, r2_index), (r3_valid, r3_z, r3_color, r3_index) = rd[2], rd[3]
         c_valid = Signal(name="cmp_valid")
-        c_z, c_color, c_index = Signal.like(s_z, name="cmp_z"), Signal.like(s_color, name="cmp_color"), \
-            Signal.like(s_index, name="cmp_index")
-        c_stored = Signal(P.z_fmt.width, name="cmp_stored")
-        w_en, w_z, w_color, w_index = Signal(name="write"), Signal.like(s_z, name="write_z"), \
-            Signal.like(s_color, name="write_color"), Signal.like(s_index, name="write_index")
-        c_same1, c_same2, w2_z = Signal(name="cmp_same1"), Signal(name="cmp_same2"), Signal.like(s_z, name="wrote_z")
-        m.d.sync += [c_valid.eq(s_valid), c_z.eq(s_z), c_color.eq(s_color), c_index.eq(s_index),
-                     c_stored.eq(rdata[:P.z_fmt.width]), c_same1.eq(c_valid & (c_index == s_index)),
-                     c_same2.eq(w_en & (w_index == s_index)), w2_z.eq(w_z)]
-        # stage 3: compare; stage 4: write (registered: the write port's enable, address and data come from
-        # flip-flops). The writes of the two fragments ahead are not in the stored word (their reads were issued
-        # before those writes), so they are forwarded, the nearer first: its depth replaces the stored one
-        stored = Mux(c_same1 & w_en, w_z, Mux(c_same2, w2_z, c_stored)) if P.hazard else c_stored
+        c_z, c_color, c_index = Signal.like(a_z, name="cmp_z"), Signal.like(a_color, name="cmp_color"), \
+            Signal.like(a_index, name="cmp_index")
+        w_en, w_z, w_color, w_index = Signal(name="write"), Signal.like(a_z, name="write_z"), \
+            Signal.like(a_color, name="write_color"), Signal.like(a_index, name="write_index")
+        # the write's copy in the cycle its registers beside the block RAMs write, and the one after (forwarding)
+        h1_en, h1_z, h1_index = Signal(name=f"wrote1{COPY_SUFFIX}"), Signal.like(a_z, name=f"wrote1_z{COPY_SUFFIX}"), \
+            Signal.like(a_index, name=f"wrote1_index{COPY_SUFFIX}")
+        h2_en, h2_z = Signal(name="wrote2"), Signal.like(a_z, name="wrote2_z")
+        m.d.sync += [h1_en.eq(w_en), h1_z.eq(w_z), h1_index.eq(w_index), h2_en.eq(h1_en), h2_z.eq(h1_z)]
+        rdata = self._frame(m, clear, Mux(self.fb.read, self.fb.addr, a_index), w_en, w_index, Cat(w_z, w_color))
+        m.d.comb += self.fb.data.eq(rdata)
+        # forwarding: a fragment's read sees every write up to the one of the fragment five ahead (through the
+        # transparent read port); the four just ahead are forwarded, the nearer first. Whether each has the same
+        # pixel is registered while the fragment is in R2 (then: one ahead in R3, two in the compare, three
+        # writing, four in wrote1); in R3 the three to four ahead, whose writes are decided, replace the stored
+        # depth as it is registered; in the compare the one just ahead
+        same = [Signal(name=f"same{k}") for k in (1, 2, 3, 4)]
+        m.d.sync += [s.eq(i == r2_index) for s, i in zip(same, (r3_index, c_index, w_index, h1_index))]
+        stored_in = rdata[:P.z_fmt.width]
+        if P.hazard:
+            stored_in = Mux(same[1] & w_en, w_z, Mux(same[2] & h1_en, h1_z, Mux(same[3] & h2_en, h2_z, stored_in)))
+        c_stored, c_same1 = Signal(P.z_fmt.width, name="cmp_stored"), Signal(name="cmp_same1")
+        m.d.sync += [c_valid.eq(r3_valid), c_z.eq(r3_z), c_color.eq(r3_color), c_index.eq(r3_index),
+                     c_stored.eq(stored_in), c_same1.eq(c_valid & same[0])]
+        # compare, then the write's central registers (``w_*``) and its registers beside each block RAM
+        stored = Mux(c_same1 & w_en, w_z, c_stored) if P.hazard else c_stored
         with m.If(self.fb.read & self.fb.clear):     # the read-out clears: the clear word written behind it
             m.d.sync += [w_en.eq(1), w_z.eq(clear & ((1 << P.z_fmt.width) - 1)),
                          w_color.eq(clear >> P.z_fmt.width), w_index.eq(self.fb.addr)]
         with m.Else():
             m.d.sync += [w_en.eq(c_valid & (c_z > stored)), w_z.eq(c_z), w_color.eq(c_color),
                          w_index.eq(c_index)]
-        self._frame(m, clear, Mux(self.fb.read, self.fb.addr, a_index), rdata, w_en, w_index, Cat(w_z, w_color))
-        m.d.comb += self.busy.eq(a_valid | s_valid | c_valid | w_en)
+        m.d.comb += self.busy.eq(Cat(a_valid, *(st[0] for st in rd[1:]), c_valid, w_en, h1_en).any())
         self._sticky(m, take & ~inside, take & inside & zsat, Const(0))
         return m
 
-    def _frame(self, m, clear: int, raddr, rdata, w_en, w_index, wdata):
+    def _frame(self, m, clear: int, raddr, w_en, w_index, wdata):
         """The frame's memory in slices of ``slice_bits`` (``RopParams.slice_bits``: each slice one block RAM
-        deep, no read multiplexer between blocks), each read port transparent for its write port (``hazard``)."""
+        deep, no read multiplexer between blocks), each read port transparent for its write port (``hazard``).
+        Beside each slice its own registers: the read address, the word read, the write's enable, address and
+        data (the copies named ``COPY_SUFFIX``, kept by synthesis). Returns the registered words (``Cat``)."""
         P = self.params
+        words = []
         for k, lo in enumerate(range(0, P.word_bits, P.slice_bits)):
             hi = min(lo + P.slice_bits, P.word_bits)
             init = clear >> lo & ((1 << (hi - lo)) - 1)
             m.submodules[f"frame{k}"] = mem = memory.Memory(shape=hi - lo, depth=P.pixels, init=[init] * P.pixels)
             wp = mem.write_port()
             rp = mem.read_port(transparent_for=(wp,) if P.hazard else ())
-            m.d.comb += [wp.addr.eq(w_index), wp.data.eq(wdata[lo:hi]), wp.en.eq(w_en), rp.addr.eq(raddr),
-                         rp.en.eq(1), rdata[lo:hi].eq(rp.data)]
+            ra = Signal.like(w_index, name=f"frame{k}_raddr{COPY_SUFFIX}")
+            we = Signal(name=f"frame{k}_wen{COPY_SUFFIX}")
+            wa = Signal.like(w_index, name=f"frame{k}_waddr{COPY_SUFFIX}")
+            wd = Signal(hi - lo, name=f"frame{k}_wdata{COPY_SUFFIX}")   # (bits of wrote1_z's input too: kept)
+            word = Signal(hi - lo, name=f"frame{k}_word")
+            m.d.sync += [ra.eq(raddr), we.eq(w_en), wa.eq(w_index), wd.eq(wdata[lo:hi]), word.eq(rp.data)]
+            m.d.comb += [wp.addr.eq(wa), wp.data.eq(wd), wp.en.eq(we), rp.addr.eq(ra), rp.en.eq(1)]
+            words.append(word)
+        return Cat(*words)
 
     def _sticky(self, m, outside, zsat, bus_error):
         bits = [None] * len(STATUS_BITS)

@@ -194,9 +194,18 @@ class RopParams:
 
     @property
     def latency(self) -> int | None:
-        """On chip: cycles from a fragment accepted to its write in the memory (fragment registered, read, stored
-        depth registered, compare, write); behind the port it depends on the memory (``None``)."""
-        return 5 if self.on_chip else None
+        """On chip: cycles from a fragment accepted to its write in the memory (fragment registered, its address
+        registered beside each block RAM, the read, the word registered beside each block RAM, stored depth
+        registered, compare, write port's registers beside each block RAM: ``rtl/rop.py``); behind the port it
+        depends on the memory (``None``)."""
+        return 7 if self.on_chip else None
+
+    @property
+    def readout_latency(self) -> int | None:
+        """On chip: cycles from an address on the read-out's ``fb.addr`` to its word on ``fb.data`` (the address
+        registered beside each block RAM, the read, the word registered beside each block RAM); ``None`` behind
+        the port."""
+        return 3 if self.on_chip else None
 
     def products(self) -> tuple:
         """None: the pixel address ``y width + x`` is shifted copies of ``y`` (``rtl.fixed.const_mul``)."""

@@ -82,7 +82,7 @@ def raster_props(h: Harness, P: RasterParams, dut, frag, pre: str):
     h.check(~out.w_en | out.w_rdy, "out_no_overflow")
     # the control copies agree with copy 0
     for stem in ("gen_valid", "rows_in_flight", "room", "last_row", "busy", "nonempty", "px_left", "last_px",
-                 "out_used", "advance"):
+                 "out_used", "advance", "row_count", "has_row"):
         copies = _copies(top, stem)
         for k, c in enumerate(copies[1:], 1):
             h.check(c == copies[0], f"copy_{stem}_{k}")
@@ -97,6 +97,7 @@ def raster_props(h: Harness, P: RasterParams, dut, frag, pre: str):
     h.check(~gv | (sig("last_row_0") == (s_rem == 0)), "gen_last")
     h.check(used == out.level + r_valid, "out_credit")
     h.check(advance == (used <= odepth - 2), "out_advance")
+    h.check((sig("row_count_0") == rows.level) & (sig("has_row_0") == rows.r_rdy), "rows_count")
     h.check(~(busy & nonempty) | (last_px == (npx == 0)), "px_last")
     # a row's ``single`` agrees with its length: asserted where the span pipeline writes the row FIFO, assumed
     # where the Pixel Calculator reads it (the FIFO returns what was written, in order: ``SyncFIFO``'s contract)

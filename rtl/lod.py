@@ -4,13 +4,15 @@ the algorithm and its error bound). Fully pipelined, one result per clock.
 
 Stages (``LodParams.latency``):
 
-1. the leading-zero count of each operand group (``LodParams.GROUPS``: the magnitudes ``x ^ sign`` OR-ed);
-2. each group's shift ``max(0, L - (op_bits - 1))`` and the operands shifted (arithmetic: FLOOR) to ``op_bits``;
+1. the leading-zero count of each operand group's top bits (``LodParams.GROUPS``: the magnitudes ``x ^ sign``
+   OR-ed, the bits above the ``op_bits - 1`` lowest);
+2. each group's shift ``max(0, L - (op_bits - 1))`` and the operands shifted (arithmetic: FLOOR) to ``op_bits``:
+   left by the leading-zero count, then a constant slice (no subtraction in front of the shifter);
 3. the eight products ``U_x W``, ``U W_x`` ... (one multiplier block each), the exponents summed;
 4. each product shifted into place (``d_frac`` fraction bits), sliced to ``d_bits`` (proven: ``LodParams.d_bound``);
 5. ``D = U_x W - U W_x`` (and for ``V`` and ``y``), exact;
-6. the leading-zero count of the four ``D`` (magnitudes OR-ed), the flag ``Q = 0`` (every ``D`` zero);
-7. the shared shift ``s_D`` and the four ``D`` shifted (FLOOR) to ``sq_bits``;
+6. the leading-zero count of the four ``D``'s top bits (magnitudes OR-ed), the flag ``Q = 0`` (every ``D`` zero);
+7. the shared shift ``s_D`` and the four ``D`` shifted (FLOOR) to ``sq_bits``, as in stage 2;
 8. the squares ``D^2`` (one block each);
 9. ``Q_x = D_sx^2 w^2 + D_tx^2 h^2`` and ``Q_y`` (the map's size a constant: shifts, or shift-and-add);
 10. ``Q_x > Q_y``, the flag ``W <= 0``;
@@ -38,7 +40,7 @@ from .fixed import const_mul, saturate, shift_round
 from .recip import leading_zeros
 from .unit import Pipe, UnitComponent, register
 
-__all__ = ["Lod", "log2_index", "magnitude", "group_shift"]
+__all__ = ["Lod", "log2_index", "magnitude", "group_shift", "top_part", "shift_into"]
 
 #: ``(D name, numerator increment, numerator, W increment)`` of the four ``D`` terms.
 _TERMS = (("sx", "Ux", "U", "Wx"), ("tx", "Vx", "V", "Wx"), ("sy", "Uy", "U", "Wy"), ("ty", "Vy", "V", "Wy"))
@@ -52,12 +54,28 @@ def magnitude(x: Value) -> Value:
 
 
 def group_shift(width: int, lz: Value, bits: int) -> Value:
-    """``max(0, L - (bits - 1))`` with ``L = width - lz`` the bit length of a ``width``-bit unsigned value of
-    leading-zero count ``lz``."""
-    top = width - (bits - 1)                               # the shift is top - lz when positive
+    """``max(0, L - (bits - 1))`` with ``L`` the bit length of a ``width``-bit unsigned value whose top
+    ``width - (bits - 1)`` bits (:func:`top_part`) have the leading-zero count ``lz``: ``top - lz`` (``lz <= top``)."""
+    top = width - (bits - 1)
     if top <= 0:
         return Const(0, 1)
-    return Mux(lz < top, (Const(top, top.bit_length() + 1) - lz)[:top.bit_length()], 0)
+    return (Const(top, top.bit_length() + 1) - lz)[:top.bit_length()]
+
+
+def top_part(mag: Value, bits: int) -> Value:
+    """The bits of the unsigned ``mag`` above its ``bits - 1`` lowest: their bit length is the shift
+    ``max(0, L - (bits - 1))`` that brings every value of magnitude up to ``mag`` into ``bits`` signed bits."""
+    return Value.cast(mag)[bits - 1:]
+
+
+def shift_into(x: Value, lz: Value, width: int, bits: int) -> Value:
+    """``x >> group_shift(width, lz, bits)`` (arithmetic: FLOOR) in ``bits`` signed bits, as ``(x << lz) >> top``:
+    a left shift by the leading-zero count and a constant slice, so no carry chain (``top - lz``) sits in front of
+    the barrel shifter. Exact: the left shift loses no bit and ``top - lz`` is the shift."""
+    top = width - (bits - 1)
+    if top <= 0:
+        return Value.cast(x)
+    return (Value.cast(x).as_signed() << lz)[top:top + bits].as_signed()
 
 
 def log2_index(x: Value, lz: Value, table_bits: int) -> tuple[Value, Value]:
@@ -106,17 +124,17 @@ class Lod(UnitComponent):
                 mag = magnitude(ins[group[0]])
                 for n in group[1:]:
                     mag = mag | magnitude(ins[n])
-                lzs[f"lz{k}"] = leading_zeros(mag)
+                lzs[f"lz{k}"] = leading_zeros(top_part(mag, P.op_bits))
         s = pipe.stage(**ins, **lzs)
 
         # 2: the shifts and the shifted operands (arithmetic shift: FLOOR; they fit op_bits by the shift's choice)
         ops, sh = {}, {}
         for k, (group, fmt) in enumerate(zip(P.GROUPS, P.group_fmts())):
             if fmt.width > P.op_bits:
-                shift = group_shift(fmt.width, getattr(s, f"lz{k}"), P.op_bits)
-                sh[f"e{k}"] = shift
+                lz = getattr(s, f"lz{k}")
+                sh[f"e{k}"] = group_shift(fmt.width, lz, P.op_bits)
                 for n in group:
-                    ops[n] = (getattr(s, n) >> shift)[:P.op_bits].as_signed()
+                    ops[n] = shift_into(getattr(s, n), lz, fmt.width, P.op_bits)
             else:
                 for n in group:
                     ops[n] = getattr(s, n)
@@ -154,13 +172,14 @@ class Lod(UnitComponent):
 
         # 6: the four D's leading-zero count; Q = 0 exactly when every D is 0 (Q_x = D_sx^2 w^2 + D_tx^2 h^2)
         mag = magnitude(s.sx) | magnitude(s.tx) | magnitude(s.sy) | magnitude(s.ty)
-        s = pipe.stage(**{d: getattr(s, d) for d, *_ in _TERMS}, lzd=leading_zeros(mag), w=s.w,
+        lzd = leading_zeros(top_part(mag, P.sq_bits)) if P.d_bits > P.sq_bits else Const(0, 1)
+        s = pipe.stage(**{d: getattr(s, d) for d, *_ in _TERMS}, lzd=lzd, w=s.w,
                        zero=Cat(*(getattr(s, d) == 0 for d, *_ in _TERMS)).all())
 
         # 7: the shared shift s_D and the four D at sq_bits (FLOOR)
         if P.d_bits > P.sq_bits:
             sd = group_shift(P.d_bits, s.lzd, P.sq_bits)
-            short = {d: (getattr(s, d) >> sd)[:P.sq_bits].as_signed() for d, *_ in _TERMS}
+            short = {d: shift_into(getattr(s, d), s.lzd, P.d_bits, P.sq_bits) for d, *_ in _TERMS}
         else:
             sd, short = Const(0, 1), {d: getattr(s, d) for d, *_ in _TERMS}
         s = pipe.stage(**short, sd=sd, w=s.w, zero=s.zero)

@@ -44,7 +44,7 @@ carry chain or one product (the house rule of the pixel pipeline); only the row 
 some 1 300; one net from one control flip-flop to all of them was the engine's critical path on ECP5 (12.3 ns, the
 last hop 7.0 ns of routing). So each keeps its control state (the generator's ``gen_valid``, ``last_row``, rows
 in flight and ``room``; the Pixel Calculator's ``busy``, ``nonempty``, pixels left, ``last_px``, output places
-used and ``advance``) in identical copies, one per group of at most
+used, ``advance`` and the rows in the row FIFO with whether there is one) in identical copies, one per group of at most
 :attr:`~fxmodel.units.raster.RasterParams.ENABLE_FANOUT` register bits (the edges, the per-triangle values, three or
 four attributes a group): each copy is a few flip-flops with its own feedback, which synthesis does not merge
 (two flip-flops with one input would be merged into one), and the placer puts each near its group. Copy 0 also
@@ -390,9 +390,14 @@ class Raster(wiring.Component):
     def _pc_control(self, m, k: int, fifo, ofifo, row):
         """Copy ``k`` of the Pixel Calculator's control (module docstring, "Fan-out"): on a row, the row not
         empty, its pixels left and whether this is its last clock, the output FIFO's places in use and
-        ``advance``, all registered. Returns ``(advance, step, take, busy, nonempty)``: ``step`` moves along
-        the row, ``take`` loads the next row from the FIFO (both only under ``advance``)."""
+        ``advance``, all registered, and the rows in the row FIFO (``row_count``, the FIFO's own level kept by
+        every copy, and ``has_row``, whether it is not zero: a register, so the FIFO's level, one net, does not
+        reach every copy's ``take`` and through it every register the copies load). Returns ``(advance, step,
+        take, busy, nonempty)``: ``step`` moves along the row, ``take`` loads the next row from the FIFO (both only
+        under ``advance``)."""
         out_depth = self.params.OUT_FIFO_DEPTH
+        count = Signal(range(self.params.ROW_FIFO_DEPTH + 1), name=f"row_count_{k}")
+        has_row = Signal(name=f"has_row_{k}")                          # count != 0
         busy, nonempty = Signal(name=f"busy_{k}"), Signal(name=f"nonempty_{k}")
         last_px = Signal(name=f"last_px_{k}")          # the row's last clock (its last pixel, or it is empty)
         npx = _sig(self.params.pixel_fmt, f"px_left_{k}")
@@ -403,7 +408,9 @@ class Raster(wiring.Component):
         m.d.sync += [out_used.eq(next_used), advance.eq(next_used <= out_depth - 2)]
         done_row = ~busy | last_px
         step, take_k = Signal(name=f"step_{k}"), Signal(name=f"take_{k}")
-        m.d.comb += [step.eq(~done_row), take_k.eq(advance & done_row & fifo.r_rdy)]
+        m.d.comb += [step.eq(~done_row), take_k.eq(advance & done_row & has_row)]
+        next_count = count + fifo.w_en - take_k
+        m.d.sync += [count.eq(next_count), has_row.eq(next_count != 0)]
         with m.If(advance):
             with m.If(step):
                 m.d.sync += [npx.eq(npx - 1), last_px.eq(npx == 1)]

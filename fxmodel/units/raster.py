@@ -118,7 +118,7 @@ set-up sends ``A W 2**-e`` and the bump engine scales ``N W`` by ``2**-e`` (``fx
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from fractions import Fraction
 from typing import ClassVar
 
@@ -555,9 +555,11 @@ def _pipeline_raster() -> RasterParams:
 
 #: ``default``: the default pixel pipeline's input formats (its units' default presets), ``Z`` in the format
 #: :meth:`RasterParams.for_pipeline` gives it, and the bump engine's block exponent ``Ae`` as a constant;
-#: ``small``: two attributes for quick RTL tests.
+#: ``small``: two attributes for quick RTL tests; ``logic``: ``default`` with the span start's products in logic
+#: (``span_dsp`` off, as the engines fitted to the ECP5-85's multiplier blocks build it).
 RasterParams.PRESETS = {
     "default": _pipeline_raster(),
+    "logic": replace(_pipeline_raster(), span_dsp=False),
     "small": RasterParams(attrs=(("U", Fmt(True, 4, 12)), ("W", Fmt(True, 2, 12))), max_size=256,
                           guard_pixels=256, extra_guard=0),
 }

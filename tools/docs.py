@@ -245,6 +245,7 @@ PAGES = {
     "filtering-mip": rec.filtering_mip,
     "board-budget": rec.board_budget, "board-bitstream": rec.board_bitstream, "board-sim": rec.board_sim,
     "board-sdram-bandwidth": rec.board_sdram_bandwidth, "board-sim-sdram": lambda: rec.board_sim("board-sim-sdram"),
+    "board-sim-uploads": lambda: rec.board_sim("board-sim-uploads"),
     "board-animation": rec.board_animation, "board-engine-placement": rec.board_engine_placement,
 }
 

@@ -539,15 +539,18 @@ def board_bitstream() -> str:
 
 def board_sim(name: str = "board-sim") -> str:
     """The board's end-to-end simulation (``make board-sim``): host bytes to the decoded DVI frame; ``name`` the
-    record (``board-sim-sdram``: the frame in SDRAM, ``--frame sdram``)."""
+    record (``board-sim-sdram``: the frame in SDRAM, ``--frame sdram``; ``board-sim-uploads``: the uploads sent into
+    blank texel memories, ``--uploads``)."""
     record, path = _load(name)
     if record is None:
         return _missing(path, f"bumpmap board-sim --record docs/records/{name}.json")
     r = record["result"]
     t, ms = r["timing"], r["sim_ms"]
     rows = [["scene, frame (the tile)", f"{r['scene']}, {r['tile'][0]} x {r['tile'][1]}, {r['triangles']} triangles"],
-            ["host bytes into the UART", f"{r['bytes_sent']} in {r['frames_sent']} frames (uploads left out: "
-                                         f"{r['frames_left_out']} frames, {r['bytes_left_out']} bytes)"],
+            ["host bytes into the UART", f"{r['bytes_sent']} in {r['frames_sent']} frames " + (
+                "(the uploads into blank texel memories; an upload's word refused: "
+                f"{'**yes**' if r['upload_bad'] else 'no'})" if r.get("uploads") else
+                f"(uploads left out: {r['frames_left_out']} frames, {r['bytes_left_out']} bytes)")],
             ["answers", f"{len(r['replies']) // 2} bytes, all ACK: {'yes' if r['acks_ok'] else '**no**'}"],
             ["pixels compared (640 x 480)", f"{r['pixels']:,}"], ["mismatches", str(r["mismatches"])],
             ["line / hsync / active (clocks)", f"{t['line_periods']} / {t['hsync_widths']} / {t['active_widths']}"],

@@ -238,7 +238,7 @@ PAGES = {
     "raster-guard": rec.raster_guard,
     "formal-proofs": formal_proofs, "records": rec.records_index, "scene-schema": scene_schema,
     "make-targets": make_targets, "recip-errors": rec.recip_errors, "rop-throughput": rec.rop_throughput,
-    "texcache": rec.texcache, "texcache-level1": lambda: rec.texcache("texcache-level1"),
+    "texcache": rec.texcache, "texcache-mip": lambda: rec.texcache("texcache-mip"),
     "texcache-rate": rec.texcache_rate, "texcache-rate-frame": lambda: rec.texcache_rate("texcache-rate-frame"),
     "texcache-engine": rec.texcache_engine,
     "filtering-scenes": rec.filtering_scenes, "filtering-study": rec.filtering_study,

@@ -22,15 +22,16 @@ def tin_plane():
 
 
 def test_traffic_is_the_models_on_the_frames_footprints(tin_plane):
-    from tools.cache_sweep import scene_traces
+    from fxmodel.units.texcache import footprints
     cache = TexCacheParams(block=4, sets=8, ways=2)
     eng = dataclasses.replace(tin_plane.params, textures=cache)
     got = eng.texture_traffic(tin_plane.records)
-    data = scene_traces("tin-plane", size=48)
-    both = Layout(tuple(((n, 0),) + tuple(data["traces"][n][0].texels.shape[1:3]) for n in ("bump_map", "texture")),
+    P = tin_plane.params.pipeline
+    st = P.trace(np.stack([tin_plane.scan.codes[p.name] for p in P.inputs], axis=1))["st"]
+    both = Layout(tuple(((n, 0),) + tuple(getattr(P, n).texels.shape[1:3]) for n in ("bump_map", "texture")),
                   cache.block)
     for k, name in enumerate(("bump_map", "texture")):
-        _, trace = data["traces"][name]
+        trace = footprints(getattr(P, name), st[:, 2 * k], st[:, 2 * k + 1], 0)
         assert len(trace) == len(tin_plane.scan)
         want = simulate(cache, both, dataclasses.replace(trace, surface=np.full(len(trace), k)))
         assert np.array_equal(got[name].line, want.line) and np.array_equal(got[name].way, want.way)

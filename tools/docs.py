@@ -241,6 +241,7 @@ PAGES = {
     "texcache": rec.texcache, "texcache-mip": lambda: rec.texcache("texcache-mip"),
     "texcache-rate": rec.texcache_rate, "texcache-rate-frame": lambda: rec.texcache_rate("texcache-rate-frame"),
     "texcache-engine": rec.texcache_engine,
+    "texcache-engine-mip": lambda: rec.texcache_engine("texcache-engine-mip"),
     "filtering-scenes": rec.filtering_scenes, "filtering-study": rec.filtering_study,
     "filtering-mip": rec.filtering_mip,
     "board-budget": rec.board_budget, "board-bitstream": rec.board_bitstream, "board-sim": rec.board_sim,

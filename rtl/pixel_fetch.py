@@ -3,13 +3,18 @@ maps behind a texel cache each, ``docs/texcache.md``): the flat pipeline of ``rt
 texture fetch (``rtl/texfetch.py``), three stream units in a row:
 
 - **front** (:class:`FrontParams`): the perspective unit and both samplers' first two stages (edge rule, texel
-  indices and bilinear weights: :meth:`rtl.sampler.Sampler.indices`); out: each map's footprint and weights, and
-  the fragment's other inputs (``N``, ``E``, ``A``) and the ``W = 0`` flag;
-- **fetch**: :class:`~rtl.texfetch.TexFetch`, both maps' decoupled caches on one AXI4 read port; the request is
-  each map's footprint on its surface of :meth:`~fxmodel.pipeline.engine.EngineParams.texture_layout`, the
-  lookup FIFOs carry the rest of the fragment (weights, inputs, flag and the caller's sideband);
-- **back** (:class:`BackParams`): both samplers' blends (:meth:`rtl.sampler.Sampler.blend`) on the four corner
-  texels the fetch returns, then bump, reflection, cube addresses and lookups and shading, the schedule of
+  indices and bilinear weights: :meth:`rtl.sampler.Sampler.indices`); with MIP mapping also the LOD unit
+  (``rtl/lod.py``) and the trilinear color sampler's first three (:func:`rtl.sampler_mip.level_indices`: the level,
+  then per level parity its footprint and weights); out: each cache's footprint (a level cache's also with its
+  surface and ``skip`` bit) and weights, and the fragment's other inputs (``N``, ``E``, ``A``) and the ``W = 0``
+  flag;
+- **fetch**: :class:`~rtl.texfetch.TexFetch`, the decoupled caches (one per map, a trilinear map's even and odd
+  levels apart) on one AXI4 read port; the request is each cache's footprint on its surface of
+  :meth:`~fxmodel.pipeline.engine.EngineParams.texture_layout`, the lookup FIFOs carry the rest of the fragment
+  (weights, inputs, flag and the caller's sideband);
+- **back** (:class:`BackParams`): both samplers' blends (:meth:`rtl.sampler.Sampler.blend`; trilinear:
+  :func:`rtl.sampler_mip.blends` on both level caches' texels) on the four corner texels the fetch returns, then
+  bump, reflection, cube addresses and lookups and shading, the schedule of
   :attr:`~fxmodel.pipeline.pixel.PipelineParams.stage_latency` shifted (:func:`rtl.pixel.shade_half`).
 
 Each part is a free-running flat pipeline behind :class:`~rtl.streams.StreamUnit`'s credit FIFO, so a miss holds

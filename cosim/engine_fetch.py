@@ -21,7 +21,6 @@ import sys
 
 import numpy as np
 
-from fxmodel.pipeline.engine import TEXTURE_MAPS
 from fxmodel.units.texcache import TexCacheParams
 from rtl.digest import params_key
 
@@ -30,16 +29,33 @@ from .job import job_folder, remove_job
 from .raster import pack, unpack
 from .texfetch import MAX_LATENCY, FetchBench, layout_image
 
-__all__ = ["run_engine_fetch", "map_words", "sim_textures", "CHOSEN_CACHE"]
+__all__ = ["run_engine_fetch", "map_words", "port_of", "sim_textures", "CHOSEN_CACHE"]
 
 #: The texel cache ``bumpmap cache-sweep`` chose (``docs/texcache.md``, ``docs/records/texcache.json``), one per map.
 CHOSEN_CACHE = TexCacheParams(block=8, sets=32, ways=4)
 
 
 def map_words(params) -> list:
-    """The texel words of each map in external memory (``(height, width)`` arrays, layout order)."""
+    """The texel words of each surface in external memory (``(height, width)`` arrays, layout order: each map's
+    MIP levels, :meth:`~fxmodel.pipeline.engine.EngineParams.texture_layout`)."""
     p = params.pipeline
-    return [np.array(getattr(p, k).words, np.int64).reshape(getattr(p, k).texels.shape[1:3]) for k in TEXTURE_MAPS]
+    out = []
+    for (name, lv), h, w in params.texture_layout().surfaces:
+        smp = getattr(p, name)
+        out.append(np.array(smp._pack(smp.level_codes(lv)), np.int64).reshape(h, w))
+    return out
+
+
+def port_of(params, layout, address: int):
+    """The cache (:meth:`~fxmodel.pipeline.engine.EngineParams.texture_ports`) whose surfaces hold ``address``."""
+    where = layout.texel_at(address)
+    if where is None:
+        return None
+    name, lv = layout.surfaces[where[0]][0]
+    for port, m, parity in params.texture_ports():
+        if m == name and (parity is None or parity == lv % 2):
+            return port
+    return None
 
 
 def run_engine_fetch(params, records, *, latency: int = 1, p_valid: float = 1.0, p_ready: float = 1.0,
@@ -52,9 +68,10 @@ def run_engine_fetch(params, records, *, latency: int = 1, p_valid: float = 1.0,
     -------
     dict
         ``mismatches`` (fragments that differ, missing or extra ones included), ``fragments``, ``outputs``,
-        ``first`` (a few differing rows), per map (``maps``) ``bursts_equal``, ``bursts``, ``rtl_bursts``
-        (``(address, AXI length)`` in order) and the model's ``totals``,
-        ``bursts_equal`` (both maps, none else), ``rtl_bytes``, ``model_bytes``, ``cycles`` (reset to the last
+        ``first`` (a few differing rows), per cache (``maps``: one per map, a trilinear map's even and odd
+        levels apart, :meth:`~fxmodel.pipeline.engine.EngineParams.texture_ports`) ``bursts_equal``, ``bursts``,
+        ``rtl_bursts`` (``(address, AXI length)`` in order) and the model's ``totals``,
+        ``bursts_equal`` (every cache, none else), ``rtl_bytes``, ``model_bytes``, ``cycles`` (reset to the last
         fragment), ``clocks_per_fragment``, ``raster_clocks`` (the model's scan-converter clocks).
     """
     if params.textures is None or params.rop is not None:
@@ -90,8 +107,8 @@ def run_engine_fetch(params, records, *, latency: int = 1, p_valid: float = 1.0,
     first = [{"fragment": int(k), "rtl": rtl[k].tolist(), "model": want[k].tolist()} for k in bad[:5]]
     ar = [(int(a), int(ln)) for a, ln in got["ar"]]
     per_map = {}
-    for k, name in enumerate(TEXTURE_MAPS):
-        mine = [b for b in ar if (layout.texel_at(b[0]) or (None,))[0] == k]
+    for name in caches:
+        mine = [b for b in ar if port_of(params, layout, b[0]) == name]
         model = [(int(a), caches[name].beats_per_line - 1) for a in traffic[name].burst_addresses()]
         per_map[name] = {"bursts_equal": mine == model, "bursts": len(mine), "totals": traffic[name].totals,
                          "rtl_bursts": mine}

@@ -52,3 +52,31 @@ def test_traffic_comparison_can_fail(tin_plane):
     model = other.texture_traffic(tframe.records.matrix())["bump_map"].burst_addresses().tolist()
     assert res["maps"]["bump_map"]["rtl_bursts"] and [a for a, _ in res["maps"]["bump_map"]["rtl_bursts"]] != model
 
+
+
+#: The MIP scenes: the grazing floor with its MIP preset, the Berlin wall with the default preset's MIP mapping.
+MIP_SCENES = {"grazing-floor": ("grazing-floor-mip", 32), "berlin-wall": ("mip", 32)}
+
+
+@pytest.fixture(scope="module", params=sorted(MIP_SCENES))
+def mip_scene(request):
+    from host.render import from_triangles, prepare
+    from host.scene import scene_path
+    preset, size = MIP_SCENES[request.param]
+    tframe = from_triangles(prepare(scene_path(request.param), size=size, preset=preset))
+    assert tframe.params.pipeline.texture.trilinear
+    return request.param, dataclasses.replace(tframe.params, textures=SMALL), tframe
+
+
+@pytest.mark.parametrize("latency", (1, 20, 40))
+def test_engine_with_mip_levels_in_memory(mip_scene, latency):
+    """The color texture trilinear from its levels in memory: its even and odd levels through their caches (a
+    level the blend does not need not looked up), every fragment the model's, each cache's bursts its model."""
+    name, eng, tframe = mip_scene
+    res = run_engine_fetch(eng, tframe.records, latency=latency, p_valid=0.8, p_ready=0.7, p_pause=0.2,
+                           seed=latency, tag=f"engine_fetch_mip_{name}_{latency}")
+    assert res["outputs"] == res["fragments"] == len(tframe.out) > 0 and res["mismatches"] == 0
+    assert res["bursts_equal"] and res["rtl_bytes"] == res["model_bytes"] > 0
+    assert set(res["maps"]) == {"bump_map", "texture_even", "texture_odd"}
+    assert all(v["totals"]["misses"] > 0 for v in res["maps"].values())
+    assert (res["rtl"] == tframe.out).all()

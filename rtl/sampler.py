@@ -59,11 +59,13 @@ class TexelWrites:
 
 
 def texel_stages(params: SamplerParams) -> int:
-    """Stages of the bilinear or nearest sampler ``params`` before its blend: the corner words of a lookup are
-    there after them (indices and weights, address, memory read, and the two bank stages when banked); the
-    blend and rounding take the other ``params.latency - texel_stages(params)``."""
+    """Stages of the sampler ``params`` before its blend: the corner words of a lookup are there after them
+    (indices and weights, address, memory read, and the two bank stages when banked; trilinear: both levels'
+    words, ``rtl.sampler_mip.TEXEL_STAGES``); the blend and rounding take the other ``params.latency -
+    texel_stages(params)``."""
     if params.trilinear:
-        raise ValueError("a trilinear sampler reads two levels: no single point where its texels arrive")
+        from .sampler_mip import TEXEL_STAGES
+        return TEXEL_STAGES
     return 4 + 2 * params.banked
 
 

@@ -23,7 +23,11 @@ from fxmodel.core.rounding import Overflow, Rounding
 from .fixed import const_mul, narrow
 from .recip import product_stage
 
-__all__ = ["trilinear"]
+__all__ = ["trilinear", "level_indices", "blends", "TEXEL_STAGES"]
+
+#: Stages before the blends: level, scaled positions, indices, addresses, memory read (the corner words of both
+#: lookups are there after them; the texture fetch of ``rtl/pixel_fetch.py`` splits the sampler at this point).
+TEXEL_STAGES = 5
 
 
 def _pick(k, values):
@@ -37,6 +41,47 @@ def _pick(k, values):
 def trilinear(c, m, pipe) -> dict:
     """Build the datapath of component ``c`` (a ``Sampler`` of a trilinear ``SamplerParams``) into module ``m``
     and ``pipe``; returns the outputs by name."""
+    P = c.params
+    s3 = level_indices(c, pipe)
+    levels = [list(range(par, P.levels, 2)) for par in (0, 1)]           # global levels of each memory
+
+    def sizes(p, axis):
+        return [P.level_sizes[lv][axis] for lv in levels[p]]
+
+    # 4: addresses base_l + j W_l + i
+    corners = (("i0", "i0"), ("i1", "i0"), ("i0", "i1"), ("i1", "i1"))      # (x, y) of a, b, c, d
+    addr, wts = {}, {}
+    for p in (0, 1):
+        k = getattr(s3, f"k{p}")
+        hb = max(1, (max(sizes(p, 0)) - 1).bit_length())
+        wb = max(1, (max(sizes(p, 1)) - 1).bit_length())
+        for n, (xi, yi) in enumerate(corners):
+            row = getattr(s3, f"y{p}_{yi}")[:hb]
+            col = getattr(s3, f"x{p}_{xi}")[:wb]
+            addr[f"a{p}{n}"] = _pick(k, [P.level_bases[lv] + const_mul(row, P.level_sizes[lv][1])
+                                         for lv in levels[p]]) + col
+        wts |= {f"fx{p}": getattr(s3, f"x{p}_f"), f"fy{p}": getattr(s3, f"y{p}_f")}
+    s4 = pipe.stage(**addr, **wts, g=s3.g, odd=s3.odd)
+
+    # 5: the memory read
+    data = {}
+    for p in (0, 1):
+        mem = Memory(shape=P.word_bits, depth=len(P.parity_words[p]), init=P.parity_words[p])
+        m.submodules[f"levels{p}"] = mem
+        for n in range(4):
+            port = mem.read_port(domain="sync")
+            m.d.comb += port.addr.eq(getattr(s4, f"a{p}{n}"))
+            data[(p, n)] = port.data
+    late = pipe.stage(**wts_of(s4), g=s4.g, odd=s4.odd)
+    return blends(c, pipe, data, late)
+
+
+def level_indices(c, pipe):
+    """Stages 1-3 of the trilinear sampler from ``c.s, c.t, c.lod`` (``c`` a ``Sampler`` of a trilinear
+    ``SamplerParams``, or anything with those signals and ``params``): the last stage, with per memory ``p``
+    (even levels 0, odd 1) its level's index ``k{p}`` within the memory (level ``2 k + p``), the texel indices
+    ``x{p}_i0, x{p}_i1, y{p}_i0, y{p}_i1`` and weights ``x{p}_f, y{p}_f`` at that level, the level blend weight
+    ``g`` and ``odd`` (the parity of level ``L``)."""
     P = c.params
     T, B, C, F = P.coord_fmt.frac_bits, P.weight_bits, P.level_bits, P.lod_fmt.frac_bits
     top = P.levels - 1
@@ -79,41 +124,14 @@ def trilinear(c, m, pipe) -> dict:
                 i0 = Mux(i0 < 0, 0, Mux(i0 > n - 1, n - 1, i0))
                 i1 = Mux(i1 > n - 1, n - 1, i1)
             idx |= {f"{ax}{p}_i0": i0, f"{ax}{p}_i1": i1, f"{ax}{p}_f": x[T + 1 - B:T + 1]}
-    s3 = pipe.stage(**idx, g=s2.g, odd=s2.odd, k0=s2.k0, k1=s2.k1)
-
-    # 4: addresses base_l + j W_l + i
-    corners = (("i0", "i0"), ("i1", "i0"), ("i0", "i1"), ("i1", "i1"))      # (x, y) of a, b, c, d
-    addr, wts = {}, {}
-    for p in (0, 1):
-        k = getattr(s3, f"k{p}")
-        hb = max(1, (max(sizes(p, 0)) - 1).bit_length())
-        wb = max(1, (max(sizes(p, 1)) - 1).bit_length())
-        for n, (xi, yi) in enumerate(corners):
-            row = getattr(s3, f"y{p}_{yi}")[:hb]
-            col = getattr(s3, f"x{p}_{xi}")[:wb]
-            addr[f"a{p}{n}"] = _pick(k, [P.level_bases[lv] + const_mul(row, P.level_sizes[lv][1])
-                                         for lv in levels[p]]) + col
-        wts |= {f"fx{p}": getattr(s3, f"x{p}_f"), f"fy{p}": getattr(s3, f"y{p}_f")}
-    s4 = pipe.stage(**addr, **wts, g=s3.g, odd=s3.odd)
-
-    # 5: the memory read
-    data = {}
-    for p in (0, 1):
-        mem = Memory(shape=P.word_bits, depth=len(P.parity_words[p]), init=P.parity_words[p])
-        m.submodules[f"levels{p}"] = mem
-        for n in range(4):
-            port = mem.read_port(domain="sync")
-            m.d.comb += port.addr.eq(getattr(s4, f"a{p}{n}"))
-            data[(p, n)] = port.data
-    late = pipe.stage(**wts_of(s4), g=s4.g, odd=s4.odd)
-    return _blends(c, pipe, data, late)
+    return pipe.stage(**idx, g=s2.g, odd=s2.odd, k0=s2.k0, k1=s2.k1)
 
 
 def wts_of(s) -> dict:
     return {f"f{ax}{p}": getattr(s, f"f{ax}{p}") for p in (0, 1) for ax in "xy"}
 
 
-def _blends(c, pipe, data, late) -> dict:
+def blends(c, pipe, data, late) -> dict:
     """The two bilinear blends (exact, before narrowing), then the blend between the levels and the rounding."""
     P = c.params
     B, C = P.weight_bits, P.level_bits

@@ -44,11 +44,15 @@ from rtl.rop import axi_signature
 __all__ = ["DecoupledTexCache", "request_layout"]
 
 
-def request_layout(layout: Layout, side_bits: int = 0) -> data.StructLayout:
+def request_layout(layout: Layout, side_bits: int = 0, skip: bool = False) -> data.StructLayout:
     """A lookup: ``surface`` (index into ``layout.surfaces``), ``x0, x1, y0, y1`` (wide enough for the largest
-    surface), and ``side`` (``side_bits``, carried to the output untouched) when ``side_bits > 0``."""
+    surface), ``skip`` when ``skip`` (a lookup that is not needed: it passes through in order, its sideband with
+    it, and touches no line: no tag, no replacement state, no fill; its texels are undefined), and ``side``
+    (``side_bits``, carried to the output untouched) when ``side_bits > 0``."""
     cb = max(1, max(max(h, w) - 1 for _, h, w in layout.surfaces).bit_length())
     fields = {"surface": max(1, (len(layout.surfaces) - 1).bit_length()), "x0": cb, "x1": cb, "y0": cb, "y1": cb}
+    if skip:
+        fields["skip"] = 1
     if side_bits:
         fields["side"] = side_bits
     return data.StructLayout(fields)
@@ -57,12 +61,16 @@ def request_layout(layout: Layout, side_bits: int = 0) -> data.StructLayout:
 class DecoupledTexCache(wiring.Component):
     """The decoupled cache of ``params`` over the surfaces of ``layout`` (module docstring).
 
+    With ``skip``, a request has a ``skip`` bit (:func:`request_layout`): such a lookup checks no line (the
+    model's trace leaves it out) and only keeps its place in the order.
+
     Ports: ``i`` (stream of :func:`request_layout`), ``o`` (stream of ``texels``, four of ``texel_bits``, corner 0
     in the low bits, and ``side``), ``mem`` (AXI4 manager, ``addr_bits`` address bits, 32-bit data; the read
     channels only), ``busy`` (a lookup or a fill anywhere inside).
     """
 
-    def __init__(self, params: TexCacheParams, layout: Layout, side_bits: int = 0, addr_bits: int = 32):
+    def __init__(self, params: TexCacheParams, layout: Layout, side_bits: int = 0, addr_bits: int = 32,
+                 skip: bool = False):
         require(params.replacement == "lru", "replacement", params.replacement, "must be 'lru' in this RTL")
         require(params.bus_bytes == 4 and params.texel_bytes == 4, "bus_bytes/texel_bytes",
                 (params.bus_bytes, params.texel_bytes), "must both be 4 in this RTL (one texel a beat)")
@@ -73,7 +81,8 @@ class DecoupledTexCache(wiring.Component):
         self.params, self.layout, self.side_bits, self.addr_bits = params, layout, side_bits, addr_bits
         last_line = layout.base // layout.line_bytes + layout.size_bytes // layout.line_bytes
         self.line_bits = max(1, (last_line - 1).bit_length())
-        self.req = request_layout(layout, side_bits)
+        self.req = request_layout(layout, side_bits, skip)
+        self.skip = skip
         out = {"texels": 4 * params.texel_bits}
         if side_bits:
             out["side"] = side_bits
@@ -164,7 +173,8 @@ class DecoupledTexCache(wiring.Component):
                     m.d.comb += [c[q].dup.eq(1), srcsel[q].eq(j)]
         live = [Signal(name=f"live{q}") for q in range(4)]       # distinct and not yet checked
         for q in range(4):
-            m.d.comb += live[q].eq(~c[q].dup & (q >= k))
+            todo = ~c[q].dup & (q >= k)
+            m.d.comb += live[q].eq(todo & ~req.skip if self.skip else todo)
         clash = Signal()
         for q in range(4):
             for j in range(q):

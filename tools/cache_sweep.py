@@ -34,12 +34,9 @@ import shlex
 import sys
 from pathlib import Path
 
-import numpy as np
-
 from fxmodel.core.cost import bram_blocks
 from fxmodel.core.paths import ROOT, SCENES
-from fxmodel.units.sampler import Texels
-from fxmodel.units.texcache import Layout, TexCacheParams, footprints, simulate
+from fxmodel.units.texcache import Layout, TexCacheParams, simulate
 from host.atomic import atomic_write_bytes
 
 #: Scenes swept by default: every shipped scene and the grazing floor (a regression scene of ``tests/scenes``).
@@ -48,43 +45,38 @@ MAPS = ("bump_map", "texture")
 ECP5_85_DP16KD = 208
 
 
-def at_level(sampler, level: int):
-    """The sampler over every ``2^level``-th texel of its map in each direction: a stand-in for the MIP level
-    ``level`` a level-of-detail unit would pick (same coordinates, a map ``2^level`` times smaller)."""
-    if level == 0:
-        return sampler
-    step = 1 << level
-    return dataclasses.replace(sampler, texels=Texels(sampler.texels.codes[:, ::step, ::step]))
-
-
-def scene_traces(scene: str, size=None, level: int = 0) -> dict:
-    """One scene's lookups: per map ``(sampler, trace)`` (the maps at ``level``, :func:`at_level`) and the frame's
+def scene_traces(scene: str, size=None, preset: str = "default") -> dict:
+    """One scene's lookups with the pipeline ``preset``: per cache (``traces``, the engine's
+    :meth:`~fxmodel.pipeline.engine.EngineParams.texture_ports`: one per map, a trilinear map's even and odd levels
+    apart) its :class:`~fxmodel.units.texcache.Trace` (the engine's
+    :meth:`~fxmodel.pipeline.engine.EngineParams.texture_lookups`: with MIP mapping the LOD unit's levels, only
+    those a lookup needs), the layout's surfaces (each map's levels), each cache's texel bits, and the frame's
     figures (fragments, clocks, the depth test's and frame buffer's bytes per fragment, the engine's other
     memories)."""
     from host.render import from_triangles, prepare
     from host.scene import scene_path
-    frame = prepare(scene_path(scene), size=size, allow_clamp=True)
+    frame = prepare(scene_path(scene), size=size, preset=preset, allow_clamp=True)
     tframe = from_triangles(frame)
     p = frame.params
-    codes = np.stack([tframe.scan.codes[q.name] for q in p.inputs], axis=1)
-    st = p.trace(codes)["st"]
-    bump, tex = at_level(p.bump_map, level), at_level(p.texture, level)
-    traces = {"bump_map": (bump, footprints(bump, st[:, 0], st[:, 1], 0)),
-              "texture": (tex, footprints(tex, st[:, 2], st[:, 3], 0))}
-    n = len(codes)
+    engine = dataclasses.replace(tframe.params, textures=TexCacheParams())
+    traces = engine.texture_lookups(tframe.records)
+    n = len(tframe.out)
     mem = tframe.vis.stats["memory"]
-    engine = tframe.params
-    others = [m for m in engine.memories() if m not in p.bump_map.memories() + p.texture.memories()]
+    maps = p.bump_map.memories() + p.texture.memories()
+    others = [m for m in tframe.params.memories() if m not in maps]
     cubes = p.diffuse.memories() + p.specular.memories()
-    return {"traces": traces, "fragments": n, "raster_clocks": tframe.stats["raster_clocks"],
+    return {"traces": traces, "surfaces": engine.texture_layout().surfaces,
+            "word_bits": {port: getattr(p, name).word_bits for port, name, _ in engine.texture_ports()},
+            "fragments": n, "raster_clocks": tframe.stats["raster_clocks"],
             "covered_pixels": tframe.vis.stats["depth"]["covered_pixels"], "name": frame.scene.name,
             "size": f"{frame.scene.width}x{frame.scene.height}",
             "clamped_fragment_inputs": frame.stats["clamped_fragment_inputs"],
-            "maps": {m: list(traces[m][0].texels.shape[1:3]) for m in MAPS},
+            "maps": {m: list(getattr(p, m).texels.shape[1:3]) for m in MAPS},
+            "levels": {m: getattr(p, m).levels for m in MAPS},
             "frame_buffer_bytes_per_fragment": (mem["bytes_read"] + mem["bytes_written"]) / n if n else 0.0,
             "cube_face": p.diffuse.width, "cube_bram": bram_blocks(cubes),
             "other_bram": bram_blocks([m for m in others if m not in cubes]),
-            "on_chip_map_bram": bram_blocks(p.bump_map.memories() + p.texture.memories())}
+            "on_chip_map_bram": bram_blocks(maps)}
 
 
 def cache_for(size_kb: float, block: int, ways: int, **kw) -> TexCacheParams | None:
@@ -97,13 +89,13 @@ def cache_for(size_kb: float, block: int, ways: int, **kw) -> TexCacheParams | N
 
 
 def run_config(data: dict, params: TexCacheParams) -> dict:
-    """Both maps through their own cache of ``params``: per map totals and the scene's sums per fragment."""
+    """Each cache's lookups through its own cache of ``params`` over the scene's layout blocked by its line: per
+    cache totals (``maps``) and the scene's sums per fragment."""
     out = {"maps": {}}
-    for m in MAPS:
-        sampler, trace = data["traces"][m]
-        layout = Layout((((m, 0),) + tuple(sampler.texels.shape[1:3]),), params.block, params.texel_bytes)
+    layout = Layout(data["surfaces"], params.block, params.texel_bytes)
+    for m, trace in data["traces"].items():
         out["maps"][m] = simulate(params, layout, trace).totals
-    tot = {k: sum(out["maps"][m][k] for m in MAPS) for k in ("line_accesses", "hits", "lookups", "lookup_hits",
+    tot = {k: sum(v[k] for v in out["maps"].values()) for k in ("line_accesses", "hits", "lookups", "lookup_hits",
                                                              "memory_bytes", "bursts", "distinct_lines",
                                                              "bank_conflicts", "self_evictions")}
     n = data["fragments"] or 1
@@ -244,13 +236,15 @@ def _cache_name(c: dict) -> str:
 def table(record: dict) -> str:
     """The Markdown summary of a record (``docs/texcache.md`` holds the committed record's)."""
     c, b = record["chosen_params"], record["bram"]
-    lines = [f"Chosen: one cache per map, {_cache_name(c)} {c['replacement'].upper()}, {c['index']} set index, "
+    lines = [f"Chosen: one cache per map (per level parity of a MIP-mapped map), {_cache_name(c)} "
+             f"{c['replacement'].upper()}, {c['index']} set index, "
              f"{c['line_bytes']}-byte lines = one {c['beats_per_line']}-beat INCR burst on a {8 * c['bus_bytes']}-bit "
-             f"AXI4 bus. Block RAM (DP16KD): cubes of {b['cube_face']}-texel faces {b['cubes']}, the two caches "
+             f"AXI4 bus. Block RAM (DP16KD): cubes of {b['cube_face']}-texel faces {b['cubes']}, the caches "
              f"{b['caches']}, the rest of the engine {b['rest_of_engine']}: {b['total']} of the ECP5-85's "
              f"{b['device']}. "
-             f"SDRAM {record['sdram_mb_s']:g} MB/s, {record['burst_overhead_ns']:g} ns a burst; maps at level "
-             f"{record['level']}.", "",
+             f"SDRAM {record['sdram_mb_s']:g} MB/s, {record['burst_overhead_ns']:g} ns a burst; "
+             + (f"maps at level {record['level']}." if "level" in record else
+                f"preset `{record['preset']}`, caches {', '.join(record['caches'])}."), "",
              "| scene | maps (bump, color) | fragments | hit rate | lookups all hit | bytes / fragment (compulsory) | "
              "bursts / fragment | SDRAM ns / fragment | Mfragments/s (engine) | with frame buffer, bytes only | "
              "smallest cache within slack |",
@@ -272,8 +266,9 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
     ap.add_argument("--scenes", nargs="+", default=list(DEFAULT_SCENES), metavar="SCENE",
                     help="scene names in scenes/ or .toml paths (default: the shipped scenes and the grazing floor)")
     ap.add_argument("--size", type=int, help="override every scene's image width (aspect kept)")
-    ap.add_argument("--level", type=int, default=0, choices=range(0, 5), metavar="L",
-                    help="read every 2^L-th texel of the maps (a stand-in for MIP level L; default 0, the maps)")
+    ap.add_argument("--preset", default="default",
+                    help="pipeline preset of every scene (default: default; mip: the color texture MIP-mapped, "
+                         "its levels in memory and looked up in an even-level and an odd-level cache)")
     ap.add_argument("--sizes-kb", nargs="+", type=float, default=[0.5, 1, 2, 4, 8, 16, 32, 64],
                     help="data per cache in KB")
     ap.add_argument("--blocks", nargs="+", type=int, default=[2, 4, 8], help="line = block x block texels")
@@ -301,7 +296,7 @@ def run(args: argparse.Namespace) -> int:
     try:
         datas = {}
         for s in args.scenes:
-            d = scene_traces(s, args.size, args.level)
+            d = scene_traces(s, args.size, args.preset)
             datas[d["name"]] = d
     except (ValueError, OSError) as exc:
         print(f"error: {exc}", file=sys.stderr)
@@ -329,11 +324,11 @@ def run(args: argparse.Namespace) -> int:
         per_scene[s] = {"scene": d["name"], "size": d["size"], "fragments": d["fragments"],
                         "covered_pixels": d["covered_pixels"], "raster_clocks": d["raster_clocks"], "maps": d["maps"],
                         "clamped_fragment_inputs": d["clamped_fragment_inputs"], "result": res,
-                        "uncached_bytes_per_fragment": 4 * params.texel_bytes * len(MAPS),
+                        "uncached_bytes_per_fragment": 4 * params.texel_bytes * res["lookups"] / max(d["fragments"], 1),
                         **sustained(d, res, sdram, args.burst_overhead_ns, args.engine_mhz)}
     first = datas[names[0]]
-    cache_bram = sum(bram_blocks(dataclasses.replace(params, texel_bits=first["traces"][m][0].word_bits).memories())
-                     for m in MAPS)
+    cache_bram = sum(bram_blocks(dataclasses.replace(params, texel_bits=bits).memories())
+                     for bits in first["word_bits"].values())
     bram = {"cube_face": first["cube_face"], "cubes": first["cube_bram"], "caches": cache_bram,
             "rest_of_engine": first["other_bram"], "total": first["cube_bram"] + cache_bram + first["other_bram"],
             "device": ECP5_85_DP16KD, "maps_on_chip_instead": {s: d["on_chip_map_bram"] for s, d in datas.items()}}
@@ -344,7 +339,8 @@ def run(args: argparse.Namespace) -> int:
               "burst_overhead_ns": args.burst_overhead_ns, "engine_mhz": args.engine_mhz,
               "slack": args.slack, "chosen": chosen,
               "smallest_per_scene": {s: choose(rows, [s], args.slack)["cache"] for s in names},
-              "level": args.level, "chosen_params": params.info(), "per_scene": per_scene,
+              "preset": args.preset, "caches": list(first["traces"]), "chosen_params": params.info(),
+              "per_scene": per_scene,
               "bram": bram, "variants": variants(datas, params, sdram, args.burst_overhead_ns), "sweep": rows}
     if args.record:
         atomic_write_bytes(args.record, (json.dumps(record, indent=1) + "\n").encode())

@@ -36,8 +36,10 @@ SHIPPED = ("tin-plane", "sphere", "tin-sphere", "berlin-wall")
 
 
 def add_arguments(ap: argparse.ArgumentParser) -> None:
-    ap.add_argument("--scenes", nargs="+", default=list(SHIPPED), help="scene names or .toml paths (default: "
-                    + ", ".join(SHIPPED) + ")")
+    ap.add_argument("--scenes", nargs="+", default=list(SHIPPED), metavar="SCENE[:PRESET]",
+                    help="scene names or .toml paths, each with an optional pipeline preset after a colon (e.g. "
+                         "berlin-wall:mip, grazing-floor:grazing-floor-mip: the color texture MIP-mapped, its levels "
+                         "in memory); default: " + ", ".join(SHIPPED) + " with the default preset")
     ap.add_argument("--size", type=int, help="draw the scenes at this size (default: each scene's own)")
     ap.add_argument("--latencies", nargs="+", type=int, default=[0, 1, 20, 40],
                     help="memory latencies in clocks added on AR (the first: the reference)")
@@ -57,15 +59,17 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
 
 
 def engine_inputs(scene: str, params: TexCacheParams, size=None) -> tuple:
-    """``(engine, records, info)``: the scene's engine with its maps external, its triangle records and its name,
-    size and counts."""
+    """``(engine, records, info)``: the scene's engine (``SCENE[:PRESET]``) with its maps external, its triangle
+    records and its name (with the preset, when one is given), size and counts."""
     from host.render import from_triangles, prepare
     from host.scene import scene_path
-    tframe = from_triangles(prepare(scene_path(scene), size=size))
+    name, _, preset = scene.partition(":")
+    tframe = from_triangles(prepare(scene_path(name), size=size, preset=preset or "default"))
     eng = dataclasses.replace(tframe.params, textures=params)
     sc = tframe.frame.scene
-    return eng, tframe.records, {"scene": sc.name, "source": str(scene), "size": f"{sc.width}x{sc.height}",
-                                 "triangles": len(tframe.records), "fragments": len(tframe.scan)}
+    return eng, tframe.records, {"scene": sc.name + (f":{preset}" if preset else ""), "source": str(scene),
+                                 "size": f"{sc.width}x{sc.height}", "triangles": len(tframe.records),
+                                 "fragments": len(tframe.scan), "caches": [q[0] for q in eng.texture_ports()]}
 
 
 _KEEP = ("cycles", "clocks_per_fragment", "mismatches", "bursts_equal", "rtl_bytes", "model_bytes")
@@ -106,7 +110,7 @@ def table(record: dict) -> str:
     model's."""
     res = record["result"]
     lats = res["latencies"]
-    head = ["scene", "fragments", "misses (bump, color)", "bytes / fragment",
+    head = ["scene", "fragments", "misses (bump, color; color even, odd levels)", "bytes / fragment",
             *(f"L = {lat}" for lat in lats), "mismatches", "bursts = model"]
     rows = []
     for s in res["scenes"]:
@@ -115,7 +119,7 @@ def table(record: dict) -> str:
         cells = [f"{r[str(lat)]['clocks_per_fragment']:.3f}" + (
             f" ({100 * r[str(lat)]['rate_of_reference']:.1f} %)" if lat != lats[0] else "") for lat in lats]
         runs = list(r.values()) + list(st.values())
-        rows.append([f"`{s['scene']}`", s["fragments"], f"{first['misses']['bump_map']}, {first['misses']['texture']}",
+        rows.append([f"`{s['scene']}`", s["fragments"], ", ".join(str(v) for v in first["misses"].values()),
                      f"{first['model_bytes'] / max(s['fragments'], 1):.2f}", *cells,
                      sum(x["mismatches"] for x in runs), "yes" if all(_ok(x) for x in runs) else "**no**"])
     c = res["cache"]
@@ -126,7 +130,8 @@ def table(record: dict) -> str:
              f"the fragments" if res["wait_states"] else "")
     return ("\n".join(lines) + f"\n\nClocks per fragment of the engine from triangles, records offered every "
             f"clock and fragments always taken (in parentheses the rate's share of latency {lats[0]}'s); each "
-            f"map's cache: {c['block']} x {c['block']}-texel lines, {c['sets']} sets, {c['ways']} ways, lookup "
+            f"cache (one per map, a MIP-mapped map's even and odd levels apart): {c['block']} x {c['block']}-texel "
+            f"lines, {c['sets']} sets, {c['ways']} ways, lookup "
             f"FIFO {c['lookup_depth']}, {c['misses']} outstanding lines; whole frames{stall}; simulator "
             f"{res['simulator']}.\n")
 

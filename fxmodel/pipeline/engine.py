@@ -19,13 +19,28 @@ from fxmodel.units.raster import RasterParams, scan
 from fxmodel.units.rop import RopParams
 from fxmodel.units.rop import draw as rop_draw
 from fxmodel.units.shapes import repr_without_defaults
-from fxmodel.units.texcache import Layout, TexCacheParams, footprints, simulate
+from fxmodel.units.texcache import Layout, TexCacheParams, footprints, level_lookups, simulate
 
-__all__ = ["EngineParams", "RASTER_SATURATED_FLAG", "TEXTURE_MAPS"]
+__all__ = ["EngineParams", "RASTER_SATURATED_FLAG", "TEXTURE_MAPS", "texture_ports"]
 
 #: The maps that move to external memory with :attr:`EngineParams.textures`, in memory and lookup order (the
 #: reflectance cubes stay on chip).
 TEXTURE_MAPS = ("bump_map", "texture")
+
+
+def texture_ports(pipeline: PipelineParams) -> tuple:
+    """The texel caches of ``pipeline``'s maps in external memory, in request order: ``(port, map, parity)`` each.
+    A bilinear or nearest map has one cache (port = the map's name, parity ``None``); a trilinear map two,
+    ``{map}_even`` and ``{map}_odd``, its even and its odd levels (a lookup's two levels differ in parity, so both
+    caches look up in the same clock, as the on-chip sampler's two level memories do:
+    :func:`fxmodel.units.texcache.level_lookups`)."""
+    out = ()
+    for name in TEXTURE_MAPS:
+        if getattr(pipeline, name).trilinear:
+            out += ((f"{name}_even", name, 0), (f"{name}_odd", name, 1))
+        else:
+            out += ((name, name, None),)
+    return out
 
 
 @dataclass(frozen=True)
@@ -95,29 +110,53 @@ class EngineParams:
                         smp.word_bits, f"must be one face of at most {8 * self.textures.texel_bytes}-bit words")
 
     def texture_layout(self, base: int = 0) -> Layout:
-        """The maps in external memory: the bump map then the color texture (surfaces ``(name, 0)``), blocked by
-        the caches' line, from ``base``."""
+        """The maps in external memory: the bump map then the color texture, each map's MIP levels in order
+        (surfaces ``(name, level)``; level 0 only unless its sampler is trilinear), each level blocked by the
+        caches' line as level 0 is, from ``base``."""
         T = self.textures
         require(T is not None, "textures", None, "the maps are on chip")
-        return Layout(tuple(((name, 0),) + tuple(getattr(self.pipeline, name).texels.shape[1:3])
-                            for name in TEXTURE_MAPS), T.block, T.texel_bytes, base)
+        return Layout(tuple(((name, lv),) + tuple(size) for name in TEXTURE_MAPS
+                            for lv, size in enumerate(getattr(self.pipeline, name).level_sizes)),
+                      T.block, T.texel_bytes, base)
+
+    def texture_ports(self) -> tuple:
+        """The texel caches, in request order (:func:`texture_ports` of the pipeline)."""
+        return texture_ports(self.pipeline)
 
     def texture_caches(self) -> dict:
-        """Per map its cache's parameters: :attr:`textures` with the map's ``word_bits``."""
-        return {name: dataclasses.replace(self.textures, texel_bits=getattr(self.pipeline, name).word_bits)
-                for name in TEXTURE_MAPS}
+        """Per cache (:meth:`texture_ports`) its parameters: :attr:`textures` with its map's ``word_bits``."""
+        return {port: dataclasses.replace(self.textures, texel_bits=getattr(self.pipeline, name).word_bits)
+                for port, name, _ in self.texture_ports()}
 
-    def texture_traffic(self, records, base: int = 0) -> dict:
-        """Per map the :class:`~fxmodel.units.texcache.CacheResult` of its lookups (the fragments in drawing
-        order, the sampler's footprints at the perspective unit's coordinates) through its empty cache."""
+    def texture_lookups(self, records, base: int = 0) -> dict:
+        """Per cache (:meth:`texture_ports`) the :class:`~fxmodel.units.texcache.Trace` of its lookups: the
+        fragments in drawing order, the sampler's footprints at the perspective unit's coordinates (a trilinear
+        map: at the LOD unit's levels, only the levels a lookup needs, :func:`~fxmodel.units.texcache.
+        level_lookups`)."""
         res = scan(self.raster, records)
         codes = np.stack([res.codes[p.name] for p in self.pipeline.inputs], axis=1) if len(res) else \
             np.zeros((0, len(self.pipeline.inputs)), np.int64)
-        st = self.pipeline.trace(codes)["st"] if len(res) else np.zeros((0, 4), np.int64)
+        tr = self.pipeline.trace(codes) if len(res) else {"st": np.zeros((0, 4), np.int64),
+                                                           "lod": np.zeros(0, np.int64)}
+        st = tr["st"]
+        layout = self.texture_layout(base)
+        out = {}
+        for k, name in enumerate(TEXTURE_MAPS):
+            smp = getattr(self.pipeline, name)
+            s, t = st[:, 2 * k], st[:, 2 * k + 1]
+            if smp.trilinear:
+                surfaces = [layout.surface_index[(name, lv)] for lv in range(smp.levels)]
+                out[f"{name}_even"], out[f"{name}_odd"] = level_lookups(smp, s, t, tr["lod"], surfaces)
+            else:
+                out[name] = footprints(smp, s, t, layout.surface_index[(name, 0)])
+        return out
+
+    def texture_traffic(self, records, base: int = 0) -> dict:
+        """Per cache (:meth:`texture_ports`) the :class:`~fxmodel.units.texcache.CacheResult` of its lookups
+        (:meth:`texture_lookups`) through its empty cache."""
         layout, caches = self.texture_layout(base), self.texture_caches()
-        return {name: simulate(caches[name], layout, footprints(getattr(self.pipeline, name), st[:, 2 * k],
-                                                                st[:, 2 * k + 1], k))
-                for k, name in enumerate(TEXTURE_MAPS)}
+        return {port: simulate(caches[port], layout, trace)
+                for port, trace in self.texture_lookups(records, base).items()}
 
     @property
     def inputs(self) -> tuple:

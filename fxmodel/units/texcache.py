@@ -48,7 +48,7 @@ from fxmodel.core.cost import Memory
 from fxmodel.core.unit import require
 
 __all__ = ["REPLACEMENTS", "INDEXES", "TexCacheParams", "Layout", "Trace", "CacheResult", "footprints",
-           "interleave", "simulate", "bank_of", "plru_touch", "plru_victim"]
+           "level_lookups", "interleave", "simulate", "bank_of", "plru_touch", "plru_victim"]
 
 REPLACEMENTS = ("lru", "plru")
 INDEXES = ("linear", "xor")
@@ -321,6 +321,38 @@ def footprints(sampler, s, t, surface: int) -> Trace:
     n = len(s)
     return Trace(np.arange(n, dtype=np.int64), np.full(n, surface, np.int64), *(np.asarray(v, np.int64) for v in
                                                                                   (x0, x1, y0, y1)))
+
+
+def level_lookups(sampler, s, t, lod, surfaces) -> tuple:
+    """A trilinear sampler's lookups split by level parity, one cache per parity (as its on-chip memories are,
+    :meth:`fxmodel.units.sampler.SamplerParams.memories`): ``(trace_even, trace_odd)``.
+
+    Per fragment ``k`` (row ``k`` of ``s, t, lod``, codes), with ``L, L + 1, g`` of
+    :meth:`~fxmodel.units.sampler.SamplerParams.level`, the cache of parity ``p`` looks up the level of parity ``p``
+    among ``L, L + 1`` (``L - 1`` at the last level) at the sampler's footprint for that level's size, on surface
+    ``surfaces[level]`` (a :class:`Layout` index) -- when the level is needed: level ``L`` always, the other only
+    when the blend weight ``g`` is not 0 (at ``g = 0`` the blend is level ``L``'s exactly, whatever the other
+    level's texels). A lookup that is not needed is not made (its cache sees nothing), so each trace holds only
+    the needed lookups, ``fragment`` naming their fragment."""
+    require(sampler.trilinear, "sampler.filter", sampler.filter, "must be trilinear")
+    s, t = np.asarray(s, dtype=np.int64), np.asarray(t, dtype=np.int64)
+    L, _, g = sampler.level(lod)
+    top = sampler.levels - 1
+    out = []
+    for p in (0, 1):
+        mine = np.where(L % 2 == p, L, np.where(L < top, L + 1, L - 1))
+        need = np.flatnonzero((mine == L) | (g != 0))
+        rows = {f: np.zeros(len(need), np.int64) for f in ("x0", "x1", "y0", "y1")}
+        for lv in np.unique(mine[need]):
+            sel = np.flatnonzero(mine[need] == lv)
+            h, w = sampler.level_sizes[int(lv)]
+            x0, x1, _ = sampler.positions(s[need[sel]], w)
+            y0, y1, _ = sampler.positions(t[need[sel]], h)
+            for f, v in (("x0", x0), ("x1", x1), ("y0", y0), ("y1", y1)):
+                rows[f][sel] = v
+        surf = np.asarray(surfaces, np.int64)[mine[need]] if len(need) else np.zeros(0, np.int64)
+        out.append(Trace(need.astype(np.int64), surf, rows["x0"], rows["x1"], rows["y0"], rows["y1"]))
+    return tuple(out)
 
 
 def interleave(*traces: Trace) -> Trace:

@@ -56,10 +56,39 @@ def test_front_indices_have_the_request_widths(engine):
             assert widths[f"{m}_{c}"] == Shape.cast(req.members[c]).width
 
 
-def test_trilinear_has_no_single_texel_stage():
+def test_trilinear_texels_arrive_after_the_level_stages():
+    """The trilinear sampler's both levels' words are there after its level, position, index, address and read
+    stages; its blends (``rtl.sampler_mip.blends``) take the rest of its latency."""
     from fxmodel.units.sampler import SamplerParams
-    with pytest.raises(ValueError, match="trilinear"):
-        texel_stages(SamplerParams.PRESETS["trilinear"])
+    from rtl.sampler_mip import TEXEL_STAGES
+    smp = SamplerParams.PRESETS["trilinear"]
+    assert texel_stages(smp) == TEXEL_STAGES < smp.latency
+
+
+@pytest.fixture(scope="module")
+def mip_engine():
+    from host.render import from_triangles, prepare
+    from host.scene import scene_path
+    tframe = from_triangles(prepare(scene_path("grazing-floor"), size=16, preset="grazing-floor-mip"))
+    return dataclasses.replace(tframe.params, textures=TexCacheParams(block=4, sets=4, ways=2))
+
+
+def test_mip_halves_have_a_request_per_level_cache(mip_engine):
+    """With MIP mapping the front starts the texture's stages when the LOD unit's level is ready, hands each
+    level cache its footprint, surface and skip bit, and the back blends the two levels' texels."""
+    P = mip_engine.pipeline
+    front, back = FrontParams(P, mip_engine.texture_layout()), BackParams(P)
+    T = P.stage_latency
+    assert front.start["texture"] == max(T["persp"], T["lod"]) and front.start["bump_map"] == T["persp"]
+    outs = {p.name for p in front.outputs}
+    for port in ("texture_even", "texture_odd"):
+        assert {f"{port}_{c}" for c in CORNERS + ("surface", "skip")} <= outs
+        assert f"{port}_texels" in {p.name for p in back.inputs}
+    assert back.blend_latency("texture") == P.texture.latency - texel_stages(P.texture)
+    assert not {"Ucx", "Wy"} & {p.name for p in back.inputs}
+    from rtl.verilog import component_verilog
+    for half in (front, back):
+        assert "module" in component_verilog(build(half), "half")   # finish() checks the stated latency
 
 
 def test_engine_ports(engine):
@@ -68,4 +97,6 @@ def test_engine_ports(engine):
     assert "tex" not in Engine(dataclasses.replace(engine, textures=None)).signature.members
     fp = FetchPipeline(engine.pipeline, engine.texture_caches(), engine.texture_layout())
     assert fp.fetch.side_bits == fp.carry.size
+    with pytest.raises(ValueError, match="^caches="):
+        FetchPipeline(engine.pipeline, dict(reversed(engine.texture_caches().items())), engine.texture_layout())
     assert set(fp.carry.members) == {p.name for p in fp.back.inputs if not p.name.endswith("_texels")}

@@ -40,13 +40,26 @@ def test_sums_are_the_maps_model_runs(small):
     p = TexCacheParams(block=4, sets=4, ways=2)
     res = cache_sweep.run_config(small, p)
     total = 0
+    assert list(small["traces"]) == list(cache_sweep.MAPS)
     for m in cache_sweep.MAPS:
-        sampler, trace = small["traces"][m]
+        trace = small["traces"][m]
         assert len(trace) == small["fragments"]
-        lay = Layout(((("x", 0),) + tuple(sampler.texels.shape[1:3]),), 4)
-        total += simulate(p, lay, trace).totals["memory_bytes"]
+        total += simulate(p, Layout(small["surfaces"], 4), trace).totals["memory_bytes"]
     assert res["memory_bytes"] == total
     assert res["bytes_per_fragment"] == total / small["fragments"]
+
+
+def test_mip_preset_sweeps_the_level_caches():
+    """With the ``mip`` preset the color texture's levels are surfaces and its lookups go to an even-level and an
+    odd-level cache, one lookup per level needed (more than one lookup a fragment, at most two)."""
+    data = cache_sweep.scene_traces(str(ROOT / "tests/scenes/grazing-floor.toml"), size=32, preset="mip")
+    assert list(data["traces"]) == ["bump_map", "texture_even", "texture_odd"]
+    assert data["levels"]["texture"] > 2 and len(data["surfaces"]) == 1 + data["levels"]["texture"]
+    n = data["fragments"]
+    tex = len(data["traces"]["texture_even"]) + len(data["traces"]["texture_odd"])
+    assert n < tex <= 2 * n
+    res = cache_sweep.run_config(data, TexCacheParams(block=4, sets=4, ways=2))
+    assert set(res["maps"]) == set(data["traces"]) and res["lookups"] == n + tex
 
 
 def test_command_writes_record_and_picture(tmp_path, capsys):
@@ -78,7 +91,7 @@ def test_docs_tables_are_the_records():
     """``docs/texcache.md`` shows the generated pages (``bumpmap docs``), and each is
     :func:`tools.cache_sweep.table` of its committed record (``tests/tools/test_docs.py`` checks they are current)."""
     text = (ROOT / "docs" / "texcache.md").read_text()
-    for name in ("texcache", "texcache-level1"):
+    for name in ("texcache", "texcache-mip"):
         assert f'--8<-- "generated/{name}.md"' in text
         record = json.loads((ROOT / "docs" / "records" / f"{name}.json").read_text())
         page = (ROOT / "docs" / "generated" / f"{name}.md").read_text()

@@ -18,6 +18,7 @@ from fxmodel.units.texcache import (
     bank_of,
     footprints,
     interleave,
+    level_lookups,
     plru_touch,
     plru_victim,
     simulate,
@@ -281,3 +282,46 @@ def _set_of_line(params, layout, trace, n, line):
             if got == line:
                 return s
     raise AssertionError("line not in the footprint")
+
+
+@settings(max_examples=30, deadline=None)
+@given(seed=st.integers(0, 2 ** 32 - 1), repeat=st.booleans())
+def test_level_lookups_are_the_levels_a_trilinear_lookup_needs(seed, repeat):
+    """Per fragment the even and the odd cache look up exactly the levels the trilinear blend needs (level ``L``
+    always, the other level of ``L, L + 1`` only when ``g != 0``), each in the cache of its parity, at the
+    sampler's footprint for that level's size; and the blend is the same whatever the texels of a level not
+    looked up (at ``g = 0``)."""
+    import dataclasses
+    smp = SamplerParams.PRESETS["trilinear"]
+    if not repeat:
+        smp = dataclasses.replace(smp, edge="clamp")
+    rng = np.random.default_rng(seed)
+    s, t, lod = smp.random_inputs(rng, 200).T
+    surfaces = [10 + 3 * lv for lv in range(smp.levels)]           # any surface numbering
+    even, odd = level_lookups(smp, s, t, lod, surfaces)
+    L, L1, g = smp.level(lod)
+    got = {}
+    for p, tr in enumerate((even, odd)):
+        for k, sf, x0, x1, y0, y1 in zip(*(getattr(tr, f).tolist() for f in ("fragment", "surface", "x0", "x1",
+                                                                            "y0", "y1"))):
+            lv = surfaces.index(sf)
+            assert lv % 2 == p
+            got.setdefault(k, {})[lv] = (x0, x1, y0, y1)
+    for k in range(len(s)):
+        want = {int(L[k])} | ({int(L1[k])} if g[k] else set())
+        assert set(got.get(k, {})) == want
+        for lv in want:
+            h, w = smp.level_sizes[lv]
+            i0, i1, _ = smp.positions(s[k:k + 1], w)
+            j0, j1, _ = smp.positions(t[k:k + 1], h)
+            assert got[k][lv] == (int(i0[0]), int(i1[0]), int(j0[0]), int(j1[0]))
+    # a level not looked up does not matter: every other level's texels scrambled, the same samples
+    one = g == 0
+    for lv in np.unique(L[one]).tolist():
+        rows = np.flatnonzero(one & (L == lv))
+        codes = [smp.texels.codes] + [m.codes for m in smp.mips]
+        codes = [c if k == lv else rng.integers(0, 256, size=c.shape) for k, c in enumerate(codes)]
+        other = dataclasses.replace(smp, texels=Texels(codes[0]), mips=tuple(Texels(c) for c in codes[1:]))
+        assert np.array_equal(other.sample_trilinear(s[rows], t[rows], lod[rows]),
+                              smp.sample_trilinear(s[rows], t[rows], lod[rows]))
+    assert one.any() and (~one).any()

@@ -13,7 +13,7 @@ from fxmodel.pipeline.pixel import FLAG_BITS, LOD_INPUTS, TEXEL_MAPS, PipelinePa
 
 from .unit import Pipe, UnitComponent, build, register
 
-__all__ = ["Pipeline", "add_unit"]
+__all__ = ["Pipeline", "add_unit", "add_lod"]
 
 
 @register(PipelineParams)
@@ -67,8 +67,7 @@ class Pipeline(UnitComponent):
             tex = unit("texture", P.texture, persp.o_valid, s=persp.sc, t=persp.tc)
             t_tex = t0
         else:                   # MIP mapping: the LOD beside persp, the texture when both are ready
-            names = ("Uc", "Vc", "W") + LOD_INPUTS
-            lod = unit("lod", P.lod, self.i_valid, **{p.name: getattr(self, n) for p, n in zip(P.lod.inputs, names)})
+            lod = add_lod(m, P, self)
             t_lod, t_tex = T["lod"], max(t0, T["lod"])
             tex = unit("texture", P.texture, late(persp.o_valid, t0, t_tex, "v_tex"),
                        s=late(persp.sc, t0, t_tex, "sc"), t=late(persp.tc, t0, t_tex, "tc"),
@@ -88,6 +87,15 @@ def add_unit(m: Module, name: str, params, valid, comp=None, **inputs):
     for port, value in inputs.items():
         m.d.comb += getattr(comp, port).eq(value)
     return comp
+
+
+def add_lod(m: Module, P: PipelineParams, comp):
+    """The LOD unit (``P.lod``, MIP mapping) as submodule ``lod`` of ``m``, beside ``persp``: on the fragment's
+    ``Uc, Vc, W`` and the triangle's increments (:data:`~fxmodel.pipeline.pixel.LOD_INPUTS`), ports of ``comp``,
+    starting with ``comp.i_valid``. Shared by :class:`Pipeline` and the front of the split pipeline
+    (``rtl/pixel_fetch.py``)."""
+    names = ("Uc", "Vc", "W") + LOD_INPUTS
+    return add_unit(m, "lod", P.lod, comp.i_valid, **{p.name: getattr(comp, n) for p, n in zip(P.lod.inputs, names)})
 
 
 def shade_half(m, pipe: Pipe, unit, late, P: PipelineParams, T: dict, frag, valid, bmap, tex, dbz) -> dict:

@@ -39,7 +39,7 @@ from fxmodel.pipeline.pixel import LOD_INPUTS, PipelineParams
 from fxmodel.units.texcache import Layout
 
 from .fixed import shape
-from .pixel import add_unit, shade_half
+from .pixel import add_lod, add_unit, shade_half
 from .sampler import Sampler, texel_stages
 from .sampler_mip import blends, level_indices
 from .streams import StreamUnit, input_layout, output_layout
@@ -201,9 +201,7 @@ class Front(UnitComponent):
         pipe = Pipe(m)
         persp = add_unit(m, "persp", P.persp, self.i_valid, **{p.name: getattr(self, p.name) for p in P.persp.inputs})
         if P.lod is not None:                           # the LOD unit beside persp, on Uc, Vc, W and the increments
-            names = ("Uc", "Vc", "W") + LOD_INPUTS
-            lod = add_unit(m, "lod", P.lod, self.i_valid,
-                           **{p.name: getattr(self, n) for p, n in zip(P.lod.inputs, names)})
+            lod = add_lod(m, P, self)
         stages = F.ready
         outs = {}
         for name, (s, t) in zip(MAPS, ((persp.s, persp.t), (persp.sc, persp.tc))):

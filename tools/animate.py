@@ -135,7 +135,7 @@ def _gif(args) -> dict:
 
 
 def run(args: argparse.Namespace) -> int:
-    from fxmodel.core.paths import SCENES
+    from fxmodel.core.paths import shipped_scenes
     from host.scene import SceneError
     from host.shipped import scene_preset
     before = machine()
@@ -143,7 +143,7 @@ def run(args: argparse.Namespace) -> int:
     engine_hz, source = _engine_hz()
     try:
         gif = _gif(args)
-        names = args.rates if args.rates is not None else [p.stem for p in sorted(SCENES.glob("*.toml"))]
+        names = args.rates if args.rates is not None else shipped_scenes()
         rows = [scene_rates(n, scene_preset(n), engine_hz, args.baud) for n in names]
     except (SceneError, ValueError, OSError) as exc:
         print(f"error: {exc}", file=sys.stderr)

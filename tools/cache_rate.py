@@ -24,7 +24,7 @@ import sys
 
 import numpy as np
 
-from fxmodel.core.paths import SCENES
+from fxmodel.core.paths import shipped_scenes
 from fxmodel.pipeline.engine import TEXTURE_MAPS as MAPS
 from fxmodel.units.texcache import TexCacheParams, footprints
 
@@ -38,7 +38,7 @@ __all__ = ["add_arguments", "run", "measure", "table", "cache_and_simulator", "c
 
 
 def add_arguments(ap: argparse.ArgumentParser) -> None:
-    ap.add_argument("--scenes", nargs="+", default=sorted(p.stem for p in SCENES.glob("*.toml")),
+    ap.add_argument("--scenes", nargs="+", default=shipped_scenes(),
                     help="scene names or .toml paths (default: every shipped scene)")
     ap.add_argument("--size", type=int, help="draw the scenes at this size (default: each scene's own)")
     ap.add_argument("--fragments", type=int, default=4000, help="the first N fragments of each scene (default 4000)")

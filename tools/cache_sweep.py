@@ -35,12 +35,12 @@ import sys
 from pathlib import Path
 
 from fxmodel.core.cost import bram_blocks
-from fxmodel.core.paths import ROOT, SCENES
+from fxmodel.core.paths import ROOT, shipped_scenes
 from fxmodel.units.texcache import Layout, TexCacheParams, simulate
 from host.atomic import atomic_write_bytes
 
 #: Scenes swept by default: every shipped scene and the grazing floor (a regression scene of ``tests/scenes``).
-DEFAULT_SCENES = tuple(sorted(p.stem for p in SCENES.glob("*.toml"))) + (str(ROOT / "tests/scenes/grazing-floor.toml"),)
+DEFAULT_SCENES = tuple(shipped_scenes()) + (str(ROOT / "tests/scenes/grazing-floor.toml"),)
 MAPS = ("bump_map", "texture")
 ECP5_85_DP16KD = 208
 

@@ -21,8 +21,9 @@ import sys
 
 import numpy as np
 
+from fxmodel.core.paths import shipped_scenes
 from host.render import compose, from_triangles, prepare, save_png
-from host.scene import SCENES, scene_path
+from host.scene import scene_path
 from host.shipped import scene_preset
 from host.visibility import disagreement_picture, draw_fragments
 from tools.record import add_record_option, machine, write_if_asked
@@ -71,7 +72,7 @@ def table(rows) -> str:
 
 def add_arguments(ap: argparse.ArgumentParser) -> None:
     """The command line (``bumpmap depth``, :mod:`tools.main`)."""
-    ap.add_argument("--scenes", nargs="+", default=sorted(p.stem for p in SCENES.glob("*.toml")),
+    ap.add_argument("--scenes", nargs="+", default=shipped_scenes(),
                     help="scene names in scenes/ or .toml paths (default: every shipped scene)")
     ap.add_argument("--size", type=int, help="override the image width (aspect kept)")
     ap.add_argument("--json", action="store_true", help="print JSON instead of the Markdown table")

@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from fxmodel.core.paths import ROOT, SCENES
+from fxmodel.core.paths import ROOT, SCENES, shipped_scenes
 from host.atomic import atomic_save_png, atomic_write_text
 from host.shipped import scene_preset
 
@@ -308,7 +308,7 @@ def run(args) -> int:
     """Every shipped scene against the true image (reference (c)), and the filtering study (MIP maps, LEAN bump
     maps, level of detail)."""
     t0 = time.perf_counter()
-    names = args.scenes if args.scenes is not None else sorted(p.stem for p in SCENES.glob("*.toml"))
+    names = args.scenes if args.scenes is not None else shipped_scenes()
     for name in names:
         if not (SCENES / f"{name}.toml").is_file():
             print(f"error: --scenes: no scene {name!r} in {SCENES}", file=sys.stderr)

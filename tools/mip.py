@@ -19,7 +19,7 @@ import time
 
 import numpy as np
 
-from fxmodel.core.paths import SCENES
+from fxmodel.core.paths import SCENES, shipped_scenes
 from tools.record import add_record_option, machine, write_if_asked
 
 __all__ = ["add_arguments", "run", "table", "mip_units", "lod_worst"]
@@ -124,7 +124,7 @@ def _scene(name: str, args) -> dict:
 
 def run(args) -> int:
     """Every shipped scene with and without MIP mapping against the true image."""
-    names = args.scenes if args.scenes is not None else sorted(p.stem for p in SCENES.glob("*.toml"))
+    names = args.scenes if args.scenes is not None else shipped_scenes()
     for name in names:
         if not (SCENES / f"{name}.toml").is_file():
             print(f"error: --scenes: no scene {name!r} in {SCENES}", file=sys.stderr)

@@ -32,12 +32,13 @@ import sys
 import numpy as np
 
 from fxmodel.core.fixed import Fmt
+from fxmodel.core.paths import shipped_scenes
 from fxmodel.pipeline.lighting import face_directions
 from fxmodel.pipeline.presets import preset_units, top_problem
 from host.metrics import compare
 from host.reference import cube_address_float, perturbed, sample_float
 from host.render import prepare
-from host.scene import SCENES, scene_path
+from host.scene import scene_path
 from host.shipped import scene_preset
 from host.truth import DEFAULT_SAMPLES, true_image
 from tools.record import add_record_option, machine, write_if_asked
@@ -159,7 +160,7 @@ def table(rows) -> str:
 
 def add_arguments(ap: argparse.ArgumentParser) -> None:
     """The command line (``bumpmap precision``, :mod:`tools.main`)."""
-    ap.add_argument("--scenes", nargs="+", default=sorted(p.stem for p in SCENES.glob("*.toml")),
+    ap.add_argument("--scenes", nargs="+", default=shipped_scenes(),
                     help="scene names in scenes/ or .toml paths (default: every shipped scene)")
     ap.add_argument("--samples", type=int, default=DEFAULT_SAMPLES,
                     help="samples per pixel along each axis of reference (c) (a power of two)")

@@ -16,13 +16,18 @@ import os
 import tempfile
 from pathlib import Path
 
-__all__ = ["ROOT", "SCENES", "presets_dir", "build_dir", "source_digest", "atomic_writer"]
+__all__ = ["ROOT", "SCENES", "shipped_scenes", "presets_dir", "build_dir", "source_digest", "atomic_writer"]
 
 #: The repository root (the folder holding ``fxmodel/``, ``scenes/`` and ``presets/``).
 ROOT = Path(__file__).resolve().parents[2]
 
 #: The shipped scene files.
 SCENES = ROOT / "scenes"
+
+
+def shipped_scenes() -> list[str]:
+    """The shipped scenes' names (``scenes/*.toml`` without the suffix), sorted: every command's default scene list."""
+    return sorted(p.stem for p in SCENES.glob("*.toml"))
 
 
 def presets_dir() -> Path:

@@ -171,7 +171,7 @@ class Raster(wiring.Component):
     def elaborate(self, platform):
         m = Module()
         gen = self._row_generator(m)
-        self._span_pipeline(m, gen)
+        self._span_pipeline(m, gen, platform)
         self._pixel_calculator(m, gen)
         return m
 
@@ -260,12 +260,12 @@ class Raster(wiring.Component):
         return issue, accept
 
     # -- span pipeline (free running: the credits keep a FIFO place for every row issued) ------------------------
-    def _span_pipeline(self, m, g: SimpleNamespace):
+    def _span_pipeline(self, m, g: SimpleNamespace, platform=None):
         """The span pipeline from the generator's state ``g`` into the row FIFO (module docstring)."""
         P = self.params
         w = P.pixel_fmt.width
         acc_w = {n: P.acc_fmt(n).width for n in P.names}
-        pipe = Pipe(m, "span_")
+        pipe = Pipe(m, "span_", platform)
         # (1) each edge's bound relative to x0, clamped to [0, x1 - x0], and whether it empties the row
         nx1 = (~Cat(g.k_x1, Const(0, 1))).as_signed()                    # -x1 - 1
         bounds = {}

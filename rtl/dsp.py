@@ -2,12 +2,11 @@
 
 Why: Yosys maps a product onto a ``MULT18X18D`` but never moves registers into it (``synth_ecp5`` has no register
 packing for this block), so every product of the pipeline ran from a fabric register through a route into the
-block, 3.9 ns of multiplier at speed grade 6, and a route out to a fabric register: measured alone, an
-18 x 18 product between adjacent registers closes at 143 MHz, and in the engine, with most of the device's blocks
-in use, those paths were most of the endpoints that missed 100 MHz (``docs/board/engine-placement.json``). The block
-has registers of its own on both operands and on the product; with them the multiplier lies between two registers
-inside the block, and the fabric sees a setup at the block's input and 0.74 ns clock-to-out at its output
-(the same experiment, the same product, 250 MHz).
+block, through the whole multiplier, and through a route out to a fabric register; with most of the device's blocks
+in use, those paths were most of the engine's endpoints that missed 100 MHz (``docs/board/engine-placement.json``
+counts them and gives nextpnr's delays). The block has registers of its own on both operands and on the product
+(nextpnr times the block by them): with them the multiplier lies between two registers inside the block, and the
+fabric sees only a setup at the block's input and the block's clock-to-out at its output.
 
 What: :class:`rtl.unit.Pipe` asks :func:`registered_product` for each expression it registers. When the
 platform is an ECP5 (``platform.family == "ecp5"``: amaranth-boards' ULX3S, or :data:`ECP5` for the Verilog that

@@ -11,9 +11,10 @@ fabric sees only a setup at the block's input and the block's clock-to-out at it
 What: :class:`rtl.unit.Pipe` asks :func:`registered_product` for each expression it registers. When the
 platform is an ECP5 (``platform.family == "ecp5"``: amaranth-boards' ULX3S, or :data:`ECP5` for the Verilog that
 ``bumpmap fpga`` places) and the expression is a product (or a slice of one) of two operands of at most
-:data:`DSP_BITS` bits, the stage register is the block's output register, and each operand that is a register
-the same ``Pipe`` made (or a slice or sign cast of one) is replaced by the block's input register fed from that
-register's own input: the same value at the same clock edge. Anything else stays as it was (Yosys infers the
+:data:`DSP_BITS` bits, the stage register is the block's output register, and when both operands are registers the
+same ``Pipe`` made (or slices or sign casts of them) they are replaced by the block's input registers fed from
+those registers' own inputs: the same values at the same clock edge (one operand alone is left in the fabric:
+nextpnr times a block with one input register as if it had none). Anything else stays as it was (Yosys infers the
 block without registers). The function is the same as the fabric's registers, clock for clock, reset
 included (the block's registers reset synchronously with the domain, as Amaranth's registers do; global
 set/reset off); ``tests/rtl/test_dsp.py`` runs each unit both ways in Icarus, :data:`MODEL` standing in for
@@ -114,13 +115,15 @@ class RegisterSources:
 
 
 def block(m: Module, p: Product, sources: RegisterSources, name: str) -> Value:
-    """One ``MULT18X18D`` computing ``p`` with its output register (and an input register for each operand
-    :meth:`RegisterSources.source` knows); returns the registered product's bits ``[p.lo:p.hi]``, exact (every
-    product of two 18-bit operands fits the block's 36 bits: at most ``2**34`` in magnitude when both are signed,
-    below ``2**36`` when both unsigned, below ``2**35`` in magnitude when mixed)."""
+    """One ``MULT18X18D`` computing ``p`` with its output register (and its input registers when
+    :meth:`RegisterSources.source` knows both operands); returns the registered product's bits ``[p.lo:p.hi]``,
+    exact (every product of two 18-bit operands fits the block's 36 bits: at most ``2**34`` in magnitude when both
+    are signed, below ``2**36`` when both unsigned, below ``2**35`` in magnitude when mixed)."""
     ports, params = {}, {}
-    for port, x in (("A", p.a), ("B", p.b)):
-        src = sources.source(x)
+    srcs = [sources.source(x) for x in (p.a, p.b)]
+    if any(s is None for s in srcs):    # both operand registers or neither: nextpnr times a block with one input
+        srcs = [None, None]             # register as if it had none, and the fabric register is as fast
+    for (port, x), src in zip((("A", p.a), ("B", p.b)), srcs):
         wide = Signal(signed(DSP_BITS) if x.shape().signed else unsigned(DSP_BITS), name=f"{name}_{port.lower()}")
         m.d.comb += wide.eq(x if src is None else src)        # sign or zero extension, by the operand's shape
         for i in range(DSP_BITS):

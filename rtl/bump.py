@@ -36,7 +36,7 @@ class Bump(UnitComponent):
     def elaborate(self, platform):
         P = self.params
         m = Module()
-        pipe = Pipe(m)
+        pipe = Pipe(m, platform=platform)
         terms = {}
         sn = P.frac - P.n_fmt.frac_bits
         for i, c in enumerate(AXES):

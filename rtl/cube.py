@@ -52,7 +52,7 @@ class Cube(UnitComponent):
         R = D.recip
         n = P.in_fmt.width
         m = Module()
-        pipe = Pipe(m)
+        pipe = Pipe(m, platform=platform)
 
         # 1: magnitudes (n-bit unsigned: |min_code| = 2**(n-1) fits), tie rule, face and numerators
         x, y, z = self.x, self.y, self.z

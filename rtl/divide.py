@@ -39,7 +39,7 @@ class Divide(UnitComponent):
         P = self.params
         R = P.recip
         m = Module()
-        pipe = Pipe(m)
+        pipe = Pipe(m, platform=platform)
         s = times_reciprocal(m, pipe, R, self.d, self.i_valid, {"n": self.n})
         y, s = scale_stages(pipe, {"q": s.p_n}, P.prod_fmt.frac_bits, s.exp, R, P.out_fmt.frac_bits,
                             carry={"dbz": s.dbz, "n": s.n})

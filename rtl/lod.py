@@ -166,7 +166,7 @@ class Lod(UnitComponent):
     def elaborate(self, platform):
         P = self.params
         m = Module()
-        pipe = Pipe(m)
+        pipe = Pipe(m, platform=platform)
         wn = P.w_fmt.width - 1                             # a positive W in its magnitude bits
         s = self._d_terms(pipe)
 

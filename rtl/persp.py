@@ -36,7 +36,7 @@ class Persp(UnitComponent):
         P = self.params
         R = P.recip
         m = Module()
-        pipe = Pipe(m)
+        pipe = Pipe(m, platform=platform)
         s = times_reciprocal(m, pipe, R, self.W, self.i_valid, {i: getattr(self, i) for i, _ in P.numerators})
         y, s = scale_stages(pipe, {o: getattr(s, f"p_{i}") for i, o in P.numerators}, P.prod_frac, s.exp, R,
                             P.coord_bits, carry={"dbz": s.dbz})

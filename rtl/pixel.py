@@ -48,7 +48,7 @@ class Pipeline(UnitComponent):
         P = self.params
         T = P.stage_latency
         m = Module()
-        pipe = Pipe(m)
+        pipe = Pipe(m, platform=platform)
 
         def unit(name, params, valid, **inputs):
             if self.writes is not None and name in TEXEL_MAPS:

@@ -198,7 +198,7 @@ class Front(UnitComponent):
         P = F.pipeline
         T = P.stage_latency
         m = Module()
-        pipe = Pipe(m)
+        pipe = Pipe(m, platform=platform)
         persp = add_unit(m, "persp", P.persp, self.i_valid, **{p.name: getattr(self, p.name) for p in P.persp.inputs})
         if P.lod is not None:                           # the LOD unit beside persp, on Uc, Vc, W and the increments
             lod = add_lod(m, P, self)
@@ -209,7 +209,7 @@ class Front(UnitComponent):
             t0 = F.start[name]
             m.d.comb += [smp.s.eq(pipe.delay(s, t0 - T["persp"], f"{name}_s")),
                          smp.t.eq(pipe.delay(t, t0 - T["persp"], f"{name}_t"))]
-            sp = Pipe(m, f"{name}_")
+            sp = Pipe(m, f"{name}_", platform, pipe.sources)
             done = t0 + F.index_stages(name)
 
             def late(v, what, name=name, done=done):
@@ -253,7 +253,7 @@ class Back(UnitComponent):
         P = B.pipeline
         T = B.schedule
         m = Module()
-        pipe = Pipe(m)
+        pipe = Pipe(m, platform=platform)
 
         def late(value, now, when, name):
             return pipe.delay(value, when - now, name)
@@ -264,7 +264,7 @@ class Back(UnitComponent):
         res = {}
         for name in MAPS:
             smp = _sampler(getattr(P, name))
-            sp = Pipe(m, f"{name}_")
+            sp = Pipe(m, f"{name}_", platform, pipe.sources)
             wb = smp.params.word_bits
 
             def corners(port, wb=wb):

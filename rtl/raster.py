@@ -48,7 +48,10 @@ used, ``advance`` and the rows in the row FIFO with whether there is one) in ide
 :attr:`~fxmodel.units.raster.RasterParams.ENABLE_FANOUT` register bits (the edges, the per-triangle values, three or
 four attributes a group): each copy is a few flip-flops with its own feedback, which synthesis does not merge
 (two flip-flops with one input would be merged into one), and the placer puts each near its group. Copy 0 also
-drives the ports, the FIFOs and the span pipeline's valid.
+drives the ports, the FIFOs and the span pipeline's valid. The rows the Pixel Calculator takes reach the
+generator's copies from the Pixel Calculator's copies in turn (generator copy ``j`` from copy ``j mod n``), not
+from copy 0 alone: that one net to every generator copy was the board's critical path once the products were in
+their multiplier blocks' registers.
 
 ``busy`` is high while the Pixel Calculator works on a row: a row costs ``max(1, span)`` busy clocks, so when
 the sink is always ready the busy clocks are the model's ``clocks``. The generator runs ahead of the Pixel
@@ -171,14 +174,14 @@ class Raster(wiring.Component):
     def elaborate(self, platform):
         m = Module()
         gen = self._row_generator(m)
-        self._span_pipeline(m, gen)
+        self._span_pipeline(m, gen, platform)
         self._pixel_calculator(m, gen)
         return m
 
     # -- row generator: per-triangle constants and the next row's state ------------------------------------------
     def _row_generator(self, m) -> SimpleNamespace:
         """The row generator's registers and control (module docstring); returns its state for the span
-        pipeline: the registers, ``issue`` (a row leaves this clock), the row FIFO ``fifo`` and ``take`` (the
+        pipeline: the registers, ``issue`` (a row leaves this clock), the row FIFO ``fifo`` and ``takes`` (the
         Pixel Calculator takes a row from it)."""
         P = self.params
         rec = self.i.payload
@@ -202,7 +205,7 @@ class Raster(wiring.Component):
         g.s_y, s_rem = _sig(pf, "s_y"), _sig(pf, "s_rem")
 
         m.submodules.rows = g.fifo = SyncFIFO(width=row_layout(P).size, depth=P.ROW_FIFO_DEPTH)
-        g.take = Signal(name="take_row")
+        g.takes = []                    # per control copy: the Pixel Calculator takes a row (``_pixel_calculator``)
 
         # the registers in blocks: (bits, load statements, step statements)
         blocks = [(_bits(g.k_x0, g.k_x1, g.k_w, g.s_y, s_rem, *g.k_c.values()),
@@ -228,7 +231,8 @@ class Raster(wiring.Component):
                            [g.s_a[n].eq((g.s_a[n] + k_dy[n])[:acc_w[n]])]))
         g.issue = None
         for k, group in enumerate(_groups(blocks, P.ENABLE_FANOUT)):
-            issue_k, accept_k = self._gen_control(m, k, s_rem, g.take)
+            g.takes.append(Signal(name=f"take_row_{k}"))
+            issue_k, accept_k = self._gen_control(m, k, s_rem, g.takes[k])
             g.issue = issue_k if g.issue is None else g.issue
             with m.If(accept_k):
                 m.d.sync += [st for _, load, _ in group for st in load]
@@ -260,12 +264,12 @@ class Raster(wiring.Component):
         return issue, accept
 
     # -- span pipeline (free running: the credits keep a FIFO place for every row issued) ------------------------
-    def _span_pipeline(self, m, g: SimpleNamespace):
+    def _span_pipeline(self, m, g: SimpleNamespace, platform=None):
         """The span pipeline from the generator's state ``g`` into the row FIFO (module docstring)."""
         P = self.params
         w = P.pixel_fmt.width
         acc_w = {n: P.acc_fmt(n).width for n in P.names}
-        pipe = Pipe(m, "span_")
+        pipe = Pipe(m, "span_", platform)
         # (1) each edge's bound relative to x0, clamped to [0, x1 - x0], and whether it empties the row
         nx1 = (~Cat(g.k_x1, Const(0, 1))).as_signed()                    # -x1 - 1
         bounds = {}
@@ -323,7 +327,7 @@ class Raster(wiring.Component):
 
     # -- Pixel Calculator, rounding, saturation into the output FIFO ---------------------------------------------
     def _pixel_calculator(self, m, g: SimpleNamespace):
-        """The Pixel Calculator: rows from the row FIFO ``g.fifo`` (taken under ``g.take``), one fragment a
+        """The Pixel Calculator: rows from the row FIFO ``g.fifo`` (taken under ``g.takes``), one fragment a
         clock through the rounding stage and the saturation into the output FIFO (module docstring)."""
         P = self.params
         pf = P.pixel_fmt
@@ -352,17 +356,20 @@ class Raster(wiring.Component):
             blocks.append((_bits(acc[n], pdx[n], r_a[n]), lambda busy, nonempty, n=n: [r_a[n].eq(rounded[n])],
                            [acc[n].eq((acc[n] + pdx[n])[:acc_w[n]])],
                            [acc[n].eq(row[f"{n}_start"]), pdx[n].eq(row[f"{n}_dx"])]))
+        takes = []
         for k, group in enumerate(_groups(blocks, P.ENABLE_FANOUT)):
             advance, step, take_k, busy, nonempty = self._pc_control(m, k, g.fifo, ofifo, row)
+            takes.append(take_k)
             if k == 0:
-                m.d.comb += [g.take.eq(take_k), g.fifo.r_en.eq(take_k), self.busy.eq(busy),
-                             ofifo.w_en.eq(advance & r_valid)]
+                m.d.comb += [g.fifo.r_en.eq(take_k), self.busy.eq(busy), ofifo.w_en.eq(advance & r_valid)]
             with m.If(advance):
                 m.d.sync += [st for _, always, _, _ in group for st in always(busy, nonempty)]
                 with m.If(step):
                     m.d.sync += [st for _, _, along, _ in group for st in along]
                 with m.Elif(take_k):
                     m.d.sync += [st for _, _, _, load in group for st in load]
+        # each generator copy hears ``take`` from one Pixel Calculator copy (all equal): no one net to every copy
+        m.d.comb += [t.eq(takes[j % len(takes)]) for j, t in enumerate(g.takes)]
 
     def _output_stage(self, m, ofifo, acc: dict):
         """The output narrowing in two steps: rounding (a register stage under ``advance``), saturation into the

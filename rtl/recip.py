@@ -172,7 +172,7 @@ class Recip(UnitComponent):
         P = self.params
         n, F, low = P.n, P.in_fmt.frac_bits, P.n - P.m
         m = Module()
-        pipe = Pipe(m)
+        pipe = Pipe(m, platform=platform)
 
         # 1: sign and magnitude (-(most negative) = 2**(n-1) fits the n-bit unsigned word)
         w = self.w

@@ -71,7 +71,7 @@ class Reflect(UnitComponent):
         w = P.widths()
         W = P.W
         m = Module()
-        pipe = Pipe(m)
+        pipe = Pipe(m, platform=platform)
         N = [self.Nx, self.Ny, self.Nz]
         E = [self.Ex, self.Ey, self.Ez]
 

@@ -104,7 +104,7 @@ class Sampler(UnitComponent):
 
     def elaborate(self, platform):
         m = Module()
-        pipe = Pipe(m)
+        pipe = Pipe(m, platform=platform)
         if self.params.trilinear:
             from .sampler_mip import trilinear
             self.finish(m, pipe, trilinear(self, m, pipe))

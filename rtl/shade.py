@@ -33,7 +33,7 @@ class Shade(UnitComponent):
     def elaborate(self, platform):
         P = self.params
         m = Module()
-        pipe = Pipe(m)
+        pipe = Pipe(m, platform=platform)
         a = P.frac - P.tex_fmt.frac_bits - P.diffuse_fmt.frac_bits
         b = P.frac - P.specular_fmt.frac_bits
         s = pipe.stage(**{f"p{c}": getattr(self, f"t{c}") * getattr(self, f"d{c}") for c in RGB},

@@ -17,6 +17,7 @@ from amaranth.hdl import Module, Signal, Value
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
+from .dsp import RegisterSources, block, registered_product, uses_blocks
 from .fixed import shape
 
 __all__ = ["unit_signature", "Pipe", "register", "build", "stream_native", "component_class"]
@@ -49,21 +50,41 @@ class UnitComponent(wiring.Component):
 
 
 class Pipe:
-    """Builds a pipeline one registered stage at a time and counts its depth."""
+    """Builds a pipeline one registered stage at a time and counts its depth.
 
-    def __init__(self, m: Module, prefix: str = ""):
+    ``platform`` is the one ``elaborate`` received: on an ECP5 (:func:`rtl.dsp.uses_blocks`) a stage that
+    registers a product puts it in a multiplier block with the block's own registers (:mod:`rtl.dsp`); the function
+    is the same, clock for clock. ``sources`` is shared by the pipes of one design whose stages feed each other's
+    products (by default each pipe keeps its own)."""
+
+    def __init__(self, m: Module, prefix: str = "", platform=None, sources: RegisterSources | None = None):
         self.m = m
         self.depth = 0
         self.prefix = prefix
+        self.blocks = uses_blocks(platform)
+        self.sources = RegisterSources() if sources is None else sources
+
+    def _register(self, reg: Signal, expr: Value) -> None:
+        self.m.d.sync += reg.eq(expr)
+        if self.blocks and not self._conditional():         # a register with an enable is not its input delayed
+            self.sources.add(reg, expr)
+
+    def _conditional(self) -> bool:
+        """Whether the module is inside an ``If``/``Switch``/``FSM`` (Amaranth's private control stack)."""
+        return bool(self.m._ctrl_stack)
 
     def stage(self, **exprs) -> SimpleNamespace:
         """Register each expression (shape kept) as the next stage; return the registers by name."""
         self.depth += 1
         regs = {}
         for name, expr in exprs.items():
+            product = registered_product(expr) if self.blocks and not self._conditional() else None
             expr = Value.cast(expr)
             reg = Signal(expr.shape(), name=f"{self.prefix}s{self.depth}_{name}")
-            self.m.d.sync += reg.eq(expr)
+            if product is None:
+                self._register(reg, expr)
+            else:
+                self.m.d.comb += reg.eq(block(self.m, product, self.sources, reg.name))
             regs[name] = reg
         return SimpleNamespace(**regs)
 
@@ -72,7 +93,7 @@ class Pipe:
         value = Value.cast(value)
         for i in range(cycles):
             reg = Signal(value.shape(), name=f"{self.prefix}{name}{i + 1}")
-            self.m.d.sync += reg.eq(value)
+            self._register(reg, value)
             value = reg
         return value
 

@@ -17,7 +17,7 @@ from .unit import build, stream_native
 __all__ = ["verilog_text", "write_verilog", "component_verilog", "one_clocked_block"]
 
 
-def verilog_text(params, name: str, optimize: bool = False, flat: bool = False) -> str:
+def verilog_text(params, name: str, optimize: bool = False, flat: bool = False, platform=None) -> str:
     """Verilog of the unit as module ``name``: its stream version (:class:`rtl.streams.StreamUnit`, what
     ``make verilog`` and ``make fpga`` write), or with ``flat=True`` the flat pipeline of :func:`build`
     (``i_valid``, one port per input, ``o_valid``, one port per output: the per-vector co-simulation drives it).
@@ -28,22 +28,25 @@ def verilog_text(params, name: str, optimize: bool = False, flat: bool = False) 
     before writing: the same design (Yosys' equivalence-preserving passes, as any synthesis flow runs them), in a
     form event-driven simulators evaluate far faster (measured on the reflection unit: Icarus 18 times faster), with
     every register in one clocked block (:func:`one_clocked_block`).
+
+    ``platform`` is handed to every ``elaborate``: :data:`rtl.dsp.ECP5` for Verilog placed on an ECP5 (products in
+    multiplier blocks with their own registers, :mod:`rtl.dsp`); ``None`` (the default) for everything simulated.
     """
     # a design with stream ports of its own (the ROP, the scan converter, the engine from the triangle)
     stream = flat or stream_native(params)
-    return component_verilog(build(params) if stream else StreamUnit(params), name, optimize)
+    return component_verilog(build(params) if stream else StreamUnit(params), name, optimize, platform=platform)
 
 
-def component_verilog(comp, name: str, optimize: bool = False, rename: bool = False) -> str:
+def component_verilog(comp, name: str, optimize: bool = False, rename: bool = False, platform=None) -> str:
     """Verilog of any Amaranth component as module ``name`` (optionally optimized: :func:`verilog_text`).
     ``rename=True`` lets Yosys give its internal names plain identifiers: Icarus cannot read the functions
     ``write_verilog -norename`` writes for a parallel multiplexer (``$pmux``) under their ``$`` names."""
     if not optimize:
         from amaranth.back import verilog
-        return verilog.convert(comp, name=name, emit_src=False)
+        return verilog.convert(comp, name=name, platform=platform, emit_src=False)
     from amaranth._toolchain.yosys import find_yosys
     from amaranth.back import rtlil
-    text = rtlil.convert(comp, name=name, emit_src=False)
+    text = rtlil.convert(comp, name=name, platform=platform, emit_src=False)
     script = [f"read_rtlil <<rtlil\n{text}\nrtlil", "proc", "flatten", "opt -full", "wreduce",
               "opt_clean", "memory_collect", "write_verilog -noattr" + ("" if rename else " -norename")]
     return one_clocked_block(find_yosys(lambda ver: ver >= (0, 40)).run(["-q", "-"], "\n".join(script),

@@ -261,6 +261,7 @@ def _prepare(label: dict, params, flow: Flow, freq: float | None, build: Path, u
              synth_only: bool = False) -> _Job:
     """Resolve the cache; write the Verilog when the first level misses (in this thread: Amaranth is not
     thread-safe)."""
+    from rtl.dsp import ECP5
     from rtl.verilog import verilog_text
 
     freq = float(freq if freq is not None else target_mhz(params))
@@ -274,7 +275,7 @@ def _prepare(label: dict, params, flow: Flow, freq: float | None, build: Path, u
             job.rdir, job.result, job.cached = rdir, result, True
             return job
     top = top_name(params)
-    text = verilog_text(params, top)
+    text = verilog_text(params, top, platform=ECP5)
     rdir = build / "runs" / f"{top}_{text_key(text, json.dumps(settings, sort_keys=True))}"
     rdir.mkdir(parents=True, exist_ok=True)
     job.rdir, job.top = rdir, top

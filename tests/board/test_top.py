@@ -8,6 +8,7 @@ import pytest
 
 pytest.importorskip("amaranth_boards")
 
+import board.top as top  # noqa: E402
 from board.top import Top, _platform, critical_paths, report  # noqa: E402
 
 TIM = """Info: Max frequency for clock '$glbnet$tmds': 150.00 MHz (PASS at 125.00 MHz)
@@ -65,6 +66,7 @@ def test_the_top_with_the_engine_prepares_with_the_pll_third_output():
     plan = _platform().prepare(Top(board_engine(size=32)[0]), name="top")
     rtlil = plan.files["top.il"]
     assert "EHXPLLL" in rtlil and "CLKOS2" in rtlil and "ODDRX1F" in rtlil
+    assert "MULT18X18D" in rtlil and "REG_OUTPUT_CLK" in rtlil      # products in their blocks' registers (rtl.dsp)
 
 
 @pytest.mark.slow
@@ -78,3 +80,21 @@ def test_the_top_with_the_frame_in_sdram_prepares_with_litedrams_core():
     lpf = lpf.decode() if isinstance(lpf, bytes) else lpf
     assert "litedram_core" in rtlil and "inout  wire   [15:0] sdram_dq" in plan.files["litedram_core.v"]
     assert all(pin in lpf for pin in ("F19", "J16", "M20", "U19"))          # SDRAM clock, dq, a, dqm
+
+
+@pytest.mark.parametrize("seed, flag", [(None, None), (7, "--seed 7")])
+def test_build_hands_router_and_seed_to_nextpnr(tmp_path, monkeypatch, seed, flag):
+    seen = {}
+
+    class Platform:
+        def build(self, design, **kwargs):
+            seen.update(kwargs)
+            (tmp_path / "top.tim").write_text(TIM)
+
+    monkeypatch.setattr(top, "_platform", Platform)
+    monkeypatch.setattr(top, "Top", lambda engine, frame: None)       # nothing to elaborate
+    rec = top.build(tmp_path, router="router1", seed=seed)
+    opts = seen["nextpnr_opts"]
+    assert "--router router1" in opts and "--timing-allow-fail" in opts
+    assert ("--seed" in opts) == (flag is not None) and (flag is None or flag in opts)
+    assert rec.get("seed") == seed and rec["router"] == "router1"

@@ -147,7 +147,7 @@ class EngineSystem(wiring.Component):
         m.d.comb += [link.rx.eq(self.rx), self.tx.eq(link.tx), self.error.eq(link.error), self.good.eq(link.done),
                      self.status.eq(eng.status)]
         # -- TEXTURE, CUBE: each word into its texel memory, in the engine's clock (board/upload.py)
-        m.submodules.upload = up = UploadWriter(self.params.pipeline, self._writes)
+        m.submodules.upload = up = UploadWriter(self._writes)
         m.d.comb += [up.cmd.eq(link.cmd), up.index.eq(link.index), up.data.eq(link.data),
                      up.data_valid.eq(link.data_valid), self.upload_bad.eq(up.bad)]
         # -- FRAME_START, SWAP: toggles to the engine's clock; the tile's clear and copy (TileCopy), whichever

@@ -17,7 +17,7 @@ is not written and sets ``bad`` (sticky, a LED): an index is never narrowed into
 
 from __future__ import annotations
 
-from amaranth import Module, Signal
+from amaranth import Cat, Module, Signal
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
@@ -37,10 +37,10 @@ MEMORY_CMDS = tuple(MEMORIES)
 class UploadWriter(wiring.Component):
     """Payload bytes of TEXTURE and CUBE frames (``cmd``, ``index``, ``data``, ``data_valid``: the command parser's
     outputs, ``sync``) -> the write bus ``writes`` (an :class:`rtl.sampler.TexelWrites` of the engine's pipeline,
-    driven in ``domain``); ``bad`` (sticky, ``sync``): a word not written (module docstring)."""
+    whose maps it serves, driven in ``domain``); ``bad`` (sticky, ``sync``): a word not written (module docstring)."""
 
-    def __init__(self, pipeline, writes, domain: str = "engine"):
-        self.maps = [getattr(pipeline, name) for name in TEXEL_MAPS]
+    def __init__(self, writes, domain: str = "engine"):
+        self.maps = writes.maps
         self.writes, self.domain = writes, domain
         super().__init__({"cmd": In(8), "index": In(16), "data": In(8), "data_valid": In(1), "bad": Out(1)})
 
@@ -63,11 +63,12 @@ class UploadWriter(wiring.Component):
         with m.If(self.data_valid & upload):
             with m.If(self.index == 0):                    # the memory id: the map, or none
                 m.d.sync += [ok.eq(0), k.eq(0)]
-                for cmd, names in MEMORIES.items():
-                    for mem, name in enumerate(names):
-                        with m.If((self.cmd == cmd) & (self.data == mem)):
-                            m.d.sync += [sel.eq(TEXEL_MAPS.index(name)), ok.eq(1)]
-                with m.If(sum((self.cmd == cmd) & (self.data < len(names)) for cmd, names in MEMORIES.items()) == 0):
+                hits = [((self.cmd == cmd) & (self.data == mem), TEXEL_MAPS.index(name))
+                        for cmd, names in MEMORIES.items() for mem, name in enumerate(names)]
+                for hit, s in hits:
+                    with m.If(hit):
+                        m.d.sync += [sel.eq(s), ok.eq(1)]
+                with m.If(~Cat(*(hit for hit, _ in hits)).any()):
                     m.d.sync += self.bad.eq(1)
             with m.Elif(self.index < HEADER):              # the first word's index, little-endian
                 with m.Switch(self.index):

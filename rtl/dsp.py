@@ -32,7 +32,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from amaranth.hdl import ClockSignal, Const, Instance, Module, ResetSignal, Signal, Value, signed, unsigned
+from amaranth.hdl import ClockSignal, Const, Instance, Module, ResetSignal, Shape, Signal, Value, signed, unsigned
 from amaranth.hdl._ast import Operator, Slice
 
 from fxmodel.core.cost import DSP_BITS
@@ -69,7 +69,7 @@ class Product:
 
     a: Value
     b: Value
-    shape: object       # the product's Amaranth shape
+    shape: Shape        # the product's (signed when either operand is)
     lo: int
     hi: int
 
@@ -140,9 +140,8 @@ def block(m: Module, p: Product, sources: RegisterSources, name: str) -> Value:
                   p_GSR="DISABLED", p_RESETMODE="SYNC", p_CLK0_DIV="ENABLED", p_CLK1_DIV="ENABLED",
                   p_CLK2_DIV="ENABLED", p_CLK3_DIV="ENABLED", p_SOURCEB_MODE="B_SHIFT")
     m.submodules[f"{name}_mult"] = Instance("MULT18X18D", **params, **ports)
-    signed_product = p.a.shape().signed or p.b.shape().signed
     full = Signal(p.shape, name=f"{name}_full")
-    m.d.comb += full.eq(out.as_signed() if signed_product else out)
+    m.d.comb += full.eq(out.as_signed() if p.shape.signed else out)
     return full[p.lo:p.hi]
 
 

@@ -46,12 +46,12 @@ class TexelWrites:
     write (``rtl.pixel.Pipeline(..., writes=)``); no port of the units in between changes."""
 
     def __init__(self, pipeline, blank: bool = False):
-        maps = [getattr(pipeline, name) for name in TEXEL_MAPS]
+        self.maps = [getattr(pipeline, name) for name in TEXEL_MAPS]      # the maps' parameters, by ``sel``
         self.blank = blank
         self.en = Signal(name="tw_en")
         self.sel = Signal(range(len(TEXEL_MAPS)), name="tw_sel")
-        self.addr = Signal(range(max(2, *(len(s.upload_words) for s in maps))), name="tw_addr")
-        self.data = Signal(max(s.word_bits for s in maps), name="tw_data")
+        self.addr = Signal(range(max(2, *(len(s.upload_words) for s in self.maps))), name="tw_addr")
+        self.data = Signal(max(s.word_bits for s in self.maps), name="tw_data")
 
     def port(self, name: str) -> TexelPort:
         """The bus as the sampler ``name`` sees it."""

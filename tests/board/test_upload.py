@@ -29,7 +29,7 @@ def _writes(data: bytes):
     writes = TexelWrites(MAPS)
     m = Module()
     m.submodules.parser = p = CommandParser(record_len=290)
-    m.submodules.up = up = UploadWriter(MAPS, writes, domain="sync")
+    m.submodules.up = up = UploadWriter(writes, domain="sync")
     m.d.comb += [up.cmd.eq(p.cmd), up.index.eq(p.index), up.data.eq(p.data), up.data_valid.eq(p.data_valid)]
     got = []
 

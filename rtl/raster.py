@@ -19,8 +19,8 @@ carry chain or one product (the house rule of the pixel pipeline); only the row 
   it empties the row (``v - x0`` and ``v - x1 - 1`` side by side); (2) the span ``[L, R]`` (offsets from
   ``x0``) as the largest left and smallest right bound, from the three pairwise comparisons at once; (3)
   ``x0 + L``, ``R - L``, ``L <= R`` and, for every attribute, the partial products of ``a_x`` cut into
-  :meth:`~fxmodel.units.raster.RasterParams.dx_pieces` times ``L`` (one multiplier block each, registered before and
-  after); (4, 5)
+  :meth:`~fxmodel.units.raster.RasterParams.dx_pieces` times ``L`` (one multiplier block each, its product registered in the block;
+  ``L`` from a copy per attribute, "Fan-out"); (4, 5)
   the span start ``a(x0, y) + L a_x`` as two adder levels over the partial products, modulo ``2**N``.
 - **Row FIFO** (``amaranth.lib.fifo.SyncFIFO``, :attr:`~fxmodel.units.raster.RasterParams.ROW_FIFO_DEPTH` rows, LUT
   RAM, :func:`row_layout`): ``y``, ``x0 + L``, ``R - L``, whether the row is empty or one clock, every
@@ -51,7 +51,10 @@ four attributes a group): each copy is a few flip-flops with its own feedback, w
 drives the ports, the FIFOs and the span pipeline's valid. The rows the Pixel Calculator takes reach the
 generator's copies from the Pixel Calculator's copies in turn (generator copy ``j`` from copy ``j mod n``), not
 from copy 0 alone: that one net to every generator copy was the board's critical path once the products were in
-their multiplier blocks' registers.
+their multiplier blocks' registers. Likewise the span's ``L`` reaches each attribute's partial products
+from a copy of its own (registered with ``s2``, beside that attribute's blocks), not from one register: the
+multiplier blocks then take ``L`` and ``a_x`` without their input registers (both operands or neither,
+``rtl/dsp.py``); the route from one register to every block's input register was the board's critical path.
 
 ``busy`` is high while the Pixel Calculator works on a row: a row costs ``max(1, span)`` busy clocks, so when
 the sink is always ready the busy clocks are the model's ``clocks``. The generator runs ahead of the Pixel
@@ -75,7 +78,7 @@ from fxmodel.units.raster import EDGE_LEFT, EDGE_RIGHT, RasterParams
 
 from .fixed import saturate, shape, shift_round
 from .streams import payload_layout
-from .unit import Pipe, register
+from .unit import Pipe, kept_copy, register
 
 __all__ = ["Raster", "record_layout", "fragment_layout", "row_layout"]
 
@@ -288,8 +291,12 @@ class Raster(wiring.Component):
         # (2) the span: the largest left bound, the smallest right bound (pairwise comparisons side by side)
         lo = [getattr(s1, f"lo{e}") for e in range(3)]
         hi = [getattr(s1, f"hi{e}") for e in range(3)]
-        s2 = pipe.stage(L=_pick(lo, lambda x, y: x >= y), R=_pick(hi, lambda x, y: x <= y),
+        L = _pick(lo, lambda x, y: x >= y)
+        s2 = pipe.stage(L=L, R=_pick(hi, lambda x, y: x <= y),
                         empty=Cat(*(getattr(s1, f"empty{e}") for e in range(3))).any(), **_passing(s1, keep))
+        # L for each attribute's partial products in a copy of its own (beside that attribute's multiplier
+        # blocks): one register to every block was the board's critical path (module docstring, "Fan-out")
+        offset = {n: kept_copy(m, L, f"span_L_{n}") for n in P.names} if P.span_dsp else {}
 
         # (3) the span's first column and length, whether it is empty or one clock, the partial products a_x L
         parts, shifts = {}, {}
@@ -302,7 +309,7 @@ class Raster(wiring.Component):
                 continue
             cut = [(dx[lo:lo + bits].as_signed() if signed else dx[lo:lo + bits], lo)
                    for lo, bits, signed in P.dx_pieces(n)]
-            parts |= {f"pp_{n}_{k}": piece * s2.L for k, (piece, _) in enumerate(cut)}
+            parts |= {f"pp_{n}_{k}": piece * offset[n] for k, (piece, _) in enumerate(cut)}
             shifts[n] = [shift for _, shift in cut]
         keep3 = ["valid", "y", *(f"dx_{n}" for n in P.names), *(f"c_{n}" for n in g.k_c),
                  *(f"a_{n}" for n in P.names)]

@@ -189,7 +189,7 @@ def build(out: Path, engine=None, router: str = ROUTERS[0], frame: str = "chip",
     for var, tool in tools.items():
         os.environ.setdefault(var, tool)
     t0 = time.perf_counter()
-    from rtl.rop import KEEP_COPIES
+    from rtl.unit import KEEP_COPIES
     opts = f"--router {router} --timing-allow-fail" + ("" if seed is None else f" --seed {seed}")
     _platform().build(Top(engine, frame=frame), name="top", build_dir=str(out), do_program=False,
                       script_after_read=KEEP_COPIES, nextpnr_opts=opts)

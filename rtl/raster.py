@@ -254,8 +254,9 @@ class Raster(wiring.Component):
         last = Signal(name=f"last_row_{k}")                         # s_rem == 0
         issue, ready, accept = Signal(name=f"issue_{k}"), Signal(name=f"ready_{k}"), Signal(name=f"accept_{k}")
         m.d.comb += [issue.eq(gv & room), ready.eq(~gv | (issue & last)), accept.eq(ready & self.i.valid)]
-        next_inflight = inflight + issue - take
-        m.d.sync += [inflight.eq(next_inflight), room.eq(next_inflight != depth)]
+        # ``take`` (from the Pixel Calculator) selects between sums of registers: it reaches the last logic level only
+        kept, taken = inflight + issue, inflight + issue - 1
+        m.d.sync += [inflight.eq(Mux(take, taken, kept)), room.eq(Mux(take, taken != depth, kept != depth))]
         with m.If(accept):
             m.d.sync += [gv.eq(1), last.eq(rec.rows == 0)]
         with m.Elif(issue):
@@ -418,13 +419,17 @@ class Raster(wiring.Component):
         out_used = Signal(range(out_depth + 1), name=f"out_used_{k}")
         advance = Signal(name=f"advance_{k}", init=1)                  # out_used <= out_depth - 2
         produce = advance & busy & nonempty
-        next_used = out_used + produce - (ofifo.r_rdy & self.o.ready)
-        m.d.sync += [out_used.eq(next_used), advance.eq(next_used <= out_depth - 2)]
+        # the consumer's ``ready`` and this copy's ``take`` each select between sums of registers (the last logic
+        # level), not feed a carry chain
+        popped = ofifo.r_rdy & self.o.ready
+        used, used_less = out_used + produce, out_used + produce - 1
+        m.d.sync += [out_used.eq(Mux(popped, used_less, used)),
+                     advance.eq(Mux(popped, used_less <= out_depth - 2, used <= out_depth - 2))]
         done_row = ~busy | last_px
         step, take_k = Signal(name=f"step_{k}"), Signal(name=f"take_{k}")
         m.d.comb += [step.eq(~done_row), take_k.eq(advance & done_row & has_row)]
-        next_count = count + fifo.w_en - take_k
-        m.d.sync += [count.eq(next_count), has_row.eq(next_count != 0)]
+        rows, rows_less = count + fifo.w_en, count + fifo.w_en - 1
+        m.d.sync += [count.eq(Mux(take_k, rows_less, rows)), has_row.eq(Mux(take_k, rows_less != 0, rows != 0))]
         with m.If(advance):
             with m.If(step):
                 m.d.sync += [npx.eq(npx - 1), last_px.eq(npx == 1)]

@@ -19,8 +19,8 @@ carry chain or one product (the house rule of the pixel pipeline); only the row 
   it empties the row (``v - x0`` and ``v - x1 - 1`` side by side); (2) the span ``[L, R]`` (offsets from
   ``x0``) as the largest left and smallest right bound, from the three pairwise comparisons at once; (3)
   ``x0 + L``, ``R - L``, ``L <= R`` and, for every attribute, the partial products of ``a_x`` cut into
-  :meth:`~fxmodel.units.raster.RasterParams.dx_pieces` times ``L`` (one multiplier block each, its product registered in the block;
-  ``L`` from a copy per attribute, "Fan-out"); (4, 5)
+  :meth:`~fxmodel.units.raster.RasterParams.dx_pieces` times ``L`` (one multiplier block each, its product
+  registered in the block; ``L`` from a copy per attribute, "Fan-out"); (4, 5)
   the span start ``a(x0, y) + L a_x`` as two adder levels over the partial products, modulo ``2**N``.
 - **Row FIFO** (``amaranth.lib.fifo.SyncFIFO``, :attr:`~fxmodel.units.raster.RasterParams.ROW_FIFO_DEPTH` rows, LUT
   RAM, :func:`row_layout`): ``y``, ``x0 + L``, ``R - L``, whether the row is empty or one clock, every

@@ -18,8 +18,8 @@ from fxmodel.units.recip import RecipParams
 from .fixed import narrow, saturate, shift_round
 from .unit import Pipe, UnitComponent, register
 
-__all__ = ["Recip", "scale", "scale_stages", "shift_amount", "times_reciprocal", "leading_zeros", "pieces", "split_product",
-           "split_products", "product_stage"]
+__all__ = ["Recip", "scale", "scale_stages", "shift_amount", "times_reciprocal", "leading_zeros", "pieces",
+           "split_product", "split_products", "product_stage"]
 
 
 def pieces(x, limit: int = RecipParams.DSP_BITS) -> list[tuple[Value, int]]:

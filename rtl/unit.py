@@ -20,7 +20,8 @@ from amaranth.lib.wiring import In, Out
 from .dsp import RegisterSources, block, registered_product, uses_blocks
 from .fixed import shape
 
-__all__ = ["unit_signature", "Pipe", "kept_copy", "COPY_SUFFIX", "KEEP_COPIES", "register", "build", "stream_native", "component_class"]
+__all__ = ["unit_signature", "Pipe", "kept_copy", "COPY_SUFFIX", "KEEP_COPIES", "register", "build",
+           "stream_native", "component_class"]
 
 
 def unit_signature(params) -> wiring.Signature:

@@ -18,10 +18,10 @@ carry chain or one product (the house rule of the pixel pipeline); only the row 
   stages, nothing fed back): (1) each edge's bound relative to ``x0``, clamped to ``[0, x1 - x0]``, and whether
   it empties the row (``v - x0`` and ``v - x1 - 1`` side by side); (2) the span ``[L, R]`` (offsets from
   ``x0``) as the largest left and smallest right bound, from the three pairwise comparisons at once; (3)
-  ``x0 + L``, ``R - L``, ``L <= R`` and, for every attribute, the partial products of ``a_x`` cut into
-  :meth:`~fxmodel.units.raster.RasterParams.dx_pieces` times ``L`` (one multiplier block each, its product
-  registered in the block; ``L`` from a copy per attribute, "Fan-out"); (4, 5)
-  the span start ``a(x0, y) + L a_x`` as two adder levels over the partial products, modulo ``2**N``.
+  ``x0 + L``, ``R - L``, ``L <= R``, and ``L`` fanned out to a copy per attribute ("Fan-out"); (4) for every
+  attribute, the partial products of ``a_x`` cut into :meth:`~fxmodel.units.raster.RasterParams.dx_pieces` times
+  its copy of ``L`` (one multiplier block each, the product registered in the block); (5, 6) the span start
+  ``a(x0, y) + L a_x`` as two adder levels over the partial products, modulo ``2**N``.
 - **Row FIFO** (``amaranth.lib.fifo.SyncFIFO``, :attr:`~fxmodel.units.raster.RasterParams.ROW_FIFO_DEPTH` rows, LUT
   RAM, :func:`row_layout`): ``y``, ``x0 + L``, ``R - L``, whether the row is empty or one clock, every
   attribute's span start and ``a_x``, the triangle's constants. A credit counter (rows issued and not yet
@@ -52,9 +52,10 @@ drives the ports, the FIFOs and the span pipeline's valid. The rows the Pixel Ca
 generator's copies from the Pixel Calculator's copies in turn (generator copy ``j`` from copy ``j mod n``), not
 from copy 0 alone: that one net to every generator copy was the board's critical path once the products were in
 their multiplier blocks' registers. Likewise the span's ``L`` reaches each attribute's partial products
-from a copy of its own (registered with ``s2``, beside that attribute's blocks), not from one register: the
-multiplier blocks then take ``L`` and ``a_x`` without their input registers (both operands or neither,
-``rtl/dsp.py``); the route from one register to every block's input register was the board's critical path.
+from a copy of its own, in a stage of its own (the route from one register to the multiplier blocks of every
+attribute, spread over the device, was the board's critical path; a copy computed from the comparisons, in the
+same stage as ``L``, made the comparisons' route to every copy the next): the multiplier blocks then take ``L``
+and ``a_x`` without their input registers (both operands or neither, ``rtl/dsp.py``).
 
 ``busy`` is high while the Pixel Calculator works on a row: a row costs ``max(1, span)`` busy clocks, so when
 the sink is always ready the busy clocks are the model's ``clocks``. The generator runs ahead of the Pixel
@@ -292,38 +293,39 @@ class Raster(wiring.Component):
         # (2) the span: the largest left bound, the smallest right bound (pairwise comparisons side by side)
         lo = [getattr(s1, f"lo{e}") for e in range(3)]
         hi = [getattr(s1, f"hi{e}") for e in range(3)]
-        L = _pick(lo, lambda x, y: x >= y)
-        s2 = pipe.stage(L=L, R=_pick(hi, lambda x, y: x <= y),
+        s2 = pipe.stage(L=_pick(lo, lambda x, y: x >= y), R=_pick(hi, lambda x, y: x <= y),
                         empty=Cat(*(getattr(s1, f"empty{e}") for e in range(3))).any(), **_passing(s1, keep))
-        # L for each attribute's partial products in a copy of its own (beside that attribute's multiplier
-        # blocks): one register to every block was the board's critical path (module docstring, "Fan-out")
-        offset = {n: kept_copy(m, L, f"span_L_{n}") for n in P.names} if P.span_dsp else {}
 
-        # (3) the span's first column and length, whether it is empty or one clock, the partial products a_x L
+        # (3) the span's first column and length, whether it is empty or one clock; L fanned out: a copy for each
+        # attribute's partial products, beside that attribute's multiplier blocks (module docstring, "Fan-out")
+        keep3 = ["valid", "y", *(f"dx_{n}" for n in P.names), *(f"c_{n}" for n in g.k_c),
+                 *(f"a_{n}" for n in P.names)]
+        nonempty = ~s2.empty & (s2.L <= s2.R)
+        s3 = pipe.stage(xl=(s2.x0 + s2.L)[:w], n=(s2.R - s2.L)[:w], nonempty=nonempty,
+                        single=~nonempty | (s2.L == s2.R), **({} if P.span_dsp else {"L": s2.L}), **_passing(s2, keep3))
+        offset = {n: kept_copy(m, s2.L, f"span_L_{n}") if P.span_dsp else s3.L for n in P.names}
+
+        # (4) the partial products a_x L
         parts, shifts = {}, {}
         for n in P.names:
-            dx = getattr(s2, f"dx_{n}")
+            dx = getattr(s3, f"dx_{n}")
             if not P.span_dsp:               # in logic: a_x's copies shifted by L's bits, carry-saved to two terms
                 parts |= {f"pp_{n}_{k}": t for k, t in enumerate(_carry_save(
-                    [Mux(s2.L[i], dx << i, 0)[:acc_w[n]] for i in range(len(s2.L))], acc_w[n]))}
+                    [Mux(offset[n][i], dx << i, 0)[:acc_w[n]] for i in range(len(offset[n]))], acc_w[n]))}
                 shifts[n] = [0, 0]
                 continue
             cut = [(dx[lo:lo + bits].as_signed() if signed else dx[lo:lo + bits], lo)
                    for lo, bits, signed in P.dx_pieces(n)]
             parts |= {f"pp_{n}_{k}": piece * offset[n] for k, (piece, _) in enumerate(cut)}
             shifts[n] = [shift for _, shift in cut]
-        keep3 = ["valid", "y", *(f"dx_{n}" for n in P.names), *(f"c_{n}" for n in g.k_c),
-                 *(f"a_{n}" for n in P.names)]
-        nonempty = ~s2.empty & (s2.L <= s2.R)
-        s3 = pipe.stage(xl=(s2.x0 + s2.L)[:w], n=(s2.R - s2.L)[:w], nonempty=nonempty,
-                        single=~nonempty | (s2.L == s2.R), **parts, **_passing(s2, keep3))
-        terms = {n: [(getattr(s3, f"a_{n}"), acc_w[n])]
-                 + [((getattr(s3, f"pp_{n}_{k}") << sh)[:acc_w[n]], acc_w[n]) for k, sh in enumerate(shifts[n])]
+        s4 = pipe.stage(**parts, **_passing(s3, ["xl", "n", "nonempty", "single", *keep3]))
+        terms = {n: [(getattr(s4, f"a_{n}"), acc_w[n])]
+                 + [((getattr(s4, f"pp_{n}_{k}") << sh)[:acc_w[n]], acc_w[n]) for k, sh in enumerate(shifts[n])]
                  for n in P.names}
-        # (4, 5) the span start a(x0, y) + L a_x, modulo 2**N, two adder levels
-        carry = _passing(s3, ["valid", "y", "xl", "n", "nonempty", "single", *(f"dx_{n}" for n in P.names),
+        # (5, 6) the span start a(x0, y) + L a_x, modulo 2**N, two adder levels
+        carry = _passing(s4, ["valid", "y", "xl", "n", "nonempty", "single", *(f"dx_{n}" for n in P.names),
                               *(f"c_{n}" for n in g.k_c)])
-        start, carry = _tree(pipe, terms, P.SPAN_STAGES - 3, carry)
+        start, carry = _tree(pipe, terms, P.SPAN_STAGES - 4, carry)
         assert pipe.depth == P.SPAN_STAGES - 1                            # the last level writes the FIFO
 
         row_in = data.View(row_layout(P), g.fifo.w_data)

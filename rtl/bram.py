@@ -3,10 +3,11 @@ clock (:class:`RegisteredMemory`), on an ECP5 a column of ``DP16KD`` blocks with
 
 Why: in nextpnr's timing of the ULX3S's speed grade 6, a ``DP16KD`` without its output register gives its word
 more than half of a 100 MHz cycle after the clock, before any route; with the output register, a small fraction of
-it (the clock-to-out of a register). Yosys never uses the output register (its ``DP16KD`` mapping sets ``REGMODE`` to ``NOREG``), so the register after
-a read stays in the fabric, a route away from the block, and a memory deeper than the widest port that holds it
-gets a multiplexer of Yosys' own between the blocks and that register: the samplers' texel words into their bank
-registers were among the board's slowest paths (``docs/board/bitstream.json``).
+it (the clock-to-out of a register). Yosys never uses the output register (its ``DP16KD`` mapping sets
+``REGMODE`` to ``NOREG``), so the register after a read stays in the fabric, a route away from the block, and a
+memory deeper than the widest port that holds it gets a multiplexer of Yosys' own between the blocks and that
+register: the samplers' texel words into their bank registers were among the board's slowest paths (``bumpmap
+bitstream --misses``).
 
 What: :class:`RegisteredMemory` is ``depth`` words of ``width`` bits with one synchronous read port whose word is
 registered once more (``r_data`` holds the word at ``r_addr`` of two clocks before) and one write port (``w_en``,

@@ -75,9 +75,12 @@ class Product:
 
 
 def registered_product(expr) -> Product | None:
-    """``expr`` as a :class:`Product` if it is ``a * b`` or a slice of it, with neither operand a constant and
-    both at most :data:`DSP_BITS` bits wide; else ``None``."""
+    """``expr`` as a :class:`Product` if it is ``a * b`` or a slice of it (either perhaps read as signed or
+    unsigned: the same bits, as ``rtl.fixed.saturate`` with a proven range gives them), with neither operand a
+    constant and both at most :data:`DSP_BITS` bits wide; else ``None``."""
     lo = hi = None
+    if isinstance(expr, Operator) and expr.operator in ("s", "u") and len(expr.operands) == 1:
+        expr = expr.operands[0]
     if isinstance(expr, Slice) and isinstance(expr.value, Operator):
         lo, hi, expr = expr.start, expr.stop, expr.value
     if not (isinstance(expr, Operator) and expr.operator == "*" and len(expr.operands) == 2):

@@ -56,9 +56,10 @@ class Reflect(UnitComponent):
         largest magnitude is at least 1/2 unless ``degenerate``
     degenerate : Signal(1), out -- ``R = 0`` (``N = 0`` or ``E = 0``); ``Rx = Ry = Rz = 0`` then
 
-    Latency: ``params.latency`` = 8 cycles. Stages: ``N_i E_i``, ``N_i N_i`` (six 18x18 multipliers) | dot sums
-    ``p``, ``q`` | partial products of ``N_i`` and ``E_i`` with the 17-bit digits of ``p`` and ``q`` (18x18 DSP
-    tiles; a top digit of at most 4 bits by shifts and adds) | per digit ``A_j = 2 N_i p_j - E_i q_j`` |
+    Latency: ``params.latency`` = 9 cycles. Stages: the inputs | ``N_i E_i``, ``N_i N_i`` (six 18x18
+    multipliers) | dot sums ``p``, ``q`` | partial products of ``N_i`` and ``E_i`` with the 17-bit digits of ``p``
+    and ``q`` (18x18 DSP tiles; a top digit of at most 4 bits by shifts and adds) | per digit ``A_j = 2 N_i p_j -
+    E_i q_j`` |
     ``R_i = sum_j A_j 2**(17 j)`` | ``OR_i (R_i XOR sign)`` | its leading-zero count | barrel shift and truncation to
     ``r_fmt`` (output registers). Each stage holds one product or one to two carry chains (ECP5 timing).
 
@@ -72,8 +73,11 @@ class Reflect(UnitComponent):
         W = P.W
         m = Module()
         pipe = Pipe(m, platform=platform)
-        N = [self.Nx, self.Ny, self.Nz]
-        E = [self.Ex, self.Ey, self.Ez]
+        # 0: the inputs registered (on an ECP5 the first products' blocks take these registers as their own input
+        #    registers: the route from the unit before ends in a block, not through its multiplier)
+        s0 = pipe.stage(**{n: getattr(self, n) for n in ("Nx", "Ny", "Nz", "Ex", "Ey", "Ez")})
+        N = [s0.Nx, s0.Ny, s0.Nz]
+        E = [s0.Ex, s0.Ey, s0.Ez]
 
         # 1: first-level products
         st = {}

@@ -217,8 +217,9 @@ class RasterParams:
     #: Register bits one copy of a control state drives in the RTL (``rtl/raster.py``, "Fan-out"): the row
     #: generator's load/step enable and the Pixel Calculator's enables reach some 2 000 and 1 300 register
     #: bits; one net to all of them was the engine's critical path (7 ns of routing in its last net alone), so
-    #: the control state is kept in as many identical copies as groups of this many bits need.
-    ENABLE_FANOUT: ClassVar[int] = 384
+    #: the control state is kept in as many identical copies as groups of this many bits need (groups of 384
+    #: bits still left the enables among the board's slowest paths, ``bumpmap bitstream --misses``).
+    ENABLE_FANOUT: ClassVar[int] = 128
 
     attrs: tuple = ()
     max_size: int = 2048

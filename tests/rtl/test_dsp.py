@@ -33,8 +33,9 @@ def _both_ways(params, cycles=CYCLES):
 
 #: Units whose products go into blocks: operands that are registers of the same pipe (inputs absorbed; squares of
 #: one register), a block's product as the next block's operand and the ROM's word (the perspective unit); unit
-#: inputs (the output register only: shading); the scan converter's span start (stream ports); partial products.
-UNITS = [("persp", "default"), ("shade", "default"), ("raster", "small"), ("recip", "rcp24")]
+#: inputs (the output register only: shading, the reflect unit's first products, read through a proven
+#: narrowing); the scan converter's span start (stream ports); partial products.
+UNITS = [("persp", "default"), ("shade", "default"), ("raster", "small"), ("recip", "rcp24"), ("reflect", "default")]
 
 
 @needs_icarus
@@ -94,6 +95,7 @@ def test_registered_product_takes_products_of_at_most_18_bits():
     assert dsp.registered_product(a * wide) is None
     assert dsp.registered_product(a * 5) is None
     assert dsp.registered_product(a + b) is None
+    assert dsp.registered_product((a * b)[:30].as_signed()).hi == 30          # a proven narrowing's reading
 
 
 def test_only_ecp5_platforms_use_blocks_and_enabled_registers_are_not_delays():

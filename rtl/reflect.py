@@ -56,11 +56,10 @@ class Reflect(UnitComponent):
         largest magnitude is at least 1/2 unless ``degenerate``
     degenerate : Signal(1), out -- ``R = 0`` (``N = 0`` or ``E = 0``); ``Rx = Ry = Rz = 0`` then
 
-    Latency: ``params.latency`` = 9 cycles. Stages: the inputs | ``N_i E_i``, ``N_i N_i`` (six 18x18
-    multipliers) | dot sums ``p``, ``q`` | partial products of ``N_i`` and ``E_i`` with the 17-bit digits of ``p``
-    and ``q`` (18x18 DSP tiles; a top digit of at most 4 bits by shifts and adds) | per digit ``A_j = 2 N_i p_j -
-    E_i q_j`` |
-    ``R_i = sum_j A_j 2**(17 j)`` | ``OR_i (R_i XOR sign)`` | its leading-zero count | barrel shift and truncation to
+    Latency: ``params.latency`` = 10 cycles. Stages: the inputs | ``N_i E_i``, ``N_i N_i`` (six 18x18
+    multipliers) | dot sums ``p``, ``q`` | the same, registered again | partial products of ``N_i`` and ``E_i``
+    with the 17-bit digits of ``p`` and ``q`` (18x18 DSP tiles; a top digit of at most 4 bits by shifts and adds)
+    | per digit ``A_j = 2 N_i p_j - E_i q_j`` | ``R_i = sum_j A_j 2**(17 j)`` | ``OR_i (R_i XOR sign)`` | its leading-zero count | barrel shift and truncation to
     ``r_fmt`` (output registers). Each stage holds one product or one to two carry chains (ECP5 timing).
 
     The ``degenerate`` flag is computed from the inputs (``N = 0`` or ``E = 0``, two narrow zero detectors)
@@ -94,6 +93,9 @@ class Reflect(UnitComponent):
         q, _ = saturate(s1.nn0 + s1.nn1 + s1.nn2, w["N.N"], Overflow.PROVEN)
         s2 = pipe.stage(p=p, q=q, zero=s1.zero, **{f"N{i}": getattr(s1, f"N{i}") for i in range(3)},
                         **{f"E{i}": getattr(s1, f"E{i}") for i in range(3)})
+        # the sums registered once more: on an ECP5 the digit products' blocks take these registers as their input
+        # registers, fed from registers (not from the sums' carry chains, three blocks a digit away)
+        s2 = pipe.stage(**{k: getattr(s2, k) for k in ("p", "q", "zero", "N0", "N1", "N2", "E0", "E1", "E2")})
 
         # 3: second-level partial products: p and q cut into 17-bit digits (18-bit signed DSP operands), so each
         #    wide product N_i p, E_i q is a few 18x18 tiles whose sum is left to the next stages

@@ -247,7 +247,7 @@ PAGES = {
     "board-budget": rec.board_budget, "board-bitstream": rec.board_bitstream, "board-sim": rec.board_sim,
     "board-sdram-bandwidth": rec.board_sdram_bandwidth, "board-sim-sdram": lambda: rec.board_sim("board-sim-sdram"),
     "board-sim-uploads": lambda: rec.board_sim("board-sim-uploads"),
-    "board-animation": rec.board_animation, "board-engine-placement": rec.board_engine_placement,
+    "board-animation": rec.board_animation, "board-engine-misses": rec.board_engine_misses,
 }
 
 

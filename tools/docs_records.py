@@ -584,13 +584,24 @@ def board_animation() -> str:
     return _table(head, rows, _align("lrrrrrrrr")) + note + "\n" + provenance(record, path)
 
 
-def board_engine_placement() -> str:
-    """The board top with the engine, placed (nextpnr's estimate before routing) or routed with a clock below its
-    target (the record's ``routed``): Fmax per clock and resources."""
-    r, path = _board_record("engine-placement")
+def _misses_tables(m: dict) -> str:
+    """The endpoints of a clock that missed its period (``bumpmap bitstream --misses``): how many, by unit, by
+    kind, and the worst, one per register."""
+    units = _table(["unit", "endpoints"], [[f"`{u}`", n] for u, n in m["by_unit"].items()], _align("lr"))
+    kinds = _table(["endpoint", "endpoints"], [[k, n] for k, n in m["by_kind"].items()], _align("lr"))
+    worst = _table(["arrival (ns)", "unit", "register", "pin"],
+                   [[w["ns"], f"`{w['unit']}`", f"`{w['register']}`", w["pin"]] for w in m["worst"]], _align("rlll"))
+    return (f"{m['endpoints']} endpoints of `{m['clock']}` arrive later than its period, {m['period_ns']:g} ns "
+            "(nextpnr's per-net timing; a register's setup time is not in it, so the count is a floor).\n\n"
+            + units + "\n" + kinds + "\n" + worst)
+
+
+def board_engine_misses() -> str:
+    """The board top with the engine routed at a clock its engine misses (``bumpmap bitstream --engine-div N
+    --misses``): Fmax per clock, resources, and every endpoint that misses the engine clock."""
+    r, path = _board_record("engine-misses")
     if r is None:
-        return _missing(path, "make bitstream BOARD=ulx3s")
-    stage = "routed" if r.get("routed") else "placed"
-    return (_clock_tables(r, f"Fmax ({stage})")
-            + f"\n*{r['design']}: {r['stage']}. `{r['command']}`, {r['date']}; record: "
-              "[`board/engine-placement.json`](board/engine-placement.json).*\n")
+        return _missing(path, "bumpmap bitstream --engine-div 5 --misses --record docs/board/engine-misses.json")
+    return (_clock_tables(r, "Fmax (routed)") + "\n" + _misses_tables(r["misses"])
+            + f"\n*Measured by `{r['command']}` in {r['seconds']} s; record: "
+              "[`board/engine-misses.json`](board/engine-misses.json).*\n")

@@ -166,7 +166,8 @@ def _model() -> str:
 #: width of :data:`PORTS`, port A written, port B read, ``REGMODE_B`` ``OUTREG`` or ``NOREG``, no chip selects,
 #: a synchronous reset of port B's output register only, no global set/reset); any other stops the simulation.
 #: A read of the word port A writes in the same clock gives the word before the write (as Amaranth's ``Memory``
-#: without transparency does).
+#: without transparency does); the device does not define that word, and the texel memories are written only
+#: between frames (``docs/board.md``, "Uploads while the engine draws"), when no read is used.
 MODEL_TEMPLATE = r"""
 module DP16KD #(
   parameter DATA_WIDTH_A = 18, parameter DATA_WIDTH_B = 18, parameter REGMODE_A = "NOREG",

@@ -19,15 +19,10 @@ __all__ = ["parse_results", "critical_path_summary", "describe_path", "route_sec
 #: Why a design's synthesized count differs from the estimate, by :func:`design_key`; written into the record
 #: (a difference without a reason fails ``tests/fxmodel/core/test_cost.py``).
 KNOWN_DIFFERENCES: dict[tuple, str] = {
-    ("pipeline", "tin-plane-fit", "tin-plane"):
-        "the tin plane's texture is a single texel: its bilinear blend reads one word four times, and yosys "
-        "simplifies part of that constant blend, which the estimate counts as the 12 products the RTL writes "
-        "(synthesized stage by stage, the earlier fitted preset's texture sampler took 9 blocks and every other "
-        "stage its estimate; the refitted preset differs by the same 3)",
     ("engine", "tin-plane-fit", "tin-plane"):
-        "the pixel pipeline it feeds is the fitted tin plane's, whose single-texel texture blend yosys simplifies "
-        "by 3 blocks (the pipeline's entry); the scan converter takes its estimate (34 blocks: the span-start "
-        "partial products)",
+        "the scan converter's span start has a product for every piece of each increment, the one-bit top pieces "
+        "too (rtl/dsp.py puts every registered product of operands up to 18 bits into a block; the estimate, as "
+        "Yosys' own mapping, leaves a product with a one-bit operand to logic): 5 blocks more than the estimate",
 }
 
 

@@ -26,7 +26,7 @@ This module is in the core layer: it imports only from :mod:`fxmodel.core.fixed`
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 __all__ = ["DSP_BITS", "DP16KD_SHAPES", "REGISTERED_PORTS", "LOGIC_ROM_BITS_PER_BLOCK", "MEMORY_KINDS", "Product",
            "Memory", "pieces", "piece_pairs", "mult_blocks", "registered_port_width", "blocks_in_bram", "in_logic",
@@ -225,9 +225,11 @@ def blocks_in_bram(mem: Memory) -> int:
 
 
 def in_logic(mem: Memory) -> bool:
-    """Whether Yosys keeps ``mem`` in logic instead of block RAM (:data:`LOGIC_ROM_BITS_PER_BLOCK`)."""
+    """Whether Yosys keeps ``mem`` in logic instead of block RAM (:data:`LOGIC_ROM_BITS_PER_BLOCK`, weighed
+    against the cheapest shape Yosys would map it to, for a :attr:`~Memory.registered` memory too: the RTL
+    builds the blocks only where Yosys would use block RAM, ``rtl/bram.py``)."""
     return mem.rom and mem.words * mem.bits * math.ceil(mem.read_ports / 2) <= \
-        LOGIC_ROM_BITS_PER_BLOCK * blocks_in_bram(mem)
+        LOGIC_ROM_BITS_PER_BLOCK * blocks_in_bram(replace(mem, registered=False))
 
 
 def bram_blocks(memories) -> int:

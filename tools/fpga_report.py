@@ -22,7 +22,7 @@ KNOWN_DIFFERENCES: dict[tuple, str] = {
     ("engine", "tin-plane-fit", "tin-plane"):
         "the scan converter's span start has a product for every piece of each increment, the one-bit top pieces "
         "too (rtl/dsp.py puts every registered product of operands up to 18 bits into a block; the estimate, as "
-        "Yosys' own mapping, leaves a product with a one-bit operand to logic): 5 blocks more than the estimate",
+        "Yosys' own mapping, leaves a product with a one-bit operand to logic)",
 }
 
 

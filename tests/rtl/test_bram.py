@@ -98,7 +98,7 @@ def test_the_comparison_catches_a_block_without_its_output_register(tmp_path):
 
 @needs_icarus
 def test_a_banked_sampler_equals_its_fabric_form_on_every_clock(tmp_path):
-    params = preset("sampler", "cube")                # faces 6 and 7 lie beyond its banks: drawn from 0..5
+    params = preset("sampler", "border")              # faces 6 and 7 lie beyond its banks: drawn from 0..5
     assert params.banked
     ref = verilog_text(params, "fab", flat=True)
     alt = verilog_text(params, "blk", flat=True, platform=dsp.ECP5)

@@ -5,7 +5,8 @@ sources: the presets (formats, latencies, documented bounds: the functions below
 (:mod:`tools.docs_reference`: the command reference from the argument parsers, the layout from the
 import-linter contract, the parameter objects' ``mkdocstrings`` directives) and the committed records of the
 commands that measured something (:mod:`tools.docs_records`, :mod:`tools.docs_board`, ``docs/records/``). The
-pages of ``docs/`` include them with ``pymdownx.snippets`` (``--8<-- "generated/<name>.md"``). The README, read outside the site, holds
+pages of ``docs/`` include them with ``pymdownx.snippets`` (``--8<-- "generated/<name>.md"``). The README, read
+outside the site, holds
 blocks between the markers ::
 
     <!-- BEGIN GENERATED <name>: bumpmap docs -->

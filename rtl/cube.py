@@ -40,8 +40,8 @@ class Cube(UnitComponent):
     s, t : Signal(unsigned(fq + 2)), out -- ``st_fmt = u1.(fq+1)``, in ``[0, 1]``
     degenerate : Signal(1), out -- the zero vector (then face +Z, ``s = t = 1/2``)
 
-    Latency: ``params.latency`` = 2 + ``divide.latency`` = ``recip.latency + 5`` (one more when ``a * mant``
-    is split into partial products). Stages: magnitudes, three comparators and the face/numerator muxes | the
+    Latency: ``params.latency`` = 3 + ``divide.latency`` = ``recip.latency + 6`` (one more when ``a * mant``
+    is split into partial products). Stages: magnitudes | three comparators and the face/numerator muxes | the
     reciprocal of the signed major (``recip.latency``) | ``a * mant``, ``b * mant`` | barrel shift | rounding
     (:func:`~rtl.recip.scale`) | ``(1 +- q) / 2`` and the face's sign flips (output registers).
     """
@@ -54,9 +54,11 @@ class Cube(UnitComponent):
         m = Module()
         pipe = Pipe(m, platform=platform)
 
-        # 1: magnitudes (n-bit unsigned: |min_code| = 2**(n-1) fits), tie rule, face and numerators
-        x, y, z = self.x, self.y, self.z
-        ax, ay, az = (Mux(v < 0, -v, v)[:n] for v in (x, y, z))
+        # 1: magnitudes (n-bit unsigned: |min_code| = 2**(n-1) fits)
+        s0 = pipe.stage(x=self.x, y=self.y, z=self.z,
+                        **{f"a{c}": Mux(v < 0, -v, v)[:n] for c, v in zip("xyz", (self.x, self.y, self.z))})
+        # 2: tie rule, face and numerators
+        x, y, z, ax, ay, az = s0.x, s0.y, s0.z, s0.ax, s0.ay, s0.az
         zsel = (az >= ax) & (az >= ay)
         ysel = ~zsel & (ay >= ax)
         ma = Mux(zsel, z, Mux(ysel, y, x))
@@ -66,8 +68,9 @@ class Cube(UnitComponent):
 
         # one reciprocal of the signed major component for both quotients: n * mant, then the barrel shift
         # with half-up rounding, twice
-        s = times_reciprocal(m, pipe, R, s1.ma, 1, {"a": s1.a, "b": s1.b}, carry={"face": s1.face})
-        y, s = scale_stages(pipe, {"a": s.p_a, "b": s.p_b}, D.prod_fmt.frac_bits, s.exp, R, D.out_fmt.frac_bits,
+        shift = (D.prod_fmt.frac_bits, D.out_fmt.frac_bits)
+        s = times_reciprocal(m, pipe, R, s1.ma, 1, {"a": s1.a, "b": s1.b}, carry={"face": s1.face}, shift=shift)
+        y, s = scale_stages(pipe, {"a": s.p_a, "b": s.p_b}, s.amount, R, shift,
                             carry={"dbz": s.dbz, "face": s.face})
         qs, _ = saturate(y["a"], D.out_fmt, Overflow.PROVEN)
         qt, _ = saturate(y["b"], D.out_fmt, Overflow.PROVEN)

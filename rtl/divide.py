@@ -40,8 +40,9 @@ class Divide(UnitComponent):
         R = P.recip
         m = Module()
         pipe = Pipe(m, platform=platform)
-        s = times_reciprocal(m, pipe, R, self.d, self.i_valid, {"n": self.n})
-        y, s = scale_stages(pipe, {"q": s.p_n}, P.prod_fmt.frac_bits, s.exp, R, P.out_fmt.frac_bits,
+        shift = (P.prod_fmt.frac_bits, P.out_fmt.frac_bits)
+        s = times_reciprocal(m, pipe, R, self.d, self.i_valid, {"n": self.n}, shift=shift)
+        y, s = scale_stages(pipe, {"q": s.p_n}, s.amount, R, shift,
                             carry={"dbz": s.dbz, "n": s.n})
         q, ovf = saturate(y["q"], P.out_fmt, Overflow.SATURATE)
         fmt = P.out_fmt

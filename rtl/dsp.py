@@ -3,7 +3,7 @@
 Why: Yosys maps a product onto a ``MULT18X18D`` but never moves registers into it (``synth_ecp5`` has no register
 packing for this block), so every product of the pipeline ran from a fabric register through a route into the
 block, through the whole multiplier, and through a route out to a fabric register; with most of the device's blocks
-in use, those paths were most of the engine's endpoints that missed 100 MHz (``docs/board/engine-placement.json``
+in use, those paths were most of the engine's endpoints that missed 100 MHz (``bumpmap bitstream --misses``
 counts them and gives nextpnr's delays). The block has registers of its own on both operands and on the product
 (nextpnr times the block by them): with them the multiplier lies between two registers inside the block, and the
 fabric sees only a setup at the block's input and the block's clock-to-out at its output.
@@ -75,9 +75,12 @@ class Product:
 
 
 def registered_product(expr) -> Product | None:
-    """``expr`` as a :class:`Product` if it is ``a * b`` or a slice of it, with neither operand a constant and
-    both at most :data:`DSP_BITS` bits wide; else ``None``."""
+    """``expr`` as a :class:`Product` if it is ``a * b`` or a slice of it (either perhaps read as signed or
+    unsigned: the same bits, as ``rtl.fixed.saturate`` with a proven range gives them), with neither operand a
+    constant and both at most :data:`DSP_BITS` bits wide; else ``None``."""
     lo = hi = None
+    if isinstance(expr, Operator) and expr.operator in ("s", "u") and len(expr.operands) == 1:
+        expr = expr.operands[0]
     if isinstance(expr, Slice) and isinstance(expr.value, Operator):
         lo, hi, expr = expr.start, expr.stop, expr.value
     if not (isinstance(expr, Operator) and expr.operator == "*" and len(expr.operands) == 2):

@@ -37,9 +37,11 @@ class Persp(UnitComponent):
         R = P.recip
         m = Module()
         pipe = Pipe(m, platform=platform)
-        s = times_reciprocal(m, pipe, R, self.W, self.i_valid, {i: getattr(self, i) for i, _ in P.numerators})
-        y, s = scale_stages(pipe, {o: getattr(s, f"p_{i}") for i, o in P.numerators}, P.prod_frac, s.exp, R,
-                            P.coord_bits, carry={"dbz": s.dbz})
+        shift = (P.prod_frac, P.coord_bits)
+        s = times_reciprocal(m, pipe, R, self.W, self.i_valid, {i: getattr(self, i) for i, _ in P.numerators},
+                             shift=shift)
+        y, s = scale_stages(pipe, {o: getattr(s, f"p_{i}") for i, o in P.numerators}, s.amount, R, shift,
+                            carry={"dbz": s.dbz})
         outs = {}
         for _, name in P.numerators:
             outs[name] = Mux(s.dbz, 0, y[name][:P.coord_bits])            # repeat rule: the fraction bits

@@ -18,10 +18,10 @@ carry chain or one product (the house rule of the pixel pipeline); only the row 
   stages, nothing fed back): (1) each edge's bound relative to ``x0``, clamped to ``[0, x1 - x0]``, and whether
   it empties the row (``v - x0`` and ``v - x1 - 1`` side by side); (2) the span ``[L, R]`` (offsets from
   ``x0``) as the largest left and smallest right bound, from the three pairwise comparisons at once; (3)
-  ``x0 + L``, ``R - L``, ``L <= R`` and, for every attribute, the partial products of ``a_x`` cut into
-  :meth:`~fxmodel.units.raster.RasterParams.dx_pieces` times ``L`` (one multiplier block each, registered before and
-  after); (4, 5)
-  the span start ``a(x0, y) + L a_x`` as two adder levels over the partial products, modulo ``2**N``.
+  ``x0 + L``, ``R - L``, ``L <= R``, and ``L`` fanned out to a copy per attribute ("Fan-out"); (4) for every
+  attribute, the partial products of ``a_x`` cut into :meth:`~fxmodel.units.raster.RasterParams.dx_pieces` times
+  its copy of ``L`` (one multiplier block each, the product registered in the block); (5, 6) the span start
+  ``a(x0, y) + L a_x`` as two adder levels over the partial products, modulo ``2**N``.
 - **Row FIFO** (``amaranth.lib.fifo.SyncFIFO``, :attr:`~fxmodel.units.raster.RasterParams.ROW_FIFO_DEPTH` rows, LUT
   RAM, :func:`row_layout`): ``y``, ``x0 + L``, ``R - L``, whether the row is empty or one clock, every
   attribute's span start and ``a_x``, the triangle's constants. A credit counter (rows issued and not yet
@@ -51,7 +51,11 @@ four attributes a group): each copy is a few flip-flops with its own feedback, w
 drives the ports, the FIFOs and the span pipeline's valid. The rows the Pixel Calculator takes reach the
 generator's copies from the Pixel Calculator's copies in turn (generator copy ``j`` from copy ``j mod n``), not
 from copy 0 alone: that one net to every generator copy was the board's critical path once the products were in
-their multiplier blocks' registers.
+their multiplier blocks' registers. Likewise the span's ``L`` reaches each attribute's partial products
+from a copy of its own, in a stage of its own (the route from one register to the multiplier blocks of every
+attribute, spread over the device, was the board's critical path; a copy computed from the comparisons, in the
+same stage as ``L``, made the comparisons' route to every copy the next): the multiplier blocks then take ``L``
+and ``a_x`` without their input registers (both operands or neither, ``rtl/dsp.py``).
 
 ``busy`` is high while the Pixel Calculator works on a row: a row costs ``max(1, span)`` busy clocks, so when
 the sink is always ready the busy clocks are the model's ``clocks``. The generator runs ahead of the Pixel
@@ -75,7 +79,7 @@ from fxmodel.units.raster import EDGE_LEFT, EDGE_RIGHT, RasterParams
 
 from .fixed import saturate, shape, shift_round
 from .streams import payload_layout
-from .unit import Pipe, register
+from .unit import Pipe, kept_copy, register
 
 __all__ = ["Raster", "record_layout", "fragment_layout", "row_layout"]
 
@@ -251,8 +255,9 @@ class Raster(wiring.Component):
         last = Signal(name=f"last_row_{k}")                         # s_rem == 0
         issue, ready, accept = Signal(name=f"issue_{k}"), Signal(name=f"ready_{k}"), Signal(name=f"accept_{k}")
         m.d.comb += [issue.eq(gv & room), ready.eq(~gv | (issue & last)), accept.eq(ready & self.i.valid)]
-        next_inflight = inflight + issue - take
-        m.d.sync += [inflight.eq(next_inflight), room.eq(next_inflight != depth)]
+        # ``take`` (from the Pixel Calculator) selects between sums of registers: it reaches the last logic level only
+        kept, taken = inflight + issue, inflight + issue - 1
+        m.d.sync += [inflight.eq(Mux(take, taken, kept)), room.eq(Mux(take, taken != depth, kept != depth))]
         with m.If(accept):
             m.d.sync += [gv.eq(1), last.eq(rec.rows == 0)]
         with m.Elif(issue):
@@ -291,31 +296,36 @@ class Raster(wiring.Component):
         s2 = pipe.stage(L=_pick(lo, lambda x, y: x >= y), R=_pick(hi, lambda x, y: x <= y),
                         empty=Cat(*(getattr(s1, f"empty{e}") for e in range(3))).any(), **_passing(s1, keep))
 
-        # (3) the span's first column and length, whether it is empty or one clock, the partial products a_x L
-        parts, shifts = {}, {}
-        for n in P.names:
-            dx = getattr(s2, f"dx_{n}")
-            if not P.span_dsp:               # in logic: a_x's copies shifted by L's bits, carry-saved to two terms
-                parts |= {f"pp_{n}_{k}": t for k, t in enumerate(_carry_save(
-                    [Mux(s2.L[i], dx << i, 0)[:acc_w[n]] for i in range(len(s2.L))], acc_w[n]))}
-                shifts[n] = [0, 0]
-                continue
-            cut = [(dx[lo:lo + bits].as_signed() if signed else dx[lo:lo + bits], lo)
-                   for lo, bits, signed in P.dx_pieces(n)]
-            parts |= {f"pp_{n}_{k}": piece * s2.L for k, (piece, _) in enumerate(cut)}
-            shifts[n] = [shift for _, shift in cut]
+        # (3) the span's first column and length, whether it is empty or one clock; L fanned out: a copy for each
+        # attribute's partial products, beside that attribute's multiplier blocks (module docstring, "Fan-out")
         keep3 = ["valid", "y", *(f"dx_{n}" for n in P.names), *(f"c_{n}" for n in g.k_c),
                  *(f"a_{n}" for n in P.names)]
         nonempty = ~s2.empty & (s2.L <= s2.R)
         s3 = pipe.stage(xl=(s2.x0 + s2.L)[:w], n=(s2.R - s2.L)[:w], nonempty=nonempty,
-                        single=~nonempty | (s2.L == s2.R), **parts, **_passing(s2, keep3))
-        terms = {n: [(getattr(s3, f"a_{n}"), acc_w[n])]
-                 + [((getattr(s3, f"pp_{n}_{k}") << sh)[:acc_w[n]], acc_w[n]) for k, sh in enumerate(shifts[n])]
+                        single=~nonempty | (s2.L == s2.R), **({} if P.span_dsp else {"L": s2.L}), **_passing(s2, keep3))
+        offset = {n: kept_copy(m, s2.L, f"span_L_{n}") if P.span_dsp else s3.L for n in P.names}
+
+        # (4) the partial products a_x L
+        parts, shifts = {}, {}
+        for n in P.names:
+            dx = getattr(s3, f"dx_{n}")
+            if not P.span_dsp:               # in logic: a_x's copies shifted by L's bits, carry-saved to two terms
+                parts |= {f"pp_{n}_{k}": t for k, t in enumerate(_carry_save(
+                    [Mux(offset[n][i], dx << i, 0)[:acc_w[n]] for i in range(len(offset[n]))], acc_w[n]))}
+                shifts[n] = [0, 0]
+                continue
+            cut = [(dx[lo:lo + bits].as_signed() if signed else dx[lo:lo + bits], lo)
+                   for lo, bits, signed in P.dx_pieces(n)]
+            parts |= {f"pp_{n}_{k}": piece * offset[n] for k, (piece, _) in enumerate(cut)}
+            shifts[n] = [shift for _, shift in cut]
+        s4 = pipe.stage(**parts, **_passing(s3, ["xl", "n", "nonempty", "single", *keep3]))
+        terms = {n: [(getattr(s4, f"a_{n}"), acc_w[n])]
+                 + [((getattr(s4, f"pp_{n}_{k}") << sh)[:acc_w[n]], acc_w[n]) for k, sh in enumerate(shifts[n])]
                  for n in P.names}
-        # (4, 5) the span start a(x0, y) + L a_x, modulo 2**N, two adder levels
-        carry = _passing(s3, ["valid", "y", "xl", "n", "nonempty", "single", *(f"dx_{n}" for n in P.names),
+        # (5, 6) the span start a(x0, y) + L a_x, modulo 2**N, two adder levels
+        carry = _passing(s4, ["valid", "y", "xl", "n", "nonempty", "single", *(f"dx_{n}" for n in P.names),
                               *(f"c_{n}" for n in g.k_c)])
-        start, carry = _tree(pipe, terms, P.SPAN_STAGES - 3, carry)
+        start, carry = _tree(pipe, terms, P.SPAN_STAGES - 4, carry)
         assert pipe.depth == P.SPAN_STAGES - 1                            # the last level writes the FIFO
 
         row_in = data.View(row_layout(P), g.fifo.w_data)
@@ -411,13 +421,17 @@ class Raster(wiring.Component):
         out_used = Signal(range(out_depth + 1), name=f"out_used_{k}")
         advance = Signal(name=f"advance_{k}", init=1)                  # out_used <= out_depth - 2
         produce = advance & busy & nonempty
-        next_used = out_used + produce - (ofifo.r_rdy & self.o.ready)
-        m.d.sync += [out_used.eq(next_used), advance.eq(next_used <= out_depth - 2)]
+        # the consumer's ``ready`` and this copy's ``take`` each select between sums of registers (the last logic
+        # level), not feed a carry chain
+        popped = ofifo.r_rdy & self.o.ready
+        used, used_less = out_used + produce, out_used + produce - 1
+        m.d.sync += [out_used.eq(Mux(popped, used_less, used)),
+                     advance.eq(Mux(popped, used_less <= out_depth - 2, used <= out_depth - 2))]
         done_row = ~busy | last_px
         step, take_k = Signal(name=f"step_{k}"), Signal(name=f"take_{k}")
         m.d.comb += [step.eq(~done_row), take_k.eq(advance & done_row & has_row)]
-        next_count = count + fifo.w_en - take_k
-        m.d.sync += [count.eq(next_count), has_row.eq(next_count != 0)]
+        rows, rows_less = count + fifo.w_en, count + fifo.w_en - 1
+        m.d.sync += [count.eq(Mux(take_k, rows_less, rows)), has_row.eq(Mux(take_k, rows_less != 0, rows != 0))]
         with m.If(advance):
             with m.If(step):
                 m.d.sync += [npx.eq(npx - 1), last_px.eq(npx == 1)]

@@ -18,8 +18,8 @@ from fxmodel.units.recip import RecipParams
 from .fixed import narrow, saturate, shift_round
 from .unit import Pipe, UnitComponent, register
 
-__all__ = ["Recip", "scale", "scale_stages", "times_reciprocal", "leading_zeros", "pieces", "split_product",
-           "split_products", "product_stage"]
+__all__ = ["Recip", "scale", "scale_stages", "shift_amount", "times_reciprocal", "leading_zeros", "pieces",
+           "split_product", "split_products", "product_stage"]
 
 
 def pieces(x, limit: int = RecipParams.DSP_BITS) -> list[tuple[Value, int]]:
@@ -100,14 +100,17 @@ def leading_zeros(x) -> Value:
     return Mux(zero, width, count)
 
 
-def times_reciprocal(m: Module, pipe: Pipe, recip: RecipParams, w, valid, numerators: dict, carry: dict | None = None):
+def times_reciprocal(m: Module, pipe: Pipe, recip: RecipParams, w, valid, numerators: dict, carry: dict | None = None,
+                     shift: tuple[int, int] | None = None):
     """The front half every user of ``1/w`` shares (divider, perspective coordinates, cube address).
 
     A :class:`Recip` of ``w``; the ``numerators`` and ``carry`` signals delayed by its latency; then one register
     stage holding ``p_<name> = numerator * mant`` for each numerator, ``exp``, ``dbz``, and every delayed signal
     under its own name -- preceded by a stage of partial products when an operand is wider than one multiplier
     block (:meth:`RecipParams.times_split`, :func:`split_products`). Follow with :func:`scale` on each product
-    (the model's :meth:`RecipParams.scale`).
+    (the model's :meth:`RecipParams.scale`), or with :func:`scale_stages` when ``shift`` gives the products' and
+    the result's fraction bits: the stage then also holds the barrel shift's ``amount`` (:func:`shift_amount`,
+    one small carry chain beside the products, kept out of the shift's stage).
     """
     m.submodules.recip = rcp = Recip(recip)
     m.d.comb += [rcp.w.eq(w), rcp.i_valid.eq(valid)]
@@ -120,20 +123,30 @@ def times_reciprocal(m: Module, pipe: Pipe, recip: RecipParams, w, valid, numera
     if pipe.depth - before != expected:
         raise AssertionError(f"times_reciprocal: {pipe.depth - before} partial-product stages, "
                              f"RecipParams.times_split says {expected}")
+    if shift is not None:
+        late["amount"] = shift_amount(late["exp"], recip, *shift)
     return pipe.stage(**{f"p_{k}": v for k, v in prods.items()}, **late)
 
 
-def scale_stages(pipe: Pipe, prods: dict, prod_frac: int, exp, recip: RecipParams, out_frac: int, carry: dict):
+def shift_amount(exp, recip: RecipParams, prod_frac: int, out_frac: int) -> Value:
+    """The right shift :func:`scale` applies to a product with ``prod_frac`` fraction bits for ``out_frac``
+    (``exp`` the reciprocal's exponent; never negative: :meth:`RecipParams.shift_plan`)."""
+    pre, shift_min = recip.shift_plan(prod_frac, out_frac)
+    return (shift_min + pre + recip.exp_fmt.max_code - exp).as_unsigned()
+
+
+def scale_stages(pipe: Pipe, prods: dict, amount, recip: RecipParams, shift: tuple[int, int], carry: dict):
     """:func:`scale` with half-up rounding over two register stages, for timing (the one-stage barrel shift,
     rounding and saturation ran the divider at 81 MHz on ECP5): the shift, truncating with one extra fraction bit,
     is registered (with the ``carry`` signals); the rounding by that bit follows. Same bits as
     :meth:`RecipParams.scale` with ``Rounding.HALF_UP``: ``floor((floor(x / 2**(a-1)) + 1) / 2) =
     floor((x + 2**(a-1)) / 2**a)``; ``x`` is shifted left by one first, so ``a = 0`` is exact too.
 
+    ``shift`` is ``(prod_frac, out_frac)``, the products' and the result's fraction bits, and ``amount`` the
+    :func:`shift_amount` for them, registered with the products (``times_reciprocal(..., shift=shift)``).
     Returns ``(values, regs)``: the rounded value of each product by name, and the stage's registers.
     """
-    pre, shift_min = recip.shift_plan(prod_frac, out_frac)
-    amount = (shift_min + pre + recip.exp_fmt.max_code - exp).as_unsigned()
+    pre, _ = recip.shift_plan(*shift)
     regs = pipe.stage(**{f"h_{k}": shift_round(v << (pre + 1), amount, Rounding.TRUNC) for k, v in prods.items()},
                       **carry)
     return {k: (getattr(regs, f"h_{k}") + 1) >> 1 for k in prods}, regs
@@ -142,9 +155,8 @@ def scale_stages(pipe: Pipe, prods: dict, prod_frac: int, exp, recip: RecipParam
 def scale(prod, prod_frac: int, exp, recip: RecipParams, out_frac: int, rounding: Rounding):
     """Twin of :meth:`fxmodel.units.recip.RecipParams.scale`: ``prod * 2**exp`` rounded to ``out_frac`` fraction bits
     (pre-shift left, then a data-dependent right shift with rounding: a barrel shifter)."""
-    pre, shift_min = recip.shift_plan(prod_frac, out_frac)
-    amount = (shift_min + pre + recip.exp_fmt.max_code - exp).as_unsigned()
-    return shift_round(prod << pre, amount, rounding)
+    pre, _ = recip.shift_plan(prod_frac, out_frac)
+    return shift_round(prod << pre, shift_amount(exp, recip, prod_frac, out_frac), rounding)
 
 
 @register(RecipParams)

@@ -56,11 +56,12 @@ class Reflect(UnitComponent):
         largest magnitude is at least 1/2 unless ``degenerate``
     degenerate : Signal(1), out -- ``R = 0`` (``N = 0`` or ``E = 0``); ``Rx = Ry = Rz = 0`` then
 
-    Latency: ``params.latency`` = 7 cycles. Stages: ``N_i E_i``, ``N_i N_i`` (six 18x18 multipliers) | dot sums
-    ``p``, ``q`` | partial products of ``N_i`` and ``E_i`` with the 17-bit digits of ``p`` and ``q`` (18x18 DSP
-    tiles; a top digit of at most 4 bits by shifts and adds) | per digit ``A_j = 2 N_i p_j - E_i q_j`` |
-    ``R_i = sum_j A_j 2**(17 j)`` | leading-zero count of ``OR_i (R_i XOR sign)`` | barrel shift and truncation to
-    ``r_fmt`` (output registers). Each stage holds one product or one to two carry chains (ECP5 timing).
+    Latency: ``params.latency`` = 10 cycles. Stages: the inputs | ``N_i E_i``, ``N_i N_i`` (six 18x18
+    multipliers) | dot sums ``p``, ``q`` | the same, registered again | partial products of ``N_i`` and ``E_i``
+    with the 17-bit digits of ``p`` and ``q`` (18x18 DSP tiles; a top digit of at most 4 bits by shifts and adds)
+    | per digit ``A_j = 2 N_i p_j - E_i q_j`` | ``R_i = sum_j A_j 2**(17 j)`` | ``OR_i (R_i XOR sign)`` | its
+    leading-zero count | barrel shift and truncation to ``r_fmt`` (output registers). Each stage holds one
+    product or one to two carry chains (ECP5 timing).
 
     The ``degenerate`` flag is computed from the inputs (``N = 0`` or ``E = 0``, two narrow zero detectors)
     instead of a zero test of the wide ``R``; they agree by ``|R| = |E| |N|**2`` (the model tests ``R = 0``).
@@ -72,8 +73,11 @@ class Reflect(UnitComponent):
         W = P.W
         m = Module()
         pipe = Pipe(m, platform=platform)
-        N = [self.Nx, self.Ny, self.Nz]
-        E = [self.Ex, self.Ey, self.Ez]
+        # 0: the inputs registered (on an ECP5 the first products' blocks take these registers as their own input
+        #    registers: the route from the unit before ends in a block, not through its multiplier)
+        s0 = pipe.stage(**{n: getattr(self, n) for n in ("Nx", "Ny", "Nz", "Ex", "Ey", "Ez")})
+        N = [s0.Nx, s0.Ny, s0.Nz]
+        E = [s0.Ex, s0.Ey, s0.Ez]
 
         # 1: first-level products
         st = {}
@@ -90,6 +94,9 @@ class Reflect(UnitComponent):
         q, _ = saturate(s1.nn0 + s1.nn1 + s1.nn2, w["N.N"], Overflow.PROVEN)
         s2 = pipe.stage(p=p, q=q, zero=s1.zero, **{f"N{i}": getattr(s1, f"N{i}") for i in range(3)},
                         **{f"E{i}": getattr(s1, f"E{i}") for i in range(3)})
+        # the sums registered once more: on an ECP5 the digit products' blocks take these registers as their input
+        # registers, fed from registers (not from the sums' carry chains, three blocks a digit away)
+        s2 = pipe.stage(**{k: getattr(s2, k) for k in ("p", "q", "zero", "N0", "N1", "N2", "E0", "E1", "E2")})
 
         # 3: second-level partial products: p and q cut into 17-bit digits (18-bit signed DSP operands), so each
         #    wide product N_i p, E_i q is a few 18x18 tiles whose sum is left to the next stages
@@ -122,12 +129,14 @@ class Reflect(UnitComponent):
         s5 = pipe.stage(**st)
         R = [getattr(s5, f"R{i}") for i in range(3)]
 
-        # 6: common shift lz = W - bitlen(OR_i (R_i XOR sign)) = leading zeros of the W-bit OR (a balanced tree)
+        # 6: the W-bit OR_i (R_i XOR sign), whose leading zeros are the common shift lz = W - bitlen(...)
         ones = [(r ^ r[W].replicate(W + 1))[:W] for r in R]
-        lz = leading_zeros(ones[0] | ones[1] | ones[2])
-        s6 = pipe.stage(lz=lz, zero=s5.zero, **{f"R{i}": R[i] for i in range(3)})
+        s6 = pipe.stage(ones=ones[0] | ones[1] | ones[2], zero=s5.zero, **{f"R{i}": R[i] for i in range(3)})
 
-        # 7: shift left by lz (fits W + 1 bits: normalization proof), read with W fraction bits, truncate to r_fmt
+        # 7: lz (a balanced tree: a stage of its own, ECP5 timing)
+        s6 = pipe.stage(lz=leading_zeros(s6.ones), zero=s6.zero, **{f"R{i}": getattr(s6, f"R{i}") for i in range(3)})
+
+        # 8: shift left by lz (fits W + 1 bits: normalization proof), read with W fraction bits, truncate to r_fmt
         outs = {}
         for i, c in enumerate("xyz"):
             shifted, _ = saturate(getattr(s6, f"R{i}") << s6.lz, P.norm_fmt, Overflow.PROVEN)

@@ -73,7 +73,7 @@ from fxmodel.units.rop import DEPTH_BYTES, PIXEL_BYTES, STATUS_BITS, Z_OVERFLOW,
 
 from .fixed import const_mul, narrow
 from .streams import payload_layout
-from .unit import register
+from .unit import COPY_SUFFIX, KEEP_COPIES, register
 
 __all__ = ["Rop", "axi_signature", "ring_next", "SLOT_OVERHEAD", "WRITE_QUEUE", "COPY_SUFFIX", "KEEP_COPIES"]
 
@@ -88,15 +88,6 @@ WRITE_QUEUE = 3
 #: sides of that bound).
 SLOT_OVERHEAD = 7
 
-#: The name's end of every flip-flop copy of a net that reaches the whole on-chip frame (the registers beside
-#: each of its block RAMs). Yosys's ``opt_merge`` merges flip-flops with one input into one (a ``keep`` on the
-#: wire does not stop it), undoing the copies; a ``keep`` on the cell does: :data:`KEEP_COPIES`.
-COPY_SUFFIX = "_kept_copy"
-
-#: The Yosys command (run right after reading the design, before any optimisation) that marks the cells driving
-#: the copies (:data:`COPY_SUFFIX`) ``keep`` (``%a``: Amaranth's RTLIL may name the register's output after a
-#: port it drives, the copy's name an alias of it).
-KEEP_COPIES = f"setattr -set keep 1 w:*{COPY_SUFFIX} %a %ci1 t:* %i"
 
 
 def axi_signature(addr_bits: int, data_bits: int, id_bits: int = 1) -> wiring.Signature:

@@ -20,6 +20,7 @@ from fxmodel.core.rounding import Overflow, Rounding
 from fxmodel.pipeline.pixel import TEXEL_MAPS
 from fxmodel.units.sampler import SamplerParams
 
+from .bram import RegisteredMemory
 from .fixed import const_mul, narrow
 from .recip import product_stage
 from .unit import Pipe, UnitComponent, register
@@ -193,27 +194,32 @@ class Sampler(UnitComponent):
         """Stage 4: the memory read (the read ports' data registers are this stage); banked, stages 5 and 6: the
         bank words registered as they leave the block RAMs (a bank of a large map is a cascade of blocks spread
         over the device, with a multiplexer of its own: ECP5 ran a 64-texel cube map at 78 MHz with the corner
-        routing in this stage), then each corner's word from the bank of its parities (a 4:1 multiplexer).
+        routing in this stage; on an ECP5 each bank is a :class:`~rtl.bram.RegisteredMemory`, its blocks' own
+        output registers this stage), then each corner's word from the bank of its parities (a 4:1 multiplexer).
         Returns ``(corner words, the stage holding the weights as the texels arrive)``."""
         P = self.params
         data, mems = [], []
         blank = self.writes is not None and self.writes.blank
         for k, (init, ports) in enumerate(memories):
-            mem = Memory(shape=P.word_bits, depth=len(init), init=[] if blank else init)
+            init = [] if blank else init
+            if P.banked:        # one read port, its word registered (stage 5): in the block RAMs' own registers
+                mem = RegisteredMemory(P.word_bits, len(memories[k][0]), init, name=f"texels{k}")
+                m.d.comb += mem.r_addr.eq(getattr(s3, ports[0]))
+                data.append(mem.r_data)
+            else:
+                mem = Memory(shape=P.word_bits, depth=len(memories[k][0]), init=init)
+                for a in ports:
+                    port = mem.read_port(domain="sync")
+                    m.d.comb += port.addr.eq(getattr(s3, a))
+                    data.append(port.data)
             m.submodules[f"texels{k}" if P.banked else "texels"] = mem
             mems.append(mem)
-            for a in ports:
-                port = mem.read_port(domain="sync")
-                m.d.comb += port.addr.eq(getattr(s3, a))
-                data.append(port.data)
         if self.writes is not None:
             self._writes(m, mems)
         s4 = pipe.stage(**{k: getattr(s3, k) for k in (*weights, *parity)})
         if not P.banked:
             return data, s4
-        s5 = pipe.stage(fx=s4.fx, fy=s4.fy, **{f"b{k}": d for k, d in enumerate(data)},
-                        **{k: getattr(s4, k) for k in parity})
-        data = [getattr(s5, f"b{k}") for k in range(4)]
+        s5 = pipe.stage(fx=s4.fx, fy=s4.fy, **{k: getattr(s4, k) for k in parity})     # the words: registered
 
         def bank(px, py):
             return Mux(py, Mux(px, data[3], data[2]), Mux(px, data[1], data[0]))

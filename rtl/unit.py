@@ -20,7 +20,8 @@ from amaranth.lib.wiring import In, Out
 from .dsp import RegisterSources, block, registered_product, uses_blocks
 from .fixed import shape
 
-__all__ = ["unit_signature", "Pipe", "register", "build", "stream_native", "component_class"]
+__all__ = ["unit_signature", "Pipe", "kept_copy", "COPY_SUFFIX", "KEEP_COPIES", "register", "build",
+           "stream_native", "component_class"]
 
 
 def unit_signature(params) -> wiring.Signature:
@@ -47,6 +48,29 @@ class UnitComponent(wiring.Component):
         if pipe.depth != self.params.latency:
             raise AssertionError(f"{type(self).__name__}: pipeline has {pipe.depth} stages but "
                                  f"{type(self.params).__name__}.latency says {self.params.latency}")
+
+
+#: The name's end of every flip-flop copy of a net with a device-wide fan-out (:func:`kept_copy`: the registers
+#: beside each block RAM of the on-chip frame, ``rtl/rop.py``; the scan converter's span offset beside each
+#: attribute's multiplier blocks, ``rtl/raster.py``). Yosys's ``opt_merge`` merges flip-flops with one input into
+#: one (a ``keep`` on the wire does not stop it), undoing the copies; a ``keep`` on the cell does:
+#: :data:`KEEP_COPIES`.
+COPY_SUFFIX = "_kept_copy"
+
+#: The Yosys command (run right after reading the design, before any optimisation) that marks the cells driving
+#: the copies (:data:`COPY_SUFFIX`) ``keep`` (``%a``: Amaranth's RTLIL may name the register's output after a
+#: port it drives, the copy's name an alias of it).
+KEEP_COPIES = f"setattr -set keep 1 w:*{COPY_SUFFIX} %a %ci1 t:* %i"
+
+
+def kept_copy(m: Module, value, name: str) -> Signal:
+    """A register copy of ``value`` (one clock late) named ``name`` + :data:`COPY_SUFFIX`: synthesis with
+    :data:`KEEP_COPIES` keeps it apart from its twins, so the placer can put each copy near the loads it drives.
+    Not a :class:`Pipe` register: a multiplier block never takes it as its input register (``rtl/dsp.py``)."""
+    value = Value.cast(value)
+    reg = Signal(value.shape(), name=f"{name}{COPY_SUFFIX}")
+    m.d.sync += reg.eq(value)
+    return reg
 
 
 class Pipe:

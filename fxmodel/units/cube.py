@@ -172,9 +172,9 @@ class CubeParams(Unit):
 
     @property
     def latency(self) -> int:
-        """Stages: magnitudes, comparisons and face select | the divider (reciprocal, products, shift and
-        rounding) | ``(1 +- q) / 2`` (a stage of its own: ECP5 timing)."""
-        return 2 + self.divide.latency
+        """Stages: magnitudes | comparisons and face select | the divider (reciprocal, products, shift and
+        rounding) | ``(1 +- q) / 2`` (each a stage of its own: ECP5 timing)."""
+        return 3 + self.divide.latency
 
     # -- bit-exact model ----------------------------------------------------------------------------------
     @staticmethod

@@ -208,16 +208,18 @@ class RasterParams:
     #: pipeline, so one-clock rows follow one another without a gap.
     ROW_FIFO_DEPTH: ClassVar[int] = 16
     #: Stages of the RTL's span pipeline from the row generator's state to the row FIFO (``rtl/raster.py``):
-    #: the edges' bounds, the span, the offset products, two adder levels of the span start.
-    SPAN_STAGES: ClassVar[int] = 5
+    #: the edges' bounds, the span, its column and length (the offset fanned out to the products' copies), the
+    #: offset products, two adder levels of the span start.
+    SPAN_STAGES: ClassVar[int] = 6
     #: Fragments the RTL's output FIFO holds (LUT RAM): with two in flight behind it, one per clock flows
     #: while the consumer is ready.
     OUT_FIFO_DEPTH: ClassVar[int] = 4
     #: Register bits one copy of a control state drives in the RTL (``rtl/raster.py``, "Fan-out"): the row
     #: generator's load/step enable and the Pixel Calculator's enables reach some 2 000 and 1 300 register
     #: bits; one net to all of them was the engine's critical path (7 ns of routing in its last net alone), so
-    #: the control state is kept in as many identical copies as groups of this many bits need.
-    ENABLE_FANOUT: ClassVar[int] = 384
+    #: the control state is kept in as many identical copies as groups of this many bits need (groups of 384
+    #: bits still left the enables among the board's slowest paths, ``bumpmap bitstream --misses``).
+    ENABLE_FANOUT: ClassVar[int] = 128
 
     attrs: tuple = ()
     max_size: int = 2048

@@ -239,9 +239,11 @@ class ReflectParams(Unit):
 
     @property
     def latency(self) -> int:
-        """Stages: N_i E_i, N_i N_i | dot sums | digit products of 2 N_i p, E_i q | per-digit differences |
-        R | leading-zero count | shift, truncate (``rtl/reflect.py`` splits the wide products for ECP5 timing)."""
-        return 7
+        """Stages: the inputs | N_i E_i, N_i N_i | dot sums | the same registered again | digit products of
+        2 N_i p, E_i q | per-digit differences | R | the OR of the magnitudes' bits | its leading-zero count |
+        shift, truncate (``rtl/reflect.py`` splits the wide products and the normalization for ECP5 timing, and
+        registers the inputs for the first products' multiplier blocks and the sums for the digit products')."""
+        return 10
 
     # -- bit-exact model ----------------------------------------------------------------------------------
     def exact_r(self, cols) -> tuple[np.ndarray, np.ndarray, list[np.ndarray]]:

@@ -364,7 +364,7 @@ class SamplerParams(Unit):
                          for par, w in zip(("even", "odd"), self.parity_words))
         if self.banked:
             return (Memory(int(np.prod(self.bank_shape)), self.word_bits, 1, count=4, kind="texels",
-                           name="texel bank"),)
+                           name="texel bank", registered=True),)
         return (Memory(self.depth, self.word_bits, 4 if self.bilinear else 1, kind="texels", name="texels"),)
 
     def products(self) -> tuple:

@@ -92,9 +92,58 @@ def test_build_hands_router_and_seed_to_nextpnr(tmp_path, monkeypatch, seed, fla
             (tmp_path / "top.tim").write_text(TIM)
 
     monkeypatch.setattr(top, "_platform", Platform)
-    monkeypatch.setattr(top, "Top", lambda engine, frame: None)       # nothing to elaborate
+    monkeypatch.setattr(top, "Top", lambda engine, frame, engine_div: None)       # nothing to elaborate
     rec = top.build(tmp_path, router="router1", seed=seed)
     opts = seen["nextpnr_opts"]
     assert "--router router1" in opts and "--timing-allow-fail" in opts
     assert ("--seed" in opts) == (flag is not None) and (flag is None or flag in opts)
     assert rec.get("seed") == seed and rec["router"] == "router1"
+
+
+def _net(driver: str, arrivals: dict) -> dict:
+    """A net of nextpnr's per-net timing report: its endpoints' ``{"cell.pin": arrival ns}`` in the engine clock."""
+    ev = "posedge $glbnet$engine_clk"
+    return {"driver": driver, "event": ev, "net": driver + "_n", "port": "Q",
+            "endpoints": [{"cell": c.rsplit(".", 1)[0], "port": c.rsplit(".", 1)[1], "delay": [t - 1, t], "event": ev}
+                          for c, t in arrivals.items()]}
+
+
+def test_an_engine_divider_is_the_pll_output_and_the_misses_are_counted_per_unit_and_kind(tmp_path, monkeypatch):
+    seen = {}
+    timing = {"detailed_net_timings": [
+        _net("x", {"system.engine.raster.span_L_kept_copy_TRELLIS_FF_Q.DI": 12.5,      # misses 12 ns (div 6)
+                   "system.engine.raster.span_s3_pp_U_0_mult.B3": 12.1,                # a multiplier block's operand
+                   "system.engine.pipeline.core.unit.diffuse.s5_b1_TRELLIS_FF_Q_4.DI": 11.9}),   # meets
+        _net("y", {"system.engine.raster.rows.storage.0.105$DPRAM_COMB3.WRE": 13.0,
+                   "system.engine.raster.take_0_TRELLIS_FF_Q.CE": 12.01})]}
+
+    class Platform:
+        def build(self, design, **kwargs):
+            seen.update(kwargs, design=design)
+            (tmp_path / "top.tim").write_text(TIM)
+            opts = kwargs["nextpnr_opts"].split()
+            assert "--detailed-timing-report" in opts
+            (tmp_path / "timing.json").write_text(__import__("json").dumps(timing))
+
+    monkeypatch.setattr(top, "_platform", Platform)
+    rec = top.build(tmp_path, engine_div=6, misses=True)
+    assert seen["design"].engine_div == 6 and rec["engine_div"] == 6
+    m = rec["misses"]
+    assert m["period_ns"] == 12.0 and m["endpoints"] == 4
+    assert m["by_unit"] == {"raster": 3, "raster.rows": 1}
+    assert m["by_kind"] == {"clock enable": 1, "LUT RAM": 1, "multiplier block": 1, "register": 1}
+    assert [w["ns"] for w in m["worst"]] == [13.0, 12.5, 12.1, 12.01]
+    assert m["worst"][1] == {"ns": 12.5, "unit": "raster", "register": "span_L_kept_copy", "pin": "DI"}
+    with pytest.raises(ValueError, match="engine_div=3"):
+        Top(engine_div=3)
+    rtlil = _platform().prepare(Top(engine_div=6), name="top").files["top.il"]
+    rtlil = rtlil.decode() if isinstance(rtlil, bytes) else rtlil
+    assert "parameter \\CLKOS2_DIV 6\n" in rtlil and 'FREQUENCY_PIN_CLKOS2 "83.3333"' in rtlil   # 500 / 6 MHz
+
+
+def test_misses_need_the_per_net_report():
+    from board.timing import timing_misses
+    with pytest.raises(ValueError, match="detailed-timing-report"):
+        timing_misses({"critical_paths": []}, "engine_clk", 10.0)
+    with pytest.raises(ValueError, match="no endpoint of clock 'engine_clk'"):
+        timing_misses({"detailed_net_timings": [{"event": "posedge clk", "endpoints": []}]}, "engine_clk", 10.0)

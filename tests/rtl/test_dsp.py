@@ -12,12 +12,11 @@ from __future__ import annotations
 
 import random
 import re
-import shutil
-import subprocess
 
 import pytest
 from amaranth.hdl import Fragment, Module, Signal, signed
 
+from cosim.miter import miter, needs_icarus, run_icarus
 from fxmodel.core.unit import preset
 from rtl import dsp
 from rtl.unit import Pipe
@@ -26,69 +25,17 @@ from rtl.verilog import verilog_text
 #: Clocks each unit runs both ways.
 CYCLES = 400
 
-needs_icarus = pytest.mark.skipif(shutil.which("iverilog") is None, reason="no iverilog (make setup installs it)")
-
-_PORT = re.compile(r"^\s*(input|output)\s+(?:signed\s+)?(?:\[(\d+):0\]\s+)?(\\?\S+)\s*;", re.M)
-
-
-def _ports(text: str, module: str):
-    """``[(direction, width, name)]`` of ``module`` in Amaranth's Verilog."""
-    start = text.index(f"module {module}(")
-    body = text[start:text.index("endmodule", start)]
-    return [(d, int(hi) + 1 if hi else 1, n) for d, hi, n in _PORT.findall(body)]
-
-
-def _random_bits(width: int) -> str:
-    words = -(-width // 32)
-    return "{" + ", ".join(["$urandom"] * words) + "}"
-
-
-def _miter(ref: str, alt: str, cycles: int) -> str:
-    """A testbench driving ``ref`` and ``alt`` (same ports) with random inputs, reset at the start and once in
-    the middle, printing each output that differs and ``DONE <clocks compared>``."""
-    ports = _ports(ref, "fab")
-    ins = [(w, n) for d, w, n in ports if d == "input" and n not in ("clk", "rst")]
-    outs = [(w, n) for d, w, n in ports if d == "output"]
-    lines = ["module tb;", "  reg clk = 0, rst = 1;", "  integer i, bad = 0, unknown = 0;"]
-    lines += [f"  reg [{w - 1}:0] {n};" for w, n in ins]
-    lines += [f"  wire [{w - 1}:0] r_{n}, a_{n};" for w, n in outs]
-    for tag, mod in (("r", "fab"), ("a", "blk")):
-        conns = [".clk(clk)", ".rst(rst)"] + [f".{n}({n})" for _, n in ins] + [f".{n}({tag}_{n})" for _, n in outs]
-        lines.append(f"  {mod} u_{tag} ({', '.join(conns)});")
-    lines += ["  initial begin", f"    for (i = 0; i < {cycles}; i = i + 1) begin",
-              f"      rst = (i < 2) || (i == {cycles // 2});"]
-    lines += [f"      {n} = {_random_bits(w)};" for w, n in ins]
-    lines += ["      #1 clk = 1; #1 clk = 0;"]
-    # An unknown bit (x) in either output while the pipeline first fills: a block RAM's output register has no
-    # initial value in Verilog, and Icarus evaluates an ``always @*`` block only once an input changes (registers
-    # held at reset change nothing); on the device every register starts at 0. Counted apart, and only allowed
-    # in the first quarter of the run (so an unknown cannot hide a difference after the second reset).
-    lines += [f"      if (^r_{n} === 1'bx || ^a_{n} === 1'bx) begin unknown = unknown + 1; "
-              f"if (i >= {cycles // 4}) bad = bad + 1; end else if (r_{n} !== a_{n}) begin bad = bad + 1; "
-              f"if (bad < 5) $display(\"DIFF {n} %0d %h %h\", i, r_{n}, a_{n}); end" for _, n in outs]
-    done = f"    $display(\"DONE %0d %0d UNKNOWN %0d OF %0d\", i, bad, unknown, i * {len(outs)});"
-    lines += ["    end", done, "    $finish;", "  end", "endmodule"]
-    return "\n".join(lines)
-
-
-def _run(tmp_path, sources: dict[str, str]) -> str:
-    for name, text in sources.items():
-        (tmp_path / name).write_text(text)
-    subprocess.run(["iverilog", "-g2012", "-o", str(tmp_path / "sim"), *[str(tmp_path / n) for n in sources]],
-                   check=True, capture_output=True, text=True)
-    return subprocess.run(["vvp", "-n", str(tmp_path / "sim")], check=True, capture_output=True, text=True).stdout
-
-
 def _both_ways(params, cycles=CYCLES):
     ref = verilog_text(params, "fab", flat=True)
     alt = verilog_text(params, "blk", flat=True, platform=dsp.ECP5)
-    return ref, alt, _miter(ref, alt, cycles)
+    return ref, alt, miter(ref, alt, cycles)
 
 
 #: Units whose products go into blocks: operands that are registers of the same pipe (inputs absorbed; squares of
 #: one register), a block's product as the next block's operand and the ROM's word (the perspective unit); unit
-#: inputs (the output register only: shading); the scan converter's span start (stream ports); partial products.
-UNITS = [("persp", "default"), ("shade", "default"), ("raster", "small"), ("recip", "rcp24")]
+#: inputs (the output register only: shading, the reflect unit's first products, read through a proven
+#: narrowing); the scan converter's span start (stream ports); partial products.
+UNITS = [("persp", "default"), ("shade", "default"), ("raster", "small"), ("recip", "rcp24"), ("reflect", "default")]
 
 
 @needs_icarus
@@ -96,7 +43,7 @@ UNITS = [("persp", "default"), ("shade", "default"), ("raster", "small"), ("reci
 def test_ecp5_form_equals_the_fabric_form_on_every_clock(tmp_path, unit, name):
     ref, alt, tb = _both_ways(preset(unit, name))
     assert "MULT18X18D" in alt and "MULT18X18D" not in ref
-    out = _run(tmp_path, {"ref.v": ref, "alt.v": alt, "model.v": dsp.MODEL, "tb.v": tb})
+    out = run_icarus(tmp_path, {"ref.v": ref, "alt.v": alt, "model.v": dsp.MODEL, "tb.v": tb})
     done = re.search(r"DONE 400 (\d+) UNKNOWN (\d+) OF (\d+)", out)
     assert done and int(done[1]) == 0, out
     assert int(done[2]) < int(done[3]) // 10, out        # unknown only while the pipeline first fills
@@ -107,7 +54,7 @@ def test_the_comparison_catches_an_operand_from_the_wrong_clock(tmp_path):
     ref, alt, tb = _both_ways(preset("persp"))
     late = dsp.MODEL.replace('(REG_INPUTA_CLK == "CLK0") ? ar : a', '(REG_INPUTA_CLK == "CLK0") ? a : a')
     assert late != dsp.MODEL
-    out = _run(tmp_path, {"ref.v": ref, "alt.v": alt, "model.v": late, "tb.v": tb})
+    out = run_icarus(tmp_path, {"ref.v": ref, "alt.v": alt, "model.v": late, "tb.v": tb})
     done = re.search(r"DONE 400 (\d+) UNKNOWN", out)
     assert done and int(done[1]) > 0, out
 
@@ -135,7 +82,7 @@ def test_block_model_is_the_exact_product(tmp_path):
             ends = [(-(1 << 17) if s else 0, (1 << 17) - 1 if s else (1 << 18) - 1) for s in (sa, sb)]
             cases += [(ends[0][i], ends[1][j], sa, sb) for i in (0, 1) for j in (0, 1)]
             cases += [(rng.randint(*ends[0]), rng.randint(*ends[1]), sa, sb) for _ in range(40)]
-    out = _run(tmp_path, {"model.v": dsp.MODEL, "tb.v": _model_tb(cases)})
+    out = run_icarus(tmp_path, {"model.v": dsp.MODEL, "tb.v": _model_tb(cases)})
     got = [int(x) for x in re.findall(r"^P (\d+)$", out, re.M)]
     assert got == [(a * b) % (1 << 36) for a, b, _, _ in cases]
 
@@ -148,6 +95,7 @@ def test_registered_product_takes_products_of_at_most_18_bits():
     assert dsp.registered_product(a * wide) is None
     assert dsp.registered_product(a * 5) is None
     assert dsp.registered_product(a + b) is None
+    assert dsp.registered_product((a * b)[:30].as_signed()).hi == 30          # a proven narrowing's reading
 
 
 def test_only_ecp5_platforms_use_blocks_and_enabled_registers_are_not_delays():

@@ -46,13 +46,15 @@ def test_cli_writes_the_pipeline_of_a_fitted_preset_with_the_scene_tables(tmp_pa
     text = path.read_text()
     assert "module pipeline_tin_plane_fit_tin_plane(" in text     # a plain identifier, no escaped name
     assert "i__ready" in text and "o__payload" in text            # the stream version (rtl/streams.py)
-    # the bump map's four banks hold the scene's (du, dv) words, as the model packs and banks them
-    bump = text[re.search(r"module \\pipeline_tin_plane_fit_tin_plane\.[\w.]*\bbump_map ", text).start():]
-    bump = bump[:bump.index("endmodule")]
+    # the bump map's four banks (each a rtl.bram.RegisteredMemory) hold the scene's (du, dv) words, as the model
+    # packs and banks them
     params = pipeline_params("tin-plane", "tin-plane-fit").bump_map
     assert params.banked and params.texels.shape == (1, 40, 40, 2)
     for k, words in enumerate(params.bank_words):
-        init = {int(i): int(v, 16) for i, v in re.findall(rf"texels{k}\[(\d+)\] = \d+'h([0-9a-f]+);", bump)}
+        head = re.search(rf"module \\pipeline_tin_plane_fit_tin_plane\.[\w.]*\bbump_map\.texels{k} ", text)
+        bank = text[head.start():]
+        bank = bank[:bank.index("endmodule")]
+        init = {int(i): int(v, 16) for i, v in re.findall(r"mem\[(\d+)\] = \d+'h([0-9a-f]+);", bank)}
         assert len(init) == len(words) == 400 and [init[i] for i in range(len(words))] == words, k
         py, px = divmod(k, 2)                       # bank (i mod 2, j mod 2) holds texel (i, j) at (j // 2, i // 2)
         assert words == [params.words[(2 * j + py) * 40 + 2 * i + px] for j in range(20) for i in range(20)]

@@ -187,7 +187,8 @@ def test_bram_estimate_counts_blocks_copies_and_memories_in_logic():
     6 x 33 x 33 = 6534 words of 36 bits, 13 blocks of 512 x 36 each; nearest filtering, one memory of 26136
     words, 52 blocks. A 41 x 40 two-channel 12-bit repeat map (odd width: not banked) is 1640 words of 24 bits,
     3 blocks of 2048 x 9 per copy, two copies for four read ports; at 40 x 40 it is banked, four banks of 400
-    words, one 512 x 36 block each. An 8 x 8 map, four banks of 16 words, stays in logic."""
+    words read through their blocks' output registers (``rtl/bram.py``), two 1024 x 18 columns each. An 8 x 8
+    map, four banks of 16 words, stays in logic."""
     import dataclasses
 
     import numpy as np
@@ -207,7 +208,7 @@ def test_bram_estimate_counts_blocks_copies_and_memories_in_logic():
     odd = SamplerParams(texels=Texels(np.zeros((1, 40, 41, 2), np.int64)), channels=(s12,) * 2)
     assert not odd.banked and blocks(odd) == 3 * 2
     even = SamplerParams(texels=Texels(np.zeros((1, 40, 40, 2), np.int64)), channels=(s12,) * 2)
-    assert even.banked and blocks(even) == 4
+    assert even.banked and blocks(even) == 4 * 2
     tiny = SamplerParams(texels=Texels(np.zeros((1, 8, 8, 2), np.int64)), channels=(s12,) * 2)
     assert blocks(tiny) == 0
 

@@ -276,7 +276,7 @@ def test_ports_and_latency():
     params = preset("cube")
     assert [p.name for p in params.inputs] == ["x", "y", "z"]
     assert [p.name for p in params.outputs] == ["face", "s", "t", "degenerate"]
-    assert params.latency == 2 + params.divide.latency
+    assert params.latency == 3 + params.divide.latency
     assert preset("reflect").r_fmt.width == params.in_fmt.width
     assert preset("reflect", "small").r_fmt.width == preset("cube", "small").in_fmt.width
 

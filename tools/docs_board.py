@@ -1,0 +1,152 @@
+"""Measured tables of the board's documentation (``docs/board.md``), generated from the committed records of the
+commands that measured them (``docs/board/``, ``docs/records/``): the bandwidth budget, the bitstream's clocks and
+resources, the engine's endpoints that miss a clock, the end-to-end simulations, the frames per second.
+"""
+
+from __future__ import annotations
+
+import json
+
+from .docs_records import DOCS, col_align, load_record, md_table, missing_record, provenance
+
+# -- the board --------------------------------------------------------------------------------------------------
+BOARD = DOCS / "board"
+
+
+def _board_record(name: str):
+    path = BOARD / f"{name}.json"
+    if not path.is_file():
+        return None, path
+    return json.loads(path.read_text(encoding="utf-8")), path
+
+
+def board_budget() -> str:
+    """The memory-bandwidth arithmetic of the board's frame-buffer strategy (``bumpmap board-budget``)."""
+    r, path = _board_record("budget")
+    if r is None:
+        return missing_record(path, "bumpmap board-budget docs/board/budget.json")
+    rows = [["SDRAM peak (one x16 SDR chip)", f"{r['sdram_peak_MBps']} MB/s"],
+            [f"scan-out, {r['mode']}, 16-bit color",
+             f"{r['scanout_MBps']} MB/s ({100 * r['scanout_share_of_peak']:.1f} % of the peak)"],
+            ["left after scan-out", f"{r['sdram_left_after_scanout_MBps']} MB/s"],
+            [f"drawing at one fragment a clock ({r['engine_Mpx_per_s']} Mfragment/s), compact "
+             f"{r['bytes_per_fragment_compact']}-byte fragments", f"{r['drawing_MBps_compact']} MB/s"],
+            [f"the same with today's ROP ({r['bytes_per_fragment_rop_today']} bytes a fragment)",
+             f"{r['drawing_MBps_rop_today']} MB/s"],
+            ["a frame buffer in SDRAM sustains at most (compact / today's)",
+             f"{r['direct_fb_Mpx_per_s_compact_at_peak']} / {r['direct_fb_Mpx_per_s_rop_today_at_peak']} Mfragment/s "
+             f"({100 * r['direct_fb_share_of_engine_rate_compact']:.0f} % of the engine's rate)"],
+            [f"on-chip tile {r['tile_edge']} x {r['tile_edge']}, depth and color",
+             f"{r['tile_bits']} bits: {r['tile_dp16kd']} DP16KD, {r['tile_dp16kd_double_buffered']} double-buffered "
+             f"of {r['dp16kd_total']}"],
+            ["tiles a frame; finished tiles written to SDRAM",
+             f"{r['tiles_per_frame']}; {r['tile_writeback_MB_per_frame']} MB a frame, "
+             f"{r['tile_writeback_MBps_at_60fps']} MB/s at 60 frames a second"]]
+    return md_table(["quantity", "value"], rows, col_align("lr")) + f"\n*Computed by `{r['command']}`; record: " \
+        f"[`board/budget.json`](board/budget.json).*\n"
+
+
+def board_sdram_bandwidth() -> str:
+    """The SDRAM bandwidth of the frame in SDRAM (``bumpmap sdram-bandwidth``)."""
+    r, path = _board_record("sdram-bandwidth")
+    if r is None:
+        return missing_record(path, "bumpmap sdram-bandwidth docs/board/sdram-bandwidth.json")
+    rows = [[f"{f['width']} x {f['height']}", f"{f['frame_bytes']:,}", f"{f['scanout_MBps']}", f"{f['copy_MBps']}",
+             f"{f['total_MBps']}", f"{100 * f['share_of_peak']:.1f} %",
+             f"{f['bursts_per_frame']:,} of {f['burst_beats']} beats"] for f in r["frames"]]
+    return (md_table(["frame", "bytes", "scan-out MB/s", "copies MB/s", "total MB/s", f"of {r['sdram_peak_MBps']} MB/s",
+                    "bursts a frame (each way)"], rows, col_align("lrrrrrr"))
+            + f"\n*{r['mode']}, a copy every display frame ({r['copies_per_s']} a second, the most the display shows); "
+              f"line FIFO {r['line_fifo_words']} words ({r['line_fifo_us_at_pixel_clock']} us of pixels, "
+              f"{r['line_fifo_lines_640']} lines of 640). Computed by `{r['command']}`; record: "
+              "[`board/sdram-bandwidth.json`](board/sdram-bandwidth.json).*\n")
+
+
+def _clock_tables(r: dict, fmax_head: str) -> str:
+    """A board record's two tables: Fmax per clock domain against its target (column ``fmax_head``), and the
+    resources used against the device's."""
+    clocks = [[f"`{name}`", f"{c['target_mhz']} MHz", f"{c['fmax_mhz']} MHz", "yes" if c["met"] else "**no**"]
+              for name, c in r["clocks"].items()]
+    res = [[kind, used, avail] for kind, (used, avail) in r["resources"].items()]
+    return (md_table(["clock", "target", fmax_head, "met"], clocks, col_align("lrrl")) + "\n"
+            + md_table(["resource", "used", "available"], res, col_align("lrr")))
+
+
+def board_bitstream() -> str:
+    """The board top's last bitstream: Fmax per clock domain against its target, and resources."""
+    r, path = _board_record("bitstream")
+    if r is None:
+        return missing_record(path, "make bitstream BOARD=ulx3s")
+    return (_clock_tables(r, "Fmax")
+            + f"\n*Measured by `{r['command']}` in {r['seconds']} s; record: [`board/bitstream.json`]"
+              "(board/bitstream.json).*\n")
+
+
+def board_sim(name: str = "board-sim") -> str:
+    """The board's end-to-end simulation (``make board-sim``): host bytes to the decoded DVI frame; ``name`` the
+    record (``board-sim-sdram``: the frame in SDRAM, ``--frame sdram``; ``board-sim-uploads``: the uploads sent into
+    blank texel memories, ``--uploads``)."""
+    record, path = load_record(name)
+    if record is None:
+        return missing_record(path, f"bumpmap board-sim --record docs/records/{name}.json")
+    r = record["result"]
+    t, ms = r["timing"], r["sim_ms"]
+    rows = [["scene, frame (the tile)", f"{r['scene']}, {r['tile'][0]} x {r['tile'][1]}, {r['triangles']} triangles"],
+            ["host bytes into the UART", f"{r['bytes_sent']} in {r['frames_sent']} frames " + (
+                "(the uploads into blank texel memories; an upload's word refused: "
+                f"{'**yes**' if r['upload_bad'] else 'no'})" if r.get("uploads") else
+                f"(uploads left out: {r['frames_left_out']} frames, {r['bytes_left_out']} bytes)")],
+            ["answers", f"{len(r['replies']) // 2} bytes, all ACK: {'yes' if r['acks_ok'] else '**no**'}"],
+            ["pixels compared (640 x 480)", f"{r['pixels']:,}"], ["mismatches", str(r["mismatches"])],
+            ["line / hsync / active (clocks)", f"{t['line_periods']} / {t['hsync_widths']} / {t['active_widths']}"],
+            ["vsync / frame (clocks), lines", f"{t['vsync_widths']} / {t['frame_periods']}, {t['lines_per_frame']}"],
+            ["timing as the mode's", "yes" if r["timing_ok"] else "**no**"],
+            ["simulated time", f"{ms['uart_done']:.2f} ms UART, buffer shown at {ms['shown']:.2f} ms, "
+                               f"end {ms['end']:.2f} ms"],
+            ["seconds (Verilog, Verilator build, simulation, wall)",
+             f"{r['verilog_seconds']}, {r['build_seconds']}, {r['sim_seconds']}, {r['wall_seconds']}"]]
+    if r.get("frame") == "sdram":
+        rows.insert(4, ["frame store; scan-out underrun, AXI error", f"SDRAM (LiteDRAM's simulation core); "
+                        f"{'**yes**' if r['underrun'] else 'no'}, {'**yes**' if r['mem_error'] else 'no'}"])
+    return md_table(["quantity", "value"], rows, col_align("lr")) + "\n" + provenance(record, path)
+
+
+def board_animation() -> str:
+    """Frames per second of the board at 640 x 480 for every shipped scene (``bumpmap animate``)."""
+    record, path = load_record("animation")
+    if record is None:
+        return missing_record(path, "bumpmap animate --record docs/records/animation.json")
+    r = record["result"]
+    rows = [[f"`{s['scene']}`" + (" (clamped)" if s["clamped"] else ""), str(s["frames"]), str(s["triangles"]),
+             f"{s['engine_clocks_per_frame_max']:,}", f"{s['engine_fps']:,}", f"{s['link_bytes_per_frame_max']:,}",
+             f"{s['link_fps']:,}", f"{s['shown_fps']:,}",
+             f"{s['sdram_MBps_total']} ({100 * s['sdram_share_of_peak']:.1f} %)"] for s in r["scenes"]]
+    head = ["scene", "frames", "triangles", "engine clocks a frame (max)", "engine frames/s",
+            "UART bytes a frame (max)", "UART frames/s", "shown frames/s", f"SDRAM MB/s (of {r['sdram_peak_MBps']:g})"]
+    note = (f"\n*Engine at {r['engine_mhz']:g} MHz ({r['engine_clock']}), UART at {r['baud']:,} baud, "
+            f"{r['mode']}; the SDRAM figure is scan-out plus the finished tiles' write-back at the rate shown "
+            "(texel-cache misses not counted).*\n")
+    return md_table(head, rows, col_align("lrrrrrrrr")) + note + "\n" + provenance(record, path)
+
+
+def _misses_tables(m: dict) -> str:
+    """The endpoints of a clock that missed its period (``bumpmap bitstream --misses``): how many, by unit, by
+    kind, and the worst, one per register."""
+    units = md_table(["unit", "endpoints"], [[f"`{u}`", n] for u, n in m["by_unit"].items()], col_align("lr"))
+    kinds = md_table(["endpoint", "endpoints"], [[k, n] for k, n in m["by_kind"].items()], col_align("lr"))
+    worst = md_table(["arrival (ns)", "unit", "register", "pin"],
+                   [[w["ns"], f"`{w['unit']}`", f"`{w['register']}`", w["pin"]] for w in m["worst"]], col_align("rlll"))
+    return (f"{m['endpoints']} endpoints of `{m['clock']}` arrive later than its period, {m['period_ns']:g} ns "
+            "(nextpnr's per-net timing; a register's setup time is not in it, so the count is a floor).\n\n"
+            + units + "\n" + kinds + "\n" + worst)
+
+
+def board_engine_misses() -> str:
+    """The board top with the engine routed at a clock its engine misses (``bumpmap bitstream --engine-div N
+    --misses``): Fmax per clock, resources, and every endpoint that misses the engine clock."""
+    r, path = _board_record("engine-misses")
+    if r is None:
+        return missing_record(path, "bumpmap bitstream --engine-div 5 --misses --record docs/board/engine-misses.json")
+    return (_clock_tables(r, "Fmax (routed)") + "\n" + _misses_tables(r["misses"])
+            + f"\n*Measured by `{r['command']}` in {r['seconds']} s; record: "
+              "[`board/engine-misses.json`](board/engine-misses.json).*\n")

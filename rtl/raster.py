@@ -255,9 +255,8 @@ class Raster(wiring.Component):
         last = Signal(name=f"last_row_{k}")                         # s_rem == 0
         issue, ready, accept = Signal(name=f"issue_{k}"), Signal(name=f"ready_{k}"), Signal(name=f"accept_{k}")
         m.d.comb += [issue.eq(gv & room), ready.eq(~gv | (issue & last)), accept.eq(ready & self.i.valid)]
-        # ``take`` (from the Pixel Calculator) selects between sums of registers: it reaches the last logic level only
-        kept, taken = inflight + issue, inflight + issue - 1
-        m.d.sync += [inflight.eq(Mux(take, taken, kept)), room.eq(Mux(take, taken != depth, kept != depth))]
+        m.d.sync += [inflight.eq(_less_one_if(take, inflight + issue)),          # ``take``: from the Pixel Calculator
+                     room.eq(_less_one_if(take, inflight + issue, lambda v: v != depth))]
         with m.If(accept):
             m.d.sync += [gv.eq(1), last.eq(rec.rows == 0)]
         with m.Elif(issue):
@@ -421,17 +420,14 @@ class Raster(wiring.Component):
         out_used = Signal(range(out_depth + 1), name=f"out_used_{k}")
         advance = Signal(name=f"advance_{k}", init=1)                  # out_used <= out_depth - 2
         produce = advance & busy & nonempty
-        # the consumer's ``ready`` and this copy's ``take`` each select between sums of registers (the last logic
-        # level), not feed a carry chain
-        popped = ofifo.r_rdy & self.o.ready
-        used, used_less = out_used + produce, out_used + produce - 1
-        m.d.sync += [out_used.eq(Mux(popped, used_less, used)),
-                     advance.eq(Mux(popped, used_less <= out_depth - 2, used <= out_depth - 2))]
+        popped = ofifo.r_rdy & self.o.ready                                  # the consumer's ``ready``
+        m.d.sync += [out_used.eq(_less_one_if(popped, out_used + produce)),
+                     advance.eq(_less_one_if(popped, out_used + produce, lambda v: v <= out_depth - 2))]
         done_row = ~busy | last_px
         step, take_k = Signal(name=f"step_{k}"), Signal(name=f"take_{k}")
         m.d.comb += [step.eq(~done_row), take_k.eq(advance & done_row & has_row)]
-        rows, rows_less = count + fifo.w_en, count + fifo.w_en - 1
-        m.d.sync += [count.eq(Mux(take_k, rows_less, rows)), has_row.eq(Mux(take_k, rows_less != 0, rows != 0))]
+        m.d.sync += [count.eq(_less_one_if(take_k, count + fifo.w_en)),
+                     has_row.eq(_less_one_if(take_k, count + fifo.w_en, lambda v: v != 0))]
         with m.If(advance):
             with m.If(step):
                 m.d.sync += [npx.eq(npx - 1), last_px.eq(npx == 1)]
@@ -445,6 +441,13 @@ class Raster(wiring.Component):
 def _sig(fmt, name: str) -> Signal:
     """A register of format ``fmt`` named ``name``."""
     return Signal(shape(fmt), name=name)
+
+
+def _less_one_if(sel, base, test=lambda v: v):
+    """``test(base - sel)`` with ``sel`` at the last logic level only: ``test`` of ``base`` and of ``base - 1``
+    (sums of registers) side by side, ``sel`` choosing (a control copy's ``take`` or ``ready`` feeds no carry
+    chain)."""
+    return Mux(sel, test(base - 1), test(base))
 
 
 def _passing(s, names) -> dict:

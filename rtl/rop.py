@@ -47,8 +47,8 @@ between flip-flops: each slice has its own registers beside its block RAM (**Fan
 word read, and the write's enable, address and data. A net from one flip-flop to the address pins of every
 block RAM (through the read-out's address multiplexer and the comparators Yosys adds for the transparent read
 port) was the board's engine clock's next critical path. Yosys's ``opt_merge`` merges flip-flops with one
-input, so the copies carry names ending in :data:`COPY_SUFFIX` and the board's synthesis marks their cells
-``keep`` (:data:`KEEP_COPIES`). Seven stages (``RopParams.latency``): the accepted fragment registered (its
+input, so the copies are :func:`rtl.unit.kept_copy` registers, which the board's synthesis marks ``keep``
+(:data:`rtl.unit.KEEP_COPIES`). Seven stages (``RopParams.latency``): the accepted fragment registered (its
 pixel index and depth computed from the stream's payload); its address in the registers beside the block RAMs;
 the read; the word in the registers beside the block RAMs; the stored depth registered (the block RAM's slow
 output never meets logic in the cycle it leaves the block); the compare; the write's central registers; the
@@ -73,9 +73,9 @@ from fxmodel.units.rop import DEPTH_BYTES, PIXEL_BYTES, STATUS_BITS, Z_OVERFLOW,
 
 from .fixed import const_mul, narrow
 from .streams import payload_layout
-from .unit import COPY_SUFFIX, KEEP_COPIES, register
+from .unit import COPY_SUFFIX, kept_copy, register
 
-__all__ = ["Rop", "axi_signature", "ring_next", "SLOT_OVERHEAD", "WRITE_QUEUE", "COPY_SUFFIX", "KEEP_COPIES"]
+__all__ = ["Rop", "axi_signature", "ring_next", "SLOT_OVERHEAD", "WRITE_QUEUE"]
 
 #: Entries of the write queue between the compare and the ``AW``/``W`` channels: one being issued, one arriving,
 #: one for the beat in the compare stage, so that ``R.ready`` is one logic level from registers and one fragment
@@ -87,7 +87,6 @@ WRITE_QUEUE = 3
 #: keep one fragment per clock while ``2 L + SLOT_OVERHEAD <= outstanding`` (``cosim/test_rtl_rop.py`` checks both
 #: sides of that bound).
 SLOT_OVERHEAD = 7
-
 
 
 def axi_signature(addr_bits: int, data_bits: int, id_bits: int = 1) -> wiring.Signature:
@@ -205,10 +204,10 @@ class Rop(wiring.Component):
         w_en, w_z, w_color, w_index = Signal(name="write"), Signal.like(a_z, name="write_z"), \
             Signal.like(a_color, name="write_color"), Signal.like(a_index, name="write_index")
         # the write's copy in the cycle its registers beside the block RAMs write, and the one after (forwarding)
-        h1_en, h1_z, h1_index = Signal(name=f"wrote1{COPY_SUFFIX}"), Signal.like(a_z, name=f"wrote1_z{COPY_SUFFIX}"), \
-            Signal.like(a_index, name=f"wrote1_index{COPY_SUFFIX}")
+        h1_en, h1_z, h1_index = (kept_copy(m, w_en, "wrote1"), kept_copy(m, w_z, "wrote1_z"),
+                                 kept_copy(m, w_index, "wrote1_index"))
         h2_en, h2_z = Signal(name="wrote2"), Signal.like(a_z, name="wrote2_z")
-        m.d.sync += [h1_en.eq(w_en), h1_z.eq(w_z), h1_index.eq(w_index), h2_en.eq(h1_en), h2_z.eq(h1_z)]
+        m.d.sync += [h2_en.eq(h1_en), h2_z.eq(h1_z)]
         rdata = self._frame(m, clear, Mux(self.fb.read, self.fb.addr, a_index), w_en, w_index, Cat(w_z, w_color))
         m.d.comb += self.fb.data.eq(rdata)
         # forwarding: a fragment's read sees every write up to the one of the fragment five ahead (through the
@@ -240,7 +239,7 @@ class Rop(wiring.Component):
         """The frame's memory in slices of ``slice_bits`` (``RopParams.slice_bits``: each slice one block RAM
         deep, no read multiplexer between blocks), each read port transparent for its write port (``hazard``).
         Beside each slice its own registers: the read address, the word read, the write's enable, address and
-        data (the copies named ``COPY_SUFFIX``, kept by synthesis). Returns the registered words (``Cat``)."""
+        data (:func:`~rtl.unit.kept_copy` registers, kept by synthesis). Returns the registered words (``Cat``)."""
         P = self.params
         words = []
         for k, lo in enumerate(range(0, P.word_bits, P.slice_bits)):
@@ -249,12 +248,12 @@ class Rop(wiring.Component):
             m.submodules[f"frame{k}"] = mem = memory.Memory(shape=hi - lo, depth=P.pixels, init=[init] * P.pixels)
             wp = mem.write_port()
             rp = mem.read_port(transparent_for=(wp,) if P.hazard else ())
-            ra = Signal.like(w_index, name=f"frame{k}_raddr{COPY_SUFFIX}")
-            we = Signal(name=f"frame{k}_wen{COPY_SUFFIX}")
-            wa = Signal.like(w_index, name=f"frame{k}_waddr{COPY_SUFFIX}")
-            wd = Signal(hi - lo, name=f"frame{k}_wdata{COPY_SUFFIX}")   # (bits of wrote1_z's input too: kept)
+            ra = Signal.like(w_index, name=f"frame{k}_raddr{COPY_SUFFIX}")     # (the read-out's address: its width)
+            m.d.sync += ra.eq(raddr)
+            we, wa = kept_copy(m, w_en, f"frame{k}_wen"), kept_copy(m, w_index, f"frame{k}_waddr")
+            wd = kept_copy(m, wdata[lo:hi], f"frame{k}_wdata")                  # (bits of wrote1_z's input too: kept)
             word = Signal(hi - lo, name=f"frame{k}_word")
-            m.d.sync += [ra.eq(raddr), we.eq(w_en), wa.eq(w_index), wd.eq(wdata[lo:hi]), word.eq(rp.data)]
+            m.d.sync += word.eq(rp.data)
             m.d.comb += [wp.addr.eq(wa), wp.data.eq(wd), wp.en.eq(we), rp.addr.eq(ra), rp.en.eq(1)]
             words.append(word)
         return Cat(*words)

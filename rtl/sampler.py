@@ -200,14 +200,14 @@ class Sampler(UnitComponent):
         P = self.params
         data, mems = [], []
         blank = self.writes is not None and self.writes.blank
-        for k, (init, ports) in enumerate(memories):
-            init = [] if blank else init
+        for k, (words, ports) in enumerate(memories):
+            init = [] if blank else words
             if P.banked:        # one read port, its word registered (stage 5): in the block RAMs' own registers
-                mem = RegisteredMemory(P.word_bits, len(memories[k][0]), init, name=f"texels{k}")
+                mem = RegisteredMemory(P.word_bits, len(words), init, name=f"texels{k}")
                 m.d.comb += mem.r_addr.eq(getattr(s3, ports[0]))
                 data.append(mem.r_data)
             else:
-                mem = Memory(shape=P.word_bits, depth=len(memories[k][0]), init=init)
+                mem = Memory(shape=P.word_bits, depth=len(words), init=init)
                 for a in ports:
                     port = mem.read_port(domain="sync")
                     m.d.comb += port.addr.eq(getattr(s3, a))

@@ -26,7 +26,6 @@ def register_name(cell: str) -> str:
     return prim.group(1) if prim else cell
 
 
-
 #: The kind of a timing endpoint by its input pin (:func:`timing_misses`): ECP5 cells' pin names, in order.
 _ENDPOINT_KINDS = (("multiplier block", r"^([ABC]\d+|SIGNED[AB]|CE\d|RST\d)$"),
                    ("block RAM", r"^(AD[AB]\d+|DI[AB]\d+|WE[AB]|CE[AB]|OCE[AB]|CS[AB]\d|RST[AB])$"),
@@ -80,18 +79,18 @@ def timing_misses(report: dict, clock: str, period_ns: float, prefixes: tuple = 
             delay = e["delay"]
             arrival = max(delay) if isinstance(delay, list) else float(delay)
             if arrival > period_ns:
-                misses.append((arrival, e["cell"], e["port"]))
+                misses.append((arrival, _endpoint_unit(e["cell"], prefixes), e["cell"], e["port"]))
     if not seen:
         raise ValueError(f"no endpoint of clock {clock!r} in the report")
     by_unit: dict = {}
     by_kind: dict = {}
-    for _, cell, port in misses:
-        u, k = _endpoint_unit(cell, prefixes), _endpoint_kind(port)
-        by_unit[u] = by_unit.get(u, 0) + 1
-        by_kind[k] = by_kind.get(k, 0) + 1
+    for _, unit, _, port in misses:
+        kind = _endpoint_kind(port)
+        by_unit[unit] = by_unit.get(unit, 0) + 1
+        by_kind[kind] = by_kind.get(kind, 0) + 1
     rows, names = [], set()
-    for arrival, cell, port in sorted(misses, reverse=True):
-        name = (_endpoint_unit(cell, prefixes), register_name(cell.split(".")[-1]), re.sub(r"\d+$", "", port))
+    for arrival, unit, cell, port in sorted(misses, reverse=True):
+        name = (unit, register_name(cell.split(".")[-1]), re.sub(r"\d+$", "", port))
         if name not in names and len(rows) < worst:
             names.add(name)
             rows.append({"ns": round(arrival, 2), "unit": name[0], "register": name[1], "pin": name[2]})

@@ -31,8 +31,8 @@ from .frame import BOARD_PRESET, EngineSystem
 from .ulx3s import BAUD, wire_link
 from .video import VGA_640x480
 
-__all__ = ["Top", "PLL", "ENGINE_DIVS", "UNIT_PREFIXES", "SEED", "build", "report", "critical_paths",
-           "add_arguments", "run"]
+__all__ = ["Top", "PLL", "ENGINE_DIVS", "check_engine_div", "UNIT_PREFIXES", "SEED", "build", "report",
+           "critical_paths", "add_arguments", "run"]
 
 #: The PLL: 25 MHz in, VCO 500 MHz; CLKOP 125 MHz (TMDS, five times the pixel clock, fed back), CLKOS 25 MHz
 #: (pixel), CLKOS2 the engine's: 500/6 MHz, below what its routed critical path allows at the board's speed grade
@@ -49,16 +49,22 @@ PIXEL_HZ, TMDS_HZ, ENGINE_HZ = (_VCO_HZ // PLL[k] for k in ("CLKOS_DIV", "CLKOP_
 ENGINE_DIVS = (4, 10)
 
 
+def check_engine_div(n) -> int:
+    """``n`` if it is an engine divider of :data:`ENGINE_DIVS`; else ``ValueError`` naming it."""
+    if not (isinstance(n, int) and ENGINE_DIVS[0] <= n <= ENGINE_DIVS[1]):
+        raise ValueError(f"engine_div={n!r}: the PLL's engine divider must be an int in "
+                         f"{ENGINE_DIVS[0]}..{ENGINE_DIVS[1]}")
+    return n
+
+
 class Top(Elaboratable):
     """The board top: ``engine`` an :class:`~fxmodel.pipeline.engine.EngineParams` with its depth test on chip
     (``board/frame.py``), or ``None`` for the test picture and the link alone (``record_len``: the triangle
     record's bytes the link accepts then)."""
 
     def __init__(self, engine=None, record_len: int = 290, frame: str = "chip", engine_div: int = PLL["CLKOS2_DIV"]):
-        if not (isinstance(engine_div, int) and ENGINE_DIVS[0] <= engine_div <= ENGINE_DIVS[1]):
-            raise ValueError(f"engine_div={engine_div!r}: the PLL's engine divider must be an int in "
-                             f"{ENGINE_DIVS[0]}..{ENGINE_DIVS[1]}")
-        self.engine, self.record_len, self.frame, self.engine_div = engine, record_len, frame, engine_div
+        self.engine, self.record_len, self.frame = engine, record_len, frame
+        self.engine_div = check_engine_div(engine_div)
 
     def _clocks(self, m, platform):
         clk25 = io.Buffer("i", platform.request("clk25", 0, dir="-"))
@@ -264,8 +270,10 @@ def run(args: argparse.Namespace) -> int:
         except (SceneError, ValueError, OSError) as exc:
             print(f"error: {exc}", file=sys.stderr)
             return 2
-    if not ENGINE_DIVS[0] <= args.engine_div <= ENGINE_DIVS[1]:
-        print(f"error: --engine-div {args.engine_div}: must be in {ENGINE_DIVS[0]}..{ENGINE_DIVS[1]}", file=sys.stderr)
+    try:
+        check_engine_div(args.engine_div)
+    except ValueError as exc:
+        print(f"error: --engine-div ({exc})", file=sys.stderr)
         return 2
     rec = build(args.out, engine, args.router, args.frame, args.seed, args.engine_div, args.misses)
     rec = {"command": "make bitstream BOARD=ulx3s (bumpmap bitstream " + " ".join(sys.argv[2:]) + ")",

@@ -11,7 +11,7 @@ import json
 import re
 from pathlib import Path
 
-from board.timing import register_name as _register_name
+from board.timing import register_name
 
 __all__ = ["parse_results", "critical_path_summary", "describe_path", "route_seconds", "markdown_table",
            "params_digest", "design_key", "compare_routers", "KNOWN_DIFFERENCES"]
@@ -45,10 +45,10 @@ def critical_path_summary(report: dict, clock: str | None = None) -> dict | None
         routing = sum(p["delay"] for p in path if p.get("type") == "routing")
         through = []
         for p in path:
-            name = _register_name(p["to"]["cell"])
+            name = register_name(p["to"]["cell"])
             if not through or through[-1] != name:
                 through.append(name)
-        return {"from": _register_name(path[0]["from"]["cell"]), "to": _register_name(path[-1]["to"]["cell"]),
+        return {"from": register_name(path[0]["from"]["cell"]), "to": register_name(path[-1]["to"]["cell"]),
                 "delay_ns": round(logic + routing, 3), "logic_ns": round(logic, 3),
                 "routing_ns": round(routing, 3),
                 "logic_levels": sum(1 for p in path if p.get("type") == "logic"), "through": through}

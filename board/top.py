@@ -230,8 +230,8 @@ def build(out: Path, engine=None, router: str = ROUTERS[0], frame: str = "chip",
     _platform().build(top, name="top", build_dir=str(out), do_program=False, script_after_read=KEEP_COPIES,
                       nextpnr_opts=opts)
     rec = report((out / "top.tim").read_text())
-    rec.update(router=router, tmg_ripup=tmg_ripup, seconds=round(time.perf_counter() - t0, 1), bitstream=str(out / "top.bit"),
-               engine_div=engine_div)
+    rec.update(router=router, tmg_ripup=tmg_ripup, seconds=round(time.perf_counter() - t0, 1),
+               bitstream=str(out / "top.bit"), engine_div=engine_div)
     if seed is not None:
         rec["seed"] = seed
     if misses:

@@ -268,12 +268,13 @@ def fpga_resources() -> str:
 
 
 
-def fpga_placement(name: str = "placement") -> str:
+def fpga_placement(name: str = "placement", design: str = "--scene SCENE --preset PRESET") -> str:
     """Placed and routed designs (``bumpmap fpga ... --placement-record docs/fpga/<name>.json``): Fmax against
-    the target, resources and the critical path nextpnr names."""
+    the target, resources and the critical path nextpnr names; ``design`` the options the missing record's
+    command names."""
     path = DOCS / "fpga" / f"{name}.json"
     if not path.is_file():
-        return missing_record(path, "bumpmap fpga --unit engine --scene SCENE --preset PRESET "
+        return missing_record(path, f"bumpmap fpga --unit engine {design} --router router2 --tmg-ripup "
                               f"--placement-record docs/fpga/{name}.json")
     record = read(path)
     r = record["result"]

@@ -527,7 +527,7 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
                     help="with --scene: the engine with its maps in external memory behind the chosen texel cache "
                          "(cosim.engine_fetch.CHOSEN_CACHE)")
     ap.add_argument("--tmg-ripup", action="store_true",
-                    help="nextpnr's timing-driven rip-up in the router (the board's flow uses it)")
+                    help="nextpnr's timing-driven rip-up in the router (as bumpmap bitstream --tmg-ripup)")
     jobrunner.add_arguments(ap, what="designs placed and routed")
     ap.add_argument("--out", default=str(BUILD), help="output folder (default: build/fpga)")
     ap.add_argument("--no-cache", action="store_true", help="rerun every tool")

@@ -190,6 +190,14 @@ def critical_paths(tim: str) -> dict:
 ROUTERS = ("router2", "router1")
 
 
+#: nextpnr's timing-driven rip-up in the router (``bumpmap bitstream --tmg-ripup``): router2 rips up and reroutes
+#: the nets of failing paths, pass after pass while any path fails (so a run that misses takes its longest). On
+#: the board top with the engine at its 100 MHz trial clock it removed most of the endpoints that missed, same
+#: placement seed (``docs/board/engine-misses.json``); a heavier placer timing weight
+#: (``--placer-heap-timingweight 40``) routed slower.
+TMG_RIPUP = "--tmg-ripup"
+
+
 #: nextpnr's placer seed for the board: the placement of the engine with the products in their multiplier blocks
 #: that router2 finishes (with nextpnr's own seed its route stalled, wires still overused after dozens of passes;
 #: seed 3 was not tried to the end). ``docs/board/bitstream.json`` records the seed it was built with.
@@ -201,7 +209,7 @@ UNIT_PREFIXES = ("system.engine.pipeline.core.unit.", "system.engine.", "system.
 
 
 def build(out: Path, engine=None, router: str = ROUTERS[0], frame: str = "chip", seed: int | None = SEED,
-          engine_div: int = PLL["CLKOS2_DIV"], misses: bool = False) -> dict:
+          engine_div: int = PLL["CLKOS2_DIV"], misses: bool = False, tmg_ripup: bool = False) -> dict:
     """The bitstream ``out/top.bit`` of ``Top(engine, engine_div=engine_div)`` through the open flow (YoWASP tools
     unless ``YOSYS``, ``NEXTPNR_ECP5``, ``ECPPACK`` name others) with nextpnr's ``router`` (and placer ``seed``);
     returns :func:`report` with the flow's seconds. A clock below its target is reported (``all_met`` false), not
@@ -213,7 +221,8 @@ def build(out: Path, engine=None, router: str = ROUTERS[0], frame: str = "chip",
         os.environ.setdefault(var, tool)
     t0 = time.perf_counter()
     from rtl.unit import KEEP_COPIES
-    opts = f"--router {router} --timing-allow-fail" + ("" if seed is None else f" --seed {seed}")
+    opts = (f"--router {router}{f' {TMG_RIPUP}' if tmg_ripup else ''} --timing-allow-fail"
+            + ("" if seed is None else f" --seed {seed}"))
     timing = Path(out).resolve() / "timing.json"
     if misses:
         opts += f" --report {timing} --detailed-timing-report"
@@ -221,8 +230,8 @@ def build(out: Path, engine=None, router: str = ROUTERS[0], frame: str = "chip",
     _platform().build(top, name="top", build_dir=str(out), do_program=False, script_after_read=KEEP_COPIES,
                       nextpnr_opts=opts)
     rec = report((out / "top.tim").read_text())
-    rec.update(router=router, seconds=round(time.perf_counter() - t0, 1), bitstream=str(out / "top.bit"),
-               engine_div=engine_div)
+    rec.update(router=router, tmg_ripup=tmg_ripup, seconds=round(time.perf_counter() - t0, 1),
+               bitstream=str(out / "top.bit"), engine_div=engine_div)
     if seed is not None:
         rec["seed"] = seed
     if misses:
@@ -243,6 +252,8 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
     ap.add_argument("--frame", choices=("chip", "sdram"), default="chip",
                     help="the frame store: block RAM, or SDRAM behind LiteDRAM's core (default chip)")
     ap.add_argument("--router", choices=ROUTERS, default=ROUTERS[0], help="nextpnr's router")
+    ap.add_argument("--tmg-ripup", action="store_true",
+                    help="nextpnr's timing-driven rip-up in the router (board/top.py TMG_RIPUP)")
     ap.add_argument("--seed", type=int, default=SEED,
                     help="nextpnr's placer seed (default %(default)s, the one whose placement routes: board/top.py "
                          "SEED); another seed is another placement")
@@ -275,7 +286,7 @@ def run(args: argparse.Namespace) -> int:
     except ValueError as exc:
         print(f"error: --engine-div ({exc})", file=sys.stderr)
         return 2
-    rec = build(args.out, engine, args.router, args.frame, args.seed, args.engine_div, args.misses)
+    rec = build(args.out, engine, args.router, args.frame, args.seed, args.engine_div, args.misses, args.tmg_ripup)
     rec = {"command": "make bitstream BOARD=ulx3s (bumpmap bitstream " + " ".join(sys.argv[2:]) + ")",
            "design": "test picture and link" if engine is None else
            f"engine ({args.scene}, preset {args.preset}, {args.size}x{args.size} tile), link, display"

@@ -237,6 +237,7 @@ PAGES = {
     "precision": rec.precision,
     "exhaustive-rcp32": rec.exhaustive_rcp32, "exhaustive-throughput": rec.exhaustive_throughput,
     "fpga-resources": rec.fpga_resources, "fpga-placement": rec.fpga_placement, "bench": rec.bench,
+    "fpga-placement-texcache": lambda: rec.fpga_placement("placement-texcache", "--scene berlin-wall --textures"),
     "raster-guard": rec.raster_guard,
     "formal-proofs": formal_proofs, "records": rec.records_index, "scene-schema": scene_schema,
     "make-targets": make_targets, "recip-errors": rec.recip_errors, "rop-throughput": rec.rop_throughput,

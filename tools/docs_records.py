@@ -268,30 +268,31 @@ def fpga_resources() -> str:
 
 
 
-PLACEMENT = DOCS / "fpga" / "placement.json"
-
-
-def fpga_placement() -> str:
-    """Placed and routed designs (``bumpmap fpga ... --placement-record``): Fmax against the target, resources and
-    the critical path nextpnr names."""
-    if not PLACEMENT.is_file():
-        return missing_record(PLACEMENT, "bumpmap fpga --unit engine --scene SCENE --preset PRESET "
-                        "--placement-record docs/fpga/placement.json")
-    record = read(PLACEMENT)
+def fpga_placement(name: str = "placement", design: str = "--scene SCENE --preset PRESET") -> str:
+    """Placed and routed designs (``bumpmap fpga ... --placement-record docs/fpga/<name>.json``): Fmax against
+    the target, resources and the critical path nextpnr names; ``design`` the options the missing record's
+    command names."""
+    path = DOCS / "fpga" / f"{name}.json"
+    if not path.is_file():
+        return missing_record(path, f"bumpmap fpga --unit engine {design} --router router2 --tmg-ripup "
+                              f"--placement-record docs/fpga/{name}.json")
+    record = read(path)
     r = record["result"]
     rows = []
     for d in r["designs"]:
-        name = f"`{d['unit']}` {d['preset']}" + (f", {d['scene']} tables" if d.get("scene") else "")
+        label = (f"`{d['unit']}` {d['preset']}" + (f", {d['scene']} tables" if d.get("scene") else "")
+                 + (", maps behind the texel cache" if d.get("textures") else ""))
         if "error" in d:
-            rows.append((name, d.get("target_mhz", ""), f"failed: {d['error']}", "", "", "", "", "", ""))
+            rows.append((label, d.get("target_mhz", ""), f"failed: {d['error']}", "", "", "", "", "", ""))
             continue
-        rows.append((name, f"{d['target_mhz']} MHz", f"{d['fmax_mhz']} MHz", "yes" if d["met"] else "**no**",
+        rows.append((label, f"{d['target_mhz']} MHz", f"{d['fmax_mhz']} MHz", "yes" if d["met"] else "**no**",
                      d.get("LUT4", ""), d.get("FF", ""), d.get("DSP", ""), d.get("BRAM", ""),
                      describe_path(d["critical_path"]) if d.get("critical_path") else ""))
     head = ("design", "target", "Fmax (routed)", "met", "LUT4", "FF", "MULT18X18D", "DP16KD", "critical path")
     flow = r.get("flow", {})
     return (md_table(head, rows, ["---"] + ["---:"] * 2 + ["---"] + ["---:"] * 4 + ["---"])
-            + f"\n*nextpnr {flow.get('router', '')}, seed {flow.get('seed', '')}.* " + provenance(record, PLACEMENT))
+            + f"\n*nextpnr {flow.get('router', '')}{', timing-driven rip-up' if flow.get('tmg_ripup') else ''}, "
+            f"seed {flow.get('seed', '')}.* " + provenance(record, path))
 
 # -- speed and design space ------------------------------------------------------------------------------------
 def bench(name: str = "bench") -> str:

@@ -47,7 +47,7 @@ import shutil
 import subprocess
 import sys
 import time
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from importlib import metadata
 from pathlib import Path
 
@@ -111,6 +111,9 @@ class Flow:
         table): router1 reached the higher Fmax on all of them (5 % to 49 %) and routed every unit design faster;
         router2 routed the pipelines several times faster (a device-sized set-up that pays off only when routing
         dominates) and failed on two unit designs (the clock from its pin to the global network).
+    tmg_ripup : bool
+        nextpnr's timing-driven rip-up in the router (``--tmg-ripup``): nets of failing paths are ripped up and
+        routed again (``bumpmap bitstream --tmg-ripup`` too, ``board.top.TMG_RIPUP``); :data:`QUICK` uses it.
     """
 
     device: str = "85k"
@@ -118,6 +121,7 @@ class Flow:
     package: str = "CABGA381"
     seed: int = 1
     router: str = "router1"
+    tmg_ripup: bool = False
 
     def __post_init__(self):
         if self.device not in ("12k", "25k", "45k", "85k", "um-25k", "um-45k", "um-85k",
@@ -132,10 +136,13 @@ class Flow:
 
     def settings(self) -> dict:
         """The settings that enter the cache keys. ``router1`` is nextpnr's default (its command line has no
-        ``--router``), so it is left out of the key: runs made before the option existed stay valid."""
+        ``--router``), so it is left out of the key: runs made before the option existed stay valid (and
+        ``tmg_ripup`` when off)."""
         out = asdict(self)
         if self.router == "router1":
             del out["router"]
+        if not self.tmg_ripup:          # (left out too: keys of runs made before the option stay valid)
+            del out["tmg_ripup"]
         return out
 
 
@@ -144,7 +151,7 @@ ROUTERS = ("router1", "router2")
 #: The flow of unit designs, sweep points and the README's figures (``make fpga``): nextpnr's default router1.
 FLOW = Flow()
 #: Quick checks of large designs (the pipeline), where routing dominates: router2 (README, "Place and route").
-QUICK = Flow(router="router2")
+QUICK = Flow(router="router2", tmg_ripup=True)
 
 
 def _device_name(option: str) -> str:
@@ -226,6 +233,8 @@ def _run_tools(rdir: Path, top: str, settings: dict, synth_only: bool = False) -
         cmd.append("--out-of-context")
     if settings.get("router", "router1") != "router1":
         cmd += ["--router", settings["router"]]
+    if settings.get("tmg_ripup"):
+        cmd.append("--tmg-ripup")
     res = subprocess.run(cmd, cwd=rdir, capture_output=True, text=True)
     if res.returncode:
         return {"error": f"nextpnr failed ({res.returncode}), see {rdir / 'nextpnr.log'}"}
@@ -399,7 +408,7 @@ def measure(params, *, label: dict | None = None, **kwargs) -> dict:
     return run_designs([(label, params)], progress=kwargs.pop("progress", False), **kwargs)[0]
 
 
-def design_list(unit_names=None, preset_list=None, scene=None) -> list[tuple[dict, object]]:
+def design_list(unit_names=None, preset_list=None, scene=None, textures=None) -> list[tuple[dict, object]]:
     """``(label, params)`` for every registered unit and preset that has RTL (or the ones named).
 
     With ``scene`` (a name in ``scenes/`` or a scene file): the pixel pipeline with that scene's memories, once
@@ -407,8 +416,10 @@ def design_list(unit_names=None, preset_list=None, scene=None) -> list[tuple[dic
     labelled ``{"unit": "pipeline", "preset": P, "scene": <file stem>}`` (:func:`host.render.pipeline_params`),
     and the engine from the triangle that feeds it (the scan converter and interpolators in front:
     ``{"unit": "engine", ...}``, :func:`host.render.engine_params`); ``unit_names`` picks one of the
-    two. The unit ``raster`` (the scan converter alone, :data:`fxmodel.units.raster.RasterParams.PRESETS`) is named
-    explicitly.
+    two. ``textures`` (a :class:`~fxmodel.units.texcache.TexCacheParams`): the engine reads its maps from
+    external memory through that texel cache (``EngineParams.textures``; label ``"textures": "cache"``), the
+    pipeline is left out. The unit ``raster`` (the scan converter alone,
+    :data:`fxmodel.units.raster.RasterParams.PRESETS`) is named explicitly.
 
     Raises
     ------
@@ -428,10 +439,16 @@ def design_list(unit_names=None, preset_list=None, scene=None) -> list[tuple[dic
             raise ValueError(f"unit={unit_names!r}: a scene sets the tables of the pipeline only "
                              "(drop --unit or use --unit pipeline or --unit engine)")
         stem = scene_path(scene).stem
+        if textures is not None:
+            kinds = kinds[1:]
         out = []
         for name in preset_list or ["default"]:
             engine = engine_params(scene, name)
-            out += [({"unit": kind, "preset": name, "scene": stem}, engine if kind == kinds[1] else engine.pipeline)
+            if textures is not None:
+                engine = replace(engine, textures=textures)
+            out += [({"unit": kind, "preset": name, "scene": stem, **({} if textures is None else
+                                                                      {"textures": "cache"})},
+                     engine if kind == kinds[-1] else engine.pipeline)
                     for kind in kinds if not unit_names or kind in unit_names]
         return out
     out = []
@@ -506,6 +523,11 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
     ap.add_argument("--router", choices=ROUTERS, default=FLOW.router,
                     help="nextpnr router (default: %(default)s, faster on unit designs; router2 for quick checks of "
                          "the pipeline)")
+    ap.add_argument("--textures", action="store_true",
+                    help="with --scene: the engine with its maps in external memory behind the chosen texel cache "
+                         "(cosim.engine_fetch.CHOSEN_CACHE)")
+    ap.add_argument("--tmg-ripup", action="store_true",
+                    help="nextpnr's timing-driven rip-up in the router (as bumpmap bitstream --tmg-ripup)")
     jobrunner.add_arguments(ap, what="designs placed and routed")
     ap.add_argument("--out", default=str(BUILD), help="output folder (default: build/fpga)")
     ap.add_argument("--no-cache", action="store_true", help="rerun every tool")
@@ -528,8 +550,13 @@ def run(args: argparse.Namespace) -> int:
             return 2
         return 0
     try:
-        designs = design_list(args.unit, args.preset, scene=args.scene)
-        flow = Flow(seed=args.seed, router=args.router)
+        cache = None
+        if args.textures:
+            from cosim.engine_fetch import CHOSEN_CACHE as cache
+            if args.scene is None:
+                raise ValueError("--textures: the engine of a scene (give --scene)")
+        designs = design_list(args.unit, args.preset, scene=args.scene, textures=cache)
+        flow = Flow(seed=args.seed, router=args.router, tmg_ripup=args.tmg_ripup)
     except ValueError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
@@ -548,8 +575,8 @@ def run(args: argparse.Namespace) -> int:
     print(f"\n(written to {out / 'report.json'} and {out / 'report.md'})")
     if args.placement_record and not args.synth_only:
         from .record import command_line, write
-        keep = ("unit", "preset", "scene", "device", "mode", "target_mhz", "fmax_mhz", "met", "LUT4", "FF", "DSP",
-                "BRAM", "DRAM", "critical_path", "error")
+        keep = ("unit", "preset", "scene", "textures", "device", "mode", "target_mhz", "fmax_mhz", "met", "LUT4",
+                "FF", "DSP", "BRAM", "DRAM", "critical_path", "error")
         write(args.placement_record, command_line("bumpmap fpga"),
               {"flow": asdict(flow), "tools": tool_versions(),
                "designs": [{k: r[k] for k in keep if k in r} for r in records]})

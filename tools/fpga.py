@@ -51,6 +51,7 @@ from dataclasses import asdict, dataclass, replace
 from importlib import metadata
 from pathlib import Path
 
+from board.top import TMG_RIPUP
 from fxmodel.core.paths import ROOT, build_dir
 from host.atomic import atomic_json, atomic_write_text
 from rtl.digest import params_key, text_key
@@ -141,7 +142,7 @@ class Flow:
         out = asdict(self)
         if self.router == "router1":
             del out["router"]
-        if not self.tmg_ripup:          # (left out too: keys of runs made before the option stay valid)
+        if not self.tmg_ripup:
             del out["tmg_ripup"]
         return out
 
@@ -234,7 +235,7 @@ def _run_tools(rdir: Path, top: str, settings: dict, synth_only: bool = False) -
     if settings.get("router", "router1") != "router1":
         cmd += ["--router", settings["router"]]
     if settings.get("tmg_ripup"):
-        cmd.append("--tmg-ripup")
+        cmd.append(TMG_RIPUP)
     res = subprocess.run(cmd, cwd=rdir, capture_output=True, text=True)
     if res.returncode:
         return {"error": f"nextpnr failed ({res.returncode}), see {rdir / 'nextpnr.log'}"}
@@ -444,11 +445,11 @@ def design_list(unit_names=None, preset_list=None, scene=None, textures=None) ->
         out = []
         for name in preset_list or ["default"]:
             engine = engine_params(scene, name)
+            label = {"preset": name, "scene": stem}
             if textures is not None:
                 engine = replace(engine, textures=textures)
-            out += [({"unit": kind, "preset": name, "scene": stem, **({} if textures is None else
-                                                                      {"textures": "cache"})},
-                     engine if kind == kinds[-1] else engine.pipeline)
+                label["textures"] = "cache"
+            out += [({"unit": kind, **label}, engine if kind == "engine" else engine.pipeline)
                     for kind in kinds if not unit_names or kind in unit_names]
         return out
     out = []

@@ -66,6 +66,24 @@ def test_raster_rtl_matches_the_model(sim, preset, p_valid, p_ready, size, n):
         assert res["busy_span"] == res["busy_cycles"], res
 
 
+@pytest.mark.parametrize("preset", ["small", "default"])
+def test_saturating_increments_flag_as_the_model(sim, preset):
+    """Increments at random codes (records no set-up writes, as a hostile file's may be): the accumulators leave
+    the output format, the output rounding saturates and flags (each attribute's flag registered beside its
+    rounded value, the fragment's flag their OR); every fragment, flags included, equal to the model."""
+    params = RasterParams.PRESETS[preset]
+    recs = hard_and_random(params, 24, 20, 8, seed=5)
+    rng = np.random.default_rng(9)
+    for p in params.record:
+        if p.name.endswith("_dx"):
+            recs.codes[p.name] = rng.integers(p.fmt.min_code, p.fmt.max_code, len(recs.codes[p.name]),
+                                              endpoint=True)
+    flags = scan(params, recs.matrix()).codes["flags"]
+    assert 100 < flags.sum() < len(flags)                       # saturated and not, both many times
+    res = run(params, recs, p_valid=0.7, p_ready=0.7, sim=sim, tag=f"sat_{preset}")
+    assert res["expected"] == len(flags) and res["mismatches"] == 0, res
+
+
 @pytest.mark.parametrize("preset, p_valid, p_ready, size, n", [
     ("small", 1.0, 1.0, (48, 40), 24), ("default", 0.5, 0.5, (40, 32), 8)])
 def test_span_start_in_logic_matches_the_model(sim, preset, p_valid, p_ready, size, n):

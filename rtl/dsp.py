@@ -8,19 +8,22 @@ counts them and gives nextpnr's delays). The block has registers of its own on b
 (nextpnr times the block by them): with them the multiplier lies between two registers inside the block, and the
 fabric sees only a setup at the block's input and the block's clock-to-out at its output.
 
-What: :class:`rtl.unit.Pipe` asks :func:`registered_product` for each expression it registers. When the
-platform is an ECP5 (``platform.family == "ecp5"``: amaranth-boards' ULX3S, or :data:`ECP5` for the Verilog that
-``bumpmap fpga`` places) and the expression is a product (or a slice of one) of two operands of at most
-:data:`DSP_BITS` bits, the stage register is the block's output register, and when both operands are registers the
-same ``Pipe`` made (or slices or sign casts of them) they are replaced by the block's input registers fed from
-those registers' own inputs: the same values at the same clock edge (one operand alone is left in the fabric:
-nextpnr times a block with one input register as if it had none). Anything else stays as it was (Yosys infers the
-block without registers). The function is the same as the fabric's registers, clock for clock, reset
-included (the block's registers reset synchronously with the domain, as Amaranth's registers do; global
-set/reset off); ``tests/rtl/test_dsp.py`` runs each unit both ways in Icarus, :data:`MODEL` standing in for
-the block, and compares every output on every clock. The block itself has no simulation model in Yosys'
-library: :data:`MODEL` is written from Lattice's sysDSP usage guide (TN1267) for the one configuration used
-here, and refuses any other.
+What: :class:`rtl.unit.Pipe` asks :func:`registered_product` for each expression it registers. When the platform is
+an ECP5 (``platform.family == "ecp5"``: amaranth-boards' ULX3S, or :data:`ECP5` for the Verilog that ``bumpmap
+fpga`` places) and the expression is a product (or a slice of one) of two operands of at most :data:`DSP_BITS`
+bits, the stage register is the block's output register, and when both operands are registers the same ``Pipe``
+made (or slices or sign casts of them) they are replaced by the block's input registers fed from those registers'
+own inputs: the same values at the same clock edge (one operand alone is left in the fabric: nextpnr times a block
+with one input register as if it had none). A product with an operand of at most :data:`LOGIC_PRODUCT_BITS` bits
+(the narrow top piece of a cut operand, ``fxmodel.core.cost.pieces``) takes no block: :func:`logic_product` writes
+it as one adder of the other operand's copies, which Yosys keeps in logic (``synth_ecp5``'s ``mul2dsp`` maps
+operands of 2 bits or more to a block, so a ``*`` would still take one). The blocks are most of what the engine's
+placement has to spread over the die (``docs/board.md``). Anything else stays as it was (Yosys infers the block
+without registers). The function is the same as the fabric's registers, clock for clock, reset included (the
+block's registers reset synchronously with the domain, as Amaranth's registers do; global set/reset off);
+``tests/rtl/test_dsp.py`` runs each unit both ways in Icarus, :data:`MODEL` standing in for the block, and compares
+every output on every clock. The block itself has no simulation model in Yosys' library: :data:`MODEL` is written
+from Lattice's sysDSP usage guide (TN1267) for the one configuration used here, and refuses any other.
 
 Outside an ECP5 build (simulation, co-simulation, ``make verilog``) nothing changes: the Verilog is the same.
 
@@ -32,12 +35,13 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from amaranth.hdl import ClockSignal, Const, Instance, Module, ResetSignal, Shape, Signal, Value, signed, unsigned
+from amaranth.hdl import ClockSignal, Const, Instance, Module, Mux, ResetSignal, Shape, Signal, Value, signed, unsigned
 from amaranth.hdl._ast import Operator, Slice
 
-from fxmodel.core.cost import DSP_BITS
+from fxmodel.core.cost import DSP_BITS, LOGIC_PRODUCT_BITS
 
-__all__ = ["DSP_BITS", "ECP5", "MODEL", "uses_blocks", "Product", "registered_product", "RegisterSources"]
+__all__ = ["DSP_BITS", "LOGIC_PRODUCT_BITS", "ECP5", "MODEL", "uses_blocks", "Product", "registered_product",
+           "logic_product", "RegisterSources"]
 
 
 class _Ecp5Target:
@@ -74,10 +78,10 @@ class Product:
     hi: int
 
 
-def registered_product(expr) -> Product | None:
+def _product(expr) -> Product | None:
     """``expr`` as a :class:`Product` if it is ``a * b`` or a slice of it (either perhaps read as signed or
     unsigned: the same bits, as ``rtl.fixed.saturate`` with a proven range gives them), with neither operand a
-    constant and both at most :data:`DSP_BITS` bits wide; else ``None``."""
+    constant or empty; else ``None``."""
     lo = hi = None
     if isinstance(expr, Operator) and expr.operator in ("s", "u") and len(expr.operands) == 1:
         expr = expr.operands[0]
@@ -86,9 +90,40 @@ def registered_product(expr) -> Product | None:
     if not (isinstance(expr, Operator) and expr.operator == "*" and len(expr.operands) == 2):
         return None
     a, b = expr.operands
-    if any(isinstance(x, Const) or len(x) > DSP_BITS or len(x) == 0 for x in (a, b)):
+    if any(isinstance(x, Const) or len(x) == 0 for x in (a, b)):
         return None
     return Product(a, b, expr.shape(), 0 if lo is None else lo, len(expr) if hi is None else hi)
+
+
+def registered_product(expr) -> Product | None:
+    """``expr`` as a :class:`Product` for one block: a product (:func:`_product`) with both operands at most
+    :data:`DSP_BITS` bits wide and neither at most :data:`LOGIC_PRODUCT_BITS` (:func:`logic_product` builds
+    those); else ``None``."""
+    p = _product(expr)
+    if p is None or any(len(x) > DSP_BITS or len(x) <= LOGIC_PRODUCT_BITS for x in (p.a, p.b)):
+        return None
+    return p
+
+
+def logic_product(expr) -> Value | None:
+    """``expr``, a product (:func:`_product`) with an operand of at most :data:`LOGIC_PRODUCT_BITS` bits, as
+    the sum of the other operand's copies those bits select (the sign bit's copy subtracted when that operand is
+    signed): one adder, exact, the same bits as ``expr`` (the sum is Amaranth's exact arithmetic, then read at
+    the product's own shape, which holds every product of the operands); else ``None``."""
+    p = _product(expr)
+    if p is None:
+        return None
+    a, b = sorted((p.a, p.b), key=len, reverse=True)         # b the narrower
+    if len(b) > LOGIC_PRODUCT_BITS:
+        return None
+    total = 0
+    for i in range(len(b)):
+        copy = Mux(b[i], a, 0) << i
+        total = total - copy if b.shape().signed and i == len(b) - 1 else total + copy
+    full = total[:p.shape.width]
+    full = full.as_signed() if p.shape.signed else full.as_unsigned()
+    out = full[p.lo:p.hi]
+    return out.as_signed() if expr.shape().signed else out.as_unsigned()
 
 
 class RegisterSources:

@@ -362,7 +362,8 @@ class Raster(wiring.Component):
                    [cx.eq(cx + 1)],
                    [cx.eq(row.xl), cy.eq(row.y), *(pc_c[n].eq(row[n]) for n in pc_c)])]
         for n in P.names:
-            blocks.append((_bits(acc[n], pdx[n], r_a[n]), lambda busy, nonempty, n=n: [r_a[n].eq(rounded[n])],
+            blocks.append((_bits(acc[n], pdx[n], *r_a[n]),
+                           lambda busy, nonempty, n=n: [r.eq(v) for r, v in zip(r_a[n], rounded[n])],
                            [acc[n].eq((acc[n] + pdx[n])[:acc_w[n]])],
                            [acc[n].eq(row[f"{n}_start"]), pdx[n].eq(row[f"{n}_dx"])]))
         takes = []
@@ -383,23 +384,24 @@ class Raster(wiring.Component):
     def _output_stage(self, m, ofifo, acc: dict):
         """The output narrowing in two steps: rounding (a register stage under ``advance``), saturation into the
         output FIFO's write port. Returns the rounding stage's registers ``(valid, x, y, attributes,
-        constants)``; the rounded accumulators are ``self._rounded``."""
+        constants)``, each attribute's as ``(rounded, saturation flag)``; the values they load, the rounded
+        accumulators with their flags, are ``self._rounded``."""
         P = self.params
         pf = P.pixel_fmt
         rounded = {n: shift_round(acc[n], P.acc_fmt(n).frac_bits - P.out_fmt(n).frac_bits, Rounding.HALF_UP)
                    for n in P.names}
-        self._rounded = rounded
+        # each attribute's saturation flag is registered beside its rounded value (the same flag, one stage
+        # earlier): the fragment's flag is then one OR of registers, not each attribute's compare and an OR
+        # across all of them on one path to the FIFO (a routed run's worst engine path)
+        self._rounded = {n: (rounded[n], saturate(rounded[n], P.out_fmt(n), Overflow.SATURATE)[1])
+                         for n in P.names}
         r_valid, r_x, r_y = Signal(name="rnd_valid"), _sig(pf, "rnd_x"), _sig(pf, "rnd_y")
-        r_a = {n: Signal(rounded[n].shape(), name=f"rnd_{n}") for n in P.names}
+        r_a = {n: (Signal(rounded[n].shape(), name=f"rnd_{n}"), Signal(name=f"rnd_{n}_sat")) for n in P.names}
         r_c = {n: _sig(f, f"rnd_{n}") for n, f in P.carried}
         frag = data.View(fragment_layout(P), ofifo.w_data)
         m.d.comb += [frag.x.eq(r_x), frag.y.eq(r_y)]
-        flags = []
-        for n in P.names:
-            code, sat = saturate(r_a[n], P.out_fmt(n), Overflow.SATURATE)
-            m.d.comb += frag[n].eq(code)
-            flags.append(sat)
-        m.d.comb += frag.flags.eq(Cat(*flags).any())
+        m.d.comb += [frag[n].eq(saturate(r_a[n][0], P.out_fmt(n), Overflow.SATURATE)[0]) for n in P.names]
+        m.d.comb += frag.flags.eq(Cat(*(sat for _, sat in r_a.values())).any())
         m.d.comb += [frag[n].eq(r_c[n]) for n in r_c]
         return r_valid, r_x, r_y, r_a, r_c
 

@@ -17,7 +17,7 @@ from amaranth.hdl import Module, Signal, Value
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
-from .dsp import RegisterSources, block, registered_product, uses_blocks
+from .dsp import RegisterSources, block, logic_product, registered_product, uses_blocks
 from .fixed import shape
 
 __all__ = ["unit_signature", "Pipe", "kept_copy", "COPY_SUFFIX", "KEEP_COPIES", "register", "build",
@@ -103,7 +103,8 @@ class Pipe:
         regs = {}
         for name, expr in exprs.items():
             product = registered_product(expr) if self.blocks and not self._conditional() else None
-            expr = Value.cast(expr)
+            narrow = logic_product(expr) if self.blocks else None
+            expr = Value.cast(expr) if narrow is None else narrow
             reg = Signal(expr.shape(), name=f"{self.prefix}s{self.depth}_{name}")
             if product is None:
                 self._register(reg, expr)

@@ -267,7 +267,6 @@ def fpga_resources() -> str:
               f"[`{_rel(RESOURCES)}`]({_rel(RESOURCES)}).*\n")
 
 
-
 def fpga_placement(name: str = "placement", design: str = "--scene SCENE --preset PRESET") -> str:
     """Placed and routed designs (``bumpmap fpga ... --placement-record docs/fpga/<name>.json``): Fmax against
     the target, resources and the critical path nextpnr names; ``design`` the options the missing record's
@@ -293,6 +292,7 @@ def fpga_placement(name: str = "placement", design: str = "--scene SCENE --prese
     return (md_table(head, rows, ["---"] + ["---:"] * 2 + ["---"] + ["---:"] * 4 + ["---"])
             + f"\n*nextpnr {flow.get('router', '')}{', timing-driven rip-up' if flow.get('tmg_ripup') else ''}, "
             f"seed {flow.get('seed', '')}.* " + provenance(record, path))
+
 
 # -- speed and design space ------------------------------------------------------------------------------------
 def bench(name: str = "bench") -> str:

@@ -18,12 +18,7 @@ __all__ = ["parse_results", "critical_path_summary", "describe_path", "route_sec
 
 #: Why a design's synthesized count differs from the estimate, by :func:`design_key`; written into the record
 #: (a difference without a reason fails ``tests/fxmodel/core/test_cost.py``).
-KNOWN_DIFFERENCES: dict[tuple, str] = {
-    ("engine", "tin-plane-fit", "tin-plane"):
-        "the scan converter's span start has a product for every piece of each increment, the one-bit top pieces "
-        "too (rtl/dsp.py puts every registered product of operands up to 18 bits into a block; the estimate, as "
-        "Yosys' own mapping, leaves a product with a one-bit operand to logic)",
-}
+KNOWN_DIFFERENCES: dict[tuple, str] = {}
 
 
 def critical_path_summary(report: dict, clock: str | None = None) -> dict | None:

@@ -10,7 +10,8 @@ and table sizes; this is the same count for one FPGA family):
 * ``MULT18X18D`` blocks (:func:`mult_blocks`). Amaranth widens the operands of a product to the full result
   width; Yosys' ``wreduce`` turns a product of a signed and an unsigned operand into a signed one, so the
   unsigned operand grows by one bit; ``mul2dsp`` then cuts each operand into 18-bit slices (the top slice
-  keeps the rest) and gives each pair of slices one block, except a one-bit slice, which becomes logic.
+  keeps the rest) and gives each pair of slices one block, except a one-bit slice, which becomes logic. A
+  product with an operand of at most :data:`LOGIC_PRODUCT_BITS` bits is logic too: the RTL writes it so.
 * ``DP16KD`` block RAMs (:func:`bram_blocks`): for each memory the cheapest block shape for its depth and word
   width, one copy per two read ports (a DP16KD has two), or none when Yosys keeps the memory in logic: a ROM
   of at most :data:`LOGIC_ROM_BITS_PER_BLOCK` bits per block it would need, as Yosys' ``memory_libmap`` weighs
@@ -28,12 +29,16 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, replace
 
-__all__ = ["DSP_BITS", "DP16KD_SHAPES", "REGISTERED_PORTS", "LOGIC_ROM_BITS_PER_BLOCK", "MEMORY_KINDS", "Product",
-           "Memory", "pieces", "piece_pairs", "mult_blocks", "registered_port_width", "blocks_in_bram", "in_logic",
-           "bram_blocks", "estimate"]
+__all__ = ["DSP_BITS", "LOGIC_PRODUCT_BITS", "DP16KD_SHAPES", "REGISTERED_PORTS", "LOGIC_ROM_BITS_PER_BLOCK",
+           "MEMORY_KINDS", "Product", "Memory", "pieces", "piece_pairs", "mult_blocks", "registered_port_width",
+           "blocks_in_bram", "in_logic", "bram_blocks", "estimate"]
 
 #: Widest operand of one ECP5 multiplier block (MULT18X18D, signed or unsigned operands).
 DSP_BITS = 18
+
+#: A product with an operand of at most this many bits takes no multiplier block: the RTL writes it as one adder
+#: of the other operand's copies (``rtl.dsp.logic_product``; the narrow top piece of a cut operand, :func:`pieces`).
+LOGIC_PRODUCT_BITS = 2
 
 #: What a :class:`Memory` holds.
 MEMORY_KINDS = ("table", "texels", "frame")
@@ -195,11 +200,12 @@ def _slices(width: int) -> int:
 
 
 def _yosys_blocks(a: int, a_signed: bool, b: int, b_signed: bool) -> int:
-    """MULT18X18D blocks of one product as ``synth_ecp5`` maps it (module docstring)."""
+    """MULT18X18D blocks of one product as ``synth_ecp5`` maps it (module docstring), none for a product the RTL
+    builds in logic (:data:`LOGIC_PRODUCT_BITS`)."""
+    if min(a, b) <= LOGIC_PRODUCT_BITS:
+        return 0
     if a_signed != b_signed:                         # wreduce: mixed signedness becomes signed x signed
         a, b = (a + (not a_signed), b + (not b_signed))
-    if min(a, b) < 2:                                # mul2dsp's minimum width: a 1-bit product is an AND
-        return 0
     return _slices(a) * _slices(b)
 
 

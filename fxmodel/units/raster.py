@@ -386,7 +386,8 @@ class RasterParams:
         ``[(low bit, bits, signed)]``, unsigned :data:`~fxmodel.core.cost.DSP_BITS`-bit pieces from the bottom and a
         signed top piece with the rest. The other operand, the column offset, is unsigned, so an unsigned
         18-bit piece fills one multiplier block (``fxmodel.core.cost.pieces`` cuts 17-bit pieces for a signed
-        partner); a one-bit top piece is a negation in logic, as Yosys maps a product with a one-bit slice."""
+        partner); a top piece of at most :data:`~fxmodel.core.cost.LOGIC_PRODUCT_BITS` bits is one adder in logic
+        (``rtl.dsp.logic_product``), no block."""
         width, out, lo = self.acc_fmt(name).width, [], 0
         while width - lo > DSP_BITS:
             out.append((lo, DSP_BITS, False))

@@ -49,6 +49,31 @@ def test_ecp5_form_equals_the_fabric_form_on_every_clock(tmp_path, unit, name):
     assert int(done[2]) < int(done[3]) // 10, out        # unknown only while the pipeline first fills
 
 
+def _board_unit(name):
+    from board.frame import BOARD_PRESET, board_engine
+    engine = board_engine("tin-plane", BOARD_PRESET, 128)[0]
+    return engine.raster if name == "raster" else getattr(engine.pipeline, name)
+
+
+@needs_icarus
+@pytest.mark.parametrize("unit", ["persp", "raster"])
+def test_narrow_products_in_logic_equal_the_fabric_form_on_every_clock(tmp_path, unit):
+    """The board's perspective unit (17 + 2-bit pieces of its quotients) and scan converter (the span start's
+    1- and 2-bit top pieces): those products are one adder each (:func:`rtl.dsp.logic_product`), not blocks."""
+    params = _board_unit(unit)
+    ref, alt, tb = _both_ways(params)
+    narrow = [p for p in built_products(params) if min(w for w, _ in p) <= dsp.LOGIC_PRODUCT_BITS]
+    assert narrow, "no narrow product: the test would not exercise the logic form"
+    out = run_icarus(tmp_path, {"ref.v": ref, "alt.v": alt, "model.v": dsp.MODEL, "tb.v": tb})
+    done = re.search(r"DONE 400 (\d+) UNKNOWN (\d+) OF (\d+)", out)
+    assert done and int(done[1]) == 0, out
+
+
+def built_products(params):
+    from tests.fxmodel.core.test_cost import built
+    return list(built(params)[0])
+
+
 @needs_icarus
 def test_the_comparison_catches_an_operand_from_the_wrong_clock(tmp_path):
     ref, alt, tb = _both_ways(preset("persp"))

@@ -145,7 +145,8 @@ def test_pieces_reassemble_every_operand(width, signed, data):
     ((18, True), (18, True), 1), ((17, False), (18, True), 1),          # 17u becomes 18s: one block
     ((18, False), (18, True), 1),                                       # 19s: its top bit a one-bit slice (logic)
     ((20, True), (18, True), 2), ((36, True), (36, True), 4), ((37, True), (36, True), 4),
-    ((1, True), (9, True), 0), ((8, False), (1, False), 0), ((4, True), (4, True), 1)])
+    ((1, True), (9, True), 0), ((8, False), (1, False), 0), ((4, True), (4, True), 1),
+    ((2, True), (11, False), 0), ((17, False), (2, True), 0), ((3, True), (11, False), 1)])     # 2 bits: logic
 def test_yosys_mapping_of_one_product(a, b, blocks):
     assert cost.mult_blocks([Product(a[0], b[0], a[1], b[1])]) == blocks
 

@@ -108,8 +108,8 @@ def registered_product(expr) -> Product | None:
 def logic_product(expr) -> Value | None:
     """``expr``, a product (:func:`_product`) with an operand of at most :data:`LOGIC_PRODUCT_BITS` bits, as
     the sum of the other operand's copies those bits select (the sign bit's copy subtracted when that operand is
-    signed): one adder, exact, the same bits as ``expr`` (the sum is Amaranth's exact arithmetic, then read at
-    the product's own shape, which holds every product of the operands); else ``None``."""
+    signed): one adder, exact, the same bits as ``expr`` (the sum is Amaranth's exact arithmetic, as wide as the
+    product or wider, so its bits ``[lo:hi]`` are the product's); else ``None``."""
     p = _product(expr)
     if p is None:
         return None
@@ -120,9 +120,7 @@ def logic_product(expr) -> Value | None:
     for i in range(len(b)):
         copy = Mux(b[i], a, 0) << i
         total = total - copy if b.shape().signed and i == len(b) - 1 else total + copy
-    full = total[:p.shape.width]
-    full = full.as_signed() if p.shape.signed else full.as_unsigned()
-    out = full[p.lo:p.hi]
+    out = total[p.lo:p.hi]               # the product's bits: the sum is at least as wide as the product
     return out.as_signed() if expr.shape().signed else out.as_unsigned()
 
 

@@ -34,11 +34,14 @@ def pieces(x, limit: int = RecipParams.DSP_BITS) -> list[tuple[Value, int]]:
     return [(x[lo:lo + bits].as_signed() if signed else x[lo:lo + bits], lo) for lo, bits, signed in cut]
 
 
-def split_products(pipe: Pipe, products: dict, carry: dict, name: str = "pp"):
+def split_products(pipe: Pipe, products: dict, carry: dict, name: str = "pp", settle: bool = False):
     """``({k: a * b}, carry)`` for ``products = {k: (a, b)}``. All within one multiplier block: the products,
     ``carry`` unchanged. Any wider (an operand above ``RecipParams.DSP_BITS`` bits): the partial products of
     :func:`pieces` of every product are registered together as one stage of their own (with the signals of
-    ``carry``) and the expressions returned are their exact sums, for the next stage."""
+    ``carry``) and the expressions returned are their exact sums, for the next stage. With ``settle`` the
+    partial products are registered once more before their sum (a second stage: on an ECP5 the first is the
+    blocks' output registers, the second a fabric register the placer can put between a block and the sum's
+    carry chain, which the route between them otherwise crosses in one clock)."""
     cut = {k: (pieces(a), pieces(b)) for k, (a, b) in products.items()}
     if all(len(pa) == 1 and len(pb) == 1 for pa, pb in cut.values()):
         return {k: a * b for k, (a, b) in products.items()}, carry
@@ -49,6 +52,8 @@ def split_products(pipe: Pipe, products: dict, carry: dict, name: str = "pp"):
                 parts[f"{name}{k}{i}_{j}"] = xa * xb
                 shifts[f"{name}{k}{i}_{j}"] = (k, sa + sb)
     s = pipe.stage(**parts, **carry)
+    if settle:
+        s = pipe.stage(**{k: getattr(s, k) for k in (*parts, *carry)})
     totals = {k: sum(getattr(s, p) << sh for p, (kk, sh) in shifts.items() if kk == k) for k in products}
     return totals, {k: getattr(s, k) for k in carry}
 
@@ -106,8 +111,8 @@ def times_reciprocal(m: Module, pipe: Pipe, recip: RecipParams, w, valid, numera
 
     A :class:`Recip` of ``w``; the ``numerators`` and ``carry`` signals delayed by its latency; then one register
     stage holding ``p_<name> = numerator * mant`` for each numerator, ``exp``, ``dbz``, and every delayed signal
-    under its own name -- preceded by a stage of partial products when an operand is wider than one multiplier
-    block (:meth:`RecipParams.times_split`, :func:`split_products`). Follow with :func:`scale` on each product
+    under its own name -- preceded by two stages of partial products when an operand is wider than one multiplier
+    block (:meth:`RecipParams.times_split`, :func:`split_products` settled). Follow with :func:`scale` on each product
     (the model's :meth:`RecipParams.scale`), or with :func:`scale_stages` when ``shift`` gives the products' and
     the result's fraction bits: the stage then also holds the barrel shift's ``amount`` (:func:`shift_amount`,
     one small carry chain beside the products, kept out of the shift's stage).
@@ -118,7 +123,7 @@ def times_reciprocal(m: Module, pipe: Pipe, recip: RecipParams, w, valid, numera
     pipe.depth += recip.latency
     before = pipe.depth
     prods, late = split_products(pipe, {k: (late[k], rcp.mant) for k in numerators},
-                                 dict(late, exp=rcp.exp, dbz=rcp.dbz), "pm")
+                                 dict(late, exp=rcp.exp, dbz=rcp.dbz), "pm", settle=True)
     expected = max((recip.times_split(len(Value.cast(v))) for v in numerators.values()), default=0)
     if pipe.depth - before != expected:
         raise AssertionError(f"times_reciprocal: {pipe.depth - before} partial-product stages, "

@@ -56,10 +56,10 @@ class Reflect(UnitComponent):
         largest magnitude is at least 1/2 unless ``degenerate``
     degenerate : Signal(1), out -- ``R = 0`` (``N = 0`` or ``E = 0``); ``Rx = Ry = Rz = 0`` then
 
-    Latency: ``params.latency`` = 10 cycles. Stages: the inputs | ``N_i E_i``, ``N_i N_i`` (six 18x18
+    Latency: ``params.latency`` = 11 cycles. Stages: the inputs | ``N_i E_i``, ``N_i N_i`` (six 18x18
     multipliers) | dot sums ``p``, ``q`` | the same, registered again | partial products of ``N_i`` and ``E_i``
     with the 17-bit digits of ``p`` and ``q`` (18x18 DSP tiles; a top digit of at most 4 bits by shifts and adds)
-    | per digit ``A_j = 2 N_i p_j - E_i q_j`` | ``R_i = sum_j A_j 2**(17 j)`` | ``OR_i (R_i XOR sign)`` | its
+    | the same, registered again | per digit ``A_j = 2 N_i p_j - E_i q_j`` | ``R_i = sum_j A_j 2**(17 j)`` | ``OR_i (R_i XOR sign)`` | its
     leading-zero count | barrel shift and truncation to ``r_fmt`` (output registers). Each stage holds one
     product or one to two carry chains (ECP5 timing).
 
@@ -109,6 +109,10 @@ class Reflect(UnitComponent):
             for j, d in enumerate(qp):
                 st[f"eq{i}{j}"] = _mul(P, Ei, d)
         s3 = pipe.stage(**st)
+        # the partial products registered again in the fabric: on an ECP5 each is a block's output register, and
+        # the route from a block to the carry chain below ran across the die (most of the engine's endpoints
+        # missing 100 MHz were the differences A_j); this register lets the placer split that route
+        s3 = pipe.stage(**{k: getattr(s3, k) for k in st})
 
         # 4: per digit position j, A_j = 2 N_i p_j - E_i q_j
         st = {"zero": s3.zero}

@@ -27,6 +27,7 @@ from amaranth.lib.fifo import SyncFIFO
 from fxmodel.core.fixed import Fmt
 from fxmodel.units.raster import RasterParams
 from rtl.raster import Raster, record_layout, row_layout
+from rtl.streams import CreditFIFO
 
 from . import whitebox
 from .miter import independence
@@ -77,9 +78,10 @@ def raster_props(h: Harness, P: RasterParams, dut, frag, pre: str):
     sig = lambda name: whitebox.signal(top, name)        # noqa: E731
     h.stream_hold(dut.o.valid, dut.o.ready, dut.o.payload.as_value(), "o")
     rows = whitebox.origin(frag, f"{pre}/rows" if pre else "rows", SyncFIFO)
-    out = whitebox.origin(frag, f"{pre}/out" if pre else "out", SyncFIFO)
+    out = whitebox.origin(frag, f"{pre}/out" if pre else "out", CreditFIFO)
     h.check(~rows.w_en | rows.w_rdy, "rows_no_overflow")
-    h.check(~out.w_en | out.w_rdy, "out_no_overflow")
+    h.check(~out.w_en | out.w_rdy, "out_no_overflow")        # the write is not gated (``CreditFIFO``): never full
+    h.check(~out.overflow, "out_no_overflow_flag")
     # the control copies agree with copy 0
     for stem in ("gen_valid", "rows_in_flight", "room", "last_row", "busy", "nonempty", "px_left", "last_px",
                  "out_used", "advance", "row_count", "has_row"):

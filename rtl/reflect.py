@@ -59,9 +59,9 @@ class Reflect(UnitComponent):
     Latency: ``params.latency`` = 11 cycles. Stages: the inputs | ``N_i E_i``, ``N_i N_i`` (six 18x18
     multipliers) | dot sums ``p``, ``q`` | the same, registered again | partial products of ``N_i`` and ``E_i``
     with the 17-bit digits of ``p`` and ``q`` (18x18 DSP tiles; a top digit of at most 4 bits by shifts and adds)
-    | the same, registered again | per digit ``A_j = 2 N_i p_j - E_i q_j`` | ``R_i = sum_j A_j 2**(17 j)`` | ``OR_i (R_i XOR sign)`` | its
-    leading-zero count | barrel shift and truncation to ``r_fmt`` (output registers). Each stage holds one
-    product or one to two carry chains (ECP5 timing).
+    | the same, registered again | per digit ``A_j = 2 N_i p_j - E_i q_j`` | ``R_i = sum_j A_j 2**(17 j)`` | ``OR_i
+    (R_i XOR sign)`` | its leading-zero count | barrel shift and truncation to ``r_fmt`` (output registers). Each
+    stage holds one product or one to two carry chains (ECP5 timing).
 
     The ``degenerate`` flag is computed from the inputs (``N = 0`` or ``E = 0``, two narrow zero detectors)
     instead of a zero test of the wide ``R``; they agree by ``|R| = |E| |N|**2`` (the model tests ``R = 0``).

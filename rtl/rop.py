@@ -57,8 +57,8 @@ fragment six ahead of it (the read port is not transparent: Yosys builds a trans
 multiplexer after the block RAM's output, in the cycle it leaves the block, and comparators on its address); the
 five just ahead of it are forwarded (the nearer first: its depth replaces the stored one when the pixel is the
 same): whether each has the same pixel is registered a cycle early, the two to five ahead (their writes decided)
-replace the stored depth as it is registered, the one just ahead in the compare. ``i.ready`` is always 1, except while the frame is read out
-through ``fb`` (``fb.read``: the read port takes ``fb.addr``; ``fb.data`` holds its word
+replace the stored depth as it is registered, the one just ahead in the compare. ``i.ready`` is always 1, except while
+the frame is read out through ``fb`` (``fb.read``: the read port takes ``fb.addr``; ``fb.data`` holds its word
 ``RopParams.readout_latency`` cycles later; an accepted fragment waits in the first stage). With ``fb.clear`` as
 well, the word read is also overwritten with the clear value, through the write's registers (a read-out that
 clears, or a clear of the frame: the next frame's depth test starts from the cleared frame).

@@ -71,6 +71,13 @@ def output_layout(params, side=None) -> data.StructLayout:
     return payload_layout(params.outputs, side)
 
 
+def less_one_if(sel, base, test=lambda v: v):
+    """``test(base - sel)`` with ``sel`` at the last logic level only: ``test`` of ``base`` and of ``base - 1``
+    (sums of registers) side by side, ``sel`` choosing (a late control signal, a consumer's ``ready``, feeds no
+    carry chain)."""
+    return Mux(sel, test(base - 1), test(base))
+
+
 class _Core(wiring.Component):
     """The flat unit and the sideband's delay line."""
 
@@ -136,22 +143,20 @@ class StreamUnit(wiring.Component):
         used = Signal(range(depth + 1))                   # results in flight and in the FIFO
         take_in = self.i.valid & self.i.ready
         m.d.comb += [self.i.ready.eq(used < depth), core.i_valid.eq(take_in), core.i_payload.eq(self.i.payload)]
-        # the last stage's result goes straight out while the FIFO is empty, else the FIFO's oldest
-        empty = ~fifo.r_rdy
+        # the last stage's result goes straight out while the FIFO is empty, else the FIFO's oldest. Whether it
+        # is empty is a register of its own, kept beside the FIFO's level (equal to ``~fifo.r_rdy``: the formal
+        # set checks it): ``r_rdy`` is a compare of the level, and through the output multiplexer it led into the
+        # consumer's logic (the pixel index of the frame's depth test: a path of the board's engine)
+        nonempty = Signal(name="fifo_nonempty")
+        empty = ~nonempty
         m.d.comb += [self.o.valid.eq(Mux(empty, core.o_valid, 1)),
                      self.o.payload.eq(Mux(empty, core.o_payload.as_value(), fifo.r_data)),
                      fifo.w_data.eq(core.o_payload),
                      fifo.w_en.eq(core.o_valid & ~(empty & self.o.ready)),
                      fifo.r_en.eq(self.o.ready & ~empty)]
-        m.d.sync += used.eq(used + take_in - (self.o.valid & self.o.ready))
+        m.d.sync += [used.eq(used + take_in - (self.o.valid & self.o.ready)),
+                     nonempty.eq(less_one_if(fifo.r_en, fifo.level + fifo.w_en, lambda v: v != 0))]
         return m
-
-
-def less_one_if(sel, base, test=lambda v: v):
-    """``test(base - sel)`` with ``sel`` at the last logic level only: ``test`` of ``base`` and of ``base - 1``
-    (sums of registers) side by side, ``sel`` choosing (a late control signal, a consumer's ``ready``, feeds no
-    carry chain)."""
-    return Mux(sel, test(base - 1), test(base))
 
 
 class CreditFIFO(wiring.Component):

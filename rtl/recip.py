@@ -140,21 +140,31 @@ def shift_amount(exp, recip: RecipParams, prod_frac: int, out_frac: int) -> Valu
     return (shift_min + pre + recip.exp_fmt.max_code - exp).as_unsigned()
 
 
+#: Low bits of a barrel shift's amount that :func:`scale_stages` leaves to the rounding stage.
+FINE_SHIFT_BITS = 1
+
+
 def scale_stages(pipe: Pipe, prods: dict, amount, recip: RecipParams, shift: tuple[int, int], carry: dict):
     """:func:`scale` with half-up rounding over two register stages, for timing (the one-stage barrel shift,
-    rounding and saturation ran the divider at 81 MHz on ECP5): the shift, truncating with one extra fraction bit,
-    is registered (with the ``carry`` signals); the rounding by that bit follows. Same bits as
-    :meth:`RecipParams.scale` with ``Rounding.HALF_UP``: ``floor((floor(x / 2**(a-1)) + 1) / 2) =
-    floor((x + 2**(a-1)) / 2**a)``; ``x`` is shifted left by one first, so ``a = 0`` is exact too.
+    rounding and saturation ran the divider at 81 MHz on ECP5): the shift by the amount's upper bits, truncating
+    with one extra fraction bit, is registered (with the ``carry`` signals and the amount's
+    :data:`FINE_SHIFT_BITS` low bits); the shift by those low bits (one multiplexer level: the barrel shift's last
+    level, taken out of a stage six LUTs deep on the board's perspective unit) and the rounding by the extra bit
+    follow. Same bits as :meth:`RecipParams.scale` with ``Rounding.HALF_UP``: ``floor(floor(x / 2**c) / 2**f) =
+    floor(x / 2**(c+f))``, and ``floor((floor(x / 2**(a-1)) + 1) / 2) = floor((x + 2**(a-1)) / 2**a)``; ``x`` is
+    shifted left by one first, so ``a = 0`` is exact too.
 
     ``shift`` is ``(prod_frac, out_frac)``, the products' and the result's fraction bits, and ``amount`` the
     :func:`shift_amount` for them, registered with the products (``times_reciprocal(..., shift=shift)``).
     Returns ``(values, regs)``: the rounded value of each product by name, and the stage's registers.
     """
     pre, _ = recip.shift_plan(*shift)
-    regs = pipe.stage(**{f"h_{k}": shift_round(v << (pre + 1), amount, Rounding.TRUNC) for k, v in prods.items()},
-                      **carry)
-    return {k: (getattr(regs, f"h_{k}") + 1) >> 1 for k in prods}, regs
+    amount = Value.cast(amount)
+    fine = min(FINE_SHIFT_BITS, len(amount))
+    coarse = Cat(Const(0, fine), amount[fine:])
+    regs = pipe.stage(**{f"h_{k}": shift_round(v << (pre + 1), coarse, Rounding.TRUNC) for k, v in prods.items()},
+                      h_fine=amount[:fine], **carry)
+    return {k: ((getattr(regs, f"h_{k}") >> regs.h_fine) + 1) >> 1 for k in prods}, regs
 
 
 def scale(prod, prod_frac: int, exp, recip: RecipParams, out_frac: int, rounding: Rounding):

@@ -18,7 +18,8 @@ from fxmodel.units.recip import RecipParams
 from .fixed import narrow, saturate, shift_round
 from .unit import Pipe, UnitComponent, register
 
-__all__ = ["Recip", "scale", "scale_stages", "shift_amount", "times_reciprocal", "leading_zeros", "pieces",
+__all__ = ["Recip", "scale", "scale_stages", "shift_amount", "times_reciprocal", "leading_zeros",
+           "leading_zero_groups", "leading_zeros_of_groups", "pieces",
            "split_product", "split_products", "product_stage"]
 
 
@@ -84,25 +85,59 @@ def leading_zeros(x) -> Value:
     zero included whenever there is padding (else the all-zero flag of the tree gives ``len(x)``).
     """
     x = Value.cast(x)
-    width = len(x)
-    if width == 1:
-        return Cat(~x[0], Const(0, 1))
-    size = 2
+    return leading_zeros_of_groups(leading_zero_groups(x, _pow2(len(x))), len(x))
+
+
+def _pow2(width: int) -> int:
+    size = 1
     while size < width:
         size *= 2
+    return size
+
+
+def leading_zero_groups(x, group: int) -> list:
+    """The first levels of :func:`leading_zeros` of ``x``: ``x`` padded as there, cut into groups of ``group``
+    bits (a power of two), lowest first, each as ``(all zero, count)`` (``count`` valid when not all zero;
+    ``None`` for one-bit groups), for
+    :func:`leading_zeros_of_groups` to finish, possibly a register stage later (the tree split between stages)."""
+    x = Value.cast(x)
+    width = len(x)
+    if width == 1:
+        return [(~x[0], None)] if group == 1 else leading_zero_groups(Cat(Const(1, 1), x), group)
+    size = _pow2(width)
+    group = min(group, size)
+    if group & (group - 1) or group < 1:
+        raise ValueError(f"leading_zero_groups: group {group} must be a power of two")
     padded = Cat(Const((1 << (size - width)) - 1, size - width), x) if size > width else x
 
     def tree(v):
-        """``(all zero, count)`` of ``v`` (power-of-two width); ``count`` is valid when not all zero."""
+        """``(all zero, count)`` of ``v`` (power-of-two width); ``count`` is valid when not all zero (``None``,
+        no bits, for one bit)."""
+        if len(v) == 1:
+            return ~v[0], None
         if len(v) == 2:
             return ~v[1] & ~v[0], ~v[1]
         half = len(v) // 2
-        zl, cl = tree(v[:half])
-        zh, ch = tree(v[half:])
-        return zh & zl, Cat(Mux(zh, cl, ch), zh)
+        return _merge(tree(v[:half]), tree(v[half:]))
 
-    zero, count = tree(padded)
-    return Mux(zero, width, count)
+    return [tree(padded[i:i + group]) for i in range(0, size, group)]
+
+
+def _merge(low, high):
+    """``(all zero, count)`` of two equal halves from theirs (``high`` the upper half; a count ``None`` has no
+    bits: a half of one bit)."""
+    (zl, cl), (zh, ch) = low, high
+    return zh & zl, (zh if cl is None else Cat(Mux(zh, cl, ch), zh))
+
+
+def leading_zeros_of_groups(groups: list, width: int) -> Value:
+    """:func:`leading_zeros` of a ``width``-bit value from its :func:`leading_zero_groups` (lowest first; a
+    power-of-two count of them)."""
+    level = list(groups)
+    while len(level) > 1:
+        level = [_merge(level[i], level[i + 1]) for i in range(0, len(level), 2)]
+    zero, count = level[0]
+    return Mux(zero, width, 0 if count is None else count)
 
 
 def times_reciprocal(m: Module, pipe: Pipe, recip: RecipParams, w, valid, numerators: dict, carry: dict | None = None,

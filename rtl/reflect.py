@@ -13,10 +13,14 @@ from fxmodel.core.rounding import Overflow, Rounding
 from fxmodel.units.reflect import ReflectParams
 
 from .fixed import narrow, saturate
-from .recip import leading_zeros
+from .recip import leading_zero_groups, leading_zeros_of_groups
 from .unit import Pipe, UnitComponent, register
 
-__all__ = ["Reflect"]
+__all__ = ["Reflect", "LZ_GROUP"]
+
+#: Bits of each group whose leading zeros the OR stage counts (the first two levels of the tree there, the rest
+#: in the stage after it).
+LZ_GROUP = 4
 
 def _digits(P: ReflectParams, key: str, x) -> list:
     """The signal ``x`` of the second-level operand ``key`` as the signed digits of ``P.digits(key)``:
@@ -133,12 +137,17 @@ class Reflect(UnitComponent):
         s5 = pipe.stage(**st)
         R = [getattr(s5, f"R{i}") for i in range(3)]
 
-        # 6: the W-bit OR_i (R_i XOR sign), whose leading zeros are the common shift lz = W - bitlen(...)
+        # 6: the W-bit OR_i (R_i XOR sign), whose leading zeros are the common shift lz = W - bitlen(...), and
+        #    the first levels of their balanced tree: (all zero, count) of each LZ_GROUP-bit group
         ones = [(r ^ r[W].replicate(W + 1))[:W] for r in R]
-        s6 = pipe.stage(ones=ones[0] | ones[1] | ones[2], zero=s5.zero, **{f"R{i}": R[i] for i in range(3)})
+        groups = leading_zero_groups(ones[0] | ones[1] | ones[2], LZ_GROUP)
+        s6 = pipe.stage(**{f"gz{j}": z for j, (z, _) in enumerate(groups)},
+                        **{f"gc{j}": c for j, (_, c) in enumerate(groups)},
+                        zero=s5.zero, **{f"R{i}": R[i] for i in range(3)})
 
-        # 7: lz (a balanced tree: a stage of its own, ECP5 timing)
-        s6 = pipe.stage(lz=leading_zeros(s6.ones), zero=s6.zero, **{f"R{i}": getattr(s6, f"R{i}") for i in range(3)})
+        # 7: lz, the rest of the tree (the whole tree in this stage was nine LUT levels on the board)
+        lz = leading_zeros_of_groups([(getattr(s6, f"gz{j}"), getattr(s6, f"gc{j}")) for j in range(len(groups))], W)
+        s6 = pipe.stage(lz=lz, zero=s6.zero, **{f"R{i}": getattr(s6, f"R{i}") for i in range(3)})
 
         # 8: shift left by lz (fits W + 1 bits: normalization proof), read with W fraction bits, truncate to r_fmt
         outs = {}

@@ -40,7 +40,7 @@ from amaranth.hdl._ast import Operator, Slice
 
 from fxmodel.core.cost import DSP_BITS, LOGIC_PRODUCT_BITS
 
-from .fixed import _extend
+from .fixed import extend
 
 __all__ = ["DSP_BITS", "LOGIC_PRODUCT_BITS", "ECP5", "MODEL", "uses_blocks", "Product", "registered_product",
            "logic_product", "RegisterSources"]
@@ -128,7 +128,7 @@ def logic_product(expr) -> Value | None:
     for i in range(len(b)):
         copy = Mux(b[i], a, 0) << i
         total = total - copy if b.shape().signed and i == len(b) - 1 else total + copy
-    out = _extend(total, p.hi)[p.lo:p.hi]        # the product's bits (the sum's own extension above its top)
+    out = extend(total, p.hi)[p.lo:p.hi]        # the product's bits (the sum's own extension above its top)
     return out.as_signed() if expr.shape().signed else out.as_unsigned()
 
 

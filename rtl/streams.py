@@ -30,7 +30,7 @@ pipeline (section 4) takes one fragment per clock from the scan converter; whate
 
 from __future__ import annotations
 
-from amaranth.hdl import Module, Mux, Signal
+from amaranth.hdl import Assert, Module, Mux, Signal
 from amaranth.lib import data, memory, stream, wiring
 from amaranth.lib.fifo import SyncFIFO
 from amaranth.lib.wiring import In, Out
@@ -186,7 +186,7 @@ class CreditFIFO(wiring.Component):
         n = self.depth
         m.submodules.storage = mem = memory.Memory(shape=self.width, depth=n, init=[])
         wp, rp = mem.write_port(), mem.read_port(domain="comb")
-        wptr, rptr = Signal(range(n)), Signal(range(n))
+        wptr, rptr = Signal(range(n), name="wptr"), Signal(range(n), name="rptr")
         take = self.r_en & self.r_rdy
         m.d.comb += [wp.addr.eq(wptr), wp.data.eq(self.w_data), wp.en.eq(self.w_en),
                      rp.addr.eq(rptr), self.r_data.eq(rp.data), self.w_rdy.eq(self.level != n)]
@@ -199,4 +199,14 @@ class CreditFIFO(wiring.Component):
                      self.r_rdy.eq(less_one_if(take, after_write, lambda v: v != 0))]
         with m.If(self.w_en & ~self.w_rdy):
             m.d.sync += self.overflow.eq(1)
+        if platform == "formal":
+            # the FIFO's own invariants, as Amaranth's SyncFIFO asserts its own on this platform (they make the
+            # induction of any set around it go through), and every word held, for the proof of the contract
+            # (formal/credit_fifo.py)
+            m.d.comb += [Assert(self.level <= n, "credit_fifo_level"),
+                         Assert(self.r_rdy == (self.level != 0), "credit_fifo_r_rdy"),
+                         Assert(wptr == (rptr + self.level) % n, "credit_fifo_pointers")]
+            for k in range(n):
+                port, slot = mem.read_port(domain="comb"), Signal(self.width, name=f"slot{k}")
+                m.d.comb += [port.addr.eq(k), slot.eq(port.data)]
         return m

@@ -28,8 +28,8 @@ class Persp(UnitComponent):
     sc, tc : Signal(unsigned(coord_bits)), out -- only with ``color``: ``Uc/W``, ``Vc/W`` modulo 1
     dbz : Signal(1), out -- ``W`` was zero (``s = t = 0``)
 
-    Latency: ``params.latency`` = ``recip.latency + 4`` (the inputs registered, the products, the shift, the
-    rounding), two more when ``U mant`` is split into partial products (``recip.times_split``).
+    Latency: ``params.latency`` = ``recip.latency + 3``, two more when ``U mant`` is split into partial
+    products (``recip.times_split``).
     """
 
     def elaborate(self, platform):
@@ -38,11 +38,8 @@ class Persp(UnitComponent):
         m = Module()
         pipe = Pipe(m, platform=platform)
         shift = (P.prod_frac, P.coord_bits)
-        # 0: the inputs registered: the unit is the pipeline's first, its inputs the scan converter's output FIFO
-        #    (LUT RAM read asynchronously), and the reciprocal's first stage negates W (a carry chain)
-        s0 = pipe.stage(W=self.W, **{i: getattr(self, i) for i, _ in P.numerators})
-        s = times_reciprocal(m, pipe, R, s0.W, pipe.delay(self.i_valid, 1, "in_valid"),
-                             {i: getattr(s0, i) for i, _ in P.numerators}, shift=shift)
+        s = times_reciprocal(m, pipe, R, self.W, self.i_valid, {i: getattr(self, i) for i, _ in P.numerators},
+                             shift=shift)
         y, s = scale_stages(pipe, {o: getattr(s, f"p_{i}") for i, o in P.numerators}, s.amount, R, shift,
                             carry={"dbz": s.dbz})
         outs = {}

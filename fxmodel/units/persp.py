@@ -107,9 +107,9 @@ class PerspParams(Unit):
 
     @property
     def latency(self) -> int:
-        """The inputs registered, the reciprocal, the products (three stages when split into partial products,
+        """The reciprocal, the products (three stages when split into partial products,
         :meth:`RecipParams.times_split`), the shift, the rounding."""
-        return self.recip.latency + 4 + self.recip.times_split(self.uv_fmt.width)
+        return self.recip.latency + 3 + self.recip.times_split(self.uv_fmt.width)
 
     def coords(self, nums, W):
         """Wrapped coordinates of each numerator code array in ``nums``, and ``dbz``."""

@@ -44,7 +44,7 @@ def credit_fifo_set(depth: int = DEPTH, *, kind: str = "proof", wrap=None) -> Ha
     h.check(~dut.overflow, "no_overflow")
     # white-box: each word held is the number it must be (the FIFO asserts its pointers and level itself)
     frag = m.submodules.dut
-    rptr = whitebox.signal(frag, "rptr")
+    rptr = whitebox.signal(frag, "head")
     for k in range(depth):
         age = (k - rptr) % depth                  # place of slot k from the head
         h.check((age >= dut.level) | (whitebox.signal(frag, f"slot{k}") == (n_out + age)[:t]), f"slot{k}_word")

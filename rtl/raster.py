@@ -22,7 +22,7 @@ carry chain or one product (the house rule of the pixel pipeline); only the row 
   attribute, the partial products of ``a_x`` cut into :meth:`~fxmodel.units.raster.RasterParams.dx_pieces` times
   its copy of ``L`` (one multiplier block each, the product registered in the block); (5, 6) the span start
   ``a(x0, y) + L a_x`` as two adder levels over the partial products, modulo ``2**N``.
-- **Row FIFO** (:class:`~rtl.streams.CreditFIFO`, :attr:`~fxmodel.units.raster.RasterParams.ROW_FIFO_DEPTH` rows, LUT
+- **Row FIFO** (``amaranth.lib.fifo.SyncFIFO``, :attr:`~fxmodel.units.raster.RasterParams.ROW_FIFO_DEPTH` rows, LUT
   RAM, :func:`row_layout`): ``y``, ``x0 + L``, ``R - L``, whether the row is empty or one clock, every
   attribute's span start and ``a_x``, the triangle's constants. A credit counter (rows issued and not yet
   taken) lets the generator issue a row only when the FIFO has its place, so the span pipeline runs free, with
@@ -72,6 +72,7 @@ from types import SimpleNamespace
 
 from amaranth.hdl import Cat, Const, Module, Mux, Signal, Value, signed
 from amaranth.lib import data, stream, wiring
+from amaranth.lib.fifo import SyncFIFO
 from amaranth.lib.wiring import In, Out
 
 from fxmodel.core.rounding import Overflow, Rounding
@@ -208,7 +209,7 @@ class Raster(wiring.Component):
         g.s_a = {n: _sig(P.acc_fmt(n), f"s_{n}_row") for n in P.names}
         g.s_y, s_rem = _sig(pf, "s_y"), _sig(pf, "s_rem")
 
-        m.submodules.rows = g.fifo = CreditFIFO(row_layout(P).size, P.ROW_FIFO_DEPTH)     # the credits: ``room``
+        m.submodules.rows = g.fifo = SyncFIFO(width=row_layout(P).size, depth=P.ROW_FIFO_DEPTH)
         g.takes = []                    # per control copy: the Pixel Calculator takes a row (``_pixel_calculator``)
 
         # the registers in blocks: (bits, load statements, step statements)

@@ -186,7 +186,7 @@ class CreditFIFO(wiring.Component):
         n = self.depth
         m.submodules.storage = mem = memory.Memory(shape=self.width, depth=n, init=[])
         wp, rp = mem.write_port(), mem.read_port(domain="comb")
-        wptr, rptr = Signal(range(n), name="wptr"), Signal(range(n), name="rptr")
+        wptr, rptr = Signal(range(n)), Signal(range(n))
         take = self.r_en & self.r_rdy
         m.d.comb += [wp.addr.eq(wptr), wp.data.eq(self.w_data), wp.en.eq(self.w_en),
                      rp.addr.eq(rptr), self.r_data.eq(rp.data), self.w_rdy.eq(self.level != n)]
@@ -206,6 +206,8 @@ class CreditFIFO(wiring.Component):
             m.d.comb += [Assert(self.level <= n, "credit_fifo_level"),
                          Assert(self.r_rdy == (self.level != 0), "credit_fifo_r_rdy"),
                          Assert(wptr == (rptr + self.level) % n, "credit_fifo_pointers")]
+            head = Signal(range(n), name="head")           # the read pointer, named for the proofs
+            m.d.comb += head.eq(rptr)
             for k in range(n):
                 port, slot = mem.read_port(domain="comb"), Signal(self.width, name=f"slot{k}")
                 m.d.comb += [port.addr.eq(k), slot.eq(port.data)]

@@ -189,6 +189,9 @@ def critical_paths(tim: str) -> dict:
 #: design, 88 % of the block RAM and 96 % of the multipliers used), router2 routes it.
 ROUTERS = ("router2", "router1")
 
+#: nextpnr's placers, the default first (``heap``, the analytic placer; ``static``, its electrostatic one).
+PLACERS = ("heap", "static")
+
 
 #: nextpnr's timing-driven rip-up in the router (``bumpmap bitstream --tmg-ripup``): router2 rips up and reroutes
 #: the nets of failing paths, pass after pass while any path fails (so a run that misses takes its longest). On
@@ -214,7 +217,8 @@ UNIT_PREFIXES = ("system.engine.pipeline.core.unit.", "system.engine.", "system.
 
 
 def build(out: Path, engine=None, router: str = ROUTERS[0], frame: str = "chip", seed: int | None = SEED,
-          engine_div: int = PLL["CLKOS2_DIV"], misses: bool = False, tmg_ripup: bool = True) -> dict:
+          engine_div: int = PLL["CLKOS2_DIV"], misses: bool = False, tmg_ripup: bool = True,
+          placer: str = PLACERS[0]) -> dict:
     """The bitstream ``out/top.bit`` of ``Top(engine, engine_div=engine_div)`` through the open flow (YoWASP tools
     unless ``YOSYS``, ``NEXTPNR_ECP5``, ``ECPPACK`` name others) with nextpnr's ``router`` (and placer ``seed``);
     returns :func:`report` with the flow's seconds. A clock below its target is reported (``all_met`` false), not
@@ -226,7 +230,7 @@ def build(out: Path, engine=None, router: str = ROUTERS[0], frame: str = "chip",
         os.environ.setdefault(var, tool)
     t0 = time.perf_counter()
     from rtl.unit import KEEP_COPIES
-    opts = (f"--router {router}{f' {TMG_RIPUP}' if tmg_ripup else ''} --timing-allow-fail"
+    opts = (f"--placer {placer} --router {router}{f' {TMG_RIPUP}' if tmg_ripup else ''} --timing-allow-fail"
             + ("" if seed is None else f" --seed {seed}"))
     timing = Path(out).resolve() / "timing.json"
     if misses:
@@ -239,6 +243,8 @@ def build(out: Path, engine=None, router: str = ROUTERS[0], frame: str = "chip",
                bitstream=str(out / "top.bit"), engine_div=engine_div)
     if seed is not None:
         rec["seed"] = seed
+    if placer != PLACERS[0]:
+        rec["placer"] = placer
     if misses:
         from .timing import timing_misses
         period_ns = 1e9 * engine_div / _VCO_HZ
@@ -257,6 +263,7 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
     ap.add_argument("--frame", choices=("chip", "sdram"), default="chip",
                     help="the frame store: block RAM, or SDRAM behind LiteDRAM's core (default chip)")
     ap.add_argument("--router", choices=ROUTERS, default=ROUTERS[0], help="nextpnr's router")
+    ap.add_argument("--placer", choices=PLACERS, default=PLACERS[0], help="nextpnr's placer")
     ap.add_argument("--tmg-ripup", action=argparse.BooleanOptionalAction, default=True,
                     help="nextpnr's timing-driven rip-up in the router (default on: board/top.py TMG_RIPUP)")
     ap.add_argument("--seed", type=int, default=SEED,
@@ -291,7 +298,8 @@ def run(args: argparse.Namespace) -> int:
     except ValueError as exc:
         print(f"error: --engine-div ({exc})", file=sys.stderr)
         return 2
-    rec = build(args.out, engine, args.router, args.frame, args.seed, args.engine_div, args.misses, args.tmg_ripup)
+    rec = build(args.out, engine, args.router, args.frame, args.seed, args.engine_div, args.misses, args.tmg_ripup,
+                args.placer)
     rec = {"command": "make bitstream BOARD=ulx3s (bumpmap bitstream " + " ".join(sys.argv[2:]) + ")",
            "design": "test picture and link" if engine is None else
            f"engine ({args.scene}, preset {args.preset}, {args.size}x{args.size} tile), link, display"

@@ -34,16 +34,18 @@ def random_fragments(params, k, seed, hot=6):
     return np.column_stack([x, y, z, *rgbf])
 
 
-def hazard_pairs(params, order, gap=0):
+def hazard_pairs(params, order, gap=0, first=0):
     """Pairs of fragments on one pixel back to back (``gap`` other fragments between them), each pair on a fresh
-    pixel: ``order`` ``nearer_first``, ``farther_first`` or ``equal`` depths; different colors."""
+    pixel from index ``first`` on: ``order`` ``nearer_first``, ``farther_first`` or ``equal`` depths; different
+    colors. Groups drawn one after another need their own pixels (``first``): a pair on a pixel an earlier pair
+    left at the same depth is decided by that depth whether or not the hazard is handled."""
     P = params
     rows = []
     for i in range(min(P.pixels // (gap + 1), 40)):
         base = 1000 + 997 * i
         a, b = {"nearer_first": (base + 600, base), "farther_first": (base, base + 600),
                 "equal": (base, base)}[order]
-        x, y = i % P.width, i // P.width
+        x, y = (first + i) % P.width, (first + i) // P.width
         rows.append([x, y, a << 7, 10, 20, 30, 1])
         for g in range(gap):
             j = P.pixels - 1 - (i * gap + g)
@@ -70,7 +72,7 @@ def test_same_pixel_in_flight_gives_the_sequential_frame(sim, order, latency):
     """Two fragments of one pixel back to back, and with two others between them: the second is accepted while
     the first's read or write is still in flight. Every order of their depths gives the model's frame; the pass
     and fail counts show that the second one was decided against the first one's write."""
-    frags = np.concatenate([hazard_pairs(SMALL, order), hazard_pairs(SMALL, order, gap=2)[:60]])
+    frags = np.concatenate([hazard_pairs(SMALL, order), hazard_pairs(SMALL, order, gap=2, first=40)[:60]])
     res = run(SMALL, frags, latency=latency, sim=sim, tag=f"hazard_{order}_{latency}")
     assert res["mismatches"] == 0, res["first"]
     pairs = len(frags) // 2
@@ -84,7 +86,7 @@ def test_the_hazard_test_can_fail(sim, on_chip):
     """Without the scoreboard (port) or the forwarding (on chip) the second fragment of a pair reads the depth
     from before the first one's write: the nearer-first and equal pairs then overwrite the winner."""
     P = dataclasses.replace(RopParams.PRESETS["on_chip"] if on_chip else SMALL, hazard=False)
-    frags = np.concatenate([hazard_pairs(P, "nearer_first"), hazard_pairs(P, "equal")])
+    frags = np.concatenate([hazard_pairs(P, "nearer_first"), hazard_pairs(P, "equal", first=40)])
     res = run(P, frags, latency=5, sim=sim, tag="nohazard")
     assert res["mismatches"] >= 20
 
@@ -92,15 +94,16 @@ def test_the_hazard_test_can_fail(sim, on_chip):
 @pytest.mark.parametrize("p_valid", [0.8, 1.0])
 def test_on_chip_frame_buffer(sim, p_valid):
     """Random fragments, then pairs on one pixel back to back and with one to four fragments between them (the
-    first one's write forwarded to the second's compare: ``rtl/rop.py`` forwards the four writes just ahead) and
-    with five between them (seen through the transparent read port), with and without input gaps; the read-out
-    clears (``fb.clear``): a second read-out is the clear frame."""
+    first one's write forwarded to the second's compare: ``rtl/rop.py`` forwards the five writes just ahead) and
+    with five and six between them (read from the block RAM), with and without input gaps; the read-out clears
+    (``fb.clear``): a second read-out is the clear frame."""
     P = RopParams.PRESETS["on_chip"]
-    frags = np.concatenate([random_fragments(P, 300, seed=3, hot=4), hazard_pairs(P, "nearer_first"),
-                            hazard_pairs(P, "equal"), hazard_pairs(P, "nearer_first", gap=1)[:40],
-                            hazard_pairs(P, "farther_first", gap=1)[:40], hazard_pairs(P, "equal", gap=2)[:40],
-                            hazard_pairs(P, "nearer_first", gap=3)[:40], hazard_pairs(P, "equal", gap=4)[:40],
-                            hazard_pairs(P, "nearer_first", gap=5)[:40]])
+    groups = [("nearer_first", 0, 80), ("equal", 0, 80), ("nearer_first", 1, 40), ("farther_first", 1, 40),
+              ("equal", 2, 40), ("nearer_first", 3, 40), ("equal", 4, 40), ("nearer_first", 4, 40),
+              ("nearer_first", 5, 40), ("equal", 6, 40)]
+    frags = np.concatenate([random_fragments(P, 300, seed=3, hot=4)]
+                           + [hazard_pairs(P, order, gap=gap, first=1000 + 40 * k)[:rows]
+                              for k, (order, gap, rows) in enumerate(groups)])
     res = run(P, frags, p_valid=p_valid, sim=sim, tag=f"onchip_{p_valid}")
     assert res["mismatches"] == 0, res["first"]
     assert res["cleared_mismatches"] == 0           # the read-out with fb.clear left the clear frame behind

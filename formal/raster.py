@@ -14,8 +14,9 @@ by conservation of counts with white-box invariants, all proven by k-induction:
 - the control copies (module docstring of ``rtl/raster.py``, "Fan-out") agree with copy 0 in every cycle.
 - rule 2 on ``o``; ``i.ready`` from registers only (the miter, bounded).
 
-Order: the output FIFO keeps order (Amaranth's ``SyncFIFO``) and the Pixel Calculator takes rows in FIFO order,
-one at a time; the fragments' values are not followed (the datapath is cut: ``cutpoint`` on the multipliers).
+Order: the output FIFO keeps order (``CreditFIFO``, proven by ``formal/credit_fifo.py``) and the Pixel Calculator
+takes rows in FIFO order, one at a time; the fragments' values are not followed (the datapath is cut: ``cutpoint`` on
+the multipliers).
 """
 
 from __future__ import annotations
@@ -27,6 +28,7 @@ from amaranth.lib.fifo import SyncFIFO
 from fxmodel.core.fixed import Fmt
 from fxmodel.units.raster import RasterParams
 from rtl.raster import Raster, record_layout, row_layout
+from rtl.streams import CreditFIFO
 
 from . import whitebox
 from .miter import independence
@@ -77,9 +79,10 @@ def raster_props(h: Harness, P: RasterParams, dut, frag, pre: str):
     sig = lambda name: whitebox.signal(top, name)        # noqa: E731
     h.stream_hold(dut.o.valid, dut.o.ready, dut.o.payload.as_value(), "o")
     rows = whitebox.origin(frag, f"{pre}/rows" if pre else "rows", SyncFIFO)
-    out = whitebox.origin(frag, f"{pre}/out" if pre else "out", SyncFIFO)
+    out = whitebox.origin(frag, f"{pre}/out" if pre else "out", CreditFIFO)
     h.check(~rows.w_en | rows.w_rdy, "rows_no_overflow")
-    h.check(~out.w_en | out.w_rdy, "out_no_overflow")
+    h.check(~out.w_en | out.w_rdy, "out_no_overflow")        # the write is not gated (``CreditFIFO``): never full
+    h.check(~out.overflow, "out_no_overflow_flag")
     # the control copies agree with copy 0
     for stem in ("gen_valid", "rows_in_flight", "room", "last_row", "busy", "nonempty", "px_left", "last_px",
                  "out_used", "advance", "row_count", "has_row"):

@@ -20,6 +20,8 @@ from rtl.streams import buffer_depth
 
 from . import broken
 from .abstract import Abstract
+from .credit_fifo import DEPTH as CREDIT_DEPTH
+from .credit_fifo import credit_fifo_set
 from .engine import engine_set
 from .fetch import DEC_PARAMS, small_texfetch
 from .raster import raster_independence, raster_set
@@ -118,6 +120,11 @@ def _reader_sets() -> list[PropertySet]:
 def property_sets() -> list[PropertySet]:
     rp = small_rop()
     return _unit_sets() + _reader_sets() + [
+        PropertySet("credit_fifo", f"CreditFIFO (rtl/streams.py, depth {CREDIT_DEPTH})",
+                    "the contract the scan converter's sets assume where they read it: words read in the order "
+                    "written, none lost or repeated; level = written - read; r_rdy = level != 0; no overflow "
+                    "while the writer keeps its credits",
+                    lambda kind, wrap=None: credit_fifo_set(kind=kind, wrap=wrap), "prove", CREDIT_DEPTH + 2, 12),
         PropertySet("raster", "Raster (1 attribute, 16-pixel viewport, multipliers cut)",
                     "rule 2 on o, row and output credit FIFOs never overflow, rows and pixels conserved, "
                     "control copies agree",
@@ -208,7 +215,8 @@ SCOPE = (
     "shared by both maps' decoupled caches): formal/axiread.py (any read manager; the ROP's read half too), "
     "formal/readers.py (one READ_MANAGERS entry per design; the decoupled ones in formal/fetch.py).",
     "White-box invariants read the designs' internal registers by name (formal/whitebox.py); the FIFOs' own "
-    "contract (Amaranth's SyncFIFO returns what was written, in order) is assumed where they are read.",
+    "contract (Amaranth's SyncFIFO, or rtl.streams.CreditFIFO, proven as credit_fifo, returns what was written, "
+    "in order) is assumed where they are read.",
     "The memory behind each AXI4 port is free within the AXI4 rules, with stalls and response latencies "
     "assumed of at most 3 cycles.",
 )

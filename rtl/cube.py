@@ -40,7 +40,7 @@ class Cube(UnitComponent):
     s, t : Signal(unsigned(fq + 2)), out -- ``st_fmt = u1.(fq+1)``, in ``[0, 1]``
     degenerate : Signal(1), out -- the zero vector (then face +Z, ``s = t = 1/2``)
 
-    Latency: ``params.latency`` = 3 + ``divide.latency`` = ``recip.latency + 6`` (one more when ``a * mant``
+    Latency: ``params.latency`` = 3 + ``divide.latency`` = ``recip.latency + 6`` (two more when ``a * mant``
     is split into partial products). Stages: magnitudes | three comparators and the face/numerator muxes | the
     reciprocal of the signed major (``recip.latency``) | ``a * mant``, ``b * mant`` | barrel shift | rounding
     (:func:`~rtl.recip.scale`) | ``(1 +- q) / 2`` and the face's sign flips (output registers).

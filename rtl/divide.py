@@ -31,7 +31,7 @@ class Divide(UnitComponent):
     dbz : Signal(1), out -- ``d`` was zero
     ovf : Signal(1), out -- ``q`` saturated
 
-    Latency: ``params.latency`` = ``recip.latency + 3``: the reciprocal, ``n * mant`` (two stages when split
+    Latency: ``params.latency`` = ``recip.latency + 3``: the reciprocal, ``n * mant`` (three stages when split
     into partial products), the shift, then round and saturate.
     """
 

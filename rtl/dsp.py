@@ -40,6 +40,8 @@ from amaranth.hdl._ast import Operator, Slice
 
 from fxmodel.core.cost import DSP_BITS, LOGIC_PRODUCT_BITS
 
+from .fixed import extend
+
 __all__ = ["DSP_BITS", "LOGIC_PRODUCT_BITS", "ECP5", "MODEL", "uses_blocks", "Product", "registered_product",
            "logic_product", "RegisterSources"]
 
@@ -79,20 +81,26 @@ class Product:
 
 
 def _product(expr) -> Product | None:
-    """``expr`` as a :class:`Product` if it is ``a * b`` or a slice of it (either perhaps read as signed or
-    unsigned: the same bits, as ``rtl.fixed.saturate`` with a proven range gives them), with neither operand a
-    constant or empty; else ``None``."""
+    """``expr`` as a :class:`Product` if it is ``a * b``, or a slice of it or of it shifted right by a constant
+    (either perhaps read as signed or unsigned: the same bits, as ``rtl.fixed.narrow`` truncating with a proven
+    range gives them), with neither operand a constant or empty; else ``None``."""
     lo = hi = None
     if isinstance(expr, Operator) and expr.operator in ("s", "u") and len(expr.operands) == 1:
         expr = expr.operands[0]
     if isinstance(expr, Slice) and isinstance(expr.value, Operator):
         lo, hi, expr = expr.start, expr.stop, expr.value
+    shift = 0
+    if isinstance(expr, Operator) and expr.operator == ">>" and isinstance(expr.operands[1], Const):
+        # a right shift by a constant (``rtl.fixed.shift_round`` truncating): the product's bits from k up, read
+        # with its own extension above its top bit (Amaranth keeps the shifted value as wide as the product)
+        lo, hi = (0, len(expr)) if lo is None else (lo, hi)
+        expr, shift = expr.operands[0], expr.operands[1].value
     if not (isinstance(expr, Operator) and expr.operator == "*" and len(expr.operands) == 2):
         return None
     a, b = expr.operands
     if any(isinstance(x, Const) or len(x) == 0 for x in (a, b)):
         return None
-    return Product(a, b, expr.shape(), 0 if lo is None else lo, len(expr) if hi is None else hi)
+    return Product(a, b, expr.shape(), shift + (0 if lo is None else lo), len(expr) if hi is None else shift + hi)
 
 
 def registered_product(expr) -> Product | None:
@@ -120,7 +128,7 @@ def logic_product(expr) -> Value | None:
     for i in range(len(b)):
         copy = Mux(b[i], a, 0) << i
         total = total - copy if b.shape().signed and i == len(b) - 1 else total + copy
-    out = total[p.lo:p.hi]               # the product's bits: the sum is at least as wide as the product
+    out = extend(total, p.hi)[p.lo:p.hi]        # the product's bits (the sum's own extension above its top)
     return out.as_signed() if expr.shape().signed else out.as_unsigned()
 
 
@@ -176,7 +184,7 @@ def block(m: Module, p: Product, sources: RegisterSources, name: str) -> Value:
                   p_GSR="DISABLED", p_RESETMODE="SYNC", p_CLK0_DIV="ENABLED", p_CLK1_DIV="ENABLED",
                   p_CLK2_DIV="ENABLED", p_CLK3_DIV="ENABLED", p_SOURCEB_MODE="B_SHIFT")
     m.submodules[f"{name}_mult"] = Instance("MULT18X18D", **params, **ports)
-    full = Signal(p.shape, name=f"{name}_full")
+    full = Signal(Shape(max(p.shape.width, p.hi), p.shape.signed), name=f"{name}_full")   # extended to bit hi
     m.d.comb += full.eq(out.as_signed() if p.shape.signed else out)
     return full[p.lo:p.hi]
 

@@ -13,7 +13,7 @@ from amaranth.hdl import Cat, Const, Mux, Shape, Value, signed, unsigned
 from fxmodel.core.fixed import Fmt
 from fxmodel.core.rounding import Overflow, Rounding
 
-__all__ = ["shape", "shift_round", "saturate", "narrow", "const_mul"]
+__all__ = ["shape", "extend", "shift_round", "saturate", "narrow", "const_mul"]
 
 
 def shape(fmt: Fmt) -> Shape:
@@ -21,7 +21,7 @@ def shape(fmt: Fmt) -> Shape:
     return signed(fmt.width) if fmt.signed else unsigned(fmt.width)
 
 
-def _extend(x: Value, width: int) -> Value:
+def extend(x: Value, width: int) -> Value:
     """``x`` with at least ``width`` bits, extended by its own signedness (same value).
 
     Slicing ``x[:width]`` stops at ``len(x)``: without this a remainder or a low-bits view of a narrow word would
@@ -46,7 +46,7 @@ def shift_round(x: Value, shift, rounding: Rounding) -> Value:
             return x >> shift
         if rounding is Rounding.HALF_UP:
             return (x + (1 << (shift - 1))) >> shift
-        x = _extend(x, shift)                   # the remainder x mod 2**shift needs shift bits of x
+        x = extend(x, shift)                   # the remainder x mod 2**shift needs shift bits of x
         q = x >> shift
         r = x[:shift]
         half = 1 << (shift - 1)
@@ -67,7 +67,7 @@ def saturate(x: Value, fmt: Fmt, overflow: Overflow):
     """
     x = Value.cast(x)
     if overflow is Overflow.PROVEN:
-        value = _extend(x, fmt.width)[:fmt.width]
+        value = extend(x, fmt.width)[:fmt.width]
         return value.as_signed() if fmt.signed else value, Const(0, 1)
     hi = x > fmt.max_code
     lo = x < fmt.min_code

@@ -28,7 +28,7 @@ class Persp(UnitComponent):
     sc, tc : Signal(unsigned(coord_bits)), out -- only with ``color``: ``Uc/W``, ``Vc/W`` modulo 1
     dbz : Signal(1), out -- ``W`` was zero (``s = t = 0``)
 
-    Latency: ``params.latency`` = ``recip.latency + 3``, one more when ``U mant`` is split into partial
+    Latency: ``params.latency`` = ``recip.latency + 3``, two more when ``U mant`` is split into partial
     products (``recip.times_split``).
     """
 

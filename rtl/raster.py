@@ -34,7 +34,8 @@ carry chain or one product (the house rule of the pixel pipeline); only the row 
   ``slopes``, the increments the level of detail of MIP mapping reads): carried with every row, copied into every
   fragment of the triangle.
 - **Output**: each attribute rounded half-up (one register stage) and saturated to its output format, into
-  an output FIFO (:attr:`~fxmodel.units.raster.RasterParams.OUT_FIFO_DEPTH` fragments, LUT RAM) whose head is ``o``.
+  an output FIFO (:attr:`~fxmodel.units.raster.RasterParams.OUT_FIFO_DEPTH` fragments, LUT RAM, a
+  :class:`~rtl.streams.CreditFIFO`: its writes are not checked against its level) whose head is ``o``.
   The consumer's ``ready`` reaches only the FIFO's read side: the Pixel Calculator and the rounding stage move
   under ``advance``, a flip-flop that is high while the FIFO has a place for every fragment in flight, so
   nothing is lost or repeated and no long enable path runs from the consumer into the interpolators (on the
@@ -78,7 +79,7 @@ from fxmodel.core.rounding import Overflow, Rounding
 from fxmodel.units.raster import EDGE_LEFT, EDGE_RIGHT, RasterParams
 
 from .fixed import saturate, shape, shift_round
-from .streams import payload_layout
+from .streams import CreditFIFO, less_one_if, payload_layout
 from .unit import Pipe, kept_copy, register
 
 __all__ = ["Raster", "record_layout", "fragment_layout", "row_layout"]
@@ -255,8 +256,8 @@ class Raster(wiring.Component):
         last = Signal(name=f"last_row_{k}")                         # s_rem == 0
         issue, ready, accept = Signal(name=f"issue_{k}"), Signal(name=f"ready_{k}"), Signal(name=f"accept_{k}")
         m.d.comb += [issue.eq(gv & room), ready.eq(~gv | (issue & last)), accept.eq(ready & self.i.valid)]
-        m.d.sync += [inflight.eq(_less_one_if(take, inflight + issue)),          # ``take``: from the Pixel Calculator
-                     room.eq(_less_one_if(take, inflight + issue, lambda v: v != depth))]
+        m.d.sync += [inflight.eq(less_one_if(take, inflight + issue)),          # ``take``: from the Pixel Calculator
+                     room.eq(less_one_if(take, inflight + issue, lambda v: v != depth))]
         with m.If(accept):
             m.d.sync += [gv.eq(1), last.eq(rec.rows == 0)]
         with m.Elif(issue):
@@ -349,7 +350,7 @@ class Raster(wiring.Component):
 
         # the output FIFO: the consumer's ready reaches only its read side; the Pixel Calculator and the rounding
         # stage move under ``advance``, a flip-flop: fragments in the rounding stage and the FIFO leave a place
-        m.submodules.out = ofifo = SyncFIFO(width=fragment_layout(P).size, depth=P.OUT_FIFO_DEPTH)
+        m.submodules.out = ofifo = CreditFIFO(fragment_layout(P).size, P.OUT_FIFO_DEPTH)   # ``advance``: credits
         m.d.comb += [self.o.valid.eq(ofifo.r_rdy), self.o.payload.eq(ofifo.r_data), ofifo.r_en.eq(self.o.ready)]
         r_valid, r_x, r_y, r_a, r_c = self._output_stage(m, ofifo, acc)
 
@@ -423,13 +424,13 @@ class Raster(wiring.Component):
         advance = Signal(name=f"advance_{k}", init=1)                  # out_used <= out_depth - 2
         produce = advance & busy & nonempty
         popped = ofifo.r_rdy & self.o.ready                                  # the consumer's ``ready``
-        m.d.sync += [out_used.eq(_less_one_if(popped, out_used + produce)),
-                     advance.eq(_less_one_if(popped, out_used + produce, lambda v: v <= out_depth - 2))]
+        m.d.sync += [out_used.eq(less_one_if(popped, out_used + produce)),
+                     advance.eq(less_one_if(popped, out_used + produce, lambda v: v <= out_depth - 2))]
         done_row = ~busy | last_px
         step, take_k = Signal(name=f"step_{k}"), Signal(name=f"take_{k}")
         m.d.comb += [step.eq(~done_row), take_k.eq(advance & done_row & has_row)]
-        m.d.sync += [count.eq(_less_one_if(take_k, count + fifo.w_en)),
-                     has_row.eq(_less_one_if(take_k, count + fifo.w_en, lambda v: v != 0))]
+        m.d.sync += [count.eq(less_one_if(take_k, count + fifo.w_en)),
+                     has_row.eq(less_one_if(take_k, count + fifo.w_en, lambda v: v != 0))]
         with m.If(advance):
             with m.If(step):
                 m.d.sync += [npx.eq(npx - 1), last_px.eq(npx == 1)]
@@ -443,13 +444,6 @@ class Raster(wiring.Component):
 def _sig(fmt, name: str) -> Signal:
     """A register of format ``fmt`` named ``name``."""
     return Signal(shape(fmt), name=name)
-
-
-def _less_one_if(sel, base, test=lambda v: v):
-    """``test(base - sel)`` with ``sel`` at the last logic level only: ``test`` of ``base`` and of ``base - 1``
-    (sums of registers) side by side, ``sel`` choosing (a control copy's ``take`` or ``ready`` feeds no carry
-    chain)."""
-    return Mux(sel, test(base - 1), test(base))
 
 
 def _passing(s, names) -> dict:

@@ -18,7 +18,8 @@ from fxmodel.units.recip import RecipParams
 from .fixed import narrow, saturate, shift_round
 from .unit import Pipe, UnitComponent, register
 
-__all__ = ["Recip", "scale", "scale_stages", "shift_amount", "times_reciprocal", "leading_zeros", "pieces",
+__all__ = ["Recip", "scale", "scale_stages", "shift_amount", "times_reciprocal", "leading_zeros",
+           "leading_zero_groups", "leading_zeros_of_groups", "pieces",
            "split_product", "split_products", "product_stage"]
 
 
@@ -34,11 +35,14 @@ def pieces(x, limit: int = RecipParams.DSP_BITS) -> list[tuple[Value, int]]:
     return [(x[lo:lo + bits].as_signed() if signed else x[lo:lo + bits], lo) for lo, bits, signed in cut]
 
 
-def split_products(pipe: Pipe, products: dict, carry: dict, name: str = "pp"):
+def split_products(pipe: Pipe, products: dict, carry: dict, name: str = "pp", settle: bool = False):
     """``({k: a * b}, carry)`` for ``products = {k: (a, b)}``. All within one multiplier block: the products,
     ``carry`` unchanged. Any wider (an operand above ``RecipParams.DSP_BITS`` bits): the partial products of
     :func:`pieces` of every product are registered together as one stage of their own (with the signals of
-    ``carry``) and the expressions returned are their exact sums, for the next stage."""
+    ``carry``) and the expressions returned are their exact sums, for the next stage. With ``settle`` the
+    partial products are registered once more before their sum (a second stage: on an ECP5 the first is the
+    blocks' output registers, the second a fabric register the placer can put between a block and the sum's
+    carry chain, which the route between them otherwise crosses in one clock)."""
     cut = {k: (pieces(a), pieces(b)) for k, (a, b) in products.items()}
     if all(len(pa) == 1 and len(pb) == 1 for pa, pb in cut.values()):
         return {k: a * b for k, (a, b) in products.items()}, carry
@@ -49,6 +53,8 @@ def split_products(pipe: Pipe, products: dict, carry: dict, name: str = "pp"):
                 parts[f"{name}{k}{i}_{j}"] = xa * xb
                 shifts[f"{name}{k}{i}_{j}"] = (k, sa + sb)
     s = pipe.stage(**parts, **carry)
+    if settle:
+        s = pipe.stage(**{k: getattr(s, k) for k in (*parts, *carry)})
     totals = {k: sum(getattr(s, p) << sh for p, (kk, sh) in shifts.items() if kk == k) for k in products}
     return totals, {k: getattr(s, k) for k in carry}
 
@@ -79,25 +85,59 @@ def leading_zeros(x) -> Value:
     zero included whenever there is padding (else the all-zero flag of the tree gives ``len(x)``).
     """
     x = Value.cast(x)
-    width = len(x)
-    if width == 1:
-        return Cat(~x[0], Const(0, 1))
-    size = 2
+    return leading_zeros_of_groups(leading_zero_groups(x, _pow2(len(x))), len(x))
+
+
+def _pow2(width: int) -> int:
+    size = 1
     while size < width:
         size *= 2
+    return size
+
+
+def leading_zero_groups(x, group: int) -> list:
+    """The first levels of :func:`leading_zeros` of ``x``: ``x`` padded as there, cut into groups of ``group``
+    bits (a power of two), lowest first, each as ``(all zero, count)`` (``count`` valid when not all zero;
+    ``None`` for one-bit groups), for
+    :func:`leading_zeros_of_groups` to finish, possibly a register stage later (the tree split between stages)."""
+    x = Value.cast(x)
+    width = len(x)
+    if width == 1:
+        return [(~x[0], None)] if group == 1 else leading_zero_groups(Cat(Const(1, 1), x), group)
+    size = _pow2(width)
+    group = min(group, size)
+    if group & (group - 1) or group < 1:
+        raise ValueError(f"leading_zero_groups: group {group} must be a power of two")
     padded = Cat(Const((1 << (size - width)) - 1, size - width), x) if size > width else x
 
     def tree(v):
-        """``(all zero, count)`` of ``v`` (power-of-two width); ``count`` is valid when not all zero."""
+        """``(all zero, count)`` of ``v`` (power-of-two width); ``count`` is valid when not all zero (``None``,
+        no bits, for one bit)."""
+        if len(v) == 1:
+            return ~v[0], None
         if len(v) == 2:
             return ~v[1] & ~v[0], ~v[1]
         half = len(v) // 2
-        zl, cl = tree(v[:half])
-        zh, ch = tree(v[half:])
-        return zh & zl, Cat(Mux(zh, cl, ch), zh)
+        return _merge(tree(v[:half]), tree(v[half:]))
 
-    zero, count = tree(padded)
-    return Mux(zero, width, count)
+    return [tree(padded[i:i + group]) for i in range(0, size, group)]
+
+
+def _merge(low, high):
+    """``(all zero, count)`` of two equal halves from theirs (``high`` the upper half; a count ``None`` has no
+    bits: a half of one bit)."""
+    (zl, cl), (zh, ch) = low, high
+    return zh & zl, (zh if cl is None else Cat(Mux(zh, cl, ch), zh))
+
+
+def leading_zeros_of_groups(groups: list, width: int) -> Value:
+    """:func:`leading_zeros` of a ``width``-bit value from its :func:`leading_zero_groups` (lowest first; a
+    power-of-two count of them)."""
+    level = list(groups)
+    while len(level) > 1:
+        level = [_merge(level[i], level[i + 1]) for i in range(0, len(level), 2)]
+    zero, count = level[0]
+    return Mux(zero, width, 0 if count is None else count)
 
 
 def times_reciprocal(m: Module, pipe: Pipe, recip: RecipParams, w, valid, numerators: dict, carry: dict | None = None,
@@ -106,8 +146,8 @@ def times_reciprocal(m: Module, pipe: Pipe, recip: RecipParams, w, valid, numera
 
     A :class:`Recip` of ``w``; the ``numerators`` and ``carry`` signals delayed by its latency; then one register
     stage holding ``p_<name> = numerator * mant`` for each numerator, ``exp``, ``dbz``, and every delayed signal
-    under its own name -- preceded by a stage of partial products when an operand is wider than one multiplier
-    block (:meth:`RecipParams.times_split`, :func:`split_products`). Follow with :func:`scale` on each product
+    under its own name -- preceded by two stages of partial products when an operand is wider than one multiplier
+    block (:meth:`RecipParams.times_split`, :func:`split_products` settled). Follow with :func:`scale` on each product
     (the model's :meth:`RecipParams.scale`), or with :func:`scale_stages` when ``shift`` gives the products' and
     the result's fraction bits: the stage then also holds the barrel shift's ``amount`` (:func:`shift_amount`,
     one small carry chain beside the products, kept out of the shift's stage).
@@ -118,7 +158,7 @@ def times_reciprocal(m: Module, pipe: Pipe, recip: RecipParams, w, valid, numera
     pipe.depth += recip.latency
     before = pipe.depth
     prods, late = split_products(pipe, {k: (late[k], rcp.mant) for k in numerators},
-                                 dict(late, exp=rcp.exp, dbz=rcp.dbz), "pm")
+                                 dict(late, exp=rcp.exp, dbz=rcp.dbz), "pm", settle=True)
     expected = max((recip.times_split(len(Value.cast(v))) for v in numerators.values()), default=0)
     if pipe.depth - before != expected:
         raise AssertionError(f"times_reciprocal: {pipe.depth - before} partial-product stages, "
@@ -135,21 +175,31 @@ def shift_amount(exp, recip: RecipParams, prod_frac: int, out_frac: int) -> Valu
     return (shift_min + pre + recip.exp_fmt.max_code - exp).as_unsigned()
 
 
+#: Low bits of a barrel shift's amount that :func:`scale_stages` leaves to the rounding stage.
+FINE_SHIFT_BITS = 1
+
+
 def scale_stages(pipe: Pipe, prods: dict, amount, recip: RecipParams, shift: tuple[int, int], carry: dict):
     """:func:`scale` with half-up rounding over two register stages, for timing (the one-stage barrel shift,
-    rounding and saturation ran the divider at 81 MHz on ECP5): the shift, truncating with one extra fraction bit,
-    is registered (with the ``carry`` signals); the rounding by that bit follows. Same bits as
-    :meth:`RecipParams.scale` with ``Rounding.HALF_UP``: ``floor((floor(x / 2**(a-1)) + 1) / 2) =
-    floor((x + 2**(a-1)) / 2**a)``; ``x`` is shifted left by one first, so ``a = 0`` is exact too.
+    rounding and saturation ran the divider at 81 MHz on ECP5): the shift by the amount's upper bits, truncating
+    with one extra fraction bit, is registered (with the ``carry`` signals and the amount's
+    :data:`FINE_SHIFT_BITS` low bits); the shift by those low bits (one multiplexer level: the barrel shift's last
+    level, taken out of a stage six LUTs deep on the board's perspective unit) and the rounding by the extra bit
+    follow. Same bits as :meth:`RecipParams.scale` with ``Rounding.HALF_UP``: ``floor(floor(x / 2**c) / 2**f) =
+    floor(x / 2**(c+f))``, and ``floor((floor(x / 2**(a-1)) + 1) / 2) = floor((x + 2**(a-1)) / 2**a)``; ``x`` is
+    shifted left by one first, so ``a = 0`` is exact too.
 
     ``shift`` is ``(prod_frac, out_frac)``, the products' and the result's fraction bits, and ``amount`` the
     :func:`shift_amount` for them, registered with the products (``times_reciprocal(..., shift=shift)``).
     Returns ``(values, regs)``: the rounded value of each product by name, and the stage's registers.
     """
     pre, _ = recip.shift_plan(*shift)
-    regs = pipe.stage(**{f"h_{k}": shift_round(v << (pre + 1), amount, Rounding.TRUNC) for k, v in prods.items()},
-                      **carry)
-    return {k: (getattr(regs, f"h_{k}") + 1) >> 1 for k in prods}, regs
+    amount = Value.cast(amount)
+    fine = min(FINE_SHIFT_BITS, len(amount))
+    coarse = Cat(Const(0, fine), amount[fine:])
+    regs = pipe.stage(**{f"h_{k}": shift_round(v << (pre + 1), coarse, Rounding.TRUNC) for k, v in prods.items()},
+                      h_fine=amount[:fine], **carry)
+    return {k: ((getattr(regs, f"h_{k}") >> regs.h_fine) + 1) >> 1 for k in prods}, regs
 
 
 def scale(prod, prod_frac: int, exp, recip: RecipParams, out_frac: int, rounding: Rounding):

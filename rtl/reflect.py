@@ -13,10 +13,14 @@ from fxmodel.core.rounding import Overflow, Rounding
 from fxmodel.units.reflect import ReflectParams
 
 from .fixed import narrow, saturate
-from .recip import leading_zeros
+from .recip import leading_zero_groups, leading_zeros_of_groups
 from .unit import Pipe, UnitComponent, register
 
-__all__ = ["Reflect"]
+__all__ = ["Reflect", "LZ_GROUP"]
+
+#: Bits of each group whose leading zeros the OR stage counts (the first two levels of the tree there, the rest
+#: in the stage after it).
+LZ_GROUP = 4
 
 def _digits(P: ReflectParams, key: str, x) -> list:
     """The signal ``x`` of the second-level operand ``key`` as the signed digits of ``P.digits(key)``:
@@ -56,12 +60,12 @@ class Reflect(UnitComponent):
         largest magnitude is at least 1/2 unless ``degenerate``
     degenerate : Signal(1), out -- ``R = 0`` (``N = 0`` or ``E = 0``); ``Rx = Ry = Rz = 0`` then
 
-    Latency: ``params.latency`` = 10 cycles. Stages: the inputs | ``N_i E_i``, ``N_i N_i`` (six 18x18
+    Latency: ``params.latency`` = 11 cycles. Stages: the inputs | ``N_i E_i``, ``N_i N_i`` (six 18x18
     multipliers) | dot sums ``p``, ``q`` | the same, registered again | partial products of ``N_i`` and ``E_i``
     with the 17-bit digits of ``p`` and ``q`` (18x18 DSP tiles; a top digit of at most 4 bits by shifts and adds)
-    | per digit ``A_j = 2 N_i p_j - E_i q_j`` | ``R_i = sum_j A_j 2**(17 j)`` | ``OR_i (R_i XOR sign)`` | its
-    leading-zero count | barrel shift and truncation to ``r_fmt`` (output registers). Each stage holds one
-    product or one to two carry chains (ECP5 timing).
+    | the same, registered again | per digit ``A_j = 2 N_i p_j - E_i q_j`` | ``R_i = sum_j A_j 2**(17 j)`` | ``OR_i
+    (R_i XOR sign)`` | its leading-zero count | barrel shift and truncation to ``r_fmt`` (output registers). Each
+    stage holds one product or one to two carry chains (ECP5 timing).
 
     The ``degenerate`` flag is computed from the inputs (``N = 0`` or ``E = 0``, two narrow zero detectors)
     instead of a zero test of the wide ``R``; they agree by ``|R| = |E| |N|**2`` (the model tests ``R = 0``).
@@ -109,6 +113,10 @@ class Reflect(UnitComponent):
             for j, d in enumerate(qp):
                 st[f"eq{i}{j}"] = _mul(P, Ei, d)
         s3 = pipe.stage(**st)
+        # the partial products registered again in the fabric: on an ECP5 each is a block's output register, and
+        # the route from a block to the carry chain below ran across the die (most of the engine's endpoints
+        # missing 100 MHz were the differences A_j); this register lets the placer split that route
+        s3 = pipe.stage(**{k: getattr(s3, k) for k in st})
 
         # 4: per digit position j, A_j = 2 N_i p_j - E_i q_j
         st = {"zero": s3.zero}
@@ -129,12 +137,17 @@ class Reflect(UnitComponent):
         s5 = pipe.stage(**st)
         R = [getattr(s5, f"R{i}") for i in range(3)]
 
-        # 6: the W-bit OR_i (R_i XOR sign), whose leading zeros are the common shift lz = W - bitlen(...)
+        # 6: the W-bit OR_i (R_i XOR sign), whose leading zeros are the common shift lz = W - bitlen(...), and
+        #    the first levels of their balanced tree: (all zero, count) of each LZ_GROUP-bit group
         ones = [(r ^ r[W].replicate(W + 1))[:W] for r in R]
-        s6 = pipe.stage(ones=ones[0] | ones[1] | ones[2], zero=s5.zero, **{f"R{i}": R[i] for i in range(3)})
+        groups = leading_zero_groups(ones[0] | ones[1] | ones[2], LZ_GROUP)
+        s6 = pipe.stage(**{f"gz{j}": z for j, (z, _) in enumerate(groups)},
+                        **{f"gc{j}": c for j, (_, c) in enumerate(groups)},
+                        zero=s5.zero, **{f"R{i}": R[i] for i in range(3)})
 
-        # 7: lz (a balanced tree: a stage of its own, ECP5 timing)
-        s6 = pipe.stage(lz=leading_zeros(s6.ones), zero=s6.zero, **{f"R{i}": getattr(s6, f"R{i}") for i in range(3)})
+        # 7: lz, the rest of the tree (the whole tree in this stage was nine LUT levels on the board)
+        lz = leading_zeros_of_groups([(getattr(s6, f"gz{j}"), getattr(s6, f"gc{j}")) for j in range(len(groups))], W)
+        s6 = pipe.stage(lz=lz, zero=s6.zero, **{f"R{i}": getattr(s6, f"R{i}") for i in range(3)})
 
         # 8: shift left by lz (fits W + 1 bits: normalization proof), read with W fraction bits, truncate to r_fmt
         outs = {}

@@ -45,19 +45,20 @@ outputs across the device's block-RAM rows: it was the board's critical path at 
 slices' block RAMs spread over the device, so every net to or from all of them crosses it in a cycle of its own
 between flip-flops: each slice has its own registers beside its block RAM (**Fan-out**): the read address, the
 word read, and the write's enable, address and data. A net from one flip-flop to the address pins of every
-block RAM (through the read-out's address multiplexer and the comparators Yosys adds for the transparent read
-port) was the board's engine clock's next critical path. Yosys's ``opt_merge`` merges flip-flops with one
+block RAM (through the read-out's address multiplexer and the comparators Yosys added while the read port was
+transparent) was the board's engine clock's next critical path. Yosys's ``opt_merge`` merges flip-flops with one
 input, so the copies are :func:`rtl.unit.kept_copy` registers, which the board's synthesis marks ``keep``
 (:data:`rtl.unit.KEEP_COPIES`). Seven stages (``RopParams.latency``): the accepted fragment registered (its
 pixel index and depth computed from the stream's payload); its address in the registers beside the block RAMs;
 the read; the word in the registers beside the block RAMs; the stored depth registered (the block RAM's slow
 output never meets logic in the cycle it leaves the block); the compare; the write's central registers; the
-write from the registers beside the block RAMs. The read port is transparent for the write port, so a fragment
-sees every write up to the one of the fragment five ahead of it; the four just ahead of it are forwarded (the
-nearer first: its depth replaces the stored one when the pixel is the same): whether each has the same pixel
-is registered a cycle early, the three to four ahead (their writes decided) replace the stored depth as it is
-registered, the one just ahead in the compare. ``i.ready`` is always 1, except while the frame is read out
-through ``fb`` (``fb.read``: the read port takes ``fb.addr``; ``fb.data`` holds its word
+write from the registers beside the block RAMs. A fragment's read sees every write up to the one of the
+fragment six ahead of it (the read port is not transparent: Yosys builds a transparent one's bypass as a
+multiplexer after the block RAM's output, in the cycle it leaves the block, and comparators on its address); the
+five just ahead of it are forwarded (the nearer first: its depth replaces the stored one when the pixel is the
+same): whether each has the same pixel is registered a cycle early, the two to five ahead (their writes decided)
+replace the stored depth as it is registered, the one just ahead in the compare. ``i.ready`` is always 1, except while
+the frame is read out through ``fb`` (``fb.read``: the read port takes ``fb.addr``; ``fb.data`` holds its word
 ``RopParams.readout_latency`` cycles later; an accepted fragment waits in the first stage). With ``fb.clear`` as
 well, the word read is also overwritten with the clear value, through the write's registers (a read-out that
 clears, or a clear of the frame: the next frame's depth test starts from the cleared frame).
@@ -206,20 +207,26 @@ class Rop(wiring.Component):
         # the write's copy in the cycle its registers beside the block RAMs write, and the one after (forwarding)
         h1_en, h1_z, h1_index = (kept_copy(m, w_en, "wrote1"), kept_copy(m, w_z, "wrote1_z"),
                                  kept_copy(m, w_index, "wrote1_index"))
-        h2_en, h2_z = Signal(name="wrote2"), Signal.like(a_z, name="wrote2_z")
-        m.d.sync += [h2_en.eq(h1_en), h2_z.eq(h1_z)]
+        h2_en, h2_z, h2_index = Signal(name="wrote2"), Signal.like(a_z, name="wrote2_z"), \
+            Signal.like(a_index, name="wrote2_index")
+        h3_en, h3_z = Signal(name="wrote3"), Signal.like(a_z, name="wrote3_z")
+        m.d.sync += [h2_en.eq(h1_en), h2_z.eq(h1_z), h2_index.eq(h1_index), h3_en.eq(h2_en), h3_z.eq(h2_z)]
         rdata = self._frame(m, clear, Mux(self.fb.read, self.fb.addr, a_index), w_en, w_index, Cat(w_z, w_color))
         m.d.comb += self.fb.data.eq(rdata)
-        # forwarding: a fragment's read sees every write up to the one of the fragment five ahead (through the
-        # transparent read port); the four just ahead are forwarded, the nearer first. Whether each has the same
-        # pixel is registered while the fragment is in R2 (then: one ahead in R3, two in the compare, three
-        # writing, four in wrote1); in R3 the three to four ahead, whose writes are decided, replace the stored
-        # depth as it is registered; in the compare the one just ahead
-        same = [Signal(name=f"same{k}") for k in (1, 2, 3, 4)]
-        m.d.sync += [s.eq(i == r2_index) for s, i in zip(same, (r3_index, c_index, w_index, h1_index))]
+        # forwarding: a fragment's read sees every write up to the one of the fragment six ahead (the read port
+        # is not transparent: a transparent one puts a multiplexer after the block RAM's slow output, in the
+        # cycle it leaves the block, and comparators on its address); the five just ahead are forwarded, the
+        # nearer first. Whether each has the same pixel is registered while the fragment is in R2 (then: one
+        # ahead in R3, two in the compare, three writing, four in wrote1, five in wrote2); in R3 the two to five
+        # ahead, whose writes are decided, replace the stored depth as it is registered; in the compare the one
+        # just ahead
+        same = [Signal(name=f"same{k}") for k in (1, 2, 3, 4, 5)]
+        m.d.sync += [s.eq(i == r2_index) for s, i in zip(same, (r3_index, c_index, w_index, h1_index, h2_index))]
         stored_in = rdata[:P.z_fmt.width]
         if P.hazard:
-            stored_in = Mux(same[1] & w_en, w_z, Mux(same[2] & h1_en, h1_z, Mux(same[3] & h2_en, h2_z, stored_in)))
+            for hit, z in reversed(((same[1] & w_en, w_z), (same[2] & h1_en, h1_z), (same[3] & h2_en, h2_z),
+                                    (same[4] & h3_en, h3_z))):
+                stored_in = Mux(hit, z, stored_in)
         c_stored, c_same1 = Signal(P.z_fmt.width, name="cmp_stored"), Signal(name="cmp_same1")
         m.d.sync += [c_valid.eq(r3_valid), c_z.eq(r3_z), c_color.eq(r3_color), c_index.eq(r3_index),
                      c_stored.eq(stored_in), c_same1.eq(c_valid & same[0])]
@@ -237,7 +244,7 @@ class Rop(wiring.Component):
 
     def _frame(self, m, clear: int, raddr, w_en, w_index, wdata):
         """The frame's memory in slices of ``slice_bits`` (``RopParams.slice_bits``: each slice one block RAM
-        deep, no read multiplexer between blocks), each read port transparent for its write port (``hazard``).
+        deep, no read multiplexer between blocks), each read port not transparent (the forwarding covers it).
         Beside each slice its own registers: the read address, the word read, the write's enable, address and
         data (:func:`~rtl.unit.kept_copy` registers, kept by synthesis). Returns the registered words (``Cat``)."""
         P = self.params
@@ -247,7 +254,7 @@ class Rop(wiring.Component):
             init = clear >> lo & ((1 << (hi - lo)) - 1)
             m.submodules[f"frame{k}"] = mem = memory.Memory(shape=hi - lo, depth=P.pixels, init=[init] * P.pixels)
             wp = mem.write_port()
-            rp = mem.read_port(transparent_for=(wp,) if P.hazard else ())
+            rp = mem.read_port()
             ra = Signal.like(w_index, name=f"frame{k}_raddr{COPY_SUFFIX}")     # (the read-out's address: its width)
             m.d.sync += ra.eq(raddr)
             we, wa = kept_copy(m, w_en, f"frame{k}_wen"), kept_copy(m, w_index, f"frame{k}_waddr")

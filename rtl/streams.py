@@ -30,15 +30,16 @@ pipeline (section 4) takes one fragment per clock from the scan converter; whate
 
 from __future__ import annotations
 
-from amaranth.hdl import Module, Mux, Signal
-from amaranth.lib import data, stream, wiring
+from amaranth.hdl import Assert, Module, Mux, Signal
+from amaranth.lib import data, memory, stream, wiring
 from amaranth.lib.fifo import SyncFIFO
 from amaranth.lib.wiring import In, Out
 
 from .fixed import shape
 from .unit import Pipe, build
 
-__all__ = ["payload_layout", "input_layout", "output_layout", "StreamUnit", "buffer_depth"]
+__all__ = ["payload_layout", "input_layout", "output_layout", "StreamUnit", "buffer_depth", "CreditFIFO",
+           "less_one_if"]
 
 def buffer_depth(params) -> int:
     """Results the output FIFO holds: one per pipeline stage and one more, so that ``i.ready`` (``used`` below
@@ -68,6 +69,13 @@ def input_layout(params, side=None) -> data.StructLayout:
 def output_layout(params, side=None) -> data.StructLayout:
     """Payload layout of the unit's output stream: ``params.outputs`` (and the sideband)."""
     return payload_layout(params.outputs, side)
+
+
+def less_one_if(sel, base, test=lambda v: v):
+    """``test(base - sel)`` with ``sel`` at the last logic level only: ``test`` of ``base`` and of ``base - 1``
+    (sums of registers) side by side, ``sel`` choosing (a late control signal, a consumer's ``ready``, feeds no
+    carry chain)."""
+    return Mux(sel, test(base - 1), test(base))
 
 
 class _Core(wiring.Component):
@@ -135,12 +143,72 @@ class StreamUnit(wiring.Component):
         used = Signal(range(depth + 1))                   # results in flight and in the FIFO
         take_in = self.i.valid & self.i.ready
         m.d.comb += [self.i.ready.eq(used < depth), core.i_valid.eq(take_in), core.i_payload.eq(self.i.payload)]
-        # the last stage's result goes straight out while the FIFO is empty, else the FIFO's oldest
-        empty = ~fifo.r_rdy
+        # the last stage's result goes straight out while the FIFO is empty, else the FIFO's oldest. Whether it
+        # is empty is a register of its own, kept beside the FIFO's level (equal to ``~fifo.r_rdy``: the formal
+        # set checks it): ``r_rdy`` is a compare of the level, and through the output multiplexer it led into the
+        # consumer's logic (the pixel index of the frame's depth test: a path of the board's engine)
+        nonempty = Signal(name="fifo_nonempty")
+        empty = ~nonempty
         m.d.comb += [self.o.valid.eq(Mux(empty, core.o_valid, 1)),
                      self.o.payload.eq(Mux(empty, core.o_payload.as_value(), fifo.r_data)),
                      fifo.w_data.eq(core.o_payload),
                      fifo.w_en.eq(core.o_valid & ~(empty & self.o.ready)),
                      fifo.r_en.eq(self.o.ready & ~empty)]
-        m.d.sync += used.eq(used + take_in - (self.o.valid & self.o.ready))
+        m.d.sync += [used.eq(used + take_in - (self.o.valid & self.o.ready)),
+                     nonempty.eq(less_one_if(fifo.r_en, fifo.level + fifo.w_en, lambda v: v != 0))]
+        return m
+
+
+class CreditFIFO(wiring.Component):
+    """A first-word-fall-through FIFO of ``depth`` words of ``width`` bits (LUT RAM, an asynchronous read port)
+    for a writer that holds credits: it writes only when it knows a place is free, so ``w_en`` is not checked
+    against the level (``amaranth.lib.fifo.SyncFIFO`` gates every write with ``level != depth``: on the scan
+    converter's output FIFO that check and the level's adder after it were a five-LUT path from the level to the
+    level, and the write enable of every LUT RAM slice waited for it). ``r_rdy`` (not empty) is a register,
+    computed beside the level with the read at the last logic level (:func:`less_one_if`).
+
+    Ports: ``w_en``, ``w_data`` in; ``r_en``, out ``r_rdy``, ``r_data`` (the oldest word while ``r_rdy``); ``level``
+    out (the words held) and ``w_rdy`` (``level != depth``, as ``SyncFIFO``'s, for the writer's proofs: nothing in
+    the FIFO reads it). A write into a full FIFO is the writer's error: ``overflow`` (out, registered, sticky)
+    says it happened (tests check it stays 0; nothing reads it in hardware).
+    """
+
+    def __init__(self, width: int, depth: int):
+        if depth < 2:
+            raise ValueError(f"CreditFIFO: depth {depth} must be at least 2")
+        self.width, self.depth = width, depth
+        super().__init__({"w_en": In(1), "w_data": In(width), "r_en": In(1), "r_rdy": Out(1),
+                          "r_data": Out(width), "level": Out(range(depth + 1)), "w_rdy": Out(1),
+                          "overflow": Out(1)})
+
+    def elaborate(self, platform):
+        m = Module()
+        n = self.depth
+        m.submodules.storage = mem = memory.Memory(shape=self.width, depth=n, init=[])
+        wp, rp = mem.write_port(), mem.read_port(domain="comb")
+        wptr, rptr = Signal(range(n)), Signal(range(n))
+        take = self.r_en & self.r_rdy
+        m.d.comb += [wp.addr.eq(wptr), wp.data.eq(self.w_data), wp.en.eq(self.w_en),
+                     rp.addr.eq(rptr), self.r_data.eq(rp.data), self.w_rdy.eq(self.level != n)]
+        with m.If(self.w_en):
+            m.d.sync += wptr.eq(Mux(wptr == n - 1, 0, wptr + 1))
+        with m.If(take):
+            m.d.sync += rptr.eq(Mux(rptr == n - 1, 0, rptr + 1))
+        after_write = self.level + self.w_en
+        m.d.sync += [self.level.eq(less_one_if(take, after_write)),
+                     self.r_rdy.eq(less_one_if(take, after_write, lambda v: v != 0))]
+        with m.If(self.w_en & ~self.w_rdy):
+            m.d.sync += self.overflow.eq(1)
+        if platform == "formal":
+            # the FIFO's own invariants, as Amaranth's SyncFIFO asserts its own on this platform (they make the
+            # induction of any set around it go through), and every word held, for the proof of the contract
+            # (formal/credit_fifo.py)
+            m.d.comb += [Assert(self.level <= n, "credit_fifo_level"),
+                         Assert(self.r_rdy == (self.level != 0), "credit_fifo_r_rdy"),
+                         Assert(wptr == (rptr + self.level) % n, "credit_fifo_pointers")]
+            head = Signal(range(n), name="head")           # the read pointer, named for the proofs
+            m.d.comb += head.eq(rptr)
+            for k in range(n):
+                port, slot = mem.read_port(domain="comb"), Signal(self.width, name=f"slot{k}")
+                m.d.comb += [port.addr.eq(k), slot.eq(port.data)]
         return m

@@ -96,7 +96,7 @@ class DivideParams(Unit):
 
     @property
     def latency(self) -> int:
-        """The reciprocal's latency, one stage for ``n * mant`` (two when split into partial products,
+        """The reciprocal's latency, one stage for ``n * mant`` (three when split into partial products,
         :meth:`RecipParams.times_split`), one for the shift, one to round and saturate."""
         return self.recip.latency + 3 + self.recip.times_split(self.num_fmt.width)
 

@@ -107,7 +107,7 @@ class PerspParams(Unit):
 
     @property
     def latency(self) -> int:
-        """The reciprocal, the products (two stages when split into partial products,
+        """The reciprocal, the products (three stages when split into partial products,
         :meth:`RecipParams.times_split`), the shift, the rounding."""
         return self.recip.latency + 3 + self.recip.times_split(self.uv_fmt.width)
 

@@ -279,9 +279,10 @@ class RecipParams(Unit):
 
     def times_split(self, width: int) -> int:
         """Extra stages of ``x * mant`` for a ``width``-bit ``x`` (the users of ``1/w``: divider, perspective
-        coordinates, cube address): 1 when an operand is wider than :attr:`DSP_BITS` (the RTL registers the
-        partial products, then sums them; ``rtl.recip.times_reciprocal``), else 0."""
-        return int(max(width, self.mant_fmt.width) > self.DSP_BITS)
+        coordinates, cube address): 2 when an operand is wider than :attr:`DSP_BITS` (the RTL registers the
+        partial products twice, in the multiplier blocks and then in the fabric near their sum, then sums them;
+        ``rtl.recip.times_reciprocal``), else 0."""
+        return 2 * int(max(width, self.mant_fmt.width) > self.DSP_BITS)
 
     @property
     def multipliers(self) -> int:

@@ -240,10 +240,12 @@ class ReflectParams(Unit):
     @property
     def latency(self) -> int:
         """Stages: the inputs | N_i E_i, N_i N_i | dot sums | the same registered again | digit products of
-        2 N_i p, E_i q | per-digit differences | R | the OR of the magnitudes' bits | its leading-zero count |
-        shift, truncate (``rtl/reflect.py`` splits the wide products and the normalization for ECP5 timing, and
-        registers the inputs for the first products' multiplier blocks and the sums for the digit products')."""
-        return 10
+        2 N_i p, E_i q | the same registered again | per-digit differences | R | the OR of the magnitudes' bits |
+        its leading-zero count | shift, truncate (``rtl/reflect.py`` splits the wide products and the
+        normalization for ECP5 timing, registers the inputs for the first products' multiplier blocks and the sums
+        for the digit products', and the digit products again in the fabric, between their blocks and the
+        differences' carry chains)."""
+        return 11
 
     # -- bit-exact model ----------------------------------------------------------------------------------
     def exact_r(self, cols) -> tuple[np.ndarray, np.ndarray, list[np.ndarray]]:

@@ -121,6 +121,10 @@ def test_registered_product_takes_products_of_at_most_18_bits():
     assert dsp.registered_product(a * 5) is None
     assert dsp.registered_product(a + b) is None
     assert dsp.registered_product((a * b)[:30].as_signed()).hi == 30          # a proven narrowing's reading
+    shifted = dsp.registered_product((a * b) >> 5)                            # a truncating narrowing's
+    assert (shifted.lo, shifted.hi) == (5, 5 + len(a * b))
+    assert (dsp.registered_product(((a * b) >> 5)[2:33]).lo, dsp.registered_product(((a * b) >> 5)[2:33]).hi) \
+        == (7, 38)                                                            # above the product: its extension
 
 
 def test_only_ecp5_platforms_use_blocks_and_enabled_registers_are_not_delays():

@@ -41,3 +41,28 @@ def test_shift_into_equals_the_floor_shift_on_every_code(width, bits):
     wrong = [(c, s, o, _exact(c, bits)) for c, s, o in seen if (s, o) != _exact(c, bits)]
     assert not wrong, wrong[:5]
     assert max(s for _, s, _ in seen) == width - (bits - 1) - 1      # the largest shift is reached
+
+
+@pytest.mark.parametrize("width", [1, 2, 3, 5, 8, 9])
+@pytest.mark.parametrize("group", [1, 2, 4, 8])
+def test_leading_zeros_split_into_groups_is_the_exact_count_on_every_code(width, group):
+    """The tree cut into groups (``rtl.reflect`` registers the groups, then finishes the tree a stage later)
+    counts what exact integers count, on every code, whatever the group size."""
+    from rtl.recip import leading_zero_groups, leading_zeros_of_groups
+    x = Signal(width)
+    split, whole = Signal(8), Signal(8)
+    m = Module()
+    m.d.comb += [split.eq(leading_zeros_of_groups(leading_zero_groups(x, group), width)),
+                 whole.eq(leading_zeros(x))]
+    seen = []
+
+    async def bench(ctx):
+        for code in range(1 << width):
+            ctx.set(x, code)
+            seen.append((width - code.bit_length(), ctx.get(split), ctx.get(whole)))
+
+    sim = Simulator(m)
+    sim.add_testbench(bench)
+    sim.run()
+    assert len(seen) == 1 << width
+    assert all(exact == split == whole for exact, split, whole in seen)

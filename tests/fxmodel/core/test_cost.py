@@ -43,10 +43,11 @@ def census():
         return rmul(self, other)
 
     def init_(self, *args, **kwargs):
-        # the output FIFO of a stream interface (rtl/streams.py, amaranth.lib.fifo) is plumbing, not a unit's
-        # memory: an asynchronous read port, so LUT RAM (no DP16KD: the synthesized counts of the engine's
-        # pipeline confirm it), outside the cost model's DSP and block-RAM counts
-        if sys._getframe(1).f_globals.get("__name__") != "amaranth.lib.fifo":
+        # the output FIFO of a stream interface (rtl/streams.py, amaranth.lib.fifo) and the scan converter's
+        # FIFOs (rtl.streams.CreditFIFO) are plumbing, not a unit's memory: an asynchronous read port, so LUT RAM
+        # (no DP16KD: the synthesized counts of the engine's pipeline confirm it), outside the cost model's DSP
+        # and block-RAM counts
+        if sys._getframe(1).f_globals.get("__name__") not in ("amaranth.lib.fifo", "rtl.streams"):
             seen["memories"].append(self)
         self._census_ports = 0
         mem_init(self, *args, **kwargs)

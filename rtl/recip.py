@@ -89,10 +89,8 @@ def leading_zeros(x) -> Value:
 
 
 def _pow2(width: int) -> int:
-    size = 1
-    while size < width:
-        size *= 2
-    return size
+    """The least power of two at least ``width`` (``width`` >= 1)."""
+    return 1 << (width - 1).bit_length()
 
 
 def leading_zero_groups(x, group: int) -> list:
@@ -100,14 +98,12 @@ def leading_zero_groups(x, group: int) -> list:
     bits (a power of two), lowest first, each as ``(all zero, count)`` (``count`` valid when not all zero;
     ``None`` for one-bit groups), for
     :func:`leading_zeros_of_groups` to finish, possibly a register stage later (the tree split between stages)."""
+    if group < 1 or group & (group - 1):
+        raise ValueError(f"leading_zero_groups: group {group} must be a power of two")
     x = Value.cast(x)
     width = len(x)
-    if width == 1:
-        return [(~x[0], None)] if group == 1 else leading_zero_groups(Cat(Const(1, 1), x), group)
     size = _pow2(width)
     group = min(group, size)
-    if group & (group - 1) or group < 1:
-        raise ValueError(f"leading_zero_groups: group {group} must be a power of two")
     padded = Cat(Const((1 << (size - width)) - 1, size - width), x) if size > width else x
 
     def tree(v):
@@ -115,8 +111,6 @@ def leading_zero_groups(x, group: int) -> list:
         no bits, for one bit)."""
         if len(v) == 1:
             return ~v[0], None
-        if len(v) == 2:
-            return ~v[1] & ~v[0], ~v[1]
         half = len(v) // 2
         return _merge(tree(v[:half]), tree(v[half:]))
 

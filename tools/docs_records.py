@@ -273,7 +273,7 @@ def fpga_placement(name: str = "placement", design: str = "--scene SCENE --prese
     command names."""
     path = DOCS / "fpga" / f"{name}.json"
     if not path.is_file():
-        return missing_record(path, f"bumpmap fpga --unit engine {design} --router router2 --tmg-ripup "
+        return missing_record(path, f"bumpmap fpga --unit engine {design} --router router2 "
                               f"--placement-record docs/fpga/{name}.json")
     record = read(path)
     r = record["result"]

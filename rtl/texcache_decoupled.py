@@ -6,8 +6,12 @@ lookup is a footprint ``(x0 | x1, y0 | y1)`` on a surface of the model's blocked
 :class:`~fxmodel.units.texcache.Layout` (a map and a MIP level: more surfaces are more entries of the layout, the
 request names one by its index). Organisation (``docs/texcache.md``):
 
+- **Input FIFO** (:data:`INPUT_DEPTH` lookups): ``i.ready`` is a register, so a stall does not travel up the
+  stream in the clock the tag stage decides it; the next lookup's corner lines and sets are computed from its
+  output register a clock ahead.
 - **Tag stage**: the lookup's up to four distinct lines in corner order ``(x0, y0), (x1, y0), (x0, y1), (x1, y1)``
-  against the tags, LRU, the lowest invalid way first, a duplicate line skipped -- exactly
+  against the tags (each corner's set's row held in registers beside the lookup, kept equal to the tag
+  registers), LRU, the lowest invalid way first, a duplicate line skipped -- exactly
   :func:`fxmodel.units.texcache.simulate`. All remaining lines in one clock when they fall in distinct sets and at
   most one of them misses (the common case: one line, or two neighbouring blocks, which the XOR index puts in
   different sets); otherwise one line a clock, in order. A miss allocates its way at once and queues its line's
@@ -20,8 +24,9 @@ request names one by its index). Organisation (``docs/texcache.md``):
   is at the head of the FIFO, so a line replaced at tag time by a later miss is intact for every earlier lookup: no
   line locking. Then it reads the four banks (one read per bank) and the texels leave on ``o`` with the sideband,
   in order.
-- **Stalls** only through the streams: ``i.ready`` is low while the lookup FIFO is full, or a miss finds the
-  outstanding budget (``misses``) spent; ``o.ready`` low holds the data stage.
+- **Stalls** only through the streams: the tag stage holds while the lookup FIFO is full, or a miss finds the
+  outstanding budget (``misses``) spent, and ``i.ready`` falls when the input FIFO fills behind it; ``o.ready``
+  low holds the data stage.
 
 The memory traffic is the model's, burst for burst (the ``AR`` sequence is ``simulate``'s fills). Limits: LRU,
 a 32-bit bus (``bus_bytes = texel_bytes = 4``), no bank conflicts and no self-evictions (the model counts both).

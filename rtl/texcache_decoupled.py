@@ -68,6 +68,11 @@ def request_layout(layout: Layout, side_bits: int = 0, skip: bool = False) -> da
     return data.StructLayout(fields)
 
 
+def _corner_xy(req) -> tuple:
+    """The corners' texel coordinates of a request, in corner order ``(x0, y0), (x1, y0), (x0, y1), (x1, y1)``."""
+    return [req.x0, req.x1, req.x0, req.x1], [req.y0, req.y0, req.y1, req.y1]
+
+
 class DecoupledTexCache(wiring.Component):
     """The decoupled cache of ``params`` over the surfaces of ``layout`` (module docstring).
 
@@ -159,7 +164,7 @@ class DecoupledTexCache(wiring.Component):
         whether it repeats an earlier corner's line (and the earliest such corner), and which corners share a
         set: combinational, from ``req``."""
         c = [SimpleNamespace() for _ in range(4)]
-        xs, ys = [req.x0, req.x1, req.x0, req.x1], [req.y0, req.y0, req.y1, req.y1]
+        xs, ys = _corner_xy(req)
         for q in range(4):
             line, set_ = self._line_set(req.surface, xs[q], ys[q])
             c[q].line, c[q].set = Signal.like(line, name=f"{prefix}line{q}"), Signal.like(set_, name=f"{prefix}set{q}")
@@ -201,7 +206,6 @@ class DecoupledTexCache(wiring.Component):
         req, t_valid = Signal(self.req, name="req"), Signal(name="t_valid")
         k, nf = Signal(2, name="k"), Signal(3, name="nf")  # next corner to check, fills so far
         way_reg = [Signal(wb, name=f"way_reg{q}") for q in range(4)]
-        xs, ys = [req.x0, req.x1, req.x0, req.x1], [req.y0, req.y0, req.y1, req.y1]
         c = [SimpleNamespace() for _ in range(4)]
         for q in range(4):
             c[q].line, c[q].set = Signal.like(nc[q].line, name=f"line{q}"), Signal.like(nc[q].set, name=f"set{q}")
@@ -259,7 +263,15 @@ class DecoupledTexCache(wiring.Component):
         new = self._new_rows(m, c, way_now)
         self._update(m, c, act, fire, new, tags, valid, age)
         self._rows(m, c, nc, same, act, fire, accept, new, tags, valid, age)
-        # the miss of this step (at most one) goes to the AR queue and the slot queue
+        self._queue(m, f, c, req, act, fire, last, step_miss, nf, ways)
+        f.t_valid = t_valid | (ififo.level != 0)
+
+    def _queue(self, m, f, c, req, act, fire, last, step_miss, nf, ways):
+        """The step's miss (at most one) into the ``AR`` queue and the slot queue; the lookup's entry into the
+        lookup FIFO when its last step fires."""
+        P = self.params
+        W = P.ways
+        xs, ys = _corner_xy(req)
         mline, mslot = Signal(self.line_bits), Signal(f.slots.width)
         for q in reversed(range(4)):
             with m.If(act[q] & ~c[q].hit):
@@ -279,7 +291,6 @@ class DecoupledTexCache(wiring.Component):
                     slot = c[q].set * W + ways[q]
                     m.d.comb += entry.addr[b].eq(slot * self._words + self._word(xs[q], ys[q]))
         m.d.comb += [f.lfifo.w_en.eq(fire & last), f.lfifo.w_data.eq(entry)]
-        f.t_valid = t_valid | (ififo.level != 0)
 
     def _lookup_row(self, m, cq, q):
         """Corner ``q``'s hit and way in its row, and the row's victim (the lowest invalid way, else the

@@ -8,8 +8,9 @@ capacity), each entry adds:
 
 - the decoupled cache: its white-box invariants (lines owed = lines queued for ``AR`` + bursts outstanding + lines
   complete in the fill buffer, never above ``misses``; the slot queue as long; the beat counter the burst's; a copy
-  only of a complete line; lookups inside = the tag stage + the lookup FIFO + the output register), which make
-  k-induction close; covers: ``misses`` bursts outstanding, the lookup FIFO full;
+  only of a complete line; lookups inside = the input FIFO + the tag stage + the lookup FIFO + the output
+  register; the held lookup's rows equal to its sets' tag registers), which make k-induction close; covers:
+  ``misses`` bursts outstanding, the lookup FIFO full;
 - the texture fetch: each ``AR`` comes from exactly one cache's handshake with its fields (``ar_from_one``), each
   cache's own bursts outstanding at most its ``misses`` (``c*_outstanding``), and every ``R`` beat routed to
   exactly the cache that issued its burst (``r_to_owner``, against a queue of the issuing caches kept by the
@@ -18,11 +19,11 @@ capacity), each entry adds:
 
 from __future__ import annotations
 
-from amaranth.hdl import Cat, Signal
+from amaranth.hdl import Array, Cat, Signal
 from amaranth.lib.fifo import SyncFIFOBuffered
 
 from fxmodel.units.texcache import Layout, TexCacheParams
-from rtl.texcache_decoupled import DecoupledTexCache
+from rtl.texcache_decoupled import INPUT_DEPTH, DecoupledTexCache
 from rtl.texfetch import MAPS, TexFetch
 
 from . import whitebox
@@ -55,8 +56,9 @@ def small_texfetch(cls=TexFetch) -> TexFetch:
 
 
 def _capacity(p: TexCacheParams) -> int:
-    """Lookups a decoupled cache holds at most: the tag stage's, the lookup FIFO's, the output register's."""
-    return 1 + p.lookup_depth + 1
+    """Lookups a decoupled cache holds at most: the input FIFO's, the tag stage's, the lookup FIFO's, the output
+    register's."""
+    return INPUT_DEPTH + 1 + p.lookup_depth + 1
 
 
 def buffered_fifo_invariants(h: Harness, sig, fifo, name: str):
@@ -77,9 +79,10 @@ def cache_invariants(h: Harness, sig, top, path: str, cache, pend, beat_ref, ins
     lfifo = whitebox.origin(top, f"{path}/lfifo".strip("/"), SyncFIFOBuffered)
     arq = whitebox.origin(top, f"{path}/arq".strip("/"), SyncFIFOBuffered)
     slots = whitebox.origin(top, f"{path}/slots".strip("/"), SyncFIFOBuffered)
+    ififo = whitebox.origin(top, f"{path}/ififo".strip("/"), SyncFIFOBuffered)
     inflight, filled, beat, copying = s("inflight"), s("filled"), s("beat"), s("copying")
     if prove:
-        for name, fifo in (("lfifo", lfifo), ("arq", arq), ("slots", slots)):
+        for name, fifo in (("lfifo", lfifo), ("arq", arq), ("slots", slots), ("ififo", ififo)):
             buffered_fifo_invariants(h, lambda n, name=name: sig(n, f"{path}/{name}".strip("/")),
                                      fifo, name)
         h.check(slots.r_rdy | ((slots.level == arq.level) & ~arq.r_rdy), "slot_queue_ahead")
@@ -88,9 +91,28 @@ def cache_invariants(h: Harness, sig, top, path: str, cache, pend, beat_ref, ins
         h.check(slots.level == inflight, "slot_queue")
         h.check(~copying | (filled != 0), "copy_of_complete_line")
         h.check(beat == beat_ref, "beat_is_burst_beat")
-        h.check(inside == s("t_valid") + lfifo.level + s("o_valid"), "inside_is_stages")
+        h.check(inside == ififo.level + s("t_valid") + lfifo.level + s("o_valid"), "inside_is_stages")
+        rows_coherent(h, s, p)
     h.cover(pend == p.misses, "misses_outstanding_reach")
     h.cover((lfifo.level == p.lookup_depth) & s("t_valid"), "lookup_fifo_full_reach")
+
+
+def rows_coherent(h: Harness, s, p: TexCacheParams):
+    """The held lookup's rows are its corners' sets' rows of the tag registers (the forwarding and the updates of
+    ``rtl/texcache_decoupled.py``'s tag stage): ``rows_coherent`` for every corner, way and field; and the sets'
+    one-hot copies and pairwise equalities are the sets' (what the updates select by), while a lookup is held."""
+    W = p.ways
+    ok = 1
+    for q in range(4):
+        set_ = s(f"set{q}")
+        h.check(~s("t_valid") | (s(f"hot{q}") == (1 << set_)[:p.sets]), f"hot{q}_is_set")
+        for j in range(q):
+            h.check(~s("t_valid") | (s(f"same{q}_{j}") == (set_ == s(f"set{j}"))), f"same{q}_{j}_is_sets")
+        for w in range(W):
+            for field, regs in (("tag", "tag"), ("valid", "valid"), ("age", "age")):
+                table = Array(s(f"{regs}{j * W + w}") for j in range(p.sets))
+                ok = ok & (s(f"row_{field}{q}_{w}") == table[set_])
+    h.check(~s("t_valid") | ok, "rows_coherent")
 
 
 def _decoupled_invariants(h: Harness, sig, rd, inside, *, inner, top):
@@ -149,8 +171,8 @@ ENTRIES = [
                 f"{DEC_PARAMS.misses}, 8x8 map across 4 KB, memory stalls <= {STALL})", small_decoupled,
                 arlen=DEC_PARAMS.beats_per_line - 1, max_out=DEC_PARAMS.misses, capacity=_capacity(DEC_PARAMS),
                 invariants=_decoupled_invariants, cover_depth=30,
-                extra={"covers": "; lines owed = queued + outstanding + filled <= misses, inside = tag stage + lookup "
-                                 "FIFO + output"}),
+                extra={"covers": "; lines owed = queued + outstanding + filled <= misses, inside = input FIFO + tag "
+                                 "stage + lookup FIFO + output, held rows = tag registers"}),
     ReadManager("texfetch_axi",
                 f"TexFetch: two DecoupledTexCache as above on one AXI4 port (two 4x4 maps, the second across 4 KB, "
                 f"memory stalls <= {STALL})", small_texfetch, arlen=DEC_PARAMS.beats_per_line - 1,

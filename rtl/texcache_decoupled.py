@@ -6,8 +6,12 @@ lookup is a footprint ``(x0 | x1, y0 | y1)`` on a surface of the model's blocked
 :class:`~fxmodel.units.texcache.Layout` (a map and a MIP level: more surfaces are more entries of the layout, the
 request names one by its index). Organisation (``docs/texcache.md``):
 
+- **Input FIFO** (:data:`INPUT_DEPTH` lookups): ``i.ready`` is a register, so a stall does not travel up the
+  stream in the clock the tag stage decides it; the next lookup's corner lines and sets are computed from its
+  output register a clock ahead.
 - **Tag stage**: the lookup's up to four distinct lines in corner order ``(x0, y0), (x1, y0), (x0, y1), (x1, y1)``
-  against the tags, LRU, the lowest invalid way first, a duplicate line skipped -- exactly
+  against the tags (each corner's set's row held in registers beside the lookup, kept equal to the tag
+  registers), LRU, the lowest invalid way first, a duplicate line skipped -- exactly
   :func:`fxmodel.units.texcache.simulate`. All remaining lines in one clock when they fall in distinct sets and at
   most one of them misses (the common case: one line, or two neighbouring blocks, which the XOR index puts in
   different sets); otherwise one line a clock, in order. A miss allocates its way at once and queues its line's
@@ -20,8 +24,9 @@ request names one by its index). Organisation (``docs/texcache.md``):
   is at the head of the FIFO, so a line replaced at tag time by a later miss is intact for every earlier lookup: no
   line locking. Then it reads the four banks (one read per bank) and the texels leave on ``o`` with the sideband,
   in order.
-- **Stalls** only through the streams: ``i.ready`` is low while the lookup FIFO is full, or a miss finds the
-  outstanding budget (``misses``) spent; ``o.ready`` low holds the data stage.
+- **Stalls** only through the streams: the tag stage holds while the lookup FIFO is full, or a miss finds the
+  outstanding budget (``misses``) spent, and ``i.ready`` falls when the input FIFO fills behind it; ``o.ready``
+  low holds the data stage.
 
 The memory traffic is the model's, burst for burst (the ``AR`` sequence is ``simulate``'s fills). Limits: LRU,
 a 32-bit bus (``bus_bytes = texel_bytes = 4``), no bank conflicts and no self-evictions (the model counts both).
@@ -41,7 +46,12 @@ from fxmodel.core.unit import require
 from fxmodel.units.texcache import Layout, TexCacheParams
 from rtl.rop import axi_signature
 
-__all__ = ["DecoupledTexCache", "request_layout"]
+__all__ = ["DecoupledTexCache", "request_layout", "INPUT_DEPTH"]
+
+#: Lookups the input FIFO holds: Amaranth's ``SyncFIFOBuffered`` (registered ``w_rdy`` and output) takes one a
+#: clock from depth 3 (its inner FIFO of 2 has room while one entry leaves; at depth 2 it would take one every
+#: other clock).
+INPUT_DEPTH = 3
 
 
 def request_layout(layout: Layout, side_bits: int = 0, skip: bool = False) -> data.StructLayout:
@@ -56,6 +66,11 @@ def request_layout(layout: Layout, side_bits: int = 0, skip: bool = False) -> da
     if side_bits:
         fields["side"] = side_bits
     return data.StructLayout(fields)
+
+
+def _corner_xy(req) -> tuple:
+    """The corners' texel coordinates of a request, in corner order ``(x0, y0), (x1, y0), (x0, y1), (x1, y1)``."""
+    return [req.x0, req.x1, req.x0, req.x1], [req.y0, req.y0, req.y1, req.y1]
 
 
 class DecoupledTexCache(wiring.Component):
@@ -144,33 +159,64 @@ class DecoupledTexCache(wiring.Component):
             fields["side"] = self.side_bits
         return data.StructLayout(fields)
 
+    def _corners(self, m, req, prefix):
+        """The line and set of each corner of ``req`` (corner order ``(x0, y0), (x1, y0), (x0, y1), (x1, y1)``),
+        whether it repeats an earlier corner's line (and the earliest such corner), and which corners share a
+        set: combinational, from ``req``."""
+        c = [SimpleNamespace() for _ in range(4)]
+        xs, ys = _corner_xy(req)
+        for q in range(4):
+            line, set_ = self._line_set(req.surface, xs[q], ys[q])
+            c[q].line, c[q].set = Signal.like(line, name=f"{prefix}line{q}"), Signal.like(set_, name=f"{prefix}set{q}")
+            c[q].dup, c[q].src = Signal(name=f"{prefix}dup{q}"), Signal(2, name=f"{prefix}src{q}")
+            m.d.comb += [c[q].line.eq(line), c[q].set.eq(set_), c[q].src.eq(q)]
+            for j in reversed(range(q)):                        # the earliest corner with the same line
+                with m.If(c[j].line == c[q].line):
+                    m.d.comb += [c[q].dup.eq(1), c[q].src.eq(j)]
+        same = {}
+        for q in range(4):
+            for j in range(q):
+                same[q, j] = Signal(name=f"{prefix}same{q}_{j}")
+                m.d.comb += same[q, j].eq(c[q].set == c[j].set)
+        return c, same
+
     def _tag_stage(self, m, f):
-        """The held lookup's corners against the tags: a step of one or all remaining corners a clock."""
+        """The input FIFO, the next lookup's corners, and the held lookup's corners against its sets' rows: a step
+        of one or all remaining corners a clock.
+
+        Timing (``docs/texcache.md``): ``i.ready`` is the input FIFO's registered ``w_rdy``, so no decision of
+        the tag stage reaches the stream before it; the corners' lines, sets and duplicates are computed from the
+        FIFO's output register and loaded with the lookup; each corner's set's row (tags, valid bits, ages) is
+        loaded with it too, from the tag registers, with this clock's update forwarded, and kept equal to the tag
+        registers while the lookup is held (a step that updates a set updates every held row of that set). So a
+        step's decision starts from registers: the compare of the rows with the lines, the step's corners, and
+        the update."""
         P = self.params
         W, S = P.ways, P.sets
         wb = max(1, (W - 1).bit_length())
-        req, t_valid = Signal(self.req, name="req"), Signal(name="t_valid")
-        k, nf = Signal(2, name="k"), Signal(3, name="nf")  # next corner to check, fills so far
-        way_reg = [Signal(wb, name=f"way_reg{q}") for q in range(4)]
+        m.submodules.ififo = ififo = SyncFIFOBuffered(width=self.req.size, depth=INPUT_DEPTH)
+        m.d.comb += [ififo.w_en.eq(self.i.valid), ififo.w_data.eq(self.i.payload), self.i.ready.eq(ififo.w_rdy)]
+        nreq = Signal(self.req, name="nreq")
+        m.d.comb += nreq.eq(ififo.r_data)
+        nc, nsame = self._corners(m, nreq, "n")
         tags = [Signal(self.line_bits, name=f"tag{j}") for j in range(S * W)]
         valid = [Signal(name=f"valid{j}") for j in range(S * W)]
         age = [Signal(wb, init=j % W, name=f"age{j}") for j in range(S * W)]
-        xs = [req.x0, req.x1, req.x0, req.x1]
-        ys = [req.y0, req.y0, req.y1, req.y1]
+        # the held lookup: its request, corners and rows in registers
+        req, t_valid = Signal(self.req, name="req"), Signal(name="t_valid")
+        k, nf = Signal(2, name="k"), Signal(3, name="nf")  # next corner to check, fills so far
+        way_reg = [Signal(wb, name=f"way_reg{q}") for q in range(4)]
         c = [SimpleNamespace() for _ in range(4)]
         for q in range(4):
-            line, set_ = self._line_set(req.surface, xs[q], ys[q])
-            c[q].line, c[q].set = Signal.like(line, name=f"line{q}"), Signal.like(set_, name=f"set{q}")
-            m.d.comb += [c[q].line.eq(line), c[q].set.eq(set_)]
-            self._lookup_set(m, c[q], q, tags, valid, age)
-            c[q].dup = Signal(name=f"dup{q}")
-            c[q].src = q                                         # corner whose way this corner's line has
-        srcsel = [Signal(2, name=f"src{q}") for q in range(4)]
+            c[q].line, c[q].set = Signal.like(nc[q].line, name=f"line{q}"), Signal.like(nc[q].set, name=f"set{q}")
+            c[q].dup, c[q].src = Signal(name=f"dup{q}"), Signal(2, name=f"src{q}")
+            c[q].hot = Signal(S, name=f"hot{q}")                 # the set, one-hot (the update's enables)
+            c[q].tags = [Signal(self.line_bits, name=f"row_tag{q}_{w}") for w in range(W)]
+            c[q].valids = [Signal(name=f"row_valid{q}_{w}") for w in range(W)]
+            c[q].ages = [Signal(wb, name=f"row_age{q}_{w}") for w in range(W)]
+        same = {(q, j): Signal(name=f"same{q}_{j}") for q in range(4) for j in range(q)}
         for q in range(4):
-            m.d.comb += srcsel[q].eq(q)
-            for j in reversed(range(q)):                        # the earliest corner with the same line
-                with m.If(c[j].line == c[q].line):
-                    m.d.comb += [c[q].dup.eq(1), srcsel[q].eq(j)]
+            self._lookup_row(m, c[q], q)
         live = [Signal(name=f"live{q}") for q in range(4)]       # distinct and not yet checked
         for q in range(4):
             todo = ~c[q].dup & (q >= k)
@@ -178,7 +224,7 @@ class DecoupledTexCache(wiring.Component):
         clash = Signal()
         for q in range(4):
             for j in range(q):
-                with m.If(live[q] & live[j] & (c[q].set == c[j].set)):
+                with m.If(live[q] & live[j] & same[q, j]):
                     m.d.comb += clash.eq(1)
         misses = sum(live[q] & ~c[q].hit for q in range(4))
         allin = Signal()                                         # every remaining corner in this step
@@ -192,9 +238,14 @@ class DecoupledTexCache(wiring.Component):
         m.d.comb += last.eq(allin | (k == 3))
         fire = Signal()
         m.d.comb += fire.eq(t_valid & f.lfifo.w_rdy & (~step_miss | (f.inflight < P.misses)))
-        m.d.comb += self.i.ready.eq(~t_valid | (fire & last))
-        with m.If(self.i.valid & self.i.ready):
-            m.d.sync += [req.eq(self.i.payload), t_valid.eq(1), k.eq(0), nf.eq(0)]
+        accept = Signal()
+        m.d.comb += [accept.eq(ififo.r_rdy & (~t_valid | (fire & last))), ififo.r_en.eq(accept)]
+        with m.If(accept):
+            m.d.sync += [req.eq(nreq), t_valid.eq(1), k.eq(0), nf.eq(0)]
+            for q in range(4):
+                m.d.sync += [c[q].line.eq(nc[q].line), c[q].set.eq(nc[q].set), c[q].dup.eq(nc[q].dup),
+                             c[q].src.eq(nc[q].src), c[q].hot.eq(Const(1, S) << nc[q].set)]
+            m.d.sync += [same[key].eq(nsame[key]) for key in same]
         with m.Elif(fire & last):
             m.d.sync += t_valid.eq(0)
         with m.Elif(fire):
@@ -208,9 +259,19 @@ class DecoupledTexCache(wiring.Component):
         eff = Array(way_now)
         ways = [Signal(wb, name=f"way_eff{q}") for q in range(4)]
         for q in range(4):
-            m.d.comb += ways[q].eq(eff[srcsel[q]])
-        self._update(m, c, act, fire, way_now, tags, valid, age)
-        # the miss of this step (at most one) goes to the AR queue and the slot queue
+            m.d.comb += ways[q].eq(eff[c[q].src])
+        new = self._new_rows(m, c, way_now)
+        self._update(m, c, act, fire, new, tags, valid, age)
+        self._rows(m, c, nc, same, act, fire, accept, new, tags, valid, age)
+        self._queue(m, f, c, req, act, fire, last, step_miss, nf, ways)
+        f.t_valid = t_valid | (ififo.level != 0)
+
+    def _queue(self, m, f, c, req, act, fire, last, step_miss, nf, ways):
+        """The step's miss (at most one) into the ``AR`` queue and the slot queue; the lookup's entry into the
+        lookup FIFO when its last step fires."""
+        P = self.params
+        W = P.ways
+        xs, ys = _corner_xy(req)
         mline, mslot = Signal(self.line_bits), Signal(f.slots.width)
         for q in reversed(range(4)):
             with m.If(act[q] & ~c[q].hit):
@@ -230,62 +291,83 @@ class DecoupledTexCache(wiring.Component):
                     slot = c[q].set * W + ways[q]
                     m.d.comb += entry.addr[b].eq(slot * self._words + self._word(xs[q], ys[q]))
         m.d.comb += [f.lfifo.w_en.eq(fire & last), f.lfifo.w_data.eq(entry)]
-        f.t_valid = t_valid
 
-    def _lookup_set(self, m, cq, q, tags, valid, age):
-        """Corner ``q``'s hit and way, and its set's victim (the lowest invalid way, else the oldest): one
-        ``sets``-to-one multiplexer per way and field (the set's row), then ``ways`` comparators."""
-        P = self.params
-        W, S = P.ways, P.sets
+    def _lookup_row(self, m, cq, q):
+        """Corner ``q``'s hit and way in its row, and the row's victim (the lowest invalid way, else the
+        oldest): ``ways`` comparators."""
+        W = self.params.ways
         wb = max(1, (W - 1).bit_length())
-
-        def row(regs, name):
-            """The ``W`` registers of corner ``q``'s set."""
-            sigs = [Signal.like(regs[w], name=f"{name}{q}_{w}") for w in range(W)]
-            for w in range(W):
-                m.d.comb += sigs[w].eq(Array(regs[s * W + w] for s in range(S))[cq.set] if S > 1 else regs[w])
-            return sigs
-
-        tag_r, valid_r, cq.ages = row(tags, "tag"), row(valid, "valid"), row(age, "age")
         cq.hit, cq.hit_way = Signal(name=f"hit{q}"), Signal(wb, name=f"hit_way{q}")
         free, free_way, old_way = Signal(name=f"free{q}"), Signal(wb, name=f"free_way{q}"), Signal(wb, name=f"old{q}")
         for w in reversed(range(W)):                             # the lowest way wins
-            with m.If(valid_r[w] & (tag_r[w] == cq.line)):
+            with m.If(cq.valids[w] & (cq.tags[w] == cq.line)):
                 m.d.comb += [cq.hit.eq(1), cq.hit_way.eq(w)]
-            with m.If(~valid_r[w]):
+            with m.If(~cq.valids[w]):
                 m.d.comb += [free.eq(1), free_way.eq(w)]
             with m.If(cq.ages[w] == W - 1):
                 m.d.comb += old_way.eq(w)
         cq.victim = Signal(wb, name=f"victim{q}")
         m.d.comb += cq.victim.eq(Mux(free, free_way, old_way))
 
-    def _update(self, m, c, act, fire, way_now, tags, valid, age):
-        """Each set touched in this step (at most one corner a set): LRU (the way used becomes the youngest,
-        the younger ones age by one) and, on a miss, the victim's tag. A corner's new row is computed once; each
-        set takes the row of the corner that touches it."""
-        P = self.params
-        W = P.ways
+    def _new_rows(self, m, c, way_now) -> list:
+        """Each corner's row after its check: LRU (the way used becomes the youngest, the younger ones age by
+        one) and, on a miss, the victim's tag and valid bit. ``[(tags, valids, ages)]`` per corner."""
+        W = self.params.ways
         wb = max(1, (W - 1).bit_length())
-        new_age, fill = [], []
+        out = []
         for q in range(4):
             used_age = Signal(wb, name=f"used_age{q}")
             m.d.comb += used_age.eq(Array(c[q].ages)[way_now[q]])
             ages = [Signal(wb, name=f"new_age{q}_{v}") for v in range(W)]
-            fills = [Signal(name=f"fill{q}_{v}") for v in range(W)]
+            tags = [Signal(self.line_bits, name=f"new_tag{q}_{v}") for v in range(W)]
+            valids = [Signal(name=f"new_valid{q}_{v}") for v in range(W)]
             for v in range(W):
+                fill = ~c[q].hit & (way_now[q] == v)
                 m.d.comb += [ages[v].eq(Mux(way_now[q] == v, 0, Mux(c[q].ages[v] < used_age, c[q].ages[v] + 1,
                                                                       c[q].ages[v]))),
-                             fills[v].eq(~c[q].hit & (way_now[q] == v))]
-            new_age.append(ages)
-            fill.append(fills)
+                             tags[v].eq(Mux(fill, c[q].line, c[q].tags[v])), valids[v].eq(c[q].valids[v] | fill)]
+            out.append((tags, valids, ages))
+        return out
+
+    def _update(self, m, c, act, fire, new, tags, valid, age):
+        """Each set touched in this step (at most one corner a set) takes the row of the corner that touches
+        it."""
+        P = self.params
+        W = P.ways
         for s in range(P.sets):
             for q in range(4):
-                with m.If(fire & act[q] & (c[q].set == s)):
+                with m.If(fire & act[q] & c[q].hot[s]):
                     for v in range(W):
                         j = s * W + v
-                        m.d.sync += age[j].eq(new_age[q][v])
-                        with m.If(fill[q][v]):
-                            m.d.sync += [tags[j].eq(c[q].line), valid[j].eq(1)]
+                        m.d.sync += [tags[j].eq(new[q][0][v]), valid[j].eq(new[q][1][v]), age[j].eq(new[q][2][v])]
+
+    def _rows(self, m, c, nc, same, act, fire, accept, new, tags, valid, age):
+        """The held rows: loaded with a lookup (each corner's set's row of the tag registers, or the row this
+        clock's step writes to that set), else updated by a step that touches their set."""
+        P = self.params
+        W, S = P.ways, P.sets
+
+        def assign(q, row):
+            m.d.sync += [c[q].tags[v].eq(row[0][v]) for v in range(W)]
+            m.d.sync += [c[q].valids[v].eq(row[1][v]) for v in range(W)]
+            m.d.sync += [c[q].ages[v].eq(row[2][v]) for v in range(W)]
+
+        for q in range(4):
+            # the next lookup's row: its set's registers, or the row a step writes to that set in this clock
+            regs = [[Array(r[s * W + v] for s in range(S))[nc[q].set] if S > 1 else r[v] for v in range(W)]
+                    for r in (tags, valid, age)]
+            fwd = [Signal(name=f"fwd{q}_{j}") for j in range(4)]
+            with m.If(accept):
+                assign(q, regs)
+                for j in range(4):
+                    m.d.comb += fwd[j].eq(fire & act[j] & (c[j].set == nc[q].set))
+                    with m.If(fwd[j]):
+                        assign(q, new[j])
+            with m.Elif(fire):
+                for j in range(4):
+                    sets_equal = 1 if j == q else same[max(q, j), min(q, j)]
+                    with m.If(act[j] & sets_equal):
+                        assign(q, new[j])
 
     def _memory_port(self, m, f):
         """``AR`` from the queue; ``R`` beats into the fill buffer (beat ``n`` = texel ``(n mod B, n div B)``)."""

@@ -199,9 +199,6 @@ class DecoupledTexCache(wiring.Component):
         nreq = Signal(self.req, name="nreq")
         m.d.comb += nreq.eq(ififo.r_data)
         nc, nsame = self._corners(m, nreq, "n")
-        tags = [Signal(self.line_bits, name=f"tag{j}") for j in range(S * W)]
-        valid = [Signal(name=f"valid{j}") for j in range(S * W)]
-        age = [Signal(wb, init=j % W, name=f"age{j}") for j in range(S * W)]
         # the held lookup: its request, corners and rows in registers
         req, t_valid = Signal(self.req, name="req"), Signal(name="t_valid")
         k, nf = Signal(2, name="k"), Signal(3, name="nf")  # next corner to check, fills so far
@@ -261,8 +258,8 @@ class DecoupledTexCache(wiring.Component):
         for q in range(4):
             m.d.comb += ways[q].eq(eff[c[q].src])
         new = self._new_rows(m, c, way_now)
-        self._update(m, c, act, fire, new, tags, valid, age)
-        self._rows(m, c, nc, same, act, fire, accept, new, tags, valid, age)
+        stored = self._store(m, c, nc, act, fire, new)
+        self._rows(m, c, nc, same, act, fire, accept, new, stored)
         self._queue(m, f, c, req, act, fire, last, step_miss, nf, ways)
         f.t_valid = t_valid | (ififo.level != 0)
 
@@ -329,23 +326,47 @@ class DecoupledTexCache(wiring.Component):
             out.append((tags, valids, ages))
         return out
 
-    def _update(self, m, c, act, fire, new, tags, valid, age):
-        """Each set touched in this step (at most one corner a set) takes the row of the corner that touches
-        it."""
+    def _store(self, m, c, nc, act, fire, new) -> list:
+        """The tag store: each set's row (its ways' tags, valid bits and ages) in LUT RAM with a write port per
+        corner (a step writes at most one set per corner) and a read port per corner of the next lookup, built
+        as a live-value table: one memory per write and read port, and per set a register naming the write port
+        that wrote it last, and whether any did since reset (else the row is the empty one: no way valid, ages
+        in way order). Returns per corner of the next lookup its set's row ``(tags, valids, ages)``."""
         P = self.params
-        W = P.ways
-        for s in range(P.sets):
-            for q in range(4):
-                with m.If(fire & act[q] & c[q].hot[s]):
-                    for v in range(W):
-                        j = s * W + v
-                        m.d.sync += [tags[j].eq(new[q][0][v]), valid[j].eq(new[q][1][v]), age[j].eq(new[q][2][v])]
+        W, S = P.ways, P.sets
+        wb, lb = max(1, (W - 1).bit_length()), self.line_bits
+        width = W * (lb + 1 + wb)
+        empty = Cat(*[Const(0, lb)] * W, *[Const(0, 1)] * W, *[Const(w, wb) for w in range(W)])
+        lvt = [Signal(2, name=f"lvt{j}") for j in range(S)]
+        written = [Signal(name=f"written{j}") for j in range(S)]
+        for w in range(4):
+            with m.If(fire & act[w]):
+                for j in range(S):
+                    with m.If(c[w].hot[j]):
+                        m.d.sync += [lvt[j].eq(w), written[j].eq(1)]
+        out = []
+        for r in range(4):
+            datas = []
+            for w in range(4):
+                mem = Memory(shape=width, depth=S, init=[])
+                m.submodules[f"tags_w{w}_r{r}"] = mem
+                wp, rp = mem.write_port(), mem.read_port(domain="comb")
+                m.d.comb += [wp.addr.eq(c[w].set), wp.data.eq(Cat(*new[w][0], *new[w][1], *new[w][2])),
+                             wp.en.eq(fire & act[w]), rp.addr.eq(nc[r].set)]
+                datas.append(rp.data)
+            row = Signal(width, name=f"stored{r}")
+            m.d.comb += row.eq(Mux(Array(written)[nc[r].set], Array(datas)[Array(lvt)[nc[r].set]], empty))
+            tags = [row[v * lb:(v + 1) * lb] for v in range(W)]
+            valids = [row[W * lb + v] for v in range(W)]
+            ages = [row[W * (lb + 1) + v * wb:W * (lb + 1) + (v + 1) * wb] for v in range(W)]
+            out.append((tags, valids, ages))
+        return out
 
-    def _rows(self, m, c, nc, same, act, fire, accept, new, tags, valid, age):
+    def _rows(self, m, c, nc, same, act, fire, accept, new, stored):
         """The held rows: loaded with a lookup (each corner's set's row of the tag registers, or the row this
         clock's step writes to that set), else updated by a step that touches their set."""
         P = self.params
-        W, S = P.ways, P.sets
+        W = P.ways
 
         def assign(q, row):
             m.d.sync += [c[q].tags[v].eq(row[0][v]) for v in range(W)]
@@ -354,8 +375,7 @@ class DecoupledTexCache(wiring.Component):
 
         for q in range(4):
             # the next lookup's row: its set's registers, or the row a step writes to that set in this clock
-            regs = [[Array(r[s * W + v] for s in range(S))[nc[q].set] if S > 1 else r[v] for v in range(W)]
-                    for r in (tags, valid, age)]
+            regs = stored[q]
             fwd = [Signal(name=f"fwd{q}_{j}") for j in range(4)]
             with m.If(accept):
                 assign(q, regs)

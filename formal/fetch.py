@@ -102,16 +102,16 @@ def rows_coherent(h: Harness, s, p: TexCacheParams):
     ``rtl/texcache_decoupled.py``'s tag stage): ``rows_coherent`` for every corner, way and field; and the sets'
     one-hot copies and pairwise equalities are the sets' (what the updates select by), while a lookup is held."""
     W = p.ways
+    tables = {(field, w): Array(s(f"{field}{j * W + w}") for j in range(p.sets))
+              for field in ("tag", "valid", "age") for w in range(W)}
     ok = 1
     for q in range(4):
         set_ = s(f"set{q}")
         h.check(~s("t_valid") | (s(f"hot{q}") == (1 << set_)[:p.sets]), f"hot{q}_is_set")
         for j in range(q):
             h.check(~s("t_valid") | (s(f"same{q}_{j}") == (set_ == s(f"set{j}"))), f"same{q}_{j}_is_sets")
-        for w in range(W):
-            for field, regs in (("tag", "tag"), ("valid", "valid"), ("age", "age")):
-                table = Array(s(f"{regs}{j * W + w}") for j in range(p.sets))
-                ok = ok & (s(f"row_{field}{q}_{w}") == table[set_])
+        for (field, w), table in tables.items():
+            ok = ok & (s(f"row_{field}{q}_{w}") == table[set_])
     h.check(~s("t_valid") | ok, "rows_coherent")
 
 

@@ -261,7 +261,7 @@ class DecoupledTexCache(wiring.Component):
         stored = self._store(m, c, nc, act, fire, new)
         self._rows(m, c, nc, same, act, fire, accept, new, stored)
         self._queue(m, f, c, req, act, fire, last, step_miss, nf, ways)
-        f.t_valid = t_valid | (ififo.level != 0)
+        f.tag_busy = t_valid | (ififo.level != 0)           # a lookup in the input FIFO or held
 
     def _queue(self, m, f, c, req, act, fire, last, step_miss, nf, ways):
         """The step's miss (at most one) into the ``AR`` queue and the slot queue; the lookup's entry into the
@@ -461,4 +461,4 @@ class DecoupledTexCache(wiring.Component):
         m.d.comb += [self.o.valid.eq(o_valid), self.o.payload.texels.eq(Cat(*(rdata[sel[q]] for q in range(4))))]
         if self.side_bits:
             m.d.comb += self.o.payload.side.eq(side)
-        m.d.comb += self.busy.eq(f.t_valid | f.lfifo.r_rdy | o_valid | (f.inflight != 0))
+        m.d.comb += self.busy.eq(f.tag_busy | f.lfifo.r_rdy | o_valid | (f.inflight != 0))

@@ -10,8 +10,8 @@ request names one by its index). Organisation (``docs/texcache.md``):
   stream in the clock the tag stage decides it; the next lookup's corner lines and sets are computed from its
   output register a clock ahead.
 - **Tag stage**: the lookup's up to four distinct lines in corner order ``(x0, y0), (x1, y0), (x0, y1), (x1, y1)``
-  against the tags (each corner's set's row held in registers beside the lookup, kept equal to the tag
-  registers), LRU, the lowest invalid way first, a duplicate line skipped -- exactly
+  against the tags (the tag store in LUT RAM, each corner's set's row held in registers beside the lookup, kept
+  equal to the store), LRU, the lowest invalid way first, a duplicate line skipped -- exactly
   :func:`fxmodel.units.texcache.simulate`. All remaining lines in one clock when they fall in distinct sets and at
   most one of them misses (the common case: one line, or two neighbouring blocks, which the XOR index puts in
   different sets); otherwise one line a clock, in order. A miss allocates its way at once and queues its line's
@@ -46,12 +46,17 @@ from fxmodel.core.unit import require
 from fxmodel.units.texcache import Layout, TexCacheParams
 from rtl.rop import axi_signature
 
-__all__ = ["DecoupledTexCache", "request_layout", "INPUT_DEPTH"]
+__all__ = ["DecoupledTexCache", "request_layout", "row_word", "INPUT_DEPTH"]
 
 #: Lookups the input FIFO holds: Amaranth's ``SyncFIFOBuffered`` (registered ``w_rdy`` and output) takes one a
 #: clock from depth 3 (its inner FIFO of 2 has room while one entry leaves; at depth 2 it would take one every
 #: other clock).
 INPUT_DEPTH = 3
+
+
+def row_word(tags, valids, ages):
+    """A set's row as one word of the tag store: its ways' tags, then their valid bits, then their ages."""
+    return Cat(*tags, *valids, *ages)
 
 
 def request_layout(layout: Layout, side_bits: int = 0, skip: bool = False) -> data.StructLayout:
@@ -145,7 +150,7 @@ class DecoupledTexCache(wiring.Component):
             copy_done=Signal(name="copy_done"))
         m.submodules.lfifo, m.submodules.arq, m.submodules.slots = f.lfifo, f.arq, f.slots
         m.d.sync += f.inflight.eq(f.inflight + f.miss_now - f.copy_done)
-        self._tag_stage(m, f)
+        self._tag_stage(m, f, platform)
         self._memory_port(m, f)
         self._data_stage(m, f)
         return m
@@ -180,15 +185,15 @@ class DecoupledTexCache(wiring.Component):
                 m.d.comb += same[q, j].eq(c[q].set == c[j].set)
         return c, same
 
-    def _tag_stage(self, m, f):
+    def _tag_stage(self, m, f, platform):
         """The input FIFO, the next lookup's corners, and the held lookup's corners against its sets' rows: a step
         of one or all remaining corners a clock.
 
         Timing (``docs/texcache.md``): ``i.ready`` is the input FIFO's registered ``w_rdy``, so no decision of
         the tag stage reaches the stream before it; the corners' lines, sets and duplicates are computed from the
         FIFO's output register and loaded with the lookup; each corner's set's row (tags, valid bits, ages) is
-        loaded with it too, from the tag registers, with this clock's update forwarded, and kept equal to the tag
-        registers while the lookup is held (a step that updates a set updates every held row of that set). So a
+        loaded with it too, from the tag store (:meth:`_store`), with this clock's update forwarded, and kept
+        equal to the store while the lookup is held (a step that updates a set updates every held row of that set). So a
         step's decision starts from registers: the compare of the rows with the lines, the step's corners, and
         the update."""
         P = self.params
@@ -258,7 +263,7 @@ class DecoupledTexCache(wiring.Component):
         for q in range(4):
             m.d.comb += ways[q].eq(eff[c[q].src])
         new = self._new_rows(m, c, way_now)
-        stored = self._store(m, c, nc, act, fire, new)
+        stored = self._store(m, c, nc, act, fire, new, platform)
         self._rows(m, c, nc, same, act, fire, accept, new, stored)
         self._queue(m, f, c, req, act, fire, last, step_miss, nf, ways)
         f.tag_busy = t_valid | (ififo.level != 0)           # a lookup in the input FIFO or held
@@ -326,17 +331,24 @@ class DecoupledTexCache(wiring.Component):
             out.append((tags, valids, ages))
         return out
 
-    def _store(self, m, c, nc, act, fire, new) -> list:
+    def _store(self, m, c, nc, act, fire, new, platform) -> list:
         """The tag store: each set's row (its ways' tags, valid bits and ages) in LUT RAM with a write port per
-        corner (a step writes at most one set per corner) and a read port per corner of the next lookup, built
-        as a live-value table: one memory per write and read port, and per set a register naming the write port
-        that wrote it last, and whether any did since reset (else the row is the empty one: no way valid, ages
-        in way order). Returns per corner of the next lookup its set's row ``(tags, valids, ages)``."""
+        corner (a step writes at most one set per corner, and a set from at most one corner) and a read port per
+        corner of the next lookup, built as a live-value table (LaForest & Steffan, FPGA 2010): a memory per write
+        and read port (each write port writes its row into its four memories, one per read port), and per set a
+        register naming the write port that wrote it last (``lvt``) and whether any did since reset
+        (``written``; else the row is the empty one: no way valid, ages in way order). A read port reads its four
+        memories and takes the live one's word. Returns per corner of the next lookup its set's row ``(tags,
+        valids, ages)``.
+
+        On the formal platform each set's live row as each read port sees it is named too (``store{j}_r{r}``:
+        memories read at every address, as :class:`rtl.streams.CreditFIFO` names its slots), for the proof that
+        the held rows are the store's (``formal/fetch.py``)."""
         P = self.params
         W, S = P.ways, P.sets
         wb, lb = max(1, (W - 1).bit_length()), self.line_bits
         width = W * (lb + 1 + wb)
-        empty = Cat(*[Const(0, lb)] * W, *[Const(0, 1)] * W, *[Const(w, wb) for w in range(W)])
+        empty = row_word([Const(0, lb)] * W, [Const(0, 1)] * W, [Const(w, wb) for w in range(W)])
         lvt = [Signal(2, name=f"lvt{j}") for j in range(S)]
         written = [Signal(name=f"written{j}") for j in range(S)]
         for w in range(4):
@@ -346,16 +358,29 @@ class DecoupledTexCache(wiring.Component):
                         m.d.sync += [lvt[j].eq(w), written[j].eq(1)]
         out = []
         for r in range(4):
-            datas = []
+            mems = []
             for w in range(4):
                 mem = Memory(shape=width, depth=S, init=[])
                 m.submodules[f"tags_w{w}_r{r}"] = mem
-                wp, rp = mem.write_port(), mem.read_port(domain="comb")
-                m.d.comb += [wp.addr.eq(c[w].set), wp.data.eq(Cat(*new[w][0], *new[w][1], *new[w][2])),
-                             wp.en.eq(fire & act[w]), rp.addr.eq(nc[r].set)]
-                datas.append(rp.data)
-            row = Signal(width, name=f"stored{r}")
-            m.d.comb += row.eq(Mux(Array(written)[nc[r].set], Array(datas)[Array(lvt)[nc[r].set]], empty))
+                wp = mem.write_port()
+                m.d.comb += [wp.addr.eq(c[w].set), wp.data.eq(row_word(*new[w])),
+                             wp.en.eq(fire & act[w])]
+                mems.append(mem)
+
+            def live(addr, name):
+                datas = []
+                for mem in mems:
+                    rp = mem.read_port(domain="comb")
+                    m.d.comb += rp.addr.eq(addr)
+                    datas.append(rp.data)
+                row = Signal(width, name=name)
+                m.d.comb += row.eq(Mux(Array(written)[addr], Array(datas)[Array(lvt)[addr]], empty))
+                return row
+
+            row = live(nc[r].set, f"stored{r}")
+            if platform == "formal":
+                for j in range(S):
+                    live(Const(j, len(nc[r].set)), f"store{j}_r{r}")
             tags = [row[v * lb:(v + 1) * lb] for v in range(W)]
             valids = [row[W * lb + v] for v in range(W)]
             ages = [row[W * (lb + 1) + v * wb:W * (lb + 1) + (v + 1) * wb] for v in range(W)]
@@ -363,7 +388,7 @@ class DecoupledTexCache(wiring.Component):
         return out
 
     def _rows(self, m, c, nc, same, act, fire, accept, new, stored):
-        """The held rows: loaded with a lookup (each corner's set's row of the tag registers, or the row this
+        """The held rows: loaded with a lookup (each corner's set's row read from the tag store, or the row this
         clock's step writes to that set), else updated by a step that touches their set."""
         P = self.params
         W = P.ways
@@ -374,11 +399,10 @@ class DecoupledTexCache(wiring.Component):
             m.d.sync += [c[q].ages[v].eq(row[2][v]) for v in range(W)]
 
         for q in range(4):
-            # the next lookup's row: its set's registers, or the row a step writes to that set in this clock
-            regs = stored[q]
+            # the next lookup's row: its set's in the store, or the row a step writes to that set in this clock
             fwd = [Signal(name=f"fwd{q}_{j}") for j in range(4)]
             with m.If(accept):
-                assign(q, regs)
+                assign(q, stored[q])
                 for j in range(4):
                     m.d.comb += fwd[j].eq(fire & act[j] & (c[j].set == nc[q].set))
                     with m.If(fwd[j]):

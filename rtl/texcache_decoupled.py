@@ -356,6 +356,17 @@ class DecoupledTexCache(wiring.Component):
                 for j in range(S):
                     with m.If(c[w].hot[j]):
                         m.d.sync += [lvt[j].eq(w), written[j].eq(1)]
+
+        def live(mems, addr, name):                    # a set's live row through one read port's memories
+            datas = []
+            for mem in mems:
+                rp = mem.read_port(domain="comb")
+                m.d.comb += rp.addr.eq(addr)
+                datas.append(rp.data)
+            row = Signal(width, name=name)
+            m.d.comb += row.eq(Mux(Array(written)[addr], Array(datas)[Array(lvt)[addr]], empty))
+            return row
+
         out = []
         for r in range(4):
             mems = []
@@ -363,24 +374,12 @@ class DecoupledTexCache(wiring.Component):
                 mem = Memory(shape=width, depth=S, init=[])
                 m.submodules[f"tags_w{w}_r{r}"] = mem
                 wp = mem.write_port()
-                m.d.comb += [wp.addr.eq(c[w].set), wp.data.eq(row_word(*new[w])),
-                             wp.en.eq(fire & act[w])]
+                m.d.comb += [wp.addr.eq(c[w].set), wp.data.eq(row_word(*new[w])), wp.en.eq(fire & act[w])]
                 mems.append(mem)
-
-            def live(addr, name):
-                datas = []
-                for mem in mems:
-                    rp = mem.read_port(domain="comb")
-                    m.d.comb += rp.addr.eq(addr)
-                    datas.append(rp.data)
-                row = Signal(width, name=name)
-                m.d.comb += row.eq(Mux(Array(written)[addr], Array(datas)[Array(lvt)[addr]], empty))
-                return row
-
-            row = live(nc[r].set, f"stored{r}")
+            row = live(mems, nc[r].set, f"stored{r}")
             if platform == "formal":
                 for j in range(S):
-                    live(Const(j, len(nc[r].set)), f"store{j}_r{r}")
+                    live(mems, Const(j, len(nc[r].set)), f"store{j}_r{r}")
             tags = [row[v * lb:(v + 1) * lb] for v in range(W)]
             valids = [row[W * lb + v] for v in range(W)]
             ages = [row[W * (lb + 1) + v * wb:W * (lb + 1) + (v + 1) * wb] for v in range(W)]

@@ -9,8 +9,8 @@ capacity), each entry adds:
 - the decoupled cache: its white-box invariants (lines owed = lines queued for ``AR`` + bursts outstanding + lines
   complete in the fill buffer, never above ``misses``; the slot queue as long; the beat counter the burst's; a copy
   only of a complete line; lookups inside = the input FIFO + the tag stage + the lookup FIFO + the output
-  register; the held lookup's rows equal to its sets' tag registers), which make k-induction close; covers:
-  ``misses`` bursts outstanding, the lookup FIFO full;
+  register; the tag store's copies agree and the held lookup's rows are its sets' rows in the store), which make
+  k-induction close; covers: ``misses`` bursts outstanding, the lookup FIFO full;
 - the texture fetch: each ``AR`` comes from exactly one cache's handshake with its fields (``ar_from_one``), each
   cache's own bursts outstanding at most its ``misses`` (``c*_outstanding``), and every ``R`` beat routed to
   exactly the cache that issued its burst (``r_to_owner``, against a queue of the issuing caches kept by the
@@ -23,7 +23,7 @@ from amaranth.hdl import Array, Cat, Signal
 from amaranth.lib.fifo import SyncFIFOBuffered
 
 from fxmodel.units.texcache import Layout, TexCacheParams
-from rtl.texcache_decoupled import INPUT_DEPTH, DecoupledTexCache
+from rtl.texcache_decoupled import INPUT_DEPTH, DecoupledTexCache, row_word
 from rtl.texfetch import MAPS, TexFetch
 
 from . import whitebox
@@ -98,20 +98,25 @@ def cache_invariants(h: Harness, sig, top, path: str, cache, pend, beat_ref, ins
 
 
 def rows_coherent(h: Harness, s, p: TexCacheParams):
-    """The held lookup's rows are its corners' sets' rows of the tag registers (the forwarding and the updates of
-    ``rtl/texcache_decoupled.py``'s tag stage): ``rows_coherent`` for every corner, way and field; and the sets'
-    one-hot copies and pairwise equalities are the sets' (what the updates select by), while a lookup is held."""
+    """The tag store (``rtl/texcache_decoupled.py``'s live-value table over LUT RAMs) and the held rows:
+    ``store_copies_agree`` (each set's live row is the same through every read port: a write port writes all its
+    copies), ``rows_coherent`` (while a lookup is held, each corner's held row is its set's row in the store: the
+    forwarding and the updates of the tag stage), and the sets' one-hot copies and pairwise equalities are the
+    sets' (what the updates select by)."""
     W = p.ways
-    tables = {(field, w): Array(s(f"{field}{j * W + w}") for j in range(p.sets))
-              for field in ("tag", "valid", "age") for w in range(W)}
+    store = [[s(f"store{j}_r{r}") for j in range(p.sets)] for r in range(4)]
+    for j in range(p.sets):
+        for r in range(1, 4):
+            h.check(store[r][j] == store[0][j], f"store{j}_copy{r}_agrees")
+    table = Array(store[0])
     ok = 1
     for q in range(4):
         set_ = s(f"set{q}")
         h.check(~s("t_valid") | (s(f"hot{q}") == (1 << set_)[:p.sets]), f"hot{q}_is_set")
         for j in range(q):
             h.check(~s("t_valid") | (s(f"same{q}_{j}") == (set_ == s(f"set{j}"))), f"same{q}_{j}_is_sets")
-        for (field, w), table in tables.items():
-            ok = ok & (s(f"row_{field}{q}_{w}") == table[set_])
+        held = row_word(*([s(f"row_{field}{q}_{w}") for w in range(W)] for field in ("tag", "valid", "age")))
+        ok = ok & (held == table[set_])
     h.check(~s("t_valid") | ok, "rows_coherent")
 
 
@@ -172,7 +177,7 @@ ENTRIES = [
                 arlen=DEC_PARAMS.beats_per_line - 1, max_out=DEC_PARAMS.misses, capacity=_capacity(DEC_PARAMS),
                 invariants=_decoupled_invariants, cover_depth=30,
                 extra={"covers": "; lines owed = queued + outstanding + filled <= misses, inside = input FIFO + tag "
-                                 "stage + lookup FIFO + output, held rows = tag registers"}),
+                                 "stage + lookup FIFO + output, held rows = the tag store's"}),
     ReadManager("texfetch_axi",
                 f"TexFetch: two DecoupledTexCache as above on one AXI4 port (two 4x4 maps, the second across 4 KB, "
                 f"memory stalls <= {STALL})", small_texfetch, arlen=DEC_PARAMS.beats_per_line - 1,

@@ -10,8 +10,8 @@ request names one by its index). Organisation (``docs/texcache.md``):
   stream in the clock the tag stage decides it; the next lookup's corner lines and sets are computed from its
   output register a clock ahead.
 - **Tag stage**: the lookup's up to four distinct lines in corner order ``(x0, y0), (x1, y0), (x0, y1), (x1, y1)``
-  against the tags (each corner's set's row held in registers beside the lookup, kept equal to the tag
-  registers), LRU, the lowest invalid way first, a duplicate line skipped -- exactly
+  against the tags (the tag store in LUT RAM, each corner's set's row held in registers beside the lookup, kept
+  equal to the store), LRU, the lowest invalid way first, a duplicate line skipped -- exactly
   :func:`fxmodel.units.texcache.simulate`. All remaining lines in one clock when they fall in distinct sets and at
   most one of them misses (the common case: one line, or two neighbouring blocks, which the XOR index puts in
   different sets); otherwise one line a clock, in order. A miss allocates its way at once and queues its line's
@@ -46,12 +46,17 @@ from fxmodel.core.unit import require
 from fxmodel.units.texcache import Layout, TexCacheParams
 from rtl.rop import axi_signature
 
-__all__ = ["DecoupledTexCache", "request_layout", "INPUT_DEPTH"]
+__all__ = ["DecoupledTexCache", "request_layout", "row_word", "INPUT_DEPTH"]
 
 #: Lookups the input FIFO holds: Amaranth's ``SyncFIFOBuffered`` (registered ``w_rdy`` and output) takes one a
 #: clock from depth 3 (its inner FIFO of 2 has room while one entry leaves; at depth 2 it would take one every
 #: other clock).
 INPUT_DEPTH = 3
+
+
+def row_word(tags, valids, ages):
+    """A set's row as one word of the tag store: its ways' tags, then their valid bits, then their ages."""
+    return Cat(*tags, *valids, *ages)
 
 
 def request_layout(layout: Layout, side_bits: int = 0, skip: bool = False) -> data.StructLayout:
@@ -145,7 +150,7 @@ class DecoupledTexCache(wiring.Component):
             copy_done=Signal(name="copy_done"))
         m.submodules.lfifo, m.submodules.arq, m.submodules.slots = f.lfifo, f.arq, f.slots
         m.d.sync += f.inflight.eq(f.inflight + f.miss_now - f.copy_done)
-        self._tag_stage(m, f)
+        self._tag_stage(m, f, platform)
         self._memory_port(m, f)
         self._data_stage(m, f)
         return m
@@ -180,15 +185,15 @@ class DecoupledTexCache(wiring.Component):
                 m.d.comb += same[q, j].eq(c[q].set == c[j].set)
         return c, same
 
-    def _tag_stage(self, m, f):
+    def _tag_stage(self, m, f, platform):
         """The input FIFO, the next lookup's corners, and the held lookup's corners against its sets' rows: a step
         of one or all remaining corners a clock.
 
         Timing (``docs/texcache.md``): ``i.ready`` is the input FIFO's registered ``w_rdy``, so no decision of
         the tag stage reaches the stream before it; the corners' lines, sets and duplicates are computed from the
         FIFO's output register and loaded with the lookup; each corner's set's row (tags, valid bits, ages) is
-        loaded with it too, from the tag registers, with this clock's update forwarded, and kept equal to the tag
-        registers while the lookup is held (a step that updates a set updates every held row of that set). So a
+        loaded with it too, from the tag store (:meth:`_store`), with this clock's update forwarded, and kept
+        equal to the store while the lookup is held (a step that updates a set updates every held row of that set). So a
         step's decision starts from registers: the compare of the rows with the lines, the step's corners, and
         the update."""
         P = self.params
@@ -199,9 +204,6 @@ class DecoupledTexCache(wiring.Component):
         nreq = Signal(self.req, name="nreq")
         m.d.comb += nreq.eq(ififo.r_data)
         nc, nsame = self._corners(m, nreq, "n")
-        tags = [Signal(self.line_bits, name=f"tag{j}") for j in range(S * W)]
-        valid = [Signal(name=f"valid{j}") for j in range(S * W)]
-        age = [Signal(wb, init=j % W, name=f"age{j}") for j in range(S * W)]
         # the held lookup: its request, corners and rows in registers
         req, t_valid = Signal(self.req, name="req"), Signal(name="t_valid")
         k, nf = Signal(2, name="k"), Signal(3, name="nf")  # next corner to check, fills so far
@@ -261,8 +263,8 @@ class DecoupledTexCache(wiring.Component):
         for q in range(4):
             m.d.comb += ways[q].eq(eff[c[q].src])
         new = self._new_rows(m, c, way_now)
-        self._update(m, c, act, fire, new, tags, valid, age)
-        self._rows(m, c, nc, same, act, fire, accept, new, tags, valid, age)
+        stored = self._store(m, c, nc, act, fire, new, platform)
+        self._rows(m, c, nc, same, act, fire, accept, new, stored)
         self._queue(m, f, c, req, act, fire, last, step_miss, nf, ways)
         f.tag_busy = t_valid | (ififo.level != 0)           # a lookup in the input FIFO or held
 
@@ -329,23 +331,66 @@ class DecoupledTexCache(wiring.Component):
             out.append((tags, valids, ages))
         return out
 
-    def _update(self, m, c, act, fire, new, tags, valid, age):
-        """Each set touched in this step (at most one corner a set) takes the row of the corner that touches
-        it."""
-        P = self.params
-        W = P.ways
-        for s in range(P.sets):
-            for q in range(4):
-                with m.If(fire & act[q] & c[q].hot[s]):
-                    for v in range(W):
-                        j = s * W + v
-                        m.d.sync += [tags[j].eq(new[q][0][v]), valid[j].eq(new[q][1][v]), age[j].eq(new[q][2][v])]
+    def _store(self, m, c, nc, act, fire, new, platform) -> list:
+        """The tag store: each set's row (its ways' tags, valid bits and ages) in LUT RAM with a write port per
+        corner (a step writes at most one set per corner, and a set from at most one corner) and a read port per
+        corner of the next lookup, built as a live-value table (LaForest & Steffan, FPGA 2010): a memory per write
+        and read port (each write port writes its row into its four memories, one per read port), and per set a
+        register naming the write port that wrote it last (``lvt``) and whether any did since reset
+        (``written``; else the row is the empty one: no way valid, ages in way order). A read port reads its four
+        memories and takes the live one's word. Returns per corner of the next lookup its set's row ``(tags,
+        valids, ages)``.
 
-    def _rows(self, m, c, nc, same, act, fire, accept, new, tags, valid, age):
-        """The held rows: loaded with a lookup (each corner's set's row of the tag registers, or the row this
-        clock's step writes to that set), else updated by a step that touches their set."""
+        On the formal platform each set's live row as each read port sees it is named too (``store{j}_r{r}``:
+        memories read at every address, as :class:`rtl.streams.CreditFIFO` names its slots), for the proof that
+        the held rows are the store's (``formal/fetch.py``)."""
         P = self.params
         W, S = P.ways, P.sets
+        wb, lb = max(1, (W - 1).bit_length()), self.line_bits
+        width = W * (lb + 1 + wb)
+        empty = row_word([Const(0, lb)] * W, [Const(0, 1)] * W, [Const(w, wb) for w in range(W)])
+        lvt = [Signal(2, name=f"lvt{j}") for j in range(S)]
+        written = [Signal(name=f"written{j}") for j in range(S)]
+        for w in range(4):
+            with m.If(fire & act[w]):
+                for j in range(S):
+                    with m.If(c[w].hot[j]):
+                        m.d.sync += [lvt[j].eq(w), written[j].eq(1)]
+
+        def live(mems, addr, name):                    # a set's live row through one read port's memories
+            datas = []
+            for mem in mems:
+                rp = mem.read_port(domain="comb")
+                m.d.comb += rp.addr.eq(addr)
+                datas.append(rp.data)
+            row = Signal(width, name=name)
+            m.d.comb += row.eq(Mux(Array(written)[addr], Array(datas)[Array(lvt)[addr]], empty))
+            return row
+
+        out = []
+        for r in range(4):
+            mems = []
+            for w in range(4):
+                mem = Memory(shape=width, depth=S, init=[])
+                m.submodules[f"tags_w{w}_r{r}"] = mem
+                wp = mem.write_port()
+                m.d.comb += [wp.addr.eq(c[w].set), wp.data.eq(row_word(*new[w])), wp.en.eq(fire & act[w])]
+                mems.append(mem)
+            row = live(mems, nc[r].set, f"stored{r}")
+            if platform == "formal":
+                for j in range(S):
+                    live(mems, Const(j, len(nc[r].set)), f"store{j}_r{r}")
+            tags = [row[v * lb:(v + 1) * lb] for v in range(W)]
+            valids = [row[W * lb + v] for v in range(W)]
+            ages = [row[W * (lb + 1) + v * wb:W * (lb + 1) + (v + 1) * wb] for v in range(W)]
+            out.append((tags, valids, ages))
+        return out
+
+    def _rows(self, m, c, nc, same, act, fire, accept, new, stored):
+        """The held rows: loaded with a lookup (each corner's set's row read from the tag store, or the row this
+        clock's step writes to that set), else updated by a step that touches their set."""
+        P = self.params
+        W = P.ways
 
         def assign(q, row):
             m.d.sync += [c[q].tags[v].eq(row[0][v]) for v in range(W)]
@@ -353,12 +398,10 @@ class DecoupledTexCache(wiring.Component):
             m.d.sync += [c[q].ages[v].eq(row[2][v]) for v in range(W)]
 
         for q in range(4):
-            # the next lookup's row: its set's registers, or the row a step writes to that set in this clock
-            regs = [[Array(r[s * W + v] for s in range(S))[nc[q].set] if S > 1 else r[v] for v in range(W)]
-                    for r in (tags, valid, age)]
+            # the next lookup's row: its set's in the store, or the row a step writes to that set in this clock
             fwd = [Signal(name=f"fwd{q}_{j}") for j in range(4)]
             with m.If(accept):
-                assign(q, regs)
+                assign(q, stored[q])
                 for j in range(4):
                     m.d.comb += fwd[j].eq(fire & act[j] & (c[j].set == nc[q].set))
                     with m.If(fwd[j]):

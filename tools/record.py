@@ -45,8 +45,16 @@ def _commit() -> str | None:
 
 
 def command_line(prog: str, argv=None) -> str:
-    """The command as typed: ``prog`` and the arguments (``sys.argv[1:]`` when ``argv`` is ``None``)."""
-    return " ".join([prog, *map(shlex.quote, sys.argv[1:] if argv is None else argv)])
+    """The command as typed: ``prog`` and the arguments (``sys.argv[1:]`` when ``argv`` is ``None``), an absolute
+    path inside the working folder written relative to it (a record names no one machine's folders)."""
+    here = Path.cwd().resolve()
+
+    def rel(arg: str) -> str:
+        if os.path.isabs(arg) and Path(arg).resolve().is_relative_to(here):
+            return str(Path(arg).resolve().relative_to(here))
+        return arg
+
+    return " ".join([prog, *(shlex.quote(rel(a)) for a in (sys.argv[1:] if argv is None else argv))])
 
 
 def machine() -> dict:

@@ -46,7 +46,7 @@ from fxmodel.core.unit import require
 from fxmodel.units.texcache import Layout, TexCacheParams
 from rtl.rop import axi_signature
 
-__all__ = ["DecoupledTexCache", "request_layout", "row_word", "INPUT_DEPTH"]
+__all__ = ["DecoupledTexCache", "request_layout", "age_bits", "row_word", "row_fields", "INPUT_DEPTH"]
 
 #: Lookups the input FIFO holds: Amaranth's ``SyncFIFOBuffered`` (registered ``w_rdy`` and output) takes one a
 #: clock from depth 3 (its inner FIFO of 2 has room while one entry leaves; at depth 2 it would take one every
@@ -54,9 +54,23 @@ __all__ = ["DecoupledTexCache", "request_layout", "row_word", "INPUT_DEPTH"]
 INPUT_DEPTH = 3
 
 
+def age_bits(ways: int) -> int:
+    """Bits of a way's LRU age (``0`` the youngest, ``ways - 1`` the oldest)."""
+    return max(1, (ways - 1).bit_length())
+
+
 def row_word(tags, valids, ages):
     """A set's row as one word of the tag store: its ways' tags, then their valid bits, then their ages."""
     return Cat(*tags, *valids, *ages)
+
+
+def row_fields(word, ways: int, line_bits: int) -> tuple[list, list, list]:
+    """``(tags, valids, ages)`` of a word of :func:`row_word` (``ways`` ways of ``line_bits``-bit tags)."""
+    wb = age_bits(ways)
+    tags = [word[v * line_bits:(v + 1) * line_bits] for v in range(ways)]
+    valids = [word[ways * line_bits + v] for v in range(ways)]
+    base = ways * (line_bits + 1)
+    return tags, valids, [word[base + v * wb:base + (v + 1) * wb] for v in range(ways)]
 
 
 def request_layout(layout: Layout, side_bits: int = 0, skip: bool = False) -> data.StructLayout:
@@ -193,12 +207,12 @@ class DecoupledTexCache(wiring.Component):
         the tag stage reaches the stream before it; the corners' lines, sets and duplicates are computed from the
         FIFO's output register and loaded with the lookup; each corner's set's row (tags, valid bits, ages) is
         loaded with it too, from the tag store (:meth:`_store`), with this clock's update forwarded, and kept
-        equal to the store while the lookup is held (a step that updates a set updates every held row of that set). So a
-        step's decision starts from registers: the compare of the rows with the lines, the step's corners, and
-        the update."""
+        equal to the store while the lookup is held (a step that updates a set updates every held row of that
+        set). So a step's decision starts from registers: the compare of the rows with the lines, the step's
+        corners, and the update."""
         P = self.params
         W, S = P.ways, P.sets
-        wb = max(1, (W - 1).bit_length())
+        wb = age_bits(W)
         m.submodules.ififo = ififo = SyncFIFOBuffered(width=self.req.size, depth=INPUT_DEPTH)
         m.d.comb += [ififo.w_en.eq(self.i.valid), ififo.w_data.eq(self.i.payload), self.i.ready.eq(ififo.w_rdy)]
         nreq = Signal(self.req, name="nreq")
@@ -298,7 +312,7 @@ class DecoupledTexCache(wiring.Component):
         """Corner ``q``'s hit and way in its row, and the row's victim (the lowest invalid way, else the
         oldest): ``ways`` comparators."""
         W = self.params.ways
-        wb = max(1, (W - 1).bit_length())
+        wb = age_bits(W)
         cq.hit, cq.hit_way = Signal(name=f"hit{q}"), Signal(wb, name=f"hit_way{q}")
         free, free_way, old_way = Signal(name=f"free{q}"), Signal(wb, name=f"free_way{q}"), Signal(wb, name=f"old{q}")
         for w in reversed(range(W)):                             # the lowest way wins
@@ -315,7 +329,7 @@ class DecoupledTexCache(wiring.Component):
         """Each corner's row after its check: LRU (the way used becomes the youngest, the younger ones age by
         one) and, on a miss, the victim's tag and valid bit. ``[(tags, valids, ages)]`` per corner."""
         W = self.params.ways
-        wb = max(1, (W - 1).bit_length())
+        wb = age_bits(W)
         out = []
         for q in range(4):
             used_age = Signal(wb, name=f"used_age{q}")
@@ -346,9 +360,9 @@ class DecoupledTexCache(wiring.Component):
         the held rows are the store's (``formal/fetch.py``)."""
         P = self.params
         W, S = P.ways, P.sets
-        wb, lb = max(1, (W - 1).bit_length()), self.line_bits
-        width = W * (lb + 1 + wb)
+        wb, lb = age_bits(W), self.line_bits
         empty = row_word([Const(0, lb)] * W, [Const(0, 1)] * W, [Const(w, wb) for w in range(W)])
+        width = len(empty)
         lvt = [Signal(2, name=f"lvt{j}") for j in range(S)]
         written = [Signal(name=f"written{j}") for j in range(S)]
         for w in range(4):
@@ -380,10 +394,7 @@ class DecoupledTexCache(wiring.Component):
             if platform == "formal":
                 for j in range(S):
                     live(mems, Const(j, len(nc[r].set)), f"store{j}_r{r}")
-            tags = [row[v * lb:(v + 1) * lb] for v in range(W)]
-            valids = [row[W * lb + v] for v in range(W)]
-            ages = [row[W * (lb + 1) + v * wb:W * (lb + 1) + (v + 1) * wb] for v in range(W)]
-            out.append((tags, valids, ages))
+            out.append(row_fields(row, W, lb))
         return out
 
     def _rows(self, m, c, nc, same, act, fire, accept, new, stored):

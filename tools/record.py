@@ -50,9 +50,8 @@ def command_line(prog: str, argv=None) -> str:
     here = Path.cwd().resolve()
 
     def rel(arg: str) -> str:
-        if os.path.isabs(arg) and Path(arg).resolve().is_relative_to(here):
-            return str(Path(arg).resolve().relative_to(here))
-        return arg
+        path = Path(arg).resolve() if os.path.isabs(arg) else None
+        return str(path.relative_to(here)) if path is not None and path.is_relative_to(here) else arg
 
     return " ".join([prog, *(shlex.quote(rel(a)) for a in (sys.argv[1:] if argv is None else argv))])
 

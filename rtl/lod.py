@@ -38,7 +38,7 @@ from fxmodel.units.lod import FLAG_BAD_W, FLAG_SATURATED, FLAG_ZERO, LodParams
 
 from .fixed import const_mul, saturate, shift_round
 from .recip import leading_zeros
-from .unit import Pipe, UnitComponent, register
+from .unit import Pipe, UnitComponent, named, register
 
 __all__ = ["Lod", "log2_index", "magnitude", "group_shift", "top_part", "shift_into"]
 
@@ -124,7 +124,7 @@ class Lod(UnitComponent):
                 mag = magnitude(ins[group[0]])
                 for n in group[1:]:
                     mag = mag | magnitude(ins[n])
-                lzs[f"lz{k}"] = leading_zeros(top_part(mag, P.op_bits))
+                lzs[f"lz{k}"] = leading_zeros(named(pipe.m, top_part(mag, P.op_bits), f"mag{k}"))
         s = pipe.stage(**ins, **lzs)
 
         # 2: the shifts and the shifted operands (arithmetic shift: FLOOR; they fit op_bits by the shift's choice)
@@ -172,7 +172,7 @@ class Lod(UnitComponent):
 
         # 6: the four D's leading-zero count; Q = 0 exactly when every D is 0 (Q_x = D_sx^2 w^2 + D_tx^2 h^2)
         mag = magnitude(s.sx) | magnitude(s.tx) | magnitude(s.sy) | magnitude(s.ty)
-        lzd = leading_zeros(top_part(mag, P.sq_bits)) if P.d_bits > P.sq_bits else Const(0, 1)
+        lzd = leading_zeros(named(m, top_part(mag, P.sq_bits), "mag_d")) if P.d_bits > P.sq_bits else Const(0, 1)
         s = pipe.stage(**{d: getattr(s, d) for d, *_ in _TERMS}, lzd=lzd, w=s.w,
                        zero=Cat(*(getattr(s, d) == 0 for d, *_ in _TERMS)).all())
 

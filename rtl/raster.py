@@ -80,7 +80,7 @@ from fxmodel.units.raster import EDGE_LEFT, EDGE_RIGHT, RasterParams
 
 from .fixed import saturate, shape, shift_round
 from .streams import CreditFIFO, less_one_if, payload_layout
-from .unit import Pipe, kept_copy, register
+from .unit import Pipe, kept_copy, named, register
 
 __all__ = ["Raster", "record_layout", "fragment_layout", "row_layout"]
 
@@ -125,17 +125,21 @@ def _tree(pipe: Pipe, terms: dict, levels: int, carry: dict) -> tuple[dict, dict
     return {k: ts[0][0] for k, ts in terms.items()}, carry
 
 
-def _carry_save(terms: list, width: int) -> list:
+def _carry_save(m, terms: list, width: int, name: str) -> list:
     """Two values whose sum equals the sum of ``terms`` modulo ``2**width`` (3:2 compressors, one LUT level each:
-    no carry chain; the span start's products in logic, ``RasterParams.span_dsp`` off)."""
+    no carry chain; the span start's products in logic, ``RasterParams.span_dsp`` off). Each compressor's sum and
+    carry is a signal (``{name}_{level}_s{i}``, ``_c{i}``; :func:`rtl.unit.named`): each is read three times by
+    the next level."""
     terms = [Value.cast(t)[:width] for t in terms]
+    level = 0
     while len(terms) > 2:
         nxt = []
         for i in range(0, len(terms) - 2, 3):
             a, b, c = terms[i:i + 3]
-            nxt += [a ^ b ^ c, (((a & b) | (a & c) | (b & c)) << 1)[:width]]
+            nxt += [named(m, a ^ b ^ c, f"{name}_{level}_s{i // 3}"),
+                    named(m, (((a & b) | (a & c) | (b & c)) << 1)[:width], f"{name}_{level}_c{i // 3}")]
         nxt += terms[len(terms) - len(terms) % 3:] if len(terms) % 3 else []
-        terms = nxt
+        terms, level = nxt, level + 1
     return terms + [Const(0, width)] * (2 - len(terms))
 
 
@@ -311,7 +315,8 @@ class Raster(wiring.Component):
             dx = getattr(s3, f"dx_{n}")
             if not P.span_dsp:               # in logic: a_x's copies shifted by L's bits, carry-saved to two terms
                 parts |= {f"pp_{n}_{k}": t for k, t in enumerate(_carry_save(
-                    [Mux(offset[n][i], dx << i, 0)[:acc_w[n]] for i in range(len(offset[n]))], acc_w[n]))}
+                    m, [Mux(offset[n][i], dx << i, 0)[:acc_w[n]] for i in range(len(offset[n]))], acc_w[n],
+                    f"csa_{n}"))}
                 shifts[n] = [0, 0]
                 continue
             cut = [(dx[lo:lo + bits].as_signed() if signed else dx[lo:lo + bits], lo)

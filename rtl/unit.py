@@ -20,7 +20,7 @@ from amaranth.lib.wiring import In, Out
 from .dsp import RegisterSources, block, logic_product, registered_product, uses_blocks
 from .fixed import shape
 
-__all__ = ["unit_signature", "Pipe", "kept_copy", "COPY_SUFFIX", "KEEP_COPIES", "register", "build",
+__all__ = ["unit_signature", "Pipe", "kept_copy", "named", "COPY_SUFFIX", "KEEP_COPIES", "register", "build",
            "stream_native", "component_class"]
 
 
@@ -71,6 +71,18 @@ def kept_copy(m: Module, value, name: str) -> Signal:
     reg = Signal(value.shape(), name=f"{name}{COPY_SUFFIX}")
     m.d.sync += reg.eq(value)
     return reg
+
+
+def named(m: Module, value, name: str) -> Signal:
+    """A combinational signal ``name`` equal to ``value``, for a subexpression read more than once (a bit at a
+    time, or by several expressions). Amaranth lowers each statement's expression tree by copying it (its
+    ``DomainLowerer`` shares nothing), so an expression read ``k`` times is emitted ``k`` times and a tree of such
+    reads grows with their product (the level of detail's leading-zero counts over magnitudes, the scan converter's
+    carry-save span products: ``docs/performance.md``). Through a signal each is emitted once."""
+    value = Value.cast(value)
+    sig = Signal(value.shape(), name=name)
+    m.d.comb += sig.eq(value)
+    return sig
 
 
 class Pipe:

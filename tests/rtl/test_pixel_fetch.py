@@ -22,7 +22,7 @@ from rtl.unit import build
 def engine():
     from host.render import from_triangles, prepare
     from host.scene import scene_path
-    tframe = from_triangles(prepare(scene_path("tin-plane"), size=16))
+    tframe = from_triangles(prepare(scene_path("tin-plane"), size=16, cube_size=16))
     return dataclasses.replace(tframe.params, textures=TexCacheParams(block=4, sets=4, ways=2))
 
 
@@ -69,7 +69,8 @@ def test_trilinear_texels_arrive_after_the_level_stages():
 def mip_engine():
     from host.render import from_triangles, prepare
     from host.scene import scene_path
-    tframe = from_triangles(prepare(scene_path("grazing-floor"), size=16, preset="grazing-floor-mip"))
+    tframe = from_triangles(prepare(scene_path("grazing-floor"), size=16, preset="grazing-floor-mip",
+                                            cube_size=16))
     return dataclasses.replace(tframe.params, textures=TexCacheParams(block=4, sets=4, ways=2))
 
 

@@ -23,7 +23,7 @@ from amaranth.hdl import Array, Cat, Signal
 from amaranth.lib.fifo import SyncFIFOBuffered
 
 from fxmodel.units.texcache import Layout, TexCacheParams
-from rtl.texcache_decoupled import INPUT_DEPTH, DecoupledTexCache, row_word
+from rtl.texcache_decoupled import INPUT_DEPTH, DecoupledTexCache, row_lookup, row_word
 from rtl.texfetch import MAPS, TexFetch
 
 from . import whitebox
@@ -101,8 +101,9 @@ def rows_coherent(h: Harness, s, p: TexCacheParams):
     """The tag store (``rtl/texcache_decoupled.py``'s live-value table over LUT RAMs) and the held rows:
     ``store_copies_agree`` (each set's live row is the same through every read port: a write port writes all its
     copies), ``rows_coherent`` (while a lookup is held, each corner's held row is its set's row in the store: the
-    forwarding and the updates of the tag stage), and the sets' one-hot copies and pairwise equalities are the
-    sets' (what the updates select by)."""
+    forwarding and the updates of the tag stage), each corner's registered outcome is its line's in its held row
+    (``outcome{q}_is_row``: hit, the hit way on a hit, the victim; a step corrects them without a compare), and the
+    sets' one-hot copies and pairwise equalities are the sets' (what the updates select by)."""
     W = p.ways
     store = [[s(f"store{j}_r{r}") for j in range(p.sets)] for r in range(4)]
     for j in range(p.sets):
@@ -115,8 +116,11 @@ def rows_coherent(h: Harness, s, p: TexCacheParams):
         h.check(~s("t_valid") | (s(f"hot{q}") == (1 << set_)[:p.sets]), f"hot{q}_is_set")
         for j in range(q):
             h.check(~s("t_valid") | (s(f"same{q}_{j}") == (set_ == s(f"set{j}"))), f"same{q}_{j}_is_sets")
-        held = row_word(*([s(f"row_{field}{q}_{w}") for w in range(W)] for field in ("tag", "valid", "age")))
-        ok = ok & (held == table[set_])
+        fields = [[s(f"row_{field}{q}_{w}") for w in range(W)] for field in ("tag", "valid", "age")]
+        ok = ok & (row_word(*fields) == table[set_])
+        hit, way, victim = row_lookup(*fields, s(f"line{q}"))
+        h.check(~s("t_valid") | ((s(f"hit{q}") == hit) & (~hit | (s(f"hit_way{q}") == way))
+                                 & (s(f"victim{q}") == victim)), f"outcome{q}_is_row")
     h.check(~s("t_valid") | ok, "rows_coherent")
 
 

@@ -45,8 +45,10 @@ from amaranth.lib.wiring import In, Out
 from fxmodel.core.unit import require
 from fxmodel.units.texcache import Layout, TexCacheParams
 from rtl.rop import axi_signature
+from rtl.unit import named
 
-__all__ = ["DecoupledTexCache", "request_layout", "age_bits", "row_word", "row_fields", "INPUT_DEPTH"]
+__all__ = ["DecoupledTexCache", "request_layout", "age_bits", "row_word", "row_fields", "row_lookup", "row_victim",
+           "INPUT_DEPTH"]
 
 #: Lookups the input FIFO holds: Amaranth's ``SyncFIFOBuffered`` (registered ``w_rdy`` and output) takes one a
 #: clock from depth 3 (its inner FIFO of 2 has room while one entry leaves; at depth 2 it would take one every
@@ -71,6 +73,28 @@ def row_fields(word, ways: int, line_bits: int) -> tuple[list, list, list]:
     valids = [word[ways * line_bits + v] for v in range(ways)]
     base = ways * (line_bits + 1)
     return tags, valids, [word[base + v * wb:base + (v + 1) * wb] for v in range(ways)]
+
+
+def row_victim(valids, ages):
+    """The way a miss in a row fills: the lowest invalid way, else the oldest (age ``ways - 1``); an expression."""
+    W = len(valids)
+    out = Const(0, age_bits(W))
+    for w in reversed(range(W)):                             # the oldest; then the lowest invalid way wins
+        out = Mux(ages[w] == W - 1, w, out)
+    for w in reversed(range(W)):
+        out = Mux(~valids[w], w, out)
+    return out
+
+
+def row_lookup(tags, valids, ages, line) -> tuple:
+    """``(hit, hit_way, victim)`` of ``line`` in a row (:func:`row_word`'s fields), as expressions: whether a valid
+    way holds it, the lowest such way (0 on a miss: a line is in at most one way), and :func:`row_victim`."""
+    W = len(tags)
+    hit, way = Const(0, 1), Const(0, age_bits(W))
+    for w in reversed(range(W)):
+        match = valids[w] & (tags[w] == line)
+        hit, way = hit | match, Mux(match, w, way)
+    return hit, way, row_victim(valids, ages)
 
 
 def request_layout(layout: Layout, side_bits: int = 0, skip: bool = False) -> data.StructLayout:
@@ -230,9 +254,9 @@ class DecoupledTexCache(wiring.Component):
             c[q].tags = [Signal(self.line_bits, name=f"row_tag{q}_{w}") for w in range(W)]
             c[q].valids = [Signal(name=f"row_valid{q}_{w}") for w in range(W)]
             c[q].ages = [Signal(wb, name=f"row_age{q}_{w}") for w in range(W)]
+            c[q].hit, c[q].hit_way = Signal(name=f"hit{q}"), Signal(wb, name=f"hit_way{q}")   # registers: the
+            c[q].victim = Signal(wb, name=f"victim{q}")          # outcome of the corner's line in its held row
         same = {(q, j): Signal(name=f"same{q}_{j}") for q in range(4) for j in range(q)}
-        for q in range(4):
-            self._lookup_row(m, c[q], q)
         live = [Signal(name=f"live{q}") for q in range(4)]       # distinct and not yet checked
         for q in range(4):
             todo = ~c[q].dup & (q >= k)
@@ -278,7 +302,7 @@ class DecoupledTexCache(wiring.Component):
             m.d.comb += ways[q].eq(eff[c[q].src])
         new = self._new_rows(m, c, way_now)
         stored = self._store(m, c, nc, act, fire, new, platform)
-        self._rows(m, c, nc, same, act, fire, accept, new, stored)
+        self._rows(m, c, nc, same, act, fire, accept, new, stored, way_now)
         self._queue(m, f, c, req, act, fire, last, step_miss, nf, ways)
         f.tag_busy = t_valid | (ififo.level != 0)           # a lookup in the input FIFO or held
 
@@ -307,23 +331,6 @@ class DecoupledTexCache(wiring.Component):
                     slot = c[q].set * W + ways[q]
                     m.d.comb += entry.addr[b].eq(slot * self._words + self._word(xs[q], ys[q]))
         m.d.comb += [f.lfifo.w_en.eq(fire & last), f.lfifo.w_data.eq(entry)]
-
-    def _lookup_row(self, m, cq, q):
-        """Corner ``q``'s hit and way in its row, and the row's victim (the lowest invalid way, else the
-        oldest): ``ways`` comparators."""
-        W = self.params.ways
-        wb = age_bits(W)
-        cq.hit, cq.hit_way = Signal(name=f"hit{q}"), Signal(wb, name=f"hit_way{q}")
-        free, free_way, old_way = Signal(name=f"free{q}"), Signal(wb, name=f"free_way{q}"), Signal(wb, name=f"old{q}")
-        for w in reversed(range(W)):                             # the lowest way wins
-            with m.If(cq.valids[w] & (cq.tags[w] == cq.line)):
-                m.d.comb += [cq.hit.eq(1), cq.hit_way.eq(w)]
-            with m.If(~cq.valids[w]):
-                m.d.comb += [free.eq(1), free_way.eq(w)]
-            with m.If(cq.ages[w] == W - 1):
-                m.d.comb += old_way.eq(w)
-        cq.victim = Signal(wb, name=f"victim{q}")
-        m.d.comb += cq.victim.eq(Mux(free, free_way, old_way))
 
     def _new_rows(self, m, c, way_now) -> list:
         """Each corner's row after its check: LRU (the way used becomes the youngest, the younger ones age by
@@ -397,9 +404,15 @@ class DecoupledTexCache(wiring.Component):
             out.append(row_fields(row, W, lb))
         return out
 
-    def _rows(self, m, c, nc, same, act, fire, accept, new, stored):
-        """The held rows: loaded with a lookup (each corner's set's row read from the tag store, or the row this
-        clock's step writes to that set), else updated by a step that touches their set."""
+    def _rows(self, m, c, nc, same, act, fire, accept, new, stored, way_now):
+        """The held rows and their outcomes (each corner's hit, hit way and victim in its row: registers, so that a
+        step selects among them and no tag compare closes the step's loop).
+
+        Loaded with a lookup: each corner's set's row read from the tag store, and its outcome from comparing the
+        corner's line with it; when this clock's step writes that set (corner ``j``), the row it writes and the
+        outcome corrected for it (:meth:`_after`). Else a step that writes a held row's set updates the row and
+        corrects the outcome. The tag store's row of a set is the held row of any corner in it (``rows_coherent``,
+        ``formal/fetch.py``), so the compare on loading reads the store whether or not the step forwards."""
         P = self.params
         W = P.ways
 
@@ -408,20 +421,41 @@ class DecoupledTexCache(wiring.Component):
             m.d.sync += [c[q].valids[v].eq(row[1][v]) for v in range(W)]
             m.d.sync += [c[q].ages[v].eq(row[2][v]) for v in range(W)]
 
+        def outcome(q, hit, way, victim):
+            m.d.sync += [c[q].hit.eq(hit), c[q].hit_way.eq(way), c[q].victim.eq(victim)]
+
+        miss = [Signal(name=f"step_miss{j}") for j in range(4)]
+        m.d.comb += [miss[j].eq(act[j] & ~c[j].hit) for j in range(4)]
         for q in range(4):
             # the next lookup's row: its set's in the store, or the row a step writes to that set in this clock
             fwd = [Signal(name=f"fwd{q}_{j}") for j in range(4)]
+            loaded = [named(m, x, f"loaded_{n}{q}")
+                      for n, x in zip(("hit", "hit_way", "victim"), row_lookup(*stored[q], nc[q].line))]
             with m.If(accept):
                 assign(q, stored[q])
+                outcome(q, *loaded)
                 for j in range(4):
                     m.d.comb += fwd[j].eq(fire & act[j] & (c[j].set == nc[q].set))
                     with m.If(fwd[j]):
                         assign(q, new[j])
+                        outcome(q, *self._after(c, j, loaded[0], loaded[1], nc[q].line == c[j].line, miss, way_now,
+                                                new))
             with m.Elif(fire):
                 for j in range(4):
                     sets_equal = 1 if j == q else same[max(q, j), min(q, j)]
                     with m.If(act[j] & sets_equal):
                         assign(q, new[j])
+                        outcome(q, *self._after(c, j, c[q].hit, c[q].hit_way, c[q].src == c[j].src, miss,
+                                                way_now, new))
+
+    @staticmethod
+    def _after(c, j, hit, way, same_line, miss, way_now, new) -> tuple:
+        """A line's outcome ``(hit, hit_way, victim)`` in a row after corner ``j``'s step writes it, from its
+        outcome before (``hit``, ``way``) without a tag compare: the same line as ``j``'s is in ``j``'s way;
+        another stays where it was unless ``j``'s miss filled that way; the victim from the new valid bits and
+        ages."""
+        return (same_line | (hit & ~(miss[j] & (c[j].victim == way))), Mux(same_line, way_now[j], way),
+                row_victim(new[j][1], new[j][2]))
 
     def _memory_port(self, m, f):
         """``AR`` from the queue; ``R`` beats into the fill buffer (beat ``n`` = texel ``(n mod B, n div B)``)."""

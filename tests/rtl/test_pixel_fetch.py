@@ -70,7 +70,7 @@ def mip_engine():
     from host.render import from_triangles, prepare
     from host.scene import scene_path
     tframe = from_triangles(prepare(scene_path("grazing-floor"), size=16, preset="grazing-floor-mip",
-                                            cube_size=16))
+                                    cube_size=16))
     return dataclasses.replace(tframe.params, textures=TexCacheParams(block=4, sets=4, ways=2))
 
 

@@ -40,7 +40,16 @@ Coordinates ``s, t`` are codes of ``coord_fmt`` with ``T`` fraction bits.
    1`` the last level (``1 x 1``) with ``g = 0``. Steps 2-4 at levels ``L`` and ``L + 1`` (same ``s, t``; the blends
    before narrowing, ``2 B + frac`` fraction bits: ``v0, v1``), one exact blend ``v = v0 2**C + g (v1 - v0)`` and one
    narrowing, ``Rounding.HALF_UP``, ``Overflow.PROVEN`` (a convex combination of eight codes, rounded to nearest,
-   stays within their range). At ``g = 0`` it is bilinear at level ``L`` exactly. Levels ``L`` and ``L + 1`` differ
+   stays within their range). At ``g = 0`` it is bilinear at level ``L`` exactly.
+   ``blend_frac = k >= 1`` narrows each level's blends instead of keeping them exact: ``top`` and ``bot`` to ``k``
+   fraction bits beyond the texels' (from ``B``), then ``v`` to ``k`` (from ``k + B``), each ``Rounding.HALF_UP``
+   and ``Overflow.PROVEN`` (each is a convex combination of the texels, or of values already in their range, on a
+   grid the texels' codes lie on: rounded to nearest, it stays within their range). Each narrowing moves a value
+   by at most half of ``2**-k`` texel steps, and a convex combination of moved values moves by no more than
+   they did, so ``v`` is within ``2**-k`` steps of the exact ``v`` and the result within ``1/2 + 2**-k`` steps of
+   the exact trilinear blend (``max_error``; ``1/2`` when exact). What it buys: the differences ``bot - top``
+   and ``v1 - v0`` have ``width + k + 1`` bits, one multiplier block each at ``k = 17 - width`` (``k = 9`` for
+   8-bit channels), instead of two each when exact with 12-bit weights. Levels ``L`` and ``L + 1`` differ
    in parity: the RTL keeps even and odd levels in two memories and reads both in one clock (:meth:`memories`).
 
 Properties (tested): periodic with the map size under ``repeat``; a bilinear sample lies within the range of
@@ -150,6 +159,9 @@ class SamplerParams(Unit):
     extra_frac : int
         ``bilinear`` only: fraction bits the blend's output keeps beyond the texels' (step 4; 0 to
         ``2 weight_bits``): the outputs have the formats :attr:`out_channels`. 0 (the default): the texels' formats.
+    blend_frac : int
+        ``trilinear`` only: 0 (the default) keeps each level's bilinear blends exact; ``k`` in ``1..weight_bits``
+        narrows them to ``k`` fraction bits beyond the texels' before the level blend (step 5).
     """
 
     NAME = "sampler"
@@ -165,6 +177,7 @@ class SamplerParams(Unit):
     lod_fmt: Fmt | None = None
     level_bits: int = 8
     extra_frac: int = 0
+    blend_frac: int = 0
 
     def __post_init__(self):
         require(isinstance(self.texels, Texels), "texels", self.texels, "must be a Texels")
@@ -194,6 +207,9 @@ class SamplerParams(Unit):
         require(isinstance(self.extra_frac, int) and 0 <= self.extra_frac <= 2 * self.weight_bits
                 and (self.extra_frac == 0 or self.filter == "bilinear"), "extra_frac", self.extra_frac,
                 f"must be an int in 0..{2 * self.weight_bits} (2 weight_bits), and 0 unless filter='bilinear'")
+        require(isinstance(self.blend_frac, int) and 0 <= self.blend_frac <= self.weight_bits
+                and (self.blend_frac == 0 or self.filter == "trilinear"), "blend_frac", self.blend_frac,
+                f"must be an int in 0..{self.weight_bits} (weight_bits), and 0 unless filter='trilinear'")
         if self.trilinear:
             self._check_trilinear()
         else:
@@ -201,10 +217,10 @@ class SamplerParams(Unit):
                     "only for filter='trilinear'")
 
     def __repr__(self):
-        """The dataclass ``repr`` without the trilinear fields and ``extra_frac`` at their defaults: complete (a
+        """The dataclass ``repr`` without the trilinear fields, ``extra_frac`` and ``blend_frac`` at their defaults: complete (a
         missing field is at its default), and the same as before MIP mapping for every other sampler (build caches
         and recorded resource counts are keyed by it)."""
-        return repr_without_defaults(self, ("mips", "lod_fmt", "level_bits", "extra_frac"))
+        return repr_without_defaults(self, ("mips", "lod_fmt", "level_bits", "extra_frac", "blend_frac"))
 
     def _check_trilinear(self):
         require(self.faces == 1 and self.edge in ("repeat", "clamp"), "filter", self.filter,
@@ -381,11 +397,14 @@ class SamplerParams(Unit):
                  for t in texels]                                       # fx (b - a), fx (d - c)
         cut = any(is_split(p) for p in first)                          # one split_products call for all
         out, vs = [], []
-        for t, p in zip(texels, first):
+        for fmt, t, p in zip(self.channels, texels, first):
             top = add_shape(shl_shape(t, B), product_shape(p, cut))              # top = (a << B) + fx (b - a)
+            if self.blend_frac:                                                  # narrowed (step 5)
+                top = (self.blend_fmt(fmt).width, fmt.signed)
             q = Product(*interleave_shape(weight, sub_shape(top, top)), split=True, name="f*row difference")
             out += [p, q]
-            vs.append(add_shape(shl_shape(top, B), product_shape(q, is_split(q))))  # v = (top << B) + fy (bot - top)
+            v = add_shape(shl_shape(top, B), product_shape(q, is_split(q)))     # v = (top << B) + fy (bot - top)
+            vs.append((self.blend_fmt(fmt).width, fmt.signed) if self.blend_frac else v)
         if not self.trilinear:
             return tuple(out)
         g = (self.level_bits, False)
@@ -457,11 +476,30 @@ class SamplerParams(Unit):
         B = self.weight_bits
         top = (a << B) + fx * (b - a)
         bot = (c << B) + fx * (d - c)
+        if exact and self.blend_frac:          # trilinear, narrowed (step 5): v at blend_frac more fraction bits
+            top, bot = (self._keep(x, B, fmt, "sampler row blend") for x in (top, bot))
+            return self._keep((top << B) + fy * (bot - top), self.blend_frac + B, fmt, "sampler column blend")
         v = (top << B) + fy * (bot - top)
         if exact:
             return v
         res, _ = narrow(v, 2 * B + fmt.frac_bits, out or fmt, Rounding.HALF_UP, Overflow.PROVEN, "sampler blend")
         return res
+
+    def blend_fmt(self, fmt: Fmt) -> Fmt:
+        """A level's narrowed blends (``blend_frac``, step 5): ``fmt`` with ``blend_frac`` more fraction bits."""
+        return Fmt(fmt.signed, fmt.int_bits, fmt.frac_bits + self.blend_frac)
+
+    @property
+    def level_frac(self) -> int:
+        """Fraction bits beyond the texels' of each level's blend ``v0, v1`` (step 5): ``2 weight_bits`` exact,
+        else ``blend_frac``."""
+        return self.blend_frac or 2 * self.weight_bits
+
+    def _keep(self, x, frac: int, fmt: Fmt, what: str):
+        """``x`` (``frac`` fraction bits beyond ``fmt``'s) narrowed to :meth:`blend_fmt` (``Rounding.HALF_UP``,
+        ``Overflow.PROVEN``: step 5)."""
+        out = self.blend_fmt(fmt)
+        return narrow(x, fmt.frac_bits + frac, out, Rounding.HALF_UP, Overflow.PROVEN, what)[0]
 
     def level(self, lod):
         """Step 5: ``(L, L + 1 clamped, g)`` from ``lod`` codes: the level, the next one and the blend weight."""
@@ -492,9 +530,9 @@ class SamplerParams(Unit):
         s, t = np.asarray(s, dtype=np.int64), np.asarray(t, dtype=np.int64)
         L0, L1, g = self.level(lod)
         v0, v1 = self._raw(L0, s, t), self._raw(L1, s, t)
-        C, B = self.level_bits, self.weight_bits
+        C = self.level_bits
         v = (v0 << C) + g[:, None] * (v1 - v0)
-        return np.stack([narrow(v[:, k], 2 * B + C + fmt.frac_bits, fmt, Rounding.HALF_UP, Overflow.PROVEN,
+        return np.stack([narrow(v[:, k], self.level_frac + C + fmt.frac_bits, fmt, Rounding.HALF_UP, Overflow.PROVEN,
                                 "sampler level blend")[0] for k, fmt in enumerate(self.channels)], axis=1)
 
     def sample(self, face, s, t):
@@ -563,8 +601,16 @@ class SamplerParams(Unit):
                 **({"levels": [list(x) for x in self.level_sizes], "level_bits": self.level_bits}
                    if self.trilinear else {}),
                 **({"extra_frac": self.extra_frac} if self.extra_frac else {}),
-                "max_error": {n: float(f.ulp / 2) if self.bilinear else 0.0
-                              for n, f in zip(self.out_names, self.out_channels)}}
+                **({"blend_frac": self.blend_frac} if self.blend_frac else {}),
+                "max_error": {n: float(f.ulp) * self.max_error_ulps for n, f in zip(self.out_names, self.out_channels)}}
+
+    @property
+    def max_error_ulps(self) -> float:
+        """Largest distance of an output from the exact filter of its texels with the same weights, in output
+        ulps: 0 nearest, 1/2 bilinear and exact trilinear, ``1/2 + 2**-blend_frac`` narrowed (step 5)."""
+        if not self.bilinear:
+            return 0.0
+        return 0.5 + (2.0 ** -self.blend_frac if self.blend_frac else 0.0)
 
 
 def _demo_texels() -> Texels:
@@ -589,4 +635,6 @@ _TRI = Texels(np.random.default_rng(9).integers(0, 256, size=(1, 6, 8, 3)))  # l
 SamplerParams.PRESETS["trilinear"] = SamplerParams(texels=_TRI, channels=(Fmt(False, 8, 0),) * 3, filter="trilinear",
                                                    coord_fmt=Fmt(True, 3, 14), names=("r", "g", "b"),
                                                    mips=mip_texels(_TRI), lod_fmt=Fmt(True, 6, 8))
+#: The same with each level's blends rounded to 6 fraction bits beyond the texels (both narrowings of step 5 used)
+SamplerParams.PRESETS["trilinear-narrow"] = SamplerParams.PRESETS["trilinear"].replace(blend_frac=6)
 register(SamplerParams)

@@ -28,8 +28,6 @@ import argparse
 import dataclasses
 import datetime
 import json
-import os
-import platform
 import shlex
 import sys
 from pathlib import Path
@@ -38,6 +36,7 @@ from fxmodel.core.cost import bram_blocks
 from fxmodel.core.paths import ROOT, shipped_scenes
 from fxmodel.units.texcache import Layout, TexCacheParams, simulate
 from host.atomic import atomic_write_bytes
+from tools.record import machine
 
 #: Scenes swept by default: every shipped scene and the grazing floor (a regression scene of ``tests/scenes``).
 DEFAULT_SCENES = tuple(shipped_scenes()) + (str(ROOT / "tests/scenes/grazing-floor.toml"),)
@@ -138,11 +137,6 @@ def sustained(data: dict, res: dict, sdram: float, burst_ns: float, engine_mhz: 
             "sustained_textures": min(engine, 1e9 / ns) if ns else engine,
             "frame_buffer_bytes_per_fragment": data["frame_buffer_bytes_per_fragment"],
             "sustained_with_frame_buffer_bytes_only": min(engine, sdram / both) if both else engine}
-
-
-def machine() -> dict:
-    return {"nproc": os.cpu_count(), "load_average": [round(v, 2) for v in os.getloadavg()],
-            "platform": platform.platform(), "python": platform.python_version()}
 
 
 def sweep(datas: dict, sizes_kb, blocks, ways_list, progress=None) -> list[dict]:

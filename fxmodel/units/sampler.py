@@ -217,9 +217,9 @@ class SamplerParams(Unit):
                     "only for filter='trilinear'")
 
     def __repr__(self):
-        """The dataclass ``repr`` without the trilinear fields, ``extra_frac`` and ``blend_frac`` at their defaults: complete (a
-        missing field is at its default), and the same as before MIP mapping for every other sampler (build caches
-        and recorded resource counts are keyed by it)."""
+        """The dataclass ``repr`` without the trilinear fields, ``extra_frac`` and ``blend_frac`` at their defaults:
+        complete (a missing field is at its default), and the same as before MIP mapping for every other sampler
+        (build caches and recorded resource counts are keyed by it)."""
         return repr_without_defaults(self, ("mips", "lod_fmt", "level_bits", "extra_frac", "blend_frac"))
 
     def _check_trilinear(self):

@@ -25,14 +25,14 @@ Cache (:class:`TexCacheParams`, :func:`simulate`)
     (``index='linear'``) or, from the block coordinates ``bx, by`` of the line in its surface, ``bx XOR
     rot(by)`` (``index='xor'``: any ``2^h x 2^(s-h)`` tile of blocks falls into distinct sets, ``h = ceil(s /
     2)``, ``sets = 2^s``; both XOR the surface's first line number in). Replacement ``lru``, tree ``plru`` or
-    ``fifo``; a miss fills the lowest-numbered invalid way first. ``fifo`` (round robin): a hit changes nothing,
-    each set's pointer names the next way to fill and moves past the way each fill takes; when every way is
-    valid the victim is the pointer's way, or the next one after it that the same lookup has not used (so a
-    lookup never evicts a line it needs while another way is free of it). Only misses change a ``fifo`` cache's
-    state, which is what lets a tag stage check hits without a loop through the replacement state. Data are banked by texel parity: bank ``(x mod 2) + 2 (y
-    mod 2)`` holds the texels of that parity of every line, so the four texels of a footprint lie in four banks
-    (``x1 = x0 + 1``) and a lookup whose lines all hit is one read per bank -- except ``repeat`` wrapping an odd
-    map size, where ``x0 = W - 1`` and ``x1 = 0`` share a parity (counted as ``bank_conflicts``).
+    ``fifo``; a miss fills the lowest-numbered invalid way first. ``fifo`` (round robin): a hit changes nothing, each
+    set's pointer names the next way to fill and moves past the way each fill takes; when every way is valid the victim
+    is the pointer's way, or the next one after it that the same lookup has not used (so a lookup never evicts a line it
+    needs while another way is free of it). Only misses change a ``fifo`` cache's state, which is what lets a tag stage
+    check hits without a loop through the replacement state. Data are banked by texel parity: bank ``(x mod 2) + 2 (y
+    mod 2)`` holds the texels of that parity of every line, so the four texels of a footprint lie in four banks (``x1 =
+    x0 + 1``) and a lookup whose lines all hit is one read per bank -- except ``repeat`` wrapping an odd map size, where
+    ``x0 = W - 1`` and ``x1 = 0`` share a parity (counted as ``bank_conflicts``).
 
     A lookup's distinct lines are looked up in corner order ``(x0, y0), (x1, y0), (x0, y1), (x1, y1)``, each
     updating the replacement state as it goes; a missing line is fetched with one AXI4 ``INCR`` burst of

@@ -26,14 +26,16 @@ def test_shipped_scene_rtl_equals_model(sim, path):
 
 
 def test_mip_mapping_rtl_equals_model(sim):
-    """MIP mapping of the color texture (preset ``grazing-floor-mip``): the LOD unit beside the perspective unit
-    and the trilinear sampler, on the grazing floor (levels from magnified to the pyramid's top; at this reduced
-    size the steepest increments are clamped to the LOD's formats, which changes the inputs, not the check), under
-    every stimulus pattern."""
-    frame = prepare(SCENE_DIR / "grazing-floor.toml", size=48, cube_size=16, preset="grazing-floor-mip",
-                    allow_clamp=True)
+    """MIP mapping of the color texture (preset ``grazing-floor-mip`` with its trilinear blends narrowed,
+    ``blend_frac = 9``; the exact blends are co-simulated in the engine with its maps in memory,
+    ``cosim/test_rtl_engine_fetch.py``): the LOD unit beside the perspective unit and the trilinear sampler, on the
+    grazing floor (levels from magnified to the pyramid's top; at this reduced size the steepest increments are
+    clamped to the LOD's formats, which changes the inputs, not the check), under every stimulus pattern."""
+    from fxmodel.pipeline.presets import preset_units
+    frame = prepare(SCENE_DIR / "grazing-floor.toml", size=48, cube_size=16,
+                    preset={**preset_units("grazing-floor-mip"), "blend_frac": 9}, allow_clamp=True)
     P = frame.params
-    assert P.lod is not None and P.texture.trilinear
+    assert P.lod is not None and P.texture.trilinear and P.texture.blend_frac == 9
     lod = P.trace(frame.codes)["lod"] >> P.lod.lod_frac
     assert lod.min() < 0 and lod.max() >= P.texture.levels - 1                  # magnified .. the last level
     result = run_stream(P, frame.codes, sim=sim, chunk=-(-len(frame.codes) // len(PATTERNS)),

@@ -28,23 +28,27 @@ def test_banked_and_replicated_texel_memories(sim, shape, edge, banked):
     assert_bit_exact(run(params, vectors, sim=sim, tag=f"{edge}{shape[1]}x{shape[2]}"))
 
 
-@pytest.mark.parametrize("shape, edge", [
-    ((1, 40, 40, 2), "repeat"),           # the paper's 40 x 40 bump map: levels 40, 20, 10, 5, 2, 1 (odd sizes)
-    ((1, 6, 16, 2), "repeat"),            # non-square: the last levels 1 wide
-    ((1, 5, 3, 2), "clamp"),              # odd, clamped at the edges
+@pytest.mark.parametrize("shape, edge, blend", [
+    ((1, 40, 40, 2), "repeat", 0),        # the paper's 40 x 40 bump map: levels 40, 20, 10, 5, 2, 1 (odd sizes)
+    ((1, 6, 16, 2), "repeat", 0),         # non-square: the last levels 1 wide
+    ((1, 5, 3, 2), "clamp", 0),           # odd, clamped at the edges
+    ((1, 40, 40, 2), "repeat", 2),        # blend_frac: the row and column blends rounded
+    ((1, 5, 3, 2), "clamp", 6),           # blend_frac = weight_bits: the row blends exact, the column blend rounded
 ])
-def test_trilinear_level_memories(sim, shape, edge):
+def test_trilinear_level_memories(sim, shape, edge, blend):
     """Trilinear (MIP mapping): the even and odd level memories, every level boundary, magnified (negative LOD),
-    the last level (1 x 1) and past it, against the model bit for bit."""
+    the last level (1 x 1) and past it, each level's blends exact or narrowed (``blend_frac``), against the model
+    bit for bit."""
     from fxmodel.core.fixed import Fmt
     from fxmodel.units.sampler import SamplerParams, Texels, mip_texels
     rng = np.random.default_rng([*shape, len(edge), 3])
     coord = Fmt(True, 3, 12) if edge == "repeat" else Fmt(False, 1, 12)
     tex = Texels(rng.integers(-512, 512, size=shape))
     params = SamplerParams(texels=tex, channels=(Fmt(True, 1, 9),) * 2, coord_fmt=coord, edge=edge, weight_bits=6,
-                           filter="trilinear", mips=mip_texels(tex), lod_fmt=Fmt(True, 5, 6), level_bits=5)
+                           filter="trilinear", mips=mip_texels(tex), lod_fmt=Fmt(True, 5, 6), level_bits=5,
+                           blend_frac=blend)
     vectors = np.concatenate([params.hard_cases(), params.random_inputs(rng, 2000)])
-    assert_bit_exact(run(params, vectors, sim=sim, tag=f"tri{edge}{shape[1]}x{shape[2]}"))
+    assert_bit_exact(run(params, vectors, sim=sim, tag=f"tri{edge}{shape[1]}x{shape[2]}b{blend}"))
 
 
 @pytest.mark.parametrize("extra, edge", [(2, "border"), (3, "border"), (3, "repeat")])

@@ -11,16 +11,18 @@ Stages (latency ``params.latency`` = 15; one carry chain or one product a stage,
 blend weight and each memory's level | scaled positions (each level's size a constant product, selected) | indices,
 wraps, weights | addresses | memory read | texel differences | ``fx`` products | row blends | row difference | ``fy``
 product | column blend (both lookups, before narrowing) | level difference | ``g`` product | level blend | rounding.
+With ``blend_frac`` the row and column blends are rounded in their own stages (:func:`_blend_sum`: no extra carry
+chain, no extra stage), so the differences after them fit one multiplier block each.
 """
 
 from __future__ import annotations
 
-from amaranth.hdl import Const, Mux
+from amaranth.hdl import Cat, Const, Mux
 from amaranth.lib.memory import Memory
 
 from fxmodel.core.rounding import Overflow, Rounding
 
-from .fixed import const_mul, narrow
+from .fixed import const_mul, narrow, saturate
 from .recip import product_stage
 
 __all__ = ["trilinear", "level_indices", "blends", "TEXEL_STAGES"]
@@ -148,14 +150,19 @@ def blends(c, pipe, data, late) -> dict:
                        {"g": s.g, "odd": s.odd, "fy0": s.fy0, "fy1": s.fy1}
                        | {f"a{p}{k}": getattr(s, f"a{p}{k}") for p, k in keys}
                        | {f"c{p}{k}": getattr(s, f"c{p}{k}") for p, k in keys})
+    K = P.blend_frac
+    fmts = {(p, k): P.blend_fmt(P.channels[k]) if K else None for p, k in keys}
     s = pipe.stage(g=cr["g"], odd=cr["odd"], fy0=cr["fy0"], fy1=cr["fy1"],
-                   **{f"top{p}{k}": (cr[f"a{p}{k}"] << B) + pt[f"pt{p}{k}"] for p, k in keys},
-                   **{f"bot{p}{k}": (cr[f"c{p}{k}"] << B) + pt[f"pb{p}{k}"] for p, k in keys})
+                   **{f"top{p}{k}": _blend_sum(cr[f"a{p}{k}"], pt[f"pt{p}{k}"], B, B - K, fmts[(p, k)])
+                      for p, k in keys},
+                   **{f"bot{p}{k}": _blend_sum(cr[f"c{p}{k}"], pt[f"pb{p}{k}"], B, B - K, fmts[(p, k)])
+                      for p, k in keys})
     s = pipe.stage(g=s.g, odd=s.odd, fy0=s.fy0, fy1=s.fy1, **{f"top{p}{k}": getattr(s, f"top{p}{k}") for p, k in keys},
                    **{f"dtb{p}{k}": getattr(s, f"bot{p}{k}") - getattr(s, f"top{p}{k}") for p, k in keys})
     pv, cr = product_stage(pipe, {f"pv{p}{k}": (getattr(s, f"fy{p}"), getattr(s, f"dtb{p}{k}")) for p, k in keys},
                        {"g": s.g, "odd": s.odd} | {f"top{p}{k}": getattr(s, f"top{p}{k}") for p, k in keys})
-    s = pipe.stage(g=cr["g"], odd=cr["odd"], **{f"v{p}{k}": (cr[f"top{p}{k}"] << B) + pv[f"pv{p}{k}"] for p, k in keys})
+    s = pipe.stage(g=cr["g"], odd=cr["odd"], **{f"v{p}{k}": _blend_sum(cr[f"top{p}{k}"], pv[f"pv{p}{k}"], B, B,
+                                                                        fmts[(p, k)]) for p, k in keys})
     # level L's lookup is the memory of its parity: v0 from it, v1 from the other
     s = pipe.stage(g=s.g, **{f"v{k}": Mux(s.odd, getattr(s, f"v1{k}"), getattr(s, f"v0{k}")) for k in ch},
                    **{f"dl{k}": Mux(s.odd, getattr(s, f"v0{k}") - getattr(s, f"v1{k}"),
@@ -165,5 +172,20 @@ def blends(c, pipe, data, late) -> dict:
     s = pipe.stage(**{f"w{k}": (cr[f"v{k}"] << C) + pl[f"pl{k}"] for k in ch})
     outs = {}
     for k, (n, fmt) in enumerate(zip(P.out_names, P.channels)):
-        outs[n], _ = narrow(getattr(s, f"w{k}"), 2 * B + C + fmt.frac_bits, fmt, Rounding.HALF_UP, Overflow.PROVEN)
+        outs[n], _ = narrow(getattr(s, f"w{k}"), P.level_frac + C + fmt.frac_bits, fmt, Rounding.HALF_UP,
+                            Overflow.PROVEN)
     return outs
+
+
+def _blend_sum(hi, lo, B: int, drop: int, fmt):
+    """``(hi << B) + lo``: exact when ``fmt`` is ``None``, else rounded ``Rounding.HALF_UP`` by ``drop`` bits
+    (``0 <= drop <= B``) into ``fmt`` with ``Overflow.PROVEN`` (the model's ``SamplerParams.blend_fmt`` narrowing,
+    step 5: a convex combination stays within its texels' range). One carry chain: the rounding's half sits in
+    ``hi << B``'s zero low bits, so it costs no second adder."""
+    if fmt is None:
+        return (hi << B) + lo
+    if not drop:
+        return saturate((hi << B) + lo, fmt, Overflow.PROVEN)[0]
+    half = Cat(Const(1 << (drop - 1), B), hi)
+    x = (half.as_signed() if hi.shape().signed else half) + lo
+    return saturate(x >> drop, fmt, Overflow.PROVEN)[0]

@@ -28,8 +28,6 @@ import argparse
 import dataclasses
 import datetime
 import json
-import os
-import platform
 import shlex
 import sys
 from pathlib import Path
@@ -38,6 +36,7 @@ from fxmodel.core.cost import bram_blocks
 from fxmodel.core.paths import ROOT, shipped_scenes
 from fxmodel.units.texcache import Layout, TexCacheParams, simulate
 from host.atomic import atomic_write_bytes
+from tools.record import machine
 
 #: Scenes swept by default: every shipped scene and the grazing floor (a regression scene of ``tests/scenes``).
 DEFAULT_SCENES = tuple(shipped_scenes()) + (str(ROOT / "tests/scenes/grazing-floor.toml"),)
@@ -140,11 +139,6 @@ def sustained(data: dict, res: dict, sdram: float, burst_ns: float, engine_mhz: 
             "sustained_with_frame_buffer_bytes_only": min(engine, sdram / both) if both else engine}
 
 
-def machine() -> dict:
-    return {"nproc": os.cpu_count(), "load_average": [round(v, 2) for v in os.getloadavg()],
-            "platform": platform.platform(), "python": platform.python_version()}
-
-
 def sweep(datas: dict, sizes_kb, blocks, ways_list, progress=None) -> list[dict]:
     """Every configuration (LRU, XOR index) on every scene: rows ``{"cache": info, "scenes": {name: result}}``."""
     rows = []
@@ -163,7 +157,7 @@ def sweep(datas: dict, sizes_kb, blocks, ways_list, progress=None) -> list[dict]
 def variants(datas: dict, chosen: TexCacheParams, sdram: float, burst_ns: float) -> list[dict]:
     """The chosen cache with the other replacement and set index, for the record."""
     out = []
-    for repl, index in (("lru", "linear"), ("plru", "xor"), ("plru", "linear")):
+    for repl, index in (("lru", "linear"), ("plru", "xor"), ("plru", "linear"), ("fifo", "xor")):
         if repl == "plru" and chosen.ways & (chosen.ways - 1):
             continue
         p = TexCacheParams(block=chosen.block, sets=chosen.sets, ways=chosen.ways, replacement=repl, index=index)
@@ -258,6 +252,17 @@ def table(record: dict) -> str:
                      f"{v['sustained_textures'] / 1e6:.1f} ({v['engine_fragments_per_s'] / 1e6:.1f}) | "
                      f"{v['sustained_with_frame_buffer_bytes_only'] / 1e6:.1f} | "
                      f"{_cache_name(record['smallest_per_scene'][name])} |")
+    if record.get("variants"):
+        scenes = list(record["per_scene"])
+        lines += ["", "The chosen cache's replacement and set index against the others (hit rate, bytes / fragment):",
+                  "", "| replacement, set index | " + " | ".join(f"`{s}`" for s in scenes) + " |",
+                  "|---|" + "---:|" * len(scenes)]
+        rows = [(c, {s: v["result"] for s, v in record["per_scene"].items()})]
+        rows += [(v["cache"], v["scenes"]) for v in record["variants"]]
+        for cache, res in rows:
+            chosen = " (chosen)" if cache is c else ""
+            lines.append(f"| {cache['replacement'].upper()}, {cache['index']}{chosen} | " + " | ".join(
+                f"{100 * res[s]['hit_rate']:.3f} %, {res[s]['bytes_per_fragment']:.2f}" for s in scenes) + " |")
     return "\n".join(lines)
 
 

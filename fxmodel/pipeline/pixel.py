@@ -261,15 +261,15 @@ class PipelineParams(Unit):
         """A pipeline from a scene's tables: the bump map codes ``(H, W, 2)`` in ``bump.d_fmt``, the texture
         bytes ``(H, W, 3)``, the lighting (baked into cubes of ``cube_face`` texels) and the units' preset.
 
-        ``weight_bits`` of the bump-map and texture bilinear weights: 10 keep a hard texture edge (a jump of up
-        to 255) within a quarter step of the exact blend; 12 (the default) also keep a steep bump map (strength
-        up to 8) from moving ``N'`` enough to shift a highlight by a step; the cube lookups' lighting is smooth,
-        8 bits there. ``None``: the preset's ``weight_bits`` (12 unless a preset file sets it). ``preset`` is a
-        preset name or a units dict (see :func:`fxmodel.pipeline.presets.preset_units`). The preset's ``mip_levels``
-        (0: none), ``lod_bias`` and ``level_bits`` turn on MIP mapping of the color texture (:attr:`lod`), when the
-        texture has a level beyond level 0 (not for a one-texel texture). The preset's ``shade.diffuse_fmt`` is the
-        diffuse cube's texel format; its sampler's blend keeps ``diffuse_extra_frac`` more fraction bits, and the
-        shading unit's ``diffuse_fmt`` is derived from the sampler's output format."""
+        ``weight_bits`` of the bump-map and texture bilinear weights: 10 keep a hard texture edge (a jump of up to 255)
+        within a quarter step of the exact blend; 12 (the default) also keep a steep bump map (strength up to 8) from
+        moving ``N'`` enough to shift a highlight by a step; the cube lookups' lighting is smooth, 8 bits there.
+        ``None``: the preset's ``weight_bits`` (12 unless a preset file sets it). ``preset`` is a preset name or a units
+        dict (see :func:`fxmodel.pipeline.presets.preset_units`). The preset's ``mip_levels`` (0: none), ``lod_bias``,
+        ``level_bits`` and ``blend_frac`` turn on MIP mapping of the color texture (:attr:`lod`), when the texture has a
+        level beyond level 0 (not for a one-texel texture). The preset's ``shade.diffuse_fmt`` is the diffuse cube's
+        texel format; its sampler's blend keeps ``diffuse_extra_frac`` more fraction bits, and the shading unit's
+        ``diffuse_fmt`` is derived from the sampler's output format."""
         units = preset_units(preset)
         if weight_bits is None:
             weight_bits = top_value(units, "weight_bits")
@@ -283,7 +283,8 @@ class PipelineParams(Unit):
                             bias=top_value(units, "lod_bias"), duv_fmt=LOD_DUV_FMT, dw_fmt=LOD_DW_FMT)
             mips = mip_texels(texture.texels, top_value(units, "mip_levels"))
             texture = texture.replace(filter="trilinear", mips=mips, lod_fmt=lod.out_fmt,
-                                      level_bits=top_value(units, "level_bits"))
+                                      level_bits=top_value(units, "level_bits"),
+                                      blend_frac=top_value(units, "blend_frac"))
         diffuse, specular, info = bake_cubes(lighting, cube_face, shade.diffuse_fmt, shade.specular_fmt,
                                              border=1 if cube_edge == "border" else 0)
         diffuse = SamplerParams(texels=diffuse, channels=(shade.diffuse_fmt,) * 3, coord_fmt=cube.st_fmt,

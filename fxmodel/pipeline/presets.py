@@ -59,10 +59,12 @@ __all__ = ["TOP_KEYS", "UNIT_KEYS", "UNIT_TYPES", "PRESET_KEYS", "PipelinePreset
 #: (:mod:`fxmodel.units.sampler`, step 5). ``diffuse_extra_frac``: fraction bits the diffuse cube sampler's bilinear
 #: blend keeps beyond its texels' (``SamplerParams.extra_frac``; the shading unit's diffuse input is that much finer,
 #: the texels unchanged); the built-in ``default`` preset sets it. ``span_dsp``: 1 builds the scan converter's
-#: span-start products on multiplier blocks, 0 in logic (``RasterParams.span_dsp``: the same sums).
+#: span-start products on multiplier blocks, 0 in logic (``RasterParams.span_dsp``: the same sums). ``blend_frac``:
+#: with MIP mapping, the fraction bits beyond the texels' that each level's bilinear blends keep before the level
+#: blend (``SamplerParams.blend_frac``: 0, the default, keeps them exact; at most ``weight_bits``).
 TOP_KEYS = {"weight_bits": (12, 1, 16), "cube_size": (64, 1, 1024), "raster_guard": (1, 0, 8),
             "mip_levels": (0, 0, 16), "lod_bias": (0, -4096, 4096), "level_bits": (8, 1, 8),
-            "diffuse_extra_frac": (0, 0, 8), "span_dsp": (1, 0, 1)}
+            "diffuse_extra_frac": (0, 0, 8), "span_dsp": (1, 0, 1), "blend_frac": (0, 0, 16)}
 
 #: Top-level keys whose value in a preset file that leaves them out is fixed (the value before the key existed),
 #: not the base preset's: a file written before keeps its meaning.
@@ -117,11 +119,12 @@ class PipelinePreset(Mapping):
     ----------
     persp, bump, reflect, cube, shade
         The units' parameter objects (classes in :data:`UNIT_TYPES`).
-    weight_bits, cube_size, raster_guard, mip_levels, lod_bias, level_bits, diffuse_extra_frac, span_dsp : int
+    weight_bits, cube_size, raster_guard, mip_levels, lod_bias, level_bits, diffuse_extra_frac, span_dsp, \
+blend_frac : int
         The bilinear weights' bits of the bump map and texture, texels per reflectance-cube face edge, guard bits
         of the scan converter's interpolators, the color texture's MIP mapping, the diffuse cube blend's extra
-        fraction bits, the span start's products on multiplier blocks or in logic (ranges and defaults in
-        :data:`TOP_KEYS`).
+        fraction bits, the span start's products on multiplier blocks or in logic, the trilinear blends' kept
+        fraction bits (ranges and defaults in :data:`TOP_KEYS`).
     """
 
     persp: PerspParams
@@ -137,6 +140,7 @@ class PipelinePreset(Mapping):
     level_bits: int = TOP_KEYS["level_bits"][0]
     diffuse_extra_frac: int = TOP_KEYS["diffuse_extra_frac"][0]
     span_dsp: int = TOP_KEYS["span_dsp"][0]
+    blend_frac: int = TOP_KEYS["blend_frac"][0]
 
     def __post_init__(self):
         for key, cls in UNIT_TYPES.items():

@@ -40,7 +40,16 @@ Coordinates ``s, t`` are codes of ``coord_fmt`` with ``T`` fraction bits.
    1`` the last level (``1 x 1``) with ``g = 0``. Steps 2-4 at levels ``L`` and ``L + 1`` (same ``s, t``; the blends
    before narrowing, ``2 B + frac`` fraction bits: ``v0, v1``), one exact blend ``v = v0 2**C + g (v1 - v0)`` and one
    narrowing, ``Rounding.HALF_UP``, ``Overflow.PROVEN`` (a convex combination of eight codes, rounded to nearest,
-   stays within their range). At ``g = 0`` it is bilinear at level ``L`` exactly. Levels ``L`` and ``L + 1`` differ
+   stays within their range). At ``g = 0`` it is bilinear at level ``L`` exactly.
+   ``blend_frac = k >= 1`` narrows each level's blends instead of keeping them exact: ``top`` and ``bot`` to ``k``
+   fraction bits beyond the texels' (from ``B``), then ``v`` to ``k`` (from ``k + B``), each ``Rounding.HALF_UP``
+   and ``Overflow.PROVEN`` (each is a convex combination of the texels, or of values already in their range, on a
+   grid the texels' codes lie on: rounded to nearest, it stays within their range). Each narrowing moves a value
+   by at most half of ``2**-k`` texel steps, and a convex combination of moved values moves by no more than
+   they did, so ``v`` is within ``2**-k`` steps of the exact ``v`` and the result within ``1/2 + 2**-k`` steps of
+   the exact trilinear blend (``max_error``; ``1/2`` when exact). What it buys: the differences ``bot - top``
+   and ``v1 - v0`` have ``width + k + 1`` bits, one multiplier block each at ``k = 17 - width`` (``k = 9`` for
+   8-bit channels), instead of two each when exact with 12-bit weights. Levels ``L`` and ``L + 1`` differ
    in parity: the RTL keeps even and odd levels in two memories and reads both in one clock (:meth:`memories`).
 
 Properties (tested): periodic with the map size under ``repeat``; a bilinear sample lies within the range of
@@ -53,7 +62,6 @@ coordinates far outside ``[0, 1)``, every face.
 
 from __future__ import annotations
 
-import hashlib
 from dataclasses import dataclass
 from functools import cached_property
 
@@ -63,7 +71,7 @@ from fxmodel.core.cost import Memory, Product
 from fxmodel.core.fixed import Fmt
 from fxmodel.core.rounding import Overflow, Rounding, narrow
 from fxmodel.core.unit import Port, Unit, register, require
-from fxmodel.units.mip import mip_pyramid, mip_sizes
+from fxmodel.units.sampler_mip import Texels, TrilinearSampling, mip_texels
 from fxmodel.units.shapes import (
     add_shape,
     interleave_shape,
@@ -80,47 +88,8 @@ FILTERS = ("nearest", "bilinear", "trilinear")
 EDGES = ("repeat", "clamp", "border")
 
 
-class Texels:
-    """A read-only texel memory: codes of shape ``(faces, height, width, channels)``.
-
-    Compared and hashed by content (a SHA-1 digest), so parameter objects holding one stay hashable and their
-    ``repr`` (used to key build caches) is short.
-    """
-
-    def __init__(self, codes):
-        arr = np.array(codes, dtype=np.int64)
-        if arr.ndim != 4:
-            raise ValueError(f"texels must have shape (faces, height, width, channels), not {arr.shape}")
-        arr.setflags(write=False)
-        self.codes = arr
-        self.digest = hashlib.sha1(repr(arr.shape).encode() + arr.tobytes()).hexdigest()
-
-    @property
-    def shape(self):
-        return self.codes.shape
-
-    def __eq__(self, other):
-        return isinstance(other, Texels) and other.digest == self.digest
-
-    def __hash__(self):
-        return hash(self.digest)
-
-    def __repr__(self):
-        return f"Texels(shape={self.shape}, sha1={self.digest[:12]})"
-
-
-def mip_texels(texels: Texels, levels: int | None = None) -> tuple:
-    """The MIP levels 1, 2, ... of a one-face map (``mips`` of :class:`SamplerParams`), by
-    :func:`fxmodel.units.mip.mip_pyramid`: down to ``1 x 1``, or ``levels`` levels in all (level 0 included)."""
-    faces = texels.shape[0]
-    if faces != 1:
-        raise ValueError(f"texels: a MIP pyramid needs one face, not {faces}")
-    return tuple(Texels(lv[None]) for lv in mip_pyramid(texels.codes[0], levels)[1:])
-
-
-
 @dataclass(frozen=True)
-class SamplerParams(Unit):
+class SamplerParams(TrilinearSampling, Unit):
     """Parameters of a texture sampler.
 
     Parameters
@@ -150,6 +119,9 @@ class SamplerParams(Unit):
     extra_frac : int
         ``bilinear`` only: fraction bits the blend's output keeps beyond the texels' (step 4; 0 to
         ``2 weight_bits``): the outputs have the formats :attr:`out_channels`. 0 (the default): the texels' formats.
+    blend_frac : int
+        ``trilinear`` only: 0 (the default) keeps each level's bilinear blends exact; ``k`` in ``1..weight_bits``
+        narrows them to ``k`` fraction bits beyond the texels' before the level blend (step 5).
     """
 
     NAME = "sampler"
@@ -165,6 +137,7 @@ class SamplerParams(Unit):
     lod_fmt: Fmt | None = None
     level_bits: int = 8
     extra_frac: int = 0
+    blend_frac: int = 0
 
     def __post_init__(self):
         require(isinstance(self.texels, Texels), "texels", self.texels, "must be a Texels")
@@ -194,6 +167,9 @@ class SamplerParams(Unit):
         require(isinstance(self.extra_frac, int) and 0 <= self.extra_frac <= 2 * self.weight_bits
                 and (self.extra_frac == 0 or self.filter == "bilinear"), "extra_frac", self.extra_frac,
                 f"must be an int in 0..{2 * self.weight_bits} (2 weight_bits), and 0 unless filter='bilinear'")
+        require(isinstance(self.blend_frac, int) and 0 <= self.blend_frac <= self.weight_bits
+                and (self.blend_frac == 0 or self.filter == "trilinear"), "blend_frac", self.blend_frac,
+                f"must be an int in 0..{self.weight_bits} (weight_bits), and 0 unless filter='trilinear'")
         if self.trilinear:
             self._check_trilinear()
         else:
@@ -201,28 +177,10 @@ class SamplerParams(Unit):
                     "only for filter='trilinear'")
 
     def __repr__(self):
-        """The dataclass ``repr`` without the trilinear fields and ``extra_frac`` at their defaults: complete (a
-        missing field is at its default), and the same as before MIP mapping for every other sampler (build caches
-        and recorded resource counts are keyed by it)."""
-        return repr_without_defaults(self, ("mips", "lod_fmt", "level_bits", "extra_frac"))
-
-    def _check_trilinear(self):
-        require(self.faces == 1 and self.edge in ("repeat", "clamp"), "filter", self.filter,
-                "trilinear needs one face and the repeat or clamp edge rule")
-        require(isinstance(self.lod_fmt, Fmt) and self.lod_fmt.signed, "lod_fmt", self.lod_fmt,
-                "must be a signed Fmt (the LOD unit's out_fmt)")
-        require(isinstance(self.level_bits, int) and 1 <= self.level_bits <= self.lod_fmt.frac_bits, "level_bits",
-                self.level_bits, f"must be an int in 1..{self.lod_fmt.frac_bits} (lod_fmt's fraction bits)")
-        require(len(self.mips) >= 1, "mips", self.mips, "trilinear needs at least one level beyond level 0")
-        sizes = mip_sizes(self.height, self.width, 1 + len(self.mips))
-        require(isinstance(self.mips, tuple) and all(isinstance(m, Texels) for m in self.mips)
-                and [m.shape for m in self.mips] == [(1, h, w, len(self.channels)) for h, w in sizes[1:]],
-                "mips", self.mips, f"must be Texels of the level sizes {sizes[1:]} (mip_texels)")
-        for m in self.mips:
-            for k, fmt in enumerate(self.channels):
-                col = m.codes[..., k]
-                require(bool(np.all((col >= fmt.min_code) & (col <= fmt.max_code))), "mips", m,
-                        f"channel {k} has codes outside {fmt}")
+        """The dataclass ``repr`` without the trilinear fields, ``extra_frac`` and ``blend_frac`` at their defaults:
+        complete (a missing field is at its default), and the same as before MIP mapping for every other sampler
+        (build caches and recorded resource counts are keyed by it)."""
+        return repr_without_defaults(self, ("mips", "lod_fmt", "level_bits", "extra_frac", "blend_frac"))
 
     # -- shape facts (the RTL reads these) ----------------------------------------------------------------
     @property
@@ -257,36 +215,6 @@ class SamplerParams(Unit):
     @property
     def trilinear(self) -> bool:
         return self.filter == "trilinear"
-
-    @property
-    def levels(self) -> int:
-        """MIP levels (1 unless trilinear)."""
-        return 1 + len(self.mips)
-
-    @cached_property
-    def level_sizes(self) -> tuple:
-        """``(height, width)`` of each level."""
-        return tuple((self.height, self.width) if lv == 0 else self.mips[lv - 1].shape[1:3]
-                     for lv in range(self.levels))
-
-    @cached_property
-    def level_bases(self) -> tuple:
-        """Base address of each level in its parity's memory (even levels in one, odd in the other)."""
-        bases, used = [], [0, 0]
-        for lv, (h, w) in enumerate(self.level_sizes):
-            bases.append(used[lv % 2])
-            used[lv % 2] += h * w
-        return tuple(bases)
-
-    def level_codes(self, lv: int) -> np.ndarray:
-        """Codes ``(1, H_l, W_l, channels)`` of level ``lv``."""
-        return self.texels.codes if lv == 0 else self.mips[lv - 1].codes
-
-    @cached_property
-    def parity_words(self) -> tuple:
-        """The two level memories' words (even levels, odd levels), each level row-major at its base."""
-        return tuple(sum((self._pack(self.level_codes(lv)) for lv in range(par, self.levels, 2)), [])
-                     for par in (0, 1))
 
     @cached_property
     def out_channels(self) -> tuple:
@@ -381,11 +309,14 @@ class SamplerParams(Unit):
                  for t in texels]                                       # fx (b - a), fx (d - c)
         cut = any(is_split(p) for p in first)                          # one split_products call for all
         out, vs = [], []
-        for t, p in zip(texels, first):
+        for fmt, t, p in zip(self.channels, texels, first):
             top = add_shape(shl_shape(t, B), product_shape(p, cut))              # top = (a << B) + fx (b - a)
+            if self.blend_frac:                                                  # narrowed (step 5)
+                top = (self.blend_fmt(fmt).width, fmt.signed)
             q = Product(*interleave_shape(weight, sub_shape(top, top)), split=True, name="f*row difference")
             out += [p, q]
-            vs.append(add_shape(shl_shape(top, B), product_shape(q, is_split(q))))  # v = (top << B) + fy (bot - top)
+            v = add_shape(shl_shape(top, B), product_shape(q, is_split(q)))     # v = (top << B) + fy (bot - top)
+            vs.append((self.blend_fmt(fmt).width, fmt.signed) if self.blend_frac else v)
         if not self.trilinear:
             return tuple(out)
         g = (self.level_bits, False)
@@ -457,45 +388,14 @@ class SamplerParams(Unit):
         B = self.weight_bits
         top = (a << B) + fx * (b - a)
         bot = (c << B) + fx * (d - c)
+        if exact and self.blend_frac:          # trilinear, narrowed (step 5): v at blend_frac more fraction bits
+            top, bot = (self._keep(x, B, fmt, "sampler row blend") for x in (top, bot))
+            return self._keep((top << B) + fy * (bot - top), self.blend_frac + B, fmt, "sampler column blend")
         v = (top << B) + fy * (bot - top)
         if exact:
             return v
         res, _ = narrow(v, 2 * B + fmt.frac_bits, out or fmt, Rounding.HALF_UP, Overflow.PROVEN, "sampler blend")
         return res
-
-    def level(self, lod):
-        """Step 5: ``(L, L + 1 clamped, g)`` from ``lod`` codes: the level, the next one and the blend weight."""
-        F, C, top = self.lod_fmt.frac_bits, self.level_bits, self.levels - 1
-        lod = np.asarray(lod, dtype=np.int64)
-        L = lod >> F
-        g = (lod & ((1 << F) - 1)) >> (F - C)
-        g = np.where((lod < 0) | (L >= top), 0, g)
-        L = np.clip(L, 0, top)
-        return L, np.minimum(L + 1, top), g
-
-    def _raw(self, lv, s, t):
-        """Exact bilinear blends ``(K, channels)`` before narrowing, at level ``lv[k]`` per sample."""
-        out = np.zeros((len(s), len(self.channels)), dtype=np.int64)
-        for v in np.unique(lv):
-            sel = np.flatnonzero(lv == v)
-            h, w = self.level_sizes[v]
-            tex = self.level_codes(int(v))[0]
-            i0, i1, fx = self.positions(s[sel], w)
-            j0, j1, fy = self.positions(t[sel], h)
-            a, b, c, d = tex[j0, i0], tex[j0, i1], tex[j1, i0], tex[j1, i1]
-            for k, fmt in enumerate(self.channels):
-                out[sel, k] = self.blend(a[:, k], b[:, k], c[:, k], d[:, k], fx, fy, fmt, exact=True)
-        return out
-
-    def sample_trilinear(self, s, t, lod):
-        """Channel codes ``(K, channels)`` at ``(s, t)`` and level of detail ``lod`` (step 5)."""
-        s, t = np.asarray(s, dtype=np.int64), np.asarray(t, dtype=np.int64)
-        L0, L1, g = self.level(lod)
-        v0, v1 = self._raw(L0, s, t), self._raw(L1, s, t)
-        C, B = self.level_bits, self.weight_bits
-        v = (v0 << C) + g[:, None] * (v1 - v0)
-        return np.stack([narrow(v[:, k], 2 * B + C + fmt.frac_bits, fmt, Rounding.HALF_UP, Overflow.PROVEN,
-                                "sampler level blend")[0] for k, fmt in enumerate(self.channels)], axis=1)
 
     def sample(self, face, s, t):
         """Channel codes ``(K, channels)`` at ``(face, s, t)`` code arrays."""
@@ -563,8 +463,16 @@ class SamplerParams(Unit):
                 **({"levels": [list(x) for x in self.level_sizes], "level_bits": self.level_bits}
                    if self.trilinear else {}),
                 **({"extra_frac": self.extra_frac} if self.extra_frac else {}),
-                "max_error": {n: float(f.ulp / 2) if self.bilinear else 0.0
-                              for n, f in zip(self.out_names, self.out_channels)}}
+                **({"blend_frac": self.blend_frac} if self.blend_frac else {}),
+                "max_error": {n: float(f.ulp) * self.max_error_ulps for n, f in zip(self.out_names, self.out_channels)}}
+
+    @property
+    def max_error_ulps(self) -> float:
+        """Largest distance of an output from the exact filter of its texels with the same weights, in output
+        ulps: 0 nearest, 1/2 bilinear and exact trilinear, ``1/2 + 2**-blend_frac`` narrowed (step 5)."""
+        if not self.bilinear:
+            return 0.0
+        return 0.5 + (2.0 ** -self.blend_frac if self.blend_frac else 0.0)
 
 
 def _demo_texels() -> Texels:
@@ -589,4 +497,6 @@ _TRI = Texels(np.random.default_rng(9).integers(0, 256, size=(1, 6, 8, 3)))  # l
 SamplerParams.PRESETS["trilinear"] = SamplerParams(texels=_TRI, channels=(Fmt(False, 8, 0),) * 3, filter="trilinear",
                                                    coord_fmt=Fmt(True, 3, 14), names=("r", "g", "b"),
                                                    mips=mip_texels(_TRI), lod_fmt=Fmt(True, 6, 8))
+#: The same with each level's blends rounded to 6 fraction bits beyond the texels (both narrowings of step 5 used)
+SamplerParams.PRESETS["trilinear-narrow"] = SamplerParams.PRESETS["trilinear"].replace(blend_frac=6)
 register(SamplerParams)

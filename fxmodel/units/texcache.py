@@ -24,11 +24,15 @@ Cache (:class:`TexCacheParams`, :func:`simulate`)
     ``sets x ways`` lines, one tag per line (the line number). The set of a line is ``line mod sets``
     (``index='linear'``) or, from the block coordinates ``bx, by`` of the line in its surface, ``bx XOR
     rot(by)`` (``index='xor'``: any ``2^h x 2^(s-h)`` tile of blocks falls into distinct sets, ``h = ceil(s /
-    2)``, ``sets = 2^s``; both XOR the surface's first line number in). Replacement ``lru`` or tree ``plru``;
-    a miss fills the lowest-numbered invalid way first. Data are banked by texel parity: bank ``(x mod 2) + 2 (y
-    mod 2)`` holds the texels of that parity of every line, so the four texels of a footprint lie in four banks
-    (``x1 = x0 + 1``) and a lookup whose lines all hit is one read per bank -- except ``repeat`` wrapping an odd
-    map size, where ``x0 = W - 1`` and ``x1 = 0`` share a parity (counted as ``bank_conflicts``).
+    2)``, ``sets = 2^s``; both XOR the surface's first line number in). Replacement ``lru``, tree ``plru`` or
+    ``fifo``; a miss fills the lowest-numbered invalid way first. ``fifo`` (round robin): a hit changes nothing, each
+    set's pointer names the next way to fill and moves past the way each fill takes; when every way is valid the victim
+    is the pointer's way, or the next one after it that the same lookup has not used (so a lookup never evicts a line it
+    needs while another way is free of it). Only misses change a ``fifo`` cache's state, which is what lets a tag stage
+    check hits without a loop through the replacement state. Data are banked by texel parity: bank ``(x mod 2) + 2 (y
+    mod 2)`` holds the texels of that parity of every line, so the four texels of a footprint lie in four banks (``x1 =
+    x0 + 1``) and a lookup whose lines all hit is one read per bank -- except ``repeat`` wrapping an odd map size, where
+    ``x0 = W - 1`` and ``x1 = 0`` share a parity (counted as ``bank_conflicts``).
 
     A lookup's distinct lines are looked up in corner order ``(x0, y0), (x1, y0), (x0, y1), (x1, y1)``, each
     updating the replacement state as it goes; a missing line is fetched with one AXI4 ``INCR`` burst of
@@ -50,7 +54,7 @@ from fxmodel.core.unit import require
 __all__ = ["REPLACEMENTS", "INDEXES", "TexCacheParams", "Layout", "Trace", "CacheResult", "footprints",
            "level_lookups", "interleave", "simulate", "bank_of", "plru_touch", "plru_victim"]
 
-REPLACEMENTS = ("lru", "plru")
+REPLACEMENTS = ("lru", "plru", "fifo")
 INDEXES = ("linear", "xor")
 
 #: AXI4 INCR bursts have at most 256 beats.
@@ -73,7 +77,7 @@ class TexCacheParams:
     sets, ways : int
         Sets (a power of two) and lines per set (a power of two for ``plru``).
     replacement : str
-        ``lru`` or ``plru`` (tree pseudo-LRU).
+        ``lru``, ``plru`` (tree pseudo-LRU) or ``fifo`` (round robin; hits change nothing).
     index : str
         ``linear`` or ``xor`` set index.
     texel_bytes : int
@@ -461,10 +465,11 @@ def simulate(params: TexCacheParams, layout: Layout, trace: Trace) -> CacheResul
     """Run ``trace`` through an empty cache of ``params`` over ``layout``: every line access's hit or miss and
     way, in order (module docstring)."""
     lookup, line, sets, lines, conflict = _accesses(params, layout, trace)
-    W, plru = params.ways, params.replacement == "plru"
+    W, plru, fifo = params.ways, params.replacement == "plru", params.replacement == "fifo"
     tags = [[-1] * W for _ in range(params.sets)]
     stamp = [[0] * W for _ in range(params.sets)]             # lru: time of last use
     tree = [0] * params.sets                                   # plru: tree bits
+    nxt = [0] * params.sets                                    # fifo: the next way to fill
     hit = np.zeros(len(line), bool)
     way = np.zeros(len(line), np.int64)
     used_by = {}                                               # (set, way) -> lookup that last used it
@@ -475,8 +480,13 @@ def simulate(params: TexCacheParams, layout: Layout, trace: Trace) -> CacheResul
             w = row.index(ln)
             hit[k] = True
         else:
-            w = row.index(-1) if -1 in row else (plru_victim(tree[st], W) if plru else
-                                                  min(range(W), key=stamp[st].__getitem__))
+            if -1 in row:
+                w = row.index(-1)
+            elif fifo:
+                w = next((v % W for v in range(nxt[st], nxt[st] + W) if used_by.get((st, v % W)) != lk), nxt[st])
+            else:
+                w = plru_victim(tree[st], W) if plru else min(range(W), key=stamp[st].__getitem__)
+            nxt[st] = (w + 1) % W
             if row[w] != -1 and used_by.get((st, w)) == lk:
                 self_evictions += 1                            # the lookup evicts a line it needs itself
             row[w] = ln

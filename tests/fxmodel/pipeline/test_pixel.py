@@ -149,13 +149,17 @@ def test_mip_mapping_mismatch_names_the_field():
         dataclasses.replace(on, lod=None)
 
 
-def test_grazing_floor_with_mip_mapping_within_one_lsb_of_its_float_reference():
-    """The grazing floor with MIP mapping (preset grazing-floor-mip, a smaller frame): every well-conditioned pixel
-    within 1 LSB of reference (a) drawing the same pyramid at the LOD unit's level, the level within its bound on
-    every fragment, several levels in use, and the frame differs from the unfiltered one."""
+@pytest.mark.parametrize("blend_frac", [0, 9])
+def test_grazing_floor_with_mip_mapping_within_one_lsb_of_its_float_reference(blend_frac):
+    """The grazing floor with MIP mapping (preset grazing-floor-mip, a smaller frame; its trilinear blends exact or
+    narrowed, ``blend_frac``): every well-conditioned pixel within 1 LSB of reference (a) drawing the same pyramid
+    at the LOD unit's level, the level within its bound on every fragment, several levels in use, and the frame
+    differs from the unfiltered one."""
+    from fxmodel.pipeline.presets import preset_units
     from tools.mip import lod_worst
     path = ROOT / "scenes" / "grazing-floor.toml"
-    frame = prepare(path, size=128, preset="grazing-floor-mip")
+    frame = prepare(path, size=128, preset={**preset_units("grazing-floor-mip"), "blend_frac": blend_frac})
+    assert frame.params.texture.blend_frac == blend_frac
     assert frame.params.lod is not None and frame.params.lod.bias == -128
     report = render(frame)
     assert report["max_lsb_vs_float_well_conditioned"] <= 1

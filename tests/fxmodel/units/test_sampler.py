@@ -220,6 +220,8 @@ def exact_bilinear(params, tex, s, t):
 
 
 def exact_trilinear(params, s, t, lod):
+    """The exact rule rounded half-up once per channel, each channel's eight texels, and the values before that
+    rounding."""
     F, C, top = params.lod_fmt.frac_bits, params.level_bits, params.levels - 1
     lam = Fraction(lod, 1 << F)
     L = math.floor(lam)
@@ -228,7 +230,8 @@ def exact_trilinear(params, s, t, lod):
         L, g = min(max(L, 0), top), Fraction(0)
     v0, c0 = exact_bilinear(params, params.level_codes(L)[0], s, t)
     v1, c1 = exact_bilinear(params, params.level_codes(min(L + 1, top))[0], s, t)
-    return [math.floor(a * (1 - g) + b * g + Fraction(1, 2)) for a, b in zip(v0, v1)], [a + b for a, b in zip(c0, c1)]
+    exact = [a * (1 - g) + b * g for a, b in zip(v0, v1)]
+    return [math.floor(x + Fraction(1, 2)) for x in exact], [a + b for a, b in zip(c0, c1)], exact
 
 
 @given(st.integers(2, 12), st.integers(1, 12), st.integers(0, 2**31 - 1), st.sampled_from(["repeat", "clamp"]),
@@ -241,10 +244,40 @@ def test_trilinear_matches_exact_rule_within_its_eight_texels(h, w, seed, edge, 
     params = make_trilinear((h, w), seed, edge=edge, weight_bits=wb, level_bits=cb)
     out = params.compute(np.array(rows, dtype=np.int64))
     for (s, t, lod), got in zip(rows, out.tolist()):
-        want, corners = exact_trilinear(params, s, t, lod)
+        want, corners, _ = exact_trilinear(params, s, t, lod)
         assert got == want
         for k, cs in enumerate(corners):
             assert min(cs) <= got[k] <= max(cs)
+
+
+@given(st.integers(2, 12), st.integers(1, 12), st.integers(0, 2**31 - 1), st.sampled_from(["repeat", "clamp"]),
+       st.integers(1, 12), st.data(),
+       st.lists(st.tuples(st.integers(-(1 << 19), (1 << 19) - 1), st.integers(-(1 << 19), (1 << 19) - 1),
+                          st.integers(LOD.min_code, LOD.max_code)), min_size=1, max_size=12))
+def test_trilinear_narrowed_blends_within_their_bound(h, w, seed, edge, wb, data, rows):
+    """blend_frac = k: every output within 1/2 + 2**-k codes of the exact trilinear value (Fractions, the same
+    weights) and within the range of its eight texels; with k = weight_bits, the row blends are not narrowed."""
+    k = data.draw(st.integers(1, wb))
+    params = make_trilinear((h, w), seed, edge=edge, weight_bits=wb, blend_frac=k)
+    assert params.max_error_ulps == 0.5 + 2.0 ** -k
+    bound = Fraction(1, 2) + Fraction(1, 2 ** k)
+    for (s, t, lod), got in zip(rows, params.compute(np.array(rows, dtype=np.int64)).tolist()):
+        _, corners, exact = exact_trilinear(params, s, t, lod)
+        for c, cs in enumerate(corners):
+            assert abs(got[c] - exact[c]) <= bound
+            assert min(cs) <= got[c] <= max(cs)
+
+
+def test_trilinear_narrowed_blends_move_the_result():
+    """The narrowing is not idle: over many lookups with a coarse blend_frac some outputs differ from the exact
+    blend's, none by more than one code, and the bound's extra error is reached in part."""
+    exact = make_trilinear((16, 16), 3, weight_bits=12)
+    coarse = exact.replace(blend_frac=1)
+    rng = np.random.default_rng(5)
+    rows = np.column_stack([rng.integers(-(1 << 19), 1 << 19, size=(4000, 2)),
+                            rng.integers(-(1 << 8), 5 << 8, size=4000)])
+    diff = coarse.compute(rows) - exact.compute(rows)
+    assert np.count_nonzero(diff) > 0 and np.abs(diff).max() == 1
 
 
 @pytest.mark.parametrize("shape", [(8, 8), (40, 40), (5, 12), (1, 2)])
@@ -291,7 +324,7 @@ def test_trilinear_levels_alternate_between_two_memories():
 @pytest.mark.parametrize("kw, name", [
     (dict(lod_fmt=None), "lod_fmt"), (dict(lod_fmt=Fmt(False, 6, 8)), "lod_fmt"), (dict(level_bits=9), "level_bits"),
     (dict(mips=(Texels(np.zeros((1, 2, 2, 2), np.int64)),)), "mips"), (dict(mips=()), "mips"),
-    (dict(edge="border"), "filter")])
+    (dict(edge="border"), "filter"), (dict(blend_frac=9), "blend_frac"), (dict(blend_frac=-1), "blend_frac")])
 def test_trilinear_bad_parameters_name_the_parameter(kw, name):
     base = make_trilinear((6, 6), 1)
     with pytest.raises(ValueError, match=name):
@@ -301,3 +334,5 @@ def test_trilinear_bad_parameters_name_the_parameter(kw, name):
 def test_mips_only_for_trilinear():
     with pytest.raises(ValueError, match="mips"):
         make((4, 4), 1, lod_fmt=LOD)
+    with pytest.raises(ValueError, match="blend_frac"):
+        make((4, 4), 1, blend_frac=2)

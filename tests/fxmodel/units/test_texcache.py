@@ -66,6 +66,8 @@ def reference(params, layout, trace):
     recency = {}
     free = {}
     plru = {}
+    ring = {}                                   # fifo: per set, the ways in round-robin order from the next one
+    users = {}                                  # (set, way) -> the lookup that used it last
     out = []
     for n in range(len(trace)):
         k = int(trace.surface[n])
@@ -90,11 +92,19 @@ def reference(params, layout, trace):
                 hit = False
                 if params.replacement == "lru":
                     way = lst[-1][1]
-                else:
+                elif params.replacement == "plru":
                     way = tree.victim()
+                else:                           # the next way in the ring this lookup has not used
+                    hand = ring.setdefault(s, list(range(params.ways)))
+                    way = next((v for v in hand if users.get((s, v)) != n), hand[0])
                 lst[:] = [e for e in lst if e[1] != way]
+            if not hit:                         # the ring turns to the way after the one filled
+                hand = ring.setdefault(s, list(range(params.ways)))
+                turn = hand.index(way) + 1
+                hand[:] = hand[turn:] + hand[:turn]
             lst.insert(0, [line, way])
             tree.touch(way)
+            users[(s, way)] = n
             out.append((n, line, way, hit))
     return out
 
@@ -103,7 +113,7 @@ def reference(params, layout, trace):
 def cases(draw):
     B = draw(st.sampled_from([2, 4, 8]))
     sets = draw(st.sampled_from([1, 2, 4, 8, 16]))
-    repl = draw(st.sampled_from(["lru", "plru"]))
+    repl = draw(st.sampled_from(["lru", "plru", "fifo"]))
     ways = draw(st.sampled_from([1, 2, 4, 8] if repl == "plru" else [1, 2, 3, 4, 5]))
     params = TexCacheParams(block=B, sets=sets, ways=ways, replacement=repl,
                             index=draw(st.sampled_from(["linear", "xor"])), bus_bytes=draw(st.sampled_from([4, 8])))
@@ -210,7 +220,7 @@ def test_footprints_follow_the_sampler_and_interleave():
 
 
 @pytest.mark.parametrize("kw, word", [({"block": 3}, "block"), ({"sets": 12}, "sets"), ({"ways": 0}, "ways"),
-                                      ({"ways": 3, "replacement": "plru"}, "ways"), ({"replacement": "fifo"},
+                                      ({"ways": 3, "replacement": "plru"}, "ways"), ({"replacement": "mru"},
                                                                                      "replacement"),
                                       ({"bus_bytes": 16}, "bus_bytes"), ({"block": 64}, "block"),
                                       ({"index": "hash"}, "index"), ({"texel_bits": 33}, "texel_bits"),
@@ -243,7 +253,8 @@ def test_layout_and_cache_must_agree():
 @given(cases())
 def test_self_evictions_are_counted(case):
     """The model's count of lookups evicting a line they need is the reference's (misses into a slot an earlier
-    line of the same lookup used); none with true LRU and at least four ways."""
+    line of the same lookup used); none with true LRU or round robin (which skips the ways the lookup used) and
+    at least four ways: a lookup has at most four lines."""
     params, layout, trace = case
     res = simulate(params, layout, trace)
     own = 0
@@ -255,7 +266,7 @@ def test_self_evictions_are_counted(case):
         own += (not hit) and slot in used
         used.add(slot)
     assert res.self_evictions == own
-    if params.ways >= 4 and params.replacement == "lru":
+    if params.ways >= 4 and params.replacement in ("lru", "fifo"):
         assert res.self_evictions == 0
 
 

@@ -11,7 +11,7 @@ request names one by its index). Organisation (``docs/texcache.md``):
   output register a clock ahead.
 - **Tag stage**: the lookup's up to four distinct lines in corner order ``(x0, y0), (x1, y0), (x0, y1), (x1, y1)``
   against the tags (the tag store in LUT RAM, each corner's set's row held in registers beside the lookup, kept
-  equal to the store), LRU, the lowest invalid way first, a duplicate line skipped -- exactly
+  equal to the store), LRU or round robin, the lowest invalid way first, a duplicate line skipped -- exactly
   :func:`fxmodel.units.texcache.simulate`. All remaining lines in one clock when they fall in distinct sets and at
   most one of them misses (the common case: one line, or two neighbouring blocks, which the XOR index puts in
   different sets); otherwise one line a clock, in order. A miss allocates its way at once and queues its line's
@@ -28,8 +28,11 @@ request names one by its index). Organisation (``docs/texcache.md``):
   outstanding budget (``misses``) spent, and ``i.ready`` falls when the input FIFO fills behind it; ``o.ready``
   low holds the data stage.
 
-The memory traffic is the model's, burst for burst (the ``AR`` sequence is ``simulate``'s fills). Limits: LRU,
-a 32-bit bus (``bus_bytes = texel_bytes = 4``), no bank conflicts and no self-evictions (the model counts both).
+The memory traffic is the model's, burst for burst (the ``AR`` sequence is ``simulate``'s fills). Round robin
+(``replacement = "fifo"``): a set's row holds one pointer instead of an age per way; a hit leaves the row as it is, a
+fill moves the pointer past its way, and the victim skips the ways earlier steps of the same lookup used in that set
+(their registered ways). Limits: LRU or round robin, a 32-bit bus (``bus_bytes = texel_bytes = 4``), no bank conflicts
+and no self-evictions (the model counts both).
 """
 
 from __future__ import annotations
@@ -64,13 +67,15 @@ def row_word(tags, valids, ages):
     return Cat(*tags, *valids, *ages)
 
 
-def row_fields(word, ways: int, line_bits: int) -> tuple[list, list, list]:
-    """``(tags, valids, ages)`` of a word of :func:`row_word` (``ways`` ways of ``line_bits``-bit tags)."""
+def row_fields(word, ways: int, line_bits: int, states: int | None = None) -> tuple[list, list, list]:
+    """``(tags, valids, state)`` of a word of :func:`row_word` (``ways`` ways of ``line_bits``-bit tags; the
+    replacement state: ``states`` fields of :func:`age_bits` bits, one age per way for LRU by default, the one
+    pointer of round robin)."""
     wb = age_bits(ways)
     tags = [word[v * line_bits:(v + 1) * line_bits] for v in range(ways)]
     valids = [word[ways * line_bits + v] for v in range(ways)]
     base = ways * (line_bits + 1)
-    return tags, valids, [word[base + v * wb:base + (v + 1) * wb] for v in range(ways)]
+    return tags, valids, [word[base + v * wb:base + (v + 1) * wb] for v in range(ways if states is None else states)]
 
 
 def request_layout(layout: Layout, side_bits: int = 0, skip: bool = False) -> data.StructLayout:
@@ -105,7 +110,8 @@ class DecoupledTexCache(wiring.Component):
 
     def __init__(self, params: TexCacheParams, layout: Layout, side_bits: int = 0, addr_bits: int = 32,
                  skip: bool = False):
-        require(params.replacement == "lru", "replacement", params.replacement, "must be 'lru' in this RTL")
+        require(params.replacement in ("lru", "fifo"), "replacement", params.replacement,
+                "must be 'lru' or 'fifo' in this RTL")
         require(params.bus_bytes == 4 and params.texel_bytes == 4, "bus_bytes/texel_bytes",
                 (params.bus_bytes, params.texel_bytes), "must both be 4 in this RTL (one texel a beat)")
         require(layout.block == params.block and layout.texel_bytes == params.texel_bytes, "layout",
@@ -229,10 +235,13 @@ class DecoupledTexCache(wiring.Component):
             c[q].hot = Signal(S, name=f"hot{q}")                 # the set, one-hot (the update's enables)
             c[q].tags = [Signal(self.line_bits, name=f"row_tag{q}_{w}") for w in range(W)]
             c[q].valids = [Signal(name=f"row_valid{q}_{w}") for w in range(W)]
-            c[q].ages = [Signal(wb, name=f"row_age{q}_{w}") for w in range(W)]
+            c[q].ages = [Signal(wb, name=f"row_age{q}_{w}") for w in range(self._states)]
         same = {(q, j): Signal(name=f"same{q}_{j}") for q in range(4) for j in range(q)}
         for q in range(4):
-            self._lookup_row(m, c[q], q)
+            # round robin: the ways of this corner's set that earlier steps of the lookup used (its victim skips them)
+            used = [sum((k > j) & ~c[j].dup & same[q, j] & (way_reg[j] == v) for j in range(q)) != 0 if q else Const(0)
+                    for v in range(W)]
+            self._lookup_row(m, c[q], q, used)
         live = [Signal(name=f"live{q}") for q in range(4)]       # distinct and not yet checked
         for q in range(4):
             todo = ~c[q].dup & (q >= k)
@@ -308,9 +317,15 @@ class DecoupledTexCache(wiring.Component):
                     m.d.comb += entry.addr[b].eq(slot * self._words + self._word(xs[q], ys[q]))
         m.d.comb += [f.lfifo.w_en.eq(fire & last), f.lfifo.w_data.eq(entry)]
 
-    def _lookup_row(self, m, cq, q):
-        """Corner ``q``'s hit and way in its row, and the row's victim (the lowest invalid way, else the
-        oldest): ``ways`` comparators."""
+    @property
+    def _states(self) -> int:
+        """Replacement-state fields of a row: an age per way (LRU) or one pointer (round robin)."""
+        return self.params.ways if self.params.replacement == "lru" else 1
+
+    def _lookup_row(self, m, cq, q, used):
+        """Corner ``q``'s hit and way in its row, and the row's victim (the lowest invalid way, else the oldest
+        for LRU, else for round robin the pointer's way or the next after it that ``used`` does not name):
+        ``ways`` comparators."""
         W = self.params.ways
         wb = age_bits(W)
         cq.hit, cq.hit_way = Signal(name=f"hit{q}"), Signal(wb, name=f"hit_way{q}")
@@ -320,8 +335,17 @@ class DecoupledTexCache(wiring.Component):
                 m.d.comb += [cq.hit.eq(1), cq.hit_way.eq(w)]
             with m.If(~cq.valids[w]):
                 m.d.comb += [free.eq(1), free_way.eq(w)]
-            with m.If(cq.ages[w] == W - 1):
-                m.d.comb += old_way.eq(w)
+            if self.params.replacement == "lru":
+                with m.If(cq.ages[w] == W - 1):
+                    m.d.comb += old_way.eq(w)
+        if self.params.replacement == "fifo":               # the first way from the pointer on not used
+            ptr = cq.ages[0]
+            old_way = Signal(wb, name=f"rr{q}")
+            m.d.comb += old_way.eq(ptr)
+            for d in reversed(range(W)):
+                cand = (ptr + d)[:wb] if W & (W - 1) == 0 else Mux(ptr + d >= W, ptr + d - W, ptr + d)[:wb]
+                with m.If(~Array(used)[cand]):
+                    m.d.comb += old_way.eq(cand)
         cq.victim = Signal(wb, name=f"victim{q}")
         m.d.comb += cq.victim.eq(Mux(free, free_way, old_way))
 
@@ -332,6 +356,12 @@ class DecoupledTexCache(wiring.Component):
         wb = age_bits(W)
         out = []
         for q in range(4):
+            if self.params.replacement == "fifo":           # a fill moves the pointer past its way; a hit: nothing
+                tags = [Mux(~c[q].hit & (way_now[q] == v), c[q].line, c[q].tags[v]) for v in range(W)]
+                valids = [c[q].valids[v] | (~c[q].hit & (way_now[q] == v)) for v in range(W)]
+                nxt = Mux(way_now[q] == W - 1, 0, way_now[q] + 1)[:wb]
+                out.append((tags, valids, [Mux(c[q].hit, c[q].ages[0], nxt)]))
+                continue
             used_age = Signal(wb, name=f"used_age{q}")
             m.d.comb += used_age.eq(Array(c[q].ages)[way_now[q]])
             ages = [Signal(wb, name=f"new_age{q}_{v}") for v in range(W)]
@@ -361,7 +391,7 @@ class DecoupledTexCache(wiring.Component):
         P = self.params
         W, S = P.ways, P.sets
         wb, lb = age_bits(W), self.line_bits
-        empty = row_word([Const(0, lb)] * W, [Const(0, 1)] * W, [Const(w, wb) for w in range(W)])
+        empty = row_word([Const(0, lb)] * W, [Const(0, 1)] * W, [Const(w, wb) for w in range(self._states)])
         width = len(empty)
         lvt = [Signal(2, name=f"lvt{j}") for j in range(S)]
         written = [Signal(name=f"written{j}") for j in range(S)]
@@ -394,7 +424,7 @@ class DecoupledTexCache(wiring.Component):
             if platform == "formal":
                 for j in range(S):
                     live(mems, Const(j, len(nc[r].set)), f"store{j}_r{r}")
-            out.append(row_fields(row, W, lb))
+            out.append(row_fields(row, W, lb, self._states))
         return out
 
     def _rows(self, m, c, nc, same, act, fire, accept, new, stored):
@@ -406,7 +436,7 @@ class DecoupledTexCache(wiring.Component):
         def assign(q, row):
             m.d.sync += [c[q].tags[v].eq(row[0][v]) for v in range(W)]
             m.d.sync += [c[q].valids[v].eq(row[1][v]) for v in range(W)]
-            m.d.sync += [c[q].ages[v].eq(row[2][v]) for v in range(W)]
+            m.d.sync += [c[q].ages[v].eq(row[2][v]) for v in range(len(row[2]))]
 
         for q in range(4):
             # the next lookup's row: its set's in the store, or the row a step writes to that set in this clock

@@ -240,7 +240,7 @@ class DecoupledTexCache(wiring.Component):
         for q in range(4):
             # round robin: the ways of this corner's set that earlier steps of the lookup used (its victim skips them)
             used = [sum((k > j) & ~c[j].dup & same[q, j] & (way_reg[j] == v) for j in range(q)) != 0 if q else Const(0)
-                    for v in range(W)]
+                    for v in range(W)] if P.replacement == "fifo" else None
             self._lookup_row(m, c[q], q, used)
         live = [Signal(name=f"live{q}") for q in range(4)]       # distinct and not yet checked
         for q in range(4):
@@ -323,9 +323,9 @@ class DecoupledTexCache(wiring.Component):
         return self.params.ways if self.params.replacement == "lru" else 1
 
     def _lookup_row(self, m, cq, q, used):
-        """Corner ``q``'s hit and way in its row, and the row's victim (the lowest invalid way, else the oldest
-        for LRU, else for round robin the pointer's way or the next after it that ``used`` does not name):
-        ``ways`` comparators."""
+        """Corner ``q``'s hit and way in its row, and the row's victim (the lowest invalid way, else the oldest for LRU,
+        else for round robin the pointer's way or the next after it that ``used`` does not name; ``used`` is ``None``
+        for LRU): ``ways`` comparators."""
         W = self.params.ways
         wb = age_bits(W)
         cq.hit, cq.hit_way = Signal(name=f"hit{q}"), Signal(wb, name=f"hit_way{q}")
@@ -350,28 +350,28 @@ class DecoupledTexCache(wiring.Component):
         m.d.comb += cq.victim.eq(Mux(free, free_way, old_way))
 
     def _new_rows(self, m, c, way_now) -> list:
-        """Each corner's row after its check: LRU (the way used becomes the youngest, the younger ones age by
-        one) and, on a miss, the victim's tag and valid bit. ``[(tags, valids, ages)]`` per corner."""
+        """Each corner's row after its check: on a miss, the victim's tag and valid bit; the replacement state of
+        LRU (the way used becomes the youngest, the younger ones age by one) or of round robin (a fill moves the
+        pointer past its way, a hit leaves it). ``[(tags, valids, state)]`` per corner."""
         W = self.params.ways
         wb = age_bits(W)
         out = []
         for q in range(4):
-            if self.params.replacement == "fifo":           # a fill moves the pointer past its way; a hit: nothing
-                tags = [Mux(~c[q].hit & (way_now[q] == v), c[q].line, c[q].tags[v]) for v in range(W)]
-                valids = [c[q].valids[v] | (~c[q].hit & (way_now[q] == v)) for v in range(W)]
+            tags = [Signal(self.line_bits, name=f"new_tag{q}_{v}") for v in range(W)]
+            valids = [Signal(name=f"new_valid{q}_{v}") for v in range(W)]
+            for v in range(W):
+                fill = ~c[q].hit & (way_now[q] == v)
+                m.d.comb += [tags[v].eq(Mux(fill, c[q].line, c[q].tags[v])), valids[v].eq(c[q].valids[v] | fill)]
+            if self.params.replacement == "fifo":
                 nxt = Mux(way_now[q] == W - 1, 0, way_now[q] + 1)[:wb]
                 out.append((tags, valids, [Mux(c[q].hit, c[q].ages[0], nxt)]))
                 continue
             used_age = Signal(wb, name=f"used_age{q}")
             m.d.comb += used_age.eq(Array(c[q].ages)[way_now[q]])
             ages = [Signal(wb, name=f"new_age{q}_{v}") for v in range(W)]
-            tags = [Signal(self.line_bits, name=f"new_tag{q}_{v}") for v in range(W)]
-            valids = [Signal(name=f"new_valid{q}_{v}") for v in range(W)]
             for v in range(W):
-                fill = ~c[q].hit & (way_now[q] == v)
-                m.d.comb += [ages[v].eq(Mux(way_now[q] == v, 0, Mux(c[q].ages[v] < used_age, c[q].ages[v] + 1,
-                                                                      c[q].ages[v]))),
-                             tags[v].eq(Mux(fill, c[q].line, c[q].tags[v])), valids[v].eq(c[q].valids[v] | fill)]
+                m.d.comb += ages[v].eq(Mux(way_now[q] == v, 0, Mux(c[q].ages[v] < used_age, c[q].ages[v] + 1,
+                                                                   c[q].ages[v])))
             out.append((tags, valids, ages))
         return out
 

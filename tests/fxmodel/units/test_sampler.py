@@ -270,7 +270,7 @@ def test_trilinear_narrowed_blends_within_their_bound(h, w, seed, edge, wb, data
 
 def test_trilinear_narrowed_blends_move_the_result():
     """The narrowing is not idle: over many lookups with a coarse blend_frac some outputs differ from the exact
-    blend's, none by more than one code, and the bound's extra error is reached in part."""
+    blend's, none by more than one code."""
     exact = make_trilinear((16, 16), 3, weight_bits=12)
     coarse = exact.replace(blend_frac=1)
     rng = np.random.default_rng(5)

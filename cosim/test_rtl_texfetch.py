@@ -93,10 +93,11 @@ def tin_plane(n: int):
 
 @pytest.mark.parametrize("latency", LATENCIES)
 def test_scene_lookups_chosen_cache(latency):
-    """The tin plane's bump-map lookups through the chosen cache (8 x 8-texel lines, 32 sets, 4 ways): the
-    sampler's packed texel words come back exactly, the bursts are the model's."""
+    """The tin plane's bump-map lookups through the chosen cache (``CHOSEN_CACHE``: 8 x 8-texel lines, 32 sets, 4
+    ways, round robin): the sampler's packed texel words come back exactly, the bursts are the model's."""
+    from cosim.engine_fetch import CHOSEN_CACHE
     trace, words, bits = tin_plane(500)
-    params = TexCacheParams(block=8, sets=32, ways=4, texel_bits=bits)
+    params = dataclasses.replace(CHOSEN_CACHE, texel_bits=bits)
     layout = Layout(((("bump_map", 0),) + words.shape,), params.block, params.texel_bytes)
     res = run(params, layout, [words], trace, latency=latency, p_valid=0.9, p_ready=0.8, p_pause=0.2,
               seed=latency, tag=f"tin_plane_{latency}")
@@ -104,12 +105,13 @@ def test_scene_lookups_chosen_cache(latency):
     check(res)
 
 
-def test_misses_overlap():
+@pytest.mark.parametrize("replacement", ["lru", "fifo"])
+def test_misses_overlap(replacement):
     """With every stream open and the lookup FIFO sized for the latency, a walk that misses often keeps at least
     90 % of its latency-0 rate at latency 40: the bursts overlap (a cache that waited for each would lose 40 clocks
-    a miss)."""
+    a miss). Round robin too, whose tag stage takes a second clock for each fill."""
     params, h, w = CASES[0]
-    params = dataclasses.replace(params, lookup_depth=128, misses=8)
+    params = dataclasses.replace(params, lookup_depth=128, misses=8, replacement=replacement)
     layout = two_levels(params, h, w)
     trace = walk(layout, 240, seed=3)
     maps = maps_for(params, layout, 3)

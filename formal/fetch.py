@@ -19,6 +19,8 @@ capacity), each entry adds:
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 from amaranth.hdl import Array, Cat, Signal
 from amaranth.lib.fifo import SyncFIFOBuffered
 
@@ -38,10 +40,10 @@ __all__ = ["ENTRIES", "DEC_PARAMS", "small_decoupled", "small_texfetch", "FETCH_
 DEC_PARAMS = TexCacheParams(block=2, sets=2, ways=2, index="linear", texel_bits=4, lookup_depth=2, misses=4)
 
 
-def small_decoupled() -> DecoupledTexCache:
-    """The decoupled cache of :data:`DEC_PARAMS` over an 8 x 8 map placed across a 4 KB boundary (16-bit
-    addresses)."""
-    p = DEC_PARAMS
+def small_decoupled(replacement: str = DEC_PARAMS.replacement) -> DecoupledTexCache:
+    """The decoupled cache of :data:`DEC_PARAMS` (with ``replacement``) over an 8 x 8 map placed across a 4 KB
+    boundary (16-bit addresses)."""
+    p = replace(DEC_PARAMS, replacement=replacement)
     layout = Layout(((("m", 0), 8, 8),), p.block, p.texel_bytes, base=4096 - 4 * p.line_bytes)
     return DecoupledTexCache(p, layout, addr_bits=16)
 
@@ -104,6 +106,7 @@ def rows_coherent(h: Harness, s, p: TexCacheParams):
     forwarding and the updates of the tag stage), and the sets' one-hot copies and pairwise equalities are the
     sets' (what the updates select by)."""
     W = p.ways
+    states = W if p.replacement == "lru" else 1          # an age per way, or round robin's one pointer
     store = [[s(f"store{j}_r{r}") for j in range(p.sets)] for r in range(4)]
     for j in range(p.sets):
         for r in range(1, 4):
@@ -115,7 +118,8 @@ def rows_coherent(h: Harness, s, p: TexCacheParams):
         h.check(~s("t_valid") | (s(f"hot{q}") == (1 << set_)[:p.sets]), f"hot{q}_is_set")
         for j in range(q):
             h.check(~s("t_valid") | (s(f"same{q}_{j}") == (set_ == s(f"set{j}"))), f"same{q}_{j}_is_sets")
-        held = row_word(*([s(f"row_{field}{q}_{w}") for w in range(W)] for field in ("tag", "valid", "age")))
+        held = row_word(*([s(f"row_{field}{q}_{w}") for w in range(n)]
+                          for field, n in (("tag", W), ("valid", W), ("age", states))))
         ok = ok & (held == table[set_])
     h.check(~s("t_valid") | ok, "rows_coherent")
 
@@ -178,6 +182,12 @@ ENTRIES = [
                 invariants=_decoupled_invariants, cover_depth=30,
                 extra={"covers": "; lines owed = queued + outstanding + filled <= misses, inside = input FIFO + tag "
                                  "stage + lookup FIFO + output, held rows = the tag store's"}),
+    ReadManager("texcache_decoupled_rr_axi",
+                "DecoupledTexCache as above with round-robin replacement (a row holds one pointer; the victim skips "
+                "the ways the same lookup used)", lambda: small_decoupled("fifo"),
+                arlen=DEC_PARAMS.beats_per_line - 1, max_out=DEC_PARAMS.misses, capacity=_capacity(DEC_PARAMS),
+                invariants=_decoupled_invariants, cover_depth=30,
+                extra={"covers": "; as texcache_decoupled_axi, the held rows' pointers the tag store's"}),
     ReadManager("texfetch_axi",
                 f"TexFetch: two DecoupledTexCache as above on one AXI4 port (two 4x4 maps, the second across 4 KB, "
                 f"memory stalls <= {STALL})", small_texfetch, arlen=DEC_PARAMS.beats_per_line - 1,

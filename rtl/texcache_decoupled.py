@@ -246,6 +246,59 @@ class DecoupledTexCache(wiring.Component):
         for q in range(4):
             todo = ~c[q].dup & (q >= k)
             m.d.comb += live[q].eq(todo & ~req.skip if self.skip else todo)
+        upd, mq = Signal(name="upd"), Signal(2, name="mq")     # round robin: corner mq's fill is this step
+        if P.replacement == "fifo":
+            act, step_miss, last, first = self._steps_two_phase(m, c, live, upd, mq)
+        else:
+            act, step_miss, last = self._steps_one_phase(m, c, live, same, k)
+            first = None
+        fire = Signal()
+        m.d.comb += fire.eq(t_valid & (f.lfifo.w_rdy | ~last) & (~step_miss | (f.inflight < P.misses)))
+        accept = Signal()
+        m.d.comb += [accept.eq(ififo.r_rdy & (~t_valid | (fire & last))), ififo.r_en.eq(accept)]
+        with m.If(accept):
+            m.d.sync += [req.eq(nreq), t_valid.eq(1), k.eq(0), nf.eq(0), upd.eq(0)]
+            for q in range(4):
+                m.d.sync += [c[q].line.eq(nc[q].line), c[q].set.eq(nc[q].set), c[q].dup.eq(nc[q].dup),
+                             c[q].src.eq(nc[q].src), c[q].hot.eq(Const(1, S) << nc[q].set)]
+            m.d.sync += [same[key].eq(nsame[key]) for key in same]
+        with m.Elif(fire & last):
+            m.d.sync += [t_valid.eq(0), upd.eq(0)]
+        if P.replacement == "fifo":
+            with m.Elif(fire & upd):                             # the fill done: decide again from the next corner
+                m.d.sync += [k.eq(mq + 1), nf.eq(nf + 1), upd.eq(0)]
+            with m.Elif(fire):                                   # the hits before the first miss: fill it next
+                m.d.sync += [k.eq(first), mq.eq(first), upd.eq(1)]
+        else:
+            with m.Elif(fire):
+                m.d.sync += [k.eq(k + 1), nf.eq(nf + step_miss)]
+        # ways: this step's, else the registered ones; a duplicate takes its source's
+        way_now = [Signal(wb, name=f"way_now{q}") for q in range(4)]
+        for q in range(4):
+            miss = upd if P.replacement == "fifo" else ~c[q].hit   # round robin: a corner acts on a miss only in
+            m.d.comb += way_now[q].eq(Mux(act[q], Mux(miss, c[q].victim, c[q].hit_way), way_reg[q]))  # its fill
+            with m.If(fire & act[q]):
+                m.d.sync += way_reg[q].eq(way_now[q])
+        eff = Array(way_now)
+        ways = [Signal(wb, name=f"way_eff{q}") for q in range(4)]
+        for q in range(4):
+            m.d.comb += ways[q].eq(eff[c[q].src])
+        # the rows a step writes: every checked corner's (LRU), the filled corner's only (round robin: a hit
+        # changes no row)
+        wr = [Signal(name=f"wr{q}") for q in range(4)]
+        for q in range(4):
+            m.d.comb += wr[q].eq(fire & act[q] & (upd if P.replacement == "fifo" else 1))
+        fills = [act[q] & (upd if P.replacement == "fifo" else ~c[q].hit) for q in range(4)]
+        new = self._new_rows(m, c, way_now)
+        stored = self._store(m, c, nc, wr, new, platform)
+        self._rows(m, c, nc, same, wr, accept, new, stored)
+        self._queue(m, f, c, req, fills, fire, last, step_miss, nf, ways)
+        f.tag_busy = t_valid | (ififo.level != 0)           # a lookup in the input FIFO or held
+
+    def _steps_one_phase(self, m, c, live, same, k):
+        """LRU: the corners a step checks (``act``), whether it misses, whether it is the lookup's last. All
+        remaining corners in one step when they fall in distinct sets and at most one of them misses, else corner
+        ``k`` alone; a step's hits and its miss update the rows in the clock it fires."""
         clash = Signal()
         for q in range(4):
             for j in range(q):
@@ -257,49 +310,42 @@ class DecoupledTexCache(wiring.Component):
         act = [Signal(name=f"act{q}") for q in range(4)]         # corners checked in this step
         for q in range(4):
             m.d.comb += act[q].eq(live[q] & Mux(allin, 1, k == q))
-        step_miss = Signal()
-        m.d.comb += step_miss.eq(sum(act[q] & ~c[q].hit for q in range(4)) != 0)
-        last = Signal()
-        m.d.comb += last.eq(allin | (k == 3))
-        fire = Signal()
-        m.d.comb += fire.eq(t_valid & f.lfifo.w_rdy & (~step_miss | (f.inflight < P.misses)))
-        accept = Signal()
-        m.d.comb += [accept.eq(ififo.r_rdy & (~t_valid | (fire & last))), ififo.r_en.eq(accept)]
-        with m.If(accept):
-            m.d.sync += [req.eq(nreq), t_valid.eq(1), k.eq(0), nf.eq(0)]
-            for q in range(4):
-                m.d.sync += [c[q].line.eq(nc[q].line), c[q].set.eq(nc[q].set), c[q].dup.eq(nc[q].dup),
-                             c[q].src.eq(nc[q].src), c[q].hot.eq(Const(1, S) << nc[q].set)]
-            m.d.sync += [same[key].eq(nsame[key]) for key in same]
-        with m.Elif(fire & last):
-            m.d.sync += t_valid.eq(0)
-        with m.Elif(fire):
-            m.d.sync += [k.eq(k + 1), nf.eq(nf + step_miss)]
-        # ways: this step's, else the registered ones; a duplicate takes its source's
-        way_now = [Signal(wb, name=f"way_now{q}") for q in range(4)]
-        for q in range(4):
-            m.d.comb += way_now[q].eq(Mux(act[q], Mux(c[q].hit, c[q].hit_way, c[q].victim), way_reg[q]))
-            with m.If(fire & act[q]):
-                m.d.sync += way_reg[q].eq(way_now[q])
-        eff = Array(way_now)
-        ways = [Signal(wb, name=f"way_eff{q}") for q in range(4)]
-        for q in range(4):
-            m.d.comb += ways[q].eq(eff[c[q].src])
-        new = self._new_rows(m, c, way_now)
-        stored = self._store(m, c, nc, act, fire, new, platform)
-        self._rows(m, c, nc, same, act, fire, accept, new, stored)
-        self._queue(m, f, c, req, act, fire, last, step_miss, nf, ways)
-        f.tag_busy = t_valid | (ififo.level != 0)           # a lookup in the input FIFO or held
+        step_miss, last = Signal(), Signal()
+        m.d.comb += [step_miss.eq(sum(act[q] & ~c[q].hit for q in range(4)) != 0), last.eq(allin | (k == 3))]
+        return act, step_miss, last
 
-    def _queue(self, m, f, c, req, act, fire, last, step_miss, nf, ways):
-        """The step's miss (at most one) into the ``AR`` queue and the slot queue; the lookup's entry into the
-        lookup FIFO when its last step fires."""
+    def _steps_two_phase(self, m, c, live, upd, mq):
+        """Round robin: a hit changes no row, so a step is either the remaining corners up to the first that misses
+        (all of them when none misses; the lookup's last step then), which decides and writes nothing, or (``upd``)
+        the fill of that corner (``mq``), from registers alone: its victim, its row, its burst. The compare of the
+        rows with the lines reaches the lookup's acceptance only, never a row. Returns ``(act, step_miss, last,
+        first)``, ``first`` the first corner that misses."""
+        miss = [Signal(name=f"miss{q}") for q in range(4)]
+        for q in range(4):
+            m.d.comb += miss[q].eq(live[q] & ~c[q].hit)
+        first = Signal(2, name="first_miss")
+        for q in reversed(range(4)):
+            with m.If(miss[q]):
+                m.d.comb += first.eq(q)
+        after = Signal()                                         # corners left after the one being filled
+        m.d.comb += after.eq(sum(live[q] & (mq < q) for q in range(1, 4)) != 0)
+        act = [Signal(name=f"act{q}") for q in range(4)]
+        for q in range(4):
+            earlier = sum(miss[j] for j in range(q + 1)) != 0
+            m.d.comb += act[q].eq(Mux(upd, mq == q, live[q] & ~earlier))
+        step_miss, last = Signal(), Signal()
+        m.d.comb += [step_miss.eq(upd), last.eq(Mux(upd, ~after, sum(miss) == 0))]
+        return act, step_miss, last, first
+
+    def _queue(self, m, f, c, req, fills, fire, last, step_miss, nf, ways):
+        """The step's miss (at most one: the corner ``fills`` names) into the ``AR`` queue and the slot queue; the
+        lookup's entry into the lookup FIFO when its last step fires."""
         P = self.params
         W = P.ways
         xs, ys = _corner_xy(req)
         mline, mslot = Signal(self.line_bits), Signal(f.slots.width)
         for q in reversed(range(4)):
-            with m.If(act[q] & ~c[q].hit):
+            with m.If(fills[q]):
                 m.d.comb += [mline.eq(c[q].line), mslot.eq(c[q].set * W + c[q].victim)]
         m.d.comb += [f.miss_now.eq(fire & step_miss), f.arq.w_en.eq(f.miss_now), f.arq.w_data.eq(mline),
                      f.slots.w_en.eq(f.miss_now), f.slots.w_data.eq(mslot)]
@@ -352,19 +398,21 @@ class DecoupledTexCache(wiring.Component):
     def _new_rows(self, m, c, way_now) -> list:
         """Each corner's row after its check: on a miss, the victim's tag and valid bit; the replacement state of
         LRU (the way used becomes the youngest, the younger ones age by one) or of round robin (a fill moves the
-        pointer past its way, a hit leaves it). ``[(tags, valids, state)]`` per corner."""
+        pointer past its way). Round robin writes a row only in a fill (a hit changes none), so its new row is the
+        fill's, from the held row and the victim alone (registers: no compare on the way). ``[(tags, valids,
+        state)]`` per corner."""
         W = self.params.ways
         wb = age_bits(W)
+        rr = self.params.replacement == "fifo"
         out = []
         for q in range(4):
             tags = [Signal(self.line_bits, name=f"new_tag{q}_{v}") for v in range(W)]
             valids = [Signal(name=f"new_valid{q}_{v}") for v in range(W)]
             for v in range(W):
-                fill = ~c[q].hit & (way_now[q] == v)
+                fill = c[q].victim == v if rr else ~c[q].hit & (way_now[q] == v)
                 m.d.comb += [tags[v].eq(Mux(fill, c[q].line, c[q].tags[v])), valids[v].eq(c[q].valids[v] | fill)]
-            if self.params.replacement == "fifo":
-                nxt = Mux(way_now[q] == W - 1, 0, way_now[q] + 1)[:wb]
-                out.append((tags, valids, [Mux(c[q].hit, c[q].ages[0], nxt)]))
+            if rr:
+                out.append((tags, valids, [Mux(c[q].victim == W - 1, 0, c[q].victim + 1)[:wb]]))
                 continue
             used_age = Signal(wb, name=f"used_age{q}")
             m.d.comb += used_age.eq(Array(c[q].ages)[way_now[q]])
@@ -375,7 +423,7 @@ class DecoupledTexCache(wiring.Component):
             out.append((tags, valids, ages))
         return out
 
-    def _store(self, m, c, nc, act, fire, new, platform) -> list:
+    def _store(self, m, c, nc, wr, new, platform) -> list:
         """The tag store: each set's row (its ways' tags, valid bits and ages) in LUT RAM with a write port per
         corner (a step writes at most one set per corner, and a set from at most one corner) and a read port per
         corner of the next lookup, built as a live-value table (LaForest & Steffan, FPGA 2010): a memory per write
@@ -396,7 +444,7 @@ class DecoupledTexCache(wiring.Component):
         lvt = [Signal(2, name=f"lvt{j}") for j in range(S)]
         written = [Signal(name=f"written{j}") for j in range(S)]
         for w in range(4):
-            with m.If(fire & act[w]):
+            with m.If(wr[w]):
                 for j in range(S):
                     with m.If(c[w].hot[j]):
                         m.d.sync += [lvt[j].eq(w), written[j].eq(1)]
@@ -418,7 +466,7 @@ class DecoupledTexCache(wiring.Component):
                 mem = Memory(shape=width, depth=S, init=[])
                 m.submodules[f"tags_w{w}_r{r}"] = mem
                 wp = mem.write_port()
-                m.d.comb += [wp.addr.eq(c[w].set), wp.data.eq(row_word(*new[w])), wp.en.eq(fire & act[w])]
+                m.d.comb += [wp.addr.eq(c[w].set), wp.data.eq(row_word(*new[w])), wp.en.eq(wr[w])]
                 mems.append(mem)
             row = live(mems, nc[r].set, f"stored{r}")
             if platform == "formal":
@@ -427,7 +475,7 @@ class DecoupledTexCache(wiring.Component):
             out.append(row_fields(row, W, lb, self._states))
         return out
 
-    def _rows(self, m, c, nc, same, act, fire, accept, new, stored):
+    def _rows(self, m, c, nc, same, wr, accept, new, stored):
         """The held rows: loaded with a lookup (each corner's set's row read from the tag store, or the row this
         clock's step writes to that set), else updated by a step that touches their set."""
         P = self.params
@@ -444,13 +492,13 @@ class DecoupledTexCache(wiring.Component):
             with m.If(accept):
                 assign(q, stored[q])
                 for j in range(4):
-                    m.d.comb += fwd[j].eq(fire & act[j] & (c[j].set == nc[q].set))
+                    m.d.comb += fwd[j].eq(wr[j] & (c[j].set == nc[q].set))
                     with m.If(fwd[j]):
                         assign(q, new[j])
-            with m.Elif(fire):
+            with m.Else():
                 for j in range(4):
                     sets_equal = 1 if j == q else same[max(q, j), min(q, j)]
-                    with m.If(act[j] & sets_equal):
+                    with m.If(wr[j] & sets_equal):
                         assign(q, new[j])
 
     def _memory_port(self, m, f):

@@ -25,7 +25,7 @@ from amaranth.hdl import Array, Cat, Signal
 from amaranth.lib.fifo import SyncFIFOBuffered
 
 from fxmodel.units.texcache import Layout, TexCacheParams
-from rtl.texcache_decoupled import INPUT_DEPTH, DecoupledTexCache, row_word
+from rtl.texcache_decoupled import INPUT_DEPTH, DecoupledTexCache, row_states, row_word
 from rtl.texfetch import MAPS, TexFetch
 
 from . import whitebox
@@ -106,7 +106,7 @@ def rows_coherent(h: Harness, s, p: TexCacheParams):
     forwarding and the updates of the tag stage), and the sets' one-hot copies and pairwise equalities are the
     sets' (what the updates select by)."""
     W = p.ways
-    states = W if p.replacement == "lru" else 1          # an age per way, or round robin's one pointer
+    states = row_states(p)                               # an age per way, or round robin's one pointer
     store = [[s(f"store{j}_r{r}") for j in range(p.sets)] for r in range(4)]
     for j in range(p.sets):
         for r in range(1, 4):

@@ -49,7 +49,7 @@ from fxmodel.core.unit import require
 from fxmodel.units.texcache import Layout, TexCacheParams
 from rtl.rop import axi_signature
 
-__all__ = ["DecoupledTexCache", "request_layout", "age_bits", "row_word", "row_fields", "INPUT_DEPTH"]
+__all__ = ["DecoupledTexCache", "request_layout", "age_bits", "row_states", "row_word", "row_fields", "INPUT_DEPTH"]
 
 #: Lookups the input FIFO holds: Amaranth's ``SyncFIFOBuffered`` (registered ``w_rdy`` and output) takes one a
 #: clock from depth 3 (its inner FIFO of 2 has room while one entry leaves; at depth 2 it would take one every
@@ -60,6 +60,11 @@ INPUT_DEPTH = 3
 def age_bits(ways: int) -> int:
     """Bits of a way's LRU age (``0`` the youngest, ``ways - 1`` the oldest)."""
     return max(1, (ways - 1).bit_length())
+
+
+def row_states(params: TexCacheParams) -> int:
+    """Replacement-state fields of a row: an age per way (LRU) or one pointer (round robin)."""
+    return params.ways if params.replacement == "lru" else 1
 
 
 def row_word(tags, valids, ages):
@@ -219,6 +224,7 @@ class DecoupledTexCache(wiring.Component):
         P = self.params
         W, S = P.ways, P.sets
         wb = age_bits(W)
+        rr = P.replacement == "fifo"
         m.submodules.ififo = ififo = SyncFIFOBuffered(width=self.req.size, depth=INPUT_DEPTH)
         m.d.comb += [ififo.w_en.eq(self.i.valid), ififo.w_data.eq(self.i.payload), self.i.ready.eq(ififo.w_rdy)]
         nreq = Signal(self.req, name="nreq")
@@ -235,23 +241,22 @@ class DecoupledTexCache(wiring.Component):
             c[q].hot = Signal(S, name=f"hot{q}")                 # the set, one-hot (the update's enables)
             c[q].tags = [Signal(self.line_bits, name=f"row_tag{q}_{w}") for w in range(W)]
             c[q].valids = [Signal(name=f"row_valid{q}_{w}") for w in range(W)]
-            c[q].ages = [Signal(wb, name=f"row_age{q}_{w}") for w in range(self._states)]
+            c[q].ages = [Signal(wb, name=f"row_age{q}_{w}") for w in range(row_states(self.params))]
         same = {(q, j): Signal(name=f"same{q}_{j}") for q in range(4) for j in range(q)}
         for q in range(4):
             # round robin: the ways of this corner's set that earlier steps of the lookup used (its victim skips them)
             used = [sum((k > j) & ~c[j].dup & same[q, j] & (way_reg[j] == v) for j in range(q)) != 0 if q else Const(0)
-                    for v in range(W)] if P.replacement == "fifo" else None
+                    for v in range(W)] if rr else None
             self._lookup_row(m, c[q], q, used)
         live = [Signal(name=f"live{q}") for q in range(4)]       # distinct and not yet checked
         for q in range(4):
             todo = ~c[q].dup & (q >= k)
             m.d.comb += live[q].eq(todo & ~req.skip if self.skip else todo)
         upd, mq = Signal(name="upd"), Signal(2, name="mq")     # round robin: corner mq's fill is this step
-        if P.replacement == "fifo":
+        if rr:
             act, step_miss, last, first = self._steps_two_phase(m, c, live, upd, mq)
         else:
             act, step_miss, last = self._steps_one_phase(m, c, live, same, k)
-            first = None
         fire = Signal()
         m.d.comb += fire.eq(t_valid & (f.lfifo.w_rdy | ~last) & (~step_miss | (f.inflight < P.misses)))
         accept = Signal()
@@ -264,7 +269,7 @@ class DecoupledTexCache(wiring.Component):
             m.d.sync += [same[key].eq(nsame[key]) for key in same]
         with m.Elif(fire & last):
             m.d.sync += [t_valid.eq(0), upd.eq(0)]
-        if P.replacement == "fifo":
+        if rr:
             with m.Elif(fire & upd):                             # the fill done: decide again from the next corner
                 m.d.sync += [k.eq(mq + 1), nf.eq(nf + 1), upd.eq(0)]
             with m.Elif(fire):                                   # the hits before the first miss: fill it next
@@ -272,11 +277,12 @@ class DecoupledTexCache(wiring.Component):
         else:
             with m.Elif(fire):
                 m.d.sync += [k.eq(k + 1), nf.eq(nf + step_miss)]
+        # whether a corner that acts fills its victim: on a miss (LRU), in the fill step only (round robin)
+        filling = [upd if rr else ~c[q].hit for q in range(4)]
         # ways: this step's, else the registered ones; a duplicate takes its source's
         way_now = [Signal(wb, name=f"way_now{q}") for q in range(4)]
         for q in range(4):
-            miss = upd if P.replacement == "fifo" else ~c[q].hit   # round robin: a corner acts on a miss only in
-            m.d.comb += way_now[q].eq(Mux(act[q], Mux(miss, c[q].victim, c[q].hit_way), way_reg[q]))  # its fill
+            m.d.comb += way_now[q].eq(Mux(act[q], Mux(filling[q], c[q].victim, c[q].hit_way), way_reg[q]))
             with m.If(fire & act[q]):
                 m.d.sync += way_reg[q].eq(way_now[q])
         eff = Array(way_now)
@@ -287,8 +293,8 @@ class DecoupledTexCache(wiring.Component):
         # changes no row)
         wr = [Signal(name=f"wr{q}") for q in range(4)]
         for q in range(4):
-            m.d.comb += wr[q].eq(fire & act[q] & (upd if P.replacement == "fifo" else 1))
-        fills = [act[q] & (upd if P.replacement == "fifo" else ~c[q].hit) for q in range(4)]
+            m.d.comb += wr[q].eq(fire & act[q] & (upd if rr else 1))
+        fills = [act[q] & filling[q] for q in range(4)]
         new = self._new_rows(m, c, way_now)
         stored = self._store(m, c, nc, wr, new, platform)
         self._rows(m, c, nc, same, wr, accept, new, stored)
@@ -363,11 +369,6 @@ class DecoupledTexCache(wiring.Component):
                     m.d.comb += entry.addr[b].eq(slot * self._words + self._word(xs[q], ys[q]))
         m.d.comb += [f.lfifo.w_en.eq(fire & last), f.lfifo.w_data.eq(entry)]
 
-    @property
-    def _states(self) -> int:
-        """Replacement-state fields of a row: an age per way (LRU) or one pointer (round robin)."""
-        return self.params.ways if self.params.replacement == "lru" else 1
-
     def _lookup_row(self, m, cq, q, used):
         """Corner ``q``'s hit and way in its row, and the row's victim (the lowest invalid way, else the oldest for LRU,
         else for round robin the pointer's way or the next after it that ``used`` does not name; ``used`` is ``None``
@@ -439,7 +440,7 @@ class DecoupledTexCache(wiring.Component):
         P = self.params
         W, S = P.ways, P.sets
         wb, lb = age_bits(W), self.line_bits
-        empty = row_word([Const(0, lb)] * W, [Const(0, 1)] * W, [Const(w, wb) for w in range(self._states)])
+        empty = row_word([Const(0, lb)] * W, [Const(0, 1)] * W, [Const(w, wb) for w in range(row_states(self.params))])
         width = len(empty)
         lvt = [Signal(2, name=f"lvt{j}") for j in range(S)]
         written = [Signal(name=f"written{j}") for j in range(S)]
@@ -472,7 +473,7 @@ class DecoupledTexCache(wiring.Component):
             if platform == "formal":
                 for j in range(S):
                     live(mems, Const(j, len(nc[r].set)), f"store{j}_r{r}")
-            out.append(row_fields(row, W, lb, self._states))
+            out.append(row_fields(row, W, lb, row_states(self.params)))
         return out
 
     def _rows(self, m, c, nc, same, wr, accept, new, stored):

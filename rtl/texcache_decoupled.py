@@ -307,8 +307,18 @@ class DecoupledTexCache(wiring.Component):
         for q in range(4):
             m.d.comb += wr[q].eq(fire & act[q] & (upd if rr else 1))
         fills = [act[q] & filling[q] for q in range(4)]
-        tag_write = Signal(name="tag_write")
-        m.d.comb += tag_write.eq(fire & (sum(fills) != 0))
+        self._outcomes(m, c, pre, hits_ok, accept, fire & (sum(fills) != 0))
+        new = new_rows(m, P, self.line_bits, c, way_now)
+        stored = tag_store(m, P, self.line_bits, c, [nc[q].set for q in range(4)], wr, new, platform)
+        self._rows(m, c, pre, nc, same, wr, p_load, accept, new, stored)
+        self._queue(m, f, c, req, fills, fire, last, step_miss, nf, ways)
+        f.tag_busy = t_valid | pre.valid | (ififo.level != 0)   # a lookup in the input FIFO or held
+
+    @staticmethod
+    def _outcomes(m, c, pre, hits_ok, accept, tag_write):
+        """The tag stage's registered outcomes (each corner's hit and way) and whether they are current
+        (``hits_ok``): taken with the lookup from the prefetch stage's compares, stale after a step that writes
+        tags (``tag_write``), then taken again from the compares of the held rows (a clock)."""
         with m.If(accept):
             m.d.sync += hits_ok.eq(~tag_write)
             m.d.sync += [x.eq(y) for q in range(4) for x, y in ((c[q].hit, pre.c[q].hit),
@@ -319,11 +329,6 @@ class DecoupledTexCache(wiring.Component):
             m.d.sync += hits_ok.eq(1)
             m.d.sync += [x.eq(y) for q in range(4) for x, y in ((c[q].hit, c[q].cmp_hit),
                                                                 (c[q].hit_way, c[q].cmp_way))]
-        new = new_rows(m, P, self.line_bits, c, way_now)
-        stored = tag_store(m, P, self.line_bits, c, [nc[q].set for q in range(4)], wr, new, platform)
-        self._rows(m, c, pre, nc, same, wr, p_load, accept, new, stored)
-        self._queue(m, f, c, req, fills, fire, last, step_miss, nf, ways)
-        f.tag_busy = t_valid | pre.valid | (ififo.level != 0)   # a lookup in the input FIFO or held
 
     def _steps_one_phase(self, m, c, live, same, k):
         """LRU: the corners a step checks (``act``), whether it misses, whether it is the lookup's last. All

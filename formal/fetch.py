@@ -8,9 +8,9 @@ capacity), each entry adds:
 
 - the decoupled cache: its white-box invariants (lines owed = lines queued for ``AR`` + bursts outstanding + lines
   complete in the fill buffer, never above ``misses``; the slot queue as long; the beat counter the burst's; a copy
-  only of a complete line; lookups inside = the input FIFO + the tag stage + the lookup FIFO + the output
-  register; the tag store's copies agree and the held lookup's rows are its sets' rows in the store), which make
-  k-induction close; covers: ``misses`` bursts outstanding, the lookup FIFO full;
+  only of a complete line; lookups inside = the input FIFO + the prefetch and tag stages + the lookup FIFO + its
+  head + the output register; the tag store's copies agree and the held lookup's rows are its sets' rows in the
+  store), which make k-induction close; covers: ``misses`` bursts outstanding, the lookup FIFO full;
 - the texture fetch: each ``AR`` comes from exactly one cache's handshake with its fields (``ar_from_one``), each
   cache's own bursts outstanding at most its ``misses`` (``c*_outstanding``), and every ``R`` beat routed to
   exactly the cache that issued its burst (``r_to_owner``, against a queue of the issuing caches kept by the
@@ -25,7 +25,7 @@ from amaranth.hdl import Array, Cat, Signal
 from amaranth.lib.fifo import SyncFIFOBuffered
 
 from fxmodel.units.texcache import Layout, TexCacheParams
-from rtl.texcache_decoupled import HELD, INPUT_DEPTH, DecoupledTexCache
+from rtl.texcache_decoupled import AFTER, HELD, INPUT_DEPTH, DecoupledTexCache
 from rtl.texcache_tags import row_states, row_word
 from rtl.texfetch import MAPS, TexFetch
 
@@ -60,8 +60,8 @@ def small_texfetch(cls=TexFetch) -> TexFetch:
 
 def _capacity(p: TexCacheParams) -> int:
     """Lookups a decoupled cache holds at most: the input FIFO's, the prefetch and tag stages', the lookup FIFO's,
-    the output register's."""
-    return INPUT_DEPTH + HELD + p.lookup_depth + 1
+    its head's and the output register's."""
+    return INPUT_DEPTH + HELD + p.lookup_depth + AFTER
 
 
 def buffered_fifo_invariants(h: Harness, sig, fifo, name: str):
@@ -94,7 +94,8 @@ def cache_invariants(h: Harness, sig, top, path: str, cache, pend, beat_ref, ins
         h.check(slots.level == inflight, "slot_queue")
         h.check(~copying | (filled != 0), "copy_of_complete_line")
         h.check(beat == beat_ref, "beat_is_burst_beat")
-        h.check(inside == ififo.level + s("p_valid") + s("t_valid") + lfifo.level + s("o_valid"), "inside_is_stages")
+        h.check(inside == ififo.level + s("p_valid") + s("t_valid") + lfifo.level + s("h_valid") + s("o_valid"),
+                "inside_is_stages")
         rows_coherent(h, s, p)
     h.cover(pend == p.misses, "misses_outstanding_reach")
     h.cover((lfifo.level == p.lookup_depth) & s("t_valid"), "lookup_fifo_full_reach")

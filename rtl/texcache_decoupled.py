@@ -56,7 +56,7 @@ from rtl.rop import axi_signature
 
 from .texcache_tags import age_bits, compare, new_rows, row_states, tag_store, victim
 
-__all__ = ["DecoupledTexCache", "request_layout", "INPUT_DEPTH", "HELD"]
+__all__ = ["DecoupledTexCache", "request_layout", "INPUT_DEPTH", "HELD", "AFTER"]
 
 #: Lookups the input FIFO holds: Amaranth's ``SyncFIFOBuffered`` (registered ``w_rdy`` and output) takes one a
 #: clock from depth 3 (its inner FIFO of 2 has room while one entry leaves; at depth 2 it would take one every
@@ -65,6 +65,10 @@ INPUT_DEPTH = 3
 
 #: Lookups held in registers between the input FIFO and the lookup FIFO: the prefetch stage's and the tag stage's.
 HELD = 2
+
+#: Lookups held in registers after the lookup FIFO: its head (so that the data stage decides from flip-flops, not
+#: from the block RAM's unregistered output) and the output register.
+AFTER = 2
 
 
 def request_layout(layout: Layout, side_bits: int = 0, skip: bool = False) -> data.StructLayout:
@@ -462,15 +466,16 @@ class DecoupledTexCache(wiring.Component):
                 m.d.sync += wring.eq(wring + 1 if P.misses > 1 else 0)
 
     def _data_stage(self, m, f):
-        """Copy the head lookup's fills into the data banks, then read its four texels (one read per bank)."""
+        """Copy the head lookup's fills into the data banks, then read its four texels (one read per bank). The
+        head is a register loaded from the lookup FIFO (``h_valid``, ``head``): the fill count, the bank addresses
+        and the corners' banks come from flip-flops, not from the FIFO's block RAM."""
         P = self.params
         Q = self._words
-        ent = Signal(self._entry_layout())
-        m.d.comb += ent.eq(f.lfifo.r_data)
+        ent, h_valid = Signal(self._entry_layout(), name="head"), Signal(name="h_valid")
         m.d.sync += f.filled.eq(f.filled + f.line_in - f.copy_done)
         done, copying = Signal(3, name="done"), Signal(name="copying")
         cc, rring = Signal(range(Q + 1), name="cc"), Signal(range(P.misses), name="rring")
-        start = f.lfifo.r_rdy & (done != ent.fills) & (f.filled != 0) & ~copying
+        start = h_valid & (done != ent.fills) & (f.filled != 0) & ~copying
         with m.If(start):
             m.d.sync += [copying.eq(1), cc.eq(0)]
         with m.If(copying):
@@ -484,7 +489,7 @@ class DecoupledTexCache(wiring.Component):
         o_valid, sel = Signal(name="o_valid"), Signal(data.ArrayLayout(2, 4), name="sel")
         side = Signal(max(1, self.side_bits))
         advance = ~o_valid | self.o.ready
-        ready = f.lfifo.r_rdy & (done == ent.fills) & ~copying
+        ready = h_valid & (done == ent.fills) & ~copying
         banks = []
         for b in range(4):
             mem = Memory(shape=P.texel_bits, depth=P.lines * Q, init=[])
@@ -494,15 +499,19 @@ class DecoupledTexCache(wiring.Component):
             slot_word = (f.slots.r_data * Q + (cc - 1))[:len(wp.addr)]
             m.d.comb += [wp.addr.eq(slot_word), wp.data.eq(f.fill_banks[b].data), wp.en.eq(copying & (cc != 0)),
                          rp.addr.eq(ent.addr[b]), rp.en.eq(advance)]
+        take = Signal(name="take")                               # the head's texels read: it leaves
+        m.d.comb += take.eq(advance & ready)
         with m.If(advance):
             m.d.sync += o_valid.eq(ready)
             with m.If(ready):
-                m.d.comb += f.lfifo.r_en.eq(1)
                 m.d.sync += [done.eq(0), sel.eq(ent.bank)]
                 if self.side_bits:
                     m.d.sync += side.eq(ent.side)
+        m.d.comb += f.lfifo.r_en.eq(~h_valid | take)
+        with m.If(f.lfifo.r_en):
+            m.d.sync += [h_valid.eq(f.lfifo.r_rdy), ent.eq(f.lfifo.r_data)]
         rdata = Array(rp.data for rp in banks)
         m.d.comb += [self.o.valid.eq(o_valid), self.o.payload.texels.eq(Cat(*(rdata[sel[q]] for q in range(4))))]
         if self.side_bits:
             m.d.comb += self.o.payload.side.eq(side)
-        m.d.comb += self.busy.eq(f.tag_busy | f.lfifo.r_rdy | o_valid | (f.inflight != 0))
+        m.d.comb += self.busy.eq(f.tag_busy | f.lfifo.r_rdy | h_valid | o_valid | (f.inflight != 0))

@@ -8,9 +8,9 @@ capacity), each entry adds:
 
 - the decoupled cache: its white-box invariants (lines owed = lines queued for ``AR`` + bursts outstanding + lines
   complete in the fill buffer, never above ``misses``; the slot queue as long; the beat counter the burst's; a copy
-  only of a complete line; lookups inside = the input FIFO + the tag stage + the lookup FIFO + the output
-  register; the tag store's copies agree and the held lookup's rows are its sets' rows in the store), which make
-  k-induction close; covers: ``misses`` bursts outstanding, the lookup FIFO full;
+  only of a complete line; lookups inside = the input FIFO + the prefetch and tag stages + the lookup FIFO + its
+  head + the output register; the tag store's copies agree and the held lookup's rows are its sets' rows in the
+  store), which make k-induction close; covers: ``misses`` bursts outstanding, the lookup FIFO full;
 - the texture fetch: each ``AR`` comes from exactly one cache's handshake with its fields (``ar_from_one``), each
   cache's own bursts outstanding at most its ``misses`` (``c*_outstanding``), and every ``R`` beat routed to
   exactly the cache that issued its burst (``r_to_owner``, against a queue of the issuing caches kept by the
@@ -25,7 +25,8 @@ from amaranth.hdl import Array, Cat, Signal
 from amaranth.lib.fifo import SyncFIFOBuffered
 
 from fxmodel.units.texcache import Layout, TexCacheParams
-from rtl.texcache_decoupled import INPUT_DEPTH, DecoupledTexCache, row_states, row_word
+from rtl.texcache_decoupled import AFTER, HELD, INPUT_DEPTH, DecoupledTexCache
+from rtl.texcache_tags import row_states, row_word
 from rtl.texfetch import MAPS, TexFetch
 
 from . import whitebox
@@ -58,9 +59,9 @@ def small_texfetch(cls=TexFetch) -> TexFetch:
 
 
 def _capacity(p: TexCacheParams) -> int:
-    """Lookups a decoupled cache holds at most: the input FIFO's, the tag stage's, the lookup FIFO's, the output
-    register's."""
-    return INPUT_DEPTH + 1 + p.lookup_depth + 1
+    """Lookups a decoupled cache holds at most: the input FIFO's, the prefetch and tag stages', the lookup FIFO's,
+    its head's and the output register's."""
+    return INPUT_DEPTH + HELD + p.lookup_depth + AFTER
 
 
 def buffered_fifo_invariants(h: Harness, sig, fifo, name: str):
@@ -93,18 +94,20 @@ def cache_invariants(h: Harness, sig, top, path: str, cache, pend, beat_ref, ins
         h.check(slots.level == inflight, "slot_queue")
         h.check(~copying | (filled != 0), "copy_of_complete_line")
         h.check(beat == beat_ref, "beat_is_burst_beat")
-        h.check(inside == ififo.level + s("t_valid") + lfifo.level + s("o_valid"), "inside_is_stages")
+        h.check(inside == ififo.level + s("p_valid") + s("t_valid") + lfifo.level + s("h_valid") + s("o_valid"),
+                "inside_is_stages")
         rows_coherent(h, s, p)
     h.cover(pend == p.misses, "misses_outstanding_reach")
     h.cover((lfifo.level == p.lookup_depth) & s("t_valid"), "lookup_fifo_full_reach")
 
 
 def rows_coherent(h: Harness, s, p: TexCacheParams):
-    """The tag store (``rtl/texcache_decoupled.py``'s live-value table over LUT RAMs) and the held rows:
+    """The tag store (``rtl/texcache_tags.py``'s live-value table over LUT RAMs) and the held rows:
     ``store_copies_agree`` (each set's live row is the same through every read port: a write port writes all its
-    copies), ``rows_coherent`` (while a lookup is held, each corner's held row is its set's row in the store: the
-    forwarding and the updates of the tag stage), and the sets' one-hot copies and pairwise equalities are the
-    sets' (what the updates select by)."""
+    copies), ``rows_coherent`` and ``p_rows_coherent`` (while the tag stage, or the prefetch stage, holds a lookup,
+    each corner's held row is its set's row in the store: the forwarding and the updates), the sets' one-hot
+    copies and pairwise equalities are the sets' (what the updates select by), and ``hits_current`` (the tag
+    stage's registered outcomes, when it marks them current, are its corners' compares with its held rows)."""
     W = p.ways
     states = row_states(p)                               # an age per way, or round robin's one pointer
     store = [[s(f"store{j}_r{r}") for j in range(p.sets)] for r in range(4)]
@@ -112,16 +115,22 @@ def rows_coherent(h: Harness, s, p: TexCacheParams):
         for r in range(1, 4):
             h.check(store[r][j] == store[0][j], f"store{j}_copy{r}_agrees")
     table = Array(store[0])
-    ok = 1
+    for prefix, valid in (("", "t_valid"), ("p_", "p_valid")):
+        ok = 1
+        for q in range(4):
+            set_ = s(f"{prefix}set{q}")
+            h.check(~s(valid) | (s(f"{prefix}hot{q}") == (1 << set_)[:p.sets]), f"{prefix}hot{q}_is_set")
+            for j in range(q):
+                h.check(~s(valid) | (s(f"{prefix}same{q}_{j}") == (set_ == s(f"{prefix}set{j}"))),
+                        f"{prefix}same{q}_{j}_is_sets")
+            held = row_word(*([s(f"{prefix}row_{field}{q}_{w}") for w in range(n)]
+                              for field, n in (("tag", W), ("valid", W), ("age", states))))
+            ok = ok & (held == table[set_])
+        h.check(~s(valid) | ok, f"{prefix}rows_coherent")
+    cur = 1
     for q in range(4):
-        set_ = s(f"set{q}")
-        h.check(~s("t_valid") | (s(f"hot{q}") == (1 << set_)[:p.sets]), f"hot{q}_is_set")
-        for j in range(q):
-            h.check(~s("t_valid") | (s(f"same{q}_{j}") == (set_ == s(f"set{j}"))), f"same{q}_{j}_is_sets")
-        held = row_word(*([s(f"row_{field}{q}_{w}") for w in range(n)]
-                          for field, n in (("tag", W), ("valid", W), ("age", states))))
-        ok = ok & (held == table[set_])
-    h.check(~s("t_valid") | ok, "rows_coherent")
+        cur = cur & (s(f"hit{q}") == s(f"t_{q}_hit")) & (~s(f"hit{q}") | (s(f"hit_way{q}") == s(f"t_{q}_hit_way")))
+    h.check(~(s("t_valid") & s("hits_ok")) | cur, "hits_current")
 
 
 def _decoupled_invariants(h: Harness, sig, rd, inside, *, inner, top):

@@ -9,13 +9,18 @@ request names one by its index). Organisation (``docs/texcache.md``):
 - **Input FIFO** (:data:`INPUT_DEPTH` lookups): ``i.ready`` is a register, so a stall does not travel up the
   stream in the clock the tag stage decides it; the next lookup's corner lines and sets are computed from its
   output register a clock ahead.
+- **Prefetch stage**: the next lookup, its corners' lines and sets, each corner's set's row read from the tag
+  store (:mod:`rtl.texcache_tags`, LUT RAM) and the compares of those rows with the lines, all in registers, the
+  rows kept equal to the store while it waits.
 - **Tag stage**: the lookup's up to four distinct lines in corner order ``(x0, y0), (x1, y0), (x0, y1), (x1, y1)``
-  against the tags (the tag store in LUT RAM, each corner's set's row held in registers beside the lookup, kept
-  equal to the store), LRU or round robin, the lowest invalid way first, a duplicate line skipped -- exactly
-  :func:`fxmodel.units.texcache.simulate`. All remaining lines in one clock when they fall in distinct sets and at
-  most one of them misses (the common case: one line, or two neighbouring blocks, which the XOR index puts in
-  different sets); otherwise one line a clock, in order. A miss allocates its way at once and queues its line's
-  ``AR`` burst (``INCR``, ``B^2`` beats of one 32-bit texel), so several bursts are outstanding, in order (one ID).
+  against the tags (each corner's set's row and its compare's outcome taken from the prefetch stage, kept equal
+  to the store), LRU or round robin, the lowest invalid way first, a duplicate line skipped -- exactly
+  :func:`fxmodel.units.texcache.simulate`. LRU: all remaining lines in one clock when they fall in distinct sets
+  and at most one of them misses (the common case: one line, or two neighbouring blocks, which the XOR index puts
+  in different sets); otherwise one line a clock, in order. Round robin: the lines up to the first miss in one
+  clock, the fill of that line in the next. A fill changes tags, so the outcomes are then compared again from the
+  held rows (a clock). A miss allocates its way at once and queues its line's ``AR`` burst (``INCR``, ``B^2``
+  beats of one 32-bit texel), so several bursts are outstanding, in order (one ID).
 - **Lookup FIFO** (:attr:`~fxmodel.units.texcache.TexCacheParams.lookup_depth` entries): each lookup's four bank
   word addresses, the bank of each corner, its fill count and its sideband, from the tag stage to the data stage.
 - **Fill buffer** (:attr:`~fxmodel.units.texcache.TexCacheParams.misses` lines, four banks by texel parity): the
@@ -49,38 +54,21 @@ from fxmodel.core.unit import require
 from fxmodel.units.texcache import Layout, TexCacheParams
 from rtl.rop import axi_signature
 
-__all__ = ["DecoupledTexCache", "request_layout", "age_bits", "row_states", "row_word", "row_fields", "INPUT_DEPTH"]
+from .texcache_tags import age_bits, compare, new_rows, row_states, tag_store, victim
+
+__all__ = ["DecoupledTexCache", "request_layout", "INPUT_DEPTH", "HELD", "AFTER"]
 
 #: Lookups the input FIFO holds: Amaranth's ``SyncFIFOBuffered`` (registered ``w_rdy`` and output) takes one a
 #: clock from depth 3 (its inner FIFO of 2 has room while one entry leaves; at depth 2 it would take one every
 #: other clock).
 INPUT_DEPTH = 3
 
+#: Lookups held in registers between the input FIFO and the lookup FIFO: the prefetch stage's and the tag stage's.
+HELD = 2
 
-def age_bits(ways: int) -> int:
-    """Bits of a way's LRU age (``0`` the youngest, ``ways - 1`` the oldest)."""
-    return max(1, (ways - 1).bit_length())
-
-
-def row_states(params: TexCacheParams) -> int:
-    """Replacement-state fields of a row: an age per way (LRU) or one pointer (round robin)."""
-    return params.ways if params.replacement == "lru" else 1
-
-
-def row_word(tags, valids, ages):
-    """A set's row as one word of the tag store: its ways' tags, then their valid bits, then their ages."""
-    return Cat(*tags, *valids, *ages)
-
-
-def row_fields(word, ways: int, line_bits: int, states: int | None = None) -> tuple[list, list, list]:
-    """``(tags, valids, state)`` of a word of :func:`row_word` (``ways`` ways of ``line_bits``-bit tags; the
-    replacement state: ``states`` fields of :func:`age_bits` bits, one age per way for LRU by default, the one
-    pointer of round robin)."""
-    wb = age_bits(ways)
-    tags = [word[v * line_bits:(v + 1) * line_bits] for v in range(ways)]
-    valids = [word[ways * line_bits + v] for v in range(ways)]
-    base = ways * (line_bits + 1)
-    return tags, valids, [word[base + v * wb:base + (v + 1) * wb] for v in range(ways if states is None else states)]
+#: Lookups held in registers after the lookup FIFO: its head (so that the data stage decides from flip-flops, not
+#: from the block RAM's unregistered output) and the output register.
+AFTER = 2
 
 
 def request_layout(layout: Layout, side_bits: int = 0, skip: bool = False) -> data.StructLayout:
@@ -210,19 +198,47 @@ class DecoupledTexCache(wiring.Component):
                 m.d.comb += same[q, j].eq(c[q].set == c[j].set)
         return c, same
 
+    def _held(self, m, nc, prefix):
+        """A lookup held in registers: its request, valid bit, corners (line, set, duplicate and its source, the set
+        one-hot, the set's row) and which corners share a set, named with ``prefix``."""
+        P = self.params
+        valid = f"{prefix}valid" if prefix else "t_valid"
+        h = SimpleNamespace(req=Signal(self.req, name=f"{prefix}req"), valid=Signal(name=valid))
+        h.c = [SimpleNamespace() for _ in range(4)]
+        for q, cq in enumerate(h.c):
+            cq.line = Signal.like(nc[q].line, name=f"{prefix}line{q}")
+            cq.set = Signal.like(nc[q].set, name=f"{prefix}set{q}")
+            cq.dup, cq.src = Signal(name=f"{prefix}dup{q}"), Signal(2, name=f"{prefix}src{q}")
+            cq.hot = Signal(P.sets, name=f"{prefix}hot{q}")              # the set, one-hot (the update's enables)
+            cq.tags = [Signal(self.line_bits, name=f"{prefix}row_tag{q}_{w}") for w in range(P.ways)]
+            cq.valids = [Signal(name=f"{prefix}row_valid{q}_{w}") for w in range(P.ways)]
+            cq.ages = [Signal(age_bits(P.ways), name=f"{prefix}row_age{q}_{w}") for w in range(row_states(P))]
+        h.same = {(q, j): Signal(name=f"{prefix}same{q}_{j}") for q in range(4) for j in range(q)}
+        return h
+
+    def _load(self, m, dst, src, sets):
+        """``dst``'s request, corners and set equalities from ``src`` (``sets``: the one-hot sets computed or held)."""
+        m.d.sync += [dst.req.eq(src.req), dst.valid.eq(1)]
+        for q in range(4):
+            d, s_ = dst.c[q], src.c[q]
+            m.d.sync += [d.line.eq(s_.line), d.set.eq(s_.set), d.dup.eq(s_.dup), d.src.eq(s_.src), d.hot.eq(sets[q])]
+        m.d.sync += [dst.same[key].eq(src.same[key]) for key in dst.same]
+
     def _tag_stage(self, m, f, platform):
-        """The input FIFO, the next lookup's corners, and the held lookup's corners against its sets' rows: a step
-        of one or all remaining corners a clock.
+        """The input FIFO, the prefetch stage and the tag stage: the held lookup's corners against its sets' rows,
+        a step of one or more corners a clock.
 
         Timing (``docs/texcache.md``): ``i.ready`` is the input FIFO's registered ``w_rdy``, so no decision of
-        the tag stage reaches the stream before it; the corners' lines, sets and duplicates are computed from the
-        FIFO's output register and loaded with the lookup; each corner's set's row (tags, valid bits, ages) is
-        loaded with it too, from the tag store (:meth:`_store`), with this clock's update forwarded, and kept
-        equal to the store while the lookup is held (a step that updates a set updates every held row of that
-        set). So a step's decision starts from registers: the compare of the rows with the lines, the step's
-        corners, and the update."""
+        the tag stage reaches the stream before it. The **prefetch stage** takes the next lookup from the FIFO's
+        output register with its corners' lines, sets and duplicates and each corner's set's row from the tag store
+        (:func:`rtl.texcache_tags.tag_store`, this clock's write forwarded), all into registers, keeps those rows
+        equal to the store while it holds them (a step that writes a set writes every held row of that set), and
+        compares them with its lines. The **tag stage** takes the lookup from the prefetch stage with its rows (this
+        clock's write forwarded) and its compares' outcomes (hit, way): a register copy. A step decides from those
+        registers; a fill changes tags, so after it the outcomes are taken again from the held rows (a clock).
+        The compares never reach the lookup's acceptance, and the store's read never reaches the tag stage."""
         P = self.params
-        W, S = P.ways, P.sets
+        W = P.ways
         wb = age_bits(W)
         rr = P.replacement == "fifo"
         m.submodules.ififo = ififo = SyncFIFOBuffered(width=self.req.size, depth=INPUT_DEPTH)
@@ -230,24 +246,21 @@ class DecoupledTexCache(wiring.Component):
         nreq = Signal(self.req, name="nreq")
         m.d.comb += nreq.eq(ififo.r_data)
         nc, nsame = self._corners(m, nreq, "n")
-        # the held lookup: its request, corners and rows in registers
-        req, t_valid = Signal(self.req, name="req"), Signal(name="t_valid")
+        pre, t = self._held(m, nc, "p_"), self._held(m, nc, "")
+        req, t_valid, c, same = t.req, t.valid, t.c, t.same
         k, nf = Signal(2, name="k"), Signal(3, name="nf")  # next corner to check, fills so far
         way_reg = [Signal(wb, name=f"way_reg{q}") for q in range(4)]
-        c = [SimpleNamespace() for _ in range(4)]
+        # the outcomes: the prefetch stage's compares; the tag stage's, registered, and whether they are current
         for q in range(4):
-            c[q].line, c[q].set = Signal.like(nc[q].line, name=f"line{q}"), Signal.like(nc[q].set, name=f"set{q}")
-            c[q].dup, c[q].src = Signal(name=f"dup{q}"), Signal(2, name=f"src{q}")
-            c[q].hot = Signal(S, name=f"hot{q}")                 # the set, one-hot (the update's enables)
-            c[q].tags = [Signal(self.line_bits, name=f"row_tag{q}_{w}") for w in range(W)]
-            c[q].valids = [Signal(name=f"row_valid{q}_{w}") for w in range(W)]
-            c[q].ages = [Signal(wb, name=f"row_age{q}_{w}") for w in range(row_states(self.params))]
-        same = {(q, j): Signal(name=f"same{q}_{j}") for q in range(4) for j in range(q)}
+            pre.c[q].hit, pre.c[q].hit_way = compare(m, pre.c[q].tags, pre.c[q].valids, pre.c[q].line, f"p_{q}_")
+            c[q].cmp_hit, c[q].cmp_way = compare(m, c[q].tags, c[q].valids, c[q].line, f"t_{q}_")
+            c[q].hit, c[q].hit_way = Signal(name=f"hit{q}"), Signal(wb, name=f"hit_way{q}")
+        hits_ok = Signal(name="hits_ok")
         for q in range(4):
             # round robin: the ways of this corner's set that earlier steps of the lookup used (its victim skips them)
             used = [sum((k > j) & ~c[j].dup & same[q, j] & (way_reg[j] == v) for j in range(q)) != 0 if q else Const(0)
                     for v in range(W)] if rr else None
-            self._lookup_row(m, c[q], q, used)
+            c[q].victim = victim(m, P, c[q].valids, c[q].ages, used, f"c{q}_")
         live = [Signal(name=f"live{q}") for q in range(4)]       # distinct and not yet checked
         for q in range(4):
             todo = ~c[q].dup & (q >= k)
@@ -258,15 +271,18 @@ class DecoupledTexCache(wiring.Component):
         else:
             act, step_miss, last = self._steps_one_phase(m, c, live, same, k)
         fire = Signal()
-        m.d.comb += fire.eq(t_valid & (f.lfifo.w_rdy | ~last) & (~step_miss | (f.inflight < P.misses)))
-        accept = Signal()
-        m.d.comb += [accept.eq(ififo.r_rdy & (~t_valid | (fire & last))), ififo.r_en.eq(accept)]
+        m.d.comb += fire.eq(t_valid & hits_ok & (f.lfifo.w_rdy | ~last) & (~step_miss | (f.inflight < P.misses)))
+        accept, p_load = Signal(), Signal()
+        m.d.comb += [accept.eq(pre.valid & (~t_valid | (fire & last))),
+                     p_load.eq(ififo.r_rdy & (~pre.valid | accept)), ififo.r_en.eq(p_load)]
+        with m.If(p_load):
+            self._load(m, pre, SimpleNamespace(req=nreq, c=nc, same=nsame),
+                       [Const(1, P.sets) << nc[q].set for q in range(4)])
+        with m.Elif(accept):
+            m.d.sync += pre.valid.eq(0)
         with m.If(accept):
-            m.d.sync += [req.eq(nreq), t_valid.eq(1), k.eq(0), nf.eq(0), upd.eq(0)]
-            for q in range(4):
-                m.d.sync += [c[q].line.eq(nc[q].line), c[q].set.eq(nc[q].set), c[q].dup.eq(nc[q].dup),
-                             c[q].src.eq(nc[q].src), c[q].hot.eq(Const(1, S) << nc[q].set)]
-            m.d.sync += [same[key].eq(nsame[key]) for key in same]
+            self._load(m, t, pre, [pre.c[q].hot for q in range(4)])
+            m.d.sync += [k.eq(0), nf.eq(0), upd.eq(0)]
         with m.Elif(fire & last):
             m.d.sync += [t_valid.eq(0), upd.eq(0)]
         if rr:
@@ -290,16 +306,33 @@ class DecoupledTexCache(wiring.Component):
         for q in range(4):
             m.d.comb += ways[q].eq(eff[c[q].src])
         # the rows a step writes: every checked corner's (LRU), the filled corner's only (round robin: a hit
-        # changes no row)
+        # changes no row); a fill changes tags, so the outcomes are taken again
         wr = [Signal(name=f"wr{q}") for q in range(4)]
         for q in range(4):
             m.d.comb += wr[q].eq(fire & act[q] & (upd if rr else 1))
         fills = [act[q] & filling[q] for q in range(4)]
-        new = self._new_rows(m, c, way_now)
-        stored = self._store(m, c, nc, wr, new, platform)
-        self._rows(m, c, nc, same, wr, accept, new, stored)
+        self._outcomes(m, c, pre, hits_ok, accept, fire & (sum(fills) != 0))
+        new = new_rows(m, P, self.line_bits, c, way_now)
+        stored = tag_store(m, P, self.line_bits, c, [nc[q].set for q in range(4)], wr, new, platform)
+        self._rows(m, c, pre, nc, same, wr, p_load, accept, new, stored)
         self._queue(m, f, c, req, fills, fire, last, step_miss, nf, ways)
-        f.tag_busy = t_valid | (ififo.level != 0)           # a lookup in the input FIFO or held
+        f.tag_busy = t_valid | pre.valid | (ififo.level != 0)   # a lookup in the input FIFO or held
+
+    @staticmethod
+    def _outcomes(m, c, pre, hits_ok, accept, tag_write):
+        """The tag stage's registered outcomes (each corner's hit and way) and whether they are current
+        (``hits_ok``): taken with the lookup from the prefetch stage's compares, stale after a step that writes
+        tags (``tag_write``), then taken again from the compares of the held rows (a clock)."""
+        with m.If(accept):
+            m.d.sync += hits_ok.eq(~tag_write)
+            m.d.sync += [x.eq(y) for q in range(4) for x, y in ((c[q].hit, pre.c[q].hit),
+                                                                (c[q].hit_way, pre.c[q].hit_way))]
+        with m.Elif(tag_write):
+            m.d.sync += hits_ok.eq(0)
+        with m.Elif(~hits_ok):
+            m.d.sync += hits_ok.eq(1)
+            m.d.sync += [x.eq(y) for q in range(4) for x, y in ((c[q].hit, c[q].cmp_hit),
+                                                                (c[q].hit_way, c[q].cmp_way))]
 
     def _steps_one_phase(self, m, c, live, same, k):
         """LRU: the corners a step checks (``act``), whether it misses, whether it is the lookup's last. All
@@ -369,138 +402,40 @@ class DecoupledTexCache(wiring.Component):
                     m.d.comb += entry.addr[b].eq(slot * self._words + self._word(xs[q], ys[q]))
         m.d.comb += [f.lfifo.w_en.eq(fire & last), f.lfifo.w_data.eq(entry)]
 
-    def _lookup_row(self, m, cq, q, used):
-        """Corner ``q``'s hit and way in its row, and the row's victim (the lowest invalid way, else the oldest for LRU,
-        else for round robin the pointer's way or the next after it that ``used`` does not name; ``used`` is ``None``
-        for LRU): ``ways`` comparators."""
-        W = self.params.ways
-        wb = age_bits(W)
-        cq.hit, cq.hit_way = Signal(name=f"hit{q}"), Signal(wb, name=f"hit_way{q}")
-        free, free_way, old_way = Signal(name=f"free{q}"), Signal(wb, name=f"free_way{q}"), Signal(wb, name=f"old{q}")
-        for w in reversed(range(W)):                             # the lowest way wins
-            with m.If(cq.valids[w] & (cq.tags[w] == cq.line)):
-                m.d.comb += [cq.hit.eq(1), cq.hit_way.eq(w)]
-            with m.If(~cq.valids[w]):
-                m.d.comb += [free.eq(1), free_way.eq(w)]
-            if self.params.replacement == "lru":
-                with m.If(cq.ages[w] == W - 1):
-                    m.d.comb += old_way.eq(w)
-        if self.params.replacement == "fifo":               # the first way from the pointer on not used
-            ptr = cq.ages[0]
-            old_way = Signal(wb, name=f"rr{q}")
-            m.d.comb += old_way.eq(ptr)
-            for d in reversed(range(W)):
-                cand = (ptr + d)[:wb] if W & (W - 1) == 0 else Mux(ptr + d >= W, ptr + d - W, ptr + d)[:wb]
-                with m.If(~Array(used)[cand]):
-                    m.d.comb += old_way.eq(cand)
-        cq.victim = Signal(wb, name=f"victim{q}")
-        m.d.comb += cq.victim.eq(Mux(free, free_way, old_way))
-
-    def _new_rows(self, m, c, way_now) -> list:
-        """Each corner's row after its check: on a miss, the victim's tag and valid bit; the replacement state of
-        LRU (the way used becomes the youngest, the younger ones age by one) or of round robin (a fill moves the
-        pointer past its way). Round robin writes a row only in a fill (a hit changes none), so its new row is the
-        fill's, from the held row and the victim alone (registers: no compare on the way). ``[(tags, valids,
-        state)]`` per corner."""
-        W = self.params.ways
-        wb = age_bits(W)
-        rr = self.params.replacement == "fifo"
-        out = []
-        for q in range(4):
-            tags = [Signal(self.line_bits, name=f"new_tag{q}_{v}") for v in range(W)]
-            valids = [Signal(name=f"new_valid{q}_{v}") for v in range(W)]
-            for v in range(W):
-                fill = c[q].victim == v if rr else ~c[q].hit & (way_now[q] == v)
-                m.d.comb += [tags[v].eq(Mux(fill, c[q].line, c[q].tags[v])), valids[v].eq(c[q].valids[v] | fill)]
-            if rr:
-                out.append((tags, valids, [Mux(c[q].victim == W - 1, 0, c[q].victim + 1)[:wb]]))
-                continue
-            used_age = Signal(wb, name=f"used_age{q}")
-            m.d.comb += used_age.eq(Array(c[q].ages)[way_now[q]])
-            ages = [Signal(wb, name=f"new_age{q}_{v}") for v in range(W)]
-            for v in range(W):
-                m.d.comb += ages[v].eq(Mux(way_now[q] == v, 0, Mux(c[q].ages[v] < used_age, c[q].ages[v] + 1,
-                                                                   c[q].ages[v])))
-            out.append((tags, valids, ages))
-        return out
-
-    def _store(self, m, c, nc, wr, new, platform) -> list:
-        """The tag store: each set's row (its ways' tags, valid bits and ages) in LUT RAM with a write port per
-        corner (a step writes at most one set per corner, and a set from at most one corner) and a read port per
-        corner of the next lookup, built as a live-value table (LaForest & Steffan, FPGA 2010): a memory per write
-        and read port (each write port writes its row into its four memories, one per read port), and per set a
-        register naming the write port that wrote it last (``lvt``) and whether any did since reset
-        (``written``; else the row is the empty one: no way valid, ages in way order). A read port reads its four
-        memories and takes the live one's word. Returns per corner of the next lookup its set's row ``(tags,
-        valids, ages)``.
-
-        On the formal platform each set's live row as each read port sees it is named too (``store{j}_r{r}``:
-        memories read at every address, as :class:`rtl.streams.CreditFIFO` names its slots), for the proof that
-        the held rows are the store's (``formal/fetch.py``)."""
-        P = self.params
-        W, S = P.ways, P.sets
-        wb, lb = age_bits(W), self.line_bits
-        empty = row_word([Const(0, lb)] * W, [Const(0, 1)] * W, [Const(w, wb) for w in range(row_states(self.params))])
-        width = len(empty)
-        lvt = [Signal(2, name=f"lvt{j}") for j in range(S)]
-        written = [Signal(name=f"written{j}") for j in range(S)]
-        for w in range(4):
-            with m.If(wr[w]):
-                for j in range(S):
-                    with m.If(c[w].hot[j]):
-                        m.d.sync += [lvt[j].eq(w), written[j].eq(1)]
-
-        def live(mems, addr, name):                    # a set's live row through one read port's memories
-            datas = []
-            for mem in mems:
-                rp = mem.read_port(domain="comb")
-                m.d.comb += rp.addr.eq(addr)
-                datas.append(rp.data)
-            row = Signal(width, name=name)
-            m.d.comb += row.eq(Mux(Array(written)[addr], Array(datas)[Array(lvt)[addr]], empty))
-            return row
-
-        out = []
-        for r in range(4):
-            mems = []
-            for w in range(4):
-                mem = Memory(shape=width, depth=S, init=[])
-                m.submodules[f"tags_w{w}_r{r}"] = mem
-                wp = mem.write_port()
-                m.d.comb += [wp.addr.eq(c[w].set), wp.data.eq(row_word(*new[w])), wp.en.eq(wr[w])]
-                mems.append(mem)
-            row = live(mems, nc[r].set, f"stored{r}")
-            if platform == "formal":
-                for j in range(S):
-                    live(mems, Const(j, len(nc[r].set)), f"store{j}_r{r}")
-            out.append(row_fields(row, W, lb, row_states(self.params)))
-        return out
-
-    def _rows(self, m, c, nc, same, wr, accept, new, stored):
-        """The held rows: loaded with a lookup (each corner's set's row read from the tag store, or the row this
-        clock's step writes to that set), else updated by a step that touches their set."""
+    def _rows(self, m, c, pre, nc, same, wr, p_load, accept, new, stored):
+        """The held rows. The prefetch stage's: loaded with a lookup (each corner's set's row read from the tag
+        store, or the row this clock's step writes to that set), else updated by a step that writes their set. The
+        tag stage's: loaded from the prefetch stage's as this clock's step leaves them, else updated likewise."""
         P = self.params
         W = P.ways
 
-        def assign(q, row):
-            m.d.sync += [c[q].tags[v].eq(row[0][v]) for v in range(W)]
-            m.d.sync += [c[q].valids[v].eq(row[1][v]) for v in range(W)]
-            m.d.sync += [c[q].ages[v].eq(row[2][v]) for v in range(len(row[2]))]
+        def assign(dst, row):
+            m.d.sync += [dst.tags[v].eq(row[0][v]) for v in range(W)]
+            m.d.sync += [dst.valids[v].eq(row[1][v]) for v in range(W)]
+            m.d.sync += [dst.ages[v].eq(row[2][v]) for v in range(len(row[2]))]
+
+        def updated(dst, writes):                        # the writes this clock makes to dst's set
+            for j in range(4):
+                with m.If(writes[j]):
+                    assign(dst, new[j])
 
         for q in range(4):
-            # the next lookup's row: its set's in the store, or the row a step writes to that set in this clock
-            fwd = [Signal(name=f"fwd{q}_{j}") for j in range(4)]
-            with m.If(accept):
-                assign(q, stored[q])
-                for j in range(4):
-                    m.d.comb += fwd[j].eq(wr[j] & (c[j].set == nc[q].set))
-                    with m.If(fwd[j]):
-                        assign(q, new[j])
+            pc = pre.c[q]
+            held = (pc.tags, pc.valids, pc.ages)
+            to_pre = [Signal(name=f"p_fwd{q}_{j}") for j in range(4)]   # a write to the prefetched set
+            to_next = [Signal(name=f"n_fwd{q}_{j}") for j in range(4)]  # a write to the next lookup's set
+            for j in range(4):
+                m.d.comb += [to_pre[j].eq(wr[j] & (c[j].set == pc.set)), to_next[j].eq(wr[j] & (c[j].set == nc[q].set))]
+            with m.If(p_load):
+                assign(pc, stored[q])
+                updated(pc, to_next)
             with m.Else():
-                for j in range(4):
-                    sets_equal = 1 if j == q else same[max(q, j), min(q, j)]
-                    with m.If(wr[j] & sets_equal):
-                        assign(q, new[j])
+                updated(pc, to_pre)
+            with m.If(accept):
+                assign(c[q], held)
+                updated(c[q], to_pre)
+            with m.Else():
+                updated(c[q], [wr[j] & (1 if j == q else same[max(q, j), min(q, j)]) for j in range(4)])
 
     def _memory_port(self, m, f):
         """``AR`` from the queue; ``R`` beats into the fill buffer (beat ``n`` = texel ``(n mod B, n div B)``)."""
@@ -531,15 +466,16 @@ class DecoupledTexCache(wiring.Component):
                 m.d.sync += wring.eq(wring + 1 if P.misses > 1 else 0)
 
     def _data_stage(self, m, f):
-        """Copy the head lookup's fills into the data banks, then read its four texels (one read per bank)."""
+        """Copy the head lookup's fills into the data banks, then read its four texels (one read per bank). The
+        head is a register loaded from the lookup FIFO (``h_valid``, ``head``): the fill count, the bank addresses
+        and the corners' banks come from flip-flops, not from the FIFO's block RAM."""
         P = self.params
         Q = self._words
-        ent = Signal(self._entry_layout())
-        m.d.comb += ent.eq(f.lfifo.r_data)
+        ent, h_valid = Signal(self._entry_layout(), name="head"), Signal(name="h_valid")
         m.d.sync += f.filled.eq(f.filled + f.line_in - f.copy_done)
         done, copying = Signal(3, name="done"), Signal(name="copying")
         cc, rring = Signal(range(Q + 1), name="cc"), Signal(range(P.misses), name="rring")
-        start = f.lfifo.r_rdy & (done != ent.fills) & (f.filled != 0) & ~copying
+        start = h_valid & (done != ent.fills) & (f.filled != 0) & ~copying
         with m.If(start):
             m.d.sync += [copying.eq(1), cc.eq(0)]
         with m.If(copying):
@@ -553,7 +489,7 @@ class DecoupledTexCache(wiring.Component):
         o_valid, sel = Signal(name="o_valid"), Signal(data.ArrayLayout(2, 4), name="sel")
         side = Signal(max(1, self.side_bits))
         advance = ~o_valid | self.o.ready
-        ready = f.lfifo.r_rdy & (done == ent.fills) & ~copying
+        ready = h_valid & (done == ent.fills) & ~copying
         banks = []
         for b in range(4):
             mem = Memory(shape=P.texel_bits, depth=P.lines * Q, init=[])
@@ -563,15 +499,19 @@ class DecoupledTexCache(wiring.Component):
             slot_word = (f.slots.r_data * Q + (cc - 1))[:len(wp.addr)]
             m.d.comb += [wp.addr.eq(slot_word), wp.data.eq(f.fill_banks[b].data), wp.en.eq(copying & (cc != 0)),
                          rp.addr.eq(ent.addr[b]), rp.en.eq(advance)]
+        take = Signal(name="take")                               # the head's texels read: it leaves
+        m.d.comb += take.eq(advance & ready)
         with m.If(advance):
             m.d.sync += o_valid.eq(ready)
             with m.If(ready):
-                m.d.comb += f.lfifo.r_en.eq(1)
                 m.d.sync += [done.eq(0), sel.eq(ent.bank)]
                 if self.side_bits:
                     m.d.sync += side.eq(ent.side)
+        m.d.comb += f.lfifo.r_en.eq(~h_valid | take)
+        with m.If(f.lfifo.r_en):
+            m.d.sync += [h_valid.eq(f.lfifo.r_rdy), ent.eq(f.lfifo.r_data)]
         rdata = Array(rp.data for rp in banks)
         m.d.comb += [self.o.valid.eq(o_valid), self.o.payload.texels.eq(Cat(*(rdata[sel[q]] for q in range(4))))]
         if self.side_bits:
             m.d.comb += self.o.payload.side.eq(side)
-        m.d.comb += self.busy.eq(f.tag_busy | f.lfifo.r_rdy | o_valid | (f.inflight != 0))
+        m.d.comb += self.busy.eq(f.tag_busy | f.lfifo.r_rdy | h_valid | o_valid | (f.inflight != 0))

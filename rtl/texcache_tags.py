@@ -1,0 +1,159 @@
+"""The tag side of the decoupled texel cache (``rtl/texcache_decoupled.py``, the RTL of
+:mod:`fxmodel.units.texcache`, for the texture lookups of the pixel pipeline: paper, sections 3.2 and 4): a set's
+row as one word (its ways' tags, valid bits and replacement state), the compare of a row with a line, the victim a
+miss fills, the row after a step, and the tag store that holds every set's row in LUT RAM.
+
+The replacement state of a row is an age per way for LRU (``0`` the youngest) or one pointer for round robin
+(``replacement = "fifo"``: the next way to fill), :func:`row_states` fields of :func:`age_bits` bits.
+"""
+
+from __future__ import annotations
+
+from amaranth.hdl import Array, Cat, Const, Mux, Signal
+from amaranth.lib.memory import Memory
+
+from fxmodel.units.texcache import TexCacheParams
+
+__all__ = ["age_bits", "row_states", "row_word", "row_fields", "compare", "victim", "new_rows", "tag_store"]
+
+
+def age_bits(ways: int) -> int:
+    """Bits of a way's LRU age (``0`` the youngest, ``ways - 1`` the oldest), or of the round-robin pointer."""
+    return max(1, (ways - 1).bit_length())
+
+
+def row_states(params: TexCacheParams) -> int:
+    """Replacement-state fields of a row: an age per way (LRU) or one pointer (round robin)."""
+    return params.ways if params.replacement == "lru" else 1
+
+
+def row_word(tags, valids, ages):
+    """A set's row as one word of the tag store: its ways' tags, then their valid bits, then their ages."""
+    return Cat(*tags, *valids, *ages)
+
+
+def row_fields(word, ways: int, line_bits: int, states: int | None = None) -> tuple[list, list, list]:
+    """``(tags, valids, state)`` of a word of :func:`row_word` (``ways`` ways of ``line_bits``-bit tags; the
+    replacement state: ``states`` fields of :func:`age_bits` bits, one age per way for LRU by default, the one
+    pointer of round robin)."""
+    wb = age_bits(ways)
+    tags = [word[v * line_bits:(v + 1) * line_bits] for v in range(ways)]
+    valids = [word[ways * line_bits + v] for v in range(ways)]
+    base = ways * (line_bits + 1)
+    return tags, valids, [word[base + v * wb:base + (v + 1) * wb] for v in range(ways if states is None else states)]
+
+
+def compare(m, tags, valids, line, name: str) -> tuple:
+    """``(hit, way)``: whether a valid way of the row holds ``line`` and the lowest such way (combinational; one
+    comparator a way)."""
+    hit, way = Signal(name=f"{name}hit"), Signal(age_bits(len(tags)), name=f"{name}hit_way")
+    for w in reversed(range(len(tags))):                         # the lowest way wins
+        with m.If(valids[w] & (tags[w] == line)):
+            m.d.comb += [hit.eq(1), way.eq(w)]
+    return hit, way
+
+
+def victim(m, params: TexCacheParams, valids, ages, used, name: str):
+    """The way a miss in the row fills: the lowest invalid way, else the oldest (LRU), else the pointer's way or
+    the first after it that ``used`` does not name (round robin; ``used`` is ``None`` for LRU)."""
+    W = params.ways
+    wb = age_bits(W)
+    free, free_way = Signal(name=f"{name}free"), Signal(wb, name=f"{name}free_way")
+    old_way = Signal(wb, name=f"{name}old")
+    for w in reversed(range(W)):
+        with m.If(~valids[w]):
+            m.d.comb += [free.eq(1), free_way.eq(w)]
+        if params.replacement == "lru":
+            with m.If(ages[w] == W - 1):
+                m.d.comb += old_way.eq(w)
+    if params.replacement == "fifo":                             # the first way from the pointer on not used
+        ptr = ages[0]
+        m.d.comb += old_way.eq(ptr)
+        for d in reversed(range(W)):
+            cand = (ptr + d)[:wb] if W & (W - 1) == 0 else Mux(ptr + d >= W, ptr + d - W, ptr + d)[:wb]
+            with m.If(~Array(used)[cand]):
+                m.d.comb += old_way.eq(cand)
+    out = Signal(wb, name=f"{name}victim")
+    m.d.comb += out.eq(Mux(free, free_way, old_way))
+    return out
+
+
+def new_rows(m, params: TexCacheParams, line_bits: int, c, way_now) -> list:
+    """Each corner's row after its check (``c[q]``: ``line, tags, valids, ages, hit, victim``): on a miss, the
+    victim's tag and valid bit; the replacement state of LRU (the way used, ``way_now[q]``, becomes the youngest, the
+    younger ones age by one) or of round robin (a fill moves the pointer past its way). Round robin writes a row only
+    in a fill (a hit changes none), so its new row is the fill's, from the held row and the victim alone. ``[(tags,
+    valids, state)]`` per corner."""
+    W = params.ways
+    wb = age_bits(W)
+    rr = params.replacement == "fifo"
+    out = []
+    for q in range(4):
+        tags = [Signal(line_bits, name=f"new_tag{q}_{v}") for v in range(W)]
+        valids = [Signal(name=f"new_valid{q}_{v}") for v in range(W)]
+        for v in range(W):
+            fill = c[q].victim == v if rr else ~c[q].hit & (way_now[q] == v)
+            m.d.comb += [tags[v].eq(Mux(fill, c[q].line, c[q].tags[v])), valids[v].eq(c[q].valids[v] | fill)]
+        if rr:
+            out.append((tags, valids, [Mux(c[q].victim == W - 1, 0, c[q].victim + 1)[:wb]]))
+            continue
+        used_age = Signal(wb, name=f"used_age{q}")
+        m.d.comb += used_age.eq(Array(c[q].ages)[way_now[q]])
+        ages = [Signal(wb, name=f"new_age{q}_{v}") for v in range(W)]
+        for v in range(W):
+            m.d.comb += ages[v].eq(Mux(way_now[q] == v, 0, Mux(c[q].ages[v] < used_age, c[q].ages[v] + 1,
+                                                               c[q].ages[v])))
+        out.append((tags, valids, ages))
+    return out
+
+
+def tag_store(m, params: TexCacheParams, line_bits: int, c, read_sets, wr, new, platform) -> list:
+    """The tag store: each set's row in LUT RAM with a write port per corner (corner ``w`` writes ``new[w]`` to
+    its set ``c[w].set``, one-hot ``c[w].hot``, when ``wr[w]``; a step writes at most one set per corner, and a set
+    from at most one corner) and a read port per set of ``read_sets``, built as a live-value table (LaForest &
+    Steffan, FPGA 2010): a memory per write and read port (each write port writes its row into its four memories,
+    one per read port), and per set a register naming the write port that wrote it last (``lvt``) and whether any
+    did since reset (``written``; else the row is the empty one: no way valid, ages in way order). A read port
+    reads its four memories and takes the live one's word. Returns per read port its set's row ``(tags, valids,
+    state)``, combinational.
+
+    On the formal platform each set's live row as each read port sees it is named too (``store{j}_r{r}``:
+    memories read at every address, as :class:`rtl.streams.CreditFIFO` names its slots), for the proof that the
+    held rows are the store's (``formal/fetch.py``)."""
+    W, S = params.ways, params.sets
+    wb, lb, n = age_bits(W), line_bits, row_states(params)
+    empty = row_word([Const(0, lb)] * W, [Const(0, 1)] * W, [Const(w, wb) for w in range(n)])
+    width = len(empty)
+    lvt = [Signal(2, name=f"lvt{j}") for j in range(S)]
+    written = [Signal(name=f"written{j}") for j in range(S)]
+    for w in range(4):
+        with m.If(wr[w]):
+            for j in range(S):
+                with m.If(c[w].hot[j]):
+                    m.d.sync += [lvt[j].eq(w), written[j].eq(1)]
+
+    def live(mems, addr, name):                        # a set's live row through one read port's memories
+        datas = []
+        for mem in mems:
+            rp = mem.read_port(domain="comb")
+            m.d.comb += rp.addr.eq(addr)
+            datas.append(rp.data)
+        row = Signal(width, name=name)
+        m.d.comb += row.eq(Mux(Array(written)[addr], Array(datas)[Array(lvt)[addr]], empty))
+        return row
+
+    out = []
+    for r, rset in enumerate(read_sets):
+        mems = []
+        for w in range(4):
+            mem = Memory(shape=width, depth=S, init=[])
+            m.submodules[f"tags_w{w}_r{r}"] = mem
+            wp = mem.write_port()
+            m.d.comb += [wp.addr.eq(c[w].set), wp.data.eq(row_word(*new[w])), wp.en.eq(wr[w])]
+            mems.append(mem)
+        row = live(mems, rset, f"stored{r}")
+        if platform == "formal":
+            for j in range(S):
+                live(mems, Const(j, len(rset)), f"store{j}_r{r}")
+        out.append(row_fields(row, W, lb, n))
+    return out

@@ -32,15 +32,14 @@ def row_word(tags, valids, ages):
     return Cat(*tags, *valids, *ages)
 
 
-def row_fields(word, ways: int, line_bits: int, states: int | None = None) -> tuple[list, list, list]:
+def row_fields(word, ways: int, line_bits: int, states: int) -> tuple[list, list, list]:
     """``(tags, valids, state)`` of a word of :func:`row_word` (``ways`` ways of ``line_bits``-bit tags; the
-    replacement state: ``states`` fields of :func:`age_bits` bits, one age per way for LRU by default, the one
-    pointer of round robin)."""
+    replacement state: ``states`` fields of :func:`age_bits` bits, :func:`row_states`)."""
     wb = age_bits(ways)
     tags = [word[v * line_bits:(v + 1) * line_bits] for v in range(ways)]
     valids = [word[ways * line_bits + v] for v in range(ways)]
     base = ways * (line_bits + 1)
-    return tags, valids, [word[base + v * wb:base + (v + 1) * wb] for v in range(ways if states is None else states)]
+    return tags, valids, [word[base + v * wb:base + (v + 1) * wb] for v in range(states)]
 
 
 def compare(m, tags, valids, line, name: str) -> tuple:

@@ -8,9 +8,10 @@ capacity), each entry adds:
 
 - the decoupled cache: its white-box invariants (lines owed = lines queued for ``AR`` + bursts outstanding + lines
   complete in the fill buffer, never above ``misses``; the slot queue as long; the beat counter the burst's; a copy
-  only of a complete line; lookups inside = the input FIFO + the prefetch and tag stages + the lookup FIFO + its
-  head + the output register; the tag store's copies agree and the held lookup's rows are its sets' rows in the
-  store), which make k-induction close; covers: ``misses`` bursts outstanding, the lookup FIFO full;
+  only of a complete line; lookups inside = the input FIFO + the set, prefetch and tag stages + the lookup FIFO +
+  its head + the output register; the set stage's lines and sets are its request's; the tag store's copies agree
+  and the held lookup's rows are its sets' rows in the store), which make k-induction close; covers: ``misses``
+  bursts outstanding, the lookup FIFO full;
 - the texture fetch: each ``AR`` comes from exactly one cache's handshake with its fields (``ar_from_one``), each
   cache's own bursts outstanding at most its ``misses`` (``c*_outstanding``), and every ``R`` beat routed to
   exactly the cache that issued its burst (``r_to_owner``, against a queue of the issuing caches kept by the
@@ -59,7 +60,7 @@ def small_texfetch(cls=TexFetch) -> TexFetch:
 
 
 def _capacity(p: TexCacheParams) -> int:
-    """Lookups a decoupled cache holds at most: the input FIFO's, the prefetch and tag stages', the lookup FIFO's,
+    """Lookups a decoupled cache holds at most: the input FIFO's, the set, prefetch and tag stages', the lookup FIFO's,
     its head's and the output register's."""
     return INPUT_DEPTH + HELD + p.lookup_depth + AFTER
 
@@ -94,11 +95,22 @@ def cache_invariants(h: Harness, sig, top, path: str, cache, pend, beat_ref, ins
         h.check(slots.level == inflight, "slot_queue")
         h.check(~copying | (filled != 0), "copy_of_complete_line")
         h.check(beat == beat_ref, "beat_is_burst_beat")
-        h.check(inside == ififo.level + s("p_valid") + s("t_valid") + lfifo.level + s("h_valid") + s("o_valid"),
-                "inside_is_stages")
+        held = s("s_valid") + s("p_valid") + s("t_valid")
+        h.check(inside == ififo.level + held + lfifo.level + s("h_valid") + s("o_valid"), "inside_is_stages")
         rows_coherent(h, s, p)
+        next_lines(h, s, cache)
     h.cover(pend == p.misses, "misses_outstanding_reach")
     h.cover((lfifo.level == p.lookup_depth) & s("t_valid"), "lookup_fifo_full_reach")
+
+
+def next_lines(h: Harness, s, cache: DecoupledTexCache):
+    """``next_lines``: while the set stage holds a lookup, its registered corner lines and sets are the ones its
+    request names (the input FIFO's storage may hold anything in the induction state; this ties the stage's copy
+    to the request it carries)."""
+    ok = 1
+    for q, (line, set_) in enumerate(cache.corner_lines(cache.req(s("nreq")))):
+        ok = ok & (s(f"nline{q}") == line) & (s(f"nset{q}") == set_)
+    h.check(~s("s_valid") | ok, "next_lines")
 
 
 def rows_coherent(h: Harness, s, p: TexCacheParams):

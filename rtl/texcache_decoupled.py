@@ -7,8 +7,9 @@ lookup is a footprint ``(x0 | x1, y0 | y1)`` on a surface of the model's blocked
 request names one by its index). Organisation (``docs/texcache.md``):
 
 - **Input FIFO** (:data:`INPUT_DEPTH` lookups): ``i.ready`` is a register, so a stall does not travel up the
-  stream in the clock the tag stage decides it; the next lookup's corner lines and sets are computed from its
-  output register a clock ahead.
+  stream in the clock the tag stage decides it.
+- **Set stage**: the next lookup with its corners' lines and sets, computed from the FIFO's output register, in
+  registers, so that the sets address the tag store from flip-flops.
 - **Prefetch stage**: the next lookup, its corners' lines and sets, each corner's set's row read from the tag
   store (:mod:`rtl.texcache_tags`, LUT RAM) and the compares of those rows with the lines, all in registers, the
   rows kept equal to the store while it waits.
@@ -63,8 +64,9 @@ __all__ = ["DecoupledTexCache", "request_layout", "INPUT_DEPTH", "HELD", "AFTER"
 #: other clock).
 INPUT_DEPTH = 3
 
-#: Lookups held in registers between the input FIFO and the lookup FIFO: the prefetch stage's and the tag stage's.
-HELD = 2
+#: Lookups held in registers between the input FIFO and the lookup FIFO: the set stage's (the next lookup with its
+#: corners' lines and sets), the prefetch stage's and the tag stage's.
+HELD = 3
 
 #: Lookups held in registers after the lookup FIFO: its head (so that the data stage decides from flip-flops, not
 #: from the block RAM's unregistered output) and the output register.
@@ -177,17 +179,27 @@ class DecoupledTexCache(wiring.Component):
             fields["side"] = self.side_bits
         return data.StructLayout(fields)
 
-    def _corners(self, m, req, prefix):
-        """The line and set of each corner of ``req`` (corner order ``(x0, y0), (x1, y0), (x0, y1), (x1, y1)``),
-        whether it repeats an earlier corner's line (and the earliest such corner), and which corners share a
-        set: combinational, from ``req``."""
-        c = [SimpleNamespace() for _ in range(4)]
+    def corner_lines(self, req) -> list[tuple]:
+        """The line and set of each corner of ``req`` (corner order ``(x0, y0), (x1, y0), (x0, y1), (x1, y1)``), as
+        expressions of ``req``."""
         xs, ys = _corner_xy(req)
-        for q in range(4):
-            line, set_ = self._line_set(req.surface, xs[q], ys[q])
+        return [self._line_set(req.surface, xs[q], ys[q]) for q in range(4)]
+
+    def _lines(self, m, req, prefix):
+        """The line and set of each corner of ``req`` (:meth:`corner_lines`) in signals named with ``prefix``."""
+        c = [SimpleNamespace() for _ in range(4)]
+        for q, (line, set_) in enumerate(self.corner_lines(req)):
             c[q].line, c[q].set = Signal.like(line, name=f"{prefix}line{q}"), Signal.like(set_, name=f"{prefix}set{q}")
+            m.d.comb += [c[q].line.eq(line), c[q].set.eq(set_)]
+        return c
+
+    @staticmethod
+    def _relations(m, c, prefix):
+        """Whether each corner of ``c`` repeats an earlier corner's line (and the earliest such corner, ``dup`` and
+        ``src`` added to ``c``), and which corners share a set (returned)."""
+        for q in range(4):
             c[q].dup, c[q].src = Signal(name=f"{prefix}dup{q}"), Signal(2, name=f"{prefix}src{q}")
-            m.d.comb += [c[q].line.eq(line), c[q].set.eq(set_), c[q].src.eq(q)]
+            m.d.comb += c[q].src.eq(q)
             for j in reversed(range(q)):                        # the earliest corner with the same line
                 with m.If(c[j].line == c[q].line):
                     m.d.comb += [c[q].dup.eq(1), c[q].src.eq(j)]
@@ -196,7 +208,25 @@ class DecoupledTexCache(wiring.Component):
             for j in range(q):
                 same[q, j] = Signal(name=f"{prefix}same{q}_{j}")
                 m.d.comb += same[q, j].eq(c[q].set == c[j].set)
-        return c, same
+        return same
+
+    def _input_stage(self, m):
+        """The input FIFO and a register stage after it (``s_valid``) that holds the next lookup with its corner
+        lines and sets (:meth:`_lines`, computed from the FIFO's output register): ``(ififo, s_valid, nreq, nc,
+        nsame)``, so that the sets address the tag store from flip-flops; the duplicates and equal sets
+        (:meth:`_relations`) are compared there."""
+        m.submodules.ififo = ififo = SyncFIFOBuffered(width=self.req.size, depth=INPUT_DEPTH)
+        m.d.comb += [ififo.w_en.eq(self.i.valid), ififo.w_data.eq(self.i.payload), self.i.ready.eq(ififo.w_rdy)]
+        freq = Signal(self.req, name="freq")
+        m.d.comb += freq.eq(ififo.r_data)
+        fc = self._lines(m, freq, "f_")
+        s_valid, nreq = Signal(name="s_valid"), Signal(self.req, name="nreq")
+        nc = [SimpleNamespace(line=Signal.like(fc[q].line, name=f"nline{q}"),
+                              set=Signal.like(fc[q].set, name=f"nset{q}")) for q in range(4)]
+        with m.If(ififo.r_en):
+            m.d.sync += [s_valid.eq(ififo.r_rdy), nreq.eq(freq)]
+            m.d.sync += [x.eq(y) for q in range(4) for x, y in ((nc[q].line, fc[q].line), (nc[q].set, fc[q].set))]
+        return ififo, s_valid, nreq, nc, self._relations(m, nc, "n")
 
     def _held(self, m, nc, prefix):
         """A lookup held in registers: its request, valid bit, corners (line, set, duplicate and its source, the set
@@ -225,12 +255,13 @@ class DecoupledTexCache(wiring.Component):
         m.d.sync += [dst.same[key].eq(src.same[key]) for key in dst.same]
 
     def _tag_stage(self, m, f, platform):
-        """The input FIFO, the prefetch stage and the tag stage: the held lookup's corners against its sets' rows,
-        a step of one or more corners a clock.
+        """The input FIFO, the set stage, the prefetch stage and the tag stage: the held lookup's corners against
+        its sets' rows, a step of one or more corners a clock.
 
         Timing (``docs/texcache.md``): ``i.ready`` is the input FIFO's registered ``w_rdy``, so no decision of
-        the tag stage reaches the stream before it. The **prefetch stage** takes the next lookup from the FIFO's
-        output register with its corners' lines, sets and duplicates and each corner's set's row from the tag store
+        the tag stage reaches the stream before it. The **set stage** (:meth:`_input_stage`) holds the next lookup
+        with its corners' lines and sets in registers. The **prefetch stage** takes it from there with its
+        duplicates and each corner's set's row from the tag store
         (:func:`rtl.texcache_tags.tag_store`, this clock's write forwarded), all into registers, keeps those rows
         equal to the store while it holds them (a step that writes a set writes every held row of that set), and
         compares them with its lines. The **tag stage** takes the lookup from the prefetch stage with its rows (this
@@ -241,11 +272,7 @@ class DecoupledTexCache(wiring.Component):
         W = P.ways
         wb = age_bits(W)
         rr = P.replacement == "fifo"
-        m.submodules.ififo = ififo = SyncFIFOBuffered(width=self.req.size, depth=INPUT_DEPTH)
-        m.d.comb += [ififo.w_en.eq(self.i.valid), ififo.w_data.eq(self.i.payload), self.i.ready.eq(ififo.w_rdy)]
-        nreq = Signal(self.req, name="nreq")
-        m.d.comb += nreq.eq(ififo.r_data)
-        nc, nsame = self._corners(m, nreq, "n")
+        ififo, s_valid, nreq, nc, nsame = self._input_stage(m)
         pre, t = self._held(m, nc, "p_"), self._held(m, nc, "")
         req, t_valid, c, same = t.req, t.valid, t.c, t.same
         k, nf = Signal(2, name="k"), Signal(3, name="nf")  # next corner to check, fills so far
@@ -274,7 +301,7 @@ class DecoupledTexCache(wiring.Component):
         m.d.comb += fire.eq(t_valid & hits_ok & (f.lfifo.w_rdy | ~last) & (~step_miss | (f.inflight < P.misses)))
         accept, p_load = Signal(), Signal()
         m.d.comb += [accept.eq(pre.valid & (~t_valid | (fire & last))),
-                     p_load.eq(ififo.r_rdy & (~pre.valid | accept)), ififo.r_en.eq(p_load)]
+                     p_load.eq(s_valid & (~pre.valid | accept)), ififo.r_en.eq(~s_valid | p_load)]
         with m.If(p_load):
             self._load(m, pre, SimpleNamespace(req=nreq, c=nc, same=nsame),
                        [Const(1, P.sets) << nc[q].set for q in range(4)])
@@ -316,7 +343,7 @@ class DecoupledTexCache(wiring.Component):
         stored = tag_store(m, P, self.line_bits, c, [nc[q].set for q in range(4)], wr, new, platform)
         self._rows(m, c, pre, nc, same, wr, p_load, accept, new, stored)
         self._queue(m, f, c, req, fills, fire, last, step_miss, nf, ways)
-        f.tag_busy = t_valid | pre.valid | (ififo.level != 0)   # a lookup in the input FIFO or held
+        f.tag_busy = t_valid | pre.valid | s_valid | (ififo.level != 0)   # a lookup in the input FIFO or held
 
     @staticmethod
     def _outcomes(m, c, pre, hits_ok, accept, tag_write):

@@ -199,7 +199,7 @@ def variants() -> list[Variant]:
         Variant("texfetch_wrong_owner", "the owner FIFO records the other cache: R beats routed to the wrong one",
                 "texfetch_axi", "r_to_owner", 12, None,
                 lambda kind, wrap: read_manager_set(wrong, kind=kind), cut=""),
-        Variant("texfetch_ar_changes_while_stalled", "ARADDR moves while AR waits", "texfetch_axi", "ar_hold", 8,
+        Variant("texfetch_ar_changes_while_stalled", "ARADDR moves while AR waits", "texfetch_axi", "ar_hold", 9,
                 broken.MemArChangesWhileStalled, lambda kind, wrap: read_manager_set(tf, kind=kind, wrap=wrap),
                 cut=""),
         Variant("hazard_off", "RopParams(hazard=False): no same-pixel check", "rop_axi", "hazard_", 8, None,

@@ -83,21 +83,20 @@ def core_verilog(text: str) -> str:
     return text.replace(DQ_INPUT, DQ_INOUT)
 
 
-def wire_sdram(m: Module, platform, system) -> None:
-    """The board's SDRAM: LiteDRAM's board core (GENSDRPHY on the chip's pins, in the engine's clock) on the
-    system's AXI port, the chip's clock from a double-data-rate output at 180 degrees (its rising edge in the
-    middle of the engine clock's period, as LiteX's ULX3S target does), the core's Verilog added to the build
-    (generated into ``build/litedram`` when missing: :func:`board.litedram.generate`), LEDs 4 (underrun), 5 (an
-    AXI error response) and 6 (the SDRAM ready)."""
+def wire_sdram(m: Module, platform, system, clk_hz: int) -> None:
+    """The board's SDRAM: LiteDRAM's board core (GENSDRPHY on the chip's pins) on the system's AXI port, in domain
+    ``dram`` (the caller's: the engine's clock, ``clk_hz``, with a reset held until the PLL locks, which the core
+    and its init sequence need, unlike the engine's own registers), the chip's clock from a double-data-rate
+    output at 180 degrees (its rising edge in the middle of the engine clock's period, as LiteX's ULX3S target
+    does), the core's Verilog for ``clk_hz`` added to the build (generated into the build folder when missing:
+    :func:`board.litedram.core`), LEDs 4 (underrun), 5 (an AXI error response) and 6 (the SDRAM ready)."""
     from amaranth.lib import io
 
-    from fxmodel.core.paths import build_dir
-
-    from .litedram import generate
+    from .litedram import core
     from .sdram_core import LiteDram
     pins = platform.request("sdram", 0, dir="-")
     d = LiteDram(pins)
-    m.submodules.dram = DomainRenamer({"dram": "engine"})(d)
+    m.submodules.dram = d
     wiring.connect(m, system.mem, d.axi)
     m.submodules.sdram_clk = clk = io.DDRBuffer("o", pins.clk, o_domain="engine")
     m.d.comb += [clk.o[0].eq(0), clk.o[1].eq(1)]
@@ -105,7 +104,4 @@ def wire_sdram(m: Module, platform, system) -> None:
     for k, buf in leds.items():
         m.submodules[f"led{k}"] = buf
     m.d.comb += [leds[4].o.eq(system.underrun), leds[5].o.eq(system.mem_error), leds[6].o.eq(d.ready)]
-    path = build_dir("litedram") / "gateware" / "litedram_core.v"
-    if not path.exists():
-        path = generate(False)
-    platform.add_file("litedram_core.v", core_verilog(path.read_text()))
+    platform.add_file("litedram_core.v", core_verilog(core(False, clk_hz).read_text()))

@@ -100,6 +100,12 @@ class Top(Elaboratable):
             # record. A reset net to every register of the engine was its clock's critical path (a die-wide route).
             m.domains.engine = ClockDomain("engine", reset_less=True)
             m.d.comb += ClockSignal("engine").eq(fast)
+            if self.frame == "sdram":
+                # the SDRAM's core and its init sequence on the engine's clock, but held in reset until the PLL
+                # locks: they act from the start (the chip's power-up wait), where the engine waits for a record
+                m.domains.dram = ClockDomain("dram")
+                m.d.comb += ClockSignal("dram").eq(fast)
+                m.submodules.rst_dram = ResetSynchronizer(~locked, domain="dram")
 
     def elaborate(self, platform):
         m = Module()
@@ -112,7 +118,7 @@ class Top(Elaboratable):
             m.submodules.system = system = EngineSystem(self.engine, VGA_640x480, PIXEL_HZ // BAUD, self.frame)
             if self.frame == "sdram":           # LiteDRAM's core on the SDRAM pins (board/sdram_system.py)
                 from .sdram_system import wire_sdram
-                wire_sdram(m, platform, system)
+                wire_sdram(m, platform, system, _VCO_HZ // self.engine_div)
             m.d.comb += ser.words.eq(system.words | (CLOCK_WORD << 30))
         hdmi = platform.request("hdmi", 0, dir="-")
         m.submodules.hdmi_d = d = io.DDRBuffer("o", hdmi.d, o_domain="tmds")

@@ -21,7 +21,8 @@ from fxmodel.core.paths import ROOT, build_dir
 
 from .budget import write_text_atomic
 
-__all__ = ["config", "core", "core_dir", "generate", "ports", "add_arguments", "run", "ADDR_BITS", "DATA_BITS", "ID_BITS", "SDRAM_BYTES", "SDRAM_HZ"]
+__all__ = ["config", "core", "core_dir", "generate", "ports", "add_arguments", "run", "ADDR_BITS", "DATA_BITS",
+           "ID_BITS", "SDRAM_BYTES", "SDRAM_HZ", "CLOCK_LINE"]
 
 CONFIG = ROOT / "board" / "sdram.yml"
 

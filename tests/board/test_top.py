@@ -72,7 +72,7 @@ def test_the_top_with_the_engine_prepares_with_the_pll_third_output():
     assert "MULT18X18D" in rtlil and "REG_OUTPUT_CLK" in rtlil      # products in their blocks' registers (rtl.dsp)
 
 
-def test_the_top_with_the_frame_in_sdram_prepares_with_litedrams_core_for_the_engine_clock():
+def test_the_top_with_the_frame_in_sdram_prepares_with_litedrams_core_on_its_own_clock():
     # not slow (about ten seconds, the core generated once): the only check that the SDRAM top elaborates; it did
     # not, once the engine's clock lost its reset, as the core took that clock's reset
     from board.frame import board_engine
@@ -86,8 +86,10 @@ def test_the_top_with_the_frame_in_sdram_prepares_with_litedrams_core_for_the_en
     assert "litedram_core" in rtlil and "inout  wire   [15:0] sdram_dq" in plan.files["litedram_core.v"]
     assert all(pin in lpf for pin in ("F19", "J16", "M20", "U19"))          # SDRAM clock, dq, a, dqm
     assert "rst_dram" in rtlil                                               # the core's reset until the PLL locks
-    # the core generated for the engine's clock: its refresh timer counts the chip's 7.8 us in that clock's cycles
-    hz = top._VCO_HZ // div
+    # the core on a clock of its own (the PLL's fourth output), generated for it: its refresh timer counts the
+    # chip's 7.8 us in that clock's cycles
+    hz = top.DRAM_HZ
+    assert "CLKOS3" in rtlil and hz == top._VCO_HZ // top.PLL["CLKOS3_DIV"] and "dram" in rtlil
     assert f'"sys_clk_freq":  {hz},' in (core_dir(False, hz) / "sdram.yml").read_text()
     counts = {int(n) for n in re.findall(r"litedramcore_timer_count1 <= \d+'d(\d+);", plan.files["litedram_core.v"])}
     trefi = Fraction(64, 1000 * 8192)                                      # 64 ms for the chip's 8192 rows

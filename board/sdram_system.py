@@ -28,17 +28,22 @@ from .cdc import toggle_sync
 from .litedram import ADDR_BITS, DATA_BITS, ID_BITS
 from .sdram_frame import LATENCY, FrameLayout, SdramFrame
 
-__all__ = ["members", "elaborate_frame", "BURST", "COPY_FIFO"]
+__all__ = ["members", "elaborate_frame", "BURST", "COPY_FIFO", "UNSEEN_WRITES"]
 
 #: Beats of the frame's bursts (128 bytes: a 128-pixel line is two).
 BURST = 64
-#: Words between the tile's read port and the copy's write bursts.
-COPY_FIFO = 8
+#: Words between the tile's read port and the copy's write bursts (an ``AsyncFIFO``, from the engine's clock to the
+#: SDRAM's).
+COPY_FIFO = 16
+#: Clocks by which the ``AsyncFIFO``'s ``w_level`` lags a write: its write pointer and the level are registers, so
+#: the words written in the last two clocks are not in it yet (a read shows later still, which only overstates).
+UNSEEN_WRITES = 2
 
 
 def members() -> dict:
     """The engine system's ports added for the frame in SDRAM: ``mem`` (the AXI4 manager, ``dram``),
-    ``mem_error`` (an error response, sticky), ``underrun`` (the scan-out missed a word, sticky)."""
+    ``mem_error`` (an error response, or a copied word the copy's FIFO could not take; sticky), ``underrun`` (the
+    scan-out missed a word, sticky)."""
     return {"mem": Out(axi_signature(ADDR_BITS, DATA_BITS, ID_BITS)), "mem_error": Out(1), "underrun": Out(1)}
 
 
@@ -53,18 +58,21 @@ def elaborate_frame(system, m: Module, tc, disp) -> None:
     q = AsyncFIFO(width=DATA_BITS, depth=COPY_FIFO, w_domain="engine", r_domain="dram")
     m.submodules.copy_fifo = q
     wiring.connect(m, f.mem, wiring.flipped(system.mem))
-    # the copy steps while the FIFO has room for its word and those in flight (the read-out's ``readout_latency``
-    # and the registered word's: TileCopy writes ``readout_latency + 1`` clocks after a step), so a write never finds
-    # the FIFO full (its ``w_level`` sees a read late, so it only overstates the words in it); the next copy waits
-    # for this one's last write response, a pulse of the SDRAM's clock handed to the engine's as a toggle
-    flight = P.readout_latency + 1
-    copied = Signal()
+    # the copy steps while the FIFO has room for its word, those in flight (the read-out's ``readout_latency`` and
+    # the registered word's: TileCopy writes ``readout_latency + 1`` clocks after a step) and those its level does
+    # not show yet (UNSEEN_WRITES), so a write never finds the FIFO full (a word lost there would leave the copy's
+    # last burst short, and the copy would never end); the next copy waits for this one's last write response, a
+    # pulse of the SDRAM's clock handed to the engine's as a toggle
+    flight = P.readout_latency + 1 + UNSEEN_WRITES
+    copied, lost = Signal(), Signal()
+    with m.If(q.w_en & ~q.w_rdy):                      # cannot happen (the room above); sticky if it does
+        m.d.engine += lost.eq(1)
     with m.If(f.copied):
         m.d.dram += copied.eq(~copied)
     m.d.comb += [f.i.valid.eq(q.r_rdy), f.i.payload.eq(q.r_data), q.r_en.eq(f.i.ready),
                  q.w_en.eq(tc.w_en), q.w_data.eq(tc.w_data), tc.room.eq(q.w_level < COPY_FIFO - flight),
                  tc.shown.eq(toggle_sync(m, "copied", copied, "engine")),
-                 system.mem_error.eq(f.error), system.underrun.eq(f.underrun), system.front.eq(f.front)]
+                 system.mem_error.eq(f.error | lost), system.underrun.eq(f.underrun), system.front.eq(f.front)]
     # the display: the frame's word (LATENCY clocks) expanded to bytes and registered
     m.d.comb += [f.x.eq(disp.x), f.y.eq(disp.y)]
     px = f.color

@@ -117,6 +117,7 @@ def simulate(params, records, data: bytes, *, timing: VideoTiming = VGA_640x480,
            "error": res["error"], "overrun": res["overrun"], "rop_status": res["status"], "shown": shown,
            "uploads": uploads, "upload_bad": res.get("upload_bad"),
            "frame": frame, "underrun": res.get("underrun"), "mem_error": res.get("mem_error"),
+           "dram_ready": res.get("dram_ready"),
            "sim_ms": {"uart_done": res["sent_ns"] / 1e6, "shown": res["shown_ns"] / 1e6, "end": res["end_ns"] / 1e6},
            "verilog_seconds": round(verilog_seconds, 1), "build_seconds": round(build_seconds, 1),
            "sim_seconds": round(seconds, 1), "want": want}

@@ -60,4 +60,5 @@ async def system(dut):
         "replies": bytes(sink.read_nowait()).hex(), "error": int(dut.error.value), "overrun": int(dut.overrun.value),
         "status": int(dut.status.value), "front": int(dut.front.value), "sent_ns": sent_ns, "shown_ns": shown_ns,
         "end_ns": get_sim_time("ns"),
-        **{k: int(getattr(dut, k).value) for k in ("underrun", "mem_error", "upload_bad") if hasattr(dut, k)}}))
+        **{k: int(getattr(dut, k).value) for k in ("underrun", "mem_error", "upload_bad", "dram_ready")
+           if hasattr(dut, k)}}))

@@ -21,7 +21,8 @@ from fxmodel.core.paths import ROOT, build_dir
 
 from .budget import write_text_atomic
 
-__all__ = ["generate", "ports", "add_arguments", "run", "ADDR_BITS", "DATA_BITS", "ID_BITS", "SDRAM_BYTES", "SDRAM_HZ"]
+__all__ = ["config", "core", "core_dir", "generate", "ports", "add_arguments", "run", "ADDR_BITS", "DATA_BITS",
+           "ID_BITS", "SDRAM_BYTES", "SDRAM_HZ", "CLOCK_LINE"]
 
 CONFIG = ROOT / "board" / "sdram.yml"
 
@@ -37,14 +38,52 @@ SDRAM_HZ = 100_000_000
 _PORT = re.compile(r"^\s*(input|output|inout)\s+wire\s+(?:\[(\d+):0\]\s+)?(\w+),?$")
 
 
-def generate(sim: bool, out: Path | None = None) -> Path:
-    """Run ``litedram_gen`` (``--no-compile``); return the generated ``litedram_core.v``."""
+#: The line of ``board/sdram.yml`` that sets the core's clock; :func:`config` replaces it for another clock.
+CLOCK_LINE = '"sys_clk_freq":  100e6,'
+
+
+def config(clk_hz: int) -> str:
+    """``board/sdram.yml`` for a core clocked at ``clk_hz`` (the board's engine clock: LiteDRAM turns the chip's
+    timings, refresh interval included, into clocks of ``sys_clk_freq``, so a core generated for 100 MHz and run
+    slower would refresh the chip less often than its datasheet asks). ``ValueError`` if the file does not set the
+    clock on :data:`CLOCK_LINE`, or ``clk_hz`` is above the chip's and the core's :data:`SDRAM_HZ`."""
+    text = CONFIG.read_text()
+    if text.count(CLOCK_LINE) != 1:
+        raise ValueError(f"{CONFIG.name} does not set the clock once as '{CLOCK_LINE}': update board/litedram.py")
+    if not (isinstance(clk_hz, int) and 0 < clk_hz <= SDRAM_HZ):
+        raise ValueError(f"clk_hz={clk_hz!r}: the SDRAM core's clock must be an int in 1..{SDRAM_HZ} Hz")
+    return text.replace(CLOCK_LINE, f'"sys_clk_freq":  {clk_hz},')
+
+
+def core_dir(sim: bool, clk_hz: int = SDRAM_HZ) -> Path:
+    """Where :func:`generate` puts a core by default: ``build/litedram`` (``build/litedram-sim`` with ``sim``),
+    with ``_<clk_hz>`` added for another clock than :data:`SDRAM_HZ`."""
+    name = "litedram-sim" if sim else "litedram"
+    return build_dir(name if clk_hz == SDRAM_HZ else f"{name}_{clk_hz}")
+
+
+def core(sim: bool, clk_hz: int = SDRAM_HZ) -> Path:
+    """The core's ``litedram_core.v`` in :func:`core_dir`, generated there (:func:`generate`) unless it is there
+    already from the same configuration (the ``sdram.yml`` kept beside it equal to :func:`config`'s)."""
+    out = core_dir(sim, clk_hz)
+    verilog, kept = out / "gateware" / "litedram_core.v", out / "sdram.yml"
+    if verilog.exists() and kept.exists() and kept.read_text() == config(clk_hz):
+        return verilog
+    return generate(sim, out, clk_hz)
+
+
+def generate(sim: bool, out: Path | None = None, clk_hz: int = SDRAM_HZ) -> Path:
+    """Run ``litedram_gen`` (``--no-compile``) on :func:`config` of ``clk_hz``; return the generated
+    ``litedram_core.v`` (in ``out``, by default :func:`core_dir`)."""
     tool = shutil.which("litedram_gen")
     if tool is None:
         raise RuntimeError("litedram_gen not found: pip install litedram litex migen pyyaml "
                            "(and liteeth litescope pythondata-misc-tapcfg for --sim)")
-    out = out or build_dir("litedram-sim" if sim else "litedram")
-    cmd = [tool, str(CONFIG), "--no-compile", "--output-dir", str(out)] + (["--sim"] if sim else [])
+    out = out or core_dir(sim, clk_hz)
+    out.mkdir(parents=True, exist_ok=True)
+    cfg = out / "sdram.yml"
+    write_text_atomic(cfg, config(clk_hz))
+    cmd = [tool, str(cfg), "--no-compile", "--output-dir", str(out)] + (["--sim"] if sim else [])
     run = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
     if run.returncode != 0:
         raise RuntimeError(f"{' '.join(cmd)} failed:\n{run.stderr[-2000:]}")

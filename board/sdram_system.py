@@ -1,6 +1,7 @@
 """The engine system with its frame in SDRAM (``EngineSystem(..., frame="sdram")``, ``board/frame.py``;
 ``docs/board.md``): SWAP copies the engine's finished tile through :class:`~board.sdram_frame.SdramFrame` into the
-back buffer in SDRAM (LiteDRAM's AXI4 port, in the engine's clock: the core runs on it), and the display scans the
+back buffer in SDRAM (LiteDRAM's AXI4 port, in the SDRAM's own clock domain ``dram``: the core runs on it, and
+the tile's words cross to it through an asynchronous FIFO), and the display scans the
 front buffer out of SDRAM (paper, section 4 and Fig. 5: the engine's colors go to a frame buffer, which the display
 reads).
 
@@ -16,27 +17,33 @@ the port.
 
 from __future__ import annotations
 
-from amaranth import Cat, DomainRenamer, Module
+from amaranth import Cat, Module, Signal
 from amaranth.lib import wiring
-from amaranth.lib.fifo import SyncFIFO
+from amaranth.lib.fifo import AsyncFIFO
 from amaranth.lib.wiring import Out
 
 from rtl.rop import axi_signature
 
+from .cdc import toggle_sync
 from .litedram import ADDR_BITS, DATA_BITS, ID_BITS
 from .sdram_frame import LATENCY, FrameLayout, SdramFrame
 
-__all__ = ["members", "elaborate_frame", "BURST", "COPY_FIFO"]
+__all__ = ["members", "elaborate_frame", "BURST", "COPY_FIFO", "UNSEEN_WRITES"]
 
 #: Beats of the frame's bursts (128 bytes: a 128-pixel line is two).
 BURST = 64
-#: Words between the tile's read port and the copy's write bursts.
-COPY_FIFO = 8
+#: Words between the tile's read port and the copy's write bursts (an ``AsyncFIFO``, from the engine's clock to the
+#: SDRAM's).
+COPY_FIFO = 16
+#: Clocks by which the ``AsyncFIFO``'s ``w_level`` lags a write: its write pointer and the level are registers, so
+#: the words written in the last two clocks are not in it yet (a read shows later still, which only overstates).
+UNSEEN_WRITES = 2
 
 
 def members() -> dict:
-    """The engine system's ports added for the frame in SDRAM: ``mem`` (the AXI4 manager, ``engine``),
-    ``mem_error`` (an error response, sticky), ``underrun`` (the scan-out missed a word, sticky)."""
+    """The engine system's ports added for the frame in SDRAM: ``mem`` (the AXI4 manager, ``dram``),
+    ``mem_error`` (an error response, or a copied word the copy's FIFO could not take; sticky), ``underrun`` (the
+    scan-out missed a word, sticky)."""
     return {"mem": Out(axi_signature(ADDR_BITS, DATA_BITS, ID_BITS)), "mem_error": Out(1), "underrun": Out(1)}
 
 
@@ -46,20 +53,26 @@ def elaborate_frame(system, m: Module, tc, disp) -> None:
     P = system.params.rop
     if disp.latency != LATENCY + 1:
         raise AssertionError(f"the display's pixel latency must be {LATENCY + 1} (the frame's and a register)")
-    frame = SdramFrame(FrameLayout(P.width, P.height, burst=min(BURST, 1 << (P.width - 1).bit_length())),
-                       system.timing)
-    m.submodules.sdram_frame = f = DomainRenamer({"dram": "engine"})(frame)
-    q = SyncFIFO(width=DATA_BITS, depth=COPY_FIFO)
-    m.submodules.copy_fifo = DomainRenamer("engine")(q)
+    m.submodules.sdram_frame = f = SdramFrame(
+        FrameLayout(P.width, P.height, burst=min(BURST, 1 << (P.width - 1).bit_length())), system.timing)
+    q = AsyncFIFO(width=DATA_BITS, depth=COPY_FIFO, w_domain="engine", r_domain="dram")
+    m.submodules.copy_fifo = q
     wiring.connect(m, f.mem, wiring.flipped(system.mem))
-    # the copy steps while the FIFO has room for its word and those in flight (the read-out's ``readout_latency``
-    # and the registered word's: TileCopy writes ``readout_latency + 1`` clocks after a step), so a write never finds
-    # the FIFO full; the next copy waits for this one's last write response
-    flight = P.readout_latency + 1
+    # the copy steps while the FIFO has room for its word, those in flight (the read-out's ``readout_latency`` and
+    # the registered word's: TileCopy writes ``readout_latency + 1`` clocks after a step) and those its level does
+    # not show yet (UNSEEN_WRITES), so a write never finds the FIFO full (a word lost there would leave the copy's
+    # last burst short, and the copy would never end); the next copy waits for this one's last write response, a
+    # pulse of the SDRAM's clock handed to the engine's as a toggle
+    flight = P.readout_latency + 1 + UNSEEN_WRITES
+    copied, lost = Signal(), Signal()
+    with m.If(q.w_en & ~q.w_rdy):                      # cannot happen (the room above); sticky if it does
+        m.d.engine += lost.eq(1)
+    with m.If(f.copied):
+        m.d.dram += copied.eq(~copied)
     m.d.comb += [f.i.valid.eq(q.r_rdy), f.i.payload.eq(q.r_data), q.r_en.eq(f.i.ready),
-                 q.w_en.eq(tc.w_en), q.w_data.eq(tc.w_data), tc.room.eq(q.level < COPY_FIFO - flight),
-                 tc.shown.eq(f.copied),
-                 system.mem_error.eq(f.error), system.underrun.eq(f.underrun), system.front.eq(f.front)]
+                 q.w_en.eq(tc.w_en), q.w_data.eq(tc.w_data), tc.room.eq(q.w_level < COPY_FIFO - flight),
+                 tc.shown.eq(toggle_sync(m, "copied", copied, "engine")),
+                 system.mem_error.eq(f.error | lost), system.underrun.eq(f.underrun), system.front.eq(f.front)]
     # the display: the frame's word (LATENCY clocks) expanded to bytes and registered
     m.d.comb += [f.x.eq(disp.x), f.y.eq(disp.y)]
     px = f.color
@@ -83,29 +96,25 @@ def core_verilog(text: str) -> str:
     return text.replace(DQ_INPUT, DQ_INOUT)
 
 
-def wire_sdram(m: Module, platform, system) -> None:
-    """The board's SDRAM: LiteDRAM's board core (GENSDRPHY on the chip's pins, in the engine's clock) on the
-    system's AXI port, the chip's clock from a double-data-rate output at 180 degrees (its rising edge in the
-    middle of the engine clock's period, as LiteX's ULX3S target does), the core's Verilog added to the build
-    (generated into ``build/litedram`` when missing: :func:`board.litedram.generate`), LEDs 4 (underrun), 5 (an
-    AXI error response) and 6 (the SDRAM ready)."""
+def wire_sdram(m: Module, platform, system, clk_hz: int) -> None:
+    """The board's SDRAM: LiteDRAM's board core (GENSDRPHY on the chip's pins) on the system's AXI port, in domain
+    ``dram`` (the caller's: its own clock, ``clk_hz``, with a reset held until the PLL locks, which the core and
+    its init sequence need, unlike the engine's registers), the chip's clock from a double-data-rate output at 180
+    degrees (its rising edge in the middle of the core's clock period, as LiteX's ULX3S target does), the core's
+    Verilog for ``clk_hz`` added to the build (generated into the build folder when missing:
+    :func:`board.litedram.core`), LEDs 4 (underrun), 5 (an AXI error response) and 6 (the SDRAM ready)."""
     from amaranth.lib import io
 
-    from fxmodel.core.paths import build_dir
-
-    from .litedram import generate
+    from .litedram import core
     from .sdram_core import LiteDram
     pins = platform.request("sdram", 0, dir="-")
     d = LiteDram(pins)
-    m.submodules.dram = DomainRenamer({"dram": "engine"})(d)
+    m.submodules.dram = d
     wiring.connect(m, system.mem, d.axi)
-    m.submodules.sdram_clk = clk = io.DDRBuffer("o", pins.clk, o_domain="engine")
+    m.submodules.sdram_clk = clk = io.DDRBuffer("o", pins.clk, o_domain="dram")
     m.d.comb += [clk.o[0].eq(0), clk.o[1].eq(1)]
     leds = {k: io.Buffer("o", platform.request("led", k, dir="-")) for k in (4, 5, 6)}
     for k, buf in leds.items():
         m.submodules[f"led{k}"] = buf
     m.d.comb += [leds[4].o.eq(system.underrun), leds[5].o.eq(system.mem_error), leds[6].o.eq(d.ready)]
-    path = build_dir("litedram") / "gateware" / "litedram_core.v"
-    if not path.exists():
-        path = generate(False)
-    platform.add_file("litedram_core.v", core_verilog(path.read_text()))
+    platform.add_file("litedram_core.v", core_verilog(core(False, clk_hz).read_text()))

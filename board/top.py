@@ -40,10 +40,15 @@ __all__ = ["Top", "PLL", "ENGINE_DIVS", "check_engine_div", "UNIT_PREFIXES", "SE
 #: fixes its routed run at 500/6 and placer seed 3 missed by a fraction of a megahertz, as nextpnr's router stops
 #: ripping up once its own timing says met; 500/5 = 100 MHz is the target the engine does not yet meet,
 #: ``docs/board/engine-misses.json``).
+#: CLKOS3 the SDRAM's (``frame="sdram"`` only): 500/10 = 50 MHz, LiteX's own clock for this board's SDRAM. On the
+#: engine's clock LiteDRAM's core missed even 500/7: its reset, one net from its synchroniser to registers across
+#: the die, took most of a 50 MHz period to route (``docs/board.md``); on a clock of its own the engine's does not
+#: wait for it.
 PLL = {"CLKI_DIV": 1, "CLKFB_DIV": 5, "CLKOP_DIV": 4, "CLKOP_CPHASE": 1, "CLKOS_DIV": 20, "CLKOS_CPHASE": 9,
-       "CLKOS2_DIV": 7, "CLKOS2_CPHASE": 3}
+       "CLKOS2_DIV": 7, "CLKOS2_CPHASE": 3, "CLKOS3_DIV": 10, "CLKOS3_CPHASE": 4}
 _VCO_HZ = 25_000_000 * PLL["CLKFB_DIV"] * PLL["CLKOP_DIV"] // PLL["CLKI_DIV"]
-PIXEL_HZ, TMDS_HZ, ENGINE_HZ = (_VCO_HZ // PLL[k] for k in ("CLKOS_DIV", "CLKOP_DIV", "CLKOS2_DIV"))
+PIXEL_HZ, TMDS_HZ, ENGINE_HZ, DRAM_HZ = (_VCO_HZ // PLL[k] for k in ("CLKOS_DIV", "CLKOP_DIV", "CLKOS2_DIV",
+                                                                     "CLKOS3_DIV"))
 #: The engine dividers ``bumpmap bitstream --engine-div`` accepts (VCO / 4 = 125 MHz down to VCO / 10 = 50 MHz):
 #: a trial of another engine clock, its timing reported; ``PLL`` holds the one the board is built with.
 ENGINE_DIVS = (4, 10)
@@ -69,11 +74,15 @@ class Top(Elaboratable):
     def _clocks(self, m, platform):
         clk25 = io.Buffer("i", platform.request("clk25", 0, dir="-"))
         m.submodules.clk25 = clk25
-        tmds, pixel, fast, locked = Signal(), Signal(), Signal(), Signal()
+        tmds, pixel, fast, dram, locked = Signal(), Signal(), Signal(), Signal(), Signal()
         p = dict(PLL, CLKOS2_DIV=self.engine_div)
         engine_hz = _VCO_HZ // self.engine_div
+        sdram = self.engine is not None and self.frame == "sdram"
+        third = ({"a_FREQUENCY_PIN_CLKOS3": f"{DRAM_HZ / 1e6:.4f}", "p_CLKOS3_ENABLE": "ENABLED",
+                  "p_CLKOS3_DIV": p["CLKOS3_DIV"], "p_CLKOS3_CPHASE": p["CLKOS3_CPHASE"], "p_CLKOS3_FPHASE": 0,
+                  "o_CLKOS3": dram} if sdram else {})
         m.submodules.pll = Instance(
-            "EHXPLLL",
+            "EHXPLLL", **third,
             a_FREQUENCY_PIN_CLKI="25", a_FREQUENCY_PIN_CLKOP="125", a_FREQUENCY_PIN_CLKOS="25",
             a_FREQUENCY_PIN_CLKOS2=f"{engine_hz / 1e6:.4f}",
             a_ICP_CURRENT="12", a_LPF_RESISTOR="8", a_MFG_ENABLE_FILTEROPAMP="1", a_MFG_GMCREF_SEL="2",
@@ -100,6 +109,13 @@ class Top(Elaboratable):
             # record. A reset net to every register of the engine was its clock's critical path (a die-wide route).
             m.domains.engine = ClockDomain("engine", reset_less=True)
             m.d.comb += ClockSignal("engine").eq(fast)
+            if sdram:
+                # the SDRAM's core, its init sequence and the frame's bursts on a clock of their own, held in reset
+                # until the PLL locks: they act from the start (the chip's power-up wait), where the engine waits
+                # for a record
+                m.domains.dram = ClockDomain("dram")
+                m.d.comb += ClockSignal("dram").eq(dram)
+                m.submodules.rst_dram = ResetSynchronizer(~locked, domain="dram")
 
     def elaborate(self, platform):
         m = Module()
@@ -112,7 +128,7 @@ class Top(Elaboratable):
             m.submodules.system = system = EngineSystem(self.engine, VGA_640x480, PIXEL_HZ // BAUD, self.frame)
             if self.frame == "sdram":           # LiteDRAM's core on the SDRAM pins (board/sdram_system.py)
                 from .sdram_system import wire_sdram
-                wire_sdram(m, platform, system)
+                wire_sdram(m, platform, system, DRAM_HZ)
             m.d.comb += ser.words.eq(system.words | (CLOCK_WORD << 30))
         hdmi = platform.request("hdmi", 0, dir="-")
         m.submodules.hdmi_d = d = io.DDRBuffer("o", hdmi.d, o_domain="tmds")

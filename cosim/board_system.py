@@ -32,10 +32,12 @@ from .board_dvi import measure
 from .harness import component_build, run_testbench, simulator
 from .job import job_folder, remove_job
 
-__all__ = ["simulate", "split_frames", "decode_words", "PIXEL_NS", "ENGINE_NS", "DIVISOR"]
+__all__ = ["simulate", "split_frames", "decode_words", "PIXEL_NS", "ENGINE_NS", "DRAM_NS", "DIVISOR"]
 
 #: The pixel clock (25 MHz, the board's), the engine's (100 MHz), pixel clocks a UART bit (1 MBd).
 PIXEL_NS, ENGINE_NS, DIVISOR = 40, 10, 25
+#: The SDRAM's clock with the frame in SDRAM (50 MHz, the board's ``board.top.DRAM_HZ``).
+DRAM_NS = 20
 #: Pixel clocks a UART bit when the uploads are simulated (6.25 MBd: the receiver samples each bit's middle).
 UPLOAD_DIVISOR = 4
 
@@ -101,7 +103,7 @@ def simulate(params, records, data: bytes, *, timing: VideoTiming = VGA_640x480,
     clocks = (timing.v_total - timing.v_active + timing.v_total + 2) * timing.h_total
     frame_ns = timing.frame_clocks * PIXEL_NS
     meta = {"data": stream.hex(), "pixel_ns": PIXEL_NS, "engine_ns": ENGINE_NS, "divisor": divisor,
-            "clocks": clocks, "timeout_ns": 3 * frame_ns}
+            "clocks": clocks, "timeout_ns": 3 * frame_ns, **({"dram_ns": DRAM_NS} if frame == "sdram" else {})}
     job = job_folder(bdir, "system", {"data": hashlib.sha1(stream).hexdigest(), "clocks": clocks})
     out, build_seconds, seconds = run_testbench(sim, src, top, bdir, job, "cosim.board_system_tb", meta,
                                                 "result.json")
@@ -115,6 +117,7 @@ def simulate(params, records, data: bytes, *, timing: VideoTiming = VGA_640x480,
            "error": res["error"], "overrun": res["overrun"], "rop_status": res["status"], "shown": shown,
            "uploads": uploads, "upload_bad": res.get("upload_bad"),
            "frame": frame, "underrun": res.get("underrun"), "mem_error": res.get("mem_error"),
+           "dram_ready": res.get("dram_ready"),
            "sim_ms": {"uart_done": res["sent_ns"] / 1e6, "shown": res["shown_ns"] / 1e6, "end": res["end_ns"] / 1e6},
            "verilog_seconds": round(verilog_seconds, 1), "build_seconds": round(build_seconds, 1),
            "sim_seconds": round(seconds, 1), "want": want}

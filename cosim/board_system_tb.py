@@ -32,6 +32,9 @@ async def system(dut):
     dut.engine_rst.value = 1
     cocotb.start_soon(Clock(dut.clk, pix_ns, unit="ns").start())
     cocotb.start_soon(Clock(dut.engine_clk, eng_ns, unit="ns").start())
+    if "dram_ns" in meta:                        # the frame in SDRAM: the SDRAM's clock of its own
+        dut.dram_rst.value = 1
+        cocotb.start_soon(Clock(dut.dram_clk, meta["dram_ns"], unit="ns").start())
     source, sink = UartSource(dut.rx, baud=baud, bits=8), UartSink(dut.tx, baud=baud, bits=8)
     for side in (source, sink):                  # not a log line per byte
         side.log.setLevel(logging.WARNING)
@@ -39,6 +42,8 @@ async def system(dut):
         await FallingEdge(dut.clk)
     dut.rst.value = 0
     dut.engine_rst.value = 0
+    if "dram_ns" in meta:
+        dut.dram_rst.value = 0
     await source.write(bytes.fromhex(meta["data"]))
     await source.wait()
     sent_ns = get_sim_time("ns")
@@ -55,4 +60,5 @@ async def system(dut):
         "replies": bytes(sink.read_nowait()).hex(), "error": int(dut.error.value), "overrun": int(dut.overrun.value),
         "status": int(dut.status.value), "front": int(dut.front.value), "sent_ns": sent_ns, "shown_ns": shown_ns,
         "end_ns": get_sim_time("ns"),
-        **{k: int(getattr(dut, k).value) for k in ("underrun", "mem_error", "upload_bad") if hasattr(dut, k)}}))
+        **{k: int(getattr(dut, k).value) for k in ("underrun", "mem_error", "upload_bad", "dram_ready")
+           if hasattr(dut, k)}}))

@@ -84,12 +84,9 @@ class SdramFrameLiteDramBench(wiring.Component):
 
 def litedram_sources(sim: str, top: str, key: str, component) -> tuple[str, Path, Path]:
     """:func:`~cosim.harness.component_build` of a design holding LiteDRAM's simulation core, with the core's
-    Verilog (generated into the build folder when missing: :func:`board.litedram.generate`) appended."""
-    from board.litedram import generate
-    from fxmodel.core.paths import build_dir
-    core = build_dir("litedram-sim") / "gateware" / "litedram_core.v"
-    if not core.exists():
-        core = generate(True)
+    Verilog (generated into the build folder when missing: :func:`board.litedram.core`) appended."""
+    from board.litedram import core as litedram_core
+    core = litedram_core(True)
     top, bdir, src = component_build(top, key, sim, component)
     both = bdir / f"{top}_with_litedram.v"
     if not both.exists():

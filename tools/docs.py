@@ -251,6 +251,7 @@ PAGES = {
     "board-sdram-bandwidth": board.board_sdram_bandwidth, "board-sim-sdram": lambda: board.board_sim("board-sim-sdram"),
     "board-sim-uploads": lambda: board.board_sim("board-sim-uploads"),
     "board-animation": board.board_animation, "board-engine-misses": board.board_engine_misses,
+    "board-bitstream-sdram": lambda: board.board_bitstream("bitstream-sdram"),
 }
 
 

@@ -56,7 +56,9 @@ def board_sdram_bandwidth() -> str:
              f"{f['bursts_per_frame']:,} of {f['burst_beats']} beats"] for f in r["frames"]]
     return (md_table(["frame", "bytes", "scan-out MB/s", "copies MB/s", "total MB/s", f"of {r['sdram_peak_MBps']} MB/s",
                     "bursts a frame (each way)"], rows, col_align("lrrrrrr"))
-            + f"\n*{r['mode']}, a copy every display frame ({r['copies_per_s']} a second, the most the display shows); "
+            + f"\n*{r['mode']}, the peak of the SDRAM's clock on the board ({r['sdram_clock_MHz']:g} MHz; the chip "
+              f"is rated for {r['chip_clock_MHz']:g}), a copy every display frame ({r['copies_per_s']} a second, the "
+              "most the display shows); "
               f"line FIFO {r['line_fifo_words']} words ({r['line_fifo_us_at_pixel_clock']} us of pixels, "
               f"{r['line_fifo_lines_640']} lines of 640). Computed by `{r['command']}`; record: "
               "[`board/sdram-bandwidth.json`](board/sdram-bandwidth.json).*\n")
@@ -72,14 +74,16 @@ def _clock_tables(r: dict, fmax_head: str) -> str:
             + md_table(["resource", "used", "available"], res, col_align("lrr")))
 
 
-def board_bitstream() -> str:
-    """The board top's last bitstream: Fmax per clock domain against its target, and resources."""
-    r, path = _board_record("bitstream")
+def board_bitstream(name: str = "bitstream") -> str:
+    """The board top's last bitstream: Fmax per clock domain against its target, and resources; ``name`` the
+    record (``bitstream-sdram``: the frame in SDRAM, ``bumpmap bitstream --frame sdram``)."""
+    r, path = _board_record(name)
     if r is None:
-        return missing_record(path, "make bitstream BOARD=ulx3s")
+        return missing_record(path, "make bitstream BOARD=ulx3s" if name == "bitstream" else
+                              f"bumpmap bitstream --frame sdram --record docs/board/{name}.json")
     return (_clock_tables(r, "Fmax")
-            + f"\n*Measured by `{r['command']}` in {r['seconds']} s; record: [`board/bitstream.json`]"
-              "(board/bitstream.json).*\n")
+            + f"\n*Measured by `{r['command']}` in {r['seconds']} s; record: [`board/{name}.json`]"
+              f"(board/{name}.json).*\n")
 
 
 def board_sim(name: str = "board-sim") -> str:

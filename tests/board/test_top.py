@@ -4,6 +4,9 @@ is ``make bitstream BOARD=ulx3s`` (about a minute)."""
 
 from __future__ import annotations
 
+import re
+from fractions import Fraction
+
 import pytest
 
 pytest.importorskip("amaranth_boards")
@@ -69,17 +72,28 @@ def test_the_top_with_the_engine_prepares_with_the_pll_third_output():
     assert "MULT18X18D" in rtlil and "REG_OUTPUT_CLK" in rtlil      # products in their blocks' registers (rtl.dsp)
 
 
-@pytest.mark.slow
-def test_the_top_with_the_frame_in_sdram_prepares_with_litedrams_core():
-    pytest.importorskip("litedram")
+def test_the_top_with_the_frame_in_sdram_prepares_with_litedrams_core_on_its_own_clock():
+    # not slow (about ten seconds, the core generated once): the only check that the SDRAM top elaborates; it did
+    # not, once the engine's clock lost its reset, as the core took that clock's reset
     from board.frame import board_engine
-    plan = _platform().prepare(Top(board_engine(size=16)[0], frame="sdram"), name="top")
+    from board.litedram import core_dir
+    div = 6
+    plan = _platform().prepare(Top(board_engine(size=16)[0], frame="sdram", engine_div=div), name="top")
     rtlil = plan.files["top.il"]
     rtlil = rtlil.decode() if isinstance(rtlil, bytes) else rtlil
     lpf = plan.files["top.lpf"]
     lpf = lpf.decode() if isinstance(lpf, bytes) else lpf
     assert "litedram_core" in rtlil and "inout  wire   [15:0] sdram_dq" in plan.files["litedram_core.v"]
     assert all(pin in lpf for pin in ("F19", "J16", "M20", "U19"))          # SDRAM clock, dq, a, dqm
+    assert "rst_dram" in rtlil                                               # the core's reset until the PLL locks
+    # the core on a clock of its own (the PLL's fourth output), generated for it: its refresh timer counts the
+    # chip's 7.8 us in that clock's cycles
+    hz = top.DRAM_HZ
+    assert "CLKOS3" in rtlil and hz == top._VCO_HZ // top.PLL["CLKOS3_DIV"] and "dram" in rtlil
+    assert f'"sys_clk_freq":  {hz},' in (core_dir(False, hz) / "sdram.yml").read_text()
+    counts = {int(n) for n in re.findall(r"litedramcore_timer_count1 <= \d+'d(\d+);", plan.files["litedram_core.v"])}
+    trefi = Fraction(64, 1000 * 8192)                                      # 64 ms for the chip's 8192 rows
+    assert len(counts) == 1 and Fraction(0.95) * trefi < Fraction(counts.pop(), hz) <= trefi
 
 
 @pytest.mark.parametrize("seed, flag", [(None, None), (7, "--seed 7")])

@@ -43,7 +43,7 @@ CLOCK_LINE = '"sys_clk_freq":  100e6,'
 
 
 def config(clk_hz: int) -> str:
-    """``board/sdram.yml`` for a core clocked at ``clk_hz`` (the board's engine clock: LiteDRAM turns the chip's
+    """``board/sdram.yml`` for a core clocked at ``clk_hz`` (the board's SDRAM clock: LiteDRAM turns the chip's
     timings, refresh interval included, into clocks of ``sys_clk_freq``, so a core generated for 100 MHz and run
     slower would refresh the chip less often than its datasheet asks). ``ValueError`` if the file does not set the
     clock on :data:`CLOCK_LINE`, or ``clk_hz`` is above the chip's and the core's :data:`SDRAM_HZ`."""

@@ -78,11 +78,11 @@ class Top(Elaboratable):
         p = dict(PLL, CLKOS2_DIV=self.engine_div)
         engine_hz = _VCO_HZ // self.engine_div
         sdram = self.engine is not None and self.frame == "sdram"
-        third = ({"a_FREQUENCY_PIN_CLKOS3": f"{DRAM_HZ / 1e6:.4f}", "p_CLKOS3_ENABLE": "ENABLED",
+        clkos3 = ({"a_FREQUENCY_PIN_CLKOS3": f"{DRAM_HZ / 1e6:.4f}", "p_CLKOS3_ENABLE": "ENABLED",
                   "p_CLKOS3_DIV": p["CLKOS3_DIV"], "p_CLKOS3_CPHASE": p["CLKOS3_CPHASE"], "p_CLKOS3_FPHASE": 0,
                   "o_CLKOS3": dram} if sdram else {})
         m.submodules.pll = Instance(
-            "EHXPLLL", **third,
+            "EHXPLLL", **clkos3,
             a_FREQUENCY_PIN_CLKI="25", a_FREQUENCY_PIN_CLKOP="125", a_FREQUENCY_PIN_CLKOS="25",
             a_FREQUENCY_PIN_CLKOS2=f"{engine_hz / 1e6:.4f}",
             a_ICP_CURRENT="12", a_LPF_RESISTOR="8", a_MFG_ENABLE_FILTEROPAMP="1", a_MFG_GMCREF_SEL="2",

@@ -24,6 +24,7 @@ from functools import lru_cache
 import numpy as np
 
 from board.frame import BoardSim, display_frame
+from board.top import DRAM_HZ
 from board.video import VGA_640x480, VideoTiming, tmds_decode
 from fxmodel.core.paths import source_digest
 from host.protocol import Cmd
@@ -36,8 +37,8 @@ __all__ = ["simulate", "split_frames", "decode_words", "PIXEL_NS", "ENGINE_NS", 
 
 #: The pixel clock (25 MHz, the board's), the engine's (100 MHz), pixel clocks a UART bit (1 MBd).
 PIXEL_NS, ENGINE_NS, DIVISOR = 40, 10, 25
-#: The SDRAM's clock with the frame in SDRAM (50 MHz, the board's ``board.top.DRAM_HZ``).
-DRAM_NS = 20
+#: The SDRAM's clock with the frame in SDRAM: the board's (``board.top.DRAM_HZ``).
+DRAM_NS = 10 ** 9 // DRAM_HZ
 #: Pixel clocks a UART bit when the uploads are simulated (6.25 MBd: the receiver samples each bit's middle).
 UPLOAD_DIVISOR = 4
 

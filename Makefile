@@ -105,8 +105,8 @@ bitstream: setup
 BOARD_PRESET_ARG = $(if $(filter-out file default undefined,$(origin PRESET)),--preset $(PRESET))
 board-sim: setup
 	@test "$(BOARD)" = ulx3s || { echo "BOARD=$(BOARD): the board top exists for ulx3s only" >&2; exit 2; }
-	$(BUMPMAP) send --scene $(SCENE) $(BOARD_PRESET_ARG) --size 128 --dry-run build/board-sim/$(SCENE).bin
-	$(BUMPMAP) board-sim --scene $(SCENE) $(BOARD_PRESET_ARG) --size 128 --bytes build/board-sim/$(SCENE).bin
+	$(BUMPMAP) send --scene $(SCENE) $(BOARD_PRESET_ARG) --dry-run build/board-sim/$(SCENE).bin
+	$(BUMPMAP) board-sim --scene $(SCENE) $(BOARD_PRESET_ARG) --bytes build/board-sim/$(SCENE).bin
 
 exhaustive: setup
 	HYPOTHESIS_PROFILE=thorough $(PY) -m pytest -n $(JOBS) -q -m slow -k "not test_exhaustive_target"

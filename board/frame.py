@@ -38,13 +38,17 @@ from .cdc import QUIET, toggle_sync
 from .upload import UploadWriter
 
 __all__ = ["rgb565", "expand565", "display_frame", "board_engine", "EngineSystem", "BoardSim", "QUIET",
-           "BOARD_PRESET", "TileCopy"]
+           "BOARD_PRESET", "BOARD_SIZE", "TileCopy"]
 
 
 #: The board's pipeline preset (``presets/tin-plane-board.toml``: the fitted tin plane's, 29-texel reflectance
 #: cubes): the ``default`` preset's engine (64-texel cubes) with the tile and the frame store used nearly all the
 #: ECP5-85F's block RAMs and multipliers and did not route (``docs/board.md``).
 BOARD_PRESET = "tin-plane-board"
+
+#: The board's frame edge in pixels (the on-chip tile holds the whole frame): the default of every board command
+#: (``bumpmap bitstream``, ``send``, ``board-sim``, ``animate``), so that the host's records fit the board's tile.
+BOARD_SIZE = 128
 
 
 def rgb565(color: np.ndarray) -> np.ndarray:
@@ -70,7 +74,7 @@ def display_frame(color: np.ndarray, h_active: int = 640, v_active: int = 480) -
     return out
 
 
-def board_engine(scene: str = "tin-plane", preset: str = BOARD_PRESET, size: int = 128):
+def board_engine(scene: str = "tin-plane", preset: str = BOARD_PRESET, size: int = BOARD_SIZE):
     """``(params, frame, tframe)``: the engine of the board for a scene (name or path) drawn at ``size`` x ``size``
     (the tile): the set-up's engine (:func:`host.render.from_triangles` with its depth test) with the frame buffer on
     chip, the texel memories holding the scene's tables."""

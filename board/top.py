@@ -27,7 +27,7 @@ from amaranth.lib.cdc import ResetSynchronizer
 from .budget import write_text_atomic
 from .command import CommandLink
 from .dvi import CLOCK_WORD, Display, Serializer, pattern
-from .frame import BOARD_PRESET, EngineSystem
+from .frame import BOARD_PRESET, BOARD_SIZE, EngineSystem
 from .ulx3s import BAUD, wire_link
 from .video import VGA_640x480
 
@@ -274,7 +274,8 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
     ap.add_argument("--scene", default="tin-plane", help="the scene whose tables the texel memories hold")
     ap.add_argument("--preset", default=BOARD_PRESET,
                     help="pipeline preset (built in or presets/<name>.toml; default %(default)s: docs/board.md)")
-    ap.add_argument("--size", type=int, default=128, help="the frame's edge in pixels (the on-chip tile)")
+    ap.add_argument("--size", type=int, default=BOARD_SIZE,
+                    help="the frame's edge in pixels (the on-chip tile; default %(default)s)")
     ap.add_argument("--no-engine", action="store_true", help="the first stage: the test picture and the link")
     ap.add_argument("--frame", choices=("chip", "sdram"), default="chip",
                     help="the frame store: block RAM, or SDRAM behind LiteDRAM's core (default chip)")
@@ -316,7 +317,7 @@ def run(args: argparse.Namespace) -> int:
         return 2
     rec = build(args.out, engine, args.router, args.frame, args.seed, args.engine_div, args.misses, args.tmg_ripup,
                 args.placer)
-    rec = {"command": "make bitstream BOARD=ulx3s (bumpmap bitstream " + " ".join(sys.argv[2:]) + ")",
+    rec = {"command": getattr(args, "command_line", "bumpmap bitstream"),
            "design": "test picture and link" if engine is None else
            f"engine ({args.scene}, preset {args.preset}, {args.size}x{args.size} tile), link, display"
            + (", frame in SDRAM" if args.frame == "sdram" else ""), **rec}

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from board.frame import BOARD_PRESET, board_engine
+from board.frame import BOARD_PRESET, BOARD_SIZE, board_engine
 from cosim.board_system import simulate, split_frames
 from host.protocol import Cmd
 
@@ -27,7 +27,7 @@ def add_arguments(ap) -> None:
     ap.add_argument("--scene", default="tin-plane", help="scene name in scenes/ or a .toml path")
     ap.add_argument("--preset", default=BOARD_PRESET,
                     help="pipeline preset (built in or presets/<name>.toml; default %(default)s, the board's)")
-    ap.add_argument("--size", type=int_range(1, 256), default=128,
+    ap.add_argument("--size", type=int_range(1, 256), default=BOARD_SIZE,
                     help="the frame's edge in pixels (the on-chip tile; default %(default)s)")
     ap.add_argument("--bytes", type=Path, metavar="FILE",
                     help="the host's bytes (bumpmap send --dry-run FILE, same scene, preset and size); default: "

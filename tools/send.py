@@ -13,7 +13,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from board.frame import BOARD_PRESET
+from board.frame import BOARD_PRESET, BOARD_SIZE
 from host.args import int_range
 from host.atomic import atomic_write_bytes
 
@@ -28,7 +28,9 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
     ap.add_argument("--scene", default="tin-plane", help="scene name in scenes/ or a .toml path")
     ap.add_argument("--preset", default=BOARD_PRESET,
                     help="pipeline preset (built in or presets/<name>.toml; default %(default)s, the board's)")
-    ap.add_argument("--size", type=int_range(1, 4096), default=None, help="override the image size (square)")
+    ap.add_argument("--size", type=int_range(1, 4096), default=BOARD_SIZE,
+                    help="the image's edge in pixels (default %(default)s: the board's tile, board/frame.py "
+                         "BOARD_SIZE; a bitstream built with another --size needs the same here)")
     ap.add_argument("--cube-size", type=int_range(2, 1024), default=None, help="texels per cube face edge")
     ap.add_argument("--port", help="serial port of the board (e.g. /dev/ttyUSB0; needs pyserial)")
     ap.add_argument("--baud", type=int_range(300, 12_000_000), default=1_000_000,

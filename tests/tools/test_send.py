@@ -24,8 +24,8 @@ def _unpack(ports, payload: bytes) -> list[int]:
 def test_dry_run_bytes_are_the_scene_setup(tmp_path, capsys):
     out = tmp_path / "tin.bin"
     assert main(["send", "--dry-run", str(out)]) == 0
-    from board.frame import BOARD_PRESET
-    frame = prepare(scene_path("tin-plane"), preset=BOARD_PRESET)        # send's default: the board's preset
+    from board.frame import BOARD_PRESET, BOARD_SIZE
+    frame = prepare(scene_path("tin-plane"), size=BOARD_SIZE, preset=BOARD_PRESET)   # send's defaults: the board's
     tframe = from_triangles(frame)
     ports = tframe.params.raster.record
     parsed = parse(out.read_bytes(), record_bytes(ports))

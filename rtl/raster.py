@@ -308,6 +308,12 @@ class Raster(wiring.Component):
         s3 = pipe.stage(xl=(s2.x0 + s2.L)[:w], n=(s2.R - s2.L)[:w], nonempty=nonempty,
                         single=~nonempty | (s2.L == s2.R), **({} if P.span_dsp else {"L": s2.L}), **_passing(s2, keep3))
         offset = {n: kept_copy(m, s2.L, f"span_L_{n}") if P.span_dsp else s3.L for n in P.names}
+        # (3b) each attribute's copy of L and its a_x registered once more by the pipeline: on an ECP5 these are
+        #      the multiplier blocks' input registers (rtl/dsp.py), so the route from a copy ends in a block's
+        #      register and the multiplier has a clock of its own
+        keep3b = ["xl", "n", "nonempty", "single", *keep3]
+        s3 = pipe.stage(**{f"L_{n}": offset[n] for n in P.names}, **_passing(s3, keep3b))
+        offset = {n: getattr(s3, f"L_{n}") for n in P.names}
 
         # (4) the partial products a_x L
         parts, shifts = {}, {}
@@ -330,7 +336,7 @@ class Raster(wiring.Component):
         # (5, 6) the span start a(x0, y) + L a_x, modulo 2**N, two adder levels
         carry = _passing(s4, ["valid", "y", "xl", "n", "nonempty", "single", *(f"dx_{n}" for n in P.names),
                               *(f"c_{n}" for n in g.k_c)])
-        start, carry = _tree(pipe, terms, P.SPAN_STAGES - 4, carry)
+        start, carry = _tree(pipe, terms, P.SPAN_STAGES - 5, carry)
         assert pipe.depth == P.SPAN_STAGES - 1                            # the last level writes the FIFO
 
         row_in = data.View(row_layout(P), g.fifo.w_data)

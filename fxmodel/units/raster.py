@@ -209,8 +209,9 @@ class RasterParams:
     ROW_FIFO_DEPTH: ClassVar[int] = 16
     #: Stages of the RTL's span pipeline from the row generator's state to the row FIFO (``rtl/raster.py``):
     #: the edges' bounds, the span, its column and length (the offset fanned out to the products' copies), the
-    #: offset products, two adder levels of the span start.
-    SPAN_STAGES: ClassVar[int] = 6
+    #: copies registered again (the multiplier blocks' input registers), the offset products, two adder levels
+    #: of the span start.
+    SPAN_STAGES: ClassVar[int] = 7
     #: Fragments the RTL's output FIFO holds (LUT RAM): with two in flight behind it, one per clock flows
     #: while the consumer is ready.
     OUT_FIFO_DEPTH: ClassVar[int] = 4

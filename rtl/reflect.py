@@ -98,13 +98,18 @@ class Reflect(UnitComponent):
         q, _ = saturate(s1.nn0 + s1.nn1 + s1.nn2, w["N.N"], Overflow.PROVEN)
         s2 = pipe.stage(p=p, q=q, zero=s1.zero, **{f"N{i}": getattr(s1, f"N{i}") for i in range(3)},
                         **{f"E{i}": getattr(s1, f"E{i}") for i in range(3)})
-        # the sums registered once more: on an ECP5 the digit products' blocks take these registers as their input
-        # registers, fed from registers (not from the sums' carry chains, three blocks a digit away)
-        s2 = pipe.stage(**{k: getattr(s2, k) for k in ("p", "q", "zero", "N0", "N1", "N2", "E0", "E1", "E2")})
+        # the sums registered once more, as their digits: p and q cut into 17-bit digits (18-bit signed DSP
+        # operands). On an ECP5 the digit products' blocks take these registers as their input registers, fed from
+        # registers (not from the sums' carry chains, three blocks a digit away); a digit registered as itself,
+        # not as a slice of p with a zero bit joined in the next stage, is an operand rtl/dsp.py recognizes
+        pd, qd = _digits(P, "N.E", s2.p), _digits(P, "N.N", s2.q)
+        s2 = pipe.stage(**{f"pd{j}": d for j, d in enumerate(pd)}, **{f"qd{j}": d for j, d in enumerate(qd)},
+                        **{k: getattr(s2, k) for k in ("zero", "N0", "N1", "N2", "E0", "E1", "E2")})
 
-        # 3: second-level partial products: p and q cut into 17-bit digits (18-bit signed DSP operands), so each
-        #    wide product N_i p, E_i q is a few 18x18 tiles whose sum is left to the next stages
-        pp, qp = _digits(P, "N.E", s2.p), _digits(P, "N.N", s2.q)
+        # 3: second-level partial products: each wide product N_i p, E_i q is a few 18x18 tiles whose sum is left
+        #    to the next stages
+        pp = [getattr(s2, f"pd{j}") for j in range(len(pd))]
+        qp = [getattr(s2, f"qd{j}") for j in range(len(qd))]
         st = {"zero": s2.zero}
         for i in range(3):
             Ni, Ei = getattr(s2, f"N{i}"), getattr(s2, f"E{i}")

@@ -18,9 +18,10 @@ carry chain or one product (the house rule of the pixel pipeline); only the row 
   stages, nothing fed back): (1) each edge's bound relative to ``x0``, clamped to ``[0, x1 - x0]``, and whether
   it empties the row (``v - x0`` and ``v - x1 - 1`` side by side); (2) the span ``[L, R]`` (offsets from
   ``x0``) as the largest left and smallest right bound, from the three pairwise comparisons at once; (3)
-  ``x0 + L``, ``R - L``, ``L <= R``, and ``L`` fanned out to a copy per attribute ("Fan-out"); (4) for every
-  attribute, the partial products of ``a_x`` cut into :meth:`~fxmodel.units.raster.RasterParams.dx_pieces` times
-  its copy of ``L`` (one multiplier block each, the product registered in the block); (5, 6) the span start
+  ``x0 + L``, ``R - L``, ``L <= R``, and ``L`` fanned out to a copy per attribute ("Fan-out"); (4) each copy
+  and ``a_x`` registered once more (the multiplier blocks' input registers); (5) for every attribute, the
+  partial products of ``a_x`` cut into :meth:`~fxmodel.units.raster.RasterParams.dx_pieces` times its copy of
+  ``L`` (one multiplier block each, operands and product registered in the block); (6, 7) the span start
   ``a(x0, y) + L a_x`` as two adder levels over the partial products, modulo ``2**N``.
 - **Row FIFO** (``amaranth.lib.fifo.SyncFIFO``, :attr:`~fxmodel.units.raster.RasterParams.ROW_FIFO_DEPTH` rows, LUT
   RAM, :func:`row_layout`): ``y``, ``x0 + L``, ``R - L``, whether the row is empty or one clock, every
@@ -55,8 +56,10 @@ from copy 0 alone: that one net to every generator copy was the board's critical
 their multiplier blocks' registers. Likewise the span's ``L`` reaches each attribute's partial products
 from a copy of its own, in a stage of its own (the route from one register to the multiplier blocks of every
 attribute, spread over the device, was the board's critical path; a copy computed from the comparisons, in the
-same stage as ``L``, made the comparisons' route to every copy the next): the multiplier blocks then take ``L``
-and ``a_x`` without their input registers (both operands or neither, ``rtl/dsp.py``).
+same stage as ``L``, made the comparisons' route to every copy the next). The copies are registered once more
+in a stage of their own, which the multiplier blocks take as their input registers (both operands or neither,
+``rtl/dsp.py``): without it the route from a copy ran into a block's multiplier in the same clock, the board's
+critical path at two placements (``docs/board.md``).
 
 ``busy`` is high while the Pixel Calculator works on a row: a row costs ``max(1, span)`` busy clocks, so when
 the sink is always ready the busy clocks are the model's ``clocks``. The generator runs ahead of the Pixel
@@ -308,14 +311,14 @@ class Raster(wiring.Component):
         s3 = pipe.stage(xl=(s2.x0 + s2.L)[:w], n=(s2.R - s2.L)[:w], nonempty=nonempty,
                         single=~nonempty | (s2.L == s2.R), **({} if P.span_dsp else {"L": s2.L}), **_passing(s2, keep3))
         offset = {n: kept_copy(m, s2.L, f"span_L_{n}") if P.span_dsp else s3.L for n in P.names}
-        # (3b) each attribute's copy of L and its a_x registered once more by the pipeline: on an ECP5 these are
+        # (4) each attribute's copy of L and its a_x registered once more by the pipeline: on an ECP5 these are
         #      the multiplier blocks' input registers (rtl/dsp.py), so the route from a copy ends in a block's
         #      register and the multiplier has a clock of its own
-        keep3b = ["xl", "n", "nonempty", "single", *keep3]
-        s3 = pipe.stage(**{f"L_{n}": offset[n] for n in P.names}, **_passing(s3, keep3b))
+        keep4 = ["xl", "n", "nonempty", "single", *keep3]
+        s3 = pipe.stage(**{f"L_{n}": offset[n] for n in P.names}, **_passing(s3, keep4))
         offset = {n: getattr(s3, f"L_{n}") for n in P.names}
 
-        # (4) the partial products a_x L
+        # (5) the partial products a_x L
         parts, shifts = {}, {}
         for n in P.names:
             dx = getattr(s3, f"dx_{n}")
@@ -333,7 +336,7 @@ class Raster(wiring.Component):
         terms = {n: [(getattr(s4, f"a_{n}"), acc_w[n])]
                  + [((getattr(s4, f"pp_{n}_{k}") << sh)[:acc_w[n]], acc_w[n]) for k, sh in enumerate(shifts[n])]
                  for n in P.names}
-        # (5, 6) the span start a(x0, y) + L a_x, modulo 2**N, two adder levels
+        # (6, 7) the span start a(x0, y) + L a_x, modulo 2**N, two adder levels
         carry = _passing(s4, ["valid", "y", "xl", "n", "nonempty", "single", *(f"dx_{n}" for n in P.names),
                               *(f"c_{n}" for n in g.k_c)])
         start, carry = _tree(pipe, terms, P.SPAN_STAGES - 5, carry)

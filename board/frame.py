@@ -31,6 +31,7 @@ from amaranth import Cat, DomainRenamer, Module, Mux, Signal
 from amaranth.lib import memory, wiring
 from amaranth.lib.wiring import In, Out
 
+from host.args import int_range
 from host.protocol import Cmd
 from rtl.fixed import const_mul
 
@@ -38,7 +39,8 @@ from .cdc import QUIET, toggle_sync
 from .upload import UploadWriter
 
 __all__ = ["rgb565", "expand565", "display_frame", "board_engine", "EngineSystem", "BoardSim", "QUIET",
-           "BOARD_PRESET", "BOARD_SIZE", "TileCopy"]
+           "BOARD_PRESET", "BOARD_SIZE", "MAX_BOARD_SIZE", "add_size_argument",
+           "TileCopy"]
 
 
 #: The board's pipeline preset (``presets/tin-plane-board.toml``: the fitted tin plane's, 29-texel reflectance
@@ -49,6 +51,15 @@ BOARD_PRESET = "tin-plane-board"
 #: The board's frame edge in pixels (the on-chip tile holds the whole frame): the default of every board command
 #: (``bumpmap bitstream``, ``send``, ``board-sim``, ``animate``), so that the host's records fit the board's tile.
 BOARD_SIZE = 128
+#: The largest frame edge the on-chip tile takes (its block RAM).
+MAX_BOARD_SIZE = 256
+
+
+def add_size_argument(ap) -> None:
+    """``--size``, the frame's edge in pixels (the on-chip tile), of the commands that build or simulate the board."""
+    ap.add_argument("--size", type=int_range(1, MAX_BOARD_SIZE), default=BOARD_SIZE,
+                    help=f"the frame's edge in pixels (the on-chip tile, at most {MAX_BOARD_SIZE}: block RAM; "
+                         "default %(default)s)")
 
 
 def rgb565(color: np.ndarray) -> np.ndarray:

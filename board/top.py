@@ -27,7 +27,7 @@ from amaranth.lib.cdc import ResetSynchronizer
 from .budget import write_text_atomic
 from .command import CommandLink
 from .dvi import CLOCK_WORD, Display, Serializer, pattern
-from .frame import BOARD_PRESET, BOARD_SIZE, EngineSystem
+from .frame import BOARD_PRESET, EngineSystem, add_size_argument
 from .ulx3s import BAUD, wire_link
 from .video import VGA_640x480
 
@@ -274,8 +274,7 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
     ap.add_argument("--scene", default="tin-plane", help="the scene whose tables the texel memories hold")
     ap.add_argument("--preset", default=BOARD_PRESET,
                     help="pipeline preset (built in or presets/<name>.toml; default %(default)s: docs/board.md)")
-    ap.add_argument("--size", type=int, default=BOARD_SIZE,
-                    help="the frame's edge in pixels (the on-chip tile; default %(default)s)")
+    add_size_argument(ap)
     ap.add_argument("--no-engine", action="store_true", help="the first stage: the test picture and the link")
     ap.add_argument("--frame", choices=("chip", "sdram"), default="chip",
                     help="the frame store: block RAM, or SDRAM behind LiteDRAM's core (default chip)")
@@ -300,9 +299,6 @@ def run(args: argparse.Namespace) -> int:
     from host.scene import SceneError
 
     from .frame import board_engine
-    if not 1 <= args.size <= 256:
-        print(f"error: --size {args.size}: must be in 1..256 (the tile in block RAM)", file=sys.stderr)
-        return 2
     engine = None
     if not args.no_engine:
         try:

@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from board.frame import BOARD_SIZE
+from board.frame import add_size_argument
 from host.args import int_range
 
 from .record import add_record_option, machine, write_if_asked
@@ -32,8 +32,7 @@ WIDTH, HEIGHT, SDRAM_PEAK_MBPS = 640, 480, 200.0
 def add_arguments(ap: argparse.ArgumentParser) -> None:
     ap.add_argument("--scene", default="tin-plane", help="the animated scene (name in scenes/ or a .toml path)")
     ap.add_argument("--preset", default="default", help="pipeline preset (built in or presets/<name>.toml)")
-    ap.add_argument("--size", type=int_range(1, 256), default=BOARD_SIZE,
-                    help="the animation's frame edge (the tile; default %(default)s)")
+    add_size_argument(ap)
     ap.add_argument("--out", type=Path, default=Path("build/animate"), help="output folder")
     ap.add_argument("--gif", type=Path, help="the animated picture (default OUT/<scene>.gif)")
     ap.add_argument("--rates", nargs="*", default=None, metavar="SCENE",

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from board.frame import BOARD_PRESET, BOARD_SIZE, board_engine
+from board.frame import BOARD_PRESET, add_size_argument, board_engine
 from cosim.board_system import simulate, split_frames
 from host.protocol import Cmd
 
@@ -23,12 +23,10 @@ from .record import add_record_option, machine, write_if_asked
 
 def add_arguments(ap) -> None:
     """``bumpmap board-sim``: the end-to-end simulation of the board drawing a scene."""
-    from host.args import int_range
     ap.add_argument("--scene", default="tin-plane", help="scene name in scenes/ or a .toml path")
     ap.add_argument("--preset", default=BOARD_PRESET,
                     help="pipeline preset (built in or presets/<name>.toml; default %(default)s, the board's)")
-    ap.add_argument("--size", type=int_range(1, 256), default=BOARD_SIZE,
-                    help="the frame's edge in pixels (the on-chip tile; default %(default)s)")
+    add_size_argument(ap)
     ap.add_argument("--bytes", type=Path, metavar="FILE",
                     help="the host's bytes (bumpmap send --dry-run FILE, same scene, preset and size); default: "
                          "the same frames made here")

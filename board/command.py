@@ -14,9 +14,9 @@ from amaranth import Cat, Module, Signal
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
-from host.protocol import ACK, CLEAR_FRAME, LENGTHS, SYNC, Err, crc16
+from host.protocol import ACK, CLEAR_FRAME, LENGTHS, SYNC, Cmd, Err, crc16
 
-__all__ = ["CommandParser", "crc16_byte"]
+__all__ = ["CommandParser", "CommandLink", "check_tile", "crc16_byte"]
 
 
 def _crc_step(crc: int, byte: int) -> int:
@@ -40,14 +40,24 @@ def crc16_byte(crc, byte):
     return Cat(*out)
 
 
+def check_tile(tile):
+    """``tile`` if it is ``None`` or a ``(width, height)`` FRAME_START can name (ints in 1..65535); else
+    ``ValueError`` naming it."""
+    if tile is not None and not (isinstance(tile, tuple) and len(tile) == 2
+                                 and all(isinstance(v, int) and 1 <= v <= 0xFFFF for v in tile)):
+        raise ValueError(f"tile={tile!r}: (width, height), ints in 1..65535 (FRAME_START's fields), or None")
+    return tile
+
+
 class CommandParser(wiring.Component):
     """Parser of the byte stream (``byte`` with ``valid``; ``framing`` from the UART). Out: ``cmd``, ``length``;
     ``data``/``index``/``data_valid`` per payload byte; ``done`` for a good frame; ``error`` (sticky) with ``code``
     (:class:`host.protocol.Err`); ``reply``/``reply_valid``: the byte the board answers (``ACK`` per good frame,
-    ``0x80 | code`` on entering the error state, ``ACK`` on leaving it)."""
+    ``0x80 | code`` on entering the error state, ``ACK`` on leaving it). ``tile``: the ``(width, height)`` a
+    FRAME_START must name (:func:`host.protocol.parse`'s), or ``None`` (a board without a frame) to accept any."""
 
-    def __init__(self, record_len: int):
-        self.record_len = record_len
+    def __init__(self, record_len: int, tile: tuple[int, int] | None = None):
+        self.record_len, self.tile = record_len, check_tile(tile)
         self.lengths = LENGTHS(record_len)
         super().__init__({"byte": In(8), "valid": In(1), "framing": In(1),
                           "cmd": Out(8), "length": Out(16), "data": Out(8), "index": Out(16), "data_valid": Out(1),
@@ -57,6 +67,7 @@ class CommandParser(wiring.Component):
         m = Module()
         b = self.byte
         crc, got, count = Signal(16), Signal(8), Signal(16)
+        last4 = Signal(32)                              # the payload's last four bytes (FRAME_START's size), LE
         window = Signal(8 * len(CLEAR_FRAME))
         clear = int.from_bytes(CLEAR_FRAME, "little")          # the newest byte in the high bits
         m.d.sync += [self.data_valid.eq(0), self.done.eq(0), self.reply_valid.eq(0)]
@@ -109,7 +120,7 @@ class CommandParser(wiring.Component):
                                     m.next = "crc0"
                         elif state == "body":
                             m.d.sync += [self.data.eq(b), self.index.eq(count), self.data_valid.eq(1),
-                                         count.eq(count + 1)]
+                                         count.eq(count + 1), last4.eq(Cat(last4[8:], b))]
                             with m.If(count == self.length - 1):
                                 m.next = "crc0"
                         elif state == "crc0":
@@ -118,6 +129,10 @@ class CommandParser(wiring.Component):
                         else:
                             with m.If(Cat(got, b) != crc):
                                 fail(Err.CRC)
+                            if self.tile is not None:
+                                w, h = self.tile
+                                with m.Elif((self.cmd == Cmd.FRAME_START) & (last4 != (w | h << 16))):
+                                    fail(Err.SIZE)
                             with m.Else():
                                 m.d.sync += [self.done.eq(1), self.reply.eq(ACK), self.reply_valid.eq(1)]
                                 m.next = "sync"
@@ -133,10 +148,10 @@ class CommandParser(wiring.Component):
 
 class CommandLink(wiring.Component):
     """The UART link of the board: :class:`~board.uart.UartRx` -> :class:`CommandParser` -> replies through
-    :class:`~board.uart.UartTx`. Ports: ``rx``, ``tx`` and the parser's outputs."""
+    :class:`~board.uart.UartTx`. Ports: ``rx``, ``tx`` and the parser's outputs; ``tile`` the parser's."""
 
-    def __init__(self, divisor: int, record_len: int):
-        self.divisor, self.record_len = divisor, record_len
+    def __init__(self, divisor: int, record_len: int, tile: tuple[int, int] | None = None):
+        self.divisor, self.record_len, self.tile = divisor, record_len, tile
         super().__init__({"rx": In(1, init=1), "tx": Out(1, init=1), "cmd": Out(8), "length": Out(16),
                           "data": Out(8), "index": Out(16), "data_valid": Out(1), "done": Out(1), "error": Out(1),
                           "code": Out(3)})
@@ -147,7 +162,7 @@ class CommandLink(wiring.Component):
         from .uart import UartRx, UartTx
         m = Module()
         m.submodules.rx = rx = UartRx(self.divisor)
-        m.submodules.parser = p = CommandParser(self.record_len)
+        m.submodules.parser = p = CommandParser(self.record_len, self.tile)
         m.submodules.tx = tx = UartTx(self.divisor)
         # a reply is due at the stop bit of a received byte, at most one per byte, and takes as long to send as a
         # byte to receive; a small queue absorbs the one-clock slips between the two

@@ -141,7 +141,7 @@ class EngineSystem(wiring.Component):
         self.record_len = -(-self.record_bits // 8)
         self._writes = TexelWrites(params.pipeline, blank)
         self._engine = Engine(params, self._writes)
-        self._link = CommandLink(divisor, self.record_len)
+        self._link = CommandLink(divisor, self.record_len, (params.rop.width, params.rop.height))
         self._display = Display(timing, latency=3)
         self._copy = TileCopy(params.rop, self._engine.fb.signature)
         ports = {"rx": In(1, init=1), "tx": Out(1, init=1), "words": Out(30), "error": Out(1), "upload_bad": Out(1),

@@ -8,14 +8,15 @@ from __future__ import annotations
 import random
 
 from cosim.board_uart import run
-from host.protocol import ACK, CLEAR_FRAME, Cmd, Err, frame, parse, upload_frames
+from host.protocol import ACK, CLEAR_FRAME, Cmd, Err, frame, frame_start, parse, upload_frames
 
 RECORD_LEN = 13
+TILE = (300, 7)                                         # a tile's width and height: FRAME_START must name them
 
 
 def _stream() -> tuple[bytes, list]:
     rng = random.Random(26)
-    good = [frame(Cmd.FRAME_START)]
+    good = [frame_start(*TILE)]
     good += [frame(Cmd.TRIANGLE, bytes(rng.randrange(256) for _ in range(RECORD_LEN))) for _ in range(3)]
     good += upload_frames(Cmd.TEXTURE, 1, [rng.randrange(1 << 24) for _ in range(6)], 24, chunk=9)
     good += upload_frames(Cmd.CUBE, 0, [rng.randrange(1 << 27) for _ in range(3)], 27)
@@ -25,6 +26,8 @@ def _stream() -> tuple[bytes, list]:
     errors = [bytes(bad_crc) + frame(Cmd.SWAP),                       # the SWAP after it is ignored
               bytes([0xA5, 0x09, 0, 0]),                              # unknown command
               frame(Cmd.TRIANGLE, bytes(RECORD_LEN - 1)),            # wrong record length
+              frame_start(TILE[0], TILE[0]),                          # another frame's size (its height)
+              frame_start(TILE[0] ^ 0x100, TILE[1]),                  # (its width's high byte)
               b"\x00"]                                                # a stray byte where a frame must start
     data = b"".join(good)
     for e in errors:
@@ -34,11 +37,11 @@ def _stream() -> tuple[bytes, list]:
 
 def test_commands_replies_and_errors_match_the_reference_parser(sim):
     data, good = _stream()
-    want = parse(data, RECORD_LEN)
+    want = parse(data, RECORD_LEN, TILE)
     codes = [r & 0x7F for r in want.replies if r != ACK]
-    assert codes == [Err.CRC, Err.COMMAND, Err.LENGTH, Err.SYNC]   # the stream exercises every error it means to
+    assert codes == [Err.CRC, Err.COMMAND, Err.LENGTH, Err.SIZE, Err.SIZE, Err.SYNC]   # every error it means to
     assert len(want.commands) == len(good) + len(codes)             # the STATUS after each CLEAR
-    res = run(data, RECORD_LEN, sim=sim)
+    res = run(data, RECORD_LEN, TILE, sim=sim)
     assert res["commands"] == want.commands
     assert res["replies"] == bytes(want.replies)
     assert (res["error"], res["code"]) == (0, 0)
@@ -61,11 +64,13 @@ def test_the_tin_plane_triangles_through_the_link(sim):
     from host.render import from_triangles, prepare
     from host.scene import scene_path
 
-    tframe = from_triangles(prepare(scene_path("tin-plane")))
+    prepared = prepare(scene_path("tin-plane"))
+    tile = (prepared.scene.width, prepared.scene.height)
+    tframe = from_triangles(prepared)
     ports = tframe.params.raster.record
-    data = frame(Cmd.FRAME_START) + b"".join(triangle_frames(ports, tframe.records.matrix())) + frame(Cmd.SWAP)
+    data = frame_start(*tile) + b"".join(triangle_frames(ports, tframe.records.matrix())) + frame(Cmd.SWAP)
     n = record_bytes(ports)
-    want = parse(data, n)
-    res = run(data, n, sim=sim)
+    want = parse(data, n, tile)
+    res = run(data, n, tile, sim=sim)
     assert len(want.commands) == len(tframe.records) + 2 and want.error == 0
     assert res["commands"] == want.commands and res["replies"] == bytes(want.replies)

@@ -55,7 +55,7 @@ def run(args) -> int:
         params, frame, tframe = board_engine(args.scene, args.preset, args.size)
         mat = tframe.records.matrix()
         data = args.bytes.read_bytes() if args.bytes else b"".join(
-            scene_frames(frame.params, params.raster.record, mat))
+            scene_frames(frame.params, params.raster.record, mat, (params.rop.width, params.rop.height)))
         tri = [f for f in split_frames(data) if f[1] == Cmd.TRIANGLE]
     except (SceneError, ValueError, OSError) as exc:
         print(f"error: {exc}", file=sys.stderr)

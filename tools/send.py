@@ -16,12 +16,14 @@ from pathlib import Path
 from board.frame import BOARD_PRESET, BOARD_SIZE
 from host.args import int_range
 from host.atomic import atomic_write_bytes
+from host.protocol import Err
 
 __all__ = ["add_arguments", "run", "scene_bytes"]
 
-ERRORS = {1: "SYNC (a byte where a frame must start)", 2: "COMMAND (unknown command code)",
-          3: "LENGTH (a length outside the command's range)", 4: "CRC (the frame's checksum did not match)",
-          5: "FRAMING (the UART saw no stop bit)"}
+ERRORS = {Err.SYNC: "SYNC (a byte where a frame must start)", Err.COMMAND: "COMMAND (unknown command code)",
+          Err.LENGTH: "LENGTH (a length outside the command's range)",
+          Err.CRC: "CRC (the frame's checksum did not match)", Err.FRAMING: "FRAMING (the UART saw no stop bit)",
+          Err.SIZE: "SIZE (FRAME_START's width and height are not the board's tile: give --size the bitstream's)"}
 
 
 def add_arguments(ap: argparse.ArgumentParser) -> None:
@@ -53,7 +55,8 @@ def scene_bytes(args) -> list[bytes]:
     for k, s in enumerate(animation_frames(scene) if getattr(args, "animate", False) else [scene]):
         frame = prepare(s, size=args.size, preset=args.preset, cube_size=args.cube_size)
         tframe = from_triangles(frame)
-        sent = scene_frames(frame.params, tframe.params.raster.record, tframe.records.matrix())
+        sent = scene_frames(frame.params, tframe.params.raster.record, tframe.records.matrix(),
+                            (frame.scene.width, frame.scene.height))
         if k and (scene.animation is None or scene.animation.light_turn == 0):
             sent = [f for f in sent if f[1] not in (Cmd.TEXTURE, Cmd.CUBE)]
         elif k:                                         # the maps stay; the cubes follow the lights

@@ -7,7 +7,20 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from host.protocol import ACK, CLEAR_FRAME, LENGTHS, MAX_PAYLOAD, SYNC, Cmd, Err, crc16, frame, parse, upload_frames
+from host.protocol import (
+    ACK,
+    CLEAR_FRAME,
+    LENGTHS,
+    MAX_PAYLOAD,
+    SYNC,
+    Cmd,
+    Err,
+    crc16,
+    frame,
+    frame_start,
+    parse,
+    upload_frames,
+)
 
 
 def test_crc_check_value():
@@ -49,6 +62,28 @@ def test_lengths_are_checked_per_command():
     assert parse(frame(Cmd.SWAP, b"x"), 8).error == Err.LENGTH
     assert parse(bytes([SYNC, 0x55, 0, 0]), 8).error == Err.COMMAND
     assert LENGTHS(8)[Cmd.TEXTURE] == (6, MAX_PAYLOAD)
+
+
+@given(st.integers(1, 0xFFFF), st.integers(1, 0xFFFF), st.integers(1, 0xFFFF), st.integers(1, 0xFFFF))
+def test_frame_start_is_refused_unless_it_names_the_tile(w, h, tw, th):
+    """FRAME_START carries its frame's width and height; a board drawing a ``tw x th`` tile accepts it only when
+    they are equal (else SIZE, the error state, no command), and a board without a tile accepts any."""
+    data = frame_start(w, h) + frame(Cmd.SWAP)
+    assert data[4:8] == w.to_bytes(2, "little") + h.to_bytes(2, "little")
+    res = parse(data, 8, (tw, th))
+    if (w, h) == (tw, th):
+        assert (res.commands, res.replies, res.error) == ([(Cmd.FRAME_START, data[4:8]), (Cmd.SWAP, b"")],
+                                                          [ACK, ACK], 0)
+    else:
+        assert (res.commands, res.replies, res.error) == ([], [0x80 | Err.SIZE], Err.SIZE)
+    assert parse(data, 8).commands == [(Cmd.FRAME_START, data[4:8]), (Cmd.SWAP, b"")]
+
+
+def test_frame_start_needs_its_size():
+    assert parse(frame(Cmd.FRAME_START), 8, (4, 4)).error == Err.LENGTH            # the old, empty FRAME_START
+    for w, h in ((0, 1), (1, 0x10000), (2.0, 2)):
+        with pytest.raises(ValueError, match="FRAME_START"):
+            frame_start(w, h)
 
 
 def test_uploads_are_chunked_with_their_first_word():

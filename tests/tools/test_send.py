@@ -28,7 +28,7 @@ def test_dry_run_bytes_are_the_scene_setup(tmp_path, capsys):
     frame = prepare(scene_path("tin-plane"), size=BOARD_SIZE, preset=BOARD_PRESET)   # send's defaults: the board's
     tframe = from_triangles(frame)
     ports = tframe.params.raster.record
-    parsed = parse(out.read_bytes(), record_bytes(ports))
+    parsed = parse(out.read_bytes(), record_bytes(ports), (BOARD_SIZE, BOARD_SIZE))     # a board of BOARD_SIZE
     assert parsed.error == 0 and "tin-plane" in capsys.readouterr().out
     cmds = [c for c, _ in parsed.commands]
     n = len(tframe.records)
@@ -49,3 +49,16 @@ def test_bad_arguments_exit_2(tmp_path, capsys):
     assert "--port" in capsys.readouterr().err
     assert main(["send", "--scene", "no-such-scene", "--dry-run", str(tmp_path / "x")]) == 2
     assert "no-such-scene" in capsys.readouterr().err
+
+
+def test_another_size_is_refused_by_a_board_of_the_default_tile(tmp_path):
+    """``--size`` other than the bitstream's: the board (its reference parser, a BOARD_SIZE tile) refuses the
+    FRAME_START with SIZE instead of drawing the triangles set up for another frame cut off at its tile's edge."""
+    from board.frame import BOARD_SIZE
+    out = tmp_path / "big.bin"
+    assert main(["send", "--size", str(2 * BOARD_SIZE), "--dry-run", str(out)]) == 0
+    tframe = from_triangles(prepare(scene_path("tin-plane"), size=2 * BOARD_SIZE))
+    parsed = parse(out.read_bytes(), record_bytes(tframe.params.raster.record), (BOARD_SIZE, BOARD_SIZE))
+    from host.protocol import Err
+    assert parsed.error == Err.SIZE and Cmd.FRAME_START not in [c for c, _ in parsed.commands]
+    assert Cmd.TRIANGLE not in [c for c, _ in parsed.commands]      # every frame after it ignored, no CLEAR sent

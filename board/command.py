@@ -10,11 +10,11 @@ the words it carried undefined and the error state set, and the host sends the u
 
 from __future__ import annotations
 
-from amaranth import Cat, Module, Signal
+from amaranth import Cat, Module, Mux, Signal
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
-from host.protocol import ACK, CLEAR_FRAME, LENGTHS, SYNC, Cmd, Err, crc16
+from host.protocol import ACK, CLEAR_FRAME, LENGTHS, STATE_ANSWER, STATE_BITS, SYNC, Cmd, Err, crc16
 
 __all__ = ["CommandParser", "CommandLink", "check_tile", "crc16_byte"]
 
@@ -53,13 +53,14 @@ class CommandParser(wiring.Component):
     """Parser of the byte stream (``byte`` with ``valid``; ``framing`` from the UART). Out: ``cmd``, ``length``;
     ``data``/``index``/``data_valid`` per payload byte; ``done`` for a good frame; ``error`` (sticky) with ``code``
     (:class:`host.protocol.Err`); ``reply``/``reply_valid``: the byte the board answers (``ACK`` per good frame,
-    ``0x80 | code`` on entering the error state, ``ACK`` on leaving it). ``tile``: the ``(width, height)`` a
+    STATUS's ``STATE_ANSWER | state``, ``0x80 | code`` on entering the error state, ``ACK`` on leaving it). In:
+    ``state``, the board's :data:`host.protocol.STATE_BITS` (``sync``). ``tile``: the ``(width, height)`` a
     FRAME_START must name (:func:`host.protocol.parse`'s), or ``None`` (a board without a frame) to accept any."""
 
     def __init__(self, record_len: int, tile: tuple[int, int] | None = None):
         self.record_len, self.tile = record_len, check_tile(tile)
         self.lengths = LENGTHS(record_len)
-        super().__init__({"byte": In(8), "valid": In(1), "framing": In(1),
+        super().__init__({"byte": In(8), "valid": In(1), "framing": In(1), "state": In(len(STATE_BITS)),
                           "cmd": Out(8), "length": Out(16), "data": Out(8), "index": Out(16), "data_valid": Out(1),
                           "done": Out(1), "error": Out(1), "code": Out(3), "reply": Out(8), "reply_valid": Out(1)})
 
@@ -134,7 +135,8 @@ class CommandParser(wiring.Component):
                                 with m.Elif((self.cmd == Cmd.FRAME_START) & (last4 != (w | h << 16))):
                                     fail(Err.SIZE)
                             with m.Else():
-                                m.d.sync += [self.done.eq(1), self.reply.eq(ACK), self.reply_valid.eq(1)]
+                                answer = Mux(self.cmd == Cmd.STATUS, STATE_ANSWER | self.state, ACK)
+                                m.d.sync += [self.done.eq(1), self.reply.eq(answer), self.reply_valid.eq(1)]
                                 m.next = "sync"
             with m.State("error"):
                 with m.If(self.valid):
@@ -148,11 +150,13 @@ class CommandParser(wiring.Component):
 
 class CommandLink(wiring.Component):
     """The UART link of the board: :class:`~board.uart.UartRx` -> :class:`CommandParser` -> replies through
-    :class:`~board.uart.UartTx`. Ports: ``rx``, ``tx`` and the parser's outputs; ``tile`` the parser's."""
+    :class:`~board.uart.UartTx`. Ports: ``rx``, ``tx``, the parser's outputs and its ``state`` input; ``tile`` the
+    parser's."""
 
     def __init__(self, divisor: int, record_len: int, tile: tuple[int, int] | None = None):
         self.divisor, self.record_len, self.tile = divisor, record_len, tile
-        super().__init__({"rx": In(1, init=1), "tx": Out(1, init=1), "cmd": Out(8), "length": Out(16),
+        super().__init__({"rx": In(1, init=1), "tx": Out(1, init=1), "state": In(len(STATE_BITS)),
+                          "cmd": Out(8), "length": Out(16),
                           "data": Out(8), "index": Out(16), "data_valid": Out(1), "done": Out(1), "error": Out(1),
                           "code": Out(3)})
 
@@ -168,7 +172,7 @@ class CommandLink(wiring.Component):
         # byte to receive; a small queue absorbs the one-clock slips between the two
         m.submodules.replies = q = SyncFIFOBuffered(width=8, depth=4)
         m.d.comb += [rx.rx.eq(self.rx), p.byte.eq(rx.data), p.valid.eq(rx.valid), p.framing.eq(rx.framing),
-                     q.w_data.eq(p.reply), q.w_en.eq(p.reply_valid),
+                     p.state.eq(self.state), q.w_data.eq(p.reply), q.w_en.eq(p.reply_valid),
                      self.tx.eq(tx.tx), tx.data.eq(q.r_data), tx.valid.eq(q.r_rdy), q.r_en.eq(tx.ready)]
         for name in ("cmd", "length", "data", "index", "data_valid", "done", "error", "code"):
             m.d.comb += getattr(self, name).eq(getattr(p, name))

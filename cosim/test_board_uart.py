@@ -1,17 +1,19 @@
 """Co-simulation of the board's UART command link (``board/command.py``): the host protocol's bytes in through the
 ``rx`` line (cocotbext-uart), the commands the RTL parses and the replies it sends on ``tx`` equal those of the
-reference parser :func:`host.protocol.parse`, through good frames of every command and each error (bad CRC, unknown
-command, bad length, a stray byte), each cleared by the CLEAR frame."""
+reference parser :func:`host.protocol.parse`, through good frames of every command (STATUS answered with the board's
+state on the link's input) and each error (bad CRC, unknown command, bad length, a FRAME_START of another size, a
+stray byte), each cleared by the CLEAR frame."""
 
 from __future__ import annotations
 
 import random
 
 from cosim.board_uart import run
-from host.protocol import ACK, CLEAR_FRAME, Cmd, Err, frame, frame_start, parse, upload_frames
+from host.protocol import CLEAR_FRAME, STATE_ANSWER, Cmd, Err, frame, frame_start, parse, upload_frames
 
 RECORD_LEN = 13
 TILE = (300, 7)                                         # a tile's width and height: FRAME_START must name them
+STATE = 0b101101                                        # the board's state bits, which STATUS is answered with
 
 
 def _stream() -> tuple[bytes, list]:
@@ -37,11 +39,12 @@ def _stream() -> tuple[bytes, list]:
 
 def test_commands_replies_and_errors_match_the_reference_parser(sim):
     data, good = _stream()
-    want = parse(data, RECORD_LEN, TILE)
-    codes = [r & 0x7F for r in want.replies if r != ACK]
+    want = parse(data, RECORD_LEN, TILE, STATE)
+    codes = [r & 0x7F for r in want.replies if r & 0x80]
     assert codes == [Err.CRC, Err.COMMAND, Err.LENGTH, Err.SIZE, Err.SIZE, Err.SYNC]   # every error it means to
     assert len(want.commands) == len(good) + len(codes)             # the STATUS after each CLEAR
-    res = run(data, RECORD_LEN, TILE, sim=sim)
+    assert want.replies.count(STATE_ANSWER | STATE) == 1 + len(codes)
+    res = run(data, RECORD_LEN, TILE, STATE, sim=sim)
     assert res["commands"] == want.commands
     assert res["replies"] == bytes(want.replies)
     assert (res["error"], res["code"]) == (0, 0)
@@ -53,7 +56,7 @@ def test_the_error_state_is_sticky_without_clear(sim):
     data = frame(Cmd.STATUS) + bytes(bad) + frame(Cmd.STATUS) + frame(Cmd.SWAP)
     res = run(data, RECORD_LEN, sim=sim)
     assert res["commands"] == [(Cmd.STATUS, b"")]
-    assert res["replies"] == bytes([ACK, 0x80 | Err.CRC])
+    assert res["replies"] == bytes([STATE_ANSWER, 0x80 | Err.CRC])
     assert (res["error"], res["code"]) == (1, Err.CRC)
 
 

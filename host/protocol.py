@@ -7,6 +7,8 @@ answers every good frame with :data:`ACK`; the first bad byte puts it in the err
 byte ``0x80 | code`` and keeps (ignoring every byte) until it sees the :data:`CLEAR_FRAME`, answered with ``ACK``.
 FRAME_START carries the frame's width and height, and a board whose tile has another size refuses it
 (:data:`Err.SIZE`): the triangles the host set up for another frame would be drawn cut or misplaced, silently.
+STATUS is answered with the board's state instead of ``ACK``: ``STATE_ANSWER | bits`` (:data:`STATE_BITS`: a
+frame not yet shown, and the sticky flags of what went wrong since the board was configured).
 """
 
 from __future__ import annotations
@@ -15,11 +17,21 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["SYNC", "ACK", "Cmd", "Err", "LENGTHS", "MAX_PAYLOAD", "crc16", "frame", "CLEAR_FRAME", "record_bytes",
+__all__ = ["SYNC", "ACK", "STATE_ANSWER", "STATE_BITS", "state_names", "Cmd", "Err", "LENGTHS", "MAX_PAYLOAD", "crc16",
+           "frame", "CLEAR_FRAME", "record_bytes",
            "triangle_frames", "upload_frames", "frame_start", "scene_frames", "Parsed", "parse", "MEMORIES"]
 
 SYNC = 0xA5
 ACK = 0x00
+#: STATUS's answer: this byte or the board's state bits (``0x40`` to ``0x7F``: neither ``ACK`` nor an error).
+STATE_ANSWER = 0x40
+#: The board's state in STATUS's answer, bit by bit. ``busy``: a SWAP taken whose frame is not shown yet (its
+#: triangles may still be drawn; the flags below are final once it clears). The others are sticky since the board
+#: was configured: ``overrun`` a triangle record arrived while the previous one was still held (it was lost);
+#: ``upload_bad`` an upload's word named no map or lay beyond its map (not written); ``outside`` the depth test
+#: dropped a fragment outside the tile; ``z_saturated`` a depth saturated in its narrowing; ``store_error`` the
+#: frame store failed (in SDRAM: an error response, a word lost, or the scan-out missed a word).
+STATE_BITS = {"busy": 0, "overrun": 1, "upload_bad": 2, "outside": 3, "z_saturated": 4, "store_error": 5}
 #: The largest payload of an upload frame (a 5-byte header and up to 4 KiB of words).
 MAX_PAYLOAD = 5 + 4096
 
@@ -32,7 +44,7 @@ class Cmd:
     CUBE = 0x03          # words into a reflectance cube memory: the same layout
     FRAME_START = 0x04   # the frame's width and height (2 bytes LE each): clear the back buffer, draw into it
     SWAP = 0x05          # show the back buffer from the next vertical blanking (double buffering)
-    STATUS = 0x06        # ask for an ACK (the board's answer tells the host it is alive and not in error)
+    STATUS = 0x06        # ask for the board's state (answered STATE_ANSWER | STATE_BITS, not ACK)
     CLEAR = 0x07         # leave the error state
 
 
@@ -135,10 +147,20 @@ class Parsed:
     error: int = 0
 
 
-def parse(data: bytes, record_len: int, tile: tuple[int, int] | None = None) -> Parsed:
+def state_names(answer: int) -> list[str]:
+    """The :data:`STATE_BITS` set in a STATUS answer, by name (``ValueError`` for a byte that is no such answer)."""
+    if answer & ~((1 << len(STATE_BITS)) - 1) != STATE_ANSWER:
+        raise ValueError(f"{answer:#04x} is not an answer to STATUS ({STATE_ANSWER:#04x} and state bits)")
+    return [name for name, bit in STATE_BITS.items() if answer >> bit & 1]
+
+
+def parse(data: bytes, record_len: int, tile: tuple[int, int] | None = None, board_state: int = 0) -> Parsed:
     """The board's parser (``board/command.py``) in Python: the reference its RTL is checked against. ``tile``:
     the ``(width, height)`` the board draws; a FRAME_START naming another size is refused (:data:`Err.SIZE`),
-    after its CRC matched. ``None`` (a board without a frame): any size is accepted."""
+    after its CRC matched. ``None`` (a board without a frame): any size is accepted. ``board_state``: the board's
+    :data:`STATE_BITS`, held for the whole stream, which a STATUS is answered with."""
+    if not 0 <= board_state < 1 << len(STATE_BITS):
+        raise ValueError(f"board_state={board_state!r}: {len(STATE_BITS)} bits (STATE_BITS)")
     lengths = LENGTHS(record_len)
     out = Parsed([], [])
     state, buf, need, window = "sync", bytearray(), 0, bytearray()
@@ -184,7 +206,7 @@ def parse(data: bytes, record_len: int, tile: tuple[int, int] | None = None) -> 
                     fail(Err.SIZE)
                 else:
                     out.commands.append((buf[0], bytes(buf[3:3 + need])))
-                    out.replies.append(ACK)
+                    out.replies.append(STATE_ANSWER | board_state if buf[0] == Cmd.STATUS else ACK)
                     state = "sync"
     return out
 

@@ -94,3 +94,18 @@ def test_uploads_are_chunked_with_their_first_word():
     assert words == list(range(10)) and all(p[0] == 1 for _, p in cmds)
     with pytest.raises(ValueError, match="memory 2"):
         upload_frames(Cmd.CUBE, 2, [1], 8)
+
+
+@given(st.integers(0, (1 << 6) - 1))
+def test_status_is_answered_with_the_board_state(bits):
+    """STATUS's answer is ``STATE_ANSWER | state``: never ACK nor an error byte, and its bits name the state."""
+    from host.protocol import STATE_BITS, state_names
+    assert len(STATE_BITS) == 6 and sorted(STATE_BITS.values()) == list(range(6))
+    res = parse(frame(Cmd.STATUS) + frame(Cmd.SWAP), 8, board_state=bits)
+    answer = res.replies[0]
+    assert res.replies[1:] == [ACK] and answer != ACK and not answer & 0x80
+    assert state_names(answer) == [n for n, b in STATE_BITS.items() if bits >> b & 1]
+    with pytest.raises(ValueError, match="not an answer to STATUS"):
+        state_names(answer | 0x80)
+    with pytest.raises(ValueError, match="board_state"):
+        parse(b"", 8, board_state=1 << 6)

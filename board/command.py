@@ -6,6 +6,12 @@ Payload bytes are passed on as they arrive (``data``, ``index``, with ``data_val
 consumer never has to stall the line) and a frame takes effect at ``done``, which pulses once its CRC matched: a
 triangle's consumer keeps the record until then; an upload's words are written as they arrive (a bad CRC leaves
 the words it carried undefined and the error state set, and the host sends the upload again after CLEAR).
+
+Two checks beyond the frame's form: a FRAME_START whose width and height are not the board's tile enters the error
+state with ``Err.SIZE`` (after its CRC matched, so ``done`` does not pulse); an upload's command byte while a frame
+is drawn (after FRAME_START until SWAP or CLEAR, or while the board's ``state`` says ``busy``: a SWAP's picture not
+shown yet) enters it with ``Err.BUSY``, before any of its words is passed on. STATUS is answered with the board's
+``state`` (``host.protocol.STATE_BITS``) instead of ``ACK``.
 """
 
 from __future__ import annotations
@@ -69,6 +75,7 @@ class CommandParser(wiring.Component):
         b = self.byte
         crc, got, count = Signal(16), Signal(8), Signal(16)
         last4 = Signal(32)                              # the payload's last four bytes (FRAME_START's size), LE
+        drawing = Signal()                              # after FRAME_START, until SWAP or CLEAR: no uploads
         window = Signal(8 * len(CLEAR_FRAME))
         clear = int.from_bytes(CLEAR_FRAME, "little")          # the newest byte in the high bits
         m.d.sync += [self.data_valid.eq(0), self.done.eq(0), self.reply_valid.eq(0)]
@@ -106,6 +113,9 @@ class CommandParser(wiring.Component):
                             m.d.sync += self.cmd.eq(b)
                             with m.If(~known):
                                 fail(Err.COMMAND)
+                            with m.Elif(((b == Cmd.TEXTURE) | (b == Cmd.CUBE))
+                                        & (drawing | self.state[STATE_BITS["busy"]])):
+                                fail(Err.BUSY)
                             with m.Else():
                                 m.next = nxt
                         elif state == "len0":
@@ -137,13 +147,18 @@ class CommandParser(wiring.Component):
                             with m.Else():
                                 answer = Mux(self.cmd == Cmd.STATUS, STATE_ANSWER | self.state, ACK)
                                 m.d.sync += [self.done.eq(1), self.reply.eq(answer), self.reply_valid.eq(1)]
+                                with m.If(self.cmd == Cmd.FRAME_START):
+                                    m.d.sync += drawing.eq(1)
+                                with m.If((self.cmd == Cmd.SWAP) | (self.cmd == Cmd.CLEAR)):
+                                    m.d.sync += drawing.eq(0)
                                 m.next = "sync"
             with m.State("error"):
                 with m.If(self.valid):
                     nwin = Cat(window[8:], b)
                     m.d.sync += window.eq(nwin)
                     with m.If(nwin == clear):
-                        m.d.sync += [self.error.eq(0), self.code.eq(0), self.reply.eq(ACK), self.reply_valid.eq(1)]
+                        m.d.sync += [self.error.eq(0), self.code.eq(0), self.reply.eq(ACK), self.reply_valid.eq(1),
+                                     drawing.eq(0)]
                         m.next = "sync"
         return m
 

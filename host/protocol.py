@@ -8,7 +8,8 @@ byte ``0x80 | code`` and keeps (ignoring every byte) until it sees the :data:`CL
 FRAME_START carries the frame's width and height, and a board whose tile has another size refuses it
 (:data:`Err.SIZE`): the triangles the host set up for another frame would be drawn cut or misplaced, silently.
 STATUS is answered with the board's state instead of ``ACK``: ``STATE_ANSWER | bits`` (:data:`STATE_BITS`: a
-frame not yet shown, and the sticky flags of what went wrong since the board was configured).
+frame not yet shown, and the sticky flags of what went wrong since the board was configured). An upload while a
+frame is drawn is refused (:data:`Err.BUSY`): its words would change the texels of the triangles being drawn.
 """
 
 from __future__ import annotations
@@ -57,6 +58,8 @@ class Err:
     CRC = 4              # the CRC does not match
     FRAMING = 5          # the UART saw no stop bit
     SIZE = 6             # FRAME_START's width and height are not the board's tile's
+    BUSY = 7             # an upload (TEXTURE, CUBE) while a frame is drawn: after FRAME_START, before its picture
+                         # is shown (the SWAP taken and STATUS no longer busy), unless a CLEAR ended the frame
 
 
 #: Memory ids of TEXTURE (0 the bump map, 1 the color texture) and CUBE (0 diffuse, 1 specular).
@@ -158,7 +161,8 @@ def parse(data: bytes, record_len: int, tile: tuple[int, int] | None = None, boa
     """The board's parser (``board/command.py``) in Python: the reference its RTL is checked against. ``tile``:
     the ``(width, height)`` the board draws; a FRAME_START naming another size is refused (:data:`Err.SIZE`),
     after its CRC matched. ``None`` (a board without a frame): any size is accepted. ``board_state``: the board's
-    :data:`STATE_BITS`, held for the whole stream, which a STATUS is answered with."""
+    :data:`STATE_BITS`, held for the whole stream, which a STATUS is answered with; with ``busy`` set, every upload
+    is refused (:data:`Err.BUSY`), as is one after a FRAME_START not yet ended by SWAP or CLEAR."""
     if not 0 <= board_state < 1 << len(STATE_BITS):
         raise ValueError(f"board_state={board_state!r}: {len(STATE_BITS)} bits (STATE_BITS)")
     lengths = LENGTHS(record_len)
@@ -171,12 +175,14 @@ def parse(data: bytes, record_len: int, tile: tuple[int, int] | None = None, boa
         out.replies.append(0x80 | code)
         window.clear()
 
+    drawing = False                         # after FRAME_START, until SWAP or CLEAR
+    busy = bool(board_state >> STATE_BITS["busy"] & 1)
     for b in data:
         if state == "error":
             window.append(b)
             del window[:-len(CLEAR_FRAME)]
             if bytes(window) == CLEAR_FRAME:
-                out.error, state = 0, "sync"
+                out.error, state, drawing = 0, "sync", False
                 out.replies.append(ACK)
             continue
         if state == "sync":
@@ -188,6 +194,8 @@ def parse(data: bytes, record_len: int, tile: tuple[int, int] | None = None, boa
             buf.append(b)
             if len(buf) == 1 and b not in lengths:
                 fail(Err.COMMAND)
+            elif len(buf) == 1 and b in MEMORIES and (drawing or busy):
+                fail(Err.BUSY)
             elif len(buf) == 3:
                 need = int.from_bytes(buf[1:3], "little")
                 lo, hi = lengths[buf[0]]
@@ -206,6 +214,8 @@ def parse(data: bytes, record_len: int, tile: tuple[int, int] | None = None, boa
                     fail(Err.SIZE)
                 else:
                     out.commands.append((buf[0], bytes(buf[3:3 + need])))
+                    if buf[0] in (Cmd.FRAME_START, Cmd.SWAP, Cmd.CLEAR):
+                        drawing = buf[0] == Cmd.FRAME_START
                     out.replies.append(STATE_ANSWER | board_state if buf[0] == Cmd.STATUS else ACK)
                     state = "sync"
     return out

@@ -28,7 +28,8 @@ __all__ = ["add_arguments", "run", "scene_bytes"]
 ERRORS = {Err.SYNC: "SYNC (a byte where a frame must start)", Err.COMMAND: "COMMAND (unknown command code)",
           Err.LENGTH: "LENGTH (a length outside the command's range)",
           Err.CRC: "CRC (the frame's checksum did not match)", Err.FRAMING: "FRAMING (the UART saw no stop bit)",
-          Err.SIZE: "SIZE (FRAME_START's width and height are not the board's tile: give --size the bitstream's)"}
+          Err.SIZE: "SIZE (FRAME_START's width and height are not the board's tile: give --size the bitstream's)",
+          Err.BUSY: "BUSY (an upload while a frame is drawn)"}
 
 
 def add_arguments(ap: argparse.ArgumentParser) -> None:

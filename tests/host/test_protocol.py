@@ -109,3 +109,22 @@ def test_status_is_answered_with_the_board_state(bits):
         state_names(answer | 0x80)
     with pytest.raises(ValueError, match="board_state"):
         parse(b"", 8, board_state=1 << 6)
+
+
+@given(st.lists(st.sampled_from(["upload", "start", "swap", "clear", "status"]), max_size=12))
+def test_uploads_only_outside_a_frame(ops):
+    """An upload after FRAME_START, before SWAP or CLEAR ends the frame, is refused with BUSY (its words would
+    change the texels of the triangles being drawn); everywhere else it is taken."""
+    frames = {"upload": upload_frames(Cmd.CUBE, 0, [7], 27)[0], "start": frame_start(4, 4),
+              "swap": frame(Cmd.SWAP), "clear": CLEAR_FRAME, "status": frame(Cmd.STATUS)}
+    drawing, sent, refused = False, [], False
+    for o in ops:                                   # the stream up to the first upload the board must refuse
+        sent.append(o)
+        if o == "upload" and drawing:
+            refused = True
+            break
+        if o in ("start", "swap", "clear"):
+            drawing = o == "start"
+    res = parse(b"".join(frames[o] for o in sent), 8, (4, 4))
+    assert res.error == (Err.BUSY if refused else 0)
+    assert [c for c, _ in res.commands] == [frames[o][1] for o in sent[:len(sent) - refused]]

@@ -115,6 +115,12 @@ class Flow:
     tmg_ripup : bool
         nextpnr's timing-driven rip-up in the router (``--tmg-ripup``): nets of failing paths are ripped up and
         routed again (``bumpmap bitstream --tmg-ripup`` too, ``board.top.TMG_RIPUP``); :data:`QUICK` uses it.
+    route : bool
+        ``False``: placement alone (nextpnr's ``--no-route``); Fmax is then nextpnr's estimate after placement
+        (its delay model between the placed cells, no routing), recorded with ``routed`` false. For designs whose
+        route does not converge (the engines with the texel caches and with MIP maps): the estimate is what
+        there is to measure, and it was below the routed clock on every design routed both ways (the board's
+        engine: ``docs/board.md``).
     """
 
     device: str = "85k"
@@ -123,6 +129,7 @@ class Flow:
     seed: int = 1
     router: str = "router1"
     tmg_ripup: bool = False
+    route: bool = True
 
     def __post_init__(self):
         if self.device not in ("12k", "25k", "45k", "85k", "um-25k", "um-45k", "um-85k",
@@ -144,6 +151,8 @@ class Flow:
             del out["router"]
         if not self.tmg_ripup:
             del out["tmg_ripup"]
+        if self.route:
+            del out["route"]
         return out
 
 
@@ -233,6 +242,8 @@ def _run_tools(rdir: Path, top: str, settings: dict, synth_only: bool = False) -
         cmd += ["--router", settings["router"]]
     if settings.get("tmg_ripup"):
         cmd.append(TMG_RIPUP)
+    if not settings.get("route", True):
+        cmd.append("--no-route")
     res = subprocess.run(cmd, cwd=rdir, capture_output=True, text=True)
     if res.returncode:
         return {"error": f"nextpnr failed ({res.returncode}), see {rdir / 'nextpnr.log'}"}
@@ -351,6 +362,7 @@ def _finish(job: _Job) -> dict:
               "params_digest": params_digest(P),
               "latency": getattr(P, "latency", None), "results_per_clock": 1, "target_mhz": freq,
               "met": None if synthesized else bool(fmax is not None and fmax >= freq),
+              "routed": not synthesized and job.settings.get("route", True),
               "critical_path": res.get("critical_path"), "mode": job.settings["mode"],
               "device": f"{_device_name(job.settings['device'])} speed {job.settings['speed']} "
                         f"{job.settings['package']}", "seed": job.settings["seed"],
@@ -524,6 +536,9 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
     ap.add_argument("--textures", action="store_true",
                     help="with --scene: the engine with its maps in external memory behind the chosen texel cache "
                          "(cosim.engine_fetch.CHOSEN_CACHE)")
+    ap.add_argument("--no-route", action="store_true",
+                    help="placement alone (nextpnr --no-route): Fmax is nextpnr's estimate after placement, "
+                         "recorded as not routed (for designs whose route does not converge)")
     ap.add_argument("--tmg-ripup", action="store_true",
                     help="nextpnr's timing-driven rip-up in the router (as bumpmap bitstream --tmg-ripup)")
     jobrunner.add_arguments(ap, what="designs placed and routed")
@@ -554,7 +569,7 @@ def run(args: argparse.Namespace) -> int:
             if args.scene is None:
                 raise ValueError("--textures: the engine of a scene (give --scene)")
         designs = design_list(args.unit, args.preset, scene=args.scene, textures=cache)
-        flow = Flow(seed=args.seed, router=args.router, tmg_ripup=args.tmg_ripup)
+        flow = Flow(seed=args.seed, router=args.router, tmg_ripup=args.tmg_ripup, route=not args.no_route)
     except ValueError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
@@ -567,13 +582,15 @@ def run(args: argparse.Namespace) -> int:
     out.mkdir(parents=True, exist_ok=True)
     atomic_json(out / "report.json", {"flow": asdict(flow), "tools": tool_versions(), "designs": records})
     table = markdown_table(records)
-    atomic_write_text(out / "report.md", f"ECP5 {records[0]['device']}, seed {flow.seed}, {flow.router}, "
+    how = flow.router if flow.route else "placement alone (Fmax: nextpnr's estimate, not routed)"
+    atomic_write_text(out / "report.md", f"ECP5 {records[0]['device']}, seed {flow.seed}, {how}, "
                       "`bumpmap fpga`; one result per clock.\n\n" + table + "\n")
     print(table)
     print(f"\n(written to {out / 'report.json'} and {out / 'report.md'})")
     if args.placement_record and not args.synth_only:
         from .record import command_line, write
-        keep = ("unit", "preset", "scene", "textures", "device", "mode", "target_mhz", "fmax_mhz", "met", "LUT4",
+        keep = ("unit", "preset", "scene", "textures", "device", "mode", "target_mhz", "fmax_mhz", "met", "routed",
+                "LUT4",
                 "FF", "DSP", "BRAM", "DRAM", "critical_path", "error")
         write(args.placement_record, command_line("bumpmap fpga"),
               {"flow": asdict(flow), "tools": tool_versions(),

@@ -123,8 +123,10 @@ def _send(frames: list[bytes], args) -> int:
         port.read(1)
         answer = _ask(port)
         if answer is None or answer & 0xC0 != STATE_ANSWER:
-            print(f"error: the board did not answer STATUS (got {answer!r} within {args.timeout} s): is it "
-                  f"configured with the bitstream, and is --port {args.port} its UART?", file=sys.stderr)
+            got = "nothing" if answer is None else f"{answer:#04x}"
+            print(f"error: the board did not answer STATUS with its state (got {got} within {args.timeout} s): is "
+                  f"it configured with a bitstream of this checkout (make bitstream), and is --port {args.port} its "
+                  f"UART?", file=sys.stderr)
             return 1
         before = set(state_names(answer)) - {"busy"}
         if before:

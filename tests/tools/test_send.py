@@ -119,3 +119,13 @@ def test_send_waits_for_the_picture_and_checks_the_board_flags(monkeypatch, caps
     assert rc == 0 and "warning" in err and "upload_bad" in err     # set before: cannot be seen rising again
     rc, board, err = _send_to(monkeypatch, capsys, [[], ["busy"]], "--shown-wait", "0.05")
     assert rc == 1 and "not shown" in err
+
+
+def test_send_stops_when_the_board_does_not_answer_status(monkeypatch, capsys):
+    """A board configured with an older bitstream answers STATUS with ACK, not its state: send stops before
+    sending anything, naming what it got."""
+    rc, board, err = _send_to(monkeypatch, capsys, [[]])
+    assert rc == 0
+    monkeypatch.setattr(_Board, "read", lambda self, n: b"\x00")
+    rc, board, err = _send_to(monkeypatch, capsys, [[]])
+    assert rc == 1 and "got 0x00" in err and b"\xa5\x02" not in board.written    # no upload sent

@@ -66,6 +66,7 @@ from .fpga_report import (
     markdown_table,
     params_digest,
     parse_results,
+    placement_fmax,
     route_seconds,
 )
 
@@ -247,12 +248,20 @@ def _run_tools(rdir: Path, top: str, settings: dict, synth_only: bool = False) -
     res = subprocess.run(cmd, cwd=rdir, capture_output=True, text=True)
     if res.returncode:
         return {"error": f"nextpnr failed ({res.returncode}), see {rdir / 'nextpnr.log'}"}
+    (rdir / f"{top}.json").unlink(missing_ok=True)         # the netlist is large and not needed any more
+    return {**parse_run(rdir), "flow_seconds": round(time.perf_counter() - t0, 1)}
+
+
+def parse_run(rdir: Path) -> dict:
+    """The results of a run folder's tool outputs (nextpnr's ``report.json`` and log, yosys' ``stat.json``): a run
+    placed alone has no Fmax in its report, and takes nextpnr's estimate after placement from its log."""
     report = json.loads((rdir / "report.json").read_text())
     stat = json.loads((rdir / "stat.json").read_text())
-    (rdir / f"{top}.json").unlink(missing_ok=True)         # the netlist is large and not needed any more
     log = (rdir / "nextpnr.log").read_text(errors="replace")
-    return {**parse_results(report, stat), "flow_seconds": round(time.perf_counter() - t0, 1),
-            "route_seconds": route_seconds(log)}
+    res = parse_results(report, stat)
+    if res["fmax_mhz"] is None:
+        res.update(placement_fmax(log))
+    return {**res, "route_seconds": route_seconds(log)}
 
 
 @dataclass
@@ -588,11 +597,11 @@ def run(args: argparse.Namespace) -> int:
     print(table)
     print(f"\n(written to {out / 'report.json'} and {out / 'report.md'})")
     if args.placement_record and not args.synth_only:
-        from .record import command_line, write
+        from .record import write
         keep = ("unit", "preset", "scene", "textures", "device", "mode", "target_mhz", "fmax_mhz", "met", "routed",
                 "LUT4",
                 "FF", "DSP", "BRAM", "DRAM", "critical_path", "error")
-        write(args.placement_record, command_line("bumpmap fpga"),
+        write(args.placement_record, getattr(args, "command_line", "bumpmap fpga"),
               {"flow": asdict(flow), "tools": tool_versions(),
                "designs": [{k: r[k] for k in keep if k in r} for r in records]})
         print(f"(placement recorded in {args.placement_record})")

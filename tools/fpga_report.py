@@ -13,7 +13,8 @@ from pathlib import Path
 
 from board.timing import register_name
 
-__all__ = ["parse_results", "critical_path_summary", "describe_path", "route_seconds", "markdown_table",
+__all__ = ["parse_results", "placement_fmax", "critical_path_summary", "describe_path", "route_seconds",
+           "markdown_table",
            "params_digest", "design_key", "compare_routers", "KNOWN_DIFFERENCES"]
 
 #: Why a design's synthesized count differs from the estimate, by :func:`design_key`; written into the record
@@ -72,6 +73,19 @@ def parse_results(report: dict, stat: dict | None = None) -> dict:
             "DSP": util.get("MULT18X18D", 0), "BRAM": util.get("DP16KD", 0), "DRAM": util.get("TRELLIS_RAMW", 0),
             "IO": util.get("TRELLIS_IO", 0), "fmax_mhz": fmax_mhz, "clock": clock,
             "critical_path": critical_path_summary(report, clock), "yosys": cells}
+
+
+def placement_fmax(log: str) -> dict:
+    """``{"fmax_mhz", "clock"}`` from the last of nextpnr's ``Max frequency for clock`` summaries in its log (the
+    slowest clock), or ``{}`` without one. For a run placed alone (``--no-route``): its ``--report`` JSON then
+    holds no Fmax, and the log's summary after placement is nextpnr's estimate."""
+    last = {}                                   # each clock's last summary (after placement, or after routing)
+    for m in re.finditer(r"Max frequency for clock\s+'([^']+)': ([\d.]+) MHz", log):
+        last[m.group(1)] = float(m.group(2))
+    if not last:
+        return {}
+    clock = min(last, key=last.get)
+    return {"fmax_mhz": round(last[clock], 2), "clock": clock}
 
 
 def route_seconds(log: str) -> float | None:

@@ -243,16 +243,18 @@ def test_router_is_a_flow_option_on_nextpnr_command_line_and_in_the_cache_key(tm
 
 @pytest.mark.parametrize("route", [True, False])
 def test_placement_alone_is_a_flow_option_recorded_as_not_routed(tmp_path, monkeypatch, route):
-    """``--no-route``: nextpnr places only, the record says ``routed`` false (its Fmax is the placer's estimate),
-    and the run has a cache key of its own; routed runs keep the keys of runs made before the option."""
+    """``--no-route``: nextpnr places only, the record says ``routed`` false (its Fmax is the placer's estimate from
+    nextpnr's log: its report then has none), and the run has a cache key of its own; routed runs keep the keys of
+    runs made before the option."""
     commands = []
 
     def fake_run(cmd, **kwargs):
         commands.append(cmd)
         cwd = kwargs.get("cwd")
         if "nextpnr" in cmd[0]:
-            (cwd / "report.json").write_text(json.dumps(REPORT))
-            (cwd / "nextpnr.log").write_text("Info: placed\n")
+            (cwd / "report.json").write_text(json.dumps(REPORT if route else {**REPORT, "fmax": {}}))
+            (cwd / "nextpnr.log").write_text("Info: Max frequency for clock 'a': 61.20 MHz (FAIL at 100.00 MHz)\n"
+                                             "Info: Max frequency for clock 'b': 58.71 MHz (FAIL at 100.00 MHz)\n")
         else:
             (cwd / "stat.json").write_text(json.dumps(STAT))
         return type("Done", (), {"returncode": 0})()
@@ -260,7 +262,8 @@ def test_placement_alone_is_a_flow_option_recorded_as_not_routed(tmp_path, monke
     monkeypatch.setattr(fpga.subprocess, "run", fake_run)
     rec = fpga.measure(preset("recip", "small"), build=tmp_path, flow=fpga.Flow(route=route))
     assert ("--no-route" in commands[-1]) == (not route)
-    assert rec["routed"] is route and rec["fmax_mhz"] == 143.25
+    # routed: the report's Fmax; placed alone, the report has none, and the log's estimate of the slowest clock
+    assert rec["routed"] is route and rec["fmax_mhz"] == (143.25 if route else 58.71)
     assert ("route" in fpga.Flow(route=route).settings()) == (not route)
 
 

@@ -66,8 +66,7 @@ from .fpga_report import (
     markdown_table,
     params_digest,
     parse_results,
-    placement_fmax,
-    route_seconds,
+    parse_run,
 )
 
 __all__ = ["Flow", "FLOW", "TARGET_MHZ", "target_mhz", "design_list", "measure", "run_designs",
@@ -117,11 +116,8 @@ class Flow:
         nextpnr's timing-driven rip-up in the router (``--tmg-ripup``): nets of failing paths are ripped up and
         routed again (``bumpmap bitstream --tmg-ripup`` too, ``board.top.TMG_RIPUP``); :data:`QUICK` uses it.
     route : bool
-        ``False``: placement alone (nextpnr's ``--no-route``); Fmax is then nextpnr's estimate after placement
-        (its delay model between the placed cells, no routing), recorded with ``routed`` false. For designs whose
-        route does not converge (the engines with the texel caches and with MIP maps): the estimate is what
-        there is to measure, and it was below the routed clock on every design routed both ways (the board's
-        engine: ``docs/board.md``).
+        ``False``: placement alone (``--no-route``), for designs whose route does not converge; Fmax is then
+        nextpnr's estimate after placement, recorded with ``routed`` false (``docs/fpga.md``).
     """
 
     device: str = "85k"
@@ -250,18 +246,6 @@ def _run_tools(rdir: Path, top: str, settings: dict, synth_only: bool = False) -
         return {"error": f"nextpnr failed ({res.returncode}), see {rdir / 'nextpnr.log'}"}
     (rdir / f"{top}.json").unlink(missing_ok=True)         # the netlist is large and not needed any more
     return {**parse_run(rdir), "flow_seconds": round(time.perf_counter() - t0, 1)}
-
-
-def parse_run(rdir: Path) -> dict:
-    """The results of a run folder's tool outputs (nextpnr's ``report.json`` and log, yosys' ``stat.json``): a run
-    placed alone has no Fmax in its report, and takes nextpnr's estimate after placement from its log."""
-    report = json.loads((rdir / "report.json").read_text())
-    stat = json.loads((rdir / "stat.json").read_text())
-    log = (rdir / "nextpnr.log").read_text(errors="replace")
-    res = parse_results(report, stat)
-    if res["fmax_mhz"] is None:
-        res.update(placement_fmax(log))
-    return {**res, "route_seconds": route_seconds(log)}
 
 
 @dataclass

@@ -13,7 +13,7 @@ from pathlib import Path
 
 from board.timing import register_name
 
-__all__ = ["parse_results", "placement_fmax", "critical_path_summary", "describe_path", "route_seconds",
+__all__ = ["parse_results", "parse_run", "placement_fmax", "critical_path_summary", "describe_path", "route_seconds",
            "markdown_table",
            "params_digest", "design_key", "compare_routers", "KNOWN_DIFFERENCES"]
 
@@ -86,6 +86,18 @@ def placement_fmax(log: str) -> dict:
         return {}
     clock = min(last, key=last.get)
     return {"fmax_mhz": round(last[clock], 2), "clock": clock}
+
+
+def parse_run(rdir: Path) -> dict:
+    """The results of a run folder's tool outputs (nextpnr's ``report.json`` and log, yosys' ``stat.json``): a run
+    placed alone has no Fmax in its report, and takes nextpnr's estimate after placement from its log."""
+    report = json.loads((rdir / "report.json").read_text())
+    stat = json.loads((rdir / "stat.json").read_text())
+    log = (rdir / "nextpnr.log").read_text(errors="replace")
+    res = parse_results(report, stat)
+    if res["fmax_mhz"] is None:
+        res.update(placement_fmax(log))
+    return {**res, "route_seconds": route_seconds(log)}
 
 
 def route_seconds(log: str) -> float | None:

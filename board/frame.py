@@ -27,12 +27,14 @@ of this stage: the tile holds the whole frame; ``docs/board.md``). The picture's
 from __future__ import annotations
 
 import numpy as np
-from amaranth import Cat, DomainRenamer, Module, Mux, Signal
+from amaranth import Cat, Const, DomainRenamer, Module, Mux, Signal
 from amaranth.lib import memory, wiring
+from amaranth.lib.cdc import FFSynchronizer
 from amaranth.lib.wiring import In, Out
 
+from fxmodel.units.rop import STATUS_BITS as ROP_STATUS_BITS
 from host.args import int_range
-from host.protocol import Cmd
+from host.protocol import STATE_BITS, Cmd
 from rtl.fixed import const_mul
 
 from .cdc import QUIET, toggle_sync
@@ -141,7 +143,7 @@ class EngineSystem(wiring.Component):
         self.record_len = -(-self.record_bits // 8)
         self._writes = TexelWrites(params.pipeline, blank)
         self._engine = Engine(params, self._writes)
-        self._link = CommandLink(divisor, self.record_len)
+        self._link = CommandLink(divisor, self.record_len, (params.rop.width, params.rop.height))
         self._display = Display(timing, latency=3)
         self._copy = TileCopy(params.rop, self._engine.fb.signature)
         ports = {"rx": In(1, init=1), "tx": Out(1, init=1), "words": Out(30), "error": Out(1), "upload_bad": Out(1),
@@ -178,6 +180,7 @@ class EngineSystem(wiring.Component):
         m.d.comb += [tc.swap.eq(toggle_sync(m, "swap", swap_req, "engine")),
                      tc.start.eq(toggle_sync(m, "start", start_req, "engine")),
                      tc.active.eq(eng.i.valid | eng.busy | eng.rop_busy)]
+        self._state(m, link, eng)
         if self.frame == "sdram":
             from .sdram_system import elaborate_frame
             elaborate_frame(self, m, tc, disp)
@@ -212,6 +215,29 @@ class EngineSystem(wiring.Component):
         m.d.comb += self.words.eq(disp.words)
         return m
 
+
+    def _state(self, m: Module, link, eng) -> None:
+        """The board's state, which STATUS is answered with (``host.protocol.STATE_BITS``), on the link's
+        ``state`` in ``sync``: ``busy`` from a SWAP until the buffer shown changes (``front``), and the sticky
+        flags, those of other clocks through two registers each (each flag only ever rises, so bit by bit is
+        enough; those of a frame are set before its engine is quiet, long before its copy ends and ``busy``
+        falls)."""
+        bits = {}
+        due, front_then = Signal(), Signal()
+        with m.If(due & (self.front != front_then)):
+            m.d.sync += due.eq(0)
+        with m.If(link.done & (link.cmd == Cmd.SWAP)):
+            m.d.sync += [due.eq(1), front_then.eq(self.front)]
+        bits["busy"], bits["overrun"], bits["upload_bad"] = due, self.overrun, self.upload_bad
+        store_error = (self.mem_error | self.underrun) if self.frame == "sdram" else Const(0)
+        for name, flag in (("outside", eng.status[ROP_STATUS_BITS["outside"]]),
+                           ("z_saturated", eng.status[ROP_STATUS_BITS["z_saturated"]]), ("store_error", store_error)):
+            bits[name] = Signal(name=f"state_{name}")
+            m.submodules[f"state_{name}_ff"] = FFSynchronizer(flag, bits[name], o_domain="sync")
+        state = [None] * len(STATE_BITS)
+        for name, bit in STATE_BITS.items():
+            state[bit] = bits[name]
+        m.d.comb += link.state.eq(Cat(*state))
 
     def _record(self, m: Module, link, eng, stall):
         """The record, ``sync`` -> ``engine`` (module docstring); returns ``rec_valid`` (the engine's input

@@ -4,7 +4,8 @@ fragments through the depth test into its on-chip tile, SWAP copying the tile in
 RGB565, the display scanning it out as DVI; the TMDS words decoded (:func:`board.video.tmds_decode`, DVI 1.0
 section 3.2) into the picture, compared on every pixel with the model's (the engine's frame, :meth:`EngineParams.draw
 <fxmodel.pipeline.engine.EngineParams.draw>`, through the display's color format: :func:`board.frame.display_frame`),
-and the video timing measured from the decoded syncs (``cosim.board_dvi.measure``).
+and the video timing measured from the decoded syncs (``cosim.board_dvi.measure``); after the frame is shown, the
+board's answer to STATUS (``state_ok``: not busy, no flag set, as ``bumpmap send`` requires).
 
 The upload frames (TEXTURE, CUBE) are left out of the simulated stream by default: the RTL's texel memories hold
 the scene's tables (as ``make sim`` does), and the uploads are nearly all of the bytes (most of a second of the
@@ -27,7 +28,8 @@ from board.frame import BoardSim, display_frame
 from board.top import DRAM_HZ
 from board.video import VGA_640x480, VideoTiming, tmds_decode
 from fxmodel.core.paths import source_digest
-from host.protocol import Cmd
+from host.protocol import STATE_ANSWER, Cmd
+from host.protocol import frame as protocol_frame
 
 from .board_dvi import measure
 from .harness import component_build, run_testbench, simulator
@@ -103,7 +105,8 @@ def simulate(params, records, data: bytes, *, timing: VideoTiming = VGA_640x480,
     verilog_seconds = time.perf_counter() - t0
     clocks = (timing.v_total - timing.v_active + timing.v_total + 2) * timing.h_total
     frame_ns = timing.frame_clocks * PIXEL_NS
-    meta = {"data": stream.hex(), "pixel_ns": PIXEL_NS, "engine_ns": ENGINE_NS, "divisor": divisor,
+    meta = {"data": stream.hex(), "status_frame": protocol_frame(Cmd.STATUS).hex(), "pixel_ns": PIXEL_NS,
+            "engine_ns": ENGINE_NS, "divisor": divisor,
             "clocks": clocks, "timeout_ns": 3 * frame_ns, **({"dram_ns": DRAM_NS} if frame == "sdram" else {})}
     job = job_folder(bdir, "system", {"data": hashlib.sha1(stream).hexdigest(), "clocks": clocks})
     out, build_seconds, seconds = run_testbench(sim, src, top, bdir, job, "cosim.board_system_tb", meta,
@@ -115,6 +118,8 @@ def simulate(params, records, data: bytes, *, timing: VideoTiming = VGA_640x480,
     rep = {"simulator": sim, "frames_sent": len(kept), "frames_left_out": len(frames) - len(kept),
            "bytes_sent": len(stream), "bytes_left_out": len(data) - len(stream),
            "replies": res["replies"], "acks_ok": bytes.fromhex(res["replies"]) == bytes(len(kept)),
+           "state_answer": res["state_answer"],
+           "state_ok": res["state_answer"] is not None and int(res["state_answer"], 16) == STATE_ANSWER,
            "error": res["error"], "overrun": res["overrun"], "rop_status": res["status"], "shown": shown,
            "uploads": uploads, "upload_bad": res.get("upload_bad"),
            "frame": frame, "underrun": res.get("underrun"), "mem_error": res.get("mem_error"),

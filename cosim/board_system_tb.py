@@ -2,8 +2,9 @@
 the engine's ``engine_clk`` (periods from ``job.json``), both reset together; the host's bytes into ``rx`` through
 cocotbext-uart's ``UartSource`` at the board's rate, the answers from ``tx`` through its ``UartSink``. Once the
 display shows the drawn buffer (``front`` changes, at the start of a vertical blanking) the three TMDS words are
-recorded every pixel clock for ``clocks`` clocks into ``words.npy``; ``result.json`` holds the answers, the flags,
-and the simulated times.
+recorded every pixel clock for ``clocks`` clocks into ``words.npy``; then the STATUS frame (``job.json``'s
+``status_frame``) is sent and its answer awaited, as ``bumpmap send`` asks the board after SWAP. ``result.json``
+holds the answers, STATUS's apart, the flags, and the simulated times.
 """
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ from pathlib import Path
 import cocotb
 import numpy as np
 from cocotb.clock import Clock
-from cocotb.triggers import FallingEdge, First, Timer
+from cocotb.triggers import FallingEdge, First, SimTimeoutError, Timer, with_timeout
 from cocotb.utils import get_sim_time
 from cocotbext.uart import UartSink, UartSource
 
@@ -56,8 +57,15 @@ async def system(dut):
             await FallingEdge(dut.clk)
             rows[k] = int(words.value)
         np.save(job / "words.npy", rows)
+    replies = bytes(sink.read_nowait())
+    await source.write(bytes.fromhex(meta["status_frame"]))
+    try:                                         # the frame's bytes and the answer's ten bits, twice over
+        answer = (await with_timeout(sink.read(1), 2 * 20 * 10 * 1e9 / baud, "ns")).hex()
+    except SimTimeoutError:
+        answer = None
     (job / "result.json").write_text(json.dumps({
-        "replies": bytes(sink.read_nowait()).hex(), "error": int(dut.error.value), "overrun": int(dut.overrun.value),
+        "replies": replies.hex(), "state_answer": answer, "error": int(dut.error.value),
+        "overrun": int(dut.overrun.value),
         "status": int(dut.status.value), "front": int(dut.front.value), "sent_ns": sent_ns, "shown_ns": shown_ns,
         "end_ns": get_sim_time("ns"),
         **{k: int(getattr(dut, k).value) for k in ("underrun", "mem_error", "upload_bad", "dram_ready")

@@ -20,15 +20,19 @@ __all__ = ["run", "CLOCK_NS", "DIVISOR"]
 CLOCK_NS, DIVISOR = 10, 16
 
 
-def run(data: bytes, record_len: int, *, sim: str | None = None) -> dict:
-    """Send ``data``; return ``commands`` [(cmd, payload bytes)], ``replies`` (bytes from ``tx``), ``error``,
-    ``code`` (the error state at the end) and the times."""
+def run(data: bytes, record_len: int, tile: tuple[int, int] | None = None, board_state: int = 0, *,
+        sim: str | None = None) -> dict:
+    """Send ``data`` to ``CommandLink(DIVISOR, record_len, tile)`` with ``board_state`` on its ``state``; return
+    ``commands`` [(cmd, payload bytes)], ``replies`` (bytes from ``tx``), ``error``, ``code`` (the error state at
+    the end) and the times."""
     sim = simulator(sim)
-    key = hashlib.sha1(f"{DIVISOR} {record_len}".encode() + source_digest(("board", "host"))).hexdigest()[:12]
-    top, bdir, src = component_build("command_link", key, sim, lambda: CommandLink(DIVISOR, record_len))
-    job = job_folder(bdir, "uart", {"data": hashlib.sha1(data).hexdigest(), "record_len": record_len})
+    key = hashlib.sha1(f"{DIVISOR} {record_len} {tile}".encode() + source_digest(("board", "host"))).hexdigest()[:12]
+    top, bdir, src = component_build("command_link", key, sim, lambda: CommandLink(DIVISOR, record_len, tile))
+    job = job_folder(bdir, "uart", {"data": hashlib.sha1(data).hexdigest(), "record_len": record_len,
+                                    "board_state": board_state})
     out, build_seconds, seconds = run_testbench(sim, src, top, bdir, job, "cosim.board_uart_tb",
-                                                {"data": data.hex(), "clock_ns": CLOCK_NS, "divisor": DIVISOR},
+                                                {"data": data.hex(), "clock_ns": CLOCK_NS, "divisor": DIVISOR,
+                                                 "board_state": board_state},
                                                 "parsed.json")
     res = json.loads(out.read_text())
     remove_job(job)

@@ -1,7 +1,8 @@
-"""cocotb testbench of the board's UART command link: ``job.json`` gives the bytes, the clock period and the clocks
-a bit. cocotbext-uart's ``UartSource`` drives ``rx`` and its ``UartSink`` reads ``tx``; each payload byte
-(``data_valid``) and each good frame (``done``) is recorded as it happens, a frame's payload being the bytes since
-its start. Writes ``parsed.json``: the commands, the replies, the error state at the end."""
+"""cocotb testbench of the board's UART command link: ``job.json`` gives the bytes, the clock period, the clocks a bit
+and the board's state on the link's ``state`` input. cocotbext-uart's ``UartSource`` drives ``rx`` and its
+``UartSink`` reads ``tx``; each payload byte (``data_valid``) and each good frame (``done``) is recorded as it
+happens, a frame's payload being the bytes since its start. Writes ``parsed.json``: the commands, the replies, the
+error state at the end."""
 
 from __future__ import annotations
 
@@ -22,6 +23,7 @@ async def link(dut):
     data = bytes.fromhex(meta["data"])
     baud = 1e9 / (meta["clock_ns"] * meta["divisor"])
     dut.rx.value = 1
+    dut.state.value = meta["board_state"]
     dut.rst.value = 1
     cocotb.start_soon(Clock(dut.clk, meta["clock_ns"], unit="ns").start())
     source, sink = UartSource(dut.rx, baud=baud, bits=8), UartSink(dut.tx, baud=baud, bits=8)

@@ -15,7 +15,7 @@ from host.protocol import scene_frames
 def test_the_tin_plane_from_host_bytes_to_the_decoded_dvi_frame():
     params, frame, tframe = board_engine("tin-plane", BOARD_PRESET, 128)
     mat = tframe.records.matrix()
-    data = b"".join(scene_frames(frame.params, params.raster.record, mat))
+    data = b"".join(scene_frames(frame.params, params.raster.record, mat, (params.rop.width, params.rop.height)))
     rep = simulate(params, mat, data, sim="verilator")
     assert rep["shown"] and rep["acks_ok"] and not rep["error"] and not rep["overrun"]
     assert rep["mismatches"] == 0, rep["first_mismatches"]

@@ -1,30 +1,36 @@
 """Co-simulation of the board's UART command link (``board/command.py``): the host protocol's bytes in through the
 ``rx`` line (cocotbext-uart), the commands the RTL parses and the replies it sends on ``tx`` equal those of the
-reference parser :func:`host.protocol.parse`, through good frames of every command and each error (bad CRC, unknown
-command, bad length, a stray byte), each cleared by the CLEAR frame."""
+reference parser :func:`host.protocol.parse`, through good frames of every command (STATUS answered with the board's
+state on the link's input) and each error (bad CRC, unknown command, bad length, a FRAME_START of another size, an
+upload while a frame is drawn, a stray byte), each cleared by the CLEAR frame."""
 
 from __future__ import annotations
 
 import random
 
 from cosim.board_uart import run
-from host.protocol import ACK, CLEAR_FRAME, Cmd, Err, frame, parse, upload_frames
+from host.protocol import ACK, CLEAR_FRAME, STATE_ANSWER, Cmd, Err, frame, frame_start, parse, upload_frames
 
 RECORD_LEN = 13
+TILE = (300, 7)                                         # a tile's width and height: FRAME_START must name them
+STATE = 0b101100                                        # the board's state bits (not busy), STATUS's answer
 
 
 def _stream() -> tuple[bytes, list]:
     rng = random.Random(26)
-    good = [frame(Cmd.FRAME_START)]
-    good += [frame(Cmd.TRIANGLE, bytes(rng.randrange(256) for _ in range(RECORD_LEN))) for _ in range(3)]
-    good += upload_frames(Cmd.TEXTURE, 1, [rng.randrange(1 << 24) for _ in range(6)], 24, chunk=9)
+    good = upload_frames(Cmd.TEXTURE, 1, [rng.randrange(1 << 24) for _ in range(6)], 24, chunk=9)
     good += upload_frames(Cmd.CUBE, 0, [rng.randrange(1 << 27) for _ in range(3)], 27)
+    good += [frame_start(*TILE)]
+    good += [frame(Cmd.TRIANGLE, bytes(rng.randrange(256) for _ in range(RECORD_LEN))) for _ in range(3)]
     good += [frame(Cmd.SWAP), frame(Cmd.STATUS)]
     bad_crc = bytearray(frame(Cmd.TRIANGLE, bytes(RECORD_LEN)))
     bad_crc[-2] ^= 0x10
     errors = [bytes(bad_crc) + frame(Cmd.SWAP),                       # the SWAP after it is ignored
               bytes([0xA5, 0x09, 0, 0]),                              # unknown command
               frame(Cmd.TRIANGLE, bytes(RECORD_LEN - 1)),            # wrong record length
+              frame_start(TILE[0], TILE[0]),                          # another frame's size (its height)
+              frame_start(TILE[0] ^ 0x100, TILE[1]),                  # (its width's high byte)
+              frame_start(*TILE) + upload_frames(Cmd.CUBE, 1, [5], 27)[0],   # an upload while a frame is drawn
               b"\x00"]                                                # a stray byte where a frame must start
     data = b"".join(good)
     for e in errors:
@@ -34,14 +40,26 @@ def _stream() -> tuple[bytes, list]:
 
 def test_commands_replies_and_errors_match_the_reference_parser(sim):
     data, good = _stream()
-    want = parse(data, RECORD_LEN)
-    codes = [r & 0x7F for r in want.replies if r != ACK]
-    assert codes == [Err.CRC, Err.COMMAND, Err.LENGTH, Err.SYNC]   # the stream exercises every error it means to
-    assert len(want.commands) == len(good) + len(codes)             # the STATUS after each CLEAR
-    res = run(data, RECORD_LEN, sim=sim)
+    want = parse(data, RECORD_LEN, TILE, STATE)
+    codes = [r & 0x7F for r in want.replies if r & 0x80]
+    assert codes == [Err.CRC, Err.COMMAND, Err.LENGTH, Err.SIZE, Err.SIZE, Err.BUSY, Err.SYNC]  # every error meant
+    assert len(want.commands) == len(good) + len(codes) + 1         # the STATUS after each CLEAR, a FRAME_START
+    assert want.replies.count(STATE_ANSWER | STATE) == 1 + len(codes)
+    res = run(data, RECORD_LEN, TILE, STATE, sim=sim)
     assert res["commands"] == want.commands
     assert res["replies"] == bytes(want.replies)
     assert (res["error"], res["code"]) == (0, 0)
+
+
+def test_uploads_are_refused_while_the_board_is_busy(sim):
+    """With ``busy`` in the board's state (a SWAP's picture not shown yet) every upload is refused with BUSY, before
+    any of its words is passed on; other frames are taken."""
+    upload = upload_frames(Cmd.TEXTURE, 0, [1, 2, 3], 24)[0]
+    data = frame(Cmd.STATUS) + upload + CLEAR_FRAME + frame(Cmd.SWAP)
+    want = parse(data, RECORD_LEN, TILE, 1)
+    assert want.replies == [STATE_ANSWER | 1, 0x80 | Err.BUSY, ACK, ACK]
+    res = run(data, RECORD_LEN, TILE, 1, sim=sim)
+    assert res["commands"] == want.commands and res["replies"] == bytes(want.replies)
 
 
 def test_the_error_state_is_sticky_without_clear(sim):
@@ -50,7 +68,7 @@ def test_the_error_state_is_sticky_without_clear(sim):
     data = frame(Cmd.STATUS) + bytes(bad) + frame(Cmd.STATUS) + frame(Cmd.SWAP)
     res = run(data, RECORD_LEN, sim=sim)
     assert res["commands"] == [(Cmd.STATUS, b"")]
-    assert res["replies"] == bytes([ACK, 0x80 | Err.CRC])
+    assert res["replies"] == bytes([STATE_ANSWER, 0x80 | Err.CRC])
     assert (res["error"], res["code"]) == (1, Err.CRC)
 
 
@@ -61,11 +79,13 @@ def test_the_tin_plane_triangles_through_the_link(sim):
     from host.render import from_triangles, prepare
     from host.scene import scene_path
 
-    tframe = from_triangles(prepare(scene_path("tin-plane")))
+    prepared = prepare(scene_path("tin-plane"))
+    tile = (prepared.scene.width, prepared.scene.height)
+    tframe = from_triangles(prepared)
     ports = tframe.params.raster.record
-    data = frame(Cmd.FRAME_START) + b"".join(triangle_frames(ports, tframe.records.matrix())) + frame(Cmd.SWAP)
+    data = frame_start(*tile) + b"".join(triangle_frames(ports, tframe.records.matrix())) + frame(Cmd.SWAP)
     n = record_bytes(ports)
-    want = parse(data, n)
-    res = run(data, n, sim=sim)
+    want = parse(data, n, tile)
+    res = run(data, n, tile, sim=sim)
     assert len(want.commands) == len(tframe.records) + 2 and want.error == 0
     assert res["commands"] == want.commands and res["replies"] == bytes(want.replies)

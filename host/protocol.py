@@ -5,6 +5,11 @@ A frame is ``SYNC, CMD, LEN (2 bytes, little-endian), PAYLOAD (LEN bytes), CRC (
 is CRC-16/CCITT-FALSE (polynomial 0x1021, initial value 0xFFFF, no reflection) over ``CMD, LEN, PAYLOAD``. The board
 answers every good frame with :data:`ACK`; the first bad byte puts it in the error state, which it announces with one
 byte ``0x80 | code`` and keeps (ignoring every byte) until it sees the :data:`CLEAR_FRAME`, answered with ``ACK``.
+FRAME_START carries the frame's width and height, and a board whose tile has another size refuses it
+(:data:`Err.SIZE`): the triangles the host set up for another frame would be drawn cut or misplaced, silently.
+STATUS is answered with the board's state instead of ``ACK``: ``STATE_ANSWER | bits`` (:data:`STATE_BITS`: a
+frame not yet shown, and the sticky flags of what went wrong since the board was configured). An upload while a
+frame is drawn is refused (:data:`Err.BUSY`): its words would change the texels of the triangles being drawn.
 """
 
 from __future__ import annotations
@@ -13,11 +18,21 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["SYNC", "ACK", "Cmd", "Err", "LENGTHS", "MAX_PAYLOAD", "crc16", "frame", "CLEAR_FRAME", "record_bytes",
-           "triangle_frames", "upload_frames", "scene_frames", "Parsed", "parse", "MEMORIES"]
+__all__ = ["SYNC", "ACK", "STATE_ANSWER", "STATE_BITS", "state_names", "Cmd", "Err", "LENGTHS", "MAX_PAYLOAD", "crc16",
+           "frame", "CLEAR_FRAME", "record_bytes",
+           "triangle_frames", "upload_frames", "frame_start", "scene_frames", "Parsed", "parse", "MEMORIES"]
 
 SYNC = 0xA5
 ACK = 0x00
+#: STATUS's answer: this byte or the board's state bits (``0x40`` to ``0x7F``: neither ``ACK`` nor an error).
+STATE_ANSWER = 0x40
+#: The board's state in STATUS's answer, bit by bit. ``busy``: a SWAP taken whose frame is not shown yet (its
+#: triangles may still be drawn; the flags below are final once it clears). The others are sticky since the board
+#: was configured: ``overrun`` a triangle record arrived while the previous one was still held (it was lost);
+#: ``upload_bad`` an upload's word named no map or lay beyond its map (not written); ``outside`` the depth test
+#: dropped a fragment outside the tile; ``z_saturated`` a depth saturated in its narrowing; ``store_error`` the
+#: frame store failed (in SDRAM: an error response, a word lost, or the scan-out missed a word).
+STATE_BITS = {"busy": 0, "overrun": 1, "upload_bad": 2, "outside": 3, "z_saturated": 4, "store_error": 5}
 #: The largest payload of an upload frame (a 5-byte header and up to 4 KiB of words).
 MAX_PAYLOAD = 5 + 4096
 
@@ -28,9 +43,9 @@ class Cmd:
     TRIANGLE = 0x01      # one triangle record (the scan converter's input, RasterParams.record packed)
     TEXTURE = 0x02       # words into a texture memory: memory id (1 byte), first word (4 bytes), words
     CUBE = 0x03          # words into a reflectance cube memory: the same layout
-    FRAME_START = 0x04   # clear the back buffer and start drawing the following triangles into it
+    FRAME_START = 0x04   # the frame's width and height (2 bytes LE each): clear the back buffer, draw into it
     SWAP = 0x05          # show the back buffer from the next vertical blanking (double buffering)
-    STATUS = 0x06        # ask for an ACK (the board's answer tells the host it is alive and not in error)
+    STATUS = 0x06        # ask for the board's state (answered STATE_ANSWER | STATE_BITS, not ACK)
     CLEAR = 0x07         # leave the error state
 
 
@@ -42,6 +57,9 @@ class Err:
     LENGTH = 3           # a length outside the command's range
     CRC = 4              # the CRC does not match
     FRAMING = 5          # the UART saw no stop bit
+    SIZE = 6             # FRAME_START's width and height are not the board's tile's
+    BUSY = 7             # an upload (TEXTURE, CUBE) while a frame is drawn: after FRAME_START, before its picture
+                         # is shown (the SWAP taken and STATUS no longer busy), unless a CLEAR ended the frame
 
 
 #: Memory ids of TEXTURE (0 the bump map, 1 the color texture) and CUBE (0 diffuse, 1 specular).
@@ -51,7 +69,7 @@ MEMORIES = {Cmd.TEXTURE: ("bump_map", "texture"), Cmd.CUBE: ("diffuse", "specula
 def LENGTHS(record_len: int) -> dict[int, tuple[int, int]]:  # noqa: N802 (a table, read like a constant)
     """``cmd -> (min, max)`` payload bytes, the triangle record ``record_len`` bytes long."""
     return {Cmd.TRIANGLE: (record_len, record_len), Cmd.TEXTURE: (6, MAX_PAYLOAD), Cmd.CUBE: (6, MAX_PAYLOAD),
-            Cmd.FRAME_START: (0, 0), Cmd.SWAP: (0, 0), Cmd.STATUS: (0, 0), Cmd.CLEAR: (0, 0)}
+            Cmd.FRAME_START: (4, 4), Cmd.SWAP: (0, 0), Cmd.STATUS: (0, 0), Cmd.CLEAR: (0, 0)}
 
 
 def crc16(data: bytes, crc: int = 0xFFFF) -> int:
@@ -73,6 +91,18 @@ def frame(cmd: int, payload: bytes = b"") -> bytes:
 
 #: The frame that leaves the error state (the board looks for these six bytes anywhere in the stream).
 CLEAR_FRAME = frame(Cmd.CLEAR)
+
+
+def _size_bytes(width: int, height: int) -> bytes:
+    return width.to_bytes(2, "little") + height.to_bytes(2, "little")
+
+
+def frame_start(width: int, height: int) -> bytes:
+    """The FRAME_START frame of a ``width x height`` frame (each 1..65535, two bytes little-endian)."""
+    for name, v in (("width", width), ("height", height)):
+        if not (isinstance(v, int) and 1 <= v <= 0xFFFF):
+            raise ValueError(f"FRAME_START {name}={v!r}: an int in 1..65535")
+    return frame(Cmd.FRAME_START, _size_bytes(width, height))
 
 
 def record_bytes(ports) -> int:
@@ -120,8 +150,21 @@ class Parsed:
     error: int = 0
 
 
-def parse(data: bytes, record_len: int) -> Parsed:
-    """The board's parser (``board/command.py``) in Python: the reference its RTL is checked against."""
+def state_names(answer: int) -> list[str]:
+    """The :data:`STATE_BITS` set in a STATUS answer, by name (``ValueError`` for a byte that is no such answer)."""
+    if answer & ~((1 << len(STATE_BITS)) - 1) != STATE_ANSWER:
+        raise ValueError(f"{answer:#04x} is not an answer to STATUS ({STATE_ANSWER:#04x} and state bits)")
+    return [name for name, bit in STATE_BITS.items() if answer >> bit & 1]
+
+
+def parse(data: bytes, record_len: int, tile: tuple[int, int] | None = None, board_state: int = 0) -> Parsed:
+    """The board's parser (``board/command.py``) in Python: the reference its RTL is checked against. ``tile``:
+    the ``(width, height)`` the board draws; a FRAME_START naming another size is refused (:data:`Err.SIZE`),
+    after its CRC matched. ``None`` (a board without a frame): any size is accepted. ``board_state``: the board's
+    :data:`STATE_BITS`, held for the whole stream, which a STATUS is answered with; with ``busy`` set, every upload
+    is refused (:data:`Err.BUSY`), as is one after a FRAME_START not yet ended by SWAP or CLEAR."""
+    if not 0 <= board_state < 1 << len(STATE_BITS):
+        raise ValueError(f"board_state={board_state!r}: {len(STATE_BITS)} bits (STATE_BITS)")
     lengths = LENGTHS(record_len)
     out = Parsed([], [])
     state, buf, need, window = "sync", bytearray(), 0, bytearray()
@@ -132,12 +175,14 @@ def parse(data: bytes, record_len: int) -> Parsed:
         out.replies.append(0x80 | code)
         window.clear()
 
+    drawing = False                         # after FRAME_START, until SWAP or CLEAR
+    busy = bool(board_state >> STATE_BITS["busy"] & 1)
     for b in data:
         if state == "error":
             window.append(b)
             del window[:-len(CLEAR_FRAME)]
             if bytes(window) == CLEAR_FRAME:
-                out.error, state = 0, "sync"
+                out.error, state, drawing = 0, "sync", False
                 out.replies.append(ACK)
             continue
         if state == "sync":
@@ -149,6 +194,8 @@ def parse(data: bytes, record_len: int) -> Parsed:
             buf.append(b)
             if len(buf) == 1 and b not in lengths:
                 fail(Err.COMMAND)
+            elif len(buf) == 1 and b in MEMORIES and (drawing or busy):
+                fail(Err.BUSY)
             elif len(buf) == 3:
                 need = int.from_bytes(buf[1:3], "little")
                 lo, hi = lengths[buf[0]]
@@ -163,21 +210,26 @@ def parse(data: bytes, record_len: int) -> Parsed:
             elif state == "crc" and len(buf) == 3 + need + 2:
                 if crc16(bytes(buf[:3 + need])) != int.from_bytes(buf[-2:], "little"):
                     fail(Err.CRC)
+                elif buf[0] == Cmd.FRAME_START and tile is not None and bytes(buf[3:7]) != _size_bytes(*tile):
+                    fail(Err.SIZE)
                 else:
                     out.commands.append((buf[0], bytes(buf[3:3 + need])))
-                    out.replies.append(ACK)
+                    if buf[0] in (Cmd.FRAME_START, Cmd.SWAP, Cmd.CLEAR):
+                        drawing = buf[0] == Cmd.FRAME_START
+                    out.replies.append(STATE_ANSWER | board_state if buf[0] == Cmd.STATUS else ACK)
                     state = "sync"
     return out
 
 
-def scene_frames(pipeline, raster_ports, records) -> list[bytes]:
-    """The frames that draw one prepared frame on the board: the four texel memories of ``pipeline`` (a
-    :class:`~fxmodel.pipeline.pixel.PipelineParams`: bump map and texture by TEXTURE, the diffuse and specular cubes
-    by CUBE, each map's words in the order its memories hold them, ``SamplerParams.upload_words``), FRAME_START,
-    one TRIANGLE per record (codes ``(T, fields)`` in ``raster_ports`` order), SWAP."""
+def scene_frames(pipeline, raster_ports, records, size: tuple[int, int]) -> list[bytes]:
+    """The frames that draw one prepared frame of ``size`` ``(width, height)`` on the board: the four texel
+    memories of ``pipeline`` (a :class:`~fxmodel.pipeline.pixel.PipelineParams`: bump map and texture by TEXTURE,
+    the diffuse and specular cubes by CUBE, each map's words in the order its memories hold them,
+    ``SamplerParams.upload_words``), FRAME_START with ``size``, one TRIANGLE per record (codes ``(T, fields)`` in
+    ``raster_ports`` order), SWAP."""
     out = []
     for cmd, names in MEMORIES.items():
         for mem, name in enumerate(names):
             sampler = getattr(pipeline, name)
             out += upload_frames(cmd, mem, sampler.upload_words, sampler.word_bits)
-    return out + [frame(Cmd.FRAME_START)] + triangle_frames(raster_ports, records) + [frame(Cmd.SWAP)]
+    return out + [frame_start(*size)] + triangle_frames(raster_ports, records) + [frame(Cmd.SWAP)]

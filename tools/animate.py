@@ -76,7 +76,7 @@ def scene_rates(name: str, preset: str, engine_hz: float, baud: int) -> dict:
     and the display, and the SDRAM bandwidth at the rate shown."""
     from board.top import PIXEL_HZ
     from board.video import VGA_640x480
-    from host.protocol import Cmd, triangle_frames, upload_frames
+    from host.protocol import Cmd, frame_start, triangle_frames, upload_frames
     from host.protocol import frame as proto_frame
     from host.scene import load_scene, scene_path
     from host.scene_animation import frames
@@ -88,7 +88,7 @@ def scene_rates(name: str, preset: str, engine_hz: float, baud: int) -> dict:
         clamped |= c
         clocks.append(int(tf.scan.clocks.sum()))
         n = sum(map(len, triangle_frames(tf.params.raster.record, tf.records.matrix())))
-        n += len(proto_frame(Cmd.FRAME_START)) + len(proto_frame(Cmd.SWAP))
+        n += len(frame_start(WIDTH, HEIGHT)) + len(proto_frame(Cmd.SWAP))
         if moving:                                      # the reflectance cubes follow the lights
             n += sum(len(b) for mem, nm in enumerate(("diffuse", "specular"))
                      for b in upload_frames(Cmd.CUBE, mem, getattr(f.params, nm).words,

@@ -55,7 +55,7 @@ def run(args) -> int:
         params, frame, tframe = board_engine(args.scene, args.preset, args.size)
         mat = tframe.records.matrix()
         data = args.bytes.read_bytes() if args.bytes else b"".join(
-            scene_frames(frame.params, params.raster.record, mat))
+            scene_frames(frame.params, params.raster.record, mat, (params.rop.width, params.rop.height)))
         tri = [f for f in split_frames(data) if f[1] == Cmd.TRIANGLE]
     except (SceneError, ValueError, OSError) as exc:
         print(f"error: {exc}", file=sys.stderr)
@@ -78,9 +78,8 @@ def run(args) -> int:
                triangles=len(mat), wall_seconds=round(time.perf_counter() - t0, 1))
     from host.atomic import atomic_json
     atomic_json(out / "report.json", rep)
-    ok = rep["shown"] and rep["mismatches"] == 0 and rep["timing_ok"] and rep["acks_ok"] and not rep["error"] \
-        and not rep["overrun"] and not rep["rop_status"] and not rep["underrun"] and not rep["mem_error"] \
-        and not rep["upload_bad"]
+    ok = rep["shown"] and rep["mismatches"] == 0 and rep["timing_ok"] and rep["acks_ok"] and rep["state_ok"] \
+        and not any(rep[k] for k in ("error", "overrun", "rop_status", "underrun", "mem_error", "upload_bad"))
     print(json.dumps({k: v for k, v in rep.items() if k not in ("timing", "timing_expected")}, indent=1))
     print(("  decoded DVI frame == model's frame on every pixel, video timing as the mode's" if ok else
            "  FAIL: the decoded frame, the timing or the link differ (report above)") + f"; output {out}")

@@ -101,6 +101,9 @@ def board_sim(name: str = "board-sim") -> str:
                 f"{'**yes**' if r['upload_bad'] else 'no'})" if r.get("uploads") else
                 f"(uploads left out: {r['frames_left_out']} frames, {r['bytes_left_out']} bytes)")],
             ["answers", f"{len(r['replies']) // 2} bytes, all ACK: {'yes' if r['acks_ok'] else '**no**'}"],
+            *([["STATUS after the picture", f"0x{r['state_answer'] or '--'}: "
+                + ("not busy, no flag set" if r["state_ok"] else "**busy or a flag set**")]]
+              if "state_ok" in r else []),
             ["pixels compared (640 x 480)", f"{r['pixels']:,}"], ["mismatches", str(r["mismatches"])],
             ["line / hsync / active (clocks)", f"{t['line_periods']} / {t['hsync_widths']} / {t['active_widths']}"],
             ["vsync / frame (clocks), lines", f"{t['vsync_widths']} / {t['frame_periods']}, {t['lines_per_frame']}"],

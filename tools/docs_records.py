@@ -270,7 +270,7 @@ def fpga_resources() -> str:
 def fpga_placement(name: str = "placement", design: str = "--scene SCENE --preset PRESET") -> str:
     """Placed and routed designs (``bumpmap fpga ... --placement-record docs/fpga/<name>.json``): Fmax against
     the target, resources and the critical path nextpnr names; ``design`` the options the missing record's
-    command names."""
+    command names. A design placed alone (``--no-route``) shows nextpnr's estimate, said so."""
     path = DOCS / "fpga" / f"{name}.json"
     if not path.is_file():
         return missing_record(path, f"bumpmap fpga --unit engine {design} --router router2 "
@@ -284,13 +284,19 @@ def fpga_placement(name: str = "placement", design: str = "--scene SCENE --prese
         if "error" in d:
             rows.append((label, d.get("target_mhz", ""), f"failed: {d['error']}", "", "", "", "", "", ""))
             continue
-        rows.append((label, f"{d['target_mhz']} MHz", f"{d['fmax_mhz']} MHz", "yes" if d["met"] else "**no**",
+        placed = d.get("routed") is False                   # bumpmap fpga --no-route: the placer's estimate
+        fmax = f"{d['fmax_mhz']} MHz" + (" (estimated after placement; not routed)" if placed else " (routed)")
+        met = "yes" if d["met"] else "**no**"
+        if placed:
+            met = ("estimate at or above it" if d["met"] else "**no**, estimate below") + "; not routed"
+        rows.append((label, f"{d['target_mhz']} MHz", fmax, met,
                      d.get("LUT4", ""), d.get("FF", ""), d.get("DSP", ""), d.get("BRAM", ""),
                      describe_path(d["critical_path"]) if d.get("critical_path") else ""))
-    head = ("design", "target", "Fmax (routed)", "met", "LUT4", "FF", "MULT18X18D", "DP16KD", "critical path")
+    head = ("design", "target", "Fmax", "met", "LUT4", "FF", "MULT18X18D", "DP16KD", "critical path")
     flow = r.get("flow", {})
     return (md_table(head, rows, ["---"] + ["---:"] * 2 + ["---"] + ["---:"] * 4 + ["---"])
-            + f"\n*nextpnr {flow.get('router', '')}{', timing-driven rip-up' if flow.get('tmg_ripup') else ''}, "
+            + f"\n*nextpnr {flow.get('router', '') if flow.get('route', True) else 'placement alone (--no-route)'}"
+            f"{', timing-driven rip-up' if flow.get('tmg_ripup') and flow.get('route', True) else ''}, "
             f"seed {flow.get('seed', '')}.* " + provenance(record, path))
 
 

@@ -66,7 +66,7 @@ from .fpga_report import (
     markdown_table,
     params_digest,
     parse_results,
-    route_seconds,
+    parse_run,
 )
 
 __all__ = ["Flow", "FLOW", "TARGET_MHZ", "target_mhz", "design_list", "measure", "run_designs",
@@ -115,6 +115,9 @@ class Flow:
     tmg_ripup : bool
         nextpnr's timing-driven rip-up in the router (``--tmg-ripup``): nets of failing paths are ripped up and
         routed again (``bumpmap bitstream --tmg-ripup`` too, ``board.top.TMG_RIPUP``); :data:`QUICK` uses it.
+    route : bool
+        ``False``: placement alone (``--no-route``), for designs whose route does not converge; Fmax is then
+        nextpnr's estimate after placement, recorded with ``routed`` false (``docs/fpga.md``).
     """
 
     device: str = "85k"
@@ -123,6 +126,7 @@ class Flow:
     seed: int = 1
     router: str = "router1"
     tmg_ripup: bool = False
+    route: bool = True
 
     def __post_init__(self):
         if self.device not in ("12k", "25k", "45k", "85k", "um-25k", "um-45k", "um-85k",
@@ -144,6 +148,8 @@ class Flow:
             del out["router"]
         if not self.tmg_ripup:
             del out["tmg_ripup"]
+        if self.route:
+            del out["route"]
         return out
 
 
@@ -233,15 +239,13 @@ def _run_tools(rdir: Path, top: str, settings: dict, synth_only: bool = False) -
         cmd += ["--router", settings["router"]]
     if settings.get("tmg_ripup"):
         cmd.append(TMG_RIPUP)
+    if not settings.get("route", True):
+        cmd.append("--no-route")
     res = subprocess.run(cmd, cwd=rdir, capture_output=True, text=True)
     if res.returncode:
         return {"error": f"nextpnr failed ({res.returncode}), see {rdir / 'nextpnr.log'}"}
-    report = json.loads((rdir / "report.json").read_text())
-    stat = json.loads((rdir / "stat.json").read_text())
     (rdir / f"{top}.json").unlink(missing_ok=True)         # the netlist is large and not needed any more
-    log = (rdir / "nextpnr.log").read_text(errors="replace")
-    return {**parse_results(report, stat), "flow_seconds": round(time.perf_counter() - t0, 1),
-            "route_seconds": route_seconds(log)}
+    return {**parse_run(rdir), "flow_seconds": round(time.perf_counter() - t0, 1)}
 
 
 @dataclass
@@ -351,6 +355,7 @@ def _finish(job: _Job) -> dict:
               "params_digest": params_digest(P),
               "latency": getattr(P, "latency", None), "results_per_clock": 1, "target_mhz": freq,
               "met": None if synthesized else bool(fmax is not None and fmax >= freq),
+              "routed": not synthesized and job.settings.get("route", True),
               "critical_path": res.get("critical_path"), "mode": job.settings["mode"],
               "device": f"{_device_name(job.settings['device'])} speed {job.settings['speed']} "
                         f"{job.settings['package']}", "seed": job.settings["seed"],
@@ -524,6 +529,9 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
     ap.add_argument("--textures", action="store_true",
                     help="with --scene: the engine with its maps in external memory behind the chosen texel cache "
                          "(cosim.engine_fetch.CHOSEN_CACHE)")
+    ap.add_argument("--no-route", action="store_true",
+                    help="placement alone (nextpnr --no-route): Fmax is nextpnr's estimate after placement, "
+                         "recorded as not routed (for designs whose route does not converge)")
     ap.add_argument("--tmg-ripup", action="store_true",
                     help="nextpnr's timing-driven rip-up in the router (as bumpmap bitstream --tmg-ripup)")
     jobrunner.add_arguments(ap, what="designs placed and routed")
@@ -554,7 +562,7 @@ def run(args: argparse.Namespace) -> int:
             if args.scene is None:
                 raise ValueError("--textures: the engine of a scene (give --scene)")
         designs = design_list(args.unit, args.preset, scene=args.scene, textures=cache)
-        flow = Flow(seed=args.seed, router=args.router, tmg_ripup=args.tmg_ripup)
+        flow = Flow(seed=args.seed, router=args.router, tmg_ripup=args.tmg_ripup, route=not args.no_route)
     except ValueError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
@@ -567,15 +575,17 @@ def run(args: argparse.Namespace) -> int:
     out.mkdir(parents=True, exist_ok=True)
     atomic_json(out / "report.json", {"flow": asdict(flow), "tools": tool_versions(), "designs": records})
     table = markdown_table(records)
-    atomic_write_text(out / "report.md", f"ECP5 {records[0]['device']}, seed {flow.seed}, {flow.router}, "
+    how = flow.router if flow.route else "placement alone (Fmax: nextpnr's estimate, not routed)"
+    atomic_write_text(out / "report.md", f"ECP5 {records[0]['device']}, seed {flow.seed}, {how}, "
                       "`bumpmap fpga`; one result per clock.\n\n" + table + "\n")
     print(table)
     print(f"\n(written to {out / 'report.json'} and {out / 'report.md'})")
     if args.placement_record and not args.synth_only:
-        from .record import command_line, write
-        keep = ("unit", "preset", "scene", "textures", "device", "mode", "target_mhz", "fmax_mhz", "met", "LUT4",
+        from .record import write
+        keep = ("unit", "preset", "scene", "textures", "device", "mode", "target_mhz", "fmax_mhz", "met", "routed",
+                "LUT4",
                 "FF", "DSP", "BRAM", "DRAM", "critical_path", "error")
-        write(args.placement_record, command_line("bumpmap fpga"),
+        write(args.placement_record, getattr(args, "command_line", "bumpmap fpga"),
               {"flow": asdict(flow), "tools": tool_versions(),
                "designs": [{k: r[k] for k in keep if k in r} for r in records]})
         print(f"(placement recorded in {args.placement_record})")

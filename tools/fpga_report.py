@@ -13,7 +13,8 @@ from pathlib import Path
 
 from board.timing import register_name
 
-__all__ = ["parse_results", "critical_path_summary", "describe_path", "route_seconds", "markdown_table",
+__all__ = ["parse_results", "parse_run", "placement_fmax", "critical_path_summary", "describe_path", "route_seconds",
+           "markdown_table",
            "params_digest", "design_key", "compare_routers", "KNOWN_DIFFERENCES"]
 
 #: Why a design's synthesized count differs from the estimate, by :func:`design_key`; written into the record
@@ -72,6 +73,31 @@ def parse_results(report: dict, stat: dict | None = None) -> dict:
             "DSP": util.get("MULT18X18D", 0), "BRAM": util.get("DP16KD", 0), "DRAM": util.get("TRELLIS_RAMW", 0),
             "IO": util.get("TRELLIS_IO", 0), "fmax_mhz": fmax_mhz, "clock": clock,
             "critical_path": critical_path_summary(report, clock), "yosys": cells}
+
+
+def placement_fmax(log: str) -> dict:
+    """``{"fmax_mhz", "clock"}`` from the last of nextpnr's ``Max frequency for clock`` summaries in its log (the
+    slowest clock), or ``{}`` without one. For a run placed alone (``--no-route``): its ``--report`` JSON then
+    holds no Fmax, and the log's summary after placement is nextpnr's estimate."""
+    last = {}                                   # each clock's last summary (after placement, or after routing)
+    for m in re.finditer(r"Max frequency for clock\s+'([^']+)': ([\d.]+) MHz", log):
+        last[m.group(1)] = float(m.group(2))
+    if not last:
+        return {}
+    clock = min(last, key=last.get)
+    return {"fmax_mhz": round(last[clock], 2), "clock": clock}
+
+
+def parse_run(rdir: Path) -> dict:
+    """The results of a run folder's tool outputs (nextpnr's ``report.json`` and log, yosys' ``stat.json``): a run
+    placed alone has no Fmax in its report, and takes nextpnr's estimate after placement from its log."""
+    report = json.loads((rdir / "report.json").read_text())
+    stat = json.loads((rdir / "stat.json").read_text())
+    log = (rdir / "nextpnr.log").read_text(errors="replace")
+    res = parse_results(report, stat)
+    if res["fmax_mhz"] is None:
+        res.update(placement_fmax(log))
+    return {**res, "route_seconds": route_seconds(log)}
 
 
 def route_seconds(log: str) -> float | None:

@@ -3,25 +3,33 @@
 over the UART as the protocol's frames (``host/protocol.py``, ``docs/protocol.md``): the four texel memories,
 FRAME_START, the triangles, SWAP; with ``--animate`` the frames of the scene's animation (``[animation]``,
 ``host/scene_animation.py``) in turn, each after the first with its reflectance cubes again when the lights move.
-Each frame waits for the board's answer; an error byte stops the send (exit 1)
-after a CLEAR, naming the error. ``--dry-run FILE`` writes the bytes instead (the co-simulation's input).
+Each frame waits for the board's answer; an error byte stops the send (exit 1) after a CLEAR, naming the error.
+After each SWAP it asks STATUS until the picture is shown and fails (exit 1) when one of the board's sticky flags
+rose meanwhile (a lost record, an upload's word not written, a fragment outside the tile, a depth saturated, the
+frame store's error): the picture on the monitor is then not the scene's. Flags set before the run (they stay until
+the board is configured again) are named as a warning. ``--dry-run FILE`` writes the bytes instead (the
+co-simulation's input).
 """
 
 from __future__ import annotations
 
 import argparse
 import sys
+import time
 from pathlib import Path
 
 from board.frame import BOARD_PRESET, BOARD_SIZE
 from host.args import int_range
 from host.atomic import atomic_write_bytes
+from host.protocol import Err
 
 __all__ = ["add_arguments", "run", "scene_bytes"]
 
-ERRORS = {1: "SYNC (a byte where a frame must start)", 2: "COMMAND (unknown command code)",
-          3: "LENGTH (a length outside the command's range)", 4: "CRC (the frame's checksum did not match)",
-          5: "FRAMING (the UART saw no stop bit)"}
+ERRORS = {Err.SYNC: "SYNC (a byte where a frame must start)", Err.COMMAND: "COMMAND (unknown command code)",
+          Err.LENGTH: "LENGTH (a length outside the command's range)",
+          Err.CRC: "CRC (the frame's checksum did not match)", Err.FRAMING: "FRAMING (the UART saw no stop bit)",
+          Err.SIZE: "SIZE (FRAME_START's width and height are not the board's tile: give --size the bitstream's)",
+          Err.BUSY: "BUSY (an upload while a frame is drawn)"}
 
 
 def add_arguments(ap: argparse.ArgumentParser) -> None:
@@ -36,6 +44,8 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
     ap.add_argument("--baud", type=int_range(300, 12_000_000), default=1_000_000,
                     help="the board's rate (default %(default)s: board/ulx3s.py)")
     ap.add_argument("--timeout", type=float, default=1.0, help="seconds to wait for each answer")
+    ap.add_argument("--shown-wait", type=float, default=2.0,
+                    help="seconds to wait after SWAP for the picture to be shown (STATUS not busy)")
     ap.add_argument("--dry-run", type=Path, metavar="FILE", help="write the bytes to FILE instead of a port")
     ap.add_argument("--animate", action="store_true",
                     help="send the frames of the scene's [animation] in turn (default: its first frame)")
@@ -53,7 +63,8 @@ def scene_bytes(args) -> list[bytes]:
     for k, s in enumerate(animation_frames(scene) if getattr(args, "animate", False) else [scene]):
         frame = prepare(s, size=args.size, preset=args.preset, cube_size=args.cube_size)
         tframe = from_triangles(frame)
-        sent = scene_frames(frame.params, tframe.params.raster.record, tframe.records.matrix())
+        sent = scene_frames(frame.params, tframe.params.raster.record, tframe.records.matrix(),
+                            (frame.scene.width, frame.scene.height))
         if k and (scene.animation is None or scene.animation.light_turn == 0):
             sent = [f for f in sent if f[1] not in (Cmd.TEXTURE, Cmd.CUBE)]
         elif k:                                         # the maps stay; the cubes follow the lights
@@ -62,8 +73,41 @@ def scene_bytes(args) -> list[bytes]:
     return out
 
 
+def _ask(port) -> int | None:
+    """The board's answer to STATUS (``None``: no answer within the port's timeout)."""
+    from host.protocol import Cmd, frame
+    port.write(frame(Cmd.STATUS))
+    answer = port.read(1)
+    return answer[0] if answer else None
+
+
+def _shown(port, before: set, k: int, wait: float) -> str | None:
+    """After the SWAP frame ``k``: ask STATUS until the picture is shown (``busy`` clear, at most ``wait``
+    seconds); ``None`` if it is and no flag rose that was not in ``before``, else the error's line."""
+    from host.protocol import state_names
+    deadline = time.monotonic() + wait
+    while True:
+        answer = _ask(port)
+        if answer is None:
+            return f"no answer to STATUS after frame {k} within {port.timeout} s"
+        try:
+            names = state_names(answer)
+        except ValueError as exc:
+            return f"after frame {k}: {exc}"
+        if "busy" not in names:
+            break
+        if time.monotonic() > deadline:
+            return f"the picture of frame {k} (SWAP) was not shown within {wait} s: the board is still busy"
+        time.sleep(0.01)
+    new = [n for n in names if n not in before]
+    if new:
+        return (f"the board drew the picture of frame {k} (SWAP) with " + ", ".join(new)
+                + " (docs/protocol.md: the board's state)")
+    return None
+
+
 def _send(frames: list[bytes], args) -> int:
-    from host.protocol import ACK, CLEAR_FRAME
+    from host.protocol import ACK, CLEAR_FRAME, STATE_ANSWER, Cmd, state_names
     try:
         import serial
     except ModuleNotFoundError:
@@ -77,6 +121,18 @@ def _send(frames: list[bytes], args) -> int:
     with port:
         port.write(CLEAR_FRAME)                 # leave an error state a previous run may have left
         port.read(1)
+        answer = _ask(port)
+        if answer is None or answer & 0xC0 != STATE_ANSWER:
+            got = "nothing" if answer is None else f"{answer:#04x}"
+            print(f"error: the board did not answer STATUS with its state (got {got} within {args.timeout} s): is "
+                  f"it configured with a bitstream of this checkout (make bitstream), and is --port {args.port} its "
+                  f"UART?", file=sys.stderr)
+            return 1
+        before = set(state_names(answer)) - {"busy"}
+        if before:
+            print(f"warning: the board's sticky flags {', '.join(sorted(before))} were set before this run (since "
+                  f"it was configured): this run cannot see them rise again; load the bitstream again to clear them",
+                  file=sys.stderr)
         for k, data in enumerate(frames):
             port.write(data)
             answer = port.read(1)
@@ -88,6 +144,11 @@ def _send(frames: list[bytes], args) -> int:
                 print(f"error: the board refused frame {k}: {ERRORS.get(code, code)}; sent CLEAR", file=sys.stderr)
                 port.write(CLEAR_FRAME)
                 return 1
+            if data[1] == Cmd.SWAP:
+                err = _shown(port, before, k, args.shown_wait)
+                if err:
+                    print(f"error: {err}", file=sys.stderr)
+                    return 1
     return 0
 
 

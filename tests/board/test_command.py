@@ -1,10 +1,11 @@
 """The command parser's CRC logic (``board/command.py``) against :func:`host.protocol.crc16` in Amaranth's
-simulator (the parser as a whole: ``cosim/test_board_uart.py``)."""
+simulator, and its tile argument (the parser as a whole: ``cosim/test_board_uart.py``)."""
 
 from __future__ import annotations
 
 import random
 
+import pytest
 from amaranth import Module, Signal
 from amaranth.sim import Simulator
 
@@ -30,3 +31,11 @@ def test_crc_byte_step_matches_the_protocol():
     sim.add_testbench(bench)
     sim.run()
     assert got == [crc16(bytes([b]), c) for c, b in cases]
+
+
+def test_the_tile_a_frame_start_must_name_is_checked():
+    from board.command import check_tile
+    assert check_tile((128, 64)) == (128, 64) and check_tile(None) is None
+    for bad in ((0, 128), (128, 1 << 16), (128,), (128.0, 128), [128, 128]):
+        with pytest.raises(ValueError, match="tile="):
+            check_tile(bad)

@@ -7,7 +7,20 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from host.protocol import ACK, CLEAR_FRAME, LENGTHS, MAX_PAYLOAD, SYNC, Cmd, Err, crc16, frame, parse, upload_frames
+from host.protocol import (
+    ACK,
+    CLEAR_FRAME,
+    LENGTHS,
+    MAX_PAYLOAD,
+    SYNC,
+    Cmd,
+    Err,
+    crc16,
+    frame,
+    frame_start,
+    parse,
+    upload_frames,
+)
 
 
 def test_crc_check_value():
@@ -51,6 +64,28 @@ def test_lengths_are_checked_per_command():
     assert LENGTHS(8)[Cmd.TEXTURE] == (6, MAX_PAYLOAD)
 
 
+@given(st.integers(1, 0xFFFF), st.integers(1, 0xFFFF), st.integers(1, 0xFFFF), st.integers(1, 0xFFFF))
+def test_frame_start_is_refused_unless_it_names_the_tile(w, h, tw, th):
+    """FRAME_START carries its frame's width and height; a board drawing a ``tw x th`` tile accepts it only when
+    they are equal (else SIZE, the error state, no command), and a board without a tile accepts any."""
+    data = frame_start(w, h) + frame(Cmd.SWAP)
+    assert data[4:8] == w.to_bytes(2, "little") + h.to_bytes(2, "little")
+    res = parse(data, 8, (tw, th))
+    if (w, h) == (tw, th):
+        assert (res.commands, res.replies, res.error) == ([(Cmd.FRAME_START, data[4:8]), (Cmd.SWAP, b"")],
+                                                          [ACK, ACK], 0)
+    else:
+        assert (res.commands, res.replies, res.error) == ([], [0x80 | Err.SIZE], Err.SIZE)
+    assert parse(data, 8).commands == [(Cmd.FRAME_START, data[4:8]), (Cmd.SWAP, b"")]
+
+
+def test_frame_start_needs_its_size():
+    assert parse(frame(Cmd.FRAME_START), 8, (4, 4)).error == Err.LENGTH            # the old, empty FRAME_START
+    for w, h in ((0, 1), (1, 0x10000), (2.0, 2)):
+        with pytest.raises(ValueError, match="FRAME_START"):
+            frame_start(w, h)
+
+
 def test_uploads_are_chunked_with_their_first_word():
     frames = upload_frames(Cmd.TEXTURE, 1, range(10), 24, chunk=12)     # 4 words of 3 bytes a frame
     cmds = parse(b"".join(frames), 8).commands
@@ -59,3 +94,37 @@ def test_uploads_are_chunked_with_their_first_word():
     assert words == list(range(10)) and all(p[0] == 1 for _, p in cmds)
     with pytest.raises(ValueError, match="memory 2"):
         upload_frames(Cmd.CUBE, 2, [1], 8)
+
+
+@given(st.integers(0, (1 << 6) - 1))
+def test_status_is_answered_with_the_board_state(bits):
+    """STATUS's answer is ``STATE_ANSWER | state``: never ACK nor an error byte, and its bits name the state."""
+    from host.protocol import STATE_BITS, state_names
+    assert len(STATE_BITS) == 6 and sorted(STATE_BITS.values()) == list(range(6))
+    res = parse(frame(Cmd.STATUS) + frame(Cmd.SWAP), 8, board_state=bits)
+    answer = res.replies[0]
+    assert res.replies[1:] == [ACK] and answer != ACK and not answer & 0x80
+    assert state_names(answer) == [n for n, b in STATE_BITS.items() if bits >> b & 1]
+    with pytest.raises(ValueError, match="not an answer to STATUS"):
+        state_names(answer | 0x80)
+    with pytest.raises(ValueError, match="board_state"):
+        parse(b"", 8, board_state=1 << 6)
+
+
+@given(st.lists(st.sampled_from(["upload", "start", "swap", "clear", "status"]), max_size=12))
+def test_uploads_only_outside_a_frame(ops):
+    """An upload after FRAME_START, before SWAP or CLEAR ends the frame, is refused with BUSY (its words would
+    change the texels of the triangles being drawn); everywhere else it is taken."""
+    frames = {"upload": upload_frames(Cmd.CUBE, 0, [7], 27)[0], "start": frame_start(4, 4),
+              "swap": frame(Cmd.SWAP), "clear": CLEAR_FRAME, "status": frame(Cmd.STATUS)}
+    drawing, sent, refused = False, [], False
+    for o in ops:                                   # the stream up to the first upload the board must refuse
+        sent.append(o)
+        if o == "upload" and drawing:
+            refused = True
+            break
+        if o in ("start", "swap", "clear"):
+            drawing = o == "start"
+    res = parse(b"".join(frames[o] for o in sent), 8, (4, 4))
+    assert res.error == (Err.BUSY if refused else 0)
+    assert [c for c, _ in res.commands] == [frames[o][1] for o in sent[:len(sent) - refused]]

@@ -22,8 +22,9 @@ def test_a_still_scene_row_adds_up():
     clocks = int(tf.scan.clocks.sum())
     n = len(tf.records)
     assert row["frames"] == 1 and row["triangles"] == n and row["engine_clocks_per_frame_max"] == clocks
-    # SYNC, CMD, LEN (2), CRC (2) around each payload: FRAME_START and SWAP empty, a record per triangle
-    assert row["link_bytes_per_frame_max"] == 12 + n * (6 + record_bytes(tf.params.raster.record))
+    # SYNC, CMD, LEN (2), CRC (2) around each payload: FRAME_START's width and height, SWAP empty, a record per
+    # triangle
+    assert row["link_bytes_per_frame_max"] == 6 + 4 + 6 + n * (6 + record_bytes(tf.params.raster.record))
     display = PIXEL_HZ / VGA_640x480.frame_clocks
     shown = min(50e6 / clocks, 1_000_000 / 10 / row["link_bytes_per_frame_max"], display)
     assert row["shown_fps"] == round(shown, 1) and row["engine_fps"] == round(50e6 / clocks, 1)

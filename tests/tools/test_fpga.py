@@ -9,7 +9,7 @@ import json
 import pytest
 
 from fxmodel.core.unit import preset
-from tools import fpga
+from tools import fpga, fpga_report
 from tools.main import main as bumpmap
 
 
@@ -241,9 +241,36 @@ def test_router_is_a_flow_option_on_nextpnr_command_line_and_in_the_cache_key(tm
         fpga.Flow(router="router3")
 
 
+@pytest.mark.parametrize("route", [True, False])
+def test_placement_alone_is_a_flow_option_recorded_as_not_routed(tmp_path, monkeypatch, route):
+    """``--no-route``: nextpnr places only, the record says ``routed`` false (its Fmax is the placer's estimate from
+    nextpnr's log: its report then has none), and the run has a cache key of its own; routed runs keep the keys of
+    runs made before the option."""
+    commands = []
+
+    def fake_run(cmd, **kwargs):
+        commands.append(cmd)
+        cwd = kwargs.get("cwd")
+        if "nextpnr" in cmd[0]:
+            (cwd / "report.json").write_text(json.dumps(REPORT if route else {**REPORT, "fmax": {}}))
+            (cwd / "nextpnr.log").write_text("Info: Max frequency for clock 'a': 61.20 MHz (FAIL at 100.00 MHz)\n"
+                                             "Info: Max frequency for clock 'b': 58.71 MHz (FAIL at 100.00 MHz)\n")
+        else:
+            (cwd / "stat.json").write_text(json.dumps(STAT))
+        return type("Done", (), {"returncode": 0})()
+
+    monkeypatch.setattr(fpga.subprocess, "run", fake_run)
+    rec = fpga.measure(preset("recip", "small"), build=tmp_path, flow=fpga.Flow(route=route))
+    assert ("--no-route" in commands[-1]) == (not route)
+    # routed: the report's Fmax; placed alone, the report has none, and the log's estimate of the slowest clock
+    assert rec["routed"] is route and rec["fmax_mhz"] == (143.25 if route else 58.71)
+    assert ("route" in fpga.Flow(route=route).settings()) == (not route)
+
+
 def test_route_seconds_add_every_router_pass_of_the_log():
     log = "Info: Router2 time 98.03s\nInfo: Running router1 to check that route is legal...\nInfo: Router1 time 0.92s\n"
-    assert fpga.route_seconds(log) == 98.95 and fpga.route_seconds("Info: Program finished normally.") is None
+    assert fpga_report.route_seconds(log) == 98.95
+    assert fpga_report.route_seconds("Info: Program finished normally.") is None
 
 
 def test_router_table_joins_the_runs_of_both_routers(tmp_path, capsys):
@@ -266,3 +293,17 @@ def test_router_table_joins_the_runs_of_both_routers(tmp_path, capsys):
     assert len(rows) == 4
     assert bumpmap(["fpga", "--compare", str(tmp_path / "none")]) == 2
     assert "none/report.json: no report" in capsys.readouterr().err
+
+
+def test_the_placement_page_says_when_a_design_was_not_routed(tmp_path, monkeypatch):
+    from tools import docs_records, record
+    monkeypatch.setattr(docs_records, "DOCS", tmp_path)
+    design = {"unit": "engine", "preset": "default", "target_mhz": 100.0, "fmax_mhz": 61.5, "met": False,
+              "LUT4": 1, "FF": 1, "DSP": 1, "BRAM": 1}
+    for routed, words in ((False, ("not routed", "estimate below", "placement alone")), (True, ("(routed)", "**no**"))):
+        flow = {"router": "router2", "route": routed, "seed": 1}
+        record.write(tmp_path / "fpga" / "p.json", "bumpmap fpga", {"flow": flow, "designs": [{**design,
+                                                                                              "routed": routed}]})
+        page = docs_records.fpga_placement("p")
+        assert all(w in page for w in words), page
+        assert ("not routed" in page) != routed

@@ -28,7 +28,7 @@ def test_dry_run_bytes_are_the_scene_setup(tmp_path, capsys):
     frame = prepare(scene_path("tin-plane"), size=BOARD_SIZE, preset=BOARD_PRESET)   # send's defaults: the board's
     tframe = from_triangles(frame)
     ports = tframe.params.raster.record
-    parsed = parse(out.read_bytes(), record_bytes(ports))
+    parsed = parse(out.read_bytes(), record_bytes(ports), (BOARD_SIZE, BOARD_SIZE))     # a board of BOARD_SIZE
     assert parsed.error == 0 and "tin-plane" in capsys.readouterr().out
     cmds = [c for c, _ in parsed.commands]
     n = len(tframe.records)
@@ -49,3 +49,83 @@ def test_bad_arguments_exit_2(tmp_path, capsys):
     assert "--port" in capsys.readouterr().err
     assert main(["send", "--scene", "no-such-scene", "--dry-run", str(tmp_path / "x")]) == 2
     assert "no-such-scene" in capsys.readouterr().err
+
+
+def test_another_size_is_refused_by_a_board_of_the_default_tile(tmp_path):
+    """``--size`` other than the bitstream's: the board (its reference parser, a BOARD_SIZE tile) refuses the
+    FRAME_START with SIZE instead of drawing the triangles set up for another frame cut off at its tile's edge."""
+    from board.frame import BOARD_PRESET, BOARD_SIZE
+    out = tmp_path / "big.bin"
+    assert main(["send", "--size", str(2 * BOARD_SIZE), "--dry-run", str(out)]) == 0
+    tframe = from_triangles(prepare(scene_path("tin-plane"), size=2 * BOARD_SIZE, preset=BOARD_PRESET))
+    parsed = parse(out.read_bytes(), record_bytes(tframe.params.raster.record), (BOARD_SIZE, BOARD_SIZE))
+    from host.protocol import Err
+    assert parsed.error == Err.SIZE and Cmd.FRAME_START not in [c for c, _ in parsed.commands]
+    assert Cmd.TRIANGLE not in [c for c, _ in parsed.commands]      # every frame after it ignored, no CLEAR sent
+
+
+class _Board:
+    """A board behind a serial port: every byte written so far goes through :func:`host.protocol.parse` (the
+    reference the board's RTL is checked against), whose answers are read one by one; each STATUS answer carries
+    the next of ``states`` (the last one repeated)."""
+
+    def __init__(self, record_len: int, tile: tuple[int, int], states: list[int]):
+        self.record_len, self.tile, self.states = record_len, tile, list(states)
+        self.written, self.answered, self.timeout, self.asked = bytearray(), 0, 0.01, 0
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        return False
+
+    def write(self, data: bytes) -> None:
+        self.written += data
+
+    def read(self, n: int) -> bytes:
+        from host.protocol import STATE_ANSWER
+        replies = parse(bytes(self.written), self.record_len, self.tile).replies
+        if self.answered >= len(replies):
+            return b""
+        r = replies[self.answered]
+        self.answered += 1
+        if r == STATE_ANSWER:
+            self.asked += 1
+            r |= self.states.pop(0) if len(self.states) > 1 else self.states[0]
+        return bytes([r])
+
+
+def _send_to(monkeypatch, capsys, states: list[int], *extra: str):
+    import serial
+
+    from board.frame import BOARD_PRESET
+    from host.protocol import STATE_BITS
+    size = 16
+    ports = from_triangles(prepare(scene_path("tin-plane"), size=size, preset=BOARD_PRESET)).params.raster.record
+    board = _Board(record_bytes(ports), (size, size), [sum(1 << STATE_BITS[n] for n in s) for s in states])
+    monkeypatch.setattr(serial, "Serial", lambda *a, **k: board)
+    rc = main(["send", "--port", "fake", "--size", str(size), *extra])
+    return rc, board, capsys.readouterr().err
+
+
+def test_send_waits_for_the_picture_and_checks_the_board_flags(monkeypatch, capsys):
+    """After SWAP, ``send`` asks STATUS until the board is no longer busy and fails when a flag rose during the
+    picture (a fake board: the reference parser's answers); flags set before the run are a warning."""
+    rc, board, err = _send_to(monkeypatch, capsys, [[], ["busy"], ["busy"], []])
+    assert (rc, board.asked, err) == (0, 4, "")                     # before the run, then three polls
+    rc, board, err = _send_to(monkeypatch, capsys, [[], ["busy"], ["outside", "overrun"]])
+    assert rc == 1 and "with overrun, outside" in err
+    rc, board, err = _send_to(monkeypatch, capsys, [["upload_bad"]])
+    assert rc == 0 and "warning" in err and "upload_bad" in err     # set before: cannot be seen rising again
+    rc, board, err = _send_to(monkeypatch, capsys, [[], ["busy"]], "--shown-wait", "0.05")
+    assert rc == 1 and "not shown" in err
+
+
+def test_send_stops_when_the_board_does_not_answer_status(monkeypatch, capsys):
+    """A board configured with an older bitstream answers STATUS with ACK, not its state: send stops before
+    sending anything, naming what it got."""
+    rc, board, err = _send_to(monkeypatch, capsys, [[]])
+    assert rc == 0
+    monkeypatch.setattr(_Board, "read", lambda self, n: b"\x00")
+    rc, board, err = _send_to(monkeypatch, capsys, [[]])
+    assert rc == 1 and "got 0x00" in err and b"\xa5\x02" not in board.written    # no upload sent

@@ -228,13 +228,24 @@ TMG_RIPUP = "--tmg-ripup"
 SEED = 3
 
 
+#: nextpnr's target for the engine's clock, as a fraction above the PLL's (``bumpmap bitstream --engine-margin``,
+#: a trial knob): an LPF ``FREQUENCY NET`` constraint on ``engine_clk`` overrides the one nextpnr derives from the
+#: PLL; the report judges every clock against the PLL's own frequency (``target_mhz``; nextpnr's is
+#: ``constraint_mhz``). Why it was tried: at 500/5 and seed 3 router2 stopped with no failing path by its own count
+#: and nextpnr's final analysis then found the engine a few hundredths of a nanosecond short
+#: (``docs/board/engine-misses.json``). With a 1 % margin the placement was the same and the route ended further
+#: short (the figures are in the commit message that set this to 0), so the board's builds aim at the PLL's
+#: frequency itself.
+ENGINE_MARGIN = 0.0
+
+
 #: The hierarchy above the engine's units, left out of the units :func:`build` names with ``misses``.
 UNIT_PREFIXES = ("system.engine.pipeline.core.unit.", "system.engine.", "system.")
 
 
 def build(out: Path, engine=None, router: str = ROUTERS[0], frame: str = "chip", seed: int | None = SEED,
           engine_div: int = PLL["CLKOS2_DIV"], misses: bool = False, tmg_ripup: bool = True,
-          placer: str = PLACERS[0]) -> dict:
+          placer: str = PLACERS[0], engine_margin: float = ENGINE_MARGIN) -> dict:
     """The bitstream ``out/top.bit`` of ``Top(engine, engine_div=engine_div)`` through the open flow (YoWASP tools
     unless ``YOSYS``, ``NEXTPNR_ECP5``, ``ECPPACK`` name others) with nextpnr's ``router`` (and placer ``seed``);
     returns :func:`report` with the flow's seconds. A clock below its target is reported (``all_met`` false), not
@@ -252,11 +263,21 @@ def build(out: Path, engine=None, router: str = ROUTERS[0], frame: str = "chip",
     if misses:
         opts += f" --report {timing} --detailed-timing-report"
     top = Top(engine, frame=frame, engine_div=engine_div)
+    engine_mhz = _VCO_HZ / engine_div / 1e6
+    lpf = {}
+    if engine is not None and engine_margin:
+        lpf["add_preferences"] = f'FREQUENCY NET "engine_clk" {engine_mhz * (1 + engine_margin) * 1e6:.0f} HZ;'
     _platform().build(top, name="top", build_dir=str(out), do_program=False, script_after_read=KEEP_COPIES,
-                      nextpnr_opts=opts)
+                      nextpnr_opts=opts, **lpf)
     rec = report((out / "top.tim").read_text())
+    for name, clock in rec["clocks"].items():                  # judged against the PLL's frequency (ENGINE_MARGIN)
+        if "engine_clk" in name and engine is not None:
+            clock.update(constraint_mhz=clock["target_mhz"], target_mhz=round(engine_mhz, 2),
+                         met=clock["fmax_mhz"] >= round(engine_mhz, 2))
+    rec["all_met"] = bool(rec["clocks"]) and all(v["met"] for v in rec["clocks"].values())
     rec.update(router=router, tmg_ripup=tmg_ripup, seconds=round(time.perf_counter() - t0, 1),
-               bitstream=str(out / "top.bit"), engine_div=engine_div)
+               bitstream=str(out / "top.bit"), engine_div=engine_div,
+               **({"engine_margin": engine_margin} if engine is not None else {}))
     if seed is not None:
         rec["seed"] = seed
     if placer != PLACERS[0]:
@@ -288,6 +309,9 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
     ap.add_argument("--engine-div", type=int, default=PLL["CLKOS2_DIV"], metavar="N",
                     help=f"the PLL's engine divider for this build: the engine at {_VCO_HZ // 1_000_000}/N MHz, N in "
                          f"{ENGINE_DIVS[0]}..{ENGINE_DIVS[1]} (default %(default)s, board/top.py PLL)")
+    ap.add_argument("--engine-margin", type=float, default=ENGINE_MARGIN, metavar="F",
+                    help="nextpnr's target for the engine clock, a fraction F (0..0.2) above the PLL's (default "
+                         "%(default)s: board/top.py ENGINE_MARGIN); the report judges against the PLL's")
     ap.add_argument("--misses", action="store_true",
                     help="count every engine endpoint that misses its clock (nextpnr's per-net timing) in the report")
     ap.add_argument("--record", type=Path, metavar="PATH", help="also write the report there (docs/board/)")
@@ -311,8 +335,11 @@ def run(args: argparse.Namespace) -> int:
     except ValueError as exc:
         print(f"error: --engine-div ({exc})", file=sys.stderr)
         return 2
+    if not 0 <= args.engine_margin <= 0.2:
+        print(f"error: --engine-margin {args.engine_margin}: a fraction in 0..0.2", file=sys.stderr)
+        return 2
     rec = build(args.out, engine, args.router, args.frame, args.seed, args.engine_div, args.misses, args.tmg_ripup,
-                args.placer)
+                args.placer, args.engine_margin)
     rec = {"command": getattr(args, "command_line", "bumpmap bitstream"),
            "design": "test picture and link" if engine is None else
            f"engine ({args.scene}, preset {args.preset}, {args.size}x{args.size} tile), link, display"

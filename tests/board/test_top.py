@@ -114,6 +114,31 @@ def test_build_hands_router_and_seed_to_nextpnr(tmp_path, monkeypatch, seed, fla
     assert rec.get("seed") == seed and rec["router"] == "router1"
 
 
+@pytest.mark.parametrize("fmax, met", [(100.5, True), (99.71, False)])
+def test_the_engine_margin_aims_nextpnr_higher_and_the_report_judges_against_the_pll(tmp_path, monkeypatch, fmax,
+                                                                                      met):
+    """``engine_margin``: an LPF constraint on ``engine_clk`` above the PLL's frequency (nextpnr's target); the
+    record's ``target_mhz`` and ``met`` are the PLL's, nextpnr's target kept as ``constraint_mhz``."""
+    seen = {}
+    engine_tim = TIM + f"Info: Max frequency for clock '$glbnet$engine_clk': {fmax} MHz (FAIL at 101.00 MHz)\n"
+
+    class Platform:
+        def build(self, design, **kwargs):
+            seen.update(kwargs)
+            (tmp_path / "top.tim").write_text(engine_tim)
+
+    monkeypatch.setattr(top, "_platform", Platform)
+    monkeypatch.setattr(top, "Top", lambda engine, frame, engine_div: None)       # nothing to elaborate
+    rec = top.build(tmp_path, engine=object(), engine_div=5, engine_margin=0.01)
+    assert seen["add_preferences"] == 'FREQUENCY NET "engine_clk" 101000000 HZ;'
+    clock = rec["clocks"]["$glbnet$engine_clk"]
+    assert clock == {"fmax_mhz": fmax, "target_mhz": 100.0, "constraint_mhz": 101.0, "met": met}
+    assert rec["all_met"] == met and rec["engine_margin"] == 0.01
+    seen.clear()
+    top.build(tmp_path, engine=object(), engine_div=5, engine_margin=0)       # no margin: nextpnr's own target
+    assert "add_preferences" not in seen and "nextpnr_opts" in seen
+
+
 def _net(driver: str, arrivals: dict) -> dict:
     """A net of nextpnr's per-net timing report: its endpoints' ``{"cell.pin": arrival ns}`` in the engine clock."""
     ev = "posedge $glbnet$engine_clk"

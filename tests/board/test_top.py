@@ -96,17 +96,24 @@ def test_the_top_with_the_frame_in_sdram_prepares_with_litedrams_core_on_its_own
     assert len(counts) == 1 and Fraction(0.95) * trefi < Fraction(counts.pop(), hz) <= trefi
 
 
-@pytest.mark.parametrize("seed, flag", [(None, None), (7, "--seed 7")])
-def test_build_hands_router_and_seed_to_nextpnr(tmp_path, monkeypatch, seed, flag):
+def _stub_flow(monkeypatch, tmp_path, tim: str) -> dict:
+    """``board.top.build`` without the tools: the platform's build writes ``tim`` as nextpnr's log and keeps its
+    keyword arguments in the returned dict; ``Top`` builds nothing."""
     seen = {}
 
     class Platform:
         def build(self, design, **kwargs):
             seen.update(kwargs)
-            (tmp_path / "top.tim").write_text(TIM)
+            (tmp_path / "top.tim").write_text(tim)
 
     monkeypatch.setattr(top, "_platform", Platform)
     monkeypatch.setattr(top, "Top", lambda engine, frame, engine_div: None)       # nothing to elaborate
+    return seen
+
+
+@pytest.mark.parametrize("seed, flag", [(None, None), (7, "--seed 7")])
+def test_build_hands_router_and_seed_to_nextpnr(tmp_path, monkeypatch, seed, flag):
+    seen = _stub_flow(monkeypatch, tmp_path, TIM)
     rec = top.build(tmp_path, router="router1", seed=seed)
     opts = seen["nextpnr_opts"]
     assert "--router router1" in opts and "--timing-allow-fail" in opts
@@ -119,16 +126,8 @@ def test_the_engine_margin_aims_nextpnr_higher_and_the_report_judges_against_the
                                                                                       met):
     """``engine_margin``: an LPF constraint on ``engine_clk`` above the PLL's frequency (nextpnr's target); the
     record's ``target_mhz`` and ``met`` are the PLL's, nextpnr's target kept as ``constraint_mhz``."""
-    seen = {}
     engine_tim = TIM + f"Info: Max frequency for clock '$glbnet$engine_clk': {fmax} MHz (FAIL at 101.00 MHz)\n"
-
-    class Platform:
-        def build(self, design, **kwargs):
-            seen.update(kwargs)
-            (tmp_path / "top.tim").write_text(engine_tim)
-
-    monkeypatch.setattr(top, "_platform", Platform)
-    monkeypatch.setattr(top, "Top", lambda engine, frame, engine_div: None)       # nothing to elaborate
+    seen = _stub_flow(monkeypatch, tmp_path, engine_tim)
     rec = top.build(tmp_path, engine=object(), engine_div=5, engine_margin=0.01)
     assert seen["add_preferences"] == 'FREQUENCY NET "engine_clk" 101000000 HZ;'
     clock = rec["clocks"]["$glbnet$engine_clk"]

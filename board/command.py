@@ -20,7 +20,7 @@ from amaranth import Cat, Module, Mux, Signal
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
-from host.protocol import ACK, CLEAR_FRAME, LENGTHS, STATE_ANSWER, STATE_BITS, SYNC, Cmd, Err, crc16
+from host.protocol import ACK, CLEAR_FRAME, LENGTHS, MEMORIES, STATE_ANSWER, STATE_BITS, SYNC, Cmd, Err, crc16
 
 __all__ = ["CommandParser", "CommandLink", "check_tile", "crc16_byte"]
 
@@ -79,8 +79,9 @@ class CommandParser(wiring.Component):
         window = Signal(8 * len(CLEAR_FRAME))
         clear = int.from_bytes(CLEAR_FRAME, "little")          # the newest byte in the high bits
         m.d.sync += [self.data_valid.eq(0), self.done.eq(0), self.reply_valid.eq(0)]
-        known = Signal()
-        m.d.comb += known.eq(sum((b == c) for c in self.lengths) != 0)
+        known, upload = Signal(), Signal()
+        m.d.comb += [known.eq(sum((b == c) for c in self.lengths) != 0),
+                     upload.eq(sum((b == c) for c in MEMORIES) != 0)]          # TEXTURE, CUBE
         length = Cat(self.length[:8], b)                          # the length once its high byte arrives
         in_range = Signal()
         m.d.comb += in_range.eq(sum((self.cmd == c) & (length >= lo) & (length <= hi)
@@ -113,8 +114,7 @@ class CommandParser(wiring.Component):
                             m.d.sync += self.cmd.eq(b)
                             with m.If(~known):
                                 fail(Err.COMMAND)
-                            with m.Elif(((b == Cmd.TEXTURE) | (b == Cmd.CUBE))
-                                        & (drawing | self.state[STATE_BITS["busy"]])):
+                            with m.Elif(upload & (drawing | self.state[STATE_BITS["busy"]])):
                                 fail(Err.BUSY)
                             with m.Else():
                                 m.next = nxt

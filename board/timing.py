@@ -1,13 +1,25 @@
-"""Reading nextpnr's timing reports: the RTL register behind a packed cell (:func:`register_name`, also
-``bumpmap fpga``'s critical paths) and every endpoint of a clock that misses its period (:func:`timing_misses`,
-``bumpmap bitstream --misses``). Pure functions, tested on canned reports (``tests/board/test_top.py``).
+"""Reading nextpnr's timing reports: each clock's Fmax from its log (:func:`clock_fmax`, ``bumpmap bitstream``'s
+report and ``bumpmap fpga --no-route``'s estimate), the RTL register behind a packed cell (:func:`register_name`,
+also ``bumpmap fpga``'s critical paths) and every endpoint of a clock that misses its period
+(:func:`timing_misses`, ``bumpmap bitstream --misses``). Pure functions, tested on canned reports
+(``tests/board/test_top.py``).
 """
 
 from __future__ import annotations
 
 import re
 
-__all__ = ["register_name", "timing_misses"]
+__all__ = ["clock_fmax", "register_name", "timing_misses"]
+
+
+def clock_fmax(log: str) -> dict:
+    """``{clock: {"fmax_mhz", "target_mhz", "met"}}`` from nextpnr's log: each clock's last ``Max frequency for
+    clock`` summary (after routing, or after placement when nextpnr did not route)."""
+    out = {}
+    for name, mhz, target in re.findall(r"Max frequency for clock\s+'([^']+)': ([\d.]+) MHz \((?:PASS|FAIL) at "
+                                        r"([\d.]+) MHz\)", log):
+        out[name] = {"fmax_mhz": float(mhz), "target_mhz": float(target), "met": float(mhz) >= float(target)}
+    return out
 
 _CELL_SUFFIX = re.compile(r"(_TRELLIS_|_MULT18X18D|_DP16KD|_LUT4|_CCU2C|_PFUMX|_L6MUX21|\$).*$")
 

@@ -174,10 +174,8 @@ def _platform():
 
 def report(tim: str) -> dict:
     """Fmax per clock (the last of nextpnr's reports: after routing) and the resources from nextpnr's log."""
-    fmax = {}
-    for name, mhz, target in re.findall(r"Max frequency for clock\s+'([^']+)': ([\d.]+) MHz \((?:PASS|FAIL) at "
-                                        r"([\d.]+) MHz\)", tim):
-        fmax[name] = {"fmax_mhz": float(mhz), "target_mhz": float(target), "met": float(mhz) >= float(target)}
+    from .timing import clock_fmax
+    fmax = clock_fmax(tim)
     res = {k: [int(a), int(b)] for k, a, b in re.findall(r"Info: \s+(\w+):\s+(\d+)/\s*(\d+)", tim)}
     return {"clocks": fmax, "resources": res, "all_met": bool(fmax) and all(v["met"] for v in fmax.values()),
             "critical_paths": critical_paths(tim)}

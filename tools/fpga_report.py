@@ -11,7 +11,7 @@ import json
 import re
 from pathlib import Path
 
-from board.timing import register_name
+from board.timing import clock_fmax, register_name
 
 __all__ = ["parse_results", "parse_run", "placement_fmax", "critical_path_summary", "describe_path", "route_seconds",
            "markdown_table",
@@ -79,13 +79,11 @@ def placement_fmax(log: str) -> dict:
     """``{"fmax_mhz", "clock"}`` from the last of nextpnr's ``Max frequency for clock`` summaries in its log (the
     slowest clock), or ``{}`` without one. For a run placed alone (``--no-route``): its ``--report`` JSON then
     holds no Fmax, and the log's summary after placement is nextpnr's estimate."""
-    last = {}                                   # each clock's last summary (after placement, or after routing)
-    for m in re.finditer(r"Max frequency for clock\s+'([^']+)': ([\d.]+) MHz", log):
-        last[m.group(1)] = float(m.group(2))
-    if not last:
+    clocks = clock_fmax(log)
+    if not clocks:
         return {}
-    clock = min(last, key=last.get)
-    return {"fmax_mhz": round(last[clock], 2), "clock": clock}
+    clock = min(clocks, key=lambda c: clocks[c]["fmax_mhz"])
+    return {"fmax_mhz": round(clocks[clock]["fmax_mhz"], 2), "clock": clock}
 
 
 def parse_run(rdir: Path) -> dict:

@@ -107,7 +107,7 @@ def _shown(port, before: set, k: int, wait: float) -> str | None:
 
 
 def _send(frames: list[bytes], args) -> int:
-    from host.protocol import ACK, CLEAR_FRAME, STATE_ANSWER, Cmd, state_names
+    from host.protocol import ACK, CLEAR_FRAME, Cmd, state_names
     try:
         import serial
     except ModuleNotFoundError:
@@ -122,13 +122,16 @@ def _send(frames: list[bytes], args) -> int:
         port.write(CLEAR_FRAME)                 # leave an error state a previous run may have left
         port.read(1)
         answer = _ask(port)
-        if answer is None or answer & 0xC0 != STATE_ANSWER:
+        try:
+            before = None if answer is None else set(state_names(answer)) - {"busy"}
+        except ValueError:                      # not a STATUS answer: an older bitstream answers ACK
+            before = None
+        if before is None:
             got = "nothing" if answer is None else f"{answer:#04x}"
             print(f"error: the board did not answer STATUS with its state (got {got} within {args.timeout} s): is "
                   f"it configured with a bitstream of this checkout (make bitstream), and is --port {args.port} its "
                   f"UART?", file=sys.stderr)
             return 1
-        before = set(state_names(answer)) - {"busy"}
         if before:
             print(f"warning: the board's sticky flags {', '.join(sorted(before))} were set before this run (since "
                   f"it was configured): this run cannot see them rise again; load the bitstream again to clear them",

@@ -150,7 +150,8 @@ class Rop(wiring.Component):
         Out(``word_bits``): the word of the address given ``readout_latency`` cycles earlier
     busy : Out(1) -- a fragment accepted and not yet finished (its write not acknowledged, or it failed)
     status : Out(3) -- sticky: bit 0 a fragment outside the frame was dropped, bit 1 a depth saturated (the
-        narrowing to ``z_fmt``), bit 2 an AXI error response (``fxmodel.units.rop.STATUS_BITS``)
+        narrowing to ``z_fmt``), bit 2 an AXI error response (``fxmodel.units.rop.STATUS_BITS``); on chip,
+        a read-out that clears the frame (``fb.read`` and ``fb.clear``) clears them too: they are the frame's
     """
 
     def __init__(self, params: RopParams):
@@ -239,7 +240,7 @@ class Rop(wiring.Component):
             m.d.sync += [w_en.eq(c_valid & (c_z > stored)), w_z.eq(c_z), w_color.eq(c_color),
                          w_index.eq(c_index)]
         m.d.comb += self.busy.eq(Cat(a_valid, *(st[0] for st in rd[1:]), c_valid, w_en, h1_en).any())
-        self._sticky(m, take & ~inside, take & inside & zsat, Const(0))
+        self._sticky(m, take & ~inside, take & inside & zsat, Const(0), self.fb.read & self.fb.clear)
         return m
 
     def _frame(self, m, clear: int, raddr, w_en, w_index, wdata):
@@ -265,11 +266,15 @@ class Rop(wiring.Component):
             words.append(word)
         return Cat(*words)
 
-    def _sticky(self, m, outside, zsat, bus_error):
+    def _sticky(self, m, outside, zsat, bus_error, clear=Const(0)):
+        """``status``: each flag set when its condition is, kept until ``clear`` (on chip: a read-out that clears
+        the frame, during which no fragment is accepted, so no flag of a fragment is lost)."""
         bits = [None] * len(STATUS_BITS)
         bits[STATUS_BITS["outside"]], bits[STATUS_BITS["z_saturated"]] = outside, zsat
         bits[STATUS_BITS["bus_error"]] = bus_error
-        with m.If(Cat(*bits).any()):
+        with m.If(clear):
+            m.d.sync += self.status.eq(0)
+        with m.Elif(Cat(*bits).any()):
             m.d.sync += self.status.eq(self.status | Cat(*bits))
 
     # -- behind the AXI4 port -----------------------------------------------------------------------------

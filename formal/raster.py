@@ -87,8 +87,8 @@ def raster_props(h: Harness, P: RasterParams, dut, frag, pre: str):
     h.check(~out.w_en | out.w_rdy, "out_no_overflow")        # the write is not gated (``CreditFIFO``): never full
     h.check(~out.overflow, "out_no_overflow_flag")
     # the control copies agree with copy 0
-    for stem in ("in_valid", "gen_valid", "rows_in_flight", "room", "last_row", "busy", "nonempty", "px_left", "last_px",
-                 "out_used", "advance", "row_count", "has_row"):
+    for stem in ("in_valid", "gen_valid", "rows_in_flight", "room", "last_row", "busy", "nonempty", "px_left",
+                 "last_px", "out_used", "advance", "row_count", "has_row"):
         copies = _copies(top, stem)
         for k, c in enumerate(copies[1:], 1):
             h.check(c == copies[0], f"copy_{stem}_{k}")

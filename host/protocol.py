@@ -19,8 +19,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["SYNC", "ACK", "STATE_ANSWER", "STATE_BITS", "FRAME_FLAGS", "state_names", "Cmd", "Err", "LENGTHS", "MAX_PAYLOAD", "crc16",
-           "frame", "CLEAR_FRAME", "record_bytes",
+__all__ = ["SYNC", "ACK", "STATE_ANSWER", "STATE_BITS", "FRAME_FLAGS", "state_names", "Cmd", "Err", "LENGTHS",
+           "MAX_PAYLOAD", "crc16", "frame", "CLEAR_FRAME", "record_bytes",
            "triangle_frames", "upload_frames", "frame_start", "scene_frames", "Parsed", "parse", "MEMORIES"]
 
 SYNC = 0xA5

@@ -200,7 +200,6 @@ class Raster(wiring.Component):
         pipeline: the registers, ``issue`` (a row leaves this clock), the row FIFO ``fifo`` and ``takes`` (the
         Pixel Calculator takes a row from it)."""
         P = self.params
-        rec = self.i.payload
         ef = P.edge_fmts
         pf = P.pixel_fmt
         acc_w = {n: P.acc_fmt(n).width for n in P.names}

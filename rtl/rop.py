@@ -266,13 +266,13 @@ class Rop(wiring.Component):
             words.append(word)
         return Cat(*words)
 
-    def _sticky(self, m, outside, zsat, bus_error, clear=Const(0)):
+    def _sticky(self, m, outside, zsat, bus_error, clear=None):
         """``status``: each flag set when its condition is, kept until ``clear`` (on chip: a read-out that clears
         the frame, during which no fragment is accepted, so no flag of a fragment is lost)."""
         bits = [None] * len(STATUS_BITS)
         bits[STATUS_BITS["outside"]], bits[STATUS_BITS["z_saturated"]] = outside, zsat
         bits[STATUS_BITS["bus_error"]] = bus_error
-        with m.If(clear):
+        with m.If(Const(0) if clear is None else clear):
             m.d.sync += self.status.eq(0)
         with m.Elif(Cat(*bits).any()):
             m.d.sync += self.status.eq(self.status | Cat(*bits))

@@ -66,8 +66,8 @@ def test_frame_start_clears_the_tile_and_swap_copies_it_in_rgb565(gaps):
     clears the tile; frame B, all farther than A (without the clear most of it would fail the depth test), drawn
     and copied into the other buffer. Each buffer equals the model's frame (``fxmodel.units.rop.draw``) of its
     fragments alone, through RGB565; the depth test's flags are the frame's (A's fragment outside the tile sets
-    ``outside``, the clear clears it, B leaves it clear). ``gaps``: ``room`` (the SDRAM copy's FIFO) falls at random, half the clocks:
-    every word is still written once, at its address."""
+    ``outside``, the clear clears it, B leaves it clear). ``gaps``: ``room`` (the SDRAM copy's FIFO) falls at
+    random, half the clocks: every word is still written once, at its address."""
     from amaranth import Module
     from amaranth.lib import memory, wiring
     from amaranth.sim import Simulator

@@ -5,13 +5,12 @@
 Structure (see the model's docstring for the arithmetic and its proof). Every pipeline stage holds at most one
 carry chain or one product (the house rule of the pixel pipeline); only the row step feeds back.
 
-- **Input**: the record is registered first, in copies (one per control copy, "Fan-out" below), each with its
-  own valid bit; a copy loads ``i.payload`` whenever it is free (empty, or its record taken this clock), so its
-  enable comes from the copy's own flip-flops, and ``i.valid`` reaches one flip-flop per copy. ``i.ready`` is
-  copy 0's "free": from registers only. Without it the source's valid register drove every copy's load enable
-  through the copy's logic, and that net, spread over the device, was the board's last failing path at 100 MHz
-  (``docs/board/engine-misses.json``). It costs one clock of fill latency and none of throughput: a record
-  enters the clock the one before it is taken.
+- **Input**: whenever the row generator can take a record (``ready``: no triangle loaded, or the last row of
+  the one loaded leaving this clock) its registers load ``i.payload``, whether or not ``i.valid`` offers one,
+  and ``gen_valid`` takes ``i.valid``: a record loaded without it is never issued. So the load enables come from
+  the control copy's own flip-flops, and ``i.valid`` reaches one flip-flop per copy. When the enables were
+  ``ready & i.valid``, the source's valid register drove every copy's enables through its logic, and that net,
+  spread over the device, was the board's last failing path at 100 MHz (``docs/board/engine-misses.json``).
 - **Row generator** (the loop-carried part of the Scan Line Initializer): the state of the next row, ``p_e``
   (kept as the bound ``v_e``: ``-p_e`` for a left edge, ``p_e`` for a right one), the Bresenham remainder
   ``r_e``, each attribute at ``(x0, y)``, ``y`` and the rows left. It issues one row per clock and steps:
@@ -200,6 +199,7 @@ class Raster(wiring.Component):
         pipeline: the registers, ``issue`` (a row leaves this clock), the row FIFO ``fifo`` and ``takes`` (the
         Pixel Calculator takes a row from it)."""
         P = self.params
+        rec = self.i.payload
         ef = P.edge_fmts
         pf = P.pixel_fmt
         acc_w = {n: P.acc_fmt(n).width for n in P.names}
@@ -222,78 +222,61 @@ class Raster(wiring.Component):
         m.submodules.rows = g.fifo = SyncFIFO(width=row_layout(P).size, depth=P.ROW_FIFO_DEPTH)
         g.takes = []                    # per control copy: the Pixel Calculator takes a row (``_pixel_calculator``)
 
-        # the registers in blocks: (bits, load statements from a record, step statements)
+        # the registers in blocks: (bits, load statements, step statements)
         blocks = [(_bits(g.k_x0, g.k_x1, g.k_w, g.s_y, s_rem, *g.k_c.values()),
-                   lambda rec: [g.k_x0.eq(rec.x0), g.k_x1.eq(rec.x1), g.k_w.eq(rec.x1 - rec.x0), g.s_y.eq(rec.y0),
-                                s_rem.eq(rec.rows), *(g.k_c[n].eq(rec[n]) for n in g.k_c)],
+                   [g.k_x0.eq(rec.x0), g.k_x1.eq(rec.x1), g.k_w.eq(rec.x1 - rec.x0), g.s_y.eq(rec.y0),
+                    s_rem.eq(rec.rows), *(g.k_c[n].eq(rec[n]) for n in g.k_c)],
                    [g.s_y.eq(g.s_y + 1), s_rem.eq(s_rem - 1)])]
         for e in range(3):
+            left = rec[f"e{e}_kind"] == EDGE_LEFT
+            p, q = rec[f"e{e}_p"], rec[f"e{e}_q"]
             t = Signal(signed(len(k_md[e]) + 1), name=f"rmd{e}")
             m.d.comb += t.eq(s_r[e] + k_md[e])
             carry = ~t[-1]                                               # r + m >= |a|
-
-            def load(rec, e=e):
-                left = rec[f"e{e}_kind"] == EDGE_LEFT
-                p, q = rec[f"e{e}_p"], rec[f"e{e}_q"]
-                return [g.k_kind[e].eq(rec[f"e{e}_kind"]), k_m[e].eq(rec[f"e{e}_m"]),
-                        k_md[e].eq(rec[f"e{e}_m"] - rec[f"e{e}_d"]), s_r[e].eq(rec[f"e{e}_r"]),
-                        g.s_v[e].eq(Mux(left, -p, p)), k_q[e].eq(Mux(left, -q, q)),
-                        k_q1[e].eq(Mux(left, ~q, q + 1))]
-            blocks.append((_bits(g.k_kind[e], k_m[e], k_md[e], s_r[e], g.s_v[e], k_q[e], k_q1[e]), load,
+            blocks.append((_bits(g.k_kind[e], k_m[e], k_md[e], s_r[e], g.s_v[e], k_q[e], k_q1[e]),
+                           [g.k_kind[e].eq(rec[f"e{e}_kind"]), k_m[e].eq(rec[f"e{e}_m"]),
+                            k_md[e].eq(rec[f"e{e}_m"] - rec[f"e{e}_d"]), s_r[e].eq(rec[f"e{e}_r"]),
+                            g.s_v[e].eq(Mux(left, -p, p)), k_q[e].eq(Mux(left, -q, q)),
+                            k_q1[e].eq(Mux(left, ~q, q + 1))],
                            [s_r[e].eq(Mux(carry, t, s_r[e] + k_m[e])),
                             g.s_v[e].eq(Mux(carry, g.s_v[e] + k_q1[e], g.s_v[e] + k_q[e]))]))
         for n in P.names:
             blocks.append((_bits(g.s_a[n], g.k_dx[n], k_dy[n]),
-                           lambda rec, n=n: [g.s_a[n].eq(rec[f"{n}_0"]), g.k_dx[n].eq(rec[f"{n}_dx"]),
-                                             k_dy[n].eq(rec[f"{n}_dy"])],
+                           [g.s_a[n].eq(rec[f"{n}_0"]), g.k_dx[n].eq(rec[f"{n}_dx"]), k_dy[n].eq(rec[f"{n}_dy"])],
                            [g.s_a[n].eq((g.s_a[n] + k_dy[n])[:acc_w[n]])]))
         g.issue = None
         for k, group in enumerate(_groups(blocks, P.ENABLE_FANOUT)):
             g.takes.append(Signal(name=f"take_row_{k}"))
-            inp = self._input_copy(m, k)
-            issue_k, accept_k = self._gen_control(m, k, inp, s_rem, g.takes[k])
+            issue_k, ready_k = self._gen_control(m, k, s_rem, g.takes[k])
             g.issue = issue_k if g.issue is None else g.issue
-            with m.If(accept_k):
-                m.d.sync += [st for _, load, _ in group for st in load(inp.rec)]
+            with m.If(ready_k):
+                m.d.sync += [st for _, load, _ in group for st in load]
             with m.Elif(issue_k):
                 m.d.sync += [st for _, _, step in group for st in step]
         return g
 
-    def _input_copy(self, m, k: int):
-        """Copy ``k`` of the input stage (module docstring, "Input"): the record register ``in_rec_{k}``, loaded
-        from ``i.payload`` whenever it is free (whatever ``i.valid`` says: its valid bit tells), and its valid bit
-        ``in_valid_{k}``. Returns them (``rec``, ``valid``) and ``free`` (``in_free_{k}``, which
-        :meth:`_gen_control` drives); copy 0's ``free`` is ``i.ready``."""
-        hold = Signal(record_layout(self.params), name=f"in_rec_{k}")
-        valid, free = Signal(name=f"in_valid_{k}"), Signal(name=f"in_free_{k}")
-        with m.If(free):
-            m.d.sync += [hold.eq(self.i.payload), valid.eq(self.i.valid)]
-        if k == 0:
-            m.d.comb += self.i.ready.eq(free)
-        return SimpleNamespace(rec=hold, valid=valid, free=free)
-
-    def _gen_control(self, m, k: int, inp, s_rem, take):
+    def _gen_control(self, m, k: int, s_rem, take):
         """Copy ``k`` of the generator's control (module docstring, "Fan-out"): whether a triangle is loaded,
         whether its next row is the last, the rows issued and not yet taken from the FIFO and whether the FIFO
-        has room for one more, all registered; the input stage's copy ``inp`` (:meth:`_input_copy`) is taken
-        when the generator is ready. Returns ``(issue, accept)``."""
-        depth = self.params.ROW_FIFO_DEPTH
+        has room for one more, all registered. Returns ``(issue, ready)``: ``ready``, the generator can take a
+        record, is the load enable of the copy's registers, whether or not one is offered ("Input" in the module
+        docstring)."""
+        rec, depth = self.i.payload, self.params.ROW_FIFO_DEPTH
         gv = Signal(name=f"gen_valid_{k}")
         inflight = Signal(range(depth + 1), name=f"rows_in_flight_{k}")
         room = Signal(name=f"room_{k}", init=1)                     # inflight != depth
         last = Signal(name=f"last_row_{k}")                         # s_rem == 0
-        issue, ready, accept = Signal(name=f"issue_{k}"), Signal(name=f"ready_{k}"), Signal(name=f"accept_{k}")
-        m.d.comb += [issue.eq(gv & room), ready.eq(~gv | (issue & last)), accept.eq(ready & inp.valid),
-                     inp.free.eq(~inp.valid | ready)]
+        issue, ready = Signal(name=f"issue_{k}"), Signal(name=f"ready_{k}")
+        m.d.comb += [issue.eq(gv & room), ready.eq(~gv | (issue & last))]
         m.d.sync += [inflight.eq(less_one_if(take, inflight + issue)),          # ``take``: from the Pixel Calculator
                      room.eq(less_one_if(take, inflight + issue, lambda v: v != depth))]
-        with m.If(accept):
-            m.d.sync += [gv.eq(1), last.eq(inp.rec.rows == 0)]
+        with m.If(ready):                   # a record taken if offered (the registers load it either way)
+            m.d.sync += [gv.eq(self.i.valid), last.eq(rec.rows == 0)]
         with m.Elif(issue):
-            with m.If(last):
-                m.d.sync += gv.eq(0)
             m.d.sync += last.eq(s_rem == 1)
-        return issue, accept
+        if k == 0:
+            m.d.comb += self.i.ready.eq(ready)
+        return issue, ready
 
     # -- span pipeline (free running: the credits keep a FIFO place for every row issued) ------------------------
     def _span_pipeline(self, m, g: SimpleNamespace, platform=None):

@@ -374,12 +374,11 @@ class RasterParams:
     @property
     def latency(self) -> int:
         """Clocks from an idle scan converter accepting a record to the record's first fragment on the output
-        (the fill latency): the input register (its copies, ``rtl/raster.py`` "Input"), the row generator's load,
-        the span pipeline (:attr:`SPAN_STAGES`, its last stage
+        (the fill latency): the row generator's load, the span pipeline (:attr:`SPAN_STAGES`, its last stage
         writing the row FIFO), the FIFO's read, the Pixel Calculator, the rounding, the saturation (writing
         the output FIFO, whose head is the output). It does not add to :func:`scan`'s clocks: the rows that
         follow come one per ``max(1, span)`` clocks with no gap."""
-        return 2 + self.SPAN_STAGES + 3
+        return 1 + self.SPAN_STAGES + 3
 
     # -- cost (fxmodel/core/cost.py, the one cost model) ---------------------------------------------------------
     def dx_pieces(self, name: str) -> list:

@@ -29,6 +29,7 @@ from fxmodel.core.fixed import Fmt
 from fxmodel.units.raster import RasterParams
 from rtl.raster import Raster, record_layout, row_layout
 from rtl.streams import CreditFIFO
+from rtl.unit import COPY_SUFFIX
 
 from . import whitebox
 from .miter import independence
@@ -98,7 +99,14 @@ def raster_props(h: Harness, P: RasterParams, dut, frag, pre: str):
     h.check(inflight <= depth, "rows_capacity")
     h.check(room == (inflight != depth), "rows_room")
     h.check(~gv | (sig("last_row_0") == (s_rem == 0)), "gen_last")
-    h.check(used == out.level + r_valid, "out_credit")
+    # a read reaches the copies' counts through POP_STAGES registers: pop_seen, then each copy's kept copies
+    pops = [sig("pop_seen")]
+    for s in range(1, P.POP_STAGES):
+        stage = [whitebox.signal(top, f"pop_seen_{k}_{s}{COPY_SUFFIX}") for k in range(len(_copies(top, "out_used")))]
+        for k, c in enumerate(stage[1:], 1):
+            h.check(c == stage[0], f"copy_pop_seen_{s}_{k}")
+        pops.append(stage[0])
+    h.check(used == out.level + r_valid + sum(pops), "out_credit")
     h.check(advance == (used <= odepth - 2), "out_advance")
     h.check((sig("row_count_0") == rows.level) & (sig("has_row_0") == rows.r_rdy), "rows_count")
     h.check(~(busy & nonempty) | (last_px == (npx == 0)), "px_last")

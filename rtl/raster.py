@@ -45,7 +45,12 @@ carry chain or one product (the house rule of the pixel pipeline); only the row 
   The consumer's ``ready`` reaches only the FIFO's read side: the Pixel Calculator and the rounding stage move
   under ``advance``, a flip-flop that is high while the FIFO has a place for every fragment in flight, so
   nothing is lost or repeated and no long enable path runs from the consumer into the interpolators (on the
-  engine that path, the pixel pipeline's ``ready`` to every accumulator, held the design at 77 MHz).
+  engine that path, the pixel pipeline's ``ready`` to every accumulator, held the design at 77 MHz). Each
+  control copy counts the places in use itself (``out_used``): a read reaches the counts through
+  :attr:`~fxmodel.units.raster.RasterParams.POP_STAGES` registers (``pop_seen`` beside the FIFO, then a kept
+  copy beside each control copy), not from the consumer's ``ready`` through logic into every copy (the board's
+  slowest path at 100 MHz, ``bumpmap bitstream --misses``); the FIFO is deeper by as many places, so one
+  fragment a clock still flows.
 
 **Fan-out.** The row generator's load and step enables reach some 2 000 register bits, the Pixel Calculator's
 some 1 300; one net from one control flip-flop to all of them was the engine's critical path on ECP5 (12.3 ns, the
@@ -363,6 +368,8 @@ class Raster(wiring.Component):
         # stage move under ``advance``, a flip-flop: fragments in the rounding stage and the FIFO leave a place
         m.submodules.out = ofifo = CreditFIFO(fragment_layout(P).size, P.OUT_FIFO_DEPTH)   # ``advance``: credits
         m.d.comb += [self.o.valid.eq(ofifo.r_rdy), self.o.payload.eq(ofifo.r_data), ofifo.r_en.eq(self.o.ready)]
+        self._pop_seen = Signal(name="pop_seen")       # the consumer read a fragment (the copies hear it a clock on)
+        m.d.sync += self._pop_seen.eq(ofifo.r_rdy & self.o.ready)
         r_valid, r_x, r_y, r_a, r_c = self._output_stage(m, ofifo, acc)
 
         # the registers in blocks: (bits, statements under ``advance``, along the row, on taking a row); the
@@ -434,7 +441,9 @@ class Raster(wiring.Component):
         out_used = Signal(range(out_depth + 1), name=f"out_used_{k}")
         advance = Signal(name=f"advance_{k}", init=1)                  # out_used <= out_depth - 2
         produce = advance & busy & nonempty
-        popped = ofifo.r_rdy & self.o.ready                                  # the consumer's ``ready``
+        popped = self._pop_seen                                     # a read, POP_STAGES clocks ago
+        for s in range(1, self.params.POP_STAGES):
+            popped = kept_copy(m, popped, f"pop_seen_{k}_{s}")
         m.d.sync += [out_used.eq(less_one_if(popped, out_used + produce)),
                      advance.eq(less_one_if(popped, out_used + produce, lambda v: v <= out_depth - 2))]
         done_row = ~busy | last_px

@@ -268,14 +268,18 @@ class Rop(wiring.Component):
 
     def _sticky(self, m, outside, zsat, bus_error, clear=None):
         """``status``: each flag set when its condition is, kept until ``clear`` (on chip: a read-out that clears
-        the frame, during which no fragment is accepted, so no flag of a fragment is lost)."""
+        the frame, during which no fragment is accepted). ``clear`` acts a clock late, through a register beside
+        ``status`` (the read-out's control is far away: its net into ``status``' enable was among the board's
+        slowest), and a flag set in that clock wins, so no flag of a fragment is lost."""
         bits = [None] * len(STATUS_BITS)
         bits[STATUS_BITS["outside"]], bits[STATUS_BITS["z_saturated"]] = outside, zsat
         bits[STATUS_BITS["bus_error"]] = bus_error
-        with m.If(Const(0) if clear is None else clear):
-            m.d.sync += self.status.eq(0)
-        with m.Elif(Cat(*bits).any()):
-            m.d.sync += self.status.eq(self.status | Cat(*bits))
+        if clear is None:
+            with m.If(Cat(*bits).any()):
+                m.d.sync += self.status.eq(self.status | Cat(*bits))
+            return
+        cleared = Signal(name="status_clear")
+        m.d.sync += [cleared.eq(clear), self.status.eq(Mux(cleared, 0, self.status) | Cat(*bits))]
 
     # -- behind the AXI4 port -----------------------------------------------------------------------------
     def _port(self):

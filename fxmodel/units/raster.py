@@ -211,9 +211,14 @@ class RasterParams:
     #: the edges' bounds, the span, its column and length (the offset fanned out to the products' copies), the
     #: offset products, two adder levels of the span start.
     SPAN_STAGES: ClassVar[int] = 6
-    #: Fragments the RTL's output FIFO holds (LUT RAM): with two in flight behind it, one per clock flows
-    #: while the consumer is ready.
-    OUT_FIFO_DEPTH: ClassVar[int] = 4
+    #: Registers between the consumer's read of the RTL's output FIFO and the Pixel Calculator's control copies,
+    #: which count the FIFO's places (``rtl/raster.py``, "Output"): one beside the FIFO, one copy beside each
+    #: control copy. Straight from the consumer's ``ready`` into every copy's count, that net was the board's
+    #: slowest at 100 MHz once the record's valid no longer was.
+    POP_STAGES: ClassVar[int] = 2
+    #: Fragments the RTL's output FIFO holds (LUT RAM): with two in flight behind it and a read taking
+    #: :attr:`POP_STAGES` clocks to free its place, one per clock flows while the consumer is ready.
+    OUT_FIFO_DEPTH: ClassVar[int] = 4 + POP_STAGES
     #: Register bits one copy of a control state drives in the RTL (``rtl/raster.py``, "Fan-out"): the row
     #: generator's load/step enable and the Pixel Calculator's enables reach some 2 000 and 1 300 register
     #: bits; one net to all of them was the engine's critical path (7 ns of routing in its last net alone), so

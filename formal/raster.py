@@ -108,7 +108,16 @@ def raster_props(h: Harness, P: RasterParams, dut, frag, pre: str):
         pops.append(stage[0])
     h.check(used == out.level + r_valid + sum(pops), "out_credit")
     h.check(advance == (used <= odepth - 2), "out_advance")
-    h.check((sig("row_count_0") == rows.level) & (sig("has_row_0") == rows.r_rdy), "rows_count")
+    # a write reaches each copy's count through ROW_SEEN_STAGES registers of its own (all copies agree)
+    n_pc = len(_copies(top, "row_count"))
+    seen = []
+    for s in range(P.ROW_SEEN_STAGES):
+        stage = [whitebox.signal(top, f"row_seen_{k}_{s}{COPY_SUFFIX}") for k in range(n_pc)]
+        for k, c in enumerate(stage[1:], 1):
+            h.check(c == stage[0], f"copy_row_seen_{s}_{k}")
+        seen.append(stage[0])
+    h.check((sig("row_count_0") + sum(seen) == rows.level) & (sig("has_row_0") == (sig("row_count_0") != 0)),
+            "rows_count")
     h.check(~(busy & nonempty) | (last_px == (npx == 0)), "px_last")
     # a row's ``single`` agrees with its length: asserted where the span pipeline writes the row FIFO, assumed
     # where the Pixel Calculator reads it (the FIFO returns what was written, in order: ``SyncFIFO``'s contract)

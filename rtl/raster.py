@@ -63,7 +63,10 @@ four attributes a group): each copy is a few flip-flops with its own feedback, w
 drives the ports, the FIFOs and the span pipeline's valid. The rows the Pixel Calculator takes reach the
 generator's copies from the Pixel Calculator's copies in turn (generator copy ``j`` from copy ``j mod n``), not
 from copy 0 alone: that one net to every generator copy was the board's critical path once the products were in
-their multiplier blocks' registers. Likewise the span's ``L`` reaches each attribute's partial products
+their multiplier blocks' registers. The rows written into the row FIFO reach the Pixel Calculator's copies
+through a register beside each (:attr:`~fxmodel.units.raster.RasterParams.ROW_SEEN_STAGES`, a kept copy), and
+the output FIFO's reads likewise (``POP_STAGES``, "Output"): each such event is one net from one register to a
+register beside every copy, with no logic on the long route. Likewise the span's ``L`` reaches each attribute's partial products
 from a copy of its own, in a stage of its own (the route from one register to the multiplier blocks of every
 attribute, spread over the device, was the board's critical path; a copy computed from the comparisons, in the
 same stage as ``L``, made the comparisons' route to every copy the next): the multiplier blocks then take ``L``
@@ -429,7 +432,8 @@ class Raster(wiring.Component):
         empty, its pixels left and whether this is its last clock, the output FIFO's places in use and
         ``advance``, all registered, and the rows in the row FIFO (``row_count``, the FIFO's own level kept by
         every copy, and ``has_row``, whether it is not zero: a register, so the FIFO's level, one net, does not
-        reach every copy's ``take`` and through it every register the copies load). Returns ``(advance, step,
+        reach every copy's ``take`` and through it every register the copies load; a write counts
+        ``ROW_SEEN_STAGES`` clocks late, through a register beside the copy). Returns ``(advance, step,
         take, busy, nonempty)``: ``step`` moves along the row, ``take`` loads the next row from the FIFO (both only
         under ``advance``)."""
         out_depth = self.params.OUT_FIFO_DEPTH
@@ -449,8 +453,11 @@ class Raster(wiring.Component):
         done_row = ~busy | last_px
         step, take_k = Signal(name=f"step_{k}"), Signal(name=f"take_{k}")
         m.d.comb += [step.eq(~done_row), take_k.eq(advance & done_row & has_row)]
-        m.d.sync += [count.eq(less_one_if(take_k, count + fifo.w_en)),
-                     has_row.eq(less_one_if(take_k, count + fifo.w_en, lambda v: v != 0))]
+        wrote = fifo.w_en                                           # a row written, ROW_SEEN_STAGES clocks ago
+        for s in range(self.params.ROW_SEEN_STAGES):
+            wrote = kept_copy(m, wrote, f"row_seen_{k}_{s}")
+        m.d.sync += [count.eq(less_one_if(take_k, count + wrote)),
+                     has_row.eq(less_one_if(take_k, count + wrote, lambda v: v != 0))]
         with m.If(advance):
             with m.If(step):
                 m.d.sync += [npx.eq(npx - 1), last_px.eq(npx == 1)]

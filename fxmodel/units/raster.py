@@ -211,6 +211,12 @@ class RasterParams:
     #: the edges' bounds, the span, its column and length (the offset fanned out to the products' copies), the
     #: offset products, two adder levels of the span start.
     SPAN_STAGES: ClassVar[int] = 6
+    #: Registers (one beside each of the Pixel Calculator's control copies) through which a row written into the
+    #: RTL's row FIFO reaches the copies' counts of rows (``rtl/raster.py``, "Fan-out"): from the span
+    #: pipeline's last valid bit through every copy's count logic, that net held the scan converter alone with
+    #: its span start in logic below 100 MHz (``bumpmap fpga --unit raster``) and was among the board's slowest.
+    #: Each adds a clock of fill latency (:attr:`latency`), none between rows.
+    ROW_SEEN_STAGES: ClassVar[int] = 1
     #: Registers between the consumer's read of the RTL's output FIFO and the Pixel Calculator's control copies,
     #: which count the FIFO's places (``rtl/raster.py``, "Output"): one beside the FIFO, one copy beside each
     #: control copy. Straight from the consumer's ``ready`` into every copy's count, that net was the board's
@@ -380,10 +386,11 @@ class RasterParams:
     def latency(self) -> int:
         """Clocks from an idle scan converter accepting a record to the record's first fragment on the output
         (the fill latency): the row generator's load, the span pipeline (:attr:`SPAN_STAGES`, its last stage
-        writing the row FIFO), the FIFO's read, the Pixel Calculator, the rounding, the saturation (writing
-        the output FIFO, whose head is the output). It does not add to :func:`scan`'s clocks: the rows that
-        follow come one per ``max(1, span)`` clocks with no gap."""
-        return 1 + self.SPAN_STAGES + 3
+        writing the row FIFO), the write reaching the Pixel Calculator's copies (:attr:`ROW_SEEN_STAGES`), the
+        FIFO's read, the Pixel Calculator, the rounding, the saturation (writing the output FIFO, whose head is
+        the output). It does not add to :func:`scan`'s clocks: the rows that follow come one per
+        ``max(1, span)`` clocks with no gap."""
+        return 1 + self.SPAN_STAGES + self.ROW_SEEN_STAGES + 3
 
     # -- cost (fxmodel/core/cost.py, the one cost model) ---------------------------------------------------------
     def dx_pieces(self, name: str) -> list:

@@ -149,8 +149,9 @@ class Rop(wiring.Component):
         ``clear`` In(1) (with ``read``: the word at ``addr`` is overwritten with the clear value), ``data``
         Out(``word_bits``): the word of the address given ``readout_latency`` cycles earlier
     busy : Out(1) -- a fragment accepted and not yet finished (its write not acknowledged, or it failed)
-    status : Out(3) -- sticky: bit 0 a fragment outside the frame was dropped, bit 1 a depth saturated (the
-        narrowing to ``z_fmt``), bit 2 an AXI error response (``fxmodel.units.rop.STATUS_BITS``); on chip,
+    status : Out(3) -- sticky (a clock after the event): bit 0 a fragment outside the frame was dropped, bit 1 a
+        depth saturated (the narrowing to ``z_fmt``), bit 2 an AXI error response
+        (``fxmodel.units.rop.STATUS_BITS``); on chip,
         a read-out that clears the frame (``fb.read`` and ``fb.clear``) clears them too: they are the frame's
     """
 
@@ -267,19 +268,17 @@ class Rop(wiring.Component):
         return Cat(*words)
 
     def _sticky(self, m, outside, zsat, bus_error, clear=None):
-        """``status``: each flag set when its condition is, kept until ``clear`` (on chip: a read-out that clears
-        the frame, during which no fragment is accepted). ``clear`` acts a clock late, through a register beside
-        ``status`` (the read-out's control is far away: its net into ``status``' enable was among the board's
-        slowest), and a flag set in that clock wins, so no flag of a fragment is lost."""
+        """``status``: each flag set a clock after its condition, kept until ``clear`` (on chip: a read-out that
+        clears the frame, during which no fragment is accepted). The conditions and ``clear`` reach ``status``
+        through registers of their own (the accepted fragment's compares, from the pipeline's output FIFO, and
+        the read-out's control, far away, were among the board's slowest paths into ``status``), and a flag set
+        in the clock the clear acts wins, so no flag of a fragment is lost."""
         bits = [None] * len(STATUS_BITS)
         bits[STATUS_BITS["outside"]], bits[STATUS_BITS["z_saturated"]] = outside, zsat
         bits[STATUS_BITS["bus_error"]] = bus_error
-        if clear is None:
-            with m.If(Cat(*bits).any()):
-                m.d.sync += self.status.eq(self.status | Cat(*bits))
-            return
-        cleared = Signal(name="status_clear")
-        m.d.sync += [cleared.eq(clear), self.status.eq(Mux(cleared, 0, self.status) | Cat(*bits))]
+        raised, cleared = Signal(len(STATUS_BITS), name="status_raised"), Signal(name="status_clear")
+        m.d.sync += [raised.eq(Cat(*bits)), cleared.eq(Const(0) if clear is None else clear),
+                     self.status.eq(Mux(cleared, 0, self.status) | raised)]
 
     # -- behind the AXI4 port -----------------------------------------------------------------------------
     def _port(self):

@@ -67,10 +67,11 @@ their multiplier blocks' registers. The rows written into the row FIFO reach the
 through a register beside each (:attr:`~fxmodel.units.raster.RasterParams.ROW_SEEN_STAGES`, a kept copy), and
 the output FIFO's reads likewise (``POP_STAGES``, "Output"): each such event is one net from one register to a
 register beside every copy, with no logic on the long route. Likewise the span's ``L`` reaches each
-attribute's partial products from a copy of its own, in a stage of its own (the route from one register to the multiplier blocks of every
-attribute, spread over the device, was the board's critical path; a copy computed from the comparisons, in the
-same stage as ``L``, made the comparisons' route to every copy the next): the multiplier blocks then take ``L``
-and ``a_x`` without their input registers (both operands or neither, ``rtl/dsp.py``).
+attribute's partial products from a copy of its own, in a stage of its own (the route from one register to the
+multiplier blocks of every attribute, spread over the device, was the board's critical path; a copy computed
+from the comparisons, in the same stage as ``L``, made the comparisons' route to every copy the next): the
+multiplier blocks then take ``L`` and ``a_x`` without their input registers (both operands or neither,
+``rtl/dsp.py``).
 
 ``busy`` is high while the Pixel Calculator works on a row: a row costs ``max(1, span)`` busy clocks, so when
 the sink is always ready the busy clocks are the model's ``clocks``. The generator runs ahead of the Pixel

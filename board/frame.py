@@ -10,8 +10,8 @@ the engine's (the engine, the tile, the copy, the frame store's write port). Wha
 - a TRIANGLE frame's record: assembled in ``sync`` as its bytes arrive (a shift register), moved at the frame's
   ``done`` (CRC matched) into a holding register, announced by a toggle (two-register synchroniser); the engine
   reads the holding register as its input (unchanged until the acknowledgement, a toggle back sent when the scan
-  converter takes the record, has reached ``sync``). A record that arrives while the
-  previous one is still held sets ``overrun`` (sticky): the host waits for each frame's ACK, and one record takes
+  converter takes the record, has reached ``sync``). A record that arrives while the previous one is still held
+  sets ``overrun`` (sticky until the next FRAME_START): the host waits for each frame's ACK, and one record takes
   longer on the UART (about 3 ms at 1 MBd) than the engine needs for a frame-sized triangle, so it does not happen
   in use;
 - SWAP: a toggle to ``engine``; there, once the engine has been quiet (no record waiting, the scan converter and the
@@ -121,8 +121,9 @@ class EngineSystem(wiring.Component):
 
     Ports: ``rx``, ``tx`` (the UART), ``words`` (the three TMDS lanes' 10-bit words, lane 0 low), ``error`` (the
     link's sticky error), ``upload_bad`` (sticky: an upload's word named no map or lay beyond its map, not
-    written), ``good`` (a pulse per good frame), ``overrun`` (sticky: a record arrived while the
-    last was held), ``front`` (the buffer shown), ``status`` (the depth test's sticky flags, ``engine``).
+    written), ``good`` (a pulse per good frame), ``overrun`` (sticky until FRAME_START: a record arrived
+    while the last was held), ``front`` (the buffer shown), ``status`` (the depth test's sticky flags, ``engine``;
+    the tile's clear at FRAME_START clears them).
     """
 
     def __init__(self, params, timing, divisor: int, frame: str = "chip", blank: bool = False):
@@ -219,9 +220,9 @@ class EngineSystem(wiring.Component):
     def _state(self, m: Module, link, eng) -> None:
         """The board's state, which STATUS is answered with (``host.protocol.STATE_BITS``), on the link's
         ``state`` in ``sync``: ``busy`` from a SWAP until the buffer shown changes (``front``), and the sticky
-        flags, those of other clocks through two registers each (each flag only ever rises, so bit by bit is
-        enough; those of a frame are set before its engine is quiet, long before its copy ends and ``busy``
-        falls)."""
+        flags, those of other clocks through two registers each (each flag is a bit of its own, which changes at
+        most twice a frame: cleared at FRAME_START's tile clear, set by a fragment; so bit by bit is enough; those
+        of a frame are set before its engine is quiet, long before its copy ends and ``busy`` falls)."""
         bits = {}
         due, front_then = Signal(), Signal()
         with m.If(due & (self.front != front_then)):
@@ -250,6 +251,8 @@ class EngineSystem(wiring.Component):
         ack_seen = toggle_sync(m, "rec_ack", ack, "sync")
         with m.If(ack_seen):
             m.d.sync += pending.eq(0)
+        with m.If(link.done & (link.cmd == Cmd.FRAME_START)):        # a flag of the frame (FRAME_FLAGS)
+            m.d.sync += self.overrun.eq(0)
         with m.If(link.done & (link.cmd == Cmd.TRIANGLE)):
             with m.If(pending & ~ack_seen):
                 m.d.sync += self.overrun.eq(1)

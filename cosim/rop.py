@@ -202,6 +202,7 @@ def _simulate(params, words, want, fb, *, latency, p_valid, p_pause, seed, sim, 
         cd, cc = _unpack_words(P, [int(w, 16) for w in res["cleared"]])    # after the read-out that clears
         zd, zc = clear_frame(P)
         extra["cleared_mismatches"] = int(np.sum((cd != zd) | np.any(cc != zc, axis=-1)))
+        extra["status_cleared"] = res["status_cleared"]
     else:
         depth, color = read_frame(P, bytes.fromhex(res["image"]))
     want_d, want_c = want

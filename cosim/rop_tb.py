@@ -65,6 +65,7 @@ async def rop(dut):
         result["words"] = await read_out(dut, meta["pixels"], meta["readout_latency"])
         dut.fb__clear.value = 0
         result["cleared"] = await read_out(dut, meta["pixels"], meta["readout_latency"])
+        result["status_cleared"] = int(dut.status.value)        # the clearing read-out cleared the flags
     else:
         result["image"] = ram.read(meta["base"], meta["frame_bytes"]).hex()
     Path(meta["out"]).write_text(json.dumps(result))

@@ -96,7 +96,7 @@ def test_on_chip_frame_buffer(sim, p_valid):
     """Random fragments, then pairs on one pixel back to back and with one to four fragments between them (the
     first one's write forwarded to the second's compare: ``rtl/rop.py`` forwards the five writes just ahead) and
     with five and six between them (read from the block RAM), with and without input gaps; the read-out clears
-    (``fb.clear``): a second read-out is the clear frame."""
+    (``fb.clear``): a second read-out is the clear frame, and the sticky flags the fragments set are clear."""
     P = RopParams.PRESETS["on_chip"]
     groups = [("nearer_first", 0, 80), ("equal", 0, 80), ("nearer_first", 1, 40), ("farther_first", 1, 40),
               ("equal", 2, 40), ("nearer_first", 3, 40), ("equal", 4, 40), ("nearer_first", 4, 40),
@@ -108,6 +108,7 @@ def test_on_chip_frame_buffer(sim, p_valid):
     assert res["mismatches"] == 0, res["first"]
     assert res["cleared_mismatches"] == 0           # the read-out with fb.clear left the clear frame behind
     assert res["status"] == (1 << STATUS_BITS["outside"]) | (1 << STATUS_BITS["z_saturated"])
+    assert res["status_cleared"] == 0               # ... and cleared the frame's flags
 
 
 def test_wide_bus_lanes_and_base(sim):

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 from amaranth.hdl import Signal
 
+from fxmodel.units.raster import RasterParams
 from rtl.streams import CreditFIFO
 
 from . import whitebox
@@ -21,8 +22,9 @@ from .props import Harness, bits_for
 
 __all__ = ["credit_fifo_set", "DEPTH"]
 
-#: The depth the proof runs (the scan converter's output FIFO's; the logic is the same for any depth).
-DEPTH = 4
+#: The depth the proof runs: the scan converter's output FIFO's (not a power of two since its reads reach the
+#: control copies through registers, ``RasterParams.POP_STAGES``: the pointers wrap by compare, not by width).
+DEPTH = RasterParams.OUT_FIFO_DEPTH
 
 
 def credit_fifo_set(depth: int = DEPTH, *, kind: str = "proof", wrap=None) -> Harness:

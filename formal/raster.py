@@ -29,6 +29,7 @@ from fxmodel.core.fixed import Fmt
 from fxmodel.units.raster import RasterParams
 from rtl.raster import Raster, record_layout, row_layout
 from rtl.streams import CreditFIFO
+from rtl.unit import COPY_SUFFIX
 
 from . import whitebox
 from .miter import independence
@@ -98,9 +99,25 @@ def raster_props(h: Harness, P: RasterParams, dut, frag, pre: str):
     h.check(inflight <= depth, "rows_capacity")
     h.check(room == (inflight != depth), "rows_room")
     h.check(~gv | (sig("last_row_0") == (s_rem == 0)), "gen_last")
-    h.check(used == out.level + r_valid, "out_credit")
+    # a read reaches the copies' counts through POP_STAGES registers: pop_seen, then each copy's kept copies
+    pops = [sig("pop_seen")]
+    for s in range(1, P.POP_STAGES):
+        stage = [whitebox.signal(top, f"pop_seen_{k}_{s}{COPY_SUFFIX}") for k in range(len(_copies(top, "out_used")))]
+        for k, c in enumerate(stage[1:], 1):
+            h.check(c == stage[0], f"copy_pop_seen_{s}_{k}")
+        pops.append(stage[0])
+    h.check(used == out.level + r_valid + sum(pops), "out_credit")
     h.check(advance == (used <= odepth - 2), "out_advance")
-    h.check((sig("row_count_0") == rows.level) & (sig("has_row_0") == rows.r_rdy), "rows_count")
+    # a write reaches each copy's count through ROW_SEEN_STAGES registers of its own (all copies agree)
+    n_pc = len(_copies(top, "row_count"))
+    seen = []
+    for s in range(P.ROW_SEEN_STAGES):
+        stage = [whitebox.signal(top, f"row_seen_{k}_{s}{COPY_SUFFIX}") for k in range(n_pc)]
+        for k, c in enumerate(stage[1:], 1):
+            h.check(c == stage[0], f"copy_row_seen_{s}_{k}")
+        seen.append(stage[0])
+    h.check((sig("row_count_0") + sum(seen) == rows.level) & (sig("has_row_0") == (sig("row_count_0") != 0)),
+            "rows_count")
     h.check(~(busy & nonempty) | (last_px == (npx == 0)), "px_last")
     # a row's ``single`` agrees with its length: asserted where the span pipeline writes the row FIFO, assumed
     # where the Pixel Calculator reads it (the FIFO returns what was written, in order: ``SyncFIFO``'s contract)

@@ -8,8 +8,9 @@ byte ``0x80 | code`` and keeps (ignoring every byte) until it sees the :data:`CL
 FRAME_START carries the frame's width and height, and a board whose tile has another size refuses it
 (:data:`Err.SIZE`): the triangles the host set up for another frame would be drawn cut or misplaced, silently.
 STATUS is answered with the board's state instead of ``ACK``: ``STATE_ANSWER | bits`` (:data:`STATE_BITS`: a
-frame not yet shown, and the sticky flags of what went wrong since the board was configured). An upload while a
-frame is drawn is refused (:data:`Err.BUSY`): its words would change the texels of the triangles being drawn.
+frame not yet shown, and the sticky flags of what went wrong in the current frame or since the board was
+configured). An upload while a frame is drawn is refused (:data:`Err.BUSY`): its words would change the texels of
+the triangles being drawn.
 """
 
 from __future__ import annotations
@@ -18,8 +19,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["SYNC", "ACK", "STATE_ANSWER", "STATE_BITS", "state_names", "Cmd", "Err", "LENGTHS", "MAX_PAYLOAD", "crc16",
-           "frame", "CLEAR_FRAME", "record_bytes",
+__all__ = ["SYNC", "ACK", "STATE_ANSWER", "STATE_BITS", "FRAME_FLAGS", "state_names", "Cmd", "Err", "LENGTHS",
+           "MAX_PAYLOAD", "crc16", "frame", "CLEAR_FRAME", "record_bytes",
            "triangle_frames", "upload_frames", "frame_start", "scene_frames", "Parsed", "parse", "MEMORIES"]
 
 SYNC = 0xA5
@@ -27,12 +28,16 @@ ACK = 0x00
 #: STATUS's answer: this byte or the board's state bits (``0x40`` to ``0x7F``: neither ``ACK`` nor an error).
 STATE_ANSWER = 0x40
 #: The board's state in STATUS's answer, bit by bit. ``busy``: a SWAP taken whose frame is not shown yet (its
-#: triangles may still be drawn; the flags below are final once it clears). The others are sticky since the board
-#: was configured: ``overrun`` a triangle record arrived while the previous one was still held (it was lost);
-#: ``upload_bad`` an upload's word named no map or lay beyond its map (not written); ``outside`` the depth test
-#: dropped a fragment outside the tile; ``z_saturated`` a depth saturated in its narrowing; ``store_error`` the
-#: frame store failed (in SDRAM: an error response, a word lost, or the scan-out missed a word).
+#: triangles may still be drawn; the flags below are final once it clears). The flags are sticky: the frame's
+#: (:data:`FRAME_FLAGS`) until the next FRAME_START, the others since the board was configured: ``overrun`` a
+#: triangle record arrived while the previous one was still held (it was lost); ``upload_bad`` an upload's word
+#: named no map or lay beyond its map (not written); ``outside`` the depth test dropped a fragment outside the
+#: tile; ``z_saturated`` a depth saturated in its narrowing; ``store_error`` the frame store failed (in SDRAM: an
+#: error response, a word lost, or the scan-out missed a word).
 STATE_BITS = {"busy": 0, "overrun": 1, "upload_bad": 2, "outside": 3, "z_saturated": 4, "store_error": 5}
+#: The flags of one frame: FRAME_START clears them (``overrun`` when it is taken, the depth test's two when the
+#: tile is cleared, before the frame's first triangle), so STATUS after a SWAP tells of that frame alone.
+FRAME_FLAGS = ("overrun", "outside", "z_saturated")
 #: The largest payload of an upload frame (a 5-byte header and up to 4 KiB of words).
 MAX_PAYLOAD = 5 + 4096
 

@@ -5,6 +5,12 @@
 Structure (see the model's docstring for the arithmetic and its proof). Every pipeline stage holds at most one
 carry chain or one product (the house rule of the pixel pipeline); only the row step feeds back.
 
+- **Input**: whenever the row generator can take a record (``ready``: no triangle loaded, or the last row of
+  the one loaded leaving this clock) its registers load ``i.payload``, whether or not ``i.valid`` offers one,
+  and ``gen_valid`` takes ``i.valid``: a record loaded without it is never issued. So the load enables come from
+  the control copy's own flip-flops, and ``i.valid`` reaches one flip-flop per copy. When the enables were
+  ``ready & i.valid``, the source's valid register drove every copy's enables through its logic, and that net,
+  spread over the device, was the board's last failing path at 100 MHz (``docs/board/engine-misses.json``).
 - **Row generator** (the loop-carried part of the Scan Line Initializer): the state of the next row, ``p_e``
   (kept as the bound ``v_e``: ``-p_e`` for a left edge, ``p_e`` for a right one), the Bresenham remainder
   ``r_e``, each attribute at ``(x0, y)``, ``y`` and the rows left. It issues one row per clock and steps:
@@ -39,7 +45,12 @@ carry chain or one product (the house rule of the pixel pipeline); only the row 
   The consumer's ``ready`` reaches only the FIFO's read side: the Pixel Calculator and the rounding stage move
   under ``advance``, a flip-flop that is high while the FIFO has a place for every fragment in flight, so
   nothing is lost or repeated and no long enable path runs from the consumer into the interpolators (on the
-  engine that path, the pixel pipeline's ``ready`` to every accumulator, held the design at 77 MHz).
+  engine that path, the pixel pipeline's ``ready`` to every accumulator, held the design at 77 MHz). Each
+  control copy counts the places in use itself (``out_used``): a read reaches the counts through
+  :attr:`~fxmodel.units.raster.RasterParams.POP_STAGES` registers (``pop_seen`` beside the FIFO, then a kept
+  copy beside each control copy), not from the consumer's ``ready`` through logic into every copy (the board's
+  slowest path at 100 MHz, ``bumpmap bitstream --misses``); the FIFO is deeper by as many places, so one
+  fragment a clock still flows.
 
 **Fan-out.** The row generator's load and step enables reach some 2 000 register bits, the Pixel Calculator's
 some 1 300; one net from one control flip-flop to all of them was the engine's critical path on ECP5 (12.3 ns, the
@@ -52,11 +63,15 @@ four attributes a group): each copy is a few flip-flops with its own feedback, w
 drives the ports, the FIFOs and the span pipeline's valid. The rows the Pixel Calculator takes reach the
 generator's copies from the Pixel Calculator's copies in turn (generator copy ``j`` from copy ``j mod n``), not
 from copy 0 alone: that one net to every generator copy was the board's critical path once the products were in
-their multiplier blocks' registers. Likewise the span's ``L`` reaches each attribute's partial products
-from a copy of its own, in a stage of its own (the route from one register to the multiplier blocks of every
-attribute, spread over the device, was the board's critical path; a copy computed from the comparisons, in the
-same stage as ``L``, made the comparisons' route to every copy the next): the multiplier blocks then take ``L``
-and ``a_x`` without their input registers (both operands or neither, ``rtl/dsp.py``).
+their multiplier blocks' registers. The rows written into the row FIFO reach the Pixel Calculator's copies
+through a register beside each (:attr:`~fxmodel.units.raster.RasterParams.ROW_SEEN_STAGES`, a kept copy), and
+the output FIFO's reads likewise (``POP_STAGES``, "Output"): each such event is one net from one register to a
+register beside every copy, with no logic on the long route. Likewise the span's ``L`` reaches each
+attribute's partial products from a copy of its own, in a stage of its own (the route from one register to the
+multiplier blocks of every attribute, spread over the device, was the board's critical path; a copy computed
+from the comparisons, in the same stage as ``L``, made the comparisons' route to every copy the next): the
+multiplier blocks then take ``L`` and ``a_x`` without their input registers (both operands or neither,
+``rtl/dsp.py``).
 
 ``busy`` is high while the Pixel Calculator works on a row: a row costs ``max(1, span)`` busy clocks, so when
 the sink is always ready the busy clocks are the model's ``clocks``. The generator runs ahead of the Pixel
@@ -241,9 +256,9 @@ class Raster(wiring.Component):
         g.issue = None
         for k, group in enumerate(_groups(blocks, P.ENABLE_FANOUT)):
             g.takes.append(Signal(name=f"take_row_{k}"))
-            issue_k, accept_k = self._gen_control(m, k, s_rem, g.takes[k])
+            issue_k, ready_k = self._gen_control(m, k, s_rem, g.takes[k])
             g.issue = issue_k if g.issue is None else g.issue
-            with m.If(accept_k):
+            with m.If(ready_k):
                 m.d.sync += [st for _, load, _ in group for st in load]
             with m.Elif(issue_k):
                 m.d.sync += [st for _, _, step in group for st in step]
@@ -252,25 +267,25 @@ class Raster(wiring.Component):
     def _gen_control(self, m, k: int, s_rem, take):
         """Copy ``k`` of the generator's control (module docstring, "Fan-out"): whether a triangle is loaded,
         whether its next row is the last, the rows issued and not yet taken from the FIFO and whether the FIFO
-        has room for one more, all registered. Returns ``(issue, accept)``."""
+        has room for one more, all registered. Returns ``(issue, ready)``: ``ready``, the generator can take a
+        record, is the load enable of the copy's registers, whether or not one is offered ("Input" in the module
+        docstring)."""
         rec, depth = self.i.payload, self.params.ROW_FIFO_DEPTH
         gv = Signal(name=f"gen_valid_{k}")
         inflight = Signal(range(depth + 1), name=f"rows_in_flight_{k}")
         room = Signal(name=f"room_{k}", init=1)                     # inflight != depth
         last = Signal(name=f"last_row_{k}")                         # s_rem == 0
-        issue, ready, accept = Signal(name=f"issue_{k}"), Signal(name=f"ready_{k}"), Signal(name=f"accept_{k}")
-        m.d.comb += [issue.eq(gv & room), ready.eq(~gv | (issue & last)), accept.eq(ready & self.i.valid)]
+        issue, ready = Signal(name=f"issue_{k}"), Signal(name=f"ready_{k}")
+        m.d.comb += [issue.eq(gv & room), ready.eq(~gv | (issue & last))]
         m.d.sync += [inflight.eq(less_one_if(take, inflight + issue)),          # ``take``: from the Pixel Calculator
                      room.eq(less_one_if(take, inflight + issue, lambda v: v != depth))]
-        with m.If(accept):
-            m.d.sync += [gv.eq(1), last.eq(rec.rows == 0)]
+        with m.If(ready):                   # a record taken if offered (the registers load it either way)
+            m.d.sync += [gv.eq(self.i.valid), last.eq(rec.rows == 0)]
         with m.Elif(issue):
-            with m.If(last):
-                m.d.sync += gv.eq(0)
             m.d.sync += last.eq(s_rem == 1)
         if k == 0:
             m.d.comb += self.i.ready.eq(ready)
-        return issue, accept
+        return issue, ready
 
     # -- span pipeline (free running: the credits keep a FIFO place for every row issued) ------------------------
     def _span_pipeline(self, m, g: SimpleNamespace, platform=None):
@@ -357,6 +372,8 @@ class Raster(wiring.Component):
         # stage move under ``advance``, a flip-flop: fragments in the rounding stage and the FIFO leave a place
         m.submodules.out = ofifo = CreditFIFO(fragment_layout(P).size, P.OUT_FIFO_DEPTH)   # ``advance``: credits
         m.d.comb += [self.o.valid.eq(ofifo.r_rdy), self.o.payload.eq(ofifo.r_data), ofifo.r_en.eq(self.o.ready)]
+        self._pop_seen = Signal(name="pop_seen")       # the consumer read a fragment (the copies hear it a clock on)
+        m.d.sync += self._pop_seen.eq(ofifo.r_rdy & self.o.ready)
         r_valid, r_x, r_y, r_a, r_c = self._output_stage(m, ofifo, acc)
 
         # the registers in blocks: (bits, statements under ``advance``, along the row, on taking a row); the
@@ -416,7 +433,8 @@ class Raster(wiring.Component):
         empty, its pixels left and whether this is its last clock, the output FIFO's places in use and
         ``advance``, all registered, and the rows in the row FIFO (``row_count``, the FIFO's own level kept by
         every copy, and ``has_row``, whether it is not zero: a register, so the FIFO's level, one net, does not
-        reach every copy's ``take`` and through it every register the copies load). Returns ``(advance, step,
+        reach every copy's ``take`` and through it every register the copies load; a write counts
+        ``ROW_SEEN_STAGES`` clocks late, through a register beside the copy). Returns ``(advance, step,
         take, busy, nonempty)``: ``step`` moves along the row, ``take`` loads the next row from the FIFO (both only
         under ``advance``)."""
         out_depth = self.params.OUT_FIFO_DEPTH
@@ -428,14 +446,19 @@ class Raster(wiring.Component):
         out_used = Signal(range(out_depth + 1), name=f"out_used_{k}")
         advance = Signal(name=f"advance_{k}", init=1)                  # out_used <= out_depth - 2
         produce = advance & busy & nonempty
-        popped = ofifo.r_rdy & self.o.ready                                  # the consumer's ``ready``
+        popped = self._pop_seen                                     # a read, POP_STAGES clocks ago
+        for s in range(1, self.params.POP_STAGES):
+            popped = kept_copy(m, popped, f"pop_seen_{k}_{s}")
         m.d.sync += [out_used.eq(less_one_if(popped, out_used + produce)),
                      advance.eq(less_one_if(popped, out_used + produce, lambda v: v <= out_depth - 2))]
         done_row = ~busy | last_px
         step, take_k = Signal(name=f"step_{k}"), Signal(name=f"take_{k}")
         m.d.comb += [step.eq(~done_row), take_k.eq(advance & done_row & has_row)]
-        m.d.sync += [count.eq(less_one_if(take_k, count + fifo.w_en)),
-                     has_row.eq(less_one_if(take_k, count + fifo.w_en, lambda v: v != 0))]
+        wrote = fifo.w_en                                           # a row written, ROW_SEEN_STAGES clocks ago
+        for s in range(self.params.ROW_SEEN_STAGES):
+            wrote = kept_copy(m, wrote, f"row_seen_{k}_{s}")
+        m.d.sync += [count.eq(less_one_if(take_k, count + wrote)),
+                     has_row.eq(less_one_if(take_k, count + wrote, lambda v: v != 0))]
         with m.If(advance):
             with m.If(step):
                 m.d.sync += [npx.eq(npx - 1), last_px.eq(npx == 1)]

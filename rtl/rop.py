@@ -149,8 +149,10 @@ class Rop(wiring.Component):
         ``clear`` In(1) (with ``read``: the word at ``addr`` is overwritten with the clear value), ``data``
         Out(``word_bits``): the word of the address given ``readout_latency`` cycles earlier
     busy : Out(1) -- a fragment accepted and not yet finished (its write not acknowledged, or it failed)
-    status : Out(3) -- sticky: bit 0 a fragment outside the frame was dropped, bit 1 a depth saturated (the
-        narrowing to ``z_fmt``), bit 2 an AXI error response (``fxmodel.units.rop.STATUS_BITS``)
+    status : Out(3) -- sticky (a clock after the event): bit 0 a fragment outside the frame was dropped, bit 1 a
+        depth saturated (the narrowing to ``z_fmt``), bit 2 an AXI error response
+        (``fxmodel.units.rop.STATUS_BITS``); on chip,
+        a read-out that clears the frame (``fb.read`` and ``fb.clear``) clears them too: they are the frame's
     """
 
     def __init__(self, params: RopParams):
@@ -239,7 +241,7 @@ class Rop(wiring.Component):
             m.d.sync += [w_en.eq(c_valid & (c_z > stored)), w_z.eq(c_z), w_color.eq(c_color),
                          w_index.eq(c_index)]
         m.d.comb += self.busy.eq(Cat(a_valid, *(st[0] for st in rd[1:]), c_valid, w_en, h1_en).any())
-        self._sticky(m, take & ~inside, take & inside & zsat, Const(0))
+        self._sticky(m, take & ~inside, take & inside & zsat, Const(0), self.fb.read & self.fb.clear)
         return m
 
     def _frame(self, m, clear: int, raddr, w_en, w_index, wdata):
@@ -265,12 +267,18 @@ class Rop(wiring.Component):
             words.append(word)
         return Cat(*words)
 
-    def _sticky(self, m, outside, zsat, bus_error):
+    def _sticky(self, m, outside, zsat, bus_error, clear=None):
+        """``status``: each flag set a clock after its condition, kept until ``clear`` (on chip: a read-out that
+        clears the frame, during which no fragment is accepted). The conditions and ``clear`` reach ``status``
+        through registers of their own (the accepted fragment's compares, from the pipeline's output FIFO, and
+        the read-out's control, far away, were among the board's slowest paths into ``status``), and a flag set
+        in the clock the clear acts wins, so no flag of a fragment is lost."""
         bits = [None] * len(STATUS_BITS)
         bits[STATUS_BITS["outside"]], bits[STATUS_BITS["z_saturated"]] = outside, zsat
         bits[STATUS_BITS["bus_error"]] = bus_error
-        with m.If(Cat(*bits).any()):
-            m.d.sync += self.status.eq(self.status | Cat(*bits))
+        raised, cleared = Signal(len(STATUS_BITS), name="status_raised"), Signal(name="status_clear")
+        m.d.sync += [raised.eq(Cat(*bits)), cleared.eq(Const(0) if clear is None else clear),
+                     self.status.eq(Mux(cleared, 0, self.status) | raised)]
 
     # -- behind the AXI4 port -----------------------------------------------------------------------------
     def _port(self):

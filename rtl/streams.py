@@ -205,7 +205,8 @@ class CreditFIFO(wiring.Component):
             # (formal/credit_fifo.py)
             m.d.comb += [Assert(self.level <= n, "credit_fifo_level"),
                          Assert(self.r_rdy == (self.level != 0), "credit_fifo_r_rdy"),
-                         Assert(wptr == (rptr + self.level) % n, "credit_fifo_pointers")]
+                         Assert(wptr == (rptr + self.level) % n, "credit_fifo_pointers"),
+                         Assert(rptr < n, "credit_fifo_head_range")]      # a depth not a power of two
             head = Signal(range(n), name="head")           # the read pointer, named for the proofs
             m.d.comb += head.eq(rptr)
             for k in range(n):

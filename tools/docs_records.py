@@ -267,14 +267,14 @@ def fpga_resources() -> str:
               f"[`{_rel(RESOURCES)}`]({_rel(RESOURCES)}).*\n")
 
 
-def fpga_placement(name: str = "placement", design: str = "--scene SCENE --preset PRESET") -> str:
+def fpga_placement(name: str = "placement", design: str = "--unit engine --scene SCENE --preset PRESET "
+                                                           "--router router2") -> str:
     """Placed and routed designs (``bumpmap fpga ... --placement-record docs/fpga/<name>.json``): Fmax against
     the target, resources and the critical path nextpnr names; ``design`` the options the missing record's
     command names. A design placed alone (``--no-route``) shows nextpnr's estimate, said so."""
     path = DOCS / "fpga" / f"{name}.json"
     if not path.is_file():
-        return missing_record(path, f"bumpmap fpga --unit engine {design} --router router2 "
-                              f"--placement-record docs/fpga/{name}.json")
+        return missing_record(path, f"bumpmap fpga {design} --placement-record docs/fpga/{name}.json")
     record = read(path)
     r = record["result"]
     rows = []

@@ -4,10 +4,11 @@ over the UART as the protocol's frames (``host/protocol.py``, ``docs/protocol.md
 FRAME_START, the triangles, SWAP; with ``--animate`` the frames of the scene's animation (``[animation]``,
 ``host/scene_animation.py``) in turn, each after the first with its reflectance cubes again when the lights move.
 Each frame waits for the board's answer; an error byte stops the send (exit 1) after a CLEAR, naming the error.
-After each SWAP it asks STATUS until the picture is shown and fails (exit 1) when one of the board's sticky flags
-rose meanwhile (a lost record, an upload's word not written, a fragment outside the tile, a depth saturated, the
-frame store's error): the picture on the monitor is then not the scene's. Flags set before the run (they stay until
-the board is configured again) are named as a warning. ``--dry-run FILE`` writes the bytes instead (the
+After each SWAP it asks STATUS until the picture is shown and fails (exit 1) when one of the frame's flags is set
+(a lost record, a fragment outside the tile, a depth saturated: FRAME_START cleared them) or one of the board's
+sticky flags rose meanwhile (an upload's word not written, the frame store's error): the picture on the monitor is
+then not the scene's. Sticky flags set before the run (they stay until the board is configured again) are named
+as a warning. ``--dry-run FILE`` writes the bytes instead (the
 co-simulation's input).
 """
 
@@ -83,8 +84,9 @@ def _ask(port) -> int | None:
 
 def _shown(port, before: set, k: int, wait: float) -> str | None:
     """After the SWAP frame ``k``: ask STATUS until the picture is shown (``busy`` clear, at most ``wait``
-    seconds); ``None`` if it is and no flag rose that was not in ``before``, else the error's line."""
-    from host.protocol import state_names
+    seconds); ``None`` if it is with none of the frame's flags (``host.protocol.FRAME_FLAGS``) and no sticky flag
+    that was not in ``before``, else the error's line."""
+    from host.protocol import FRAME_FLAGS, state_names
     deadline = time.monotonic() + wait
     while True:
         answer = _ask(port)
@@ -99,7 +101,7 @@ def _shown(port, before: set, k: int, wait: float) -> str | None:
         if time.monotonic() > deadline:
             return f"the picture of frame {k} (SWAP) was not shown within {wait} s: the board is still busy"
         time.sleep(0.01)
-    new = [n for n in names if n not in before]
+    new = [n for n in names if n in FRAME_FLAGS or n not in before]
     if new:
         return (f"the board drew the picture of frame {k} (SWAP) with " + ", ".join(new)
                 + " (docs/protocol.md: the board's state)")
@@ -107,7 +109,7 @@ def _shown(port, before: set, k: int, wait: float) -> str | None:
 
 
 def _send(frames: list[bytes], args) -> int:
-    from host.protocol import ACK, CLEAR_FRAME, Cmd, state_names
+    from host.protocol import ACK, CLEAR_FRAME, FRAME_FLAGS, Cmd, state_names
     try:
         import serial
     except ModuleNotFoundError:
@@ -123,7 +125,7 @@ def _send(frames: list[bytes], args) -> int:
         port.read(1)
         answer = _ask(port)
         try:
-            before = None if answer is None else set(state_names(answer)) - {"busy"}
+            before = None if answer is None else set(state_names(answer)) - {"busy", *FRAME_FLAGS}
         except ValueError:                      # not a STATUS answer: an older bitstream answers ACK
             before = None
         if before is None:

@@ -211,9 +211,20 @@ class RasterParams:
     #: the edges' bounds, the span, its column and length (the offset fanned out to the products' copies), the
     #: offset products, two adder levels of the span start.
     SPAN_STAGES: ClassVar[int] = 6
-    #: Fragments the RTL's output FIFO holds (LUT RAM): with two in flight behind it, one per clock flows
-    #: while the consumer is ready.
-    OUT_FIFO_DEPTH: ClassVar[int] = 4
+    #: Registers (one beside each of the Pixel Calculator's control copies) through which a row written into the
+    #: RTL's row FIFO reaches the copies' counts of rows (``rtl/raster.py``, "Fan-out"): from the span
+    #: pipeline's last valid bit through every copy's count logic, that net held the scan converter alone with
+    #: its span start in logic below 100 MHz (``bumpmap fpga --unit raster``) and was among the board's slowest.
+    #: Each adds a clock of fill latency (:attr:`latency`), none between rows.
+    ROW_SEEN_STAGES: ClassVar[int] = 1
+    #: Registers between the consumer's read of the RTL's output FIFO and the Pixel Calculator's control copies,
+    #: which count the FIFO's places (``rtl/raster.py``, "Output"): one beside the FIFO, one copy beside each
+    #: control copy. Straight from the consumer's ``ready`` into every copy's count, that net was the board's
+    #: slowest at 100 MHz once the record's valid no longer was.
+    POP_STAGES: ClassVar[int] = 2
+    #: Fragments the RTL's output FIFO holds (LUT RAM): with two in flight behind it and a read taking
+    #: :attr:`POP_STAGES` clocks to free its place, one per clock flows while the consumer is ready.
+    OUT_FIFO_DEPTH: ClassVar[int] = 4 + POP_STAGES
     #: Register bits one copy of a control state drives in the RTL (``rtl/raster.py``, "Fan-out"): the row
     #: generator's load/step enable and the Pixel Calculator's enables reach some 2 000 and 1 300 register
     #: bits; one net to all of them was the engine's critical path (7 ns of routing in its last net alone), so
@@ -375,10 +386,11 @@ class RasterParams:
     def latency(self) -> int:
         """Clocks from an idle scan converter accepting a record to the record's first fragment on the output
         (the fill latency): the row generator's load, the span pipeline (:attr:`SPAN_STAGES`, its last stage
-        writing the row FIFO), the FIFO's read, the Pixel Calculator, the rounding, the saturation (writing
-        the output FIFO, whose head is the output). It does not add to :func:`scan`'s clocks: the rows that
-        follow come one per ``max(1, span)`` clocks with no gap."""
-        return 1 + self.SPAN_STAGES + 3
+        writing the row FIFO), the write reaching the Pixel Calculator's copies (:attr:`ROW_SEEN_STAGES`), the
+        FIFO's read, the Pixel Calculator, the rounding, the saturation (writing the output FIFO, whose head is
+        the output). It does not add to :func:`scan`'s clocks: the rows that follow come one per
+        ``max(1, span)`` clocks with no gap."""
+        return 1 + self.SPAN_STAGES + self.ROW_SEEN_STAGES + 3
 
     # -- cost (fxmodel/core/cost.py, the one cost model) ---------------------------------------------------------
     def dx_pieces(self, name: str) -> list:

@@ -65,21 +65,23 @@ def test_frame_start_clears_the_tile_and_swap_copies_it_in_rgb565(gaps):
     Amaranth's simulator: frame A drawn, SWAP copies it into the back buffer; FRAME_START stalls the input and
     clears the tile; frame B, all farther than A (without the clear most of it would fail the depth test), drawn
     and copied into the other buffer. Each buffer equals the model's frame (``fxmodel.units.rop.draw``) of its
-    fragments alone, through RGB565. ``gaps``: ``room`` (the SDRAM copy's FIFO) falls at random, half the clocks:
-    every word is still written once, at its address."""
+    fragments alone, through RGB565; the depth test's flags are the frame's (A's fragment outside the tile sets
+    ``outside``, the clear clears it, B leaves it clear). ``gaps``: ``room`` (the SDRAM copy's FIFO) falls at
+    random, half the clocks: every word is still written once, at its address."""
     from amaranth import Module
     from amaranth.lib import memory, wiring
     from amaranth.sim import Simulator
 
     from board.frame import TileCopy
     from cosim.raster import pack
-    from fxmodel.units.rop import RopParams, draw
+    from fxmodel.units.rop import STATUS_BITS, RopParams, draw
     from rtl.rop import Rop
 
     P = RopParams(width=8, height=4, on_chip=True)
     rng = np.random.default_rng(5)
     half = 1 << (P.z_in.frac_bits - 1)
     frame_a, frame_b = _fragments(P, rng, 40, half, 2 * half), _fragments(P, rng, 12, 1, half)
+    frame_a[7, 0] = P.width + 1                         # one fragment of frame A outside the tile: ``outside``
     want = [rgb565(draw(P, f)[1][..., :3]).ravel() for f in (frame_a, frame_b)]
     assert not np.array_equal(want[1], rgb565(draw(P, np.concatenate([frame_a, frame_b]))[1][..., :3]).ravel())
 
@@ -118,6 +120,7 @@ def test_frame_start_clears_the_tile_and_swap_copies_it_in_rgb565(gaps):
 
         await draw_frame(frame_a)
         await copy()
+        seen["status_a"] = ctx.get(rop.status)
         await pulse(tc.shown)
         await pulse(tc.start)
         seen["stall"] = ctx.get(tc.stall)
@@ -126,8 +129,10 @@ def test_frame_start_clears_the_tile_and_swap_copies_it_in_rgb565(gaps):
             if not ctx.get(tc.stall):
                 break
         seen["cleared"] = not ctx.get(tc.stall)
+        seen["status_cleared"] = ctx.get(rop.status)
         await draw_frame(frame_b)
         await copy()
+        seen["status_b"] = ctx.get(rop.status)
         seen["store"] = [ctx.get(store.data[a]) for a in range(2 * P.pixels)]
 
     async def room(ctx):
@@ -145,6 +150,8 @@ def test_frame_start_clears_the_tile_and_swap_copies_it_in_rgb565(gaps):
     sim.add_testbench(room, background=True)
     sim.run()
     assert seen["stall"] and seen["cleared"]
+    outside = 1 << STATUS_BITS["outside"]
+    assert (seen["status_a"], seen["status_cleared"], seen["status_b"]) == (outside, 0, 0)   # the frame's flags
     assert seen["writes"] == 2 * P.pixels                            # each word of each copy written once
     store_words = np.array(seen["store"])
     assert np.array_equal(store_words[P.pixels:], want[0])          # the back buffer first (index 1): frame A

@@ -263,8 +263,8 @@ def test_formats_in_prose_are_named_not_typed():
 MEASURED = re.compile(r"(?i)(?<![\w.])\d[\d,.]*\s?(?:MHz|dB|ns|ms|µs|(?:k|M)?\s?(?:vectors|pixels|fragments)"
                       r"\s?(?:/\s?s|per\s(?:CPU\s)?second)|s\sof\b|seconds|minutes|min\b|hours|LUT4|DP16KD|"
                       r"MULT18X18D)|load average\s\d")
-#: A specification, not a measurement: a clock target.
-TARGET = re.compile(r"(?i)target[s]?\s(?:of\s)?\d+\sMHz|\d+\sMHz\starget")
+#: A specification, not a measurement: a clock target, or a tool's version (``Python 3.11``).
+TARGET = re.compile(r"(?i)target[s]?\s(?:of\s)?\d+\sMHz|\d+\sMHz\starget|Python\s\d+\.\d+")
 #: Significant digits a prose number needs before it is compared with the records (fewer match by chance).
 SIGNIFICANT = 3
 
@@ -326,12 +326,12 @@ def test_no_measured_figure_is_typed_in_prose():
 
 
 def test_the_figure_check_can_fail():
-    values = {61.6812, 0.8691587}
+    values = {61.6812, 0.8691587, 3.1123}
     text = ("Fmax 180 MHz here; a clock target of 100 MHz is fine.\nit took 23.6 s of CPU\nload average 1.4\n"
-            "worst 0.869 ulp, and 61.68 in passing; 0.5 ulp is a bound\n"
+            "worst 0.869 ulp, and 61.68 in passing; 0.5 ulp is a bound\nwith Python 3.11 (a version), but 3.11 ns\n"
             "<!-- BEGIN GENERATED unit-formats: bumpmap docs -->\n61.7 dB\n<!-- END GENERATED unit-formats -->\n")
     assert [f for _, f in measured_in_prose(text, values)] == ["180 MHz", "23.6 s of", "load average 1", "0.869",
-                                                                 "61.68"]
+                                                                 "61.68", "3.11 ns", "3.11"]
 
 
 def test_the_prose_checks_can_fail():

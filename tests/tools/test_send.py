@@ -110,13 +110,20 @@ def _send_to(monkeypatch, capsys, states: list[int], *extra: str):
 
 def test_send_waits_for_the_picture_and_checks_the_board_flags(monkeypatch, capsys):
     """After SWAP, ``send`` asks STATUS until the board is no longer busy and fails when a flag rose during the
-    picture (a fake board: the reference parser's answers); flags set before the run are a warning."""
+    picture (a fake board: the reference parser's answers); sticky flags set before the run are a warning, the
+    frame's flags (``FRAME_FLAGS``) an error whenever a picture is drawn with them."""
     rc, board, err = _send_to(monkeypatch, capsys, [[], ["busy"], ["busy"], []])
     assert (rc, board.asked, err) == (0, 4, "")                     # before the run, then three polls
     rc, board, err = _send_to(monkeypatch, capsys, [[], ["busy"], ["outside", "overrun"]])
     assert rc == 1 and "with overrun, outside" in err
     rc, board, err = _send_to(monkeypatch, capsys, [["upload_bad"]])
     assert rc == 0 and "warning" in err and "upload_bad" in err     # set before: cannot be seen rising again
+    # the frame's flags: set before the run they are the last frame's (FRAME_START clears them), no warning;
+    # set after this run's SWAP they are this frame's, an error even if they were set before
+    rc, board, err = _send_to(monkeypatch, capsys, [["outside"], []])
+    assert (rc, err) == (0, "")
+    rc, board, err = _send_to(monkeypatch, capsys, [["z_saturated"], ["z_saturated"]])
+    assert rc == 1 and "with z_saturated" in err
     rc, board, err = _send_to(monkeypatch, capsys, [[], ["busy"]], "--shown-wait", "0.05")
     assert rc == 1 and "not shown" in err
 

@@ -55,6 +55,18 @@ def _copies(frag, stem: str) -> list:
     return out
 
 
+def _relayed(h: Harness, top, stem: str, stages: range, copies: int) -> list:
+    """The registers :func:`rtl.raster._relay` built for each of ``copies`` control copies, stage by stage, checked
+    equal across the copies (``copy_{stem}_{s}_{k}``); returns copy 0's register of each stage."""
+    out = []
+    for s in stages:
+        regs = [whitebox.signal(top, f"{stem}_{k}_{s}{COPY_SUFFIX}") for k in range(copies)]
+        for k, r in enumerate(regs[1:], 1):
+            h.check(r == regs[0], f"copy_{stem}_{s}_{k}")
+        out.append(regs[0])
+    return out
+
+
 def raster_set(params: RasterParams | None = None, *, kind: str = "proof", wrap=None) -> Harness:
     P = params or small_raster()
     h = Harness(kind)
@@ -99,23 +111,13 @@ def raster_props(h: Harness, P: RasterParams, dut, frag, pre: str):
     h.check(inflight <= depth, "rows_capacity")
     h.check(room == (inflight != depth), "rows_room")
     h.check(~gv | (sig("last_row_0") == (s_rem == 0)), "gen_last")
-    # a read reaches the copies' counts through POP_STAGES registers: pop_seen, then each copy's kept copies
-    pops = [sig("pop_seen")]
-    for s in range(1, P.POP_STAGES):
-        stage = [whitebox.signal(top, f"pop_seen_{k}_{s}{COPY_SUFFIX}") for k in range(len(_copies(top, "out_used")))]
-        for k, c in enumerate(stage[1:], 1):
-            h.check(c == stage[0], f"copy_pop_seen_{s}_{k}")
-        pops.append(stage[0])
+    # a read reaches the copies' counts through POP_STAGES registers: pop_seen, then each copy's relay
+    n_pc = len(_copies(top, "out_used"))
+    pops = [sig("pop_seen"), *_relayed(h, top, "pop_seen", range(1, P.POP_STAGES), n_pc)]
     h.check(used == out.level + r_valid + sum(pops), "out_credit")
     h.check(advance == (used <= odepth - 2), "out_advance")
-    # a write reaches each copy's count through ROW_SEEN_STAGES registers of its own (all copies agree)
-    n_pc = len(_copies(top, "row_count"))
-    seen = []
-    for s in range(P.ROW_SEEN_STAGES):
-        stage = [whitebox.signal(top, f"row_seen_{k}_{s}{COPY_SUFFIX}") for k in range(n_pc)]
-        for k, c in enumerate(stage[1:], 1):
-            h.check(c == stage[0], f"copy_row_seen_{s}_{k}")
-        seen.append(stage[0])
+    # a write reaches each copy's count through ROW_SEEN_STAGES registers of its own
+    seen = _relayed(h, top, "row_seen", range(P.ROW_SEEN_STAGES), n_pc)
     h.check((sig("row_count_0") + sum(seen) == rows.level) & (sig("has_row_0") == (sig("row_count_0") != 0)),
             "rows_count")
     h.check(~(busy & nonempty) | (last_px == (npx == 0)), "px_last")

@@ -372,8 +372,8 @@ class Raster(wiring.Component):
         # stage move under ``advance``, a flip-flop: fragments in the rounding stage and the FIFO leave a place
         m.submodules.out = ofifo = CreditFIFO(fragment_layout(P).size, P.OUT_FIFO_DEPTH)   # ``advance``: credits
         m.d.comb += [self.o.valid.eq(ofifo.r_rdy), self.o.payload.eq(ofifo.r_data), ofifo.r_en.eq(self.o.ready)]
-        self._pop_seen = Signal(name="pop_seen")       # the consumer read a fragment (the copies hear it a clock on)
-        m.d.sync += self._pop_seen.eq(ofifo.r_rdy & self.o.ready)
+        pop_seen = Signal(name="pop_seen")             # the consumer read a fragment (the copies hear it a clock on)
+        m.d.sync += pop_seen.eq(ofifo.r_rdy & self.o.ready)
         r_valid, r_x, r_y, r_a, r_c = self._output_stage(m, ofifo, acc)
 
         # the registers in blocks: (bits, statements under ``advance``, along the row, on taking a row); the
@@ -391,7 +391,7 @@ class Raster(wiring.Component):
                            [acc[n].eq(row[f"{n}_start"]), pdx[n].eq(row[f"{n}_dx"])]))
         takes = []
         for k, group in enumerate(_groups(blocks, P.ENABLE_FANOUT)):
-            advance, step, take_k, busy, nonempty = self._pc_control(m, k, g.fifo, ofifo, row)
+            advance, step, take_k, busy, nonempty = self._pc_control(m, k, g.fifo, pop_seen, row)
             takes.append(take_k)
             if k == 0:
                 m.d.comb += [g.fifo.r_en.eq(take_k), self.busy.eq(busy), ofifo.w_en.eq(advance & r_valid)]
@@ -428,7 +428,7 @@ class Raster(wiring.Component):
         m.d.comb += [frag[n].eq(r_c[n]) for n in r_c]
         return r_valid, r_x, r_y, r_a, r_c
 
-    def _pc_control(self, m, k: int, fifo, ofifo, row):
+    def _pc_control(self, m, k: int, fifo, pop_seen, row):
         """Copy ``k`` of the Pixel Calculator's control (module docstring, "Fan-out"): on a row, the row not
         empty, its pixels left and whether this is its last clock, the output FIFO's places in use and
         ``advance``, all registered, and the rows in the row FIFO (``row_count``, the FIFO's own level kept by
@@ -446,17 +446,13 @@ class Raster(wiring.Component):
         out_used = Signal(range(out_depth + 1), name=f"out_used_{k}")
         advance = Signal(name=f"advance_{k}", init=1)                  # out_used <= out_depth - 2
         produce = advance & busy & nonempty
-        popped = self._pop_seen                                     # a read, POP_STAGES clocks ago
-        for s in range(1, self.params.POP_STAGES):
-            popped = kept_copy(m, popped, f"pop_seen_{k}_{s}")
+        popped = _relay(m, pop_seen, f"pop_seen_{k}", range(1, self.params.POP_STAGES))   # a read, POP_STAGES ago
         m.d.sync += [out_used.eq(less_one_if(popped, out_used + produce)),
                      advance.eq(less_one_if(popped, out_used + produce, lambda v: v <= out_depth - 2))]
         done_row = ~busy | last_px
         step, take_k = Signal(name=f"step_{k}"), Signal(name=f"take_{k}")
         m.d.comb += [step.eq(~done_row), take_k.eq(advance & done_row & has_row)]
-        wrote = fifo.w_en                                           # a row written, ROW_SEEN_STAGES clocks ago
-        for s in range(self.params.ROW_SEEN_STAGES):
-            wrote = kept_copy(m, wrote, f"row_seen_{k}_{s}")
+        wrote = _relay(m, fifo.w_en, f"row_seen_{k}", range(self.params.ROW_SEEN_STAGES))  # a write, as many ago
         m.d.sync += [count.eq(less_one_if(take_k, count + wrote)),
                      has_row.eq(less_one_if(take_k, count + wrote, lambda v: v != 0))]
         with m.If(advance):
@@ -467,6 +463,15 @@ class Raster(wiring.Component):
             with m.Else():
                 m.d.sync += busy.eq(0)
         return advance, step, take_k, busy, nonempty
+
+
+def _relay(m, event, stem: str, stages: range):
+    """``event`` through a kept register copy (:func:`rtl.unit.kept_copy`) per stage number in ``stages``, named
+    ``{stem}_{s}`` (:data:`rtl.unit.COPY_SUFFIX` after it): an event one control copy must hear, brought beside
+    it with no logic on the long route (module docstring, "Fan-out"). ``formal/raster.py`` finds them by name."""
+    for s in stages:
+        event = kept_copy(m, event, f"{stem}_{s}")
+    return event
 
 
 def _sig(fmt, name: str) -> Signal:

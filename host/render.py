@@ -44,7 +44,8 @@ from host.visibility import disagreement_picture, resolve
 
 __all__ = ["Frame", "prepare", "pipeline_params", "render", "save_png", "compose", "ClampError", "SCENE_BOUND_LSB",
            "judge", "tell", "bound_args", "INPUT_KNOBS", "ILL_CONDITIONED", "ADDRESS_LIMIT_TEXELS",
-           "address_errors", "TriangleFrame", "from_triangles", "render_triangles", "raster_params", "engine_params"]
+           "address_errors", "TriangleFrame", "from_triangles", "frame_records", "frame_raster", "frame_rop",
+           "render_triangles", "raster_params", "engine_params"]
 
 
 #: The documented bound of a frame of an accepted scene: the largest per-channel distance, in 8-bit steps, of the
@@ -499,6 +500,35 @@ class TriangleFrame:
         return self.frame.image(np.asarray(rgb)[w], (self.out[w, 0], self.out[w, 1]))
 
 
+def frame_raster(frame: Frame) -> RasterParams:
+    """The scan converter of ``frame``'s preset (:func:`raster_params`: the pipeline's input formats)."""
+    p = frame.params
+    return raster_params(frame.units, p.lod) if frame.units is not None else \
+        RasterParams.for_pipeline({"persp": p.persp, "bump": p.bump, "reflect": p.reflect}, slopes=lod_slopes(p.lod))
+
+
+def frame_rop(frame: Frame, raster: RasterParams, width: int, height: int) -> RopParams:
+    """The depth test and frame buffer of a ``width x height`` frame (or tile) of ``frame``'s scene, cleared to its
+    background, taking ``raster``'s depth."""
+    clear = tuple(int(c) for c in np.floor(np.asarray(frame.scene.background) * 255 + 0.5))
+    return RopParams(width=width, height=height, max_size=raster.max_size, z_in=raster.out_fmt("Z"),
+                     clear_color=clear)
+
+
+def frame_records(frame: Frame, raster: RasterParams, tile=None) -> tuple[Records, np.ndarray]:
+    """The host's set-up of ``frame`` (:func:`host.frontend.triangle_records`) into ``raster``'s records, those of
+    the frame's material (the pipeline holds one material's maps), with the same block exponent of ``A`` per scene
+    triangle as the fragments (``frame.exponent``); ``(records, scene triangle of each)``. ``tile``: ``(x, y,
+    width, height)``, the records of that tile of the frame (:func:`host.frontend.triangle_records`)."""
+    scene = frame.scene
+    mi = int(frame.frags.material[0]) if len(frame.frags) else 0
+    gains = [frame.maps if i == mi else SimpleNamespace(a_gain=bump_gain(m)) for i, m in enumerate(scene.materials)]
+    recs, tri, mat = triangle_records(scene, raster, gains, frame.exponent, tile)
+    keep = np.flatnonzero(mat == mi)
+    return Records(params=raster, codes={k: v[keep] for k, v in recs.codes.items()}, source=recs.source[keep],
+                   dropped=recs.dropped), tri[keep]
+
+
 def from_triangles(frame: Frame, raster: RasterParams | None = None, depth: bool = False) -> TriangleFrame:
     """The frame drawn by the engine from triangles: the host's set-up (:func:`host.frontend.triangle_records`)
     into records, the scan converter and interpolators, then the same pixel pipeline (``frame.params``), with the
@@ -515,24 +545,12 @@ def from_triangles(frame: Frame, raster: RasterParams | None = None, depth: bool
     float z-buffer over the scan converter's fragments keeps other fragments than the front end.
     """
     p = frame.params
-    if raster is None:
-        raster = raster_params(frame.units, p.lod) if frame.units is not None else \
-            RasterParams.for_pipeline({"persp": p.persp, "bump": p.bump, "reflect": p.reflect},
-                                      slopes=lod_slopes(p.lod))
+    raster = frame_raster(frame) if raster is None else raster
     scene = frame.scene
-    rop = None
-    if depth:
-        clear = tuple(int(c) for c in np.floor(np.asarray(scene.background) * 255 + 0.5))
-        rop = RopParams(width=scene.width, height=scene.height, max_size=raster.max_size, z_in=raster.out_fmt("Z"),
-                        clear_color=clear)
+    rop = frame_rop(frame, raster, scene.width, scene.height) if depth else None
     params = EngineParams(raster=raster, pipeline=p, rop=rop)
-    mi = int(frame.frags.material[0]) if len(frame.frags) else 0
-    gains = [frame.maps if i == mi else SimpleNamespace(a_gain=bump_gain(m)) for i, m in enumerate(scene.materials)]
     t0 = time.perf_counter()
-    recs, tri, mat = triangle_records(scene, raster, gains, frame.exponent)
-    keep = np.flatnonzero(mat == mi)
-    recs = Records(params=raster, codes={k: v[keep] for k, v in recs.codes.items()}, source=recs.source[keep],
-                   dropped=recs.dropped)
+    recs, tri = frame_records(frame, raster)
     t1 = time.perf_counter()
     fb = None
     if depth:
@@ -549,7 +567,7 @@ def from_triangles(frame: Frame, raster: RasterParams | None = None, depth: bool
              "record_bits": sum(q.fmt.width for q in raster.record), "raster_guard_bits": raster.guard_bits,
              "seconds_setup": round(t1 - t0, 3), "seconds_model": round(t2 - t1, 3)}
     tframe = TriangleFrame(frame=frame, params=params, records=recs, out=out, scan=res, stats=stats, fb=fb,
-                           tri=tri[keep])
+                           tri=tri)
     tframe.vis = resolve(tframe)
     stats.update(tframe.vis.stats)
     if depth:

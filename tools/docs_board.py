@@ -95,7 +95,10 @@ def board_sim(name: str = "board-sim") -> str:
         return missing_record(path, f"bumpmap board-sim --record docs/records/{name}.json")
     r = record["result"]
     t, ms = r["timing"], r["sim_ms"]
-    rows = [["scene, frame (the tile)", f"{r['scene']}, {r['tile'][0]} x {r['tile'][1]}, {r['triangles']} triangles"],
+    tiles = r.get("tiles", 1)
+    place = (f"{r['picture_size'][0]} x {r['picture_size'][1]} in {tiles} tiles of {r['tile'][0]} x {r['tile'][1]}"
+             if tiles > 1 else f"{r['tile'][0]} x {r['tile'][1]} (the tile)")
+    rows = [["scene, picture", f"{r['scene']}, {place}, {r['triangles']} triangle records"],
             ["host bytes into the UART", f"{r['bytes_sent']} in {r['frames_sent']} frames " + (
                 "(the uploads into blank texel memories; an upload's word refused: "
                 f"{'**yes**' if r['upload_bad'] else 'no'})" if r.get("uploads") else

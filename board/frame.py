@@ -139,7 +139,7 @@ def picture_tiles(frame, size: int):
     import dataclasses
 
     from fxmodel.pipeline.engine import EngineParams
-    from host.render import frame_raster, frame_records, frame_rop
+    from host.engine_setup import frame_raster, frame_records, frame_rop
     raster = frame_raster(frame)
     rop = dataclasses.replace(frame_rop(frame, raster, size, size), on_chip=True)
     params = EngineParams(raster=raster, pipeline=frame.params, rop=rop)

@@ -22,19 +22,18 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from types import SimpleNamespace
 
 import numpy as np
 
 from fxmodel.core.rounding import Overflow, Rounding, quantize
 from fxmodel.pipeline.engine import EngineParams
 from fxmodel.pipeline.lighting import Light, Lighting, face_directions
-from fxmodel.pipeline.pixel import FLAG_BITS, LOD_INPUTS, PipelineParams, lod_slopes
+from fxmodel.pipeline.pixel import FLAG_BITS, LOD_INPUTS, PipelineParams
 from fxmodel.pipeline.presets import preset_units, top_value
 from fxmodel.units.raster import ATTRIBUTE_FORMATS, RasterParams, Records
-from fxmodel.units.rop import RopParams
-from host.bumpmap import block_exponent, bump_gain, perturbations, scene_maps
-from host.frontend import rasterize, triangle_records
+from host.bumpmap import block_exponent, perturbations, scene_maps
+from host.engine_setup import frame_raster, frame_records, frame_rop, raster_params
+from host.frontend import rasterize
 from host.images import compose, diff_image, metrics, save_png
 from host.mipmap import lod_increments, reference_texture
 from host.reference import float_pipeline, ideal_phong, max_lsb, perturbed
@@ -391,15 +390,6 @@ def pipeline_params(scene, preset: str | dict = "default", *, cube_size: int | N
     return prepare(scene_path(scene), preset=preset, cube_size=cube_size, allow_clamp=True).params
 
 
-def raster_params(units: dict, lod=None) -> RasterParams:
-    """The scan converter and interpolators of a pipeline preset's units: the pixel pipeline's input formats
-    (:meth:`RasterParams.for_pipeline`) and the preset's ``raster_guard`` (``extra_guard``); with the pipeline's
-    LOD unit ``lod`` (MIP mapping), the triangle's increments it reads carried with every fragment
-    (:func:`fxmodel.pipeline.pixel.lod_slopes`)."""
-    return RasterParams.for_pipeline(units, extra_guard=top_value(units, "raster_guard"), slopes=lod_slopes(lod),
-                                     span_dsp=bool(top_value(units, "span_dsp")))
-
-
 def engine_params(scene, preset: str | dict = "default", *, cube_size: int | None = None) -> EngineParams:
     """The engine from the triangle that draws ``scene``: :func:`raster_params` of ``preset`` feeding
     :func:`pipeline_params` (for ``make fpga``)."""
@@ -498,35 +488,6 @@ class TriangleFrame:
         (:attr:`vis`; background where none)."""
         w = self.vis.winner
         return self.frame.image(np.asarray(rgb)[w], (self.out[w, 0], self.out[w, 1]))
-
-
-def frame_raster(frame: Frame) -> RasterParams:
-    """The scan converter of ``frame``'s preset (:func:`raster_params`: the pipeline's input formats)."""
-    p = frame.params
-    return raster_params(frame.units, p.lod) if frame.units is not None else \
-        RasterParams.for_pipeline({"persp": p.persp, "bump": p.bump, "reflect": p.reflect}, slopes=lod_slopes(p.lod))
-
-
-def frame_rop(frame: Frame, raster: RasterParams, width: int, height: int) -> RopParams:
-    """The depth test and frame buffer of a ``width x height`` frame (or tile) of ``frame``'s scene, cleared to its
-    background, taking ``raster``'s depth."""
-    clear = tuple(int(c) for c in np.floor(np.asarray(frame.scene.background) * 255 + 0.5))
-    return RopParams(width=width, height=height, max_size=raster.max_size, z_in=raster.out_fmt("Z"),
-                     clear_color=clear)
-
-
-def frame_records(frame: Frame, raster: RasterParams, tile=None) -> tuple[Records, np.ndarray]:
-    """The host's set-up of ``frame`` (:func:`host.frontend.triangle_records`) into ``raster``'s records, those of
-    the frame's material (the pipeline holds one material's maps), with the same block exponent of ``A`` per scene
-    triangle as the fragments (``frame.exponent``); ``(records, scene triangle of each)``. ``tile``: ``(x, y,
-    width, height)``, the records of that tile of the frame (:func:`host.frontend.triangle_records`)."""
-    scene = frame.scene
-    mi = int(frame.frags.material[0]) if len(frame.frags) else 0
-    gains = [frame.maps if i == mi else SimpleNamespace(a_gain=bump_gain(m)) for i, m in enumerate(scene.materials)]
-    recs, tri, mat = triangle_records(scene, raster, gains, frame.exponent, tile)
-    keep = np.flatnonzero(mat == mi)
-    return Records(params=raster, codes={k: v[keep] for k, v in recs.codes.items()}, source=recs.source[keep],
-                   dropped=recs.dropped), tri[keep]
 
 
 def from_triangles(frame: Frame, raster: RasterParams | None = None, depth: bool = False) -> TriangleFrame:

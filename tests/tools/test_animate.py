@@ -23,7 +23,8 @@ def test_a_still_scene_row_adds_up():
     from board.cdc import QUIET
     from board.top import DRAM_HZ
     from fxmodel.units.raster import scan
-    from host.render import frame_raster, frame_records, prepare
+    from host.engine_setup import frame_raster, frame_records
+    from host.render import prepare
     from host.scene import scene_path
     row = animate.scene_rates("berlin-wall", "default", 50e6, 1_000_000, 128)
     frame = prepare(scene_path("berlin-wall"), size=(640, 480))

@@ -72,7 +72,7 @@ def test_the_picture_a_tile_at_a_time_for_the_board_with_its_frame_in_sdram(tmp_
     from board.frame import BOARD_PRESET, BOARD_SIZE
     from board.video import VGA_640x480
     from host.protocol import Err, frame_place
-    from host.render import frame_raster, frame_records
+    from host.engine_setup import frame_raster, frame_records
     out = tmp_path / "tiles.bin"
     assert main(["send", "--frame", "sdram", "--dry-run", str(out)]) == 0
     t = VGA_640x480

@@ -100,8 +100,8 @@ def scene_rates(name: str, preset: str, engine_hz: float, baud: int, size: int) 
     from board.frame import picture_tiles
     from board.top import DRAM_HZ, PIXEL_HZ
     from board.video import VGA_640x480
-    from host.protocol import Cmd, picture_frames, upload_frames
     from host.engine_setup import frame_records
+    from host.protocol import Cmd, picture_frames, upload_frames
     from host.render import ClampError, prepare
     from host.scene import load_scene, scene_path
     from host.scene_animation import frames

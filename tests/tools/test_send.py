@@ -71,8 +71,8 @@ def test_the_picture_a_tile_at_a_time_for_the_board_with_its_frame_in_sdram(tmp_
     second tile's place."""
     from board.frame import BOARD_PRESET, BOARD_SIZE
     from board.video import VGA_640x480
-    from host.protocol import Err, frame_place
     from host.engine_setup import frame_raster, frame_records
+    from host.protocol import Err, frame_place
     out = tmp_path / "tiles.bin"
     assert main(["send", "--frame", "sdram", "--dry-run", str(out)]) == 0
     t = VGA_640x480

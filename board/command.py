@@ -7,11 +7,13 @@ consumer never has to stall the line) and a frame takes effect at ``done``, whic
 triangle's consumer keeps the record until then; an upload's words are written as they arrive (a bad CRC leaves
 the words it carried undefined and the error state set, and the host sends the upload again after CLEAR).
 
-Two checks beyond the frame's form: a FRAME_START whose width and height are not the board's tile enters the error
-state with ``Err.SIZE`` (after its CRC matched, so ``done`` does not pulse); an upload's command byte while a frame
-is drawn (after FRAME_START until SWAP or CLEAR, or while the board's ``state`` says ``busy``: a SWAP's picture not
-shown yet) enters it with ``Err.BUSY``, before any of its words is passed on. STATUS is answered with the board's
-``state`` (``host.protocol.STATE_BITS``) instead of ``ACK``.
+Two checks beyond the frame's form: a FRAME_START whose width and height are not the board's tile, or whose
+column and row lie outside the board's grid of tiles, enters the error state with ``Err.SIZE`` (after its CRC
+matched, so ``done`` does not pulse); an upload's command byte while a frame is drawn (after FRAME_START until
+SWAP, COPY or CLEAR, or while the board's ``state`` says ``busy``: a SWAP's picture not shown yet) enters it with
+``Err.BUSY``, before any of its words is passed on. STATUS is answered with the board's ``state``
+(``host.protocol.STATE_BITS``) instead of ``ACK``. A FRAME_START's column and row (0, 0 in its 4-byte form) are
+on ``col``, ``row`` when its ``done`` pulses.
 """
 
 from __future__ import annotations
@@ -20,9 +22,21 @@ from amaranth import Cat, Module, Mux, Signal
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
-from host.protocol import ACK, CLEAR_FRAME, LENGTHS, MEMORIES, STATE_ANSWER, STATE_BITS, SYNC, Cmd, Err, crc16
+from host.protocol import (
+    ACK,
+    CLEAR_FRAME,
+    ENDS_TILE,
+    LENGTHS,
+    MEMORIES,
+    STATE_ANSWER,
+    STATE_BITS,
+    SYNC,
+    Cmd,
+    Err,
+    crc16,
+)
 
-__all__ = ["CommandParser", "CommandLink", "check_tile", "crc16_byte"]
+__all__ = ["CommandParser", "CommandLink", "check_tile", "check_grid", "crc16_byte"]
 
 
 def _crc_step(crc: int, byte: int) -> int:
@@ -55,27 +69,43 @@ def check_tile(tile):
     return tile
 
 
+def check_grid(grid):
+    """``grid`` if it is the ``(columns, rows)`` of tiles a FRAME_START can name (ints in 1..65535); else
+    ``ValueError`` naming it."""
+    if not (isinstance(grid, tuple) and len(grid) == 2 and all(isinstance(v, int) and 1 <= v <= 0xFFFF
+                                                                for v in grid)):
+        raise ValueError(f"grid={grid!r}: (columns, rows) of tiles, ints in 1..65535 (FRAME_START's place)")
+    return grid
+
+
 class CommandParser(wiring.Component):
     """Parser of the byte stream (``byte`` with ``valid``; ``framing`` from the UART). Out: ``cmd``, ``length``;
     ``data``/``index``/``data_valid`` per payload byte; ``done`` for a good frame; ``error`` (sticky) with ``code``
     (:class:`host.protocol.Err`); ``reply``/``reply_valid``: the byte the board answers (``ACK`` per good frame,
     STATUS's ``STATE_ANSWER | state``, ``0x80 | code`` on entering the error state, ``ACK`` on leaving it). In:
     ``state``, the board's :data:`host.protocol.STATE_BITS` (``sync``). ``tile``: the ``(width, height)`` a
-    FRAME_START must name (:func:`host.protocol.parse`'s), or ``None`` (a board without a frame) to accept any."""
+    FRAME_START must name (:func:`host.protocol.parse`'s), or ``None`` (a board without a frame) to accept any;
+    ``grid``: the ``(columns, rows)`` of tiles its place must lie in. ``col``, ``row``: a FRAME_START's place,
+    valid at its ``done``."""
 
-    def __init__(self, record_len: int, tile: tuple[int, int] | None = None):
-        self.record_len, self.tile = record_len, check_tile(tile)
+    def __init__(self, record_len: int, tile: tuple[int, int] | None = None, grid: tuple[int, int] = (1, 1)):
+        self.record_len, self.tile, self.grid = record_len, check_tile(tile), check_grid(grid)
         self.lengths = LENGTHS(record_len)
         super().__init__({"byte": In(8), "valid": In(1), "framing": In(1), "state": In(len(STATE_BITS)),
                           "cmd": Out(8), "length": Out(16), "data": Out(8), "index": Out(16), "data_valid": Out(1),
-                          "done": Out(1), "error": Out(1), "code": Out(3), "reply": Out(8), "reply_valid": Out(1)})
+                          "done": Out(1), "error": Out(1), "code": Out(3), "reply": Out(8), "reply_valid": Out(1),
+                          "col": Out(16), "row": Out(16)})
 
     def elaborate(self, platform):
         m = Module()
         b = self.byte
         crc, got, count = Signal(16), Signal(8), Signal(16)
-        last4 = Signal(32)                              # the payload's last four bytes (FRAME_START's size), LE
-        drawing = Signal()                              # after FRAME_START, until SWAP or CLEAR: no uploads
+        last8 = Signal(64)                              # the payload's last eight bytes (FRAME_START's), LE
+        drawing = Signal()                              # after FRAME_START, until SWAP, COPY or CLEAR: no uploads
+        # FRAME_START's size and place: its 4-byte form in last8's high half, its 8-byte form whole
+        short = self.length == 4
+        size = Mux(short, last8[32:], last8[:32])
+        m.d.comb += [self.col.eq(Mux(short, 0, last8[32:48])), self.row.eq(Mux(short, 0, last8[48:]))]
         window = Signal(8 * len(CLEAR_FRAME))
         clear = int.from_bytes(CLEAR_FRAME, "little")          # the newest byte in the high bits
         m.d.sync += [self.data_valid.eq(0), self.done.eq(0), self.reply_valid.eq(0)]
@@ -131,7 +161,7 @@ class CommandParser(wiring.Component):
                                     m.next = "crc0"
                         elif state == "body":
                             m.d.sync += [self.data.eq(b), self.index.eq(count), self.data_valid.eq(1),
-                                         count.eq(count + 1), last4.eq(Cat(last4[8:], b))]
+                                         count.eq(count + 1), last8.eq(Cat(last8[8:], b))]
                             with m.If(count == self.length - 1):
                                 m.next = "crc0"
                         elif state == "crc0":
@@ -142,14 +172,16 @@ class CommandParser(wiring.Component):
                                 fail(Err.CRC)
                             if self.tile is not None:
                                 w, h = self.tile
-                                with m.Elif((self.cmd == Cmd.FRAME_START) & (last4 != (w | h << 16))):
+                                placed = (size == (w | h << 16)) & (self.col < self.grid[0]) & \
+                                    (self.row < self.grid[1])
+                                with m.Elif((self.cmd == Cmd.FRAME_START) & ~placed):
                                     fail(Err.SIZE)
                             with m.Else():
                                 answer = Mux(self.cmd == Cmd.STATUS, STATE_ANSWER | self.state, ACK)
                                 m.d.sync += [self.done.eq(1), self.reply.eq(answer), self.reply_valid.eq(1)]
                                 with m.If(self.cmd == Cmd.FRAME_START):
                                     m.d.sync += drawing.eq(1)
-                                with m.If((self.cmd == Cmd.SWAP) | (self.cmd == Cmd.CLEAR)):
+                                with m.If(sum(self.cmd == c for c in ENDS_TILE) != 0):
                                     m.d.sync += drawing.eq(0)
                                 m.next = "sync"
             with m.State("error"):
@@ -165,15 +197,16 @@ class CommandParser(wiring.Component):
 
 class CommandLink(wiring.Component):
     """The UART link of the board: :class:`~board.uart.UartRx` -> :class:`CommandParser` -> replies through
-    :class:`~board.uart.UartTx`. Ports: ``rx``, ``tx``, the parser's outputs and its ``state`` input; ``tile`` the
-    parser's."""
+    :class:`~board.uart.UartTx`. Ports: ``rx``, ``tx``, the parser's outputs and its ``state`` input; ``tile`` and
+    ``grid`` the parser's."""
 
-    def __init__(self, divisor: int, record_len: int, tile: tuple[int, int] | None = None):
-        self.divisor, self.record_len, self.tile = divisor, record_len, tile
+    def __init__(self, divisor: int, record_len: int, tile: tuple[int, int] | None = None,
+                 grid: tuple[int, int] = (1, 1)):
+        self.divisor, self.record_len, self.tile, self.grid = divisor, record_len, tile, grid
         super().__init__({"rx": In(1, init=1), "tx": Out(1, init=1), "state": In(len(STATE_BITS)),
                           "cmd": Out(8), "length": Out(16),
                           "data": Out(8), "index": Out(16), "data_valid": Out(1), "done": Out(1), "error": Out(1),
-                          "code": Out(3)})
+                          "code": Out(3), "col": Out(16), "row": Out(16)})
 
     def elaborate(self, platform):
         from amaranth.lib.fifo import SyncFIFOBuffered
@@ -181,7 +214,7 @@ class CommandLink(wiring.Component):
         from .uart import UartRx, UartTx
         m = Module()
         m.submodules.rx = rx = UartRx(self.divisor)
-        m.submodules.parser = p = CommandParser(self.record_len, self.tile)
+        m.submodules.parser = p = CommandParser(self.record_len, self.tile, self.grid)
         m.submodules.tx = tx = UartTx(self.divisor)
         # a reply is due at the stop bit of a received byte, at most one per byte, and takes as long to send as a
         # byte to receive; a small queue absorbs the one-clock slips between the two
@@ -189,6 +222,6 @@ class CommandLink(wiring.Component):
         m.d.comb += [rx.rx.eq(self.rx), p.byte.eq(rx.data), p.valid.eq(rx.valid), p.framing.eq(rx.framing),
                      p.state.eq(self.state), q.w_data.eq(p.reply), q.w_en.eq(p.reply_valid),
                      self.tx.eq(tx.tx), tx.data.eq(q.r_data), tx.valid.eq(q.r_rdy), q.r_en.eq(tx.ready)]
-        for name in ("cmd", "length", "data", "index", "data_valid", "done", "error", "code"):
+        for name in ("cmd", "length", "data", "index", "data_valid", "done", "error", "code", "col", "row"):
             m.d.comb += getattr(self, name).eq(getattr(p, name))
         return m

@@ -40,7 +40,9 @@ from rtl.fixed import const_mul
 from .cdc import QUIET, toggle_sync
 from .upload import UploadWriter
 
-__all__ = ["rgb565", "expand565", "display_frame", "board_engine", "EngineSystem", "BoardSim", "QUIET",
+__all__ = ["rgb565", "expand565", "display_frame", "board_engine", "board_grid", "board_picture", "picture_tiles",
+           "tiled_color",
+           "EngineSystem", "BoardSim", "QUIET",
            "BOARD_PRESET", "BOARD_SIZE", "MAX_BOARD_SIZE", "add_size_argument",
            "TileCopy"]
 
@@ -87,6 +89,15 @@ def display_frame(color: np.ndarray, h_active: int = 640, v_active: int = 480) -
     return out
 
 
+def board_grid(rop, timing, frame: str = "chip") -> tuple[int, int]:
+    """The board's ``(columns, rows)`` of tiles: one with the frame on chip (the frame store holds the tile), the
+    display's picture covered by ``rop.width x rop.height`` tiles with the frame in SDRAM (the last column and row
+    cut by the picture's edge)."""
+    if frame == "chip":
+        return 1, 1
+    return -(-timing.h_active // rop.width), -(-timing.v_active // rop.height)
+
+
 def board_engine(scene: str = "tin-plane", preset: str = BOARD_PRESET, size: int = BOARD_SIZE):
     """``(params, frame, tframe)``: the engine of the board for a scene (name or path) drawn at ``size`` x ``size``
     (the tile): the set-up's engine (:func:`host.render.from_triangles` with its depth test) with the frame buffer on
@@ -101,6 +112,55 @@ def board_engine(scene: str = "tin-plane", preset: str = BOARD_PRESET, size: int
     p = tframe.params
     return EngineParams(raster=p.raster, pipeline=p.pipeline, rop=dataclasses.replace(p.rop, on_chip=True)), \
         frame, tframe
+
+
+def board_picture(scene="tin-plane", preset: str = BOARD_PRESET, size: int = BOARD_SIZE, timing=None,
+                  cube_size: int | None = None):
+    """``(params, frame, tiles)``: a scene (name, path or :class:`~host.scene.Scene`) prepared at the display's
+    picture size (``timing``, default 640 x 480) and set up a ``size x size`` tile at a time, as the board with its
+    frame in SDRAM draws it (:func:`picture_tiles`)."""
+    from host.render import prepare
+    from host.scene import scene_path
+
+    from .video import VGA_640x480
+    t = VGA_640x480 if timing is None else timing
+    src = scene_path(scene) if isinstance(scene, str) else scene
+    frame = prepare(src, size=(t.h_active, t.v_active), preset=preset, cube_size=cube_size)
+    params, tiles = picture_tiles(frame, size)
+    return params, frame, tiles
+
+
+def picture_tiles(frame, size: int):
+    """``(params, tiles)`` of a prepared ``frame`` (the whole picture) drawn a ``size x size`` tile at a time:
+    ``params`` the engine of one tile (the depth test on chip, cleared to the scene's background), ``tiles``
+    ``[((col, row), records)]`` in raster order of the grid (:func:`host.render.frame_records` with each tile's
+    place), every tile of the grid, those no triangle touches with no record (they are cleared and copied all the
+    same)."""
+    import dataclasses
+
+    from fxmodel.pipeline.engine import EngineParams
+    from host.engine_setup import frame_raster, frame_records, frame_rop
+    raster = frame_raster(frame)
+    rop = dataclasses.replace(frame_rop(frame, raster, size, size), on_chip=True)
+    params = EngineParams(raster=raster, pipeline=frame.params, rop=rop)
+    w, h = frame.scene.width, frame.scene.height
+    tiles = [((c, r), frame_records(frame, raster, (c * size, r * size, size, size))[0])
+             for r in range(-(-h // size)) for c in range(-(-w // size))]
+    return params, tiles
+
+
+def tiled_color(params, tiles, picture: tuple[int, int]) -> np.ndarray:
+    """The picture ``(height, width, 3)`` the engine ``params`` draws a tile at a time (``tiles`` as
+    :func:`board_picture`'s): each tile's frame (:meth:`fxmodel.pipeline.engine.EngineParams.draw`, from its cleared
+    tile) at its place, cut by the picture's edge."""
+    tw, th = params.rop.width, params.rop.height
+    cols = 1 + max(c for (c, _), _ in tiles)
+    rows = 1 + max(r for (_, r), _ in tiles)
+    out = np.zeros((rows * th, cols * tw, 3), dtype=np.int64)
+    for (c, r), recs in tiles:
+        _, color, _, _, _ = params.draw(recs.matrix() if hasattr(recs, "matrix") else recs)
+        out[r * th:(r + 1) * th, c * tw:(c + 1) * tw] = color[..., :3]
+    return out[:picture[1], :picture[0]]
 
 
 class EngineSystem(wiring.Component):
@@ -144,9 +204,13 @@ class EngineSystem(wiring.Component):
         self.record_len = -(-self.record_bits // 8)
         self._writes = TexelWrites(params.pipeline, blank)
         self._engine = Engine(params, self._writes)
-        self._link = CommandLink(divisor, self.record_len, (params.rop.width, params.rop.height))
+        self.grid = board_grid(params.rop, timing, frame)
+        self.place_bits = tuple(max(0, (n - 1).bit_length()) for n in self.grid)
+        self._link = CommandLink(divisor, self.record_len, (params.rop.width, params.rop.height), self.grid)
         self._display = Display(timing, latency=3)
-        self._copy = TileCopy(params.rop, self._engine.fb.signature)
+        self._copy = TileCopy(params.rop, self._engine.fb.signature, place_bits=sum(self.place_bits),
+                              wait_every_copy=frame == "sdram")
+        self._picture_status = Signal(self._engine.status.shape(), name="picture_status")
         ports = {"rx": In(1, init=1), "tx": Out(1, init=1), "words": Out(30), "error": Out(1), "upload_bad": Out(1),
                  "good": Out(1), "overrun": Out(1), "front": Out(1), "status": Out(self._engine.status.shape())}
         if frame == "sdram":                    # the frame in SDRAM: its AXI4 port and flags (board/sdram_system.py)
@@ -163,25 +227,36 @@ class EngineSystem(wiring.Component):
         m.submodules.engine = DomainRenamer("engine")(eng)          # the engine's own clock
         m.submodules.display = disp = self._display
         m.d.comb += [link.rx.eq(self.rx), self.tx.eq(link.tx), self.error.eq(link.error), self.good.eq(link.done),
-                     self.status.eq(eng.status)]
+                     self.status.eq(self._picture_status)]
         # -- TEXTURE, CUBE: each word into its texel memory, in the engine's clock (board/upload.py)
         m.submodules.upload = up = UploadWriter(self._writes)
         m.d.comb += [up.cmd.eq(link.cmd), up.index.eq(link.index), up.data.eq(link.data),
                      up.data_valid.eq(link.data_valid), self.upload_bad.eq(up.bad)]
         # -- FRAME_START, SWAP: toggles to the engine's clock; the tile's clear and copy (TileCopy), whichever
         # the frame store
-        swap_req, start_req = Signal(), Signal()
+        # (and COPY), with FRAME_START's place in the grid of tiles, held in ``sync`` until the next FRAME_START
+        swap_req, copy_req, start_req = Signal(), Signal(), Signal()
+        place = Signal(sum(self.place_bits))
         with m.If(link.done & (link.cmd == Cmd.SWAP)):
             m.d.sync += swap_req.eq(~swap_req)
+        with m.If(link.done & (link.cmd == Cmd.COPY)):
+            m.d.sync += copy_req.eq(~copy_req)
         with m.If(link.done & (link.cmd == Cmd.FRAME_START)):
-            m.d.sync += start_req.eq(~start_req)
+            m.d.sync += [start_req.eq(~start_req),
+                         place.eq(Cat(link.col[:self.place_bits[0]], link.row[:self.place_bits[1]]))]
         m.submodules.copy = tc = DomainRenamer("engine")(self._copy)
         self._record(m, link, eng, tc.stall)
         wiring.connect(m, tc.fb, eng.fb)
         m.d.comb += [tc.swap.eq(toggle_sync(m, "swap", swap_req, "engine")),
-                     tc.start.eq(toggle_sync(m, "start", start_req, "engine")),
+                     tc.copy.eq(toggle_sync(m, "copy", copy_req, "engine")),
+                     tc.start.eq(toggle_sync(m, "start", start_req, "engine")), tc.place.eq(place),
                      tc.active.eq(eng.i.valid | eng.busy | eng.rop_busy)]
-        self._state(m, link, eng)
+        # the depth test's flags over the picture's tiles: its own are cleared with each tile, these with the
+        # picture's first (place 0, 0), during that tile's clear (the depth test's clear is registered: cleared
+        # every clock of the walk, they end it clear)
+        first = tc.clearing & (tc.tile_place == 0)
+        m.d.engine += self._picture_status.eq(Mux(first, 0, self._picture_status | eng.status))
+        self._state(m, link)
         if self.frame == "sdram":
             from .sdram_system import elaborate_frame
             elaborate_frame(self, m, tc, disp)
@@ -217,7 +292,7 @@ class EngineSystem(wiring.Component):
         return m
 
 
-    def _state(self, m: Module, link, eng) -> None:
+    def _state(self, m: Module, link) -> None:
         """The board's state, which STATUS is answered with (``host.protocol.STATE_BITS``), on the link's
         ``state`` in ``sync``: ``busy`` from a SWAP until the buffer shown changes (``front``), and the sticky
         flags, those of other clocks through two registers each (each flag is a bit of its own, which changes at
@@ -231,8 +306,9 @@ class EngineSystem(wiring.Component):
             m.d.sync += [due.eq(1), front_then.eq(self.front)]
         bits["busy"], bits["overrun"], bits["upload_bad"] = due, self.overrun, self.upload_bad
         store_error = (self.mem_error | self.underrun) if self.frame == "sdram" else Const(0)
-        for name, flag in (("outside", eng.status[ROP_STATUS_BITS["outside"]]),
-                           ("z_saturated", eng.status[ROP_STATUS_BITS["z_saturated"]]), ("store_error", store_error)):
+        status = self._picture_status
+        for name, flag in (("outside", status[ROP_STATUS_BITS["outside"]]),
+                           ("z_saturated", status[ROP_STATUS_BITS["z_saturated"]]), ("store_error", store_error)):
             bits[name] = Signal(name=f"state_{name}")
             m.submodules[f"state_{name}_ff"] = FFSynchronizer(flag, bits[name], o_domain="sync")
         state = [None] * len(STATE_BITS)
@@ -251,8 +327,8 @@ class EngineSystem(wiring.Component):
         ack_seen = toggle_sync(m, "rec_ack", ack, "sync")
         with m.If(ack_seen):
             m.d.sync += pending.eq(0)
-        with m.If(link.done & (link.cmd == Cmd.FRAME_START)):        # a flag of the frame (FRAME_FLAGS)
-            m.d.sync += self.overrun.eq(0)
+        with m.If(link.done & (link.cmd == Cmd.FRAME_START) & (link.col == 0) & (link.row == 0)):
+            m.d.sync += self.overrun.eq(0)                          # a flag of the picture (FRAME_FLAGS)
         with m.If(link.done & (link.cmd == Cmd.TRIANGLE)):
             with m.If(pending & ~ack_seen):
                 m.d.sync += self.overrun.eq(1)
@@ -281,12 +357,18 @@ class TileCopy(wiring.Component):
     once the engine has been quiet (``active`` low) for ``quiet`` clocks, the tile is read out through ``fb``, each
     word narrowed to RGB565 and written (``w_en``, ``w_addr``, ``w_data``, from registers) into the back buffer of
     the frame store (the buffer's index in the address's top bit); ``copied`` toggles when done, and no other copy
-    starts before ``shown`` (a pulse: the display shows it). FRAME_START (``start``): ``stall`` rises (the engine
-    takes no record) and, once quiet and no copy waiting, the tile is read out with ``fb.clear`` (every word to
-    the clear value, nothing written to the store); ``stall`` falls when the clear is done. ``room`` (default high):
-    the copy's walk steps only while it is high (a FIFO behind the writes with room for the words in flight,
-    ``params.readout_latency + 1``;
-    the frame in SDRAM, ``board/sdram_system.py``); the clear's walk ignores it.
+    starts before ``shown`` (a pulse: the display shows it). COPY (``copy``, a pulse): the same copy without
+    showing it (a picture's tile but its last): ``copied`` does not toggle, and the next copy waits for ``shown``
+    only with ``wait_every_copy`` (the frame in SDRAM, where ``shown`` is the copy's last write, not the display).
+    FRAME_START (``start``): ``stall`` rises (the engine takes no record) and, once quiet and no copy waiting, the
+    tile is read out with ``fb.clear`` (every word to the clear value, nothing written to the store); ``stall``
+    falls when the clear is done. The tile's place (``place``, held from before ``start``, taken with it) is the
+    tile's when its clear begins, and offered with each copy of the tile (``copy_place``, with ``copy_show``: the
+    copy is a SWAP's), held from before the copy's first word until the next copy begins; ``tile_place`` is the
+    tile's place, ``clearing`` high while the clear's walk reads the tile. ``room`` (default
+    high): the copy's walk steps only while it is high (a FIFO behind the writes with room for the words in
+    flight, ``params.readout_latency + 1``; the frame in SDRAM, ``board/sdram_system.py``); the clear's walk
+    ignores it.
 
     Parameters
     ----------
@@ -298,13 +380,15 @@ class TileCopy(wiring.Component):
         Clocks of quiet before a copy or clear (beyond the pixel pipeline's latency).
     """
 
-    def __init__(self, params, fb: wiring.Signature, quiet: int = QUIET):
-        self.params, self.quiet = params, quiet
+    def __init__(self, params, fb: wiring.Signature, quiet: int = QUIET, place_bits: int = 0,
+                 wait_every_copy: bool = False):
+        self.params, self.quiet, self.wait_every_copy = params, quiet, wait_every_copy
         pixels = params.pixels
-        super().__init__({"swap": In(1), "start": In(1), "shown": In(1), "active": In(1), "room": In(1, init=1),
-                          "fb": In(fb),
+        super().__init__({"swap": In(1), "copy": In(1), "start": In(1), "shown": In(1), "active": In(1),
+                          "room": In(1, init=1), "place": In(place_bits), "fb": In(fb),
                           "w_en": Out(1), "w_addr": Out(range(2 * pixels)), "w_data": Out(16), "stall": Out(1),
-                          "copied": Out(1)})
+                          "copied": Out(1), "copy_place": Out(place_bits), "copy_show": Out(1),
+                          "tile_place": Out(place_bits), "clearing": Out(1)})
 
     def elaborate(self, platform):
         m = Module()
@@ -315,12 +399,18 @@ class TileCopy(wiring.Component):
         with m.Elif(quiet != self.quiet):
             m.d.sync += quiet.eq(quiet + 1)
         back = Signal(init=1)
-        want, waiting, clear_want = Signal(), Signal(), Signal()   # a SWAP to serve; a copy not yet shown; a clear
+        want, waiting, clear_want = Signal(), Signal(), Signal()   # a copy to serve; a copy not yet shown; a clear
+        want_show, tile_place = Signal(), self.tile_place          # the copy wanted is a SWAP's; the tile's place
         drained = pixels + P.readout_latency + 1        # the walk's address when its last word is in the store
         addr = Signal(range(drained + 1))
         reading, clearing, wvalid, waddr = Signal(), Signal(), Signal(), Signal(range(2 * pixels))
-        with m.If(self.swap):
-            m.d.sync += want.eq(1)
+        with m.If(self.swap | self.copy):            # a SWAP's show is kept until its copy is served
+            m.d.sync += [want.eq(1), want_show.eq(self.swap | (want & want_show))]
+        # the place, held in the other clock from FRAME_START's handshake on, is taken here with its pulse (so it
+        # has settled), and by the tile when its clear begins (a copy of the tile before waits for it)
+        place_next = Signal.like(self.place)
+        with m.If(self.start):
+            m.d.sync += place_next.eq(self.place)
         with m.If(self.start):
             m.d.sync += clear_want.eq(1)
         with m.If(self.shown):
@@ -332,7 +422,7 @@ class TileCopy(wiring.Component):
         # block RAM rows, and the read-out's output straight into the other's inputs was a path through two
         # die-wide routes (the engine's clock at a third of its target after placement)
         m.d.comb += [self.fb.read.eq(reading), self.fb.clear.eq(clearing & reading),
-                     self.fb.addr.eq(addr[:len(self.fb.addr)]),
+                     self.clearing.eq(clearing & reading), self.fb.addr.eq(addr[:len(self.fb.addr)]),
                      self.stall.eq(clear_want)]
         # the address's word comes ``readout_latency`` clocks later (``rtl/rop.py``): its valid and store address
         # follow it in a delay line (the back buffer's index with it: it changes as the walk ends)
@@ -343,14 +433,16 @@ class TileCopy(wiring.Component):
             m.d.sync += [v.eq(wvalid), a.eq(waddr)]
             wvalid, waddr = v, a
         m.d.sync += [self.w_en.eq(wvalid), self.w_addr.eq(waddr), self.w_data.eq(word565)]
-        ready = (quiet == self.quiet) & ~self.swap & ~self.start
+        ready = (quiet == self.quiet) & ~self.swap & ~self.copy & ~self.start
         with m.FSM():
             with m.State("idle"):
                 with m.If(want & ~waiting & ready):
-                    m.d.sync += [want.eq(0), addr.eq(0), reading.eq(1)]
+                    m.d.sync += [want.eq(0), addr.eq(0), reading.eq(1), self.copy_place.eq(tile_place),
+                                 self.copy_show.eq(want_show)]
                     m.next = "walk"
                 with m.Elif(clear_want & ~want & ready):
-                    m.d.sync += [addr.eq(0), reading.eq(1), clearing.eq(1)]     # the copy's walk, clearing
+                    m.d.sync += [addr.eq(0), reading.eq(1), clearing.eq(1),     # the copy's walk, clearing
+                                 tile_place.eq(place_next)]
                     m.next = "walk"
             with m.State("walk"):
                 with m.If(addr == pixels):
@@ -364,7 +456,9 @@ class TileCopy(wiring.Component):
                     m.d.sync += [clearing.eq(0), clear_want.eq(0)]
                     m.next = "idle"
                 with m.Elif(addr == drained):
-                    m.d.sync += [self.copied.eq(~self.copied), back.eq(~back), waiting.eq(1)]
+                    m.d.sync += waiting.eq(self.copy_show | self.wait_every_copy)
+                    with m.If(self.copy_show):                  # a SWAP's: the display shows this buffer next
+                        m.d.sync += [self.copied.eq(~self.copied), back.eq(~back)]
                     m.next = "idle"
         return m
 

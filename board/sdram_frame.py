@@ -12,10 +12,13 @@ Layout (:class:`FrameLayout`): pixel ``(x, y)`` of buffer ``b`` at byte ``base +
 (one 16-bit pixel a beat, ``INCR``, ``AxSIZE = 1``) starting at multiples of ``burst`` pixels: no burst crosses a
 4 KB page.
 
-- **Copy** (:class:`SdramFrame` ``i``: the frame's ``width height`` words in raster order): ``AW`` for each burst of
-  the back buffer (at most :data:`AW_AHEAD` ahead of the data), ``W`` beats straight from ``i`` (only for bursts
-  whose ``AW`` was taken), ``B`` always taken; when every burst's ``B`` is in, the copy is done and ``i`` is not
-  ready until the buffer has been shown.
+- **Copy** (:class:`SdramFrame` ``i``: a tile's ``tile_width tile_height`` words in raster order, by default the
+  whole frame's): the tile's place in the frame's grid of tiles (``col``, ``row``) and whether the copy shows the
+  buffer (``show``) are taken when its first word is offered (the writer holds them from before that word until
+  the copy's end); ``AW`` for each burst of the tile's place in the back buffer (at most :data:`AW_AHEAD` ahead of
+  the data), ``W`` beats straight from ``i`` (only for bursts whose ``AW`` was taken), ``B`` always taken; when
+  every burst's ``B`` is in, the copy is done (``copied``); a copy with ``show`` then waits (``i`` not ready) until
+  the buffer has been shown, one without it leaves the buffer to the picture's next tile.
 - **Scan-out**: at the start of each vertical blanking the pixel clock's side toggles ``frame``; the fetch, once its
   previous frame's reads are all in, makes the finished copy (if any) the front buffer there (no tearing: the
   buffer shown changes only between frames, and the copy never writes the buffer being read), then reads the front
@@ -36,6 +39,7 @@ from amaranth.lib.cdc import FFSynchronizer
 from amaranth.lib.fifo import AsyncFIFO
 from amaranth.lib.wiring import In, Out
 
+from rtl.fixed import const_mul
 from rtl.rop import axi_signature
 
 from .litedram import ADDR_BITS, DATA_BITS, ID_BITS
@@ -129,7 +133,7 @@ class _Bursts:
     the current burst's; ``step()`` the statements to the next one; ``last`` at the frame's last burst."""
 
     def __init__(self, layout: FrameLayout, name: str):
-        self.L = layout
+        self.L = self.walk = layout
         self.x = Signal(range(max(2, layout.width + layout.burst)), name=f"{name}_x")
         self.y = Signal(range(max(2, layout.height)), name=f"{name}_y")
         rest = layout.width - self.x
@@ -144,34 +148,52 @@ class _Bursts:
     def reset(self):
         return [self.x.eq(0), self.y.eq(0)]
 
-    def address(self, buffer):
-        """The burst's byte address in ``buffer`` (shifts by the powers of two, no multiplier)."""
-        L = self.L
+    def address(self, buffer, frame: FrameLayout | None = None, x0=0, y0=0):
+        """The burst's byte address in ``buffer`` of ``frame`` (default the walk's own layout), the walk's pixel
+        ``(x, y)`` at ``(x0 + x, y0 + y)`` of the frame (shifts by the powers of two, no multiplier)."""
+        L = self.L if frame is None else frame
         shift = (L.beat_bytes - 1).bit_length()
-        return (L.base + (self.x << shift) + (self.y << (L.pitch - 1).bit_length())
+        return (L.base + ((x0 + self.x) << shift) + ((y0 + self.y) << (L.pitch - 1).bit_length())
                 + (buffer << (L.buffer_bytes - 1).bit_length()))[:ADDR_BITS]
 
 
 class SdramFrame(wiring.Component):
     """The double-buffered frame behind an AXI4 port (module docstring).
 
-    Ports: ``i`` (``dram``; the copy's words, RGB565), ``copied`` (``dram``: a pulse when a copy's last ``B`` is
-    in), ``mem`` (the AXI4 manager, ``dram``), ``error`` (``dram``, sticky), ``x``, ``y`` (``sync``: the display's
-    position; ``color``, the word there, :data:`LATENCY` clocks later, 0 outside the frame), ``front`` (``sync``:
-    the buffer shown, through a synchroniser), ``underrun`` (``sync``, sticky). ``count_last_write=False`` leaves
-    the last clock's FIFO write out of the read's room (``ARVALID`` may then fall before ``ARREADY``): only for the
-    test that shows the formal check catches it.
+    Ports: ``i`` (``dram``; the copy's words, RGB565), ``col``, ``row``, ``show`` (the copy's place and whether it
+    shows the buffer: held by the writer from before the copy's first word until its end, taken with that word),
+    ``copied`` (``dram``: a pulse when a copy's last ``B`` is in), ``mem`` (the AXI4 manager, ``dram``), ``error``
+    (``dram``, sticky), ``x``, ``y`` (``sync``: the display's position; ``color``, the word there, :data:`LATENCY`
+    clocks later, 0 outside the frame), ``front`` (``sync``: the buffer shown, through a synchroniser),
+    ``underrun`` (``sync``, sticky). ``tile``: the copy's ``(width, height)``, default the frame's; the frame's
+    grid of tiles (``grid``: columns and rows, the last ones cut by the frame's edge) must fit its buffer's pitch
+    and lines, and a tile's width must be a multiple of the burst unless the grid has one column (so that no burst
+    crosses a line). ``count_last_write=False`` leaves the last clock's FIFO write out of the read's room
+    (``ARVALID`` may then fall before ``ARREADY``): only for the test that shows the formal check catches it.
     """
 
-    def __init__(self, layout: FrameLayout, timing, fifo_depth: int = FIFO_DEPTH, count_last_write: bool = True):
+    def __init__(self, layout: FrameLayout, timing, fifo_depth: int = FIFO_DEPTH, count_last_write: bool = True,
+                 tile: tuple[int, int] | None = None):
         if layout.width > timing.h_active or layout.height > timing.v_active:
             raise ValueError(f"the {layout.width}x{layout.height} frame exceeds the display's "
                              f"{timing.h_active}x{timing.v_active}")
         if fifo_depth < 2 * layout.burst:
             raise ValueError(f"fifo_depth={fifo_depth}: must hold two bursts ({2 * layout.burst} words)")
+        tw, th = (layout.width, layout.height) if tile is None else tile
+        self.tile = FrameLayout(tw, th, burst=layout.burst)
+        self.grid = (-(-layout.width // tw), -(-layout.height // th))
+        cols, rows = self.grid
+        if cols * tw * layout.beat_bytes > layout.pitch or rows * th * layout.pitch > layout.buffer_bytes:
+            raise ValueError(f"the {cols}x{rows} tiles of {tw}x{th} exceed the {layout.width}x{layout.height} "
+                             f"frame's buffer ({layout.pitch} bytes a line, {layout.buffer_bytes // layout.pitch} "
+                             "lines)")
+        if cols > 1 and tw % layout.burst:
+            raise ValueError(f"tile width {tw}: a multiple of the burst ({layout.burst} beats) when the frame has "
+                             f"{cols} columns of tiles")
         self.layout, self.timing, self.fifo_depth = layout, timing, fifo_depth
         self.count_last_write = count_last_write        # False: the bug formal/sdram_frame.py must catch
-        super().__init__({"i": In(stream.Signature(DATA_BITS)), "copied": Out(1),
+        super().__init__({"i": In(stream.Signature(DATA_BITS)), "col": In(range(cols)), "row": In(range(rows)),
+                          "show": In(1, init=1), "copied": Out(1),
                           "mem": Out(axi_signature(ADDR_BITS, DATA_BITS, ID_BITS)), "error": Out(1),
                           "x": In(range(timing.h_total)), "y": In(range(timing.v_total)),
                           "color": Out(DATA_BITS), "front": Out(1), "underrun": Out(1)})
@@ -191,15 +213,22 @@ class SdramFrame(wiring.Component):
         return m
 
     def _copy(self, m, front, done):
-        """The write side: ``AW`` per burst of the back buffer, ``W`` from ``i``, ``B`` counted."""
-        L, axi = self.layout, self.mem
-        aw, w = _Bursts(L, "aw"), _Bursts(L, "w")
+        """The write side: the copy's place and ``show`` taken with its first word, then ``AW`` per burst of the
+        tile's place in the back buffer, ``W`` from ``i``, ``B`` counted."""
+        L, T, axi = self.layout, self.tile, self.mem
+        aw, w = _Bursts(T, "aw"), _Bursts(T, "w")
         ahead = Signal(range(AW_AHEAD + 1))               # bursts whose AW is taken and whose data is not all sent
-        aw_left = Signal(range(L.bursts + 1), init=L.bursts)   # bursts of this copy still to address
-        b_left = Signal(range(L.bursts + 1), init=L.bursts)
+        aw_left = Signal(range(T.bursts + 1), init=T.bursts)   # bursts of this copy still to address
+        b_left = Signal(range(T.bursts + 1), init=T.bursts)
         beat = Signal(range(L.burst + 1))
-        active = ~done
-        m.d.comb += [axi.awid.eq(0), axi.awaddr.eq(aw.address(~front)), axi.awlen.eq(aw.beats - 1),
+        started, show = Signal(), Signal()                # the copy's place and show taken
+        x0 = Signal(range(max(2, self.grid[0] * T.width)), name="copy_x0")
+        y0 = Signal(range(max(2, self.grid[1] * T.height)), name="copy_y0")
+        active = ~done & started
+        with m.If(~done & ~started & self.i.valid):
+            m.d.dram += [started.eq(1), show.eq(self.show), x0.eq(const_mul(self.col, T.width)),
+                         y0.eq(const_mul(self.row, T.height))]
+        m.d.comb += [axi.awid.eq(0), axi.awaddr.eq(aw.address(~front, L, x0, y0)), axi.awlen.eq(aw.beats - 1),
                      axi.awsize.eq((L.beat_bytes - 1).bit_length()), axi.awburst.eq(1),
                      axi.awvalid.eq(active & (aw_left != 0) & (ahead < AW_AHEAD)), axi.bready.eq(1)]
         aw_go = axi.awvalid & axi.awready
@@ -218,8 +247,8 @@ class SdramFrame(wiring.Component):
         b_go = axi.bvalid & axi.bready
         with m.If(b_go):
             m.d.dram += b_left.eq(b_left - 1)
-            with m.If(b_left == 1):                       # the copy's last response: the back buffer is full
-                m.d.dram += [done.eq(1), aw_left.eq(L.bursts), b_left.eq(L.bursts)]
+            with m.If(b_left == 1):                       # the copy's last response: its tile is in the buffer
+                m.d.dram += [done.eq(show), started.eq(0), aw_left.eq(T.bursts), b_left.eq(T.bursts)]
         m.d.comb += self.copied.eq(b_go & (b_left == 1))
 
     def _fetch(self, m, fifo, front, done):

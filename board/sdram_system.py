@@ -28,7 +28,7 @@ from .cdc import toggle_sync
 from .litedram import ADDR_BITS, DATA_BITS, ID_BITS
 from .sdram_frame import LATENCY, FrameLayout, SdramFrame
 
-__all__ = ["members", "elaborate_frame", "BURST", "COPY_FIFO", "UNSEEN_WRITES"]
+__all__ = ["members", "elaborate_frame", "burst", "BURST", "COPY_FIFO", "UNSEEN_WRITES"]
 
 #: Beats of the frame's bursts (128 bytes: a 128-pixel line is two).
 BURST = 64
@@ -38,6 +38,13 @@ COPY_FIFO = 16
 #: Clocks by which the ``AsyncFIFO``'s ``w_level`` lags a write: its write pointer and the level are registers, so
 #: the words written in the last two clocks are not in it yet (a read shows later still, which only overstates).
 UNSEEN_WRITES = 2
+
+
+def burst(tile_width: int, cols: int) -> int:
+    """Beats of the frame's bursts: :data:`BURST`, or less for a narrow tile (the power of two at least its width)
+    or one whose width it does not divide when the picture has several columns of tiles (the largest power of two
+    dividing the width: no burst crosses a tile's edge)."""
+    return min(BURST, 1 << (tile_width - 1).bit_length() if cols == 1 else tile_width & -tile_width)
 
 
 def members() -> dict:
@@ -53,8 +60,9 @@ def elaborate_frame(system, m: Module, tc, disp) -> None:
     P = system.params.rop
     if disp.latency != LATENCY + 1:
         raise AssertionError(f"the display's pixel latency must be {LATENCY + 1} (the frame's and a register)")
-    m.submodules.sdram_frame = f = SdramFrame(
-        FrameLayout(P.width, P.height, burst=min(BURST, 1 << (P.width - 1).bit_length())), system.timing)
+    t, cols = system.timing, system.grid[0]
+    m.submodules.sdram_frame = f = SdramFrame(FrameLayout(t.h_active, t.v_active, burst=burst(P.width, cols)), t,
+                                              tile=(P.width, P.height))
     q = AsyncFIFO(width=DATA_BITS, depth=COPY_FIFO, w_domain="engine", r_domain="dram")
     m.submodules.copy_fifo = q
     wiring.connect(m, f.mem, wiring.flipped(system.mem))
@@ -69,6 +77,11 @@ def elaborate_frame(system, m: Module, tc, disp) -> None:
         m.d.engine += lost.eq(1)
     with m.If(f.copied):
         m.d.dram += copied.eq(~copied)
+    # the copy's place and show: TileCopy's registers, held from before the copy's first word until the next
+    # copy begins, which waits for this one's last write; SdramFrame takes them with the first word, which reached
+    # it through the FIFO's synchronised pointers, so they have settled in the SDRAM's clock
+    cb = system.place_bits[0]
+    m.d.comb += [f.col.eq(tc.copy_place[:cb]), f.row.eq(tc.copy_place[cb:]), f.show.eq(tc.copy_show)]
     m.d.comb += [f.i.valid.eq(q.r_rdy), f.i.payload.eq(q.r_data), q.r_en.eq(f.i.ready),
                  q.w_en.eq(tc.w_en), q.w_data.eq(tc.w_data), tc.room.eq(q.w_level < COPY_FIFO - flight),
                  tc.shown.eq(toggle_sync(m, "copied", copied, "engine")),

@@ -78,11 +78,12 @@ def decode_words(words: np.ndarray) -> np.ndarray:
 
 
 def simulate(params, records, data: bytes, *, timing: VideoTiming = VGA_640x480, sim: str | None = None,
-             frame: str = "chip", uploads: bool = False) -> dict:
+             frame: str = "chip", uploads: bool = False, picture=None) -> dict:
     """Simulate the board drawing ``records`` (codes) from the byte stream ``data``; the report (``pix`` the
     decoded clocks, ``picture`` the decoded frame, ``want`` the model's). ``frame="sdram"``: the frame in SDRAM
     behind LiteDRAM's simulation core (``board/sdram_system.py``). ``uploads``: the TEXTURE and CUBE frames sent
-    into blank texel memories (module docstring; the frame on chip)."""
+    into blank texel memories (module docstring; the frame on chip). ``picture``: the engine's picture drawn a tile
+    at a time (:func:`board.frame.tiled_color`), the model's frame instead of ``records`` drawn as one tile."""
     sim = simulator(sim)
     if uploads and frame != "chip":
         raise ValueError("uploads: simulated with the frame on chip only")
@@ -90,7 +91,7 @@ def simulate(params, records, data: bytes, *, timing: VideoTiming = VGA_640x480,
     kept = frames if uploads else [f for f in frames if f[1] not in (Cmd.TEXTURE, Cmd.CUBE)]
     stream = b"".join(kept)
     divisor = UPLOAD_DIVISOR if uploads else DIVISOR
-    _, color, _, _, _ = params.draw(records)
+    color = params.draw(records)[1] if picture is None else picture
     want = display_frame(color, timing.h_active, timing.v_active)
     key = hashlib.sha1(repr((params, timing, divisor, uploads)).encode()
                        + source_digest(("fxmodel", "rtl", "board", "host"))).hexdigest()[:12]

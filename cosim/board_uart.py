@@ -21,13 +21,14 @@ CLOCK_NS, DIVISOR = 10, 16
 
 
 def run(data: bytes, record_len: int, tile: tuple[int, int] | None = None, board_state: int = 0, *,
-        sim: str | None = None) -> dict:
-    """Send ``data`` to ``CommandLink(DIVISOR, record_len, tile)`` with ``board_state`` on its ``state``; return
+        grid: tuple[int, int] = (1, 1), sim: str | None = None) -> dict:
+    """Send ``data`` to ``CommandLink(DIVISOR, record_len, tile, grid)`` with ``board_state`` on its ``state``; return
     ``commands`` [(cmd, payload bytes)], ``replies`` (bytes from ``tx``), ``error``, ``code`` (the error state at
     the end) and the times."""
     sim = simulator(sim)
-    key = hashlib.sha1(f"{DIVISOR} {record_len} {tile}".encode() + source_digest(("board", "host"))).hexdigest()[:12]
-    top, bdir, src = component_build("command_link", key, sim, lambda: CommandLink(DIVISOR, record_len, tile))
+    key = hashlib.sha1(f"{DIVISOR} {record_len} {tile} {grid}".encode()
+                       + source_digest(("board", "host"))).hexdigest()[:12]
+    top, bdir, src = component_build("command_link", key, sim, lambda: CommandLink(DIVISOR, record_len, tile, grid))
     job = job_folder(bdir, "uart", {"data": hashlib.sha1(data).hexdigest(), "record_len": record_len,
                                     "board_state": board_state})
     out, build_seconds, seconds = run_testbench(sim, src, top, bdir, job, "cosim.board_uart_tb",

@@ -1,8 +1,8 @@
 """cocotb testbench of the board's UART command link: ``job.json`` gives the bytes, the clock period, the clocks a bit
 and the board's state on the link's ``state`` input. cocotbext-uart's ``UartSource`` drives ``rx`` and its
 ``UartSink`` reads ``tx``; each payload byte (``data_valid``) and each good frame (``done``) is recorded as it
-happens, a frame's payload being the bytes since its start. Writes ``parsed.json``: the commands, the replies, the
-error state at the end."""
+happens, a frame's payload being the bytes since its start, and each FRAME_START's place (``col``, ``row`` at its
+``done``). Writes ``parsed.json``: the commands, the places, the replies, the error state at the end."""
 
 from __future__ import annotations
 
@@ -14,6 +14,8 @@ import cocotb
 from cocotb.clock import Clock
 from cocotb.triggers import FallingEdge, ReadOnly, RisingEdge, Timer
 from cocotbext.uart import UartSink, UartSource
+
+from host.protocol import Cmd
 
 
 @cocotb.test()
@@ -30,7 +32,7 @@ async def link(dut):
     for _ in range(3):
         await FallingEdge(dut.clk)
     dut.rst.value = 0
-    payload, commands = [], []
+    payload, commands, places = [], [], []
 
     async def bytes_():
         while True:
@@ -47,6 +49,8 @@ async def link(dut):
             await ReadOnly()
             n = int(dut.length.value)
             commands.append([int(dut.cmd.value), bytes(payload[:n] if n else []).hex()])
+            if int(dut.cmd.value) == Cmd.FRAME_START:
+                places.append([int(dut.col.value), int(dut.row.value)])
             payload.clear()
 
     cocotb.start_soon(bytes_())
@@ -55,5 +59,6 @@ async def link(dut):
     await source.wait()
     await Timer(meta["clock_ns"] * meta["divisor"] * 30, unit="ns")       # the last reply's ten bits and more
     replies = sink.read_nowait()
-    (job / "parsed.json").write_text(json.dumps({"commands": commands, "replies": bytes(replies).hex(),
-                                                 "error": int(dut.error.value), "code": int(dut.code.value)}))
+    (job / "parsed.json").write_text(json.dumps({"commands": commands, "places": places,
+                                                 "replies": bytes(replies).hex(), "error": int(dut.error.value),
+                                                 "code": int(dut.code.value)}))

@@ -21,7 +21,7 @@ from amaranth.lib.wiring import In, Out
 
 from board.dvi import TimingGenerator
 from board.litedram import ADDR_BITS, DATA_BITS, ID_BITS
-from board.sdram_frame import AW_AHEAD, LATENCY, FrameLayout, SdramFrame
+from board.sdram_frame import LATENCY, FrameLayout, SdramFrame
 from board.video import VideoTiming
 from fxmodel.core.paths import source_digest
 from rtl.rop import axi_signature
@@ -36,10 +36,11 @@ class SdramFrameBench(wiring.Component):
     """:class:`SdramFrame` with the display's :class:`TimingGenerator` (``sync``, the pixel clock); ``dram`` the
     memory's clock (ports ``dram_clk``, ``dram_rst``). ``x``, ``y``: the position the timing generator is at."""
 
-    def __init__(self, layout: FrameLayout, timing: VideoTiming, fifo_depth: int):
-        self._frame = SdramFrame(layout, timing, fifo_depth)
+    def __init__(self, layout: FrameLayout, timing: VideoTiming, fifo_depth: int, tile=None):
+        self._frame = f = SdramFrame(layout, timing, fifo_depth, tile=tile)
         self.timing = timing
-        super().__init__({"i": In(stream.Signature(DATA_BITS)), "copied": Out(1),
+        super().__init__({"i": In(stream.Signature(DATA_BITS)), "col": In(f.col.shape()), "row": In(f.row.shape()),
+                          "show": In(1), "copied": Out(1),
                           "mem": Out(axi_signature(ADDR_BITS, DATA_BITS, ID_BITS)), "error": Out(1),
                           "x": Out(range(timing.h_total)), "y": Out(range(timing.v_total)), "color": Out(DATA_BITS),
                           "front": Out(1), "underrun": Out(1)})
@@ -50,6 +51,7 @@ class SdramFrameBench(wiring.Component):
         m.submodules.frame = f = self._frame
         wiring.connect(m, wiring.flipped(self.i), f.i)
         wiring.connect(m, f.mem, wiring.flipped(self.mem))
+        m.d.comb += [f.col.eq(self.col), f.row.eq(self.row), f.show.eq(self.show)]
         m.d.comb += [f.x.eq(tg.x), f.y.eq(tg.y), self.x.eq(tg.x), self.y.eq(tg.y), self.color.eq(f.color),
                      self.copied.eq(f.copied), self.error.eq(f.error), self.front.eq(f.front),
                      self.underrun.eq(f.underrun)]
@@ -66,7 +68,8 @@ class SdramFrameLiteDramBench(wiring.Component):
         from board.sdram_core import LiteDram
         self._bench = SdramFrameBench(layout, timing, fifo_depth)
         self._dram = LiteDram(None, cke_delay)
-        super().__init__({"i": In(stream.Signature(DATA_BITS)), "copied": Out(1), "error": Out(1),
+        super().__init__({"i": In(stream.Signature(DATA_BITS)), "col": In(0), "row": In(0), "show": In(1),
+                          "copied": Out(1), "error": Out(1),
                           "x": Out(range(timing.h_total)), "y": Out(range(timing.v_total)), "color": Out(DATA_BITS),
                           "front": Out(1), "underrun": Out(1), "ready": Out(1)})
 
@@ -76,6 +79,7 @@ class SdramFrameLiteDramBench(wiring.Component):
         m.submodules.dram = d = self._dram
         wiring.connect(m, wiring.flipped(self.i), b.i)
         wiring.connect(m, b.mem, d.axi)
+        m.d.comb += b.show.eq(self.show)
         m.d.comb += [self.x.eq(b.x), self.y.eq(b.y), self.color.eq(b.color), self.copied.eq(b.copied),
                      self.error.eq(b.error), self.front.eq(b.front), self.underrun.eq(b.underrun),
                      self.ready.eq(d.ready)]
@@ -116,10 +120,28 @@ def shown_frames(rec: np.ndarray, layout: FrameLayout, timing: VideoTiming) -> l
     return out
 
 
+def tile_copies(words: list[np.ndarray], layout: FrameLayout, tile) -> tuple[list[dict], list[np.ndarray]]:
+    """The copies that write the pictures ``words`` (``(rows th, cols tw)`` each: whole tiles) a ``tile`` at a
+    time: ``[{col, row, show, words}]``, each picture's tiles in raster order of the grid, the last one showing it;
+    and each picture cut to the frame (``(height, width)``), as the display must show it."""
+    tw, th = tile
+    copies, shown = [], []
+    for w in words:
+        rows, cols = w.shape[0] // th, w.shape[1] // tw
+        for r in range(rows):
+            for c in range(cols):
+                copies.append({"col": c, "row": r, "show": int(r == rows - 1 and c == cols - 1),
+                               "words": w[r * th:(r + 1) * th, c * tw:(c + 1) * tw].ravel().tolist()})
+        shown.append(w[:layout.height, :layout.width])
+    return copies, shown
+
+
 def run(layout: FrameLayout, timing: VideoTiming, frames: list[np.ndarray], *, fifo_depth: int = 64,
         p_pause: float = 0.0, p_valid: float = 1.0, seed: int = 1, dram_ns: int = 10, pixel_ns: int = 40,
-        extra_frames: int = 2, litedram: bool = False, sim: str | None = None) -> dict:
+        extra_frames: int = 2, litedram: bool = False, sim: str | None = None, tile=None) -> dict:
     """Copy ``frames`` (``(height, width)`` RGB565 words each) in through the RTL and compare (module docstring).
+    ``tile``: ``(width, height)``, each frame copied a tile at a time (:func:`tile_copies`; the frames then cover
+    the whole grid of tiles, ``(rows th, cols tw)``), and the bursts checked at each tile's place.
 
     Returns
     -------
@@ -128,15 +150,20 @@ def run(layout: FrameLayout, timing: VideoTiming, frames: list[np.ndarray], *, f
         ``memory_ok`` (the buffers in the ``AxiRam``), ``bursts_ok``, ``underrun``, ``error``, ``cycles``.
     """
     sim = simulator(sim)
-    key = hashlib.sha1(repr((layout, timing, fifo_depth)).encode()
+    key = hashlib.sha1(repr((layout, timing, fifo_depth, tile)).encode()
                        + source_digest(("board", "rtl", "cosim"))).hexdigest()[:12]
     if litedram:
         top, bdir, src = litedram_sources(sim, "sdram_frame_litedram", key,
                                           lambda: SdramFrameLiteDramBench(layout, timing, fifo_depth))
     else:
-        top, bdir, src = component_build("sdram_frame", key, sim, lambda: SdramFrameBench(layout, timing, fifo_depth))
-    words = [np.asarray(f, dtype=np.int64).reshape(layout.height, layout.width) for f in frames]
-    meta = {"frames": [f.ravel().tolist() for f in words], "p_pause": p_pause, "p_valid": p_valid, "seed": seed,
+        top, bdir, src = component_build("sdram_frame", key, sim,
+                                         lambda: SdramFrameBench(layout, timing, fifo_depth, tile))
+    T = FrameLayout(*(tile or (layout.width, layout.height)), burst=layout.burst)
+    pictures = [np.asarray(f, dtype=np.int64) for f in frames]
+    if tile is None:
+        pictures = [f.reshape(layout.height, layout.width) for f in pictures]
+    copies, words = tile_copies(pictures, layout, (T.width, T.height))
+    meta = {"copies": copies, "p_pause": p_pause, "p_valid": p_valid, "seed": seed,
             "dram_ns": dram_ns, "pixel_ns": pixel_ns, "extra_frames": extra_frames,
             "frame_clocks": timing.frame_clocks, "mem_bytes": 1 << max(12, (layout.base + 2 * layout.buffer_bytes
                                                                              - 1).bit_length()),
@@ -161,13 +188,16 @@ def run(layout: FrameLayout, timing: VideoTiming, frames: list[np.ndarray], *, f
     want_last = [np.asarray(w, dtype="<u2").tobytes() for w in words[-2:]]
     memory_ok = None if litedram else \
         sorted(last_buffer) == sorted(want_last) if len(words) >= 2 else want_last[0] in last_buffer
-    bursts_ok = all((a % 4096) + 2 * n <= 4096 and n in (layout.burst, layout.width % layout.burst or layout.burst)
+    bursts_ok = all((a % 4096) + 2 * n <= 4096 and n in (layout.burst, layout.width % layout.burst or layout.burst,
+                                                         T.width % layout.burst or layout.burst)
                     for a, n in res["aw"] + res["ar"])
-    # the copies' bursts in order, each into the buffer not shown (copy k into buffer 1 - k % 2), and at most
-    # AW_AHEAD addresses of the next copy (an AW may go before its data)
-    aw_want = [list(b) for k in range(len(words) + 1) for b in layout.burst_list(1 - k % 2)]
-    n_aw = len(words) * layout.bursts
-    aw_equal = res["aw"] == aw_want[:len(res["aw"])] and n_aw <= len(res["aw"]) <= n_aw + AW_AHEAD
+    # the copies' bursts in order, each picture's into the buffer not shown (picture k into buffer 1 - k % 2), each
+    # tile's at its place; no AW of a copy before its first word (its place comes with it)
+    per = len(copies) // len(words)
+    aw_want = [[layout.address(1 - (k // per) % 2, c["row"] * T.height + y, c["col"] * T.width + x),
+                min(layout.burst, T.width - x)]
+               for k, c in enumerate(copies) for y in range(T.height) for x in range(0, T.width, layout.burst)]
+    aw_equal = res["aw"] == aw_want
     return {"shown": shown, "in_order": in_order, "all_shown": set(range(len(words))) <= set(shown),
             "memory_ok": memory_ok, "bursts_ok": bursts_ok, "aw_equal": aw_equal,
             "underrun": res["underrun"], "error": res["error"], "copied": res["copied"], "cycles": res["cycles"],

@@ -1,9 +1,10 @@
 """cocotb testbench of the frame in SDRAM (``cosim/sdram_frame.py``'s ``SdramFrameBench``), driven by
 :func:`cosim.sdram_frame.run`: the pixel clock ``clk`` and the memory's ``dram_clk`` (periods from ``job.json``), an
-``AxiRam`` on ``mem`` (every channel paused with probability ``p_pause``), the frames' words offered on ``i`` (each
-clock with probability ``p_valid``). Every pixel clock ``x``, ``y``, ``color`` are recorded (``clocks.npy``) until
-the last copy has been shown for ``extra_frames`` frames; every ``AW`` and ``AR`` (address, beats), the copies'
-``copied`` pulses, the flags and both buffers' contents go into ``result.json``.
+``AxiRam`` on ``mem`` (every channel paused with probability ``p_pause``), the copies' words offered on ``i`` (each
+clock with probability ``p_valid``; each copy's place and ``show`` beside them). Every pixel clock ``x``, ``y``,
+``color`` are recorded (``clocks.npy``) until the last copy has been shown for ``extra_frames`` frames; every ``AW``
+and ``AR`` (address, beats), the copies' ``copied`` pulses, the flags and both buffers' contents go into
+``result.json``.
 """
 
 from __future__ import annotations
@@ -20,16 +21,24 @@ from cocotb.triggers import FallingEdge, ReadOnly
 from cosim.tb_common import Source, job_meta, pauses
 
 
-async def _feed(dut, frames, rng, p_valid, state):
-    """Offer the frames' words on ``i`` (``dram`` clock), an offered word held until taken."""
-    src = Source.on(dut, [w for f in frames for w in f], rng, p_valid)
-    while not src.done:
+async def _feed(dut, copies, rng, p_valid, state):
+    """Offer the copies' words on ``i`` (``dram`` clock), an offered word held until taken; each copy's place and
+    ``show`` set before its first word and held until its last write (``copied``), as the board's tile copy does."""
+    for k, c in enumerate(copies):
+        while state["copied"] < k:
+            await FallingEdge(dut.dram_clk)
+        for port in ("col", "row"):                      # (absent when the grid has one column, one row)
+            if hasattr(dut, port):
+                getattr(dut, port).value = c[port]
+        dut.show.value = c["show"]
+        src = Source.on(dut, c["words"], rng, p_valid)
+        while not src.done:
+            await FallingEdge(dut.dram_clk)
+            src.drive()
+            await ReadOnly()
+            src.taken()
         await FallingEdge(dut.dram_clk)
-        src.drive()
-        await ReadOnly()
-        src.taken()
-    await FallingEdge(dut.dram_clk)
-    dut.i__valid.value = 0
+        dut.i__valid.value = 0
 
 
 async def _watch(dut, state):
@@ -83,9 +92,9 @@ async def sdram_frame(dut):
         cocotb.start_soon(_watch(dut, state))
     else:
         cocotb.start_soon(_count(dut, state))
-    cocotb.start_soon(_feed(dut, meta["frames"], rng, meta["p_valid"], state))
-    n, frame = len(meta["frames"]), meta["frame_clocks"]
-    limit = frame * (4 * n + 8 + meta["extra_frames"])
+    cocotb.start_soon(_feed(dut, meta["copies"], rng, meta["p_valid"], state))
+    n, frame = sum(c["show"] for c in meta["copies"]), meta["frame_clocks"]
+    limit = frame * (4 * len(meta["copies"]) + 8 + meta["extra_frames"])
     rows, flips, last_front, after = [], 0, 0, None
     while len(rows) < limit:
         await FallingEdge(dut.clk)

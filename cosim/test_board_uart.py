@@ -1,18 +1,31 @@
 """Co-simulation of the board's UART command link (``board/command.py``): the host protocol's bytes in through the
 ``rx`` line (cocotbext-uart), the commands the RTL parses and the replies it sends on ``tx`` equal those of the
 reference parser :func:`host.protocol.parse`, through good frames of every command (STATUS answered with the board's
-state on the link's input) and each error (bad CRC, unknown command, bad length, a FRAME_START of another size, an
-upload while a frame is drawn, a stray byte), each cleared by the CLEAR frame."""
+state on the link's input; a picture's tiles at their places in the grid, each ended by COPY) and each error (bad
+CRC, unknown command, bad length, a FRAME_START of another size or outside the grid, an upload while a frame is
+drawn, a stray byte), each cleared by the CLEAR frame."""
 
 from __future__ import annotations
 
 import random
 
 from cosim.board_uart import run
-from host.protocol import ACK, CLEAR_FRAME, STATE_ANSWER, Cmd, Err, frame, frame_start, parse, upload_frames
+from host.protocol import (
+    ACK,
+    CLEAR_FRAME,
+    STATE_ANSWER,
+    Cmd,
+    Err,
+    frame,
+    frame_place,
+    frame_start,
+    parse,
+    upload_frames,
+)
 
 RECORD_LEN = 13
 TILE = (300, 7)                                         # a tile's width and height: FRAME_START must name them
+GRID = (3, 258)                                         # the board's columns and rows of tiles
 STATE = 0b101100                                        # the board's state bits (not busy), STATUS's answer
 
 
@@ -22,6 +35,9 @@ def _stream() -> tuple[bytes, list]:
     good += upload_frames(Cmd.CUBE, 0, [rng.randrange(1 << 27) for _ in range(3)], 27)
     good += [frame_start(*TILE)]
     good += [frame(Cmd.TRIANGLE, bytes(rng.randrange(256) for _ in range(RECORD_LEN))) for _ in range(3)]
+    good += [frame(Cmd.COPY), frame_start(*TILE, 2, 257), frame(Cmd.COPY)]       # a picture's tiles, in the grid
+    good += upload_frames(Cmd.CUBE, 1, [9], 27)                                   # taken between tiles
+    good += [frame_start(*TILE, 1, 0)]
     good += [frame(Cmd.SWAP), frame(Cmd.STATUS)]
     bad_crc = bytearray(frame(Cmd.TRIANGLE, bytes(RECORD_LEN)))
     bad_crc[-2] ^= 0x10
@@ -30,6 +46,9 @@ def _stream() -> tuple[bytes, list]:
               frame(Cmd.TRIANGLE, bytes(RECORD_LEN - 1)),            # wrong record length
               frame_start(TILE[0], TILE[0]),                          # another frame's size (its height)
               frame_start(TILE[0] ^ 0x100, TILE[1]),                  # (its width's high byte)
+              frame_start(*TILE, GRID[0], 0),                         # a column outside the grid
+              frame_start(*TILE, 0, GRID[1]),                         # a row outside the grid (its high byte)
+              frame_start(TILE[0], TILE[0], 1, 1),                    # another size at a place in the grid
               frame_start(*TILE) + upload_frames(Cmd.CUBE, 1, [5], 27)[0],   # an upload while a frame is drawn
               b"\x00"]                                                # a stray byte where a frame must start
     data = b"".join(good)
@@ -40,13 +59,16 @@ def _stream() -> tuple[bytes, list]:
 
 def test_commands_replies_and_errors_match_the_reference_parser(sim):
     data, good = _stream()
-    want = parse(data, RECORD_LEN, TILE, STATE)
+    want = parse(data, RECORD_LEN, TILE, STATE, GRID)
     codes = [r & 0x7F for r in want.replies if r & 0x80]
-    assert codes == [Err.CRC, Err.COMMAND, Err.LENGTH, Err.SIZE, Err.SIZE, Err.BUSY, Err.SYNC]  # every error meant
+    assert codes == [Err.CRC, Err.COMMAND, Err.LENGTH] + [Err.SIZE] * 5 + [Err.BUSY, Err.SYNC]  # every error meant
     assert len(want.commands) == len(good) + len(codes) + 1         # the STATUS after each CLEAR, a FRAME_START
     assert want.replies.count(STATE_ANSWER | STATE) == 1 + len(codes)
-    res = run(data, RECORD_LEN, TILE, STATE, sim=sim)
+    assert parse(data, RECORD_LEN, TILE, STATE).replies != want.replies       # the grid's places are checked
+    res = run(data, RECORD_LEN, TILE, STATE, grid=GRID, sim=sim)
     assert res["commands"] == want.commands
+    assert res["places"] == [list(frame_place(p)[2:]) for c, p in want.commands if c == Cmd.FRAME_START]
+    assert [1, 0] in res["places"] and [2, 257] in res["places"]
     assert res["replies"] == bytes(want.replies)
     assert (res["error"], res["code"]) == (0, 0)
 

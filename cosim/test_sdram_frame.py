@@ -40,6 +40,19 @@ def test_frames_shown_whole_in_order_and_exact(layout, kw):
     assert res["memory_ok"] and res["bursts_ok"] and res["aw_equal"], res
 
 
+def test_a_picture_copied_a_tile_at_a_time():
+    """A 40 x 12 picture in 16 x 8 tiles (a grid of three by two, the last column and row cut by the picture's
+    edge), each tile copied at its place, only the last of a picture showing it: every displayed frame is one
+    whole picture, in order, the buffers hold the last two, every burst at its tile's place."""
+    layout, tile = FrameLayout(40, 12, burst=8), (16, 8)
+    rng = np.random.default_rng(12)
+    pictures = [rng.integers(0, 1 << 16, (16, 48)) for _ in range(3)]
+    res = run(layout, MODE, pictures, tile=tile, p_pause=0.3, p_valid=0.7, seed=12)
+    assert res["copied"] == 3 * 6 and not res["error"] and not res["underrun"], res
+    assert res["in_order"] and res["all_shown"] and res["shown"][-1] == 2, res["shown"]
+    assert res["memory_ok"] and res["bursts_ok"] and res["aw_equal"], res
+
+
 def test_a_memory_too_slow_for_the_display_is_caught():
     """Wait states on three clocks of four and a memory clock below the pixel clock: the scan-out falls behind."""
     layout = FrameLayout(36, 10, burst=8)

@@ -449,17 +449,24 @@ def vertex_attributes(scene: Scene, st: ScreenTriangles, exponent=None) -> dict:
     return out
 
 
-def triangle_records(scene: Scene, params: RasterParams, maps=None, exponent=None):
+def triangle_records(scene: Scene, params: RasterParams, maps=None, exponent=None, tile=None):
     """The scene as triangle records for the scan converter (the host's set-up, :func:`fxmodel.units.raster.setup`).
 
     Returns ``(records, tri, material)``: the :class:`~fxmodel.units.raster.Records`, and per record the scene triangle
     and material index. ``maps`` as :func:`rasterize`; ``exponent`` the block exponent of ``A`` per scene triangle
-    (as :func:`vertex_attributes`). Raises ``ValueError`` for a triangle the preset cannot draw.
+    (as :func:`vertex_attributes`). ``tile``: ``(x, y, width, height)``, the records of that tile of the picture
+    (its top-left pixel ``x, y``), in its own coordinates (``setup``'s ``origin``), instead of the whole picture's.
+    Raises ``ValueError`` for a triangle the preset cannot draw.
     """
     st = screen_triangles(scene, _gains(scene, maps))
     values = vertex_attributes(scene, st, exponent)
     names = params.names + tuple(n for n, _ in params.consts)
-    recs = setup(params, st.X, st.Y, {n: values[n] for n in names}, scene.width, scene.height)
+    values = {n: values[n] for n in names}
+    if tile is None:
+        recs = setup(params, st.X, st.Y, values, scene.width, scene.height)
+    else:
+        x, y, w, h = tile
+        recs = setup(params, st.X, st.Y, values, w, h, origin=(x, y), picture=(scene.width, scene.height))
     tri = st.src[recs.source]
     return recs, tri, st.tris.material[tri]
 

@@ -5,8 +5,12 @@ A frame is ``SYNC, CMD, LEN (2 bytes, little-endian), PAYLOAD (LEN bytes), CRC (
 is CRC-16/CCITT-FALSE (polynomial 0x1021, initial value 0xFFFF, no reflection) over ``CMD, LEN, PAYLOAD``. The board
 answers every good frame with :data:`ACK`; the first bad byte puts it in the error state, which it announces with one
 byte ``0x80 | code`` and keeps (ignoring every byte) until it sees the :data:`CLEAR_FRAME`, answered with ``ACK``.
-FRAME_START carries the frame's width and height, and a board whose tile has another size refuses it
-(:data:`Err.SIZE`): the triangles the host set up for another frame would be drawn cut or misplaced, silently.
+FRAME_START carries the tile's width and height, and a board whose tile has another size refuses it
+(:data:`Err.SIZE`): the triangles the host set up for another frame would be drawn cut or misplaced, silently. A
+picture larger than the board's tile is drawn a tile at a time (the host bins the triangles): FRAME_START may also
+carry the tile's column and row in the picture's grid of tiles, which a board refuses outside its grid (SIZE);
+COPY puts a finished tile into the back buffer at its place without showing it, and SWAP, after the picture's last
+tile, copies that one and shows the whole picture.
 STATUS is answered with the board's state instead of ``ACK``: ``STATE_ANSWER | bits`` (:data:`STATE_BITS`: a
 frame not yet shown, and the sticky flags of what went wrong in the current frame or since the board was
 configured). An upload while a frame is drawn is refused (:data:`Err.BUSY`): its words would change the texels of
@@ -21,7 +25,8 @@ import numpy as np
 
 __all__ = ["SYNC", "ACK", "STATE_ANSWER", "STATE_BITS", "FRAME_FLAGS", "state_names", "Cmd", "Err", "LENGTHS",
            "MAX_PAYLOAD", "crc16", "frame", "CLEAR_FRAME", "record_bytes",
-           "triangle_frames", "upload_frames", "frame_start", "scene_frames", "Parsed", "parse", "MEMORIES"]
+           "triangle_frames", "upload_frames", "frame_start", "frame_place", "scene_frames", "picture_frames",
+           "upload_frames_of", "Parsed", "parse", "MEMORIES", "ENDS_TILE"]
 
 SYNC = 0xA5
 ACK = 0x00
@@ -48,10 +53,14 @@ class Cmd:
     TRIANGLE = 0x01      # one triangle record (the scan converter's input, RasterParams.record packed)
     TEXTURE = 0x02       # words into a texture memory: memory id (1 byte), first word (4 bytes), words
     CUBE = 0x03          # words into a reflectance cube memory: the same layout
-    FRAME_START = 0x04   # the frame's width and height (2 bytes LE each): clear the back buffer, draw into it
-    SWAP = 0x05          # show the back buffer from the next vertical blanking (double buffering)
+    FRAME_START = 0x04   # the tile's width and height (2 bytes LE each), optionally its column and row in the
+                         # picture's grid of tiles (2 bytes LE each, else 0, 0): clear the tile, draw into it
+    SWAP = 0x05          # copy the tile into the back buffer at its place, show the back buffer from the next
+                         # vertical blanking (double buffering)
     STATUS = 0x06        # ask for the board's state (answered STATE_ANSWER | STATE_BITS, not ACK)
     CLEAR = 0x07         # leave the error state
+    COPY = 0x08          # copy the tile into the back buffer at its place, not shown yet (a picture's tiles but
+                         # its last; SWAP copies the last and shows the picture)
 
 
 class Err:
@@ -62,9 +71,11 @@ class Err:
     LENGTH = 3           # a length outside the command's range
     CRC = 4              # the CRC does not match
     FRAMING = 5          # the UART saw no stop bit
-    SIZE = 6             # FRAME_START's width and height are not the board's tile's
+    SIZE = 6             # FRAME_START's width and height are not the board's tile's, or its column and row lie
+                         # outside the board's grid of tiles
     BUSY = 7             # an upload (TEXTURE, CUBE) while a frame is drawn: after FRAME_START, before its picture
-                         # is shown (the SWAP taken and STATUS no longer busy), unless a CLEAR ended the frame
+                         # is shown (the SWAP taken and STATUS no longer busy), unless a COPY ended the tile or a
+                         # CLEAR the frame
 
 
 #: Memory ids of TEXTURE (0 the bump map, 1 the color texture) and CUBE (0 diffuse, 1 specular).
@@ -74,7 +85,10 @@ MEMORIES = {Cmd.TEXTURE: ("bump_map", "texture"), Cmd.CUBE: ("diffuse", "specula
 def LENGTHS(record_len: int) -> dict[int, tuple[int, int]]:  # noqa: N802 (a table, read like a constant)
     """``cmd -> (min, max)`` payload bytes, the triangle record ``record_len`` bytes long."""
     return {Cmd.TRIANGLE: (record_len, record_len), Cmd.TEXTURE: (6, MAX_PAYLOAD), Cmd.CUBE: (6, MAX_PAYLOAD),
-            Cmd.FRAME_START: (4, 4), Cmd.SWAP: (0, 0), Cmd.STATUS: (0, 0), Cmd.CLEAR: (0, 0)}
+            Cmd.FRAME_START: (4, 8), Cmd.SWAP: (0, 0), Cmd.STATUS: (0, 0), Cmd.CLEAR: (0, 0), Cmd.COPY: (0, 0)}
+
+#: The commands that end a tile's drawing (an upload is taken again after them).
+ENDS_TILE = (Cmd.SWAP, Cmd.COPY, Cmd.CLEAR)
 
 
 def crc16(data: bytes, crc: int = 0xFFFF) -> int:
@@ -102,12 +116,20 @@ def _size_bytes(width: int, height: int) -> bytes:
     return width.to_bytes(2, "little") + height.to_bytes(2, "little")
 
 
-def frame_start(width: int, height: int) -> bytes:
-    """The FRAME_START frame of a ``width x height`` frame (each 1..65535, two bytes little-endian)."""
-    for name, v in (("width", width), ("height", height)):
-        if not (isinstance(v, int) and 1 <= v <= 0xFFFF):
-            raise ValueError(f"FRAME_START {name}={v!r}: an int in 1..65535")
-    return frame(Cmd.FRAME_START, _size_bytes(width, height))
+def frame_start(width: int, height: int, col: int = 0, row: int = 0) -> bytes:
+    """The FRAME_START frame of a ``width x height`` tile (each 1..65535, two bytes little-endian) at column
+    ``col`` and row ``row`` of the picture's grid of tiles (each 0..65535; the 4-byte form when both are 0)."""
+    for name, v, lo in (("width", width, 1), ("height", height, 1), ("col", col, 0), ("row", row, 0)):
+        if not (isinstance(v, int) and lo <= v <= 0xFFFF):
+            raise ValueError(f"FRAME_START {name}={v!r}: an int in {lo}..65535")
+    place = _size_bytes(col, row) if col or row else b""
+    return frame(Cmd.FRAME_START, _size_bytes(width, height) + place)
+
+
+def frame_place(payload: bytes) -> tuple[int, int, int, int]:
+    """``(width, height, col, row)`` of a FRAME_START's payload (4 or 8 bytes)."""
+    w, h, c, r = (int.from_bytes(payload[k:k + 2], "little") for k in range(0, 8, 2))
+    return w, h, (c if len(payload) == 8 else 0), (r if len(payload) == 8 else 0)
 
 
 def record_bytes(ports) -> int:
@@ -162,14 +184,18 @@ def state_names(answer: int) -> list[str]:
     return [name for name, bit in STATE_BITS.items() if answer >> bit & 1]
 
 
-def parse(data: bytes, record_len: int, tile: tuple[int, int] | None = None, board_state: int = 0) -> Parsed:
+def parse(data: bytes, record_len: int, tile: tuple[int, int] | None = None, board_state: int = 0,
+          grid: tuple[int, int] = (1, 1)) -> Parsed:
     """The board's parser (``board/command.py``) in Python: the reference its RTL is checked against. ``tile``:
-    the ``(width, height)`` the board draws; a FRAME_START naming another size is refused (:data:`Err.SIZE`),
-    after its CRC matched. ``None`` (a board without a frame): any size is accepted. ``board_state``: the board's
+    the ``(width, height)`` the board draws; a FRAME_START naming another size, or a column and row outside
+    ``grid`` (the board's ``(columns, rows)`` of tiles), is refused (:data:`Err.SIZE`), after its CRC matched.
+    ``None`` (a board without a frame): any FRAME_START is accepted. ``board_state``: the board's
     :data:`STATE_BITS`, held for the whole stream, which a STATUS is answered with; with ``busy`` set, every upload
-    is refused (:data:`Err.BUSY`), as is one after a FRAME_START not yet ended by SWAP or CLEAR."""
+    is refused (:data:`Err.BUSY`), as is one after a FRAME_START not yet ended by SWAP, COPY or CLEAR."""
     if not 0 <= board_state < 1 << len(STATE_BITS):
         raise ValueError(f"board_state={board_state!r}: {len(STATE_BITS)} bits (STATE_BITS)")
+    if not (len(grid) == 2 and all(isinstance(g, int) and 1 <= g <= 0xFFFF for g in grid)):
+        raise ValueError(f"grid={grid!r}: (columns, rows), ints in 1..65535")
     lengths = LENGTHS(record_len)
     out = Parsed([], [])
     state, buf, need, window = "sync", bytearray(), 0, bytearray()
@@ -180,7 +206,7 @@ def parse(data: bytes, record_len: int, tile: tuple[int, int] | None = None, boa
         out.replies.append(0x80 | code)
         window.clear()
 
-    drawing = False                         # after FRAME_START, until SWAP or CLEAR
+    drawing = False                         # after FRAME_START, until SWAP, COPY or CLEAR
     busy = bool(board_state >> STATE_BITS["busy"] & 1)
     for b in data:
         if state == "error":
@@ -215,26 +241,50 @@ def parse(data: bytes, record_len: int, tile: tuple[int, int] | None = None, boa
             elif state == "crc" and len(buf) == 3 + need + 2:
                 if crc16(bytes(buf[:3 + need])) != int.from_bytes(buf[-2:], "little"):
                     fail(Err.CRC)
-                elif buf[0] == Cmd.FRAME_START and tile is not None and bytes(buf[3:7]) != _size_bytes(*tile):
+                elif buf[0] == Cmd.FRAME_START and tile is not None and not _placed(buf[3:3 + need], tile, grid):
                     fail(Err.SIZE)
                 else:
                     out.commands.append((buf[0], bytes(buf[3:3 + need])))
-                    if buf[0] in (Cmd.FRAME_START, Cmd.SWAP, Cmd.CLEAR):
+                    if buf[0] == Cmd.FRAME_START or buf[0] in ENDS_TILE:
                         drawing = buf[0] == Cmd.FRAME_START
                     out.replies.append(STATE_ANSWER | board_state if buf[0] == Cmd.STATUS else ACK)
                     state = "sync"
     return out
 
 
+def _placed(payload: bytes, tile: tuple[int, int], grid: tuple[int, int]) -> bool:
+    """A FRAME_START's payload names the board's ``tile`` at a place inside its ``grid``."""
+    w, h, c, r = frame_place(payload)
+    return (w, h) == tuple(tile) and c < grid[0] and r < grid[1]
+
+
 def scene_frames(pipeline, raster_ports, records, size: tuple[int, int]) -> list[bytes]:
     """The frames that draw one prepared frame of ``size`` ``(width, height)`` on the board: the four texel
     memories of ``pipeline`` (a :class:`~fxmodel.pipeline.pixel.PipelineParams`: bump map and texture by TEXTURE,
     the diffuse and specular cubes by CUBE, each map's words in the order its memories hold them,
-    ``SamplerParams.upload_words``), FRAME_START with ``size``, one TRIANGLE per record (codes ``(T, fields)`` in
-    ``raster_ports`` order), SWAP."""
+    ``SamplerParams.upload_words``), then the one tile: :func:`picture_frames` with ``records`` at ``(0, 0)``."""
+    return upload_frames_of(pipeline) + picture_frames(raster_ports, [((0, 0), records)], size)
+
+
+def upload_frames_of(pipeline) -> list[bytes]:
+    """The TEXTURE and CUBE frames of ``pipeline``'s four texel memories (:func:`scene_frames`)."""
     out = []
     for cmd, names in MEMORIES.items():
         for mem, name in enumerate(names):
             sampler = getattr(pipeline, name)
             out += upload_frames(cmd, mem, sampler.upload_words, sampler.word_bits)
-    return out + [frame_start(*size)] + triangle_frames(raster_ports, records) + [frame(Cmd.SWAP)]
+    return out
+
+
+def picture_frames(raster_ports, tiles, size: tuple[int, int]) -> list[bytes]:
+    """The frames that draw a picture a tile at a time: for each ``((col, row), records)`` of ``tiles`` (the
+    records set up for that tile, codes ``(T, fields)`` in ``raster_ports`` order), FRAME_START of the ``size``
+    ``(width, height)`` tile at ``(col, row)``, one TRIANGLE per record, and COPY, but SWAP after the last tile
+    (which shows the picture)."""
+    if not tiles:
+        raise ValueError("picture_frames: no tile (a picture has at least one)")
+    out = []
+    for k, ((col, row), records) in enumerate(tiles):
+        out += [frame_start(*size, col, row), *triangle_frames(raster_ports, records),
+                frame(Cmd.SWAP if k == len(tiles) - 1 else Cmd.COPY)]
+    return out

@@ -22,19 +22,18 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from types import SimpleNamespace
 
 import numpy as np
 
 from fxmodel.core.rounding import Overflow, Rounding, quantize
 from fxmodel.pipeline.engine import EngineParams
 from fxmodel.pipeline.lighting import Light, Lighting, face_directions
-from fxmodel.pipeline.pixel import FLAG_BITS, LOD_INPUTS, PipelineParams, lod_slopes
+from fxmodel.pipeline.pixel import FLAG_BITS, LOD_INPUTS, PipelineParams
 from fxmodel.pipeline.presets import preset_units, top_value
 from fxmodel.units.raster import ATTRIBUTE_FORMATS, RasterParams, Records
-from fxmodel.units.rop import RopParams
-from host.bumpmap import block_exponent, bump_gain, perturbations, scene_maps
-from host.frontend import rasterize, triangle_records
+from host.bumpmap import block_exponent, perturbations, scene_maps
+from host.engine_setup import frame_raster, frame_records, frame_rop, raster_params
+from host.frontend import rasterize
 from host.images import compose, diff_image, metrics, save_png
 from host.mipmap import lod_increments, reference_texture
 from host.reference import float_pipeline, ideal_phong, max_lsb, perturbed
@@ -44,7 +43,8 @@ from host.visibility import disagreement_picture, resolve
 
 __all__ = ["Frame", "prepare", "pipeline_params", "render", "save_png", "compose", "ClampError", "SCENE_BOUND_LSB",
            "judge", "tell", "bound_args", "INPUT_KNOBS", "ILL_CONDITIONED", "ADDRESS_LIMIT_TEXELS",
-           "address_errors", "TriangleFrame", "from_triangles", "render_triangles", "raster_params", "engine_params"]
+           "address_errors", "TriangleFrame", "from_triangles", "frame_records", "frame_raster", "frame_rop",
+           "render_triangles", "raster_params", "engine_params"]
 
 
 #: The documented bound of a frame of an accepted scene: the largest per-channel distance, in 8-bit steps, of the
@@ -390,15 +390,6 @@ def pipeline_params(scene, preset: str | dict = "default", *, cube_size: int | N
     return prepare(scene_path(scene), preset=preset, cube_size=cube_size, allow_clamp=True).params
 
 
-def raster_params(units: dict, lod=None) -> RasterParams:
-    """The scan converter and interpolators of a pipeline preset's units: the pixel pipeline's input formats
-    (:meth:`RasterParams.for_pipeline`) and the preset's ``raster_guard`` (``extra_guard``); with the pipeline's
-    LOD unit ``lod`` (MIP mapping), the triangle's increments it reads carried with every fragment
-    (:func:`fxmodel.pipeline.pixel.lod_slopes`)."""
-    return RasterParams.for_pipeline(units, extra_guard=top_value(units, "raster_guard"), slopes=lod_slopes(lod),
-                                     span_dsp=bool(top_value(units, "span_dsp")))
-
-
 def engine_params(scene, preset: str | dict = "default", *, cube_size: int | None = None) -> EngineParams:
     """The engine from the triangle that draws ``scene``: :func:`raster_params` of ``preset`` feeding
     :func:`pipeline_params` (for ``make fpga``)."""
@@ -515,24 +506,12 @@ def from_triangles(frame: Frame, raster: RasterParams | None = None, depth: bool
     float z-buffer over the scan converter's fragments keeps other fragments than the front end.
     """
     p = frame.params
-    if raster is None:
-        raster = raster_params(frame.units, p.lod) if frame.units is not None else \
-            RasterParams.for_pipeline({"persp": p.persp, "bump": p.bump, "reflect": p.reflect},
-                                      slopes=lod_slopes(p.lod))
+    raster = frame_raster(frame) if raster is None else raster
     scene = frame.scene
-    rop = None
-    if depth:
-        clear = tuple(int(c) for c in np.floor(np.asarray(scene.background) * 255 + 0.5))
-        rop = RopParams(width=scene.width, height=scene.height, max_size=raster.max_size, z_in=raster.out_fmt("Z"),
-                        clear_color=clear)
+    rop = frame_rop(frame, raster, scene.width, scene.height) if depth else None
     params = EngineParams(raster=raster, pipeline=p, rop=rop)
-    mi = int(frame.frags.material[0]) if len(frame.frags) else 0
-    gains = [frame.maps if i == mi else SimpleNamespace(a_gain=bump_gain(m)) for i, m in enumerate(scene.materials)]
     t0 = time.perf_counter()
-    recs, tri, mat = triangle_records(scene, raster, gains, frame.exponent)
-    keep = np.flatnonzero(mat == mi)
-    recs = Records(params=raster, codes={k: v[keep] for k, v in recs.codes.items()}, source=recs.source[keep],
-                   dropped=recs.dropped)
+    recs, tri = frame_records(frame, raster)
     t1 = time.perf_counter()
     fb = None
     if depth:
@@ -549,7 +528,7 @@ def from_triangles(frame: Frame, raster: RasterParams | None = None, depth: bool
              "record_bits": sum(q.fmt.width for q in raster.record), "raster_guard_bits": raster.guard_bits,
              "seconds_setup": round(t1 - t0, 3), "seconds_model": round(t2 - t1, 3)}
     tframe = TriangleFrame(frame=frame, params=params, records=recs, out=out, scan=res, stats=stats, fb=fb,
-                           tri=tri[keep])
+                           tri=tri)
     tframe.vis = resolve(tframe)
     stats.update(tframe.vis.stats)
     if depth:

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from board.frame import BOARD_PRESET, add_size_argument, board_engine
+from board.frame import BOARD_PRESET, add_size_argument, board_engine, board_picture, tiled_color
 from cosim.board_system import simulate, split_frames
 from host.protocol import Cmd
 
@@ -32,7 +32,8 @@ def add_arguments(ap) -> None:
                          "the same frames made here")
     ap.add_argument("--sim", default="verilator", choices=("verilator", "icarus"), help="simulator")
     ap.add_argument("--frame", choices=("chip", "sdram"), default="chip",
-                    help="the frame store: block RAM, or SDRAM behind LiteDRAM's simulation core (default chip)")
+                    help="the frame store: block RAM (the picture is one tile), or SDRAM behind LiteDRAM's "
+                         "simulation core (the 640 x 480 picture a tile at a time; default chip)")
     ap.add_argument("--uploads", action="store_true",
                     help="send the TEXTURE and CUBE frames too, into texel memories that start at zero, the UART "
                          "faster in simulation (the frame on chip; without it the memories hold the scene's tables "
@@ -46,35 +47,46 @@ def run(args) -> int:
     import sys
 
     from host.images import save_png
-    from host.protocol import scene_frames, triangle_frames
+    from host.protocol import picture_frames, scene_frames, triangle_frames, upload_frames_of
     from host.scene import SceneError
 
     before = machine()
     t0 = time.perf_counter()
+    tiled = args.frame == "sdram"
     try:
-        params, frame, tframe = board_engine(args.scene, args.preset, args.size)
-        mat = tframe.records.matrix()
-        data = args.bytes.read_bytes() if args.bytes else b"".join(
-            scene_frames(frame.params, params.raster.record, mat, (params.rop.width, params.rop.height)))
+        if tiled:                               # the display's picture a tile at a time (bumpmap send --frame)
+            params, frame, tiles = board_picture(args.scene, args.preset, args.size)
+            per_tile = [(place, recs.matrix()) for place, recs in tiles]
+            mat = np.concatenate([m for _, m in per_tile])
+            made = upload_frames_of(frame.params) + picture_frames(params.raster.record, per_tile,
+                                                                   (args.size, args.size))
+        else:
+            params, frame, tframe = board_engine(args.scene, args.preset, args.size)
+            mat = tframe.records.matrix()
+            made = scene_frames(frame.params, params.raster.record, mat, (params.rop.width, params.rop.height))
+        data = args.bytes.read_bytes() if args.bytes else b"".join(made)
         tri = [f for f in split_frames(data) if f[1] == Cmd.TRIANGLE]
     except (SceneError, ValueError, OSError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
     if tri != triangle_frames(params.raster.record, mat):
         print(f"error: {args.bytes}: its TRIANGLE frames are not the records of {args.scene} at --size {args.size} "
-              f"with --preset {args.preset}", file=sys.stderr)
+              f"with --preset {args.preset} and --frame {args.frame}", file=sys.stderr)
         return 2
-    print(f"{frame.scene.name}: {len(mat)} triangles, {params.rop.width}x{params.rop.height} tile, "
+    grid = f", {len(tiles)} tiles" if tiled else ""
+    print(f"{frame.scene.name}: {len(mat)} triangles, {params.rop.width}x{params.rop.height} tile{grid}, "
           f"{len(data)} bytes from the host, RTL on {args.sim}")
     if args.uploads and args.frame != "chip":
         print("error: --uploads: simulated with --frame chip only", file=sys.stderr)
         return 2
-    rep = simulate(params, mat, data, sim=args.sim, frame=args.frame, uploads=args.uploads)
+    picture = tiled_color(params, tiles, (frame.scene.width, frame.scene.height)) if tiled else None
+    rep = simulate(params, mat, data, sim=args.sim, frame=args.frame, uploads=args.uploads, picture=picture)
     out = args.out / frame.scene.name
     save_png(out / "model.png", rep.pop("want").astype(np.uint8))
     if "picture" in rep:
         save_png(out / "dvi.png", rep.pop("picture").astype(np.uint8))
     rep.update(scene=frame.scene.name, preset=args.preset, tile=[params.rop.width, params.rop.height],
+               picture_size=[frame.scene.width, frame.scene.height], tiles=len(tiles) if tiled else 1,
                triangles=len(mat), wall_seconds=round(time.perf_counter() - t0, 1))
     from host.atomic import atomic_json
     atomic_json(out / "report.json", rep)

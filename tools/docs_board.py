@@ -95,7 +95,10 @@ def board_sim(name: str = "board-sim") -> str:
         return missing_record(path, f"bumpmap board-sim --record docs/records/{name}.json")
     r = record["result"]
     t, ms = r["timing"], r["sim_ms"]
-    rows = [["scene, frame (the tile)", f"{r['scene']}, {r['tile'][0]} x {r['tile'][1]}, {r['triangles']} triangles"],
+    tiles = r.get("tiles", 1)
+    place = (f"{r['picture_size'][0]} x {r['picture_size'][1]} in {tiles} tiles of {r['tile'][0]} x {r['tile'][1]}"
+             if tiles > 1 else f"{r['tile'][0]} x {r['tile'][1]} (the tile)")
+    rows = [["scene, picture", f"{r['scene']}, {place}, {r['triangles']} triangle records"],
             ["host bytes into the UART", f"{r['bytes_sent']} in {r['frames_sent']} frames " + (
                 "(the uploads into blank texel memories; an upload's word refused: "
                 f"{'**yes**' if r['upload_bad'] else 'no'})" if r.get("uploads") else
@@ -125,15 +128,19 @@ def board_animation() -> str:
         return missing_record(path, "bumpmap animate --record docs/records/animation.json")
     r = record["result"]
     rows = [[f"`{s['scene']}`" + (" (clamped)" if s["clamped"] else ""), str(s["frames"]), str(s["triangles"]),
-             f"{s['engine_clocks_per_frame_max']:,}", f"{s['engine_fps']:,}", f"{s['link_bytes_per_frame_max']:,}",
-             f"{s['link_fps']:,}", f"{s['shown_fps']:,}",
+             f"{s['tiles']}, {s['tile_records_max']}",
+             f"{s['engine_clocks_per_frame_max']:,} ({s['engine_clocks_drawing']:,})", f"{s['engine_fps']:,}",
+             f"{s['link_bytes_per_frame_max']:,}", f"{s['link_fps']:,}", f"{s['shown_fps']:,}",
              f"{s['sdram_MBps_total']} ({100 * s['sdram_share_of_peak']:.1f} %)"] for s in r["scenes"]]
-    head = ["scene", "frames", "triangles", "engine clocks a frame (max)", "engine frames/s",
-            "UART bytes a frame (max)", "UART frames/s", "shown frames/s", f"SDRAM MB/s (of {r['sdram_peak_MBps']:g})"]
+    head = ["scene", "frames", "triangles", "tiles, records sent (max)", "engine clocks a picture, max (drawing)",
+            "engine pictures/s", "UART bytes a picture (max)", "UART pictures/s", "shown pictures/s",
+            f"SDRAM MB/s (of {r['sdram_peak_MBps']:g})"]
     note = (f"\n*Engine at {r['engine_mhz']:g} MHz ({r['engine_clock']}), UART at {r['baud']:,} baud, "
-            f"{r['mode']}; the SDRAM figure is scan-out plus the finished tiles' write-back at the rate shown "
-            "(texel-cache misses not counted).*\n")
-    return md_table(head, rows, col_align("lrrrrrrrr")) + note + "\n" + provenance(record, path)
+            f"{r['mode']} a {r.get('tile', 128)}-pixel tile at a time; a picture's clocks are its tiles' triangles "
+            "(the scan converter's, in brackets) and each tile's clear and copy (a lower bound: "
+            "`tools/animate.py` `picture_clocks`); the SDRAM figure is scan-out plus the tiles' write-back at the "
+            "rate shown (texel-cache misses not counted).*\n")
+    return md_table(head, rows, col_align("lrrrrrrrrr")) + note + "\n" + provenance(record, path)
 
 
 def _misses_tables(m: dict) -> str:

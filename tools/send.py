@@ -1,7 +1,9 @@
 """``bumpmap send``: a scene drawn on the board. The host's set-up (:func:`host.render.prepare` and
 :func:`host.render.from_triangles`: the triangle records of the scan converter, the preset's texel memories) is sent
 over the UART as the protocol's frames (``host/protocol.py``, ``docs/protocol.md``): the four texel memories,
-FRAME_START, the triangles, SWAP; with ``--animate`` the frames of the scene's animation (``[animation]``,
+FRAME_START, the triangles, SWAP (with ``--frame sdram``, the bitstream with its frame in SDRAM: the display's
+whole picture, each tile's FRAME_START at its place, its triangles and COPY, SWAP after the last); with
+``--animate`` the frames of the scene's animation (``[animation]``,
 ``host/scene_animation.py``) in turn, each after the first with its reflectance cubes again when the lights move.
 Each frame waits for the board's answer; an error byte stops the send (exit 1) after a CLEAR, naming the error.
 After each SWAP it asks STATUS until the picture is shown and fails (exit 1) when one of the frame's flags is set
@@ -29,7 +31,8 @@ __all__ = ["add_arguments", "run", "scene_bytes"]
 ERRORS = {Err.SYNC: "SYNC (a byte where a frame must start)", Err.COMMAND: "COMMAND (unknown command code)",
           Err.LENGTH: "LENGTH (a length outside the command's range)",
           Err.CRC: "CRC (the frame's checksum did not match)", Err.FRAMING: "FRAMING (the UART saw no stop bit)",
-          Err.SIZE: "SIZE (FRAME_START's width and height are not the board's tile: give --size the bitstream's)",
+          Err.SIZE: "SIZE (FRAME_START's width and height are not the board's tile, or its place is outside the "
+                    "board's grid of tiles: give --size and --frame the bitstream's)",
           Err.BUSY: "BUSY (an upload while a frame is drawn)"}
 
 
@@ -50,11 +53,16 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
     ap.add_argument("--dry-run", type=Path, metavar="FILE", help="write the bytes to FILE instead of a port")
     ap.add_argument("--animate", action="store_true",
                     help="send the frames of the scene's [animation] in turn (default: its first frame)")
+    ap.add_argument("--frame", choices=("chip", "sdram"), default="chip",
+                    help="the bitstream's frame store (bumpmap bitstream --frame): chip, the picture is one tile "
+                         "(default); sdram, the 640 x 480 picture a tile at a time (the triangles binned by tile)")
 
 
 def scene_bytes(args) -> list[bytes]:
-    """The frames of the scene (``args.scene``, ``args.preset``, ``args.size``, ``args.cube_size``)."""
-    from host.protocol import Cmd, scene_frames
+    """The frames of the scene (``args.scene``, ``args.preset``, ``args.size``, ``args.cube_size``; with
+    ``args.frame`` ``sdram`` the display's picture a ``size`` tile at a time, :func:`board.frame.board_picture`)."""
+    from board.frame import board_picture
+    from host.protocol import Cmd, picture_frames, scene_frames, upload_frames_of
     from host.render import from_triangles, prepare
     from host.scene import load_scene, scene_path
     from host.scene_animation import frames as animation_frames
@@ -62,10 +70,15 @@ def scene_bytes(args) -> list[bytes]:
     scene = load_scene(scene_path(args.scene))
     out = []
     for k, s in enumerate(animation_frames(scene) if getattr(args, "animate", False) else [scene]):
-        frame = prepare(s, size=args.size, preset=args.preset, cube_size=args.cube_size)
-        tframe = from_triangles(frame)
-        sent = scene_frames(frame.params, tframe.params.raster.record, tframe.records.matrix(),
-                            (frame.scene.width, frame.scene.height))
+        if getattr(args, "frame", "chip") == "sdram":
+            params, frame, tiles = board_picture(s, args.preset, args.size, cube_size=args.cube_size)
+            sent = upload_frames_of(frame.params) + picture_frames(
+                params.raster.record, [(place, recs.matrix()) for place, recs in tiles], (args.size, args.size))
+        else:
+            frame = prepare(s, size=args.size, preset=args.preset, cube_size=args.cube_size)
+            tframe = from_triangles(frame)
+            sent = scene_frames(frame.params, tframe.params.raster.record, tframe.records.matrix(),
+                                (frame.scene.width, frame.scene.height))
         if k and (scene.animation is None or scene.animation.light_turn == 0):
             sent = [f for f in sent if f[1] not in (Cmd.TEXTURE, Cmd.CUBE)]
         elif k:                                         # the maps stay; the cubes follow the lights

@@ -62,28 +62,32 @@ def _ceil_div(a: int, b: int) -> int:
     return -((-a) // b)
 
 
-def triangle_extent(P, t: int, Xt, Yt, width: int, height: int) -> dict | None:
+def triangle_extent(P, t: int, Xt, Yt, width: int, height: int, origin=(0, 0), picture=None) -> dict | None:
     """Triangle ``t`` (snapped vertices ``Xt``, ``Yt``) in the ``width`` x ``height`` viewport: its winding
     ``order``, twice its area ``a2``, its rows and columns ``x0, x1, y0, y1`` (pixel centres covered, a horizontal
     edge bounding the rows), its edge functions ``A, B, C`` and each edge's ``kind`` and ``(a, b, c)`` scaled to
     pixel centres; ``None`` if it has no area or covers no pixel centre. ``ValueError`` for a vertex outside the
-    guard band."""
+    guard band of the ``picture`` (``(width, height)``, default the viewport's). ``origin``: the viewport's top
+    left pixel in the picture (a tile of it, :func:`setup`): the vertices are given in the picture's coordinates,
+    everything returned is in the viewport's."""
     S, half = P.S, P.S // 2
+    pw, ph = (width, height) if picture is None else picture
     lo_c = -(P.guard_pixels + 1) * S
-    for coord, c, lim in ((Xt, "x", width), (Yt, "y", height)):
+    for coord, c, lim in ((Xt, "x", pw), (Yt, "y", ph)):
         hi_c = (lim + P.guard_pixels + 1) * S
         if coord.min() < lo_c or coord.max() > hi_c:
             raise ValueError(f"triangle {t}: vertex {c} {coord.tolist()} (1/{S} pixel) is outside the guard "
-                             f"band [{lo_c}, {hi_c}] of the {width}x{height} viewport")
+                             f"band [{lo_c}, {hi_c}] of the {pw}x{ph} viewport")
+    Xt, Yt = Xt - origin[0] * S, Yt - origin[1] * S        # exact: whole pixels
     a2 = int(area2(Xt, Yt))
     if a2 == 0:
         return None
     order = [0, 1, 2] if a2 > 0 else [0, 2, 1]
     Xo, Yo = Xt[order], Yt[order]
     x0 = max(0, _ceil_div(int(Xo.min()) - half, S))
-    x1 = min(width - 1, (int(Xo.max()) - half) // S)
+    x1 = min(width - 1, pw - 1 - origin[0], (int(Xo.max()) - half) // S)     # inside the tile and the picture
     y0 = max(0, _ceil_div(int(Yo.min()) - half, S))
-    y1 = min(height - 1, (int(Yo.max()) - half) // S)
+    y1 = min(height - 1, ph - 1 - origin[1], (int(Yo.max()) - half) // S)
     A, B, C, bias = (v.tolist() for v in edge_setup(Xo, Yo))
     kinds, es = [], []
     for e in range(3):
@@ -181,8 +185,19 @@ class Records:
             np.zeros((0, len(self.params.record)), np.int64)
 
 
-def setup(params, X, Y, values: dict, width: int, height: int) -> Records:
+def setup(params, X, Y, values: dict, width: int, height: int, origin=(0, 0), picture=None) -> Records:
     """Triangle records from snapped vertices and float64 vertex attributes.
+
+    With ``origin`` and ``picture`` the viewport is one tile of a larger picture (a board draws a picture a tile
+    at a time, ``docs/board.md``): the vertices are the picture's (``picture = (width, height)``, whose guard band
+    they must lie in), the tile's top-left pixel is ``origin``, and the records are the tile's, in its own
+    coordinates (every pixel index counted from its top left); a tile reaching past the picture's edge covers
+    only the picture's pixels. Moving the vertices by whole pixels is exact, and
+    every record field is an exact function of the tile's coordinates rounded once, so a tile's records are those
+    of the picture's triangles moved into a viewport of the tile's size; their fields' formats hold (checked
+    below) while the picture is at most ``max_size`` (its coordinates, moved, stay within ``coord_max``). The
+    attributes start at each tile's first pixel, so a tile's fragments may differ from the whole picture's by the
+    interpolators' bound (``RasterParams.error_bound``), not beyond.
 
     Parameters
     ----------
@@ -210,10 +225,17 @@ def setup(params, X, Y, values: dict, width: int, height: int) -> Records:
     """
     P = params
     X, Y, vals, consts = _setup_inputs(P, X, Y, values, width, height)
+    if picture is not None:
+        require(1 <= picture[0] <= P.max_size and 1 <= picture[1] <= P.max_size, "picture", picture,
+                f"must be within 1..{P.max_size} (RasterParams.max_size)")
+        require(all(isinstance(o, int) and 0 <= o < p for o, p in zip(origin, picture)), "origin", origin,
+                f"must be a pixel of the {picture[0]}x{picture[1]} picture")
+    else:
+        require(tuple(origin) == (0, 0), "origin", origin, "needs the picture the tile is in (picture=)")
     fields = {p.name: [] for p in P.record}
     source, dropped = [], 0
     for t in range(X.shape[0]):
-        tri = triangle_extent(P, t, X[t], Y[t], width, height)
+        tri = triangle_extent(P, t, X[t], Y[t], width, height, origin, picture)
         if tri is None:                                  # zero area, or no pixel centre covered
             dropped += 1
             continue

@@ -59,6 +59,55 @@ def _fragments(P, rng, k, z_lo, z_hi):
                      *(rng.integers(0, 256, k) for _ in range(3)), rng.integers(0, 1 << P.flag_bits, k)], axis=1)
 
 
+def _tile_system(P, **kw):
+    """``(module, rop, tile copy, store)``: the on-chip depth test, its ``TileCopy`` (``kw``; quiet 8 clocks) and a
+    frame store of two buffers written by the copy."""
+    from amaranth import Module
+    from amaranth.lib import memory, wiring
+
+    from board.frame import TileCopy
+    from rtl.rop import Rop
+    m = Module()
+    m.submodules.rop = rop = Rop(P)
+    m.submodules.copy = tc = TileCopy(P, rop.fb.signature, quiet=8, **kw)
+    m.submodules.store = store = memory.Memory(shape=16, depth=2 * P.pixels, init=[])
+    wr = store.write_port()
+    wiring.connect(m, tc.fb, rop.fb)
+    m.d.comb += [tc.active.eq(rop.i.valid | rop.busy), wr.addr.eq(tc.w_addr), wr.data.eq(tc.w_data),
+                 wr.en.eq(tc.w_en)]
+    return m, rop, tc, store
+
+
+async def _draw(ctx, rop, P, frags):
+    """The fragments into the depth test, one a clock while it is ready."""
+    from cosim.raster import pack
+    for word in pack(P.inputs, frags):
+        ctx.set(rop.i.valid, 1)
+        ctx.set(rop.i.payload.as_value(), word)
+        await ctx.tick().until(rop.i.ready)
+    ctx.set(rop.i.valid, 0)
+
+
+async def _pulse(ctx, sig, value=1):
+    ctx.set(sig, value)
+    await ctx.tick()
+    ctx.set(sig, 0)
+
+
+async def _clear(ctx, tc, P, place=None) -> tuple[bool, bool]:
+    """FRAME_START's pulse (``place``: the place input moved to it right after the pulse, before the clear
+    begins); ``(stall raised, stall fallen again: the tile cleared)``."""
+    await _pulse(ctx, tc.start)
+    if place is not None:
+        ctx.set(tc.place, place)
+    stalled = bool(ctx.get(tc.stall))
+    for _ in range(10 * P.pixels):
+        await ctx.tick()
+        if not ctx.get(tc.stall):
+            break
+    return stalled, not ctx.get(tc.stall)
+
+
 @pytest.mark.parametrize("gaps", [False, True], ids=["room", "gaps"])
 def test_frame_start_clears_the_tile_and_swap_copies_it_in_rgb565(gaps):
     """The tile's control (``TileCopy``) with the on-chip depth test (``rtl/rop.py``) and a frame store, in
@@ -68,14 +117,9 @@ def test_frame_start_clears_the_tile_and_swap_copies_it_in_rgb565(gaps):
     fragments alone, through RGB565; the depth test's flags are the frame's (A's fragment outside the tile sets
     ``outside``, the clear clears it, B leaves it clear). ``gaps``: ``room`` (the SDRAM copy's FIFO) falls at
     random, half the clocks: every word is still written once, at its address."""
-    from amaranth import Module
-    from amaranth.lib import memory, wiring
     from amaranth.sim import Simulator
 
-    from board.frame import TileCopy
-    from cosim.raster import pack
     from fxmodel.units.rop import STATUS_BITS, RopParams, draw
-    from rtl.rop import Rop
 
     P = RopParams(width=8, height=4, on_chip=True)
     rng = np.random.default_rng(5)
@@ -85,32 +129,13 @@ def test_frame_start_clears_the_tile_and_swap_copies_it_in_rgb565(gaps):
     want = [rgb565(draw(P, f)[1][..., :3]).ravel() for f in (frame_a, frame_b)]
     assert not np.array_equal(want[1], rgb565(draw(P, np.concatenate([frame_a, frame_b]))[1][..., :3]).ravel())
 
-    m = Module()
-    m.submodules.rop = rop = Rop(P)
-    m.submodules.copy = tc = TileCopy(P, rop.fb.signature, quiet=8)
-    m.submodules.store = store = memory.Memory(shape=16, depth=2 * P.pixels, init=[])
-    wr = store.write_port()
-    wiring.connect(m, tc.fb, rop.fb)
-    m.d.comb += [tc.active.eq(rop.i.valid | rop.busy), wr.addr.eq(tc.w_addr), wr.data.eq(tc.w_data),
-                 wr.en.eq(tc.w_en)]
+    m, rop, tc, store = _tile_system(P)
     seen = {}
 
     async def bench(ctx):
-        async def draw_frame(frags):
-            for word in pack(P.inputs, frags):
-                ctx.set(rop.i.valid, 1)
-                ctx.set(rop.i.payload.as_value(), word)
-                await ctx.tick().until(rop.i.ready)
-            ctx.set(rop.i.valid, 0)
-
-        async def pulse(sig):
-            ctx.set(sig, 1)
-            await ctx.tick()
-            ctx.set(sig, 0)
-
         async def copy():
             before = ctx.get(tc.copied)
-            await pulse(tc.swap)
+            await _pulse(ctx, tc.swap)
             for _ in range(20 * P.pixels):
                 await ctx.tick()
                 if ctx.get(tc.copied) != before:
@@ -118,19 +143,13 @@ def test_frame_start_clears_the_tile_and_swap_copies_it_in_rgb565(gaps):
             for _ in range(4):                            # the store's write from its registers
                 await ctx.tick()
 
-        await draw_frame(frame_a)
+        await _draw(ctx, rop, P, frame_a)
         await copy()
         seen["status_a"] = ctx.get(rop.status)
-        await pulse(tc.shown)
-        await pulse(tc.start)
-        seen["stall"] = ctx.get(tc.stall)
-        for _ in range(10 * P.pixels):
-            await ctx.tick()
-            if not ctx.get(tc.stall):
-                break
-        seen["cleared"] = not ctx.get(tc.stall)
+        await _pulse(ctx, tc.shown)
+        seen["stall"], seen["cleared"] = await _clear(ctx, tc, P)
         seen["status_cleared"] = ctx.get(rop.status)
-        await draw_frame(frame_b)
+        await _draw(ctx, rop, P, frame_b)
         await copy()
         seen["status_b"] = ctx.get(rop.status)
         seen["store"] = [ctx.get(store.data[a]) for a in range(2 * P.pixels)]
@@ -156,3 +175,59 @@ def test_frame_start_clears_the_tile_and_swap_copies_it_in_rgb565(gaps):
     store_words = np.array(seen["store"])
     assert np.array_equal(store_words[P.pixels:], want[0])          # the back buffer first (index 1): frame A
     assert np.array_equal(store_words[:P.pixels], want[1])          # then buffer 0: frame B on the cleared tile
+
+
+@pytest.mark.parametrize("wait_every_copy", [False, True], ids=["chip", "sdram"])
+def test_copy_puts_a_tile_at_its_place_and_only_swap_shows(wait_every_copy):
+    """A picture of two tiles: FRAME_START at place 2, tile A, COPY; FRAME_START at place 1, tile B, SWAP. Each copy
+    offers the place its tile was started with (taken with FRAME_START's pulse, though the place input has moved
+    on by then) and whether it shows (COPY's no, SWAP's yes); COPY toggles no ``copied`` and leaves the back
+    buffer where it is (so with the frame on chip the SWAP's tile overwrites it); with ``wait_every_copy`` (the
+    frame in SDRAM, whose ``shown`` is a copy's last write) the SWAP's copy waits for COPY's ``shown``, without it
+    it does not wait."""
+    from amaranth.sim import Simulator
+
+    from fxmodel.units.rop import RopParams, draw
+
+    P = RopParams(width=4, height=2, on_chip=True)
+    rng = np.random.default_rng(7)
+    tiles = [_fragments(P, rng, 10, 1, 1 << P.z_in.frac_bits) for _ in range(2)]
+    want = [rgb565(draw(P, f)[1][..., :3]).ravel() for f in tiles]
+    m, rop, tc, store = _tile_system(P, place_bits=2, wait_every_copy=wait_every_copy)
+    seen = {"copies": []}
+
+    async def bench(ctx):
+        for k, (place, end) in enumerate(((2, tc.copy), (1, tc.swap))):
+            ctx.set(tc.place, place)
+            await _clear(ctx, tc, P, place=3)               # moves on: the tile keeps the place of its start
+            await _draw(ctx, rop, P, tiles[k])
+            before = ctx.get(tc.copied)
+            await _pulse(ctx, end)
+            for _ in range(10 * P.pixels):
+                await ctx.tick()
+            seen[f"toggled_{k}"] = ctx.get(tc.copied) != before
+            seen[f"store_{k}"] = [ctx.get(store.data[a]) for a in range(2 * P.pixels)]
+        await _pulse(ctx, tc.shown)                          # COPY's last write (sdram): the SWAP's copy may go
+        for _ in range(10 * P.pixels):
+            await ctx.tick()
+        seen["store"] = [ctx.get(store.data[a]) for a in range(2 * P.pixels)]
+
+    async def watch(ctx):
+        writing = False
+        while True:
+            await ctx.tick()
+            if ctx.get(tc.w_en) and not writing:
+                seen["copies"].append((ctx.get(tc.copy_place), ctx.get(tc.copy_show)))
+            writing = bool(ctx.get(tc.w_en))
+
+    sim = Simulator(m)
+    sim.add_clock(1e-8)
+    sim.add_testbench(bench)
+    sim.add_testbench(watch, background=True)
+    sim.run()
+    assert seen["copies"] == [(2, 0), (1, 1)]                       # each copy's place and show
+    assert not seen["toggled_0"]                                    # COPY shows nothing
+    assert seen["toggled_1"] != wait_every_copy                     # SWAP's copy waits for COPY's end (sdram)
+    words = np.array(seen["store"])
+    assert np.array_equal(words[P.pixels:], want[1])                # both into the back buffer (index 1)
+    assert np.array_equal(np.array(seen["store_0"])[P.pixels:], want[0])   # A there before B overwrote it

@@ -3,6 +3,7 @@ reference parser's error state, the packing of triangle records and uploads."""
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
@@ -128,3 +129,46 @@ def test_uploads_only_outside_a_frame(ops):
     res = parse(b"".join(frames[o] for o in sent), 8, (4, 4))
     assert res.error == (Err.BUSY if refused else 0)
     assert [c for c, _ in res.commands] == [frames[o][1] for o in sent[:len(sent) - refused]]
+
+
+@given(st.integers(1, 0xFFFF), st.integers(1, 0xFFFF), st.integers(0, 0xFFFF), st.integers(0, 0xFFFF),
+       st.integers(1, 0xFFFF), st.integers(1, 0xFFFF))
+def test_a_tile_is_taken_only_at_a_place_in_the_grid(w, h, col, row, cols, rows):
+    """FRAME_START's place: its column and row (0, 0 in the 4-byte form) must lie in the board's grid of tiles,
+    else SIZE; the place reads back from the payload."""
+    from host.protocol import frame_place
+    data = frame_start(w, h, col, row)
+    payload = data[4:-2]
+    assert len(payload) == (4 if col == row == 0 else 8) and frame_place(payload) == (w, h, col, row)
+    res = parse(data, 8, (w, h), grid=(cols, rows))
+    if col < cols and row < rows:
+        assert (res.commands, res.replies, res.error) == ([(Cmd.FRAME_START, payload)], [ACK], 0)
+    else:
+        assert (res.commands, res.replies, res.error) == ([], [0x80 | Err.SIZE], Err.SIZE)
+    assert parse(data, 8).error == 0                                  # a board without a frame takes any
+
+
+def test_a_picture_is_sent_tile_by_tile_and_shown_once():
+    """``picture_frames``: each tile's FRAME_START at its place, its triangles, COPY; the last tile ends with SWAP,
+    and an upload between tiles (after a COPY) is taken."""
+    from types import SimpleNamespace
+
+    from host.protocol import frame_place, picture_frames, record_bytes
+    ports = [SimpleNamespace(fmt=SimpleNamespace(width=w)) for w in (12, 9, 15)]      # a record's fields
+    n = record_bytes(ports)
+    rec = np.array([[5, -3, 100]], np.int64)
+    tiles = [((c, r), rec if (c + r) % 2 else rec[:0]) for r in range(2) for c in range(3)]
+    frames = picture_frames(ports, tiles, (16, 8))
+    res = parse(b"".join(frames), n, (16, 8), grid=(3, 2))
+    assert res.error == 0
+    cmds = [c for c, _ in res.commands]
+    assert cmds.count(Cmd.COPY) == 5 and cmds.count(Cmd.SWAP) == 1 and cmds[-1] == Cmd.SWAP
+    assert cmds.count(Cmd.TRIANGLE) == 3
+    assert [frame_place(p)[2:] for c, p in res.commands if c == Cmd.FRAME_START] == [t for t, _ in tiles]
+    between = frames[:2] + upload_frames(Cmd.CUBE, 0, [7], 27) + frames[2:]          # after the first COPY
+    assert parse(b"".join(between), n, (16, 8), grid=(3, 2)).error == 0
+    assert parse(b"".join(frames), n, (16, 8), grid=(2, 2)).error == Err.SIZE          # column 2 outside
+    with pytest.raises(ValueError, match="no tile"):
+        picture_frames(ports, [], (16, 8))
+    with pytest.raises(ValueError, match="col"):
+        frame_start(4, 4, -1, 0)

@@ -64,6 +64,38 @@ def test_another_size_is_refused_by_a_board_of_the_default_tile(tmp_path):
     assert Cmd.TRIANGLE not in [c for c, _ in parsed.commands]      # every frame after it ignored, no CLEAR sent
 
 
+def test_the_picture_a_tile_at_a_time_for_the_board_with_its_frame_in_sdram(tmp_path):
+    """``--frame sdram``: every tile of the 640 x 480 picture's grid in raster order, each FRAME_START at its place
+    with the records set up for that tile (``fxmodel.units.raster.setup`` with its origin) and COPY, SWAP after
+    the last; a board of that grid takes it all, a board with its frame on chip (a grid of one tile) refuses the
+    second tile's place."""
+    from board.frame import BOARD_PRESET, BOARD_SIZE
+    from board.video import VGA_640x480
+    from host.engine_setup import frame_raster, frame_records
+    from host.protocol import Err, frame_place
+    out = tmp_path / "tiles.bin"
+    assert main(["send", "--frame", "sdram", "--dry-run", str(out)]) == 0
+    t = VGA_640x480
+    frame = prepare(scene_path("tin-plane"), size=(t.h_active, t.v_active), preset=BOARD_PRESET)
+    raster = frame_raster(frame)
+    cols, rows = -(-t.h_active // BOARD_SIZE), -(-t.v_active // BOARD_SIZE)
+    n = record_bytes(raster.record)
+    parsed = parse(out.read_bytes(), n, (BOARD_SIZE, BOARD_SIZE), grid=(cols, rows))
+    assert parsed.error == 0
+    drawn = [c for c, _ in parsed.commands if c not in MEMORIES]
+    assert drawn.count(Cmd.COPY) == cols * rows - 1 and drawn[-1] == Cmd.SWAP and drawn.count(Cmd.SWAP) == 1
+    starts = [k for k, (c, _) in enumerate(parsed.commands) if c == Cmd.FRAME_START]
+    assert [frame_place(parsed.commands[k][1])[2:] for k in starts] == [(c, r) for r in range(rows)
+                                                                        for c in range(cols)]
+    for k, s in enumerate(starts):                  # each tile's records: those of its place
+        c, r = frame_place(parsed.commands[s][1])[2:]
+        end = starts[k + 1] if k + 1 < len(starts) else len(parsed.commands)
+        tile = [_unpack(raster.record, p) for c2, p in parsed.commands[s + 1:end] if c2 == Cmd.TRIANGLE]
+        want = frame_records(frame, raster, (c * BOARD_SIZE, r * BOARD_SIZE, BOARD_SIZE, BOARD_SIZE))[0]
+        assert np.array_equal(np.array(tile).reshape(-1, len(raster.record)), want.matrix())
+    assert parse(out.read_bytes(), n, (BOARD_SIZE, BOARD_SIZE)).error == Err.SIZE
+
+
 class _Board:
     """A board behind a serial port: every byte written so far goes through :func:`host.protocol.parse` (the
     reference the board's RTL is checked against), whose answers are read one by one; each STATUS answer carries

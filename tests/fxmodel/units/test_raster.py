@@ -6,7 +6,7 @@ from fractions import Fraction
 
 import numpy as np
 import pytest
-from hypothesis import given
+from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from fxmodel.core.fixed import Fmt
@@ -313,3 +313,47 @@ def test_steep_bump_maps_draw_from_triangles_with_the_block_exponent(scene):
     report = render_triangles(tframe)
     assert report["max_lsb_vs_float_well_conditioned"] <= 1 and report["raster_saturated"] == 0
     assert report["triangles_vs_fragments"]["max_lsb_vs_fragments"] <= 1
+
+
+@settings(max_examples=40, deadline=None)
+@given(triangles(), st.data(), st.integers(11, 40), st.integers(9, 30))
+def test_a_tile_of_the_picture_covers_its_pixels_and_holds_the_bound(tri, data, tw, th):
+    """A picture drawn a tile at a time (``setup`` with ``origin`` and ``picture``, as the board with its frame in
+    SDRAM): each tile's records cover exactly the picture's covered pixels inside the tile, moved to the tile's
+    coordinates (so the tiles together cover each pixel once, none past the picture's edge where the last tiles
+    reach beyond it), and every attribute of every fragment stays within
+    the interpolators' bound of the exact plane at its picture coordinates."""
+    X, Y = (np.asarray(v, np.int64) for v in tri)
+    vals = attr_values(data.draw, P)
+    vals = {n: vals[n] for n in ("U", "Nx")}
+    params = RasterParams(attrs=tuple((n, P.out_fmt(n)) for n in vals))
+    width, height = 64, 48
+    px, py, _, _ = frontend.scan_triangle(X, Y, width, height)
+    whole = set(zip(px.tolist(), py.tolist()))
+    covered = []
+    for oy in range(0, height, th):
+        for ox in range(0, width, tw):
+            recs = setup(params, X[None], Y[None], {n: np.asarray(v, float)[None] for n, v in vals.items()}, tw, th,
+                         origin=(ox, oy), picture=(width, height))
+            res = scan(params, recs)
+            got = list(zip((res.codes["x"] + ox).tolist(), (res.codes["y"] + oy).tolist()))
+            assert set(got) == {(x, y) for x, y in whole if ox <= x < ox + tw and oy <= y < oy + th}
+            covered += got
+            for k in range(0, len(res), max(1, len(res) // 8)):
+                x, y = int(res.codes["x"][k]) + ox, int(res.codes["y"][k]) + oy
+                for name, v in vals.items():
+                    err = abs(Fraction(int(res.codes[name][k])) * params.out_fmt(name).ulp
+                              - exact_value(X.tolist(), Y.tolist(), v, x, y))
+                    assert err <= params.error_bound(name), (name, x, y)
+    assert sorted(covered) == sorted(whole)                          # every pixel once
+
+
+def test_a_tile_needs_its_picture_and_a_place_in_it():
+    X, Y = np.array([[0, 8 * S, 0]]), np.array([[0, 0, 8 * S]])
+    vals = {n: np.zeros((1, 3)) for n in small.names}
+    with pytest.raises(ValueError, match="origin"):
+        setup(small, X, Y, vals, 4, 4, origin=(4, 0))
+    with pytest.raises(ValueError, match="origin"):
+        setup(small, X, Y, vals, 4, 4, origin=(16, 0), picture=(16, 16))
+    with pytest.raises(ValueError, match="picture"):
+        setup(small, X, Y, vals, 4, 4, origin=(0, 0), picture=(small.max_size + 1, 16))

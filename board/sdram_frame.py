@@ -133,7 +133,7 @@ class _Bursts:
     the current burst's; ``step()`` the statements to the next one; ``last`` at the frame's last burst."""
 
     def __init__(self, layout: FrameLayout, name: str):
-        self.L = self.walk = layout
+        self.L = layout
         self.x = Signal(range(max(2, layout.width + layout.burst)), name=f"{name}_x")
         self.y = Signal(range(max(2, layout.height)), name=f"{name}_y")
         rest = layout.width - self.x

@@ -38,6 +38,7 @@ from host.protocol import STATE_BITS, Cmd
 from rtl.fixed import const_mul
 
 from .cdc import QUIET, toggle_sync
+from .sdram_frame import tile_grid
 from .upload import UploadWriter
 
 __all__ = ["rgb565", "expand565", "display_frame", "board_engine", "board_grid", "board_picture", "picture_tiles",
@@ -93,9 +94,7 @@ def board_grid(rop, timing, frame: str = "chip") -> tuple[int, int]:
     """The board's ``(columns, rows)`` of tiles: one with the frame on chip (the frame store holds the tile), the
     display's picture covered by ``rop.width x rop.height`` tiles with the frame in SDRAM (the last column and row
     cut by the picture's edge)."""
-    if frame == "chip":
-        return 1, 1
-    return -(-timing.h_active // rop.width), -(-timing.v_active // rop.height)
+    return (1, 1) if frame == "chip" else tile_grid(timing.h_active, timing.v_active, rop.width, rop.height)
 
 
 def board_engine(scene: str = "tin-plane", preset: str = BOARD_PRESET, size: int = BOARD_SIZE):
@@ -143,9 +142,9 @@ def picture_tiles(frame, size: int):
     raster = frame_raster(frame)
     rop = dataclasses.replace(frame_rop(frame, raster, size, size), on_chip=True)
     params = EngineParams(raster=raster, pipeline=frame.params, rop=rop)
-    w, h = frame.scene.width, frame.scene.height
+    cols, rows = tile_grid(frame.scene.width, frame.scene.height, size, size)
     tiles = [((c, r), frame_records(frame, raster, (c * size, r * size, size, size))[0])
-             for r in range(-(-h // size)) for c in range(-(-w // size))]
+             for r in range(rows) for c in range(cols)]
     return params, tiles
 
 
@@ -158,7 +157,7 @@ def tiled_color(params, tiles, picture: tuple[int, int]) -> np.ndarray:
     rows = 1 + max(r for (_, r), _ in tiles)
     out = np.zeros((rows * th, cols * tw, 3), dtype=np.int64)
     for (c, r), recs in tiles:
-        _, color, _, _, _ = params.draw(recs.matrix() if hasattr(recs, "matrix") else recs)
+        _, color, _, _, _ = params.draw(recs)
         out[r * th:(r + 1) * th, c * tw:(c + 1) * tw] = color[..., :3]
     return out[:picture[1], :picture[0]]
 

@@ -44,7 +44,7 @@ from rtl.rop import axi_signature
 
 from .litedram import ADDR_BITS, DATA_BITS, ID_BITS
 
-__all__ = ["FrameLayout", "SdramFrame", "AW_AHEAD", "LATENCY", "FIFO_DEPTH", "bandwidth"]
+__all__ = ["FrameLayout", "SdramFrame", "tile_grid", "AW_AHEAD", "LATENCY", "FIFO_DEPTH", "bandwidth"]
 
 #: Write bursts whose ``AW`` may be taken before their data (LiteDRAM's AXI port queues addresses).
 AW_AHEAD = 2
@@ -52,6 +52,12 @@ AW_AHEAD = 2
 FIFO_DEPTH = 1024
 #: Pixel clocks from the display's ``x``, ``y`` to :attr:`SdramFrame.color` (the pop, the registered word).
 LATENCY = 2
+
+
+def tile_grid(width: int, height: int, tile_width: int, tile_height: int) -> tuple[int, int]:
+    """The ``(columns, rows)`` of ``tile_width x tile_height`` tiles that cover a ``width x height`` picture (the
+    last column and row cut by its edge)."""
+    return -(-width // tile_width), -(-height // tile_height)
 
 
 def _pow2(n: int) -> int:
@@ -181,7 +187,7 @@ class SdramFrame(wiring.Component):
             raise ValueError(f"fifo_depth={fifo_depth}: must hold two bursts ({2 * layout.burst} words)")
         tw, th = (layout.width, layout.height) if tile is None else tile
         self.tile = FrameLayout(tw, th, burst=layout.burst)
-        self.grid = (-(-layout.width // tw), -(-layout.height // th))
+        self.grid = tile_grid(layout.width, layout.height, tw, th)
         cols, rows = self.grid
         if cols * tw * layout.beat_bytes > layout.pitch or rows * th * layout.pitch > layout.buffer_bytes:
             raise ValueError(f"the {cols}x{rows} tiles of {tw}x{th} exceed the {layout.width}x{layout.height} "

@@ -68,8 +68,7 @@ class SdramFrameLiteDramBench(wiring.Component):
         from board.sdram_core import LiteDram
         self._bench = SdramFrameBench(layout, timing, fifo_depth)
         self._dram = LiteDram(None, cke_delay)
-        super().__init__({"i": In(stream.Signature(DATA_BITS)), "col": In(0), "row": In(0), "show": In(1),
-                          "copied": Out(1), "error": Out(1),
+        super().__init__({"i": In(stream.Signature(DATA_BITS)), "show": In(1), "copied": Out(1), "error": Out(1),
                           "x": Out(range(timing.h_total)), "y": Out(range(timing.v_total)), "color": Out(DATA_BITS),
                           "front": Out(1), "underrun": Out(1), "ready": Out(1)})
 

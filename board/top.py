@@ -27,7 +27,7 @@ from amaranth.lib.cdc import ResetSynchronizer
 from .budget import write_text_atomic
 from .command import CommandLink
 from .dvi import CLOCK_WORD, Display, Serializer, pattern
-from .frame import BOARD_PRESET, EngineSystem, add_size_argument
+from .frame import BOARD_PRESET, EngineSystem, add_frame_argument, add_size_argument
 from .ulx3s import BAUD, wire_link
 from .video import VGA_640x480
 
@@ -300,8 +300,7 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
                     help="pipeline preset (built in or presets/<name>.toml; default %(default)s: docs/board.md)")
     add_size_argument(ap)
     ap.add_argument("--no-engine", action="store_true", help="the first stage: the test picture and the link")
-    ap.add_argument("--frame", choices=("chip", "sdram"), default="chip",
-                    help="the frame store: block RAM, or SDRAM behind LiteDRAM's core (default chip)")
+    add_frame_argument(ap)
     ap.add_argument("--router", choices=ROUTERS, default=ROUTERS[0], help="nextpnr's router")
     ap.add_argument("--placer", choices=PLACERS, default=PLACERS[0], help="nextpnr's placer")
     ap.add_argument("--tmg-ripup", action=argparse.BooleanOptionalAction, default=True,

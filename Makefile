@@ -87,9 +87,10 @@ test: setup
 verilog: setup
 	$(BUMPMAP) verilog --out build/verilog $(SCENE_ARGS)
 
+# make sim's options beyond the scene's: one recipe line, so that make echoes the command as one line
+SIM_OPTS = $(if $(DEPTH),--depth) $(if $(TEXTURES),--textures $(TEXTURES) --latency $(LATENCY))
 sim: setup
-	$(BUMPMAP) sim --scene $(SCENE) --preset $(PRESET) --sim $(SIM) --input $(INPUT) $(if $(DEPTH),--depth) \
-		$(if $(TEXTURES),--textures $(TEXTURES) --latency $(LATENCY))
+	$(BUMPMAP) sim --scene $(SCENE) --preset $(PRESET) --sim $(SIM) --input $(INPUT) $(SIM_OPTS)
 
 render: setup
 	$(BUMPMAP) render scenes/$(SCENE).toml build/render/$(SCENE)/model.png --preset $(PRESET) --refs build/render/$(SCENE)

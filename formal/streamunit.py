@@ -117,7 +117,10 @@ def stream_counts(h: Harness, params, dut, frag, pre: str) -> SimpleNamespace:
     ``frag``) that need no sideband: transfers in - out (``out``) = ``used`` = FIFO level + the delay line's valid
     bits, never above the FIFO's depth; no output without an input; rule 3 as a bound. Returns the counters."""
     m = h.m
-    n_in = dut.in_stages
+    unit = dut
+    while not hasattr(unit, "in_stages"):       # a broken variant's wrapper (formal/broken.py) around the StreamUnit
+        unit = unit.inner
+    n_in = unit.in_stages
     depth, lat = buffer_depth(params, n_in), params.latency + n_in
     x_in, x_out = dut.i.valid & dut.i.ready, dut.o.valid & dut.o.ready
     out = Signal(range(depth + 2), name="f_outstanding")

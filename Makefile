@@ -19,8 +19,10 @@ LATENCY  ?= 20
 JOBS     ?= 2
 # nextpnr router of `make fpga` (router1: the README's figures; router2: quick checks of the pipeline)
 ROUTER   ?= router1
-# the board of `make bitstream` (board/top.py)
+# the board of `make bitstream` (board/top.py); FRAME=chip: its frame in block RAM (one tile) instead of SDRAM
 BOARD    ?= ulx3s
+FRAME    ?=
+FRAME_ARG = $(if $(FRAME),--frame $(FRAME))
 # PRESET or SCENE given on the command line or in the environment: `make verilog` and `make fpga` build the pixel
 # pipeline with SCENE's tables and PRESET (built in or presets/<name>.toml); otherwise every unit and preset.
 SCENE_ARGS = $(if $(filter-out file default undefined,$(origin PRESET) $(origin SCENE)),--scene $(SCENE) --preset $(PRESET))
@@ -42,10 +44,12 @@ help:
 	@echo "make fpga       ECP5-85 synthesis, place and route of every unit and preset -> build/fpga/report.{json,md};"
 	@echo "                with PRESET= and/or SCENE=: the pipeline with that preset and the scene's tables;"
 	@echo "                ROUTER=router2 for a quick check of the pipeline (nextpnr's router1 is the default)"
-	@echo "make bitstream  BOARD=ulx3s: the board top (PLL, the engine, DVI, UART link) through Yosys, nextpnr-ecp5 and"
-	@echo "                ecppack -> build/bitstream/\$$BOARD/top.bit and report.json (Fmax per clock, resources)"
+	@echo "make bitstream  BOARD=ulx3s: the board top (PLL, the engine, the frame in SDRAM, DVI, UART link) through Yosys,"
+	@echo "                nextpnr-ecp5 and ecppack -> build/bitstream/\$$BOARD/top.bit and report.json (Fmax per clock,"
+	@echo "                resources); FRAME=chip: the frame in block RAM, one 128 x 128 tile"
 	@echo "make board-sim  BOARD=ulx3s: the board simulated end to end on Verilator: bumpmap send's bytes of SCENE into"
-	@echo "                the UART, the engine, its tile, the DVI output decoded and compared with the model's frame"
+	@echo "                the UART, the engine, its tiles, the DVI output decoded and compared with the model's picture"
+	@echo "                (FRAME=chip as for make bitstream)"
 	@echo "make exhaustive exhaustive RTL equivalence (streaming co-simulation) -> build/exhaustive/report.json"
 	@echo "make exhaustive-wide  the 2^32-input proof of recip rcp32: model vs exact math, RTL vs model on Verilator"
 	@echo "                (long: Dask, --jobs \$$JOBS local workers or DASK_SCHEDULER_ADDRESS; resumes where it stopped)"
@@ -83,9 +87,10 @@ test: setup
 verilog: setup
 	$(BUMPMAP) verilog --out build/verilog $(SCENE_ARGS)
 
+# make sim's options beyond the scene's: one recipe line, so that make echoes the command as one line
+SIM_OPTS = $(if $(DEPTH),--depth) $(if $(TEXTURES),--textures $(TEXTURES) --latency $(LATENCY))
 sim: setup
-	$(BUMPMAP) sim --scene $(SCENE) --preset $(PRESET) --sim $(SIM) --input $(INPUT) $(if $(DEPTH),--depth) \
-		$(if $(TEXTURES),--textures $(TEXTURES) --latency $(LATENCY))
+	$(BUMPMAP) sim --scene $(SCENE) --preset $(PRESET) --sim $(SIM) --input $(INPUT) $(SIM_OPTS)
 
 render: setup
 	$(BUMPMAP) render scenes/$(SCENE).toml build/render/$(SCENE)/model.png --preset $(PRESET) --refs build/render/$(SCENE)
@@ -98,15 +103,15 @@ fpga: setup
 
 bitstream: setup
 	@test "$(BOARD)" = ulx3s || { echo "BOARD=$(BOARD): the board top exists for ulx3s only" >&2; exit 2; }
-	$(BUMPMAP) bitstream --out build/bitstream/$(BOARD)
+	$(BUMPMAP) bitstream $(FRAME_ARG) --out build/bitstream/$(BOARD)
 
 # the board end to end (tools/board_sim.py): the host tool's bytes, written by `bumpmap send`, are the input;
 # the board's own preset (board/frame.py BOARD_PRESET) unless PRESET is given
 BOARD_PRESET_ARG = $(if $(filter-out file default undefined,$(origin PRESET)),--preset $(PRESET))
 board-sim: setup
 	@test "$(BOARD)" = ulx3s || { echo "BOARD=$(BOARD): the board top exists for ulx3s only" >&2; exit 2; }
-	$(BUMPMAP) send --scene $(SCENE) $(BOARD_PRESET_ARG) --dry-run build/board-sim/$(SCENE).bin
-	$(BUMPMAP) board-sim --scene $(SCENE) $(BOARD_PRESET_ARG) --bytes build/board-sim/$(SCENE).bin
+	$(BUMPMAP) send --scene $(SCENE) $(BOARD_PRESET_ARG) $(FRAME_ARG) --dry-run build/board-sim/$(SCENE).bin
+	$(BUMPMAP) board-sim --scene $(SCENE) $(BOARD_PRESET_ARG) $(FRAME_ARG) --bytes build/board-sim/$(SCENE).bin
 
 exhaustive: setup
 	HYPOTHESIS_PROFILE=thorough $(PY) -m pytest -n $(JOBS) -q -m slow -k "not test_exhaustive_target"

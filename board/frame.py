@@ -44,7 +44,8 @@ from .upload import UploadWriter
 __all__ = ["rgb565", "expand565", "display_frame", "board_engine", "board_grid", "board_picture", "picture_tiles",
            "tiled_color",
            "EngineSystem", "BoardSim", "QUIET",
-           "BOARD_PRESET", "BOARD_SIZE", "MAX_BOARD_SIZE", "add_size_argument",
+           "BOARD_PRESET", "BOARD_SIZE", "MAX_BOARD_SIZE", "add_size_argument", "FRAMES", "BOARD_FRAME",
+           "add_frame_argument",
            "TileCopy"]
 
 
@@ -65,6 +66,23 @@ def add_size_argument(ap) -> None:
     ap.add_argument("--size", type=int_range(1, MAX_BOARD_SIZE), default=BOARD_SIZE,
                     help=f"the frame's edge in pixels (the on-chip tile, at most {MAX_BOARD_SIZE}: block RAM; "
                          "default %(default)s)")
+
+
+#: The board's frame stores: ``chip``, block RAM (the picture is one tile, at the display's top left); ``sdram``,
+#: SDRAM behind LiteDRAM's core (the display's whole picture, double-buffered, drawn a tile at a time).
+FRAMES = ("chip", "sdram")
+#: The frame store of every board command unless ``--frame`` says otherwise (``bumpmap bitstream``, ``send``,
+#: ``board-sim``, so ``make bitstream`` and ``make board-sim``): the whole picture in SDRAM, the board's design
+#: (``docs/board.md``). One default for all three, so that the host sends the tiles the board it built expects.
+BOARD_FRAME = "sdram"
+
+
+def add_frame_argument(ap, what: str = "the frame store") -> None:
+    """``--frame`` (:data:`FRAMES`, default :data:`BOARD_FRAME`) of the commands that build, drive or simulate the
+    board; ``what`` names it in the command's terms."""
+    ap.add_argument("--frame", choices=FRAMES, default=BOARD_FRAME,
+                    help=f"{what}: sdram, the display's 640 x 480 picture a --size tile at a time in SDRAM behind "
+                         "LiteDRAM's core (default); chip, block RAM, the picture one tile at the display's top left")
 
 
 def rgb565(color: np.ndarray) -> np.ndarray:

@@ -25,7 +25,7 @@ from functools import lru_cache
 import numpy as np
 
 from board.frame import BoardSim, display_frame
-from board.top import DRAM_HZ
+from board.top import DRAM_HZ, ENGINE_HZ, PIXEL_HZ
 from board.video import VGA_640x480, VideoTiming, tmds_decode
 from fxmodel.core.paths import source_digest
 from host.protocol import STATE_ANSWER, Cmd
@@ -37,8 +37,9 @@ from .job import job_folder, remove_job
 
 __all__ = ["simulate", "split_frames", "decode_words", "PIXEL_NS", "ENGINE_NS", "DRAM_NS", "DIVISOR"]
 
-#: The pixel clock (25 MHz, the board's), the engine's (100 MHz), pixel clocks a UART bit (1 MBd).
-PIXEL_NS, ENGINE_NS, DIVISOR = 40, 10, 25
+#: The pixel clock (25 MHz, the board's), the engine's (the board's with the frame on chip, ``board.top.ENGINE_HZ``,
+#: its 100 MHz target), pixel clocks a UART bit (1 MBd).
+PIXEL_NS, ENGINE_NS, DIVISOR = 10 ** 9 // PIXEL_HZ, 10 ** 9 // ENGINE_HZ, 25
 #: The SDRAM's clock with the frame in SDRAM: the board's (``board.top.DRAM_HZ``).
 DRAM_NS = 10 ** 9 // DRAM_HZ
 #: Pixel clocks a UART bit when the uploads are simulated (6.25 MBd: the receiver samples each bit's middle).

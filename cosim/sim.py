@@ -61,7 +61,7 @@ from pathlib import Path
 
 import numpy as np
 
-from fxmodel.core.paths import build_dir
+from fxmodel.core.paths import build_dir, shown_path
 from host.args import SIZE_HELP, cube_size_arg, float_range, int_range, size_arg
 from host.atomic import atomic_json, check_output_dir
 from host.images import db_text, summary_table, truth_rows
@@ -240,7 +240,7 @@ def sim_scene(args) -> int:
              ("RTL pixels/s", f"{report['pixels_per_second']:,}"),
              ("seconds", f"{wall:.1f} wall, simulator {result['sim_cpu_seconds']:.1f} CPU, build "
                          f"{result['build_seconds']:.1f}"),
-             ("output", str(out_dir))]
+             ("output", shown_path(out_dir))]
     print(summary_table(rows))
     if mismatches or not result.ok or not clocks_ok:
         print(result.describe(), file=sys.stderr)
@@ -262,7 +262,7 @@ def model_only(args, report: dict, out_dir: Path, name: str) -> int:
                                                              f"{report['max_lsb_vs_float']} LSB)"),
                          *truth_rows(report),
                          ("verdict", f"{'pass' if report['verdict']['pass'] else 'FAIL'} (model only, no RTL)"),
-                         ("output", str(out_dir))]))
+                         ("output", shown_path(out_dir))]))
     return tell(report, name)
 
 
@@ -301,7 +301,7 @@ def sim_depth(args, tframe, report, out_dir, t0) -> int:
         ("memory traffic", f"{dt['bytes_read_per_pixel']} B read, {dt['bytes_written_per_pixel']} B written per "
                            f"covered pixel (RTL {result['rtl_bytes_read']:,} / {result['rtl_bytes_written']:,} B)"),
         ("from triangles vs float", f"{db_text(tv['psnr_db_vs_float'])} (max {tv['max_lsb_vs_float']} LSB)"),
-        ("wall seconds", f"{wall:.1f}"), ("output", str(out_dir))]))
+        ("wall seconds", f"{wall:.1f}"), ("output", shown_path(out_dir))]))
     if result["mismatches"] or not traffic_ok or result["status"]:
         print(f"RTL differs from the model: {result['mismatches']} pixels, traffic {result['rtl_bytes_read']} / "
               f"{result['rtl_bytes_written']} B, status {result['status']}; first: {result['first']}",

@@ -80,7 +80,7 @@ def engine_set(*, kind: str = "proof", wrap=None) -> Harness:
         r = rop_props(h, ep.rop, rop, whitebox.subfragment(frag, pre + "rop"))
     # conservation of fragments
     R = ep.rop
-    w = bits_for(4 * (buffer_depth(ep.pipeline) + R.outstanding + 4))
+    w = bits_for(4 * (buffer_depth(ep.pipeline, pix.in_stages) + R.outstanding + 4))
     take = rop.i.valid & rop.i.ready
     f = rop.i.payload
     drop = take & ~((f.x < R.width) & (f.y < R.height))

@@ -117,13 +117,19 @@ def stream_counts(h: Harness, params, dut, frag, pre: str) -> SimpleNamespace:
     ``frag``) that need no sideband: transfers in - out (``out``) = ``used`` = FIFO level + the delay line's valid
     bits, never above the FIFO's depth; no output without an input; rule 3 as a bound. Returns the counters."""
     m = h.m
-    depth, lat = buffer_depth(params), params.latency
+    unit = dut
+    while not hasattr(unit, "in_stages"):       # a broken variant's wrapper (formal/broken.py) around the StreamUnit
+        unit = unit.inner
+    n_in = unit.in_stages
+    depth, lat = buffer_depth(params, n_in), params.latency + n_in
     x_in, x_out = dut.i.valid & dut.i.ready, dut.o.valid & dut.o.ready
     out = Signal(range(depth + 2), name="f_outstanding")
     m.d.sync += out.eq(out + x_in - x_out)
     used = whitebox.signal(frag, "used", pre)
     level = whitebox.origin(frag, pre + "fifo", SyncFIFO).level
-    line = Cat(*(whitebox.signal(frag, f"valid{k}", pre + "core/unit") for k in range(1, lat + 1)))
+    # the delay line: the input registers (``in_stages``), then the flat unit's stages
+    line = Cat(*(whitebox.signal(frag, f"in{k}_valid", pre) for k in range(1, n_in + 1)),
+               *(whitebox.signal(frag, f"valid{k}", pre + "core/unit") for k in range(1, params.latency + 1)))
     h.check(out <= depth, "o_capacity")
     h.check(~x_out | (out != 0), "o_no_dup")
     h.check(used == out, "o_used")

@@ -9,7 +9,7 @@ from amaranth.hdl import Cat, Module
 from amaranth.lib import data, stream, wiring
 from amaranth.lib.wiring import In, Out
 
-from fxmodel.pipeline.engine import EngineParams
+from fxmodel.pipeline.engine import PIPELINE_IN_STAGES, EngineParams
 
 from .fixed import shape
 from .pixel import Pipeline
@@ -34,7 +34,8 @@ class Engine(wiring.Component):
 
     Backpressure on ``o`` fills the pixel pipeline's output FIFO (its ``i.ready`` falls), which holds the scan
     converter, which stops taking records. Without stalls a fragment's color leaves ``params.latency`` cycles after it
-    left the scan converter.
+    left the scan converter (the pixel pipeline's, and with the maps on chip its input registers,
+    ``fxmodel.pipeline.engine.PIPELINE_IN_STAGES``).
 
     With ``params.rop`` (the engine with its depth test) ``o`` is replaced by the raster-operations unit
     (``rtl/rop.py``): the sideband also carries ``Z``, and the colors go through the depth test into the frame
@@ -82,7 +83,7 @@ class Engine(wiring.Component):
         m.submodules.raster = ras = Raster(P.raster)
         if P.textures is None:
             unit = None if self.writes is None else Pipeline(P.pipeline, self.writes)
-            m.submodules.pipeline = pix = StreamUnit(P.pipeline, side, unit)
+            m.submodules.pipeline = pix = StreamUnit(P.pipeline, side, unit, in_stages=PIPELINE_IN_STAGES)
         else:                                               # the maps through the texture fetch, port ``tex``
             m.submodules.pipeline = pix = self._pixel
             wiring.connect(m, wiring.flipped(self.tex), pix.mem)

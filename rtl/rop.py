@@ -48,8 +48,11 @@ word read, and the write's enable, address and data. A net from one flip-flop to
 block RAM (through the read-out's address multiplexer and the comparators Yosys added while the read port was
 transparent) was the board's engine clock's next critical path. Yosys's ``opt_merge`` merges flip-flops with one
 input, so the copies are :func:`rtl.unit.kept_copy` registers, which the board's synthesis marks ``keep``
-(:data:`rtl.unit.KEEP_COPIES`). Seven stages (``RopParams.latency``): the accepted fragment registered (its
-pixel index and depth computed from the stream's payload); its address in the registers beside the block RAMs;
+(:data:`rtl.unit.KEEP_COPIES`). Eight stages (``RopParams.latency``): the fragment registered as the stream
+delivers it (nothing else: the pixel pipeline's output FIFO is LUT RAM read through a multiplexer, and with the
+accept's logic behind it in one cycle it was the board's slowest engine path, into ``status`` and the depth,
+at every placement tried); the accepted fragment registered (its pixel index and depth computed from the first
+stage's registers); its address in the registers beside the block RAMs;
 the read; the word in the registers beside the block RAMs; the stored depth registered (the block RAM's slow
 output never meets logic in the cycle it leaves the block); the compare; the write's central registers; the
 write from the registers beside the block RAMs. A fragment's read sees every write up to the one of the
@@ -59,7 +62,7 @@ five just ahead of it are forwarded (the nearer first: its depth replaces the st
 same): whether each has the same pixel is registered a cycle early, the two to five ahead (their writes decided)
 replace the stored depth as it is registered, the one just ahead in the compare. ``i.ready`` is always 1, except while
 the frame is read out through ``fb`` (``fb.read``: the read port takes ``fb.addr``; ``fb.data`` holds its word
-``RopParams.readout_latency`` cycles later; an accepted fragment waits in the first stage). With ``fb.clear`` as
+``RopParams.readout_latency`` cycles later; accepted fragments wait in the first two stages). With ``fb.clear`` as
 well, the word read is also overwritten with the clear value, through the write's registers (a read-out that
 clears, or a clear of the frame: the next frame's depth test starts from the cleared frame).
 """
@@ -166,9 +169,10 @@ class Rop(wiring.Component):
         super().__init__(members)
 
     # -- shared: the accepted fragment --------------------------------------------------------------------
-    def _accept(self, m):
+    def _accept(self, m, f):
+        """The fragment ``f`` (a payload of ``params.inputs``): its depth narrowed, whether it is inside the frame,
+        its pixel index and its color word."""
         P = self.params
-        f = self.i.payload
         zc, zsat = narrow(f.z, P.z_in.frac_bits, P.z_fmt, Z_ROUNDING, Z_OVERFLOW)
         inside, index = _index(P, f.x, f.y)
         color = Cat(f.r, f.g, f.b, f.flags)
@@ -183,10 +187,14 @@ class Rop(wiring.Component):
         m = Module()
         depth, color = clear_frame(P)
         clear = int(depth[0, 0]) | sum(int(c) << (P.z_fmt.width + 8 * k) for k, c in enumerate(color[0, 0]))
-        zc, zsat, inside, index, color = self._accept(m)
         m.d.comb += self.i.ready.eq(~self.fb.read)
-        take = self.i.valid & self.i.ready
-        # stage A: the accepted fragment registered (held while the read-out has the read port)
+        # stage I: the fragment as the stream delivers it, registered; then stage A: the accepted fragment (both
+        # held while the read-out has the read port)
+        i_valid, i_frag = Signal(name="in_valid"), Signal(payload_layout(P.inputs), name="in_frag")
+        with m.If(~self.fb.read):
+            m.d.sync += [i_valid.eq(self.i.valid), i_frag.eq(self.i.payload)]
+        zc, zsat, inside, index, color = self._accept(m, i_frag)
+        take = i_valid & ~self.fb.read
         a_valid = Signal(name="acc_valid")
         a_z, a_color, a_index = Signal(P.z_fmt.width, name="acc_z"), Signal(24 + P.flag_bits, name="acc_color"), \
             Signal(range(P.pixels), name="acc_index")
@@ -240,7 +248,7 @@ class Rop(wiring.Component):
         with m.Else():
             m.d.sync += [w_en.eq(c_valid & (c_z > stored)), w_z.eq(c_z), w_color.eq(c_color),
                          w_index.eq(c_index)]
-        m.d.comb += self.busy.eq(Cat(a_valid, *(st[0] for st in rd[1:]), c_valid, w_en, h1_en).any())
+        m.d.comb += self.busy.eq(Cat(i_valid, a_valid, *(st[0] for st in rd[1:]), c_valid, w_en, h1_en).any())
         self._sticky(m, take & ~inside, take & inside & zsat, Const(0), self.fb.read & self.fb.clear)
         return m
 
@@ -286,7 +294,7 @@ class Rop(wiring.Component):
         m = Module()
         axi = self.axi
         N = P.outstanding
-        zc, zsat, inside, index, color = self._accept(m)
+        zc, zsat, inside, index, color = self._accept(m, self.i.payload)
 
         # stage 1: the accepted fragment
         s_valid = Signal()

@@ -41,10 +41,11 @@ from .unit import Pipe, build
 __all__ = ["payload_layout", "input_layout", "output_layout", "StreamUnit", "buffer_depth", "CreditFIFO",
            "less_one_if"]
 
-def buffer_depth(params) -> int:
-    """Results the output FIFO holds: one per pipeline stage and one more, so that ``i.ready`` (``used`` below
-    this) stays high while results flow at one per clock (``used`` is then the latency)."""
-    return int(params.latency) + 1
+def buffer_depth(params, in_stages: int = 0) -> int:
+    """Results the output FIFO holds: one per pipeline stage (``in_stages`` input registers included) and one more,
+    so that ``i.ready`` (``used`` below this) stays high while results flow at one per clock (``used`` is then the
+    latency)."""
+    return int(params.latency) + in_stages + 1
 
 
 #: The sideband's field name in the payloads.
@@ -114,6 +115,11 @@ class StreamUnit(wiring.Component):
     unit : UnitComponent, optional
         The flat unit to wrap, built from ``params`` (default ``rtl.build(params)``; the pipeline with its texel
         memories' write bus, ``rtl.pixel.Pipeline(params, writes)``).
+    in_stages : int, optional
+        Registers between ``i`` and the flat unit's first stage, holding nothing but the accepted input and its
+        valid (default 0): the producer's output (a FIFO's LUT RAM read through its multiplexer, the engine's scan
+        converter) then meets no logic of the unit's first stage in the same clock. The latency is
+        ``params.latency + in_stages`` (:attr:`latency`), the FIFO :func:`buffer_depth` ``(params, in_stages)``.
 
     Ports
     -----
@@ -129,20 +135,28 @@ class StreamUnit(wiring.Component):
     ``o__payload``.
     """
 
-    def __init__(self, params, side=None, unit=None):
-        self.params, self.side, self.unit = params, side, unit
+    def __init__(self, params, side=None, unit=None, in_stages: int = 0):
+        if not (isinstance(in_stages, int) and in_stages >= 0):
+            raise ValueError(f"in_stages={in_stages!r}: must be an int >= 0")
+        self.params, self.side, self.unit, self.in_stages = params, side, unit, in_stages
+        self.latency = int(params.latency) + in_stages
         super().__init__({"i": In(stream.Signature(input_layout(params, side))),
                           "o": Out(stream.Signature(output_layout(params, side)))})
 
     def elaborate(self, platform):
         m = Module()
         m.submodules.core = core = _Core(self.params, self.side, self.unit)
-        depth = buffer_depth(self.params)
+        depth = buffer_depth(self.params, self.in_stages)
         lay = output_layout(self.params, self.side)
         m.submodules.fifo = fifo = SyncFIFO(width=lay.size, depth=depth)
         used = Signal(range(depth + 1))                   # results in flight and in the FIFO
         take_in = self.i.valid & self.i.ready
-        m.d.comb += [self.i.ready.eq(used < depth), core.i_valid.eq(take_in), core.i_payload.eq(self.i.payload)]
+        valid, payload = take_in, self.i.payload.as_value()
+        for k in range(1, self.in_stages + 1):            # the input registers (``in_stages``)
+            v, p = Signal(name=f"in{k}_valid"), Signal(len(payload), name=f"in{k}_payload")
+            m.d.sync += [v.eq(valid), p.eq(payload)]
+            valid, payload = v, p
+        m.d.comb += [self.i.ready.eq(used < depth), core.i_valid.eq(valid), core.i_payload.eq(payload)]
         # the last stage's result goes straight out while the FIFO is empty, else the FIFO's oldest. Whether it
         # is empty is a register of its own, kept beside the FIFO's level (equal to ``~fifo.r_rdy``: the formal
         # set checks it): ``r_rdy`` is a compare of the level, and through the output multiplexer it led into the

@@ -47,7 +47,7 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
 def _engine_hz() -> tuple[float, str]:
     """The engine's clock: its target if the last bitstream met it, else its Fmax after routing; the PLL's target
     without a bitstream on record."""
-    from board.top import ENGINE_HZ
+    from board.top import engine_hz
     from fxmodel.core.paths import ROOT
     for name, what in (("bitstream-sdram", "placed and routed, the frame in SDRAM"),):
         try:
@@ -59,7 +59,7 @@ def _engine_hz() -> tuple[float, str]:
                 met = c["met"]
                 return (c["target_mhz"] if met else c["fmax_mhz"]) * 1e6, \
                     f"{what}: {'target met' if met else 'Fmax, target not met'}"
-    return ENGINE_HZ, "the PLL's target (no placed engine clock on record)"
+    return engine_hz("sdram"), "the PLL's target (no placed engine clock on record)"
 
 
 def _prepare(scene, size, preset):

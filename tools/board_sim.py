@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from board.frame import BOARD_PRESET, add_size_argument, board_engine, board_picture, tiled_color
+from board.frame import BOARD_PRESET, add_frame_argument, add_size_argument, board_engine, board_picture, tiled_color
 from cosim.board_system import simulate, split_frames
 from host.protocol import Cmd
 
@@ -31,12 +31,10 @@ def add_arguments(ap) -> None:
                     help="the host's bytes (bumpmap send --dry-run FILE, same scene, preset and size); default: "
                          "the same frames made here")
     ap.add_argument("--sim", default="verilator", choices=("verilator", "icarus"), help="simulator")
-    ap.add_argument("--frame", choices=("chip", "sdram"), default="chip",
-                    help="the frame store: block RAM (the picture is one tile), or SDRAM behind LiteDRAM's "
-                         "simulation core (the 640 x 480 picture a tile at a time; default chip)")
+    add_frame_argument(ap, "the frame store (SDRAM: LiteDRAM's simulation core)")
     ap.add_argument("--uploads", action="store_true",
                     help="send the TEXTURE and CUBE frames too, into texel memories that start at zero, the UART "
-                         "faster in simulation (the frame on chip; without it the memories hold the scene's tables "
+                         "faster in simulation (with --frame chip; without it the memories hold the scene's tables "
                          "and the uploads are left out)")
     ap.add_argument("--out", type=Path, default=Path("build/board-sim"), help="output folder (the decoded PNG)")
     add_record_option(ap, "the result")
@@ -50,6 +48,9 @@ def run(args) -> int:
     from host.protocol import picture_frames, scene_frames, triangle_frames, upload_frames_of
     from host.scene import SceneError
 
+    if args.uploads and args.frame != "chip":
+        print("error: --uploads: simulated with --frame chip only", file=sys.stderr)
+        return 2
     before = machine()
     t0 = time.perf_counter()
     tiled = args.frame == "sdram"
@@ -76,9 +77,6 @@ def run(args) -> int:
     grid = f", {len(tiles)} tiles" if tiled else ""
     print(f"{frame.scene.name}: {len(mat)} triangles, {params.rop.width}x{params.rop.height} tile{grid}, "
           f"{len(data)} bytes from the host, RTL on {args.sim}")
-    if args.uploads and args.frame != "chip":
-        print("error: --uploads: simulated with --frame chip only", file=sys.stderr)
-        return 2
     picture = tiled_color(params, tiles, (frame.scene.width, frame.scene.height)) if tiled else None
     rep = simulate(params, mat, data, sim=args.sim, frame=args.frame, uploads=args.uploads, picture=picture)
     out = args.out / frame.scene.name

@@ -76,11 +76,12 @@ def _clock_tables(r: dict, fmax_head: str) -> str:
 
 def board_bitstream(name: str = "bitstream") -> str:
     """The board top's last bitstream: Fmax per clock domain against its target, and resources; ``name`` the
-    record (``bitstream-sdram``: the frame in SDRAM, ``bumpmap bitstream --frame sdram``)."""
+    record (``bitstream``: the frame on chip, ``bumpmap bitstream --frame chip``; ``bitstream-sdram``: the frame in
+    SDRAM, ``make bitstream``'s build)."""
     r, path = _board_record(name)
     if r is None:
-        return missing_record(path, "make bitstream BOARD=ulx3s" if name == "bitstream" else
-                              f"bumpmap bitstream --frame sdram --record docs/board/{name}.json")
+        frame = "--frame chip " if name == "bitstream" else ""
+        return missing_record(path, f"bumpmap bitstream {frame}--record docs/board/{name}.json")
     return (_clock_tables(r, "Fmax")
             + f"\n*Measured by `{r['command']}` in {r['seconds']} s; record: [`board/{name}.json`]"
               f"(board/{name}.json).*\n")
@@ -88,11 +89,12 @@ def board_bitstream(name: str = "bitstream") -> str:
 
 def board_sim(name: str = "board-sim") -> str:
     """The board's end-to-end simulation (``make board-sim``): host bytes to the decoded DVI frame; ``name`` the
-    record (``board-sim-sdram``: the frame in SDRAM, ``--frame sdram``; ``board-sim-uploads``: the uploads sent into
-    blank texel memories, ``--uploads``)."""
+    record (``board-sim``: the frame on chip, ``--frame chip``; ``board-sim-sdram``: the frame in SDRAM, the
+    default; ``board-sim-uploads``: the uploads sent into blank texel memories, ``--frame chip --uploads``)."""
     record, path = load_record(name)
     if record is None:
-        return missing_record(path, f"bumpmap board-sim --record docs/records/{name}.json")
+        frame = "" if name == "board-sim-sdram" else "--frame chip "
+        return missing_record(path, f"bumpmap board-sim {frame}--record docs/records/{name}.json")
     r = record["result"]
     t, ms = r["timing"], r["sim_ms"]
     tiles = r.get("tiles", 1)

@@ -51,7 +51,7 @@ from importlib import metadata
 from pathlib import Path
 
 from board.top import TMG_RIPUP
-from fxmodel.core.paths import ROOT, build_dir
+from fxmodel.core.paths import ROOT, build_dir, shown_path
 from host.atomic import atomic_json, atomic_write_text
 from rtl.digest import params_key, text_key
 from rtl.unit import KEEP_COPIES
@@ -361,8 +361,7 @@ def _finish(job: _Job) -> dict:
                         f"{job.settings['package']}", "seed": job.settings["seed"],
               "router": job.settings.get("router", "router1"), "flow_seconds": res.get("flow_seconds"),
               "route_seconds": res.get("route_seconds"),
-              "yosys_cells": res.get("yosys"), "cached": job.cached, "run": str(job.rdir.relative_to(ROOT))
-              if job.rdir.is_relative_to(ROOT) else str(job.rdir)}
+              "yosys_cells": res.get("yosys"), "cached": job.cached, "run": shown_path(job.rdir)}
     if "error" in res:
         record["error"] = res["error"]
     return record

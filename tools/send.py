@@ -21,7 +21,7 @@ import sys
 import time
 from pathlib import Path
 
-from board.frame import BOARD_PRESET, BOARD_SIZE
+from board.frame import BOARD_PRESET, BOARD_SIZE, add_frame_argument
 from host.args import int_range
 from host.atomic import atomic_write_bytes
 from host.protocol import Err
@@ -53,9 +53,8 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
     ap.add_argument("--dry-run", type=Path, metavar="FILE", help="write the bytes to FILE instead of a port")
     ap.add_argument("--animate", action="store_true",
                     help="send the frames of the scene's [animation] in turn (default: its first frame)")
-    ap.add_argument("--frame", choices=("chip", "sdram"), default="chip",
-                    help="the bitstream's frame store (bumpmap bitstream --frame): chip, the picture is one tile "
-                         "(default); sdram, the 640 x 480 picture a tile at a time (the triangles binned by tile)")
+    add_frame_argument(ap, "the bitstream's frame store (bumpmap bitstream --frame; the triangles binned by "
+                            "tile)")
 
 
 def scene_bytes(args) -> list[bytes]:

@@ -16,7 +16,8 @@ import os
 import tempfile
 from pathlib import Path
 
-__all__ = ["ROOT", "SCENES", "shipped_scenes", "presets_dir", "build_dir", "source_digest", "atomic_writer"]
+__all__ = ["ROOT", "SCENES", "shipped_scenes", "presets_dir", "build_dir", "shown_path", "source_digest",
+           "atomic_writer"]
 
 #: The repository root (the folder holding ``fxmodel/``, ``scenes/`` and ``presets/``).
 ROOT = Path(__file__).resolve().parents[2]
@@ -41,6 +42,13 @@ def build_dir(*parts: str) -> Path:
     (``make clean`` removes it). Absolute, so simulator subprocesses started elsewhere agree."""
     env = os.environ.get("BUMPMAP_BUILD")
     return (Path(env).resolve() if env else ROOT / "build").joinpath(*parts)
+
+
+def shown_path(path) -> str:
+    """``path`` as reports print it: relative to the repository root when inside it (a record, or the README's
+    transcript of one, then names no one machine's folders), else as given."""
+    p = Path(path)
+    return str(p.relative_to(ROOT)) if p.is_absolute() and p.is_relative_to(ROOT) else str(p)
 
 
 @functools.cache

@@ -21,7 +21,13 @@ from fxmodel.units.rop import draw as rop_draw
 from fxmodel.units.shapes import repr_without_defaults
 from fxmodel.units.texcache import Layout, TexCacheParams, footprints, level_lookups, simulate
 
-__all__ = ["EngineParams", "RASTER_SATURATED_FLAG", "TEXTURE_MAPS", "texture_ports"]
+__all__ = ["EngineParams", "RASTER_SATURATED_FLAG", "TEXTURE_MAPS", "PIPELINE_IN_STAGES", "texture_ports"]
+
+#: Registers between the scan converter's output FIFO and the pixel pipeline's first stage with the maps on chip
+#: (``rtl/engine.py``, ``StreamUnit(in_stages=)``): the FIFO's LUT RAM read through its multiplexer, with the
+#: perspective unit's first stage (the reciprocal's operand negated through a carry chain) behind it in one clock,
+#: was among the board's engine paths late at 100 MHz at the placements measured (``docs/board.md``).
+PIPELINE_IN_STAGES = 1
 
 #: The maps that move to external memory with :attr:`EngineParams.textures`, in memory and lookup order (the
 #: reflectance cubes stay on chip).
@@ -187,8 +193,9 @@ class EngineParams:
 
     @property
     def latency(self) -> int:
-        """Cycles from a fragment leaving the scan converter to its color on the outputs."""
-        return self.pipeline.latency
+        """Cycles from a fragment leaving the scan converter to its color on the outputs: the pixel pipeline's,
+        and :data:`PIPELINE_IN_STAGES` with the maps on chip."""
+        return self.pipeline.latency + (PIPELINE_IN_STAGES if self.textures is None else 0)
 
     def compute(self, records):
         """``(out, scan)``: output codes ``(K, outputs)`` in the order the hardware draws, and the

@@ -194,11 +194,11 @@ class RopParams:
 
     @property
     def latency(self) -> int | None:
-        """On chip: cycles from a fragment accepted to its write in the memory (fragment registered, its address
-        registered beside each block RAM, the read, the word registered beside each block RAM, stored depth
-        registered, compare, write port's registers beside each block RAM: ``rtl/rop.py``); behind the port it
-        depends on the memory (``None``)."""
-        return 7 if self.on_chip else None
+        """On chip: cycles from a fragment accepted to its write in the memory (fragment registered as delivered,
+        its index and depth registered, its address registered beside each block RAM, the read, the word registered
+        beside each block RAM, stored depth registered, compare, write port's registers beside each block RAM:
+        ``rtl/rop.py``); behind the port it depends on the memory (``None``)."""
+        return 8 if self.on_chip else None
 
     @property
     def readout_latency(self) -> int | None:

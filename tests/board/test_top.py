@@ -179,6 +179,21 @@ def test_an_engine_divider_is_the_pll_output_and_the_misses_are_counted_per_unit
     assert "parameter \\CLKOS2_DIV 6\n" in rtlil and 'FREQUENCY_PIN_CLKOS2 "83.3333"' in rtlil   # 500 / 6 MHz
 
 
+def test_each_frame_builds_with_its_own_engine_clock(tmp_path, monkeypatch):
+    """Without ``engine_div`` the top takes its frame's: ``PLL["CLKOS2_DIV"]`` (the 100 MHz target) on chip,
+    ``SDRAM_ENGINE_DIV`` in SDRAM; ``build`` records the divider it used."""
+    assert Top(frame="chip").engine_div == top.PLL["CLKOS2_DIV"] == 5
+    assert top.engine_hz("chip") == 100_000_000
+    assert top.engine_div_of("sdram") == top.SDRAM_ENGINE_DIV
+    assert top.engine_hz("sdram") == 500_000_000 // top.SDRAM_ENGINE_DIV
+    rtlil = _platform().prepare(Top(), name="top").files["top.il"]
+    rtlil = rtlil.decode() if isinstance(rtlil, bytes) else rtlil
+    assert "parameter \\CLKOS2_DIV 5\n" in rtlil and 'FREQUENCY_PIN_CLKOS2 "100.0000"' in rtlil
+    _stub_flow(monkeypatch, tmp_path, TIM)
+    assert top.build(tmp_path, frame="sdram")["engine_div"] == top.SDRAM_ENGINE_DIV
+    assert top.build(tmp_path, frame="chip")["engine_div"] == 5
+
+
 def test_misses_need_the_per_net_report():
     from board.timing import timing_misses
     with pytest.raises(ValueError, match="detailed-timing-report"):

@@ -90,7 +90,8 @@ def test_send_sends_the_frames_in_turn(tmp_path):
     ap = argparse.ArgumentParser()
     send.add_arguments(ap)
     out = tmp_path / "anim.bin"
-    args = ap.parse_args(["--scene", "tin-plane", "--size", "24", "--animate", "--dry-run", str(out)])
+    args = ap.parse_args(["--scene", "tin-plane", "--size", "24", "--animate", "--frame", "chip", "--dry-run",
+                          str(out)])
     assert send.run(args) == 0
     from host.render import from_triangles, prepare
     scene = load_scene(scene_path("tin-plane"))

@@ -37,11 +37,12 @@ def pattern(name: str, rng: np.random.Generator, cycles: int) -> np.ndarray:
     return np.array(out[:cycles], dtype=bool)
 
 
-def stream_through(params, vectors, valid, ready, side=None, max_cycles=None):
-    """Drive ``vectors`` into a :class:`StreamUnit` (offering one when ``valid[cycle]``, held until taken),
-    take outputs when ``ready[cycle]``; return outputs (codes), their sidebands, the cycles each input was
-    accepted and each output taken, and the handshake-rule violations seen on ``o``."""
-    dut = StreamUnit(params, side=SIDE if side is not None else None)
+def stream_through(params, vectors, valid, ready, side=None, max_cycles=None, in_stages=0):
+    """Drive ``vectors`` into a :class:`StreamUnit` (``in_stages`` input registers; offering one when
+    ``valid[cycle]``, held until taken), take outputs when ``ready[cycle]``; return outputs (codes), their
+    sidebands, the cycles each input was accepted and each output taken, and the handshake-rule violations seen
+    on ``o``."""
+    dut = StreamUnit(params, side=SIDE if side is not None else None, in_stages=in_stages)
     n = len(vectors)
     got, sides, t_in, t_out, violations = [], [], [], [], []
     cycles = max_cycles or len(valid)
@@ -97,22 +98,26 @@ def test_payload_layouts_follow_the_parameter_object():
     assert sig["i"] == In(stream.Signature(input_layout(params, SIDE))) and sig["o"] == Out(stream.Signature(lay_out))
 
 
-def test_no_stall_keeps_the_latency_and_one_result_per_clock():
+@pytest.mark.parametrize("in_stages", [0, 1, 2])
+def test_no_stall_keeps_the_latency_and_one_result_per_clock(in_stages):
     params = preset("recip", "small")
     vectors = np.concatenate([params.hard_cases()[:40], params.random_inputs(np.random.default_rng(1), 60)])
     n = len(vectors)
-    cycles = n + params.latency + 4
+    cycles = n + params.latency + in_stages + 4
     ones = np.ones(cycles, dtype=bool)
-    got, _, t_in, t_out, bad = stream_through(params, vectors, ones, ones)
+    got, _, t_in, t_out, bad = stream_through(params, vectors, ones, ones, in_stages=in_stages)
     assert np.array_equal(got, params.compute(vectors))
     assert t_in == list(range(n))                               # accepted on every cycle
-    assert t_out == [t + params.latency for t in t_in]          # the documented latency, one per clock
+    lat = StreamUnit(params, in_stages=in_stages).latency
+    assert lat == params.latency + in_stages
+    assert t_out == [t + lat for t in t_in]                     # the documented latency, one per clock
     assert not bad
 
 
-@pytest.mark.parametrize("valid_pat, ready_pat", [("half", "half"), ("bursts", "bursts"), ("none", "long"),
-                                                  ("half", "long"), ("none", "half")])
-def test_gaps_and_backpressure_lose_nothing(valid_pat, ready_pat):
+@pytest.mark.parametrize("valid_pat, ready_pat, in_stages", [
+    ("half", "half", 0), ("bursts", "bursts", 0), ("none", "long", 0), ("half", "long", 0), ("none", "half", 0),
+    ("half", "long", 1), ("none", "half", 1)])
+def test_gaps_and_backpressure_lose_nothing(valid_pat, ready_pat, in_stages):
     """Every result exactly once, in order, bit-exact; the sideband travels with its fragment; ``o`` holds still
     while it waits."""
     params = preset("recip", "small")
@@ -123,7 +128,7 @@ def test_gaps_and_backpressure_lose_nothing(valid_pat, ready_pat):
     cycles = 3000
     valid, ready = pattern(valid_pat, rng, cycles), pattern(ready_pat, rng, cycles)
     ready[-200:] = True                                          # let it drain
-    got, sides, t_in, t_out, bad = stream_through(params, vectors, valid, ready, side=side)
+    got, sides, t_in, t_out, bad = stream_through(params, vectors, valid, ready, side=side, in_stages=in_stages)
     assert len(t_in) == len(vectors), "not every input was accepted"
     assert np.array_equal(got, params.compute(vectors))         # none lost, none extra, in order
     assert sides == side.tolist()
@@ -132,18 +137,19 @@ def test_gaps_and_backpressure_lose_nothing(valid_pat, ready_pat):
         assert not all(ready[:t_out[-1]]), "the pattern must stall the output, or this test proves nothing"
 
 
-def test_a_stalled_consumer_fills_the_buffer_then_stops_the_input():
-    """With ``o.ready`` low the unit accepts only what its output FIFO can hold (one result per stage and one
-    more), then drops ``i.ready``; nothing is lost when ``ready`` returns."""
+@pytest.mark.parametrize("in_stages", [0, 1])
+def test_a_stalled_consumer_fills_the_buffer_then_stops_the_input(in_stages):
+    """With ``o.ready`` low the unit accepts only what its output FIFO can hold (one result per stage, input
+    registers included, and one more), then drops ``i.ready``; nothing is lost when ``ready`` returns."""
     params = preset("recip", "small")
     vectors = params.random_inputs(np.random.default_rng(3), 100)
     cycles = 400
     valid = np.ones(cycles, dtype=bool)
     ready = np.zeros(cycles, dtype=bool)
     ready[300:] = True
-    got, _, t_in, t_out, bad = stream_through(params, vectors, valid, ready)
+    got, _, t_in, t_out, bad = stream_through(params, vectors, valid, ready, in_stages=in_stages)
     before = [t for t in t_in if t < 300]
-    assert len(before) == buffer_depth(params) == params.latency + 1   # the FIFO's slots, nothing more
+    assert len(before) == buffer_depth(params, in_stages) == params.latency + in_stages + 1   # the FIFO's slots
     assert np.array_equal(got, params.compute(vectors)) and not bad
 
 

@@ -23,9 +23,9 @@ def _unpack(ports, payload: bytes) -> list[int]:
 
 def test_dry_run_bytes_are_the_scene_setup(tmp_path, capsys):
     out = tmp_path / "tin.bin"
-    assert main(["send", "--dry-run", str(out)]) == 0
+    assert main(["send", "--frame", "chip", "--dry-run", str(out)]) == 0
     from board.frame import BOARD_PRESET, BOARD_SIZE
-    frame = prepare(scene_path("tin-plane"), size=BOARD_SIZE, preset=BOARD_PRESET)   # send's defaults: the board's
+    frame = prepare(scene_path("tin-plane"), size=BOARD_SIZE, preset=BOARD_PRESET)   # the board's tile, on chip
     tframe = from_triangles(frame)
     ports = tframe.params.raster.record
     parsed = parse(out.read_bytes(), record_bytes(ports), (BOARD_SIZE, BOARD_SIZE))     # a board of BOARD_SIZE
@@ -56,7 +56,7 @@ def test_another_size_is_refused_by_a_board_of_the_default_tile(tmp_path):
     FRAME_START with SIZE instead of drawing the triangles set up for another frame cut off at its tile's edge."""
     from board.frame import BOARD_PRESET, BOARD_SIZE
     out = tmp_path / "big.bin"
-    assert main(["send", "--size", str(2 * BOARD_SIZE), "--dry-run", str(out)]) == 0
+    assert main(["send", "--frame", "chip", "--size", str(2 * BOARD_SIZE), "--dry-run", str(out)]) == 0
     tframe = from_triangles(prepare(scene_path("tin-plane"), size=2 * BOARD_SIZE, preset=BOARD_PRESET))
     parsed = parse(out.read_bytes(), record_bytes(tframe.params.raster.record), (BOARD_SIZE, BOARD_SIZE))
     from host.protocol import Err
@@ -65,16 +65,16 @@ def test_another_size_is_refused_by_a_board_of_the_default_tile(tmp_path):
 
 
 def test_the_picture_a_tile_at_a_time_for_the_board_with_its_frame_in_sdram(tmp_path):
-    """``--frame sdram``: every tile of the 640 x 480 picture's grid in raster order, each FRAME_START at its place
-    with the records set up for that tile (``fxmodel.units.raster.setup`` with its origin) and COPY, SWAP after
-    the last; a board of that grid takes it all, a board with its frame on chip (a grid of one tile) refuses the
-    second tile's place."""
+    """By default (``--frame sdram``, ``board.frame.BOARD_FRAME``): every tile of the 640 x 480 picture's grid in
+    raster order, each FRAME_START at its place with the records set up for that tile
+    (``fxmodel.units.raster.setup`` with its origin) and COPY, SWAP after the last; a board of that grid takes it
+    all, a board with its frame on chip (a grid of one tile) refuses the second tile's place."""
     from board.frame import BOARD_PRESET, BOARD_SIZE
     from board.video import VGA_640x480
     from host.engine_setup import frame_raster, frame_records
     from host.protocol import Err, frame_place
     out = tmp_path / "tiles.bin"
-    assert main(["send", "--frame", "sdram", "--dry-run", str(out)]) == 0
+    assert main(["send", "--dry-run", str(out)]) == 0
     t = VGA_640x480
     frame = prepare(scene_path("tin-plane"), size=(t.h_active, t.v_active), preset=BOARD_PRESET)
     raster = frame_raster(frame)
@@ -136,7 +136,7 @@ def _send_to(monkeypatch, capsys, states: list[int], *extra: str):
     ports = from_triangles(prepare(scene_path("tin-plane"), size=size, preset=BOARD_PRESET)).params.raster.record
     board = _Board(record_bytes(ports), (size, size), [sum(1 << STATE_BITS[n] for n in s) for s in states])
     monkeypatch.setattr(serial, "Serial", lambda *a, **k: board)
-    rc = main(["send", "--port", "fake", "--size", str(size), *extra])
+    rc = main(["send", "--port", "fake", "--frame", "chip", "--size", str(size), *extra])
     return rc, board, capsys.readouterr().err
 
 

@@ -74,14 +74,25 @@ def _clock_tables(r: dict, fmax_head: str) -> str:
             + md_table(["resource", "used", "available"], res, col_align("lrr")))
 
 
+#: The options of the command each board record is made with, beyond ``--record`` (a missing record's hint): the
+#: frame on chip (``--frame chip``) or in SDRAM (the default, ``board.frame.BOARD_FRAME``).
+RECORD_OPTIONS = {"bitstream": "--frame chip", "bitstream-sdram": "",
+                  "board-sim": "--frame chip", "board-sim-sdram": "",
+                  "board-sim-uploads": "--frame chip --uploads --size 32"}
+
+
+def _record_command(tool: str, name: str, folder: str) -> str:
+    """The command that makes board record ``name`` (:data:`RECORD_OPTIONS`)."""
+    return " ".join(filter(None, (f"bumpmap {tool}", RECORD_OPTIONS[name], f"--record {folder}/{name}.json")))
+
+
 def board_bitstream(name: str = "bitstream") -> str:
     """The board top's last bitstream: Fmax per clock domain against its target, and resources; ``name`` the
-    record (``bitstream``: the frame on chip, ``bumpmap bitstream --frame chip``; ``bitstream-sdram``: the frame in
-    SDRAM, ``make bitstream``'s build)."""
+    record (``bitstream``: the frame on chip; ``bitstream-sdram``: the frame in SDRAM, ``make bitstream``'s
+    build)."""
     r, path = _board_record(name)
     if r is None:
-        frame = "--frame chip " if name == "bitstream" else ""
-        return missing_record(path, f"bumpmap bitstream {frame}--record docs/board/{name}.json")
+        return missing_record(path, _record_command("bitstream", name, "docs/board"))
     return (_clock_tables(r, "Fmax")
             + f"\n*Measured by `{r['command']}` in {r['seconds']} s; record: [`board/{name}.json`]"
               f"(board/{name}.json).*\n")
@@ -89,12 +100,11 @@ def board_bitstream(name: str = "bitstream") -> str:
 
 def board_sim(name: str = "board-sim") -> str:
     """The board's end-to-end simulation (``make board-sim``): host bytes to the decoded DVI frame; ``name`` the
-    record (``board-sim``: the frame on chip, ``--frame chip``; ``board-sim-sdram``: the frame in SDRAM, the
-    default; ``board-sim-uploads``: the uploads sent into blank texel memories, ``--frame chip --uploads``)."""
+    record (``board-sim``: the frame on chip; ``board-sim-sdram``: the frame in SDRAM, the default;
+    ``board-sim-uploads``: the uploads sent into blank texel memories, the frame on chip)."""
     record, path = load_record(name)
     if record is None:
-        frame = "" if name == "board-sim-sdram" else "--frame chip "
-        return missing_record(path, f"bumpmap board-sim {frame}--record docs/records/{name}.json")
+        return missing_record(path, _record_command("board-sim", name, "docs/records"))
     r = record["result"]
     t, ms = r["timing"], r["sim_ms"]
     tiles = r.get("tiles", 1)

@@ -73,7 +73,7 @@ from amaranth.hdl import Array, Cat, Const, Module, Mux, Signal
 from amaranth.lib import memory, stream, wiring
 from amaranth.lib.wiring import In, Out
 
-from fxmodel.units.rop import DEPTH_BYTES, PIXEL_BYTES, STATUS_BITS, Z_OVERFLOW, Z_ROUNDING, RopParams, clear_frame
+from fxmodel.units.rop import DEPTH_BYTES, PIXEL_BYTES, STATUS_BITS, Z_OVERFLOW, Z_ROUNDING, RopParams, clear_word
 
 from .fixed import const_mul, narrow
 from .streams import payload_layout
@@ -185,8 +185,7 @@ class Rop(wiring.Component):
     def _on_chip(self):
         P = self.params
         m = Module()
-        depth, color = clear_frame(P)
-        clear = int(depth[0, 0]) | sum(int(c) << (P.z_fmt.width + 8 * k) for k, c in enumerate(color[0, 0]))
+        clear = clear_word(P)
         m.d.comb += self.i.ready.eq(~self.fb.read)
         # stage I: the fragment as the stream delivers it, registered; then stage A: the accepted fragment (both
         # held while the read-out has the read port)

@@ -33,12 +33,13 @@ from amaranth.hdl import Array, Cat, Mux, Signal
 
 from fxmodel.units.rop import STATUS_BITS, Z_OVERFLOW, Z_ROUNDING, RopParams, clear_word
 from rtl.fixed import narrow
-from rtl.rop import Rop, _index
+from rtl.rop import Rop, pixel_index
 from rtl.streams import payload_layout
 from rtl.unit import COPY_SUFFIX
 
 from . import whitebox
 from .props import Harness, bits_for
+from .readers import drive_inputs
 from .rop import small_rop
 
 __all__ = ["ArrayFrameRop", "small_rop_chip", "rop_chip_set", "ROP_CHIP_DEPTH"]
@@ -79,18 +80,10 @@ def rop_chip_set(params: RopParams | None = None, *, kind: str = "proof", wrap=N
     h = Harness(kind)
     m = h.m
     inner = ArrayFrameRop(P)
-    dut = wrap(inner) if wrap else inner
-    frag = whitebox.elaborate(dut)
-    m.submodules.dut = frag
-    top = whitebox.subfragment(frag, "dut" if wrap else "")
+    dut, _, top = whitebox.attach(h, inner, wrap)
     sig = lambda name: whitebox.signal(top, name)        # noqa: E731
-    # free inputs: the fragment stream and the read-out
-    i_valid = h.free(1, "i_valid")
-    i_payload = h.free(len(dut.i.payload.as_value()), "i_payload")
-    fb_read, fb_clear = h.free(1, "fb_read"), h.free(1, "fb_clear")
-    fb_addr = h.free(len(dut.fb.addr), "fb_addr")
-    m.d.comb += [dut.i.valid.eq(i_valid), dut.i.payload.eq(i_payload), dut.fb.read.eq(fb_read),
-                 dut.fb.clear.eq(fb_clear), dut.fb.addr.eq(fb_addr)]
+    drive_inputs(h, dut)            # free inputs: the fragment stream and the read-out
+    fb_read, fb_clear, fb_addr = dut.fb.read, dut.fb.clear, dut.fb.addr
     h.stream_hold(dut.i.valid, dut.i.ready, dut.i.payload.as_value(), "i", assume=True)
     clearing = fb_read & fb_clear
     h.check(~fb_clear | fb_read, "clear_with_read", assume=True)
@@ -131,7 +124,7 @@ def rop_chip_set(params: RopParams | None = None, *, kind: str = "proof", wrap=N
     h.check(~clearing | ~c_valid, "no_fragment_under_clear")
     # fragments conserved; busy
     take = dut.i.valid & dut.i.ready
-    inside, _ = _index(P, in_frag.x, in_frag.y)
+    inside, _ = pixel_index(P, in_frag.x, in_frag.y)
     drop = in_valid & ~fb_read & ~inside
     w = bits_for(2 * len(stages) + 2)
     in_flight = Signal(w, name="f_in_flight")

@@ -21,13 +21,12 @@ the multipliers).
 
 from __future__ import annotations
 
-from amaranth.hdl import Mux, Signal
+from amaranth.hdl import Cat, Mux, Signal
 from amaranth.lib import data
-from amaranth.lib.fifo import SyncFIFO
 
 from fxmodel.core.fixed import Fmt
 from fxmodel.units.raster import RasterParams
-from rtl.raster import Raster, record_layout, row_layout
+from rtl.raster import ROW_CONTROL, Raster, record_layout
 from rtl.streams import CreditFIFO
 from rtl.unit import COPY_SUFFIX
 
@@ -91,9 +90,13 @@ def raster_props(h: Harness, P: RasterParams, dut, frag, pre: str):
     top = whitebox.subfragment(frag, pre)
     sig = lambda name: whitebox.signal(top, name)        # noqa: E731
     h.stream_hold(dut.o.valid, dut.o.ready, dut.o.payload.as_value(), "o")
-    rows = whitebox.origin(frag, f"{pre}/rows" if pre else "rows", SyncFIFO)
+    rows = whitebox.origin(frag, f"{pre}/rows" if pre else "rows", CreditFIFO)
     out = whitebox.origin(frag, f"{pre}/out" if pre else "out", CreditFIFO)
-    h.check(~rows.w_en | rows.w_rdy, "rows_no_overflow")
+    w_en = rows.w_en[0]
+    h.check(~w_en | rows.w_rdy, "rows_no_overflow")
+    h.check(~rows.overflow, "rows_no_overflow_flag")
+    for k in range(1, len(rows.slices)):            # each slice's write enable is a copy of its own
+        h.check(rows.w_en[k] == w_en, f"copy_rows_we_{k}")
     h.check(~out.w_en | out.w_rdy, "out_no_overflow")        # the write is not gated (``CreditFIFO``): never full
     h.check(~out.overflow, "out_no_overflow_flag")
     # the control copies agree with copy 0
@@ -122,13 +125,18 @@ def raster_props(h: Harness, P: RasterParams, dut, frag, pre: str):
             "rows_count")
     h.check(~(busy & nonempty) | (last_px == (npx == 0)), "px_last")
     # a row's ``single`` agrees with its length: asserted where the span pipeline writes the row FIFO, assumed
-    # where the Pixel Calculator reads it (the FIFO returns what was written, in order: ``SyncFIFO``'s contract)
-    wv = data.View(row_layout(P), rows.w_data)
-    h.check(~rows.w_en | ~wv.nonempty | (wv.single == (wv.n == 0)), "rows_single")
-    rv = data.View(row_layout(P), rows.r_data)
-    h.check(~rows.r_rdy | ~rv.nonempty | (rv.single == (rv.n == 0)), "rows_single_read", assume=True)
+    # where the Pixel Calculator reads it (the FIFO returns what was written, in order:
+    # ``CreditFIFO``'s contract, ``formal/credit_fifo.py``)
+    # (and each slice's copy of the row's length and kind is the same: written alike, read alike)
+    wv, rv = _slices(dut, rows.w_data), _slices(dut, rows.r_data)
+    h.check(~w_en | ~wv[0].nonempty | (wv[0].single == (wv[0].n == 0)), "rows_single")
+    h.check(~rows.r_rdy | ~rv[0].nonempty | (rv[0].single == (rv[0].n == 0)), "rows_single_read", assume=True)
+    for k in range(1, len(wv)):
+        h.check(~w_en | (_control(wv[k]) == _control(wv[0])), f"rows_slice{k}_control")
+        h.check(~rows.r_rdy | (_control(rv[k]) == _control(rv[0])), f"rows_slice{k}_control_read", assume=True)
+    rv = rv[0]
     # conservation of rows and pixels
-    taken = rows.r_en & rows.r_rdy
+    taken = rows.r_en[0] & rows.r_rdy
     rec = dut.i.payload
     wrows = bits_for(2 * P.max_size + depth + 8) + 1
     f_rows = Signal(wrows, name="f_rows_owed")
@@ -142,6 +150,19 @@ def raster_props(h: Harness, P: RasterParams, dut, frag, pre: str):
     h.cover(used == odepth - 1, "out_credit_full_reach")
     h.cover(dut.o.valid & dut.o.ready & (f_px > 1), "fragment_reach")
     h.cover(dut.i.valid & ~dut.i.ready & gv, "input_stall_reach")
+
+
+def _slices(dut, word) -> list:
+    """The row FIFO's word (``w_data`` or ``r_data``) as its slices' views (``Raster.row_slices``)."""
+    views, lo = [], 0
+    for layout in dut.row_slices:
+        views.append(data.View(layout, word[lo:lo + layout.size]))
+        lo += layout.size
+    return views
+
+
+def _control(view):
+    return Cat(*(view[f] for f in ROW_CONTROL))
 
 
 def raster_independence(params: RasterParams | None = None, *, kind: str = "proof", wrap=None) -> Harness:

@@ -28,11 +28,17 @@ carry chain or one product (the house rule of the pixel pipeline); only the row 
   attribute, the partial products of ``a_x`` cut into :meth:`~fxmodel.units.raster.RasterParams.dx_pieces` times
   its copy of ``L`` (one multiplier block each, the product registered in the block); (5, 6) the span start
   ``a(x0, y) + L a_x`` as two adder levels over the partial products, modulo ``2**N``.
-- **Row FIFO** (``amaranth.lib.fifo.SyncFIFO``, :attr:`~fxmodel.units.raster.RasterParams.ROW_FIFO_DEPTH` rows, LUT
-  RAM, :func:`row_layout`): ``y``, ``x0 + L``, ``R - L``, whether the row is empty or one clock, every
+- **Row FIFO** (a :class:`~rtl.streams.CreditFIFO`, :attr:`~fxmodel.units.raster.RasterParams.ROW_FIFO_DEPTH`
+  rows, LUT RAM, :func:`row_layout`): ``y``, ``x0 + L``, ``R - L``, whether the row is empty or one clock, every
   attribute's span start and ``a_x``, the triangle's constants. A credit counter (rows issued and not yet
   taken) lets the generator issue a row only when the FIFO has its place, so the span pipeline runs free, with
-  no stage enable.
+  no stage enable, and the FIFO's writes need no check against its level. The row is some thousand bits (the
+  board's, 1 032), so its LUT RAM spreads over the device: one write pointer driving the address pins of every
+  LUT RAM cell was the board's slowest path (almost all of it routing), and one read pointer with the row's
+  length read from one place into every control copy the next. So the FIFO is sliced per Pixel Calculator control copy
+  ("Fan-out"): slice ``k`` holds the fields that copy's registers load, behind its own copy of the row's length
+  and kind (:data:`ROW_CONTROL`), with its own pointers, a write enable of its own (a kept copy of the span
+  pipeline's valid a stage before the write) and the copy's own ``take`` as its read enable.
 - **Pixel Calculator**: takes a row from the FIFO in the last clock of the previous one; ``x += 1``,
   ``a += a_x`` per pixel of the span, ``max(1, span)`` clocks a row; a down-counter of the pixels left gives
   the row's last clock as a register.
@@ -210,8 +216,8 @@ class Raster(wiring.Component):
     # -- row generator: per-triangle constants and the next row's state ------------------------------------------
     def _row_generator(self, m) -> SimpleNamespace:
         """The row generator's registers and control (module docstring); returns its state for the span
-        pipeline: the registers, ``issue`` (a row leaves this clock), the row FIFO ``fifo`` and ``takes`` (the
-        Pixel Calculator takes a row from it)."""
+        pipeline: the registers, ``issue`` (a row leaves this clock) and ``takes`` (the Pixel Calculator takes a
+        row from the row FIFO)."""
         P = self.params
         rec = self.i.payload
         ef = P.edge_fmts
@@ -360,7 +366,7 @@ class Raster(wiring.Component):
 
     # -- Pixel Calculator, rounding, saturation into the output FIFO ---------------------------------------------
     def _pixel_calculator(self, m, g: SimpleNamespace):
-        """The Pixel Calculator: rows from the row FIFO ``g.fifo`` (taken under ``g.takes``), one fragment a
+        """The Pixel Calculator: rows from the row FIFO (``_row_fifo``, taken under ``g.takes``), one fragment a
         clock through the rounding stage and the saturation into the output FIFO (module docstring)."""
         P = self.params
         pf = P.pixel_fmt

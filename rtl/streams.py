@@ -195,11 +195,11 @@ class CreditFIFO(wiring.Component):
     """
 
     def __init__(self, width: int, depth: int, slices: tuple[int, ...] | None = None):
-        if depth < 2:
-            raise ValueError(f"CreditFIFO: depth {depth} must be at least 2")
         slices = (width,) if slices is None else tuple(slices)
-        if sum(slices) != width or any(w < 1 for w in slices):
-            raise ValueError(f"CreditFIFO: slices {slices} must be positive widths summing to width {width}")
+        if depth < 2 or sum(slices) != width or any(w < 1 for w in slices):
+            self._MustUse__silence = True            # refused: no "never used" warning for it
+            raise ValueError(f"CreditFIFO: depth {depth} must be at least 2" if depth < 2 else
+                             f"CreditFIFO: slices {slices} must be positive widths summing to width {width}")
         self.width, self.depth, self.slices = width, depth, slices
         n = len(slices)
         super().__init__({"w_en": In(n), "w_data": In(width), "r_en": In(n), "r_rdy": Out(1),

@@ -110,7 +110,10 @@ def raster_props(h: Harness, P: RasterParams, dut, frag, pre: str):
     last_px, used, advance, r_valid = sig("last_px_0"), sig("out_used_0"), sig("advance_0"), sig("rnd_valid")
     span = [sig(f"span_s{k}_valid") for k in range(1, P.SPAN_STAGES)]
     depth, odepth = P.ROW_FIFO_DEPTH, P.OUT_FIFO_DEPTH
-    h.check(inflight == rows.level + sum(span), "rows_credit")
+    # a take reaches each generator copy's count through TAKE_SEEN_STAGES registers of its own: rows taken and
+    # not yet heard still hold their credit
+    unheard = sum(_relayed(h, top, "take_seen", range(P.TAKE_SEEN_STAGES), len(_copies(top, "room"))))
+    h.check(inflight == rows.level + sum(span) + unheard, "rows_credit")
     h.check(inflight <= depth, "rows_capacity")
     h.check(room == (inflight != depth), "rows_room")
     h.check(~gv | (sig("last_row_0") == (s_rem == 0)), "gen_last")
@@ -141,7 +144,7 @@ def raster_props(h: Harness, P: RasterParams, dut, frag, pre: str):
     wrows = bits_for(2 * P.max_size + depth + 8) + 1
     f_rows = Signal(wrows, name="f_rows_owed")
     m.d.sync += f_rows.eq(f_rows + Mux(dut.i.valid & dut.i.ready, rec.rows + 1, 0) - taken)
-    h.check(f_rows == Mux(gv, s_rem + 1, 0) + inflight, "rows_conserved")
+    h.check(f_rows == Mux(gv, s_rem + 1, 0) + inflight - unheard, "rows_conserved")
     f_px = Signal(wrows, name="f_px_owed")
     m.d.sync += f_px.eq(f_px + Mux(taken & rv.nonempty, rv.n + 1, 0) - (dut.o.valid & dut.o.ready))
     h.check(f_px == Mux(busy & nonempty, npx + 1, 0) + r_valid + out.level, "px_conserved")

@@ -416,8 +416,10 @@ class Raster(wiring.Component):
                     m.d.sync += [st for _, _, along, *_ in group for st in along]
                 with m.Elif(take_k):
                     m.d.sync += [st for *_, load, _ in group for st in load(row)]
-        # each generator copy hears ``take`` from one Pixel Calculator copy (all equal): no one net to every copy
-        m.d.comb += [t.eq(takes[j % len(takes)]) for j, t in enumerate(g.takes)]
+        # each generator copy hears ``take`` from one Pixel Calculator copy (all equal): no one net to every copy;
+        # through TAKE_SEEN_STAGES registers of its own, beside it
+        m.d.comb += [t.eq(_relay(m, takes[j % len(takes)], f"take_seen_{j}", range(P.TAKE_SEEN_STAGES)))
+                     for j, t in enumerate(g.takes)]
 
     def _row_fifo(self, m, g: SimpleNamespace, fields: list) -> tuple:
         """The row FIFO (module docstring, "Row FIFO"): a :class:`~rtl.streams.CreditFIFO` sliced per Pixel

@@ -7,9 +7,7 @@ The writer is assumed to hold credits (it writes only while ``w_rdy``) and to nu
 FIFO's own assertions on the formal platform: its level, ``r_rdy`` and pointers agree; and every word held, read
 through the ports the FIFO adds on that platform, is the number it must be): every word read is the next number
 (nothing lost, repeated or reordered), ``level`` is the words written less those read, ``r_rdy`` is ``level != 0``,
-``overflow`` never rises. The FIFO runs in two slices (its writer and reader drive each slice's enables alike, as the
-scan converter's copies do): their pointers agree. Covers: a full FIFO, a read from a full FIFO, a write and a read
-in the same cycle.
+``overflow`` never rises. Covers: a full FIFO, a read from a full FIFO, a write and a read in the same cycle.
 """
 
 from __future__ import annotations
@@ -33,11 +31,11 @@ def credit_fifo_set(depth: int = DEPTH, *, kind: str = "proof", wrap=None) -> Ha
     h = Harness(kind)
     m = h.m
     t = bits_for(2 * depth + 1)
-    inner = CreditFIFO(t, depth, slices=(t // 2, t - t // 2))     # two slices, each with its own pointers
+    inner = CreditFIFO(t, depth)
     dut = wrap(inner) if wrap else inner
     m.submodules.dut = whitebox.elaborate(dut)
     w_en, r_en, w_data = h.free(1, "w_en"), h.free(1, "r_en"), h.free(t, "w_data")
-    m.d.comb += [dut.w_en.eq(w_en.replicate(2)), dut.r_en.eq(r_en.replicate(2)), dut.w_data.eq(w_data)]
+    m.d.comb += [dut.w_en.eq(w_en), dut.r_en.eq(r_en), dut.w_data.eq(w_data)]
     n_in, n_out = Signal(t, name="f_n_in"), Signal(t, name="f_n_out")
     took = dut.r_en & dut.r_rdy
     m.d.sync += [n_in.eq(n_in + w_en), n_out.eq(n_out + took)]

@@ -21,12 +21,13 @@ the multipliers).
 
 from __future__ import annotations
 
-from amaranth.hdl import Cat, Mux, Signal
+from amaranth.hdl import Mux, Signal
 from amaranth.lib import data
+from amaranth.lib.fifo import SyncFIFO
 
 from fxmodel.core.fixed import Fmt
 from fxmodel.units.raster import RasterParams
-from rtl.raster import ROW_CONTROL, Raster, record_layout
+from rtl.raster import Raster, record_layout, row_layout
 from rtl.streams import CreditFIFO
 from rtl.unit import COPY_SUFFIX
 
@@ -90,13 +91,9 @@ def raster_props(h: Harness, P: RasterParams, dut, frag, pre: str):
     top = whitebox.subfragment(frag, pre)
     sig = lambda name: whitebox.signal(top, name)        # noqa: E731
     h.stream_hold(dut.o.valid, dut.o.ready, dut.o.payload.as_value(), "o")
-    rows = whitebox.origin(frag, f"{pre}/rows" if pre else "rows", CreditFIFO)
+    rows = whitebox.origin(frag, f"{pre}/rows" if pre else "rows", SyncFIFO)
     out = whitebox.origin(frag, f"{pre}/out" if pre else "out", CreditFIFO)
-    w_en = rows.w_en[0]
-    h.check(~w_en | rows.w_rdy, "rows_no_overflow")
-    h.check(~rows.overflow, "rows_no_overflow_flag")
-    for k in range(1, len(rows.slices)):            # each slice's write enable is a copy of its own
-        h.check(rows.w_en[k] == w_en, f"copy_rows_we_{k}")
+    h.check(~rows.w_en | rows.w_rdy, "rows_no_overflow")
     h.check(~out.w_en | out.w_rdy, "out_no_overflow")        # the write is not gated (``CreditFIFO``): never full
     h.check(~out.overflow, "out_no_overflow_flag")
     # the control copies agree with copy 0
@@ -110,10 +107,7 @@ def raster_props(h: Harness, P: RasterParams, dut, frag, pre: str):
     last_px, used, advance, r_valid = sig("last_px_0"), sig("out_used_0"), sig("advance_0"), sig("rnd_valid")
     span = [sig(f"span_s{k}_valid") for k in range(1, P.SPAN_STAGES)]
     depth, odepth = P.ROW_FIFO_DEPTH, P.OUT_FIFO_DEPTH
-    # a take reaches each generator copy's count through TAKE_SEEN_STAGES registers of its own: rows taken and
-    # not yet heard still hold their credit
-    unheard = sum(_relayed(h, top, "take_seen", range(P.TAKE_SEEN_STAGES), len(_copies(top, "room"))))
-    h.check(inflight == rows.level + sum(span) + unheard, "rows_credit")
+    h.check(inflight == rows.level + sum(span), "rows_credit")
     h.check(inflight <= depth, "rows_capacity")
     h.check(room == (inflight != depth), "rows_room")
     h.check(~gv | (sig("last_row_0") == (s_rem == 0)), "gen_last")
@@ -128,23 +122,18 @@ def raster_props(h: Harness, P: RasterParams, dut, frag, pre: str):
             "rows_count")
     h.check(~(busy & nonempty) | (last_px == (npx == 0)), "px_last")
     # a row's ``single`` agrees with its length: asserted where the span pipeline writes the row FIFO, assumed
-    # where the Pixel Calculator reads it (the FIFO returns what was written, in order:
-    # ``CreditFIFO``'s contract, ``formal/credit_fifo.py``)
-    # (and each slice's copy of the row's length and kind is the same: written alike, read alike)
-    wv, rv = _slices(dut, rows.w_data), _slices(dut, rows.r_data)
-    h.check(~w_en | ~wv[0].nonempty | (wv[0].single == (wv[0].n == 0)), "rows_single")
-    h.check(~rows.r_rdy | ~rv[0].nonempty | (rv[0].single == (rv[0].n == 0)), "rows_single_read", assume=True)
-    for k in range(1, len(wv)):
-        h.check(~w_en | (_control(wv[k]) == _control(wv[0])), f"rows_slice{k}_control")
-        h.check(~rows.r_rdy | (_control(rv[k]) == _control(rv[0])), f"rows_slice{k}_control_read", assume=True)
-    rv = rv[0]
+    # where the Pixel Calculator reads it (the FIFO returns what was written, in order: ``SyncFIFO``'s contract)
+    wv = data.View(row_layout(P), rows.w_data)
+    h.check(~rows.w_en | ~wv.nonempty | (wv.single == (wv.n == 0)), "rows_single")
+    rv = data.View(row_layout(P), rows.r_data)
+    h.check(~rows.r_rdy | ~rv.nonempty | (rv.single == (rv.n == 0)), "rows_single_read", assume=True)
     # conservation of rows and pixels
-    taken = rows.r_en[0] & rows.r_rdy
+    taken = rows.r_en & rows.r_rdy
     rec = dut.i.payload
     wrows = bits_for(2 * P.max_size + depth + 8) + 1
     f_rows = Signal(wrows, name="f_rows_owed")
     m.d.sync += f_rows.eq(f_rows + Mux(dut.i.valid & dut.i.ready, rec.rows + 1, 0) - taken)
-    h.check(f_rows == Mux(gv, s_rem + 1, 0) + inflight - unheard, "rows_conserved")
+    h.check(f_rows == Mux(gv, s_rem + 1, 0) + inflight, "rows_conserved")
     f_px = Signal(wrows, name="f_px_owed")
     m.d.sync += f_px.eq(f_px + Mux(taken & rv.nonempty, rv.n + 1, 0) - (dut.o.valid & dut.o.ready))
     h.check(f_px == Mux(busy & nonempty, npx + 1, 0) + r_valid + out.level, "px_conserved")
@@ -153,19 +142,6 @@ def raster_props(h: Harness, P: RasterParams, dut, frag, pre: str):
     h.cover(used == odepth - 1, "out_credit_full_reach")
     h.cover(dut.o.valid & dut.o.ready & (f_px > 1), "fragment_reach")
     h.cover(dut.i.valid & ~dut.i.ready & gv, "input_stall_reach")
-
-
-def _slices(dut, word) -> list:
-    """The row FIFO's word (``w_data`` or ``r_data``) as its slices' views (``Raster.row_slices``)."""
-    views, lo = [], 0
-    for layout in dut.row_slices:
-        views.append(data.View(layout, word[lo:lo + layout.size]))
-        lo += layout.size
-    return views
-
-
-def _control(view):
-    return Cat(*(view[f] for f in ROW_CONTROL))
 
 
 def raster_independence(params: RasterParams | None = None, *, kind: str = "proof", wrap=None) -> Harness:

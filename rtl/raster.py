@@ -28,17 +28,11 @@ carry chain or one product (the house rule of the pixel pipeline); only the row 
   attribute, the partial products of ``a_x`` cut into :meth:`~fxmodel.units.raster.RasterParams.dx_pieces` times
   its copy of ``L`` (one multiplier block each, the product registered in the block); (5, 6) the span start
   ``a(x0, y) + L a_x`` as two adder levels over the partial products, modulo ``2**N``.
-- **Row FIFO** (a :class:`~rtl.streams.CreditFIFO`, :attr:`~fxmodel.units.raster.RasterParams.ROW_FIFO_DEPTH`
-  rows, LUT RAM, :func:`row_layout`): ``y``, ``x0 + L``, ``R - L``, whether the row is empty or one clock, every
+- **Row FIFO** (``amaranth.lib.fifo.SyncFIFO``, :attr:`~fxmodel.units.raster.RasterParams.ROW_FIFO_DEPTH` rows, LUT
+  RAM, :func:`row_layout`): ``y``, ``x0 + L``, ``R - L``, whether the row is empty or one clock, every
   attribute's span start and ``a_x``, the triangle's constants. A credit counter (rows issued and not yet
   taken) lets the generator issue a row only when the FIFO has its place, so the span pipeline runs free, with
-  no stage enable, and the FIFO's writes need no check against its level. The row is some thousand bits (the
-  board's, 1 032), so its LUT RAM spreads over the device: one write pointer driving the address pins of every
-  LUT RAM cell was the board's slowest path (almost all of it routing), and one read pointer with the row's
-  length read from one place into every control copy the next. So the FIFO is sliced per Pixel Calculator control copy
-  ("Fan-out"): slice ``k`` holds the fields that copy's registers load, behind its own copy of the row's length
-  and kind (:data:`ROW_CONTROL`), with its own pointers, a write enable of its own (a kept copy of the span
-  pipeline's valid a stage before the write) and the copy's own ``take`` as its read enable.
+  no stage enable.
 - **Pixel Calculator**: takes a row from the FIFO in the last clock of the previous one; ``x += 1``,
   ``a += a_x`` per pixel of the span, ``max(1, span)`` clocks a row; a down-counter of the pixels left gives
   the row's last clock as a register.
@@ -93,6 +87,7 @@ from types import SimpleNamespace
 
 from amaranth.hdl import Cat, Const, Module, Mux, Signal, Value, signed
 from amaranth.lib import data, stream, wiring
+from amaranth.lib.fifo import SyncFIFO
 from amaranth.lib.wiring import In, Out
 
 from fxmodel.core.rounding import Overflow, Rounding
@@ -126,16 +121,10 @@ def row_layout(params: RasterParams) -> data.StructLayout:
     return data.StructLayout(fields | {n: shape(f) for n, f in params.carried})
 
 
-#: The fields of a row every Pixel Calculator control copy loads: each slice of the row FIFO has its own copy.
-ROW_CONTROL = ("n", "nonempty", "single")
-
-
-def _tree(pipe: Pipe, terms: dict, levels: int, carry: dict) -> tuple[dict, dict, dict]:
+def _tree(pipe: Pipe, terms: dict, levels: int, carry: dict) -> tuple[dict, dict]:
     """Sums of ``terms`` (``{key: [(value, width)]}``, each sum modulo ``2**width``) in ``levels`` registered
     stages, one adder level (one carry chain) each: adjacent terms paired per level; ``carry`` registered beside.
-    Returns the sums (the last level's expressions, not registered), the last registers of ``carry`` and the
-    ones a stage before them (the input's when only one stage is registered)."""
-    before = carry
+    Returns the sums (the last level's expressions, not registered) and the last registers of ``carry``."""
     for level in range(levels):
         nxt = {}
         for key, ts in terms.items():
@@ -145,10 +134,10 @@ def _tree(pipe: Pipe, terms: dict, levels: int, carry: dict) -> tuple[dict, dict
         if level < levels - 1:
             regs = pipe.stage(**{f"{k}_{i}": v for k, ts in terms.items() for i, (v, _) in enumerate(ts)}, **carry)
             terms = {k: [(getattr(regs, f"{k}_{i}"), w) for i, (_, w) in enumerate(ts)] for k, ts in terms.items()}
-            before, carry = carry, {k: getattr(regs, k) for k in carry}
+            carry = {k: getattr(regs, k) for k in carry}
     if any(len(ts) > 1 for ts in terms.values()):
         raise ValueError("_tree: more terms than the levels can add")
-    return {k: ts[0][0] for k, ts in terms.items()}, carry, before
+    return {k: ts[0][0] for k, ts in terms.items()}, carry
 
 
 def _carry_save(m, terms: list, width: int, name: str) -> list:
@@ -216,8 +205,8 @@ class Raster(wiring.Component):
     # -- row generator: per-triangle constants and the next row's state ------------------------------------------
     def _row_generator(self, m) -> SimpleNamespace:
         """The row generator's registers and control (module docstring); returns its state for the span
-        pipeline: the registers, ``issue`` (a row leaves this clock) and ``takes`` (the Pixel Calculator takes a
-        row from the row FIFO)."""
+        pipeline: the registers, ``issue`` (a row leaves this clock), the row FIFO ``fifo`` and ``takes`` (the
+        Pixel Calculator takes a row from it)."""
         P = self.params
         rec = self.i.payload
         ef = P.edge_fmts
@@ -239,6 +228,7 @@ class Raster(wiring.Component):
         g.s_a = {n: _sig(P.acc_fmt(n), f"s_{n}_row") for n in P.names}
         g.s_y, s_rem = _sig(pf, "s_y"), _sig(pf, "s_rem")
 
+        m.submodules.rows = g.fifo = SyncFIFO(width=row_layout(P).size, depth=P.ROW_FIFO_DEPTH)
         g.takes = []                    # per control copy: the Pixel Calculator takes a row (``_pixel_calculator``)
 
         # the registers in blocks: (bits, load statements, step statements)
@@ -355,22 +345,24 @@ class Raster(wiring.Component):
         # (5, 6) the span start a(x0, y) + L a_x, modulo 2**N, two adder levels
         carry = _passing(s4, ["valid", "y", "xl", "n", "nonempty", "single", *(f"dx_{n}" for n in P.names),
                               *(f"c_{n}" for n in g.k_c)])
-        start, carry, before = _tree(pipe, terms, P.SPAN_STAGES - 4, carry)
+        start, carry = _tree(pipe, terms, P.SPAN_STAGES - 4, carry)
         assert pipe.depth == P.SPAN_STAGES - 1                            # the last level writes the FIFO
-        # the row written into the FIFO (``_row_fifo``, once the Pixel Calculator's groups are known), and the
-        # valid a stage before the write's, from which each slice's write enable is a copy of its own
-        g.row_in = {**{k: carry[k] for k in ("y", "xl", "n", "nonempty", "single")},
-                    **{f"{n}_start": start[n] for n in P.names}, **{f"{n}_dx": carry[f"dx_{n}"] for n in P.names},
-                    **{n: carry[f"c_{n}"] for n in g.k_c}}
-        g.row_valid, g.row_valid_before = carry["valid"], before["valid"]
+
+        row_in = data.View(row_layout(P), g.fifo.w_data)
+        m.d.comb += [g.fifo.w_en.eq(carry["valid"])]
+        m.d.comb += [row_in[k].eq(carry[k]) for k in ("y", "xl", "n", "nonempty", "single")]
+        m.d.comb += [row_in[f"{n}_start"].eq(start[n]) for n in P.names]
+        m.d.comb += [row_in[f"{n}_dx"].eq(carry[f"dx_{n}"]) for n in P.names]
+        m.d.comb += [row_in[n].eq(carry[f"c_{n}"]) for n in g.k_c]
 
     # -- Pixel Calculator, rounding, saturation into the output FIFO ---------------------------------------------
     def _pixel_calculator(self, m, g: SimpleNamespace):
-        """The Pixel Calculator: rows from the row FIFO (``_row_fifo``, taken under ``g.takes``), one fragment a
+        """The Pixel Calculator: rows from the row FIFO ``g.fifo`` (taken under ``g.takes``), one fragment a
         clock through the rounding stage and the saturation into the output FIFO (module docstring)."""
         P = self.params
         pf = P.pixel_fmt
         acc_w = {n: P.acc_fmt(n).width for n in P.names}
+        row = data.View(row_layout(P), g.fifo.r_data)
         cx, cy = _sig(pf, "cx"), _sig(pf, "cy")
         acc = {n: _sig(P.acc_fmt(n), f"acc_{n}") for n in P.names}
         pdx = {n: _sig(P.acc_fmt(n), f"pc_{n}_dx") for n in P.names}
@@ -384,62 +376,33 @@ class Raster(wiring.Component):
         m.d.sync += pop_seen.eq(ofifo.r_rdy & self.o.ready)
         r_valid, r_x, r_y, r_a, r_c = self._output_stage(m, ofifo, acc)
 
-        # the registers in blocks: (bits, statements under ``advance``, along the row, on taking a row (from the
-        # group's slice of the row FIFO), the row's fields it loads); the first block's control copy also drives
-        # the output FIFO and ``busy``
+        # the registers in blocks: (bits, statements under ``advance``, along the row, on taking a row); the
+        # first block's control copy also drives the FIFOs and ``busy``
         rounded = self._rounded
         blocks = [(_bits(cx, cy, r_x, r_y, r_valid, *pc_c.values(), *r_c.values()),
                    lambda busy, nonempty: [r_valid.eq(busy & nonempty), r_x.eq(cx), r_y.eq(cy),
                                            *(r_c[n].eq(pc_c[n]) for n in pc_c)],
                    [cx.eq(cx + 1)],
-                   lambda row: [cx.eq(row.xl), cy.eq(row.y), *(pc_c[n].eq(row[n]) for n in pc_c)],
-                   ("xl", "y", *pc_c))]
+                   [cx.eq(row.xl), cy.eq(row.y), *(pc_c[n].eq(row[n]) for n in pc_c)])]
         for n in P.names:
             blocks.append((_bits(acc[n], pdx[n], *r_a[n]),
                            lambda busy, nonempty, n=n: [r.eq(v) for r, v in zip(r_a[n], rounded[n])],
                            [acc[n].eq((acc[n] + pdx[n])[:acc_w[n]])],
-                           lambda row, n=n: [acc[n].eq(row[f"{n}_start"]), pdx[n].eq(row[f"{n}_dx"])],
-                           (f"{n}_start", f"{n}_dx")))
-        groups = _groups(blocks, P.ENABLE_FANOUT)
-        fifo, rows = self._row_fifo(m, g, [[f for *_, fields in group for f in fields] for group in groups])
+                           [acc[n].eq(row[f"{n}_start"]), pdx[n].eq(row[f"{n}_dx"])]))
         takes = []
-        for k, group in enumerate(groups):
-            row = rows[k]
-            advance, step, take_k, busy, nonempty = self._pc_control(m, k, fifo.w_en[k], pop_seen, row)
+        for k, group in enumerate(_groups(blocks, P.ENABLE_FANOUT)):
+            advance, step, take_k, busy, nonempty = self._pc_control(m, k, g.fifo, pop_seen, row)
             takes.append(take_k)
-            m.d.comb += fifo.r_en[k].eq(take_k)
             if k == 0:
-                m.d.comb += [self.busy.eq(busy), ofifo.w_en.eq(advance & r_valid)]
+                m.d.comb += [g.fifo.r_en.eq(take_k), self.busy.eq(busy), ofifo.w_en.eq(advance & r_valid)]
             with m.If(advance):
-                m.d.sync += [st for _, always, *_ in group for st in always(busy, nonempty)]
+                m.d.sync += [st for _, always, _, _ in group for st in always(busy, nonempty)]
                 with m.If(step):
-                    m.d.sync += [st for _, _, along, *_ in group for st in along]
+                    m.d.sync += [st for _, _, along, _ in group for st in along]
                 with m.Elif(take_k):
-                    m.d.sync += [st for *_, load, _ in group for st in load(row)]
-        # each generator copy hears ``take`` from one Pixel Calculator copy (all equal): no one net to every copy;
-        # through TAKE_SEEN_STAGES registers of its own, beside it
-        m.d.comb += [t.eq(_relay(m, takes[j % len(takes)], f"take_seen_{j}", range(P.TAKE_SEEN_STAGES)))
-                     for j, t in enumerate(g.takes)]
-
-    def _row_fifo(self, m, g: SimpleNamespace, fields: list) -> tuple:
-        """The row FIFO (module docstring, "Row FIFO"): a :class:`~rtl.streams.CreditFIFO` sliced per Pixel
-        Calculator control copy, slice ``k`` holding the row's fields its group loads (``fields[k]``) behind its
-        own copy of ``n``, ``nonempty`` and ``single`` (the row's length and kind, which every control copy loads),
-        written under its own copy of the write enable (:func:`~rtl.unit.kept_copy` of the valid a stage before),
-        read under its copy's ``take``. Returns the FIFO and each slice's read view; the slices' layouts are
-        ``self.row_slices`` (for ``formal/raster.py``)."""
-        full = row_layout(self.params).members
-        self.row_slices = [data.StructLayout({f: full[f] for f in (*ROW_CONTROL, *group)}) for group in fields]
-        sizes = [layout.size for layout in self.row_slices]
-        m.submodules.rows = fifo = CreditFIFO(sum(sizes), self.params.ROW_FIFO_DEPTH, slices=sizes)
-        views, lo = [], 0
-        for k, layout in enumerate(self.row_slices):
-            w = data.View(layout, fifo.w_data[lo:lo + layout.size])
-            m.d.comb += [w[f].eq(g.row_in[f]) for f in layout.members.keys()]
-            m.d.comb += fifo.w_en[k].eq(kept_copy(m, g.row_valid_before, f"rows_we_{k}"))
-            views.append(data.View(layout, fifo.r_data[lo:lo + layout.size]))
-            lo += layout.size
-        return fifo, views
+                    m.d.sync += [st for _, _, _, load in group for st in load]
+        # each generator copy hears ``take`` from one Pixel Calculator copy (all equal): no one net to every copy
+        m.d.comb += [t.eq(takes[j % len(takes)]) for j, t in enumerate(g.takes)]
 
     def _output_stage(self, m, ofifo, acc: dict):
         """The output narrowing in two steps: rounding (a register stage under ``advance``), saturation into the
@@ -465,7 +428,7 @@ class Raster(wiring.Component):
         m.d.comb += [frag[n].eq(r_c[n]) for n in r_c]
         return r_valid, r_x, r_y, r_a, r_c
 
-    def _pc_control(self, m, k: int, w_en, pop_seen, row):
+    def _pc_control(self, m, k: int, fifo, pop_seen, row):
         """Copy ``k`` of the Pixel Calculator's control (module docstring, "Fan-out"): on a row, the row not
         empty, its pixels left and whether this is its last clock, the output FIFO's places in use and
         ``advance``, all registered, and the rows in the row FIFO (``row_count``, the FIFO's own level kept by
@@ -489,7 +452,7 @@ class Raster(wiring.Component):
         done_row = ~busy | last_px
         step, take_k = Signal(name=f"step_{k}"), Signal(name=f"take_{k}")
         m.d.comb += [step.eq(~done_row), take_k.eq(advance & done_row & has_row)]
-        wrote = _relay(m, w_en, f"row_seen_{k}", range(self.params.ROW_SEEN_STAGES))  # a write, as many ago
+        wrote = _relay(m, fifo.w_en, f"row_seen_{k}", range(self.params.ROW_SEEN_STAGES))  # a write, as many ago
         m.d.sync += [count.eq(less_one_if(take_k, count + wrote)),
                      has_row.eq(less_one_if(take_k, count + wrote, lambda v: v != 0))]
         with m.If(advance):

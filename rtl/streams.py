@@ -181,72 +181,49 @@ class CreditFIFO(wiring.Component):
     level, and the write enable of every LUT RAM slice waited for it). ``r_rdy`` (not empty) is a register,
     computed beside the level with the read at the last logic level (:func:`less_one_if`).
 
-    ``slices`` (widths summing to ``width``; default one): the storage in as many memories side by side, each with
-    its own write and read pointers, its own write enable ``w_en[k]`` and read enable ``r_en[k]`` (equal for
-    every slice: the writer and the reader drive each from a copy of their own, near the slice). A wide FIFO's
-    LUT RAM spreads over the device: one pointer register driving the address pins of every LUT RAM cell was the
-    board's slowest path (the scan converter's row FIFO, 1 032 bits wide); each slice's pointers stay beside it.
-    ``level``, ``r_rdy`` and ``overflow`` follow slice 0's enables.
-
     Ports: ``w_en``, ``w_data`` in; ``r_en``, out ``r_rdy``, ``r_data`` (the oldest word while ``r_rdy``); ``level``
     out (the words held) and ``w_rdy`` (``level != depth``, as ``SyncFIFO``'s, for the writer's proofs: nothing in
     the FIFO reads it). A write into a full FIFO is the writer's error: ``overflow`` (out, registered, sticky)
     says it happened (tests check it stays 0; nothing reads it in hardware).
     """
 
-    def __init__(self, width: int, depth: int, slices: tuple[int, ...] | None = None):
-        slices = (width,) if slices is None else tuple(slices)
-        if depth < 2 or sum(slices) != width or any(w < 1 for w in slices):
-            self._MustUse__silence = True            # refused: no "never used" warning for it
-            raise ValueError(f"CreditFIFO: depth {depth} must be at least 2" if depth < 2 else
-                             f"CreditFIFO: slices {slices} must be positive widths summing to width {width}")
-        self.width, self.depth, self.slices = width, depth, slices
-        n = len(slices)
-        super().__init__({"w_en": In(n), "w_data": In(width), "r_en": In(n), "r_rdy": Out(1),
+    def __init__(self, width: int, depth: int):
+        if depth < 2:
+            raise ValueError(f"CreditFIFO: depth {depth} must be at least 2")
+        self.width, self.depth = width, depth
+        super().__init__({"w_en": In(1), "w_data": In(width), "r_en": In(1), "r_rdy": Out(1),
                           "r_data": Out(width), "level": Out(range(depth + 1)), "w_rdy": Out(1),
                           "overflow": Out(1)})
 
     def elaborate(self, platform):
         m = Module()
         n = self.depth
-        take = self.r_en[0] & self.r_rdy
-        m.d.comb += self.w_rdy.eq(self.level != n)
-        ptrs, mems, lo = [], [], 0
-        for k, width in enumerate(self.slices):
-            m.submodules[f"storage{k}" if len(self.slices) > 1 else "storage"] = mem = \
-                memory.Memory(shape=width, depth=n, init=[])
-            wp, rp = mem.write_port(), mem.read_port(domain="comb")
-            wptr, rptr = Signal(range(n), name=f"wptr{k}"), Signal(range(n), name=f"rptr{k}")
-            m.d.comb += [wp.addr.eq(wptr), wp.data.eq(self.w_data[lo:lo + width]), wp.en.eq(self.w_en[k]),
-                         rp.addr.eq(rptr), self.r_data[lo:lo + width].eq(rp.data)]
-            with m.If(self.w_en[k]):
-                m.d.sync += wptr.eq(Mux(wptr == n - 1, 0, wptr + 1))
-            with m.If(self.r_en[k] & self.r_rdy):
-                m.d.sync += rptr.eq(Mux(rptr == n - 1, 0, rptr + 1))
-            ptrs.append((wptr, rptr))
-            mems.append((mem, width, lo))
-            lo += width
-        after_write = self.level + self.w_en[0]
+        m.submodules.storage = mem = memory.Memory(shape=self.width, depth=n, init=[])
+        wp, rp = mem.write_port(), mem.read_port(domain="comb")
+        wptr, rptr = Signal(range(n)), Signal(range(n))
+        take = self.r_en & self.r_rdy
+        m.d.comb += [wp.addr.eq(wptr), wp.data.eq(self.w_data), wp.en.eq(self.w_en),
+                     rp.addr.eq(rptr), self.r_data.eq(rp.data), self.w_rdy.eq(self.level != n)]
+        with m.If(self.w_en):
+            m.d.sync += wptr.eq(Mux(wptr == n - 1, 0, wptr + 1))
+        with m.If(take):
+            m.d.sync += rptr.eq(Mux(rptr == n - 1, 0, rptr + 1))
+        after_write = self.level + self.w_en
         m.d.sync += [self.level.eq(less_one_if(take, after_write)),
                      self.r_rdy.eq(less_one_if(take, after_write, lambda v: v != 0))]
-        with m.If(self.w_en[0] & ~self.w_rdy):
+        with m.If(self.w_en & ~self.w_rdy):
             m.d.sync += self.overflow.eq(1)
         if platform == "formal":
             # the FIFO's own invariants, as Amaranth's SyncFIFO asserts its own on this platform (they make the
             # induction of any set around it go through), and every word held, for the proof of the contract
             # (formal/credit_fifo.py)
-            wptr, rptr = ptrs[0]
             m.d.comb += [Assert(self.level <= n, "credit_fifo_level"),
                          Assert(self.r_rdy == (self.level != 0), "credit_fifo_r_rdy"),
                          Assert(wptr == (rptr + self.level) % n, "credit_fifo_pointers"),
                          Assert(rptr < n, "credit_fifo_head_range")]      # a depth not a power of two
-            for k, (w_k, r_k) in enumerate(ptrs[1:], start=1):
-                m.d.comb += Assert((w_k == wptr) & (r_k == rptr), f"credit_fifo_slice{k}_pointers")
             head = Signal(range(n), name="head")           # the read pointer, named for the proofs
             m.d.comb += head.eq(rptr)
             for k in range(n):
-                slot = Signal(self.width, name=f"slot{k}")
-                for mem, width, lo in mems:
-                    port = mem.read_port(domain="comb")
-                    m.d.comb += [port.addr.eq(k), slot[lo:lo + width].eq(port.data)]
+                port, slot = mem.read_port(domain="comb"), Signal(self.width, name=f"slot{k}")
+                m.d.comb += [port.addr.eq(k), slot.eq(port.data)]
         return m

@@ -217,13 +217,6 @@ class RasterParams:
     #: its span start in logic below 100 MHz (``bumpmap fpga --unit raster``) and was among the board's slowest.
     #: Each adds a clock of fill latency (:attr:`latency`), none between rows.
     ROW_SEEN_STAGES: ClassVar[int] = 1
-    #: Registers (one beside each of the row generator's control copies) through which the Pixel Calculator's
-    #: taking a row reaches the generator's credit count (``rtl/raster.py``, "Fan-out"): the generator's copies
-    #: sit by the record's input and the span pipeline, the Pixel Calculator's by the output, and the take's
-    #: route between them into every copy's ``room`` was among the last of the board's late paths with the frame
-    #: in SDRAM (``bumpmap bitstream --misses``). A row taken frees its place a clock later; the row FIFO's
-    #: depth covers it (no gap between rows, no change in clocks).
-    TAKE_SEEN_STAGES: ClassVar[int] = 1
     #: Registers between the consumer's read of the RTL's output FIFO and the Pixel Calculator's control copies,
     #: which count the FIFO's places (``rtl/raster.py``, "Output"): one beside the FIFO, one copy beside each
     #: control copy. Straight from the consumer's ``ready`` into every copy's count, that net was the board's

@@ -71,11 +71,8 @@ def raster_set(params: RasterParams | None = None, *, kind: str = "proof", wrap=
     P = params or small_raster()
     h = Harness(kind)
     m = h.m
-    inner = Raster(P)
-    dut = wrap(inner) if wrap else inner
+    dut, frag, _ = whitebox.attach(h, Raster(P), wrap)
     pre = "dut" if wrap else ""
-    frag = whitebox.elaborate(dut)
-    m.submodules.dut = frag
     i_valid, o_ready = h.free(1, "i_valid"), h.free(1, "o_ready")
     i_payload = h.free(record_layout(P).size, "i_payload")
     m.d.comb += [dut.i.valid.eq(i_valid), dut.i.payload.eq(i_payload), dut.o.ready.eq(o_ready)]

@@ -15,7 +15,6 @@ from __future__ import annotations
 from types import SimpleNamespace
 
 from amaranth.hdl import Array, Cat, Mux
-from amaranth.lib import wiring
 
 from fxmodel.core.fixed import Fmt
 from fxmodel.units.rop import RopParams
@@ -24,6 +23,7 @@ from rtl.rop import WRITE_QUEUE, Rop
 from . import whitebox
 from .axi import AxiManagerCheck
 from .props import Harness
+from .readers import drive_inputs
 
 __all__ = ["small_rop", "rop_set", "rop_props", "STALL"]
 
@@ -41,19 +41,8 @@ def small_rop(**kw) -> RopParams:
 def rop_set(params: RopParams | None = None, *, kind: str = "proof", wrap=None) -> Harness:
     P = params or small_rop()
     h = Harness(kind)
-    m = h.m
-    inner = Rop(P)
-    dut = wrap(inner) if wrap else inner
-    frag = whitebox.elaborate(dut)
-    m.submodules.dut = frag
-    top = whitebox.subfragment(frag, "dut" if wrap else "")
-    # free inputs: the fragment stream and every input of the AXI port
-    i_valid = h.free(1, "i_valid")
-    i_payload = h.free(len(dut.i.payload.as_value()), "i_payload")
-    m.d.comb += [dut.i.valid.eq(i_valid), dut.i.payload.eq(i_payload)]
-    for name, member in dut.axi.signature.members.items():
-        if member.flow == wiring.In:
-            m.d.comb += getattr(dut.axi, name).eq(h.free(member.shape, f"axi_{name}"))
+    dut, _, top = whitebox.attach(h, Rop(P), wrap)
+    drive_inputs(h, dut)            # free inputs: the fragment stream and every input of the AXI port
     h.stream_hold(dut.i.valid, dut.i.ready, dut.i.payload.as_value(), "i", assume=True)
     rop_props(h, P, dut, top)
     return h

@@ -27,6 +27,7 @@ from .fetch import DEC_PARAMS, small_texfetch
 from .raster import raster_independence, raster_set
 from .readers import READ_MANAGERS, read_manager_set
 from .rop import STALL, rop_set, small_rop
+from .rop_chip import ROP_CHIP_DEPTH, rop_chip_set, small_rop_chip
 from .runner import Job, Result, run_job
 from .streamunit import CUT, cover_depth, stream_independence, stream_unit
 
@@ -131,7 +132,7 @@ def _reader_sets() -> list[PropertySet]:
 
 
 def property_sets() -> list[PropertySet]:
-    rp = small_rop()
+    rp, rc = small_rop(), small_rop_chip()
     return _unit_sets() + _reader_sets() + [
         PropertySet("credit_fifo", f"CreditFIFO (rtl/streams.py, depth {CREDIT_DEPTH})",
                     "the contract the scan converter's sets assume where they read it: words read in the order "
@@ -158,6 +159,13 @@ def property_sets() -> list[PropertySet]:
                     "AXI4 manager rules on AW/W/AR/B/R, WLAST, outstanding bounds, 4 KB; hazard rule; slots "
                     "freed only by a failed test or B; slot accounting",
                     lambda kind, wrap=None: rop_set(kind=kind, wrap=wrap), "prove", 4, 16),
+        PropertySet("rop_chip", f"Rop on chip ({rc.width}x{rc.height} frame in a {rc.max_size}-pixel viewport, "
+                                f"{rc.z_fmt.width}-bit depths, latency {rc.latency}, the frame as registers)",
+                    "the write decision equals a reference depth test taking the fragments in arrival order "
+                    "(the forwarding of the five fragments ahead); the read-out's word the reference's; fragments "
+                    "conserved; busy; the sticky flags; i.ready = ~fb.read; a clearing read-out begins with busy "
+                    "low (assumed: the tile copy's contract)",
+                    lambda kind, wrap=None: rop_chip_set(kind=kind, wrap=wrap), "prove", ROP_CHIP_DEPTH, 20),
     ]
 
 
@@ -204,6 +212,9 @@ def variants() -> list[Variant]:
                 cut=""),
         Variant("hazard_off", "RopParams(hazard=False): no same-pixel check", "rop_axi", "hazard_", 8, None,
                 lambda kind, wrap: rop_set(small_rop(hazard=False), kind=kind)),
+        Variant("rop_chip_no_forwarding", "RopParams(hazard=False) on chip: the fragments ahead not forwarded",
+                "rop_chip", "write_decision", 12, None,
+                lambda kind, wrap: rop_chip_set(small_rop_chip(hazard=False), kind=kind)),
     ]
 
 
@@ -230,12 +241,15 @@ SCOPE = (
     "White-box invariants read the designs' internal registers by name (formal/whitebox.py); the FIFOs' own "
     "contract (Amaranth's SyncFIFO, or rtl.streams.CreditFIFO, proven as credit_fifo, returns what was written, "
     "in order) is assumed where they are read.",
+    "The depth test on chip (rop_chip: the one both board builds carry) is checked against a reference depth test "
+    "taking the fragments in arrival order; its frame memory is an array of registers with the read port's "
+    "behaviour (formal/rop_chip.py ArrayFrameRop), so the invariant relating memory and reference can be stated.",
     "The memory behind each AXI4 port is free within the AXI4 rules, with stalls and response latencies "
     "assumed of at most 3 cycles.",
 )
 
 #: The fast subset of ``make test`` (tests/test_formal.py).
-FAST_SETS = ("stream_recip", "rop_axi", "texcache_axi")
+FAST_SETS = ("stream_recip", "rop_axi", "rop_chip", "texcache_axi")
 FAST_VARIANTS = ("payload_while_stalled", "texcache_rlast_early")
 
 

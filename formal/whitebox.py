@@ -14,12 +14,21 @@ from __future__ import annotations
 
 from amaranth.hdl import Fragment, Signal
 
-__all__ = ["elaborate", "subfragment", "signal", "origin", "has_signal"]
+__all__ = ["elaborate", "attach", "subfragment", "signal", "origin", "has_signal"]
 
 
 def elaborate(dut) -> Fragment:
     """The design's fragment, elaborated for the formal platform (add it to a harness as a submodule)."""
     return Fragment.get(dut, "formal")
+
+
+def attach(h, inner, wrap=None) -> tuple:
+    """``inner`` (wrapped by ``wrap``, a broken variant's wrapper, when given) elaborated into the harness ``h`` as
+    its submodule ``dut``: ``(dut, frag, top)``, ``top`` the fragment of ``inner`` itself."""
+    dut = wrap(inner) if wrap else inner
+    frag = elaborate(dut)
+    h.m.submodules.dut = frag
+    return dut, frag, subfragment(frag, "dut" if wrap else "")
 
 
 def subfragment(frag: Fragment, path: str) -> Fragment:

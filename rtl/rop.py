@@ -73,13 +73,13 @@ from amaranth.hdl import Array, Cat, Const, Module, Mux, Signal
 from amaranth.lib import memory, stream, wiring
 from amaranth.lib.wiring import In, Out
 
-from fxmodel.units.rop import DEPTH_BYTES, PIXEL_BYTES, STATUS_BITS, Z_OVERFLOW, Z_ROUNDING, RopParams, clear_frame
+from fxmodel.units.rop import DEPTH_BYTES, PIXEL_BYTES, STATUS_BITS, Z_OVERFLOW, Z_ROUNDING, RopParams, clear_word
 
 from .fixed import const_mul, narrow
 from .streams import payload_layout
 from .unit import COPY_SUFFIX, kept_copy, register
 
-__all__ = ["Rop", "axi_signature", "ring_next", "SLOT_OVERHEAD", "WRITE_QUEUE"]
+__all__ = ["Rop", "axi_signature", "pixel_index", "ring_next", "SLOT_OVERHEAD", "WRITE_QUEUE"]
 
 #: Entries of the write queue between the compare and the ``AW``/``W`` channels: one being issued, one arriving,
 #: one for the beat in the compare stage, so that ``R.ready`` is one logic level from registers and one fragment
@@ -113,7 +113,7 @@ def _readout_signature(params: RopParams) -> wiring.Signature:
                              "data": Out(params.word_bits)})
 
 
-def _index(params: RopParams, x, y):
+def pixel_index(params: RopParams, x, y):
     """``(inside, y width + x)``: the pixel index of an inside fragment (shifted copies of ``y``)."""
     inside = (x < params.width) & (y < params.height)
     return inside, (const_mul(y, params.width) + x)[:_index_bits(params)]
@@ -174,7 +174,7 @@ class Rop(wiring.Component):
         its pixel index and its color word."""
         P = self.params
         zc, zsat = narrow(f.z, P.z_in.frac_bits, P.z_fmt, Z_ROUNDING, Z_OVERFLOW)
-        inside, index = _index(P, f.x, f.y)
+        inside, index = pixel_index(P, f.x, f.y)
         color = Cat(f.r, f.g, f.b, f.flags)
         return zc, zsat, inside, index, color
 
@@ -185,8 +185,7 @@ class Rop(wiring.Component):
     def _on_chip(self):
         P = self.params
         m = Module()
-        depth, color = clear_frame(P)
-        clear = int(depth[0, 0]) | sum(int(c) << (P.z_fmt.width + 8 * k) for k, c in enumerate(color[0, 0]))
+        clear = clear_word(P)
         m.d.comb += self.i.ready.eq(~self.fb.read)
         # stage I: the fragment as the stream delivers it, registered; then stage A: the accepted fragment (both
         # held while the read-out has the read port)

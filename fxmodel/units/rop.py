@@ -54,7 +54,7 @@ from fxmodel.core.fixed import Fmt
 from fxmodel.core.rounding import Overflow, Rounding, narrow
 from fxmodel.core.unit import Port, require
 
-__all__ = ["RopParams", "draw", "clear_frame", "write_frame", "read_frame", "Z_ROUNDING", "Z_OVERFLOW",
+__all__ = ["RopParams", "draw", "clear_frame", "clear_word", "write_frame", "read_frame", "Z_ROUNDING", "Z_OVERFLOW",
            "PIXEL_BYTES", "DEPTH_BYTES", "STATUS_BITS"]
 
 #: The named narrowing of the scan converter's ``Z`` to the stored depth word.
@@ -252,6 +252,13 @@ def clear_frame(params: RopParams):
     color = np.zeros((P.height, P.width, 4), dtype=np.int64)
     color[..., :3] = P.clear_color
     return depth, color
+
+
+def clear_word(params: RopParams) -> int:
+    """The on-chip frame's word of an empty pixel (:func:`clear_frame`): the depth in the low ``z_fmt.width`` bits,
+    then ``r, g, b`` and ``flags`` a byte each (:attr:`RopParams.word_bits`)."""
+    depth, color = clear_frame(params)
+    return int(depth[0, 0]) | sum(int(c) << (params.z_fmt.width + 8 * k) for k, c in enumerate(color[0, 0]))
 
 
 def _columns(params: RopParams, frags) -> list:

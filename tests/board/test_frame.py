@@ -231,3 +231,21 @@ def test_copy_puts_a_tile_at_its_place_and_only_swap_shows(wait_every_copy):
     words = np.array(seen["store"])
     assert np.array_equal(words[P.pixels:], want[1])                # both into the back buffer (index 1)
     assert np.array_equal(np.array(seen["store_0"])[P.pixels:], want[0])   # A there before B overwrote it
+
+
+def test_quiet_outlasts_the_engine_so_a_clear_begins_with_the_depth_test_idle():
+    """The tile copy starts a clearing read-out once the engine's input, scan converter and depth test have been
+    quiet for ``QUIET`` clocks; the pixel pipeline's fragments are not in that signal, so ``QUIET`` must outlast
+    the longest a fragment can take from the scan converter's output to the depth test's last stage (its
+    rounding stage and output FIFO, the pipeline's input registers, delay line and output FIFO, the depth test):
+    then no fragment is in the depth test when the clear begins, the contract its proof assumes
+    (``formal/rop_chip.py``, ``clear_begins_quiet``)."""
+    from board.cdc import QUIET
+    from board.frame import board_engine
+    from fxmodel.pipeline.engine import PIPELINE_IN_STAGES
+    from rtl.streams import buffer_depth
+
+    ep, _, _ = board_engine()
+    R = ep.raster
+    drain = (1 + R.OUT_FIFO_DEPTH) + ep.latency + buffer_depth(ep.pipeline, PIPELINE_IN_STAGES) + ep.rop.latency
+    assert drain < QUIET, (drain, QUIET)

@@ -79,7 +79,7 @@ from .fixed import const_mul, narrow
 from .streams import payload_layout
 from .unit import COPY_SUFFIX, kept_copy, register
 
-__all__ = ["Rop", "axi_signature", "pixel_index", "ring_next", "SLOT_OVERHEAD", "WRITE_QUEUE"]
+__all__ = ["Rop", "axi_signature", "readout_signature", "pixel_index", "ring_next", "SLOT_OVERHEAD", "WRITE_QUEUE"]
 
 #: Entries of the write queue between the compare and the ``AW``/``W`` channels: one being issued, one arriving,
 #: one for the beat in the compare stage, so that ``R.ready`` is one logic level from registers and one fragment
@@ -108,7 +108,8 @@ def axi_signature(addr_bits: int, data_bits: int, id_bits: int = 1) -> wiring.Si
         "rready": Out(1)})
 
 
-def _readout_signature(params: RopParams) -> wiring.Signature:
+def readout_signature(params: RopParams) -> wiring.Signature:
+    """The on-chip frame's read-out port (``Rop.fb``, :class:`board.frame.TileCopy` drives it)."""
     return wiring.Signature({"read": In(1), "clear": In(1), "addr": In(range(params.pixels)),
                              "data": Out(params.word_bits)})
 
@@ -163,7 +164,7 @@ class Rop(wiring.Component):
         members = {"i": In(stream.Signature(payload_layout(params.inputs))), "busy": Out(1),
                    "status": Out(len(STATUS_BITS))}
         if params.on_chip:
-            members["fb"] = Out(_readout_signature(params))
+            members["fb"] = Out(readout_signature(params))
         else:
             members["axi"] = Out(axi_signature(params.addr_bits, params.data_bits))
         super().__init__(members)

@@ -85,6 +85,14 @@ class Harness:
         self.m.d.sync += reg.eq(value)
         return reg
 
+    def pasts(self, value, n: int, name: str) -> list:
+        """``value`` 1, 2, ..., ``n`` cycles ago (a chain of :meth:`past` registers ``{name}1`` ... ``{name}{n}``)."""
+        out = []
+        for k in range(1, n + 1):
+            value = self.past(value, f"{name}{k}")
+            out.append(value)
+        return out
+
     def counter(self, event, width: int, name: str) -> Signal:
         """Counts cycles with ``event`` (wraps modulo ``2**width``)."""
         cnt = Signal(width, name=f"f_n_{name}")

@@ -132,31 +132,27 @@ def rop_chip_set(params: RopParams | None = None, *, kind: str = "proof", wrap=N
     h.check(in_flight == sum(stages), "fragments_conserved")
     h.check(dut.busy | ~(Cat(*stages).any() | w_en | inner.we), "busy_while_held")
     # the read-out: the reference's word, readout_latency clocks after a read with busy low
-    delay = P.readout_latency
-    quiet_read, expect = fb_read & ~dut.busy, Array(ref)[fb_addr]
-    for n in range(delay):
-        quiet_read, expect = h.past(quiet_read, f"read{n}"), h.past(expect, f"expect{n}")
+    quiet_read = h.pasts(fb_read & ~dut.busy, P.readout_latency, "read")[-1]
+    expect = h.pasts(Array(ref)[fb_addr], P.readout_latency, "expect")[-1]
     h.check(~quiet_read | (dut.fb.data == expect), "readout_word")
     # the sticky flags: raised two clocks after their fragment (stage I's), and only then; cleared by a clear
     _, zsat = narrow(in_frag.z, P.z_in.frac_bits, P.z_fmt, Z_ROUNDING, Z_OVERFLOW)
     for name, cond in (("outside", drop), ("z_saturated", in_valid & ~fb_read & inside & zsat)):
         bit = dut.status[STATUS_BITS[name]]
-        two = h.past(h.past(cond, f"{name}1"), f"{name}2")
+        two = h.pasts(cond, 2, name)[-1]
         h.check(~two | bit, f"{name}_raised")
-        cleared = h.past(h.past(clearing, f"{name}_c1"), f"{name}_c2")
+        cleared = h.pasts(clearing, 2, f"{name}_c")[-1]
         h.check(~h.started | ~bit | two | (h.past(bit, f"{name}_was") & ~cleared), f"{name}_only_by_fragment")
     # reachability: each forwarding distance taken by a passing fragment, a failed test, the read-out's word,
     # a fragment behind a clear, a fragment held by the read-out
     same = [sig(f"same{k}") for k in (1, 2, 3, 4, 5)]
     h.cover(sig("cmp_same1") & w_en & c_valid & passes, "forward_1_reach")
-    wrote = (w_en, sig("wrote1" + COPY_SUFFIX), sig("wrote2"), sig("wrote3"))
+    wrote = (w_en, inner.we, sig("wrote2"), sig("wrote3"))          # (inner.we: wrote1, proven above)
     for k, (s, en) in enumerate(zip(same[1:], wrote), start=2):
         h.cover(s & en & sig("rd3_valid"), f"forward_{k}_reach")
     h.cover(c_valid & ~passes, "failed_test_reach")
     h.cover(quiet_read & (dut.fb.data != clear), "readout_drawn_reach")
-    recent = [was_clear]
-    for n in range(P.latency):
-        recent.append(h.past(recent[-1], f"clear{n + 2}"))
+    recent = h.pasts(clearing, P.latency + 1, "clear_ago")
     h.cover(c_valid & Cat(*recent).any(), "fragment_behind_clear_reach")
     h.cover(fb_read & in_valid & sig("acc_valid"), "held_by_readout_reach")
     h.cover(Cat(*stages).all(), "all_stages_reach")

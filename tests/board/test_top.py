@@ -225,6 +225,11 @@ def test_a_floorplan_is_handed_to_the_platform_and_a_routed_build_saves_one(tmp_
     rec = top.build(tmp_path, seed=3, save_floorplan=tmp_path / "saved.json")
     assert seen["floorplan"] is None and "--write top_routed.json" in seen["nextpnr_opts"]
     assert read_floorplan(tmp_path / "saved.json") == {mult: "X96/Y34/MULT18_0"}
+    assert rec["floorplan_saved"] == (tmp_path / "saved.json").as_posix()
+    _stub_flow(monkeypatch, tmp_path, TIM + "Warning: Max frequency for clock '$glbnet$engine_clk': 99.1 MHz "
+                                             "(FAIL at 100.00 MHz)\n")
+    rec = top.build(tmp_path, engine=object(), engine_div=5, save_floorplan=tmp_path / "missed.json")
+    assert not rec["all_met"] and "floorplan_not_saved" in rec and not (tmp_path / "missed.json").exists()
 
 
 def test_the_command_refuses_a_bad_floorplan_before_building(tmp_path, monkeypatch, capsys):

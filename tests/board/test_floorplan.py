@@ -165,3 +165,13 @@ def test_the_committed_floorplan_is_the_board_engines():
     assert engine_blocks and engine_blocks <= set(sites), sorted(engine_blocks - set(sites))[:5]
     inferred = set(sites) - engine_blocks
     assert all(re.sub(r"(\.\d+)+$", "", name) in memories for name in inferred), sorted(inferred)[:5]
+
+
+def test_a_real_build_stops_at_the_step_when_the_floorplan_is_not_its_netlists(tmp_path):
+    """The board top without the engine through the real flow with the engine's floorplan: Yosys runs, the step
+    refuses the netlist (none of the floorplan's cells is in it) and the flow stops before nextpnr."""
+    with pytest.raises(subprocess.CalledProcessError) as e:
+        top.build(tmp_path / "b", None, floorplan=top.floorplan_of("sdram"))
+    assert e.value.returncode == 2
+    assert (tmp_path / "b" / "top.json").exists() and not (tmp_path / "b" / "top_fp.json").exists()
+    assert not (tmp_path / "b" / "top.tim").exists()

@@ -242,3 +242,20 @@ def test_the_command_refuses_a_bad_floorplan_before_building(tmp_path, monkeypat
     assert top.run(args) == 2
     err = capsys.readouterr().err
     assert "--floorplan" in err and "bad.json" in err and "'nowhere'" in err
+
+
+def test_a_flow_that_stops_is_an_error_naming_its_folder(tmp_path, monkeypatch, capsys):
+    """A tool of the flow (or the floorplan step, refusing a stale floorplan) that exits with an error stops the
+    command with exit status 2 and a message naming the build folder and the logs, not a traceback."""
+    import argparse
+    import subprocess
+    ap = argparse.ArgumentParser()
+    top.add_arguments(ap)
+
+    def stops(*a, **k):
+        raise subprocess.CalledProcessError(2, ["sh", "build_top.sh"])
+    monkeypatch.setattr(top, "build", stops)
+    args = ap.parse_args(["--out", str(tmp_path / "out"), "--no-engine"])
+    assert top.run(args) == 2
+    err = capsys.readouterr().err
+    assert str(tmp_path / "out") in err and "exited 2" in err and "top.tim" in err

@@ -237,7 +237,8 @@ def test_the_command_refuses_a_bad_floorplan_before_building(tmp_path, monkeypat
     ap = argparse.ArgumentParser()
     top.add_arguments(ap)
     (tmp_path / "bad.json").write_text('{"cells": {"system.engine.x_mult": "nowhere"}}')
-    monkeypatch.setattr(top, "build", lambda *a, **k: pytest.fail("built with a bad floorplan"))
+    monkeypatch.setattr(top, "Top", lambda *a, **k: pytest.fail("elaborated with a bad floorplan"))
+    monkeypatch.setattr(top, "_platform", lambda *a, **k: pytest.fail("built with a bad floorplan"))
     args = ap.parse_args(["--out", str(tmp_path / "out"), "--floorplan", str(tmp_path / "bad.json"), "--size", "16"])
     assert top.run(args) == 2
     err = capsys.readouterr().err

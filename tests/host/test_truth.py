@@ -123,6 +123,21 @@ def test_against_truth_reports_full_and_edge_and_excludes_pixels(tmp_path):
     assert rep["full_pixels"] == 63 and rep["edge_pixels"] == 35
 
 
+
+def test_excluded_pixels_do_not_leak_into_the_flip_of_their_neighbours(tmp_path):
+    # A frame drawn from triangles shows another surface than (c) at its depth disagreements (z-fighting of
+    # coplanar meshes: stripes over half the frame); those pixels are excluded. FLIP is spatial, so their
+    # differences must not count in the kept pixels around them: a frame equal to (c) on every kept pixel has
+    # FLIP 0 there (before the fix, 0.5 on a z-fighting scene whose kept pixels were within 6 LSB of (c)).
+    scene = square(tmp_path, 1.5)                                           # every pixel fully covered
+    truth = true_image(scene, 4)
+    other = truth.image.copy()
+    other[::2] = 255 - other[::2]                                           # every other row another surface
+    ys, xs = np.nonzero(np.broadcast_to((np.arange(16) % 2 == 0)[:, None], (16, 16)))
+    rep, _ = against_truth(scene, {"model": other}, 4, exclude=(xs, ys))
+    assert rep["full_pixels"] == 128
+    assert rep["model"]["full"]["max_lsb"] == 0 and rep["model"]["full"]["flip_mean"] == 0
+
 def test_grid_samples_are_the_frame_rasterized_at_k_times_the_resolution():
     n, k = 96, 4
     scene = load_scene(TIN, size=n)

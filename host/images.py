@@ -71,6 +71,10 @@ def truth_rows(report: dict) -> list:
     vt = report.get("vs_truth")
     if not vt:
         return []
+    if not vt["full_pixels"]:                   # nothing compared: not "identical (exact)"
+        return [(f"{label} vs truth (c)", f"not compared: no fully covered pixel ({vt['edge_pixels']:,} edge pixels, "
+                                          f"{vt['samples']}x{vt['samples']} samples)")
+                for label in ("model", "float (a)")]
     return [(f"{label} vs truth (c)", f"{db_text(vt[k]['full']['psnr_db'])}, FLIP {vt[k]['full']['flip_mean']}, "
                                       f"p99 {vt[k]['full']['p99_lsb']} LSB ({vt['full_pixels']:,} covered pixels, "
                                       f"{vt['samples']}x{vt['samples']} samples)")

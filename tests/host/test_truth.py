@@ -155,3 +155,16 @@ def test_grid_samples_are_the_frame_rasterized_at_k_times_the_resolution():
     # the same samples up to vertex snapping (1/256 of a pixel here, of a sample there)
     d = np.abs(mean[truth.full] / (k * k) - truth.mean[truth.full])
     assert truth.full.sum() > 7000 and np.percentile(d, 99) < 0.05 and d.max() < 0.5
+
+
+def test_summary_of_a_frame_without_fully_covered_pixels_says_nothing_was_compared(tmp_path):
+    # A 1 x 200 frame of a sliver, or a 1 x 1 frame whose pixel an edge crosses: no pixel is fully covered, the
+    # figures are all None, and the summary said "identical (exact)" for a comparison that never happened.
+    from host.images import truth_rows
+    scene = square(tmp_path, 0.0625 + 0.03125)                              # 1.5 pixels: edge pixels only
+    truth = true_image(scene, 4)
+    rep, _ = against_truth(scene, {"model": truth.image, "float": truth.image}, 4, flip=False)
+    assert rep["full_pixels"] == 0 and rep["edge_pixels"] > 0 and rep["model"]["full"]["psnr_db"] is None
+    rows = dict(truth_rows({"vs_truth": rep}))
+    assert "identical" not in rows["model vs truth (c)"] and "not compared" in rows["model vs truth (c)"]
+    assert "not compared" in rows["float (a) vs truth (c)"]

@@ -289,6 +289,42 @@ def test_an_empty_frame_is_a_warning_in_render_and_a_refusal_in_fit_and_sim(sand
     one_error(capsys, "nothing is drawn")
 
 
+@pytest.mark.parametrize("way", ["--depth", "--textures"])
+def test_sim_with_the_frame_buffer_or_external_textures_judges_the_frame(sandbox, capsys, monkeypatch, way):
+    """``bumpmap sim --depth`` and ``--textures external`` exited 0 on "RTL == model" without judging the frame
+    against reference (a): ``--max-lsb`` was ignored, ``report.json`` had no verdict and a depth disagreement
+    beyond the precision could not fail. The simulator is replaced by one that returns the model's frame (RTL ==
+    model), so only the judging is tested; ``--max-lsb 0`` on a frame 1 LSB from (a) must fail."""
+    import cosim.engine_fetch
+    import cosim.rop
+    from cosim.sim import output_folder
+
+    def fake_depth(params, records, **kw):
+        zbuf, color, stats, out, scan = params.draw(records.matrix())
+        return {"color": color, "rtl_bytes_read": stats["bytes_read"], "rtl_bytes_written": stats["bytes_written"],
+                "mismatches": 0, "first": [], "status": 0, "cycles": 1, "seconds": 0.0, "build_seconds": 0.0}
+
+    def fake_fetch(params, records, **kw):
+        out, _ = params.compute(records)
+        return {"mismatches": 0, "first": [], "rtl": out, "bursts_equal": True, "rtl_bytes": 0,
+                "model_bytes": 0, "maps": {}, "cycles": 1, "clocks_per_fragment": 1.0, "raster_clocks": 1,
+                "seconds": 0.0, "build_seconds": 0.0}
+
+    monkeypatch.setattr(cosim.rop, "run_engine", fake_depth)
+    monkeypatch.setattr(cosim.engine_fetch, "run_engine_fetch", fake_fetch)
+    path = scene(sandbox, bump='[materials.bump]\nprocedural = "mexican-hat"\nsize = [8, 8]\nstrength = 2.0')
+    argv = ["--scene", str(path), "--truth", "0", *(["--depth"] if way == "--depth" else ["--textures", "external"])]
+    assert bumpmap(["sim", *argv]) == 0
+    report = json.loads((output_folder(argv) / "report.json").read_text())
+    assert report["verdict"]["pass"] and report["max_lsb_vs_float_well_conditioned"] == 1
+    capsys.readouterr()
+    assert bumpmap(["sim", *argv, "--max-lsb", "0"]) == 1
+    out, err = capsys.readouterr()
+    assert "RTL == model" in out and "verdict" in out and "FAIL" in out
+    assert "over the bound of 0 LSB" in err
+    assert not json.loads((output_folder([*argv, "--max-lsb", "0"]) / "report.json").read_text())["verdict"]["pass"]
+
+
 # -- 6. strict JSON -------------------------------------------------------------------------------------------
 def test_reports_are_strict_json(sandbox, capsys):
     """``report.json`` held ``Infinity`` when a frame equalled a reference; a strict parser must read it."""

@@ -146,8 +146,9 @@ def test_sim_folder_names_reference_c_only_when_asked():
 
 def test_a_triangle_the_records_cannot_hold_is_refused_naming_the_scene_and_the_remedy(tmp_path):
     # A triangle whose U spans exactly two tiles (vertex values -1 .. 1) fits the fragments of a preset fitted
-    # to another scene (sphere-fit: U in s1.18, [-1, 1)) but not its triangle record: `render` drew it, `render
-    # --triangles` and `sim` refused it with the set-up's bare "triangle 0: attribute U ..." (no scene, no remedy).
+    # to another scene (sphere-fit: its vertex format holds [-1, 1)) but not its triangle record: `render` drew
+    # it, `render --triangles` and `sim` refused it with the set-up's bare "triangle 0: attribute U ..." (no
+    # scene, no remedy).
     path = tmp_path / "two-tiles.toml"
     path.write_text("""
 [image]

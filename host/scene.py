@@ -314,9 +314,12 @@ def parse_scene(text: str, *, source: str = "<string>", base: Path | None = None
             r.fail(f"materials[{i}].name", f"{show_value(m.name)} is already the name of materials[{names[m.name]}]")
         names[m.name] = i
 
-    meshes = [_mesh(r, t, f"meshes[{i}]", names, len(materials))
-              for i, t in enumerate(r.array_of_tables(doc["meshes"], "meshes"))]
-    _triangle_budget(r, sum(m.n_triangles for m in meshes), "meshes")
+    meshes, count = [], 0
+    for i, t in enumerate(r.array_of_tables(doc["meshes"], "meshes")):
+        # each mesh's count is checked against what the meshes before it leave of the budget, before its
+        # generator runs: many meshes, each within the budget alone, must not all be built first
+        meshes.append(_mesh(r, t, f"meshes[{i}]", names, len(materials), before=count))
+        count += meshes[-1].n_triangles
     anim = parse_animation(r, doc["animation"], camera, lights) if "animation" in doc else None
     return Scene(path=path, name=name, width=width, height=height, background=background, camera=camera,
                  ambient=ambient, lights=tuple(lights), materials=tuple(materials), meshes=tuple(meshes),
@@ -400,9 +403,12 @@ def _bump(r: Reader, v, key: str, base: Path) -> BumpSpec:
                     strength=strength, key=key)
 
 
-def _triangle_budget(r: Reader, count: int, key: str) -> None:
-    if count > MAX_TRIANGLES:
-        r.fail(key, f"makes {count:,} triangles, more than the {MAX_TRIANGLES:,} a scene may hold")
+def _triangle_budget(r: Reader, count: int, key: str, before: int = 0) -> None:
+    """Refuse ``count`` more triangles after the ``before`` of the meshes before this one, beyond
+    :data:`MAX_TRIANGLES` (called before a generator runs)."""
+    if before + count > MAX_TRIANGLES:
+        more = f" after the {before:,} of the meshes before it" if before else ""
+        r.fail(key, f"makes {count:,} triangles{more}, more than the {MAX_TRIANGLES:,} a scene may hold")
 
 
 def _unit_rows(r: Reader, n: np.ndarray, key: str) -> np.ndarray:
@@ -413,7 +419,7 @@ def _unit_rows(r: Reader, n: np.ndarray, key: str) -> np.ndarray:
     return n / length[..., None]
 
 
-def _mesh(r: Reader, t, key: str, names: dict, n_mat: int) -> Mesh:
+def _mesh(r: Reader, t, key: str, names: dict, n_mat: int, before: int = 0) -> Mesh:
     if not isinstance(t, dict):
         r.fail(key, f"expected a table, got {show_value(t)}")
     if "kind" not in t:
@@ -456,7 +462,7 @@ def _mesh(r: Reader, t, key: str, names: dict, n_mat: int) -> Mesh:
             if len(pos) % 3:
                 r.fail(f"{key}.positions", f"without indices, expected a multiple of 3 vertices, got {len(pos)}")
             idx = np.arange(len(pos)).reshape(-1, 3)
-        _triangle_budget(r, len(idx), f"{key}.indices" if "indices" in t else f"{key}.positions")
+        _triangle_budget(r, len(idx), f"{key}.indices" if "indices" in t else f"{key}.positions", before)
         P, UV = pos[idx], uvs[idx]
         cross = np.cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0])
         area = np.linalg.norm(cross, axis=-1)
@@ -478,14 +484,14 @@ def _mesh(r: Reader, t, key: str, names: dict, n_mat: int) -> Mesh:
         if uv[0][0] == uv[1][0] or uv[0][1] == uv[1][1]:
             r.fail(f"{key}.uv", f"u0 must differ from u1 and v0 from v1, got {show_value(t['uv'])}")
         div = r.vector(t.get("divisions", [1, 1]), f"{key}.divisions", 2, lo=1, hi=1024, integer=True)
-        _triangle_budget(r, 2 * div[0] * div[1], f"{key}.divisions")
+        _triangle_budget(r, 2 * div[0] * div[1], f"{key}.divisions", before)
         P, N, UV = quad_mesh(o, eu, ev, uv, div)
     else:
         c = r.vector(t["center"], f"{key}.center", 3, mag=MAX_COORD)
         rad = r.number(t["radius"], f"{key}.radius", lo=0.0, lo_open=True, hi=MAX_COORD)
         seg = r.integer(t.get("segments", 32), f"{key}.segments", 3, 4096)
         rings = r.integer(t.get("rings", 16), f"{key}.rings", 2, 4096)
-        _triangle_budget(r, 2 * seg * rings, f"{key}.segments")
+        _triangle_budget(r, 2 * seg * (rings - 1), f"{key}.segments", before)
         P, N, UV = sphere_mesh(c, rad, seg, rings)
     return Mesh(kind, mat, two_sided, P, N, UV, key)
 

@@ -262,3 +262,29 @@ def test_generated_meshes_share_edges_bit_for_bit(mesh):
         assert boundary == []
     else:                                                                      # the quad: its outline only
         assert len(boundary) == 2 * (7 + 3)
+
+
+def test_triangle_budget_is_checked_before_each_generator_runs(tmp_path, monkeypatch):
+    """The scene-wide triangle budget holds before a mesh is built: many meshes, each within the budget alone,
+    are refused at the first one beyond it, not after all of them were generated (6 meshes of 2^20 triangles
+    took 4 s and 1.4 GB before their sum was checked; a file of 100 lines, 60 of them, exhausts the memory). Here
+    the budget is 100 triangles."""
+    import host.scene as scene_module
+    built = []
+    real = scene_module.quad_mesh
+    monkeypatch.setattr(scene_module, "MAX_TRIANGLES", 100)
+    monkeypatch.setattr(scene_module, "quad_mesh", lambda *a, **k: built.append(1) or real(*a, **k))
+    quad = ('\n[[meshes]]\nkind = "quad"\nmaterial = "plain"\norigin = [0.0, 0.0, 0.0]\n'
+            'edge_u = [1.0, 0.0, 0.0]\nedge_v = [0.0, -1.0, 0.0]\ndivisions = [7, 7]\n')        # 98 triangles
+    head = BASE.split("[[meshes]]")[0]
+    assert len(load_scene(write(tmp_path, head + quad)).triangles().positions) == 98
+    built.clear()
+    path, text = error_of(tmp_path, head + quad * 5)
+    assert text.startswith(f"{path}: meshes[1].divisions: makes 98 triangles after the 98 of the meshes before "
+                           "it, more than the 100 a scene may hold"), text
+    assert len(built) == 1
+    path, text = error_of(tmp_path, head + quad + quad.replace("kind = \"quad\"", "kind = \"sphere\"")
+                          .replace("origin = [0.0, 0.0, 0.0]\nedge_u = [1.0, 0.0, 0.0]\nedge_v = [0.0, -1.0, 0.0]\n"
+                                   "divisions = [7, 7]", "center = [0.0, 0.0, 0.0]\nradius = 1.0\nsegments = 3\n"
+                                   "rings = 2"))                  # 6 triangles: 104 in all
+    assert "meshes[1].segments: makes 6 triangles after the 98" in text, text

@@ -25,12 +25,12 @@ Conventions
 Schema
 ------
 Limits (module constants, the same for files and command-line options): image edges 1 .. 8192 pixels
-(:data:`MAX_IMAGE_SIZE`), map edges 1 .. 4096 texels (graffiti at least 4 high), every coordinate (positions,
-targets, origins, edges, centers, radii, texture coordinates, ``near``, ``far``) of magnitude at most 1e6
-(:data:`MAX_COORD`), colors of lights, ambient and specular at most 1e3 (:data:`MAX_COLOR`), shininess 1e4,
-bump strength 1e3, repeats 1e4, ``sigma`` 4096 texels; ``near`` at least 1e-6; at most 2^20 triangles
-(:data:`MAX_TRIANGLES`, a generator's count checked before it runs). A file may start with a UTF-8
-byte-order mark.
+(:data:`MAX_IMAGE_SIZE`), map edges 1 .. 4096 texels (PNG files too, from their header; graffiti at least 4
+high), every coordinate (positions, targets, origins, edges, centers, radii, texture coordinates, ``near``,
+``far``) of magnitude at most 1e6 (:data:`MAX_COORD`), colors of lights, ambient and specular at most 1e3
+(:data:`MAX_COLOR`), shininess 1e4, bump strength 1e3, repeats 1e4, ``sigma`` 4096 texels; ``near`` at least
+1e-6; at most 2^20 triangles (:data:`MAX_TRIANGLES`, each generator's count checked before it runs). A file
+may start with a UTF-8 byte-order mark.
 
 The complete commented example below is also a valid scene (``SCHEMA_EXAMPLE``, tested)::
 

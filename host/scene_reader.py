@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from host.scene_types import SceneError
+from host.scene_types import MAX_MAP_SIZE, SceneError
 
 __all__ = ["Reader", "show_value"]
 
@@ -124,14 +124,22 @@ class Reader:
         name = self.string(v, key)
         path = (base / name).resolve()
         try:
+            import warnings
+
             from PIL import Image
-            with Image.open(path) as im:
-                im.verify()
-                fmt = im.format
+            with warnings.catch_warnings():     # a huge size is refused below, by the map limit, not warned about
+                warnings.simplefilter("ignore", Image.DecompressionBombWarning)
+                with Image.open(path) as im:    # reads the header only: the size is known before any decoding
+                    fmt, size = im.format, im.size
+                    if max(size) <= MAX_MAP_SIZE:
+                        im.verify()
         except FileNotFoundError:
             self.fail(key, f"file {show_value(name)} not found (looked for {path})")
         except Exception as exc:                                         # noqa: BLE001 -- reported, not hidden
             self.fail(key, f"cannot read {show_value(name)} as an image ({path}): {exc}")
         if fmt != "PNG":
             self.fail(key, f"{show_value(name)} is a {fmt} file, expected a PNG")
+        if max(size) > MAX_MAP_SIZE:
+            self.fail(key, f"{show_value(name)} is {size[0]} x {size[1]} pixels, more than the {MAX_MAP_SIZE} "
+                           f"texels a map edge may have")
         return path

@@ -288,3 +288,21 @@ def test_triangle_budget_is_checked_before_each_generator_runs(tmp_path, monkeyp
                                    "divisions = [7, 7]", "center = [0.0, 0.0, 0.0]\nradius = 1.0\nsegments = 3\n"
                                    "rings = 2"))                  # 6 triangles: 104 in all
     assert "meshes[1].segments: makes 6 triangles after the 98" in text, text
+
+
+@pytest.mark.parametrize("where", ["color", "bump"])
+def test_png_maps_hold_the_map_edge_limit(tmp_path, where):
+    """A PNG map is held to the map edge limit (4096 texels) like a procedural one, from its header, before it
+    is decoded: a 35 kB PNG of 5000 x 5000 took 48 s and 2.4 GB to draw a 16 x 16 frame, and a larger one
+    exhausts the memory."""
+    Image.new("L", (4097, 1)).save(tmp_path / "wide.png")
+    Image.new("L", (4096, 2)).save(tmp_path / "ok.png")
+    table = ('[materials.bump]\nfile = "{}"\n' if where == "bump" else '[materials.color]\nfile = "{}"\n')
+    text = BASE.replace('[[materials]]\nname = "bumpy"\ncolor = [0.5, 0.5, 0.5]\n',
+                        '[[materials]]\nname = "bumpy"\n' + ("color = [0.5, 0.5, 0.5]\n" if where == "bump" else ""))
+    text = text.replace('[materials.bump]\nprocedural = "mexican-hat"\nrepeat = [2, 2]\n',
+                        table.format("ok.png"))
+    load_scene(write(tmp_path, text))
+    path, err = error_of(tmp_path, text.replace("ok.png", "wide.png"))
+    assert err == (f'{path}: materials[1].{where}.file: "wide.png" is 4097 x 1 pixels, more than the 4096 texels '
+                   "a map edge may have"), err

@@ -48,6 +48,7 @@ from host.atomic import (
     atomic_save_npy,
     check_output_dir,
     check_output_file,
+    check_output_not_input,
     strict_json,
 )
 from host.truth import DEFAULT_SAMPLES
@@ -78,9 +79,9 @@ def cmd_info(args) -> int:
 
 def cmd_eval(args) -> int:
     params = _params(args)
-    check_output_file(args.output, "output")                  # before any work: nothing half done
+    check_output_file(args.output, "output", inputs=[args.input])     # before any work: nothing half done
     if args.hex:
-        check_output_file(args.hex, "--hex file")
+        check_output_file(args.hex, "--hex file", inputs=[args.input, args.output])
     src = Path(args.input)
     try:
         values = np.load(src, allow_pickle=False)
@@ -148,6 +149,23 @@ def render_summary(args, report: dict) -> str:
     return summary_table(rows)
 
 
+def preset_file(name) -> Path | None:
+    """The file of pipeline preset ``name`` if it is read from one (not built in, a valid name), else ``None``:
+    an input an output must not overwrite."""
+    from fxmodel.pipeline.presets import BUILTIN_PRESET_UNITS, preset_path
+    if not isinstance(name, str) or name in BUILTIN_PRESET_UNITS:
+        return None
+    try:
+        return preset_path(name)
+    except ValueError:
+        return None
+
+
+def scene_images(scene) -> list:
+    """The PNG files a loaded scene reads (its materials' color textures and bump maps)."""
+    return [spec.path for m in scene.materials for spec in (m.color, m.bump) if spec is not None and spec.path]
+
+
 def cmd_render(args) -> int:
     from host.render import (
         from_triangles,
@@ -159,12 +177,14 @@ def cmd_render(args) -> int:
         tell,
     )
     from host.scene import SceneError
-    check_output_file(args.output, "output PNG")              # before any work
+    check_output_file(args.output, "output PNG", inputs=[args.scene, preset_file(args.preset)])  # before any work
     if args.refs:
         check_output_dir(args.refs, "--refs folder")
     try:
         frame = prepare(args.scene, size=args.size, preset=args.preset, cube_size=args.cube_size,
                         allow_clamp=args.allow_clamp)
+        # the scene's PNG maps, known once it is read: still before anything is written
+        check_output_not_input(args.output, "output PNG", scene_images(frame.scene))
         tframe = from_triangles(frame) if args.triangles else None
     except (SceneError, OSError) as exc:
         raise SystemExit(f"error: {exc}") from None

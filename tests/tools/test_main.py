@@ -170,6 +170,56 @@ def test_output_problems_are_one_line_before_the_work(sandbox, capsys):
     one_error(capsys, "preset-file")
 
 
+def test_an_output_that_is_an_input_is_refused_and_the_input_kept(sandbox, capsys):
+    """``render scene.toml scene.toml`` replaced the scene file with the PNG, and an output naming the scene's PNG
+    map, the preset file or (another spelling, a hard link of) the input did the same; ``eval`` and ``send
+    --dry-run`` too. Each is refused (exit 2, one line) before the work, and the input is unchanged."""
+    import numpy as np
+    from PIL import Image
+    path = scene(sandbox, color='{ file = "paint.png" }')
+    Image.new("RGB", (4, 4), (200, 100, 50)).save(sandbox / "paint.png")
+    (sandbox / "presets").mkdir()
+    (sandbox / "presets" / "p.toml").write_text("weight_bits = 12\n")
+    os.link(path, sandbox / "link.toml")
+    before = listing(sandbox)
+    for out, preset in ((path, "default"), ("./small.toml", "default"), ("link.toml", "default"),
+                        ("paint.png", "default"), ("presets/p.toml", "p")):
+        assert bumpmap(["render", str(path), str(out), "--size", "8", "--cube-size", "8", "--preset", preset]) == 2
+        one_error(capsys, f"output PNG {Path(out)}: is the input")
+    np.save(sandbox / "in.npy", np.array([1.0, 1.5]))
+    before = listing(sandbox)
+    assert bumpmap(["eval", "recip", "in.npy", "in.npy"]) == 2
+    one_error(capsys, "output in.npy: is the input in.npy")
+    assert bumpmap(["send", "--scene", str(path), "--dry-run", str(path)]) == 2
+    one_error(capsys, "--dry-run file", "is the input")
+    assert listing(sandbox) == before
+
+
+def test_an_output_that_is_not_a_regular_file_is_refused(sandbox, capsys):
+    """An output path naming a FIFO or a device (``render scene.toml /dev/null``) was renamed over: run as root,
+    that replaced ``/dev/null`` with a regular file. It is refused before the work (exit 2, one line); here a
+    FIFO stands for the device."""
+    path = scene(sandbox)
+    os.mkfifo(sandbox / "fifo")
+    for argv in (["render", str(path), "fifo", "--size", "8", "--cube-size", "8"],
+                 ["send", "--scene", str(path), "--dry-run", "fifo"]):
+        assert bumpmap(argv) == 2
+        one_error(capsys, "fifo: not a regular file")
+        assert stat.S_ISFIFO(os.lstat(sandbox / "fifo").st_mode)
+
+
+def test_animate_names_its_picture_by_the_file_not_the_scene_name(sandbox, tmp_path):
+    """``bumpmap animate`` named its GIF by the scene's ``name``: ``name = "../../x"`` wrote ``../../x.gif``
+    outside ``--out``. The default is the scene file's stem."""
+    pytest.importorskip("imageio.v3")
+    path = scene(sandbox, name="../../escaped")
+    path.write_text(path.read_text() + "[animation]\nframes = 2\n")
+    before = listing(tmp_path)
+    assert bumpmap(["animate", "--scene", str(path), "--size", "16", "--out", "out", "--rates"]) == 0
+    after = listing(tmp_path)
+    assert sorted(k for k in after if before.get(k) != after[k]) == ["work/out/small.gif"]
+
+
 @pytest.mark.skipif(os.geteuid() == 0, reason="root writes into read-only folders")
 def test_read_only_output_folder_is_refused_before_the_work(sandbox, capsys):
     path = scene(sandbox)

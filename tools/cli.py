@@ -33,6 +33,8 @@
 from __future__ import annotations
 
 import json
+import math
+import os
 import sys
 import time
 from pathlib import Path
@@ -77,6 +79,29 @@ def cmd_info(args) -> int:
     return 0
 
 
+def load_npy(path) -> np.ndarray:
+    """A ``.npy`` array from an untrusted file: never a pickle (``allow_pickle=False``), and its header's shape
+    and dtype checked against the file's size before numpy allocates the array (a 130-byte file declaring
+    ``shape (10**12,)`` made ``np.load`` ask for 7 TiB and end in a ``MemoryError`` traceback). Raises
+    ``ValueError`` (or ``OSError``) naming what is wrong."""
+    path = Path(path)
+    with open(path, "rb") as fh:
+        version = np.lib.format.read_magic(fh)
+        read_header = {(1, 0): np.lib.format.read_array_header_1_0,
+                       (2, 0): np.lib.format.read_array_header_2_0}.get(version)
+        if read_header is None:
+            raise ValueError(f"unsupported .npy format version {version}")
+        shape, _, dtype = read_header(fh, max_header_size=10_000)
+        data = os.fstat(fh.fileno()).st_size - fh.tell()
+    if dtype.hasobject:
+        raise ValueError(f"dtype {dtype} holds Python objects (a pickle), which are never loaded")
+    need = math.prod(shape) * dtype.itemsize
+    if need != data:
+        raise ValueError(f"its header declares shape {shape} of {dtype} ({need:,} bytes), but the file holds "
+                         f"{data:,} bytes of data")
+    return np.load(path, allow_pickle=False)
+
+
 def cmd_eval(args) -> int:
     params = _params(args)
     check_output_file(args.output, "output", inputs=[args.input])     # before any work: nothing half done
@@ -84,7 +109,7 @@ def cmd_eval(args) -> int:
         check_output_file(args.hex, "--hex file", inputs=[args.input, args.output])
     src = Path(args.input)
     try:
-        values = np.load(src, allow_pickle=False)
+        values = load_npy(src)
     except (OSError, ValueError) as exc:
         raise SystemExit(f"error: cannot read {src} as a .npy array: {exc}") from None
     if values.ndim == 1 and len(params.inputs) == 1:

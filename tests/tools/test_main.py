@@ -244,6 +244,21 @@ def test_eval_checks_both_outputs_before_writing_either(sandbox, capsys):
     assert np.load(sandbox / "new" / "out.npy").shape[0] == 2
 
 
+def test_eval_checks_a_npy_header_against_the_file_before_loading(sandbox, capsys):
+    """A 144-byte ``.npy`` whose header declares ``shape (10**12,)`` made ``np.load`` ask for 7 TiB: a
+    ``MemoryError`` traceback. The header is checked against the file's size first; pickles are never loaded."""
+    import numpy as np
+    header = "{'descr': '<f8', 'fortran_order': False, 'shape': (1000000000000,), }".ljust(117) + "\n"
+    (sandbox / "huge.npy").write_bytes(b"\x93NUMPY\x01\x00" + len(header).to_bytes(2, "little") + header.encode()
+                                       + bytes(16))
+    assert bumpmap(["eval", "recip", "huge.npy", "out.npy"]) == 2
+    one_error(capsys, "huge.npy", "shape (1000000000000,)", "holds 16 bytes")
+    np.save(sandbox / "obj.npy", np.array([1.0, None], dtype=object), allow_pickle=True)
+    assert bumpmap(["eval", "recip", "obj.npy", "out.npy"]) == 2
+    one_error(capsys, "obj.npy", "never loaded")
+    assert not (sandbox / "out.npy").exists()
+
+
 @pytest.mark.parametrize("argv, words", [
     (["render", "S", "x.png", "--cube-size", "100000"], "--cube-size: 100000 is out of range"),
     (["render", "S", "x.png", "--cube-size", "0"], "--cube-size: 0 is out of range"),

@@ -282,6 +282,9 @@ def parse_scene(text: str, *, source: str = "<string>", base: Path | None = None
         doc = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise SceneError(f"{source}: TOML syntax error: {exc}") from None
+    except RecursionError:              # tomllib recurses per level: [[[[...]]]] a few hundred deep
+        raise SceneError(f"{source}: TOML nested too deeply to read (arrays or inline tables within each other "
+                         "hundreds of levels deep; a scene needs a few)") from None
     r.table(doc, "", ("name", "ambient", "image", "camera", "lights", "materials", "meshes", "animation"),
             ("image", "camera", "materials", "meshes"))
     name = r.string(doc.get("name", path.stem if path else "scene"), "name")

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import math
+import reprlib
 from pathlib import Path
 
 import numpy as np
@@ -21,8 +22,8 @@ def show_value(value) -> str:
     """A short TOML-like rendering of a bad value for an error message."""
     try:
         text = json.dumps(value, default=str, ensure_ascii=False)
-    except (TypeError, ValueError):
-        text = repr(value)
+    except (TypeError, ValueError, RecursionError):     # RecursionError: nested hundreds of levels deep
+        text = reprlib.repr(value)
     return text if len(text) <= 60 else text[:57] + "..."
 
 

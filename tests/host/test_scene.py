@@ -306,3 +306,15 @@ def test_png_maps_hold_the_map_edge_limit(tmp_path, where):
     path, err = error_of(tmp_path, text.replace("ok.png", "wide.png"))
     assert err == (f'{path}: materials[1].{where}.file: "wide.png" is 4097 x 1 pixels, more than the 4096 texels '
                    "a map edge may have"), err
+
+
+def test_a_deeply_nested_bad_value_is_shown_short(tmp_path):
+    """The message shows a bad value nested deeper than json.dumps recurses (where tomllib still reads it) in a
+    few characters, not a ``RecursionError``."""
+    from host.scene_reader import show_value
+    deep = []
+    for _ in range(5000):
+        deep = [deep]
+    assert len(show_value(deep)) <= 60
+    path, text = error_of(tmp_path, BASE.replace("repeat = [2, 2]", "repeat = " + "[" * 200 + "]" * 200))
+    assert text.startswith(f"{path}: materials[1].bump.repeat: expected 2 numbers"), text

@@ -337,6 +337,22 @@ def test_preset_errors_blame_the_right_key(sandbox, capsys, text, words):
     one_error(capsys, words)
 
 
+@pytest.mark.parametrize("depth", [500, 5000])
+def test_toml_nested_too_deeply_is_one_line(sandbox, capsys, depth):
+    """``a = [[[[...]]]]`` a few hundred levels deep (a 10 kB file) made tomllib raise ``RecursionError``: a
+    traceback and exit 1, for a scene file and for a preset file."""
+    deep = "[" * depth + "]" * depth
+    bad = sandbox / "deep.toml"
+    bad.write_text(f"name = {deep}\n")
+    assert bumpmap(["render", str(bad), "x.png"]) == 2
+    one_error(capsys, "deep.toml: TOML nested too deeply")
+    (sandbox / "presets").mkdir()
+    (sandbox / "presets" / "deep.toml").write_text(f"weight_bits = {deep}\n")
+    assert bumpmap(["render", str(scene(sandbox)), "x.png", "--preset", "deep"]) == 2
+    one_error(capsys, "presets/deep.toml: TOML nested too deeply")
+    assert not (sandbox / "x.png").exists()
+
+
 # -- 5. no empty success ----------------------------------------------------------------------------------------
 def test_an_empty_frame_is_a_warning_in_render_and_a_refusal_in_fit_and_sim(sandbox, capsys):
     """Camera below the floor (back faces culled): render drew a black PNG with "pass": true and no word, fit

@@ -29,8 +29,10 @@ Limits (module constants, the same for files and command-line options): image ed
 high), every coordinate (positions, targets, origins, edges, centers, radii, texture coordinates, ``near``,
 ``far``) of magnitude at most 1e6 (:data:`MAX_COORD`), colors of lights, ambient and specular at most 1e3
 (:data:`MAX_COLOR`), shininess 1e4, bump strength 1e3, repeats 1e4, ``sigma`` 4096 texels; ``near`` at least
-1e-6; at most 2^20 triangles (:data:`MAX_TRIANGLES`, each generator's count checked before it runs). A file
-may start with a UTF-8 byte-order mark.
+1e-6; at most 2^20 triangles (:data:`MAX_TRIANGLES`, each generator's count checked before it runs). Resource
+caps (:mod:`host.scene_types` gives the reasons): at most 32 lights (:data:`MAX_LIGHTS`), maps of 2 x 4096^2
+texels in all materials together (:data:`MAX_SCENE_TEXELS`), a chiselled text of 4096 characters
+(:data:`MAX_TEXT`). A file may start with a UTF-8 byte-order mark.
 
 The complete commented example below is also a valid scene (``SCHEMA_EXAMPLE``, tested)::
 
@@ -51,7 +53,7 @@ The complete commented example below is also a valid scene (``SCHEMA_EXAMPLE``, 
     near = 0.1                       # clipping distances along the view axis, 0 < near < far
     far = 100.0
 
-    [[lights]]                       # any number (zero included)
+    [[lights]]                       # 0 .. 32 of them
     direction = [-1.0, 1.0, 0.5]     # TOWARD the light, world space; normalized on load
     color = [0.7, 0.3, 0.8]          # RGB >= 0
 
@@ -143,11 +145,14 @@ from host.scene_types import (
     MAX_COLOR,
     MAX_COORD,
     MAX_IMAGE_SIZE,
+    MAX_LIGHTS,
     MAX_MAP_SIZE,
     MAX_REPEAT,
+    MAX_SCENE_TEXELS,
     MAX_SHININESS,
     MAX_SIGMA,
     MAX_STRENGTH,
+    MAX_TEXT,
     MAX_TRIANGLES,
     MIN_GRAFFITI_HEIGHT,
     BumpSpec,
@@ -164,7 +169,8 @@ from host.scene_types import (
 __all__ = ["SceneError", "Camera", "Light", "ColorSpec", "BumpSpec", "Material", "Mesh", "Scene", "Triangles",
            "SCENES", "scene_path", "load_scene", "parse_scene", "SCHEMA_EXAMPLE",
            "MAX_IMAGE_SIZE", "MAX_MAP_SIZE", "MAX_COORD", "MAX_COLOR", "MAX_SHININESS", "MAX_STRENGTH",
-           "MAX_REPEAT", "MAX_SIGMA", "MAX_TRIANGLES", "COLOR_PROCEDURALS", "BUMP_PROCEDURALS"]
+           "MAX_REPEAT", "MAX_SIGMA", "MAX_TRIANGLES", "MAX_LIGHTS", "MAX_SCENE_TEXELS", "MAX_TEXT",
+           "COLOR_PROCEDURALS", "BUMP_PROCEDURALS"]
 
 # ------------------------------------------------------------------------------------------------------------
 # procedural generators: parameter schemas (the generators live in host.bumpmap)
@@ -178,6 +184,13 @@ def _graffiti_size(r: Reader, v, key):
     if size[1] < MIN_GRAFFITI_HEIGHT:
         r.fail(key, f"graffiti needs a texture at least {MIN_GRAFFITI_HEIGHT} texels high, got {show_value(v)}")
     return size
+
+
+def _text(r: Reader, v, key):
+    text = r.string(v, key)
+    if len(text) > MAX_TEXT:
+        r.fail(key, f"{len(text):,} characters, more than the {MAX_TEXT} a chiselled text may have")
+    return text
 
 
 def _rgb01(r: Reader, v, key):
@@ -206,7 +219,7 @@ BUMP_PROCEDURALS: dict[str, dict[str, tuple[Any, Callable]]] = {
         "sigma": (lambda p: min(p["size"]) / 8.0, lambda r, v, k: r.number(v, k, lo=0.0, hi=MAX_SIGMA, lo_open=True)),
     },
     "chiselled-text": {
-        "text": ("Berlin Hauptstadt", lambda r, v, k: r.string(v, k)),
+        "text": ("Berlin Hauptstadt", lambda r, v, k: _text(r, v, k)),
         "size": ((512, 256), _size),
         "font_size": (lambda p: max(4, p["size"][1] // 5), lambda r, v, k: r.integer(v, k, 4, 1000)),
         "depth": (0.6, lambda r, v, k: r.number(v, k, lo=0.0, hi=1.0)),
@@ -298,7 +311,10 @@ def parse_scene(text: str, *, source: str = "<string>", base: Path | None = None
     camera = _camera(r, doc["camera"])
 
     lights = []
-    for i, t in enumerate(r.array_of_tables(doc.get("lights", []), "lights")):
+    light_tables = r.array_of_tables(doc.get("lights", []), "lights")
+    if len(light_tables) > MAX_LIGHTS:
+        r.fail("lights", f"{len(light_tables):,} lights, more than the {MAX_LIGHTS} a scene may have")
+    for i, t in enumerate(light_tables):
         key = f"lights[{i}]"
         r.table(t, key, ("direction", "color"), ("direction", "color"))
         d = np.array(r.vector(t["direction"], f"{key}.direction", 3, nonzero=True, mag=MAX_COORD))
@@ -316,6 +332,7 @@ def parse_scene(text: str, *, source: str = "<string>", base: Path | None = None
         if m.name in names:
             r.fail(f"materials[{i}].name", f"{show_value(m.name)} is already the name of materials[{names[m.name]}]")
         names[m.name] = i
+    _texel_budget(r, materials)
 
     meshes, count = [], 0
     for i, t in enumerate(r.array_of_tables(doc["meshes"], "meshes")):
@@ -404,6 +421,34 @@ def _bump(r: Reader, v, key: str, base: Path) -> BumpSpec:
     r.table(v, key, ("file",) + common)
     return BumpSpec("file", path=r.png(v["file"], f"{key}.file", base), repeat=_repeat(r, v, key),
                     strength=strength, key=key)
+
+
+def _map_texels(spec) -> int:
+    """Texels of a material's color texture or bump map (a PNG's from its header; a constant color, a 1 x 1
+    texture, is not counted)."""
+    if spec is None:
+        return 0
+    if spec.kind == "procedural":
+        w, h = spec.kwargs["size"]
+        return w * h
+    if spec.kind == "file":
+        from PIL import Image
+        with Image.open(spec.path) as im:           # the header only (Reader.png read it already)
+            w, h = im.size
+        return w * h
+    return 0
+
+
+def _texel_budget(r: Reader, materials) -> None:
+    """Refuse maps of more than :data:`MAX_SCENE_TEXELS` texels in all (every material's are built), naming the
+    first material beyond it; before any map is built."""
+    total = 0
+    for i, m in enumerate(materials):
+        total += _map_texels(m.color) + _map_texels(m.bump)
+        if total > MAX_SCENE_TEXELS:
+            r.fail(f"materials[{i}]", f"its maps bring the scene's maps to {total:,} texels, more than the "
+                                      f"{MAX_SCENE_TEXELS:,} (two of {MAX_MAP_SIZE} x {MAX_MAP_SIZE}) a scene "
+                                      "may have: every material's maps are built, though a frame shows one")
 
 
 def _triangle_budget(r: Reader, count: int, key: str, before: int = 0) -> None:

@@ -27,6 +27,16 @@ MAX_SIGMA = float(MAX_MAP_SIZE)
 MAX_TRIANGLES = 1 << 20
 #: Smallest graffiti texture height (its bands need this many texels).
 MIN_GRAFFITI_HEIGHT = 4
+#: Resource caps (not what the hardware holds, but what keeps the host's work on one small file bounded):
+#: every material's maps are built before the frame is drawn (a full-size map takes 30 to 40 s and 1.5 to 5 GB),
+#: though a frame shows one material: the texels of all maps together are at most one material's color texture
+#: and bump map at the largest size. Each light is a pass over every texel of both reflectance cubes (about 1 s
+#: a light at the largest cube, 1024): at most 32 lights. A chiselled text is measured whole at every font size
+#: tried (Pillow refuses 10^6 characters): at most 4096 characters, more than the largest map shows at the
+#: smallest font (4 pixels).
+MAX_SCENE_TEXELS = 2 * MAX_MAP_SIZE ** 2
+MAX_LIGHTS = 32
+MAX_TEXT = 4096
 
 
 class SceneError(ValueError):

@@ -318,3 +318,32 @@ def test_a_deeply_nested_bad_value_is_shown_short(tmp_path):
     assert len(show_value(deep)) <= 60
     path, text = error_of(tmp_path, BASE.replace("repeat = [2, 2]", "repeat = " + "[" * 200 + "]" * 200))
     assert text.startswith(f"{path}: materials[1].bump.repeat: expected 2 numbers"), text
+
+
+def test_resource_caps_lights_texels_text(tmp_path):
+    """Caps that keep the host's work on one small file bounded (``host.scene_types``): 20,000 lights (a 2 MB
+    file) took 45 s at the default cube, more at a larger one; the maps of every material are built (three
+    hidden 2048^2 materials took 10 s, dozens of 4096^2 ones exhaust the memory); a chiselled text of 2 million
+    characters ended in Pillow's 'too many characters in string', naming no file or key."""
+    one = "[[lights]]\ndirection = [0.0, 0.0, 1.0]\ncolor = [1.0, 1.0, 1.0]\n\n"
+    assert len(load_scene(write(tmp_path, BASE.replace(one, one * 32))).lights) == 32
+    path, text = error_of(tmp_path, BASE.replace(one, one * 33))
+    assert text == f"{path}: lights: 33 lights, more than the 32 a scene may have", text
+
+    hat = '[materials.bump]\nprocedural = "mexican-hat"\nrepeat = [2, 2]\n'
+    big = hat + "size = [4096, 4096]\nsigma = 5.0\n"
+    plain = 'name = "plain"\ncolor = [0.5, 0.5, 0.5]\n'
+    two = BASE.replace(hat, big).replace(plain, plain + big)        # two full-size bump maps, constant colors
+    assert load_scene(write(tmp_path, two)).materials[1].bump.kwargs["size"] == (4096, 4096)
+    path, text = error_of(tmp_path, two.replace(plain, 'name = "plain"\ncolor = { procedural = "checker" }\n'))
+    assert text.startswith(f"{path}: materials[1]: its maps bring the scene's maps to 33,558,528 texels, more "
+                           "than the 33,554,432"), text                    # + the checker's 64 x 64
+    Image.new("RGB", (4096, 1)).save(tmp_path / "c.png")              # a PNG counts by its header's size
+    path, text = error_of(tmp_path, two.replace(plain, 'name = "plain"\ncolor = { file = "c.png" }\n'))
+    assert text.startswith(f"{path}: materials[1]: its maps bring the scene's maps to 33,558,528 texels"), text
+
+    chisel = '[materials.bump]\nprocedural = "chiselled-text"\nsize = [64, 32]\ntext = "{}"\n'
+    assert load_scene(write(tmp_path, BASE.replace(hat, chisel.format("x" * 4096)))).materials[1].bump
+    path, text = error_of(tmp_path, BASE.replace(hat, chisel.format("x" * 2_000_000)))
+    assert text == (f"{path}: materials[1].bump.text: 2,000,000 characters, more than the 4096 a chiselled text "
+                    "may have"), text

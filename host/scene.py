@@ -30,9 +30,9 @@ high), every coordinate (positions, targets, origins, edges, centers, radii, tex
 ``far``) of magnitude at most 1e6 (:data:`MAX_COORD`), colors of lights, ambient and specular at most 1e3
 (:data:`MAX_COLOR`), shininess 1e4, bump strength 1e3, repeats 1e4, ``sigma`` 4096 texels; ``near`` at least
 1e-6; at most 2^20 triangles (:data:`MAX_TRIANGLES`, each generator's count checked before it runs). Resource
-caps (:mod:`host.scene_types` gives the reasons): at most 32 lights (:data:`MAX_LIGHTS`), maps of 2 x 4096^2
-texels in all materials together (:data:`MAX_SCENE_TEXELS`), a chiselled text of 4096 characters
-(:data:`MAX_TEXT`). A file may start with a UTF-8 byte-order mark.
+caps (:mod:`host.scene_types` gives the reasons): at most 2048 x 2048 pixels in all (:data:`MAX_PIXELS`), 32
+lights (:data:`MAX_LIGHTS`), maps of 2 x 4096^2 texels in all materials together (:data:`MAX_SCENE_TEXELS`), a
+chiselled text of 4096 characters (:data:`MAX_TEXT`). A file may start with a UTF-8 byte-order mark.
 
 The complete commented example below is also a valid scene (``SCHEMA_EXAMPLE``, tested)::
 
@@ -41,7 +41,7 @@ The complete commented example below is also a valid scene (``SCHEMA_EXAMPLE``, 
     ambient = [0.08, 0.08, 0.10]     # ambient RGB >= 0 (default [0, 0, 0])
 
     [image]
-    width = 256                      # pixels, 1 .. 8192
+    width = 256                      # pixels, 1 .. 8192, width x height at most 2048 x 2048
     height = 192
     background = [0.0, 0.0, 0.0]     # RGB in [0, 1] where no triangle covers a pixel (default black)
 
@@ -147,6 +147,7 @@ from host.scene_types import (
     MAX_IMAGE_SIZE,
     MAX_LIGHTS,
     MAX_MAP_SIZE,
+    MAX_PIXELS,
     MAX_REPEAT,
     MAX_SCENE_TEXELS,
     MAX_SHININESS,
@@ -169,7 +170,7 @@ from host.scene_types import (
 __all__ = ["SceneError", "Camera", "Light", "ColorSpec", "BumpSpec", "Material", "Mesh", "Scene", "Triangles",
            "SCENES", "scene_path", "load_scene", "parse_scene", "SCHEMA_EXAMPLE",
            "MAX_IMAGE_SIZE", "MAX_MAP_SIZE", "MAX_COORD", "MAX_COLOR", "MAX_SHININESS", "MAX_STRENGTH",
-           "MAX_REPEAT", "MAX_SIGMA", "MAX_TRIANGLES", "MAX_LIGHTS", "MAX_SCENE_TEXELS", "MAX_TEXT",
+           "MAX_REPEAT", "MAX_SIGMA", "MAX_TRIANGLES", "MAX_LIGHTS", "MAX_SCENE_TEXELS", "MAX_TEXT", "MAX_PIXELS",
            "COLOR_PROCEDURALS", "BUMP_PROCEDURALS"]
 
 # ------------------------------------------------------------------------------------------------------------
@@ -306,6 +307,9 @@ def parse_scene(text: str, *, source: str = "<string>", base: Path | None = None
     img = r.table(doc["image"], "image", ("width", "height", "background"), ("width", "height"))
     width = r.integer(img["width"], "image.width", 1, MAX_IMAGE_SIZE)
     height = r.integer(img["height"], "image.height", 1, MAX_IMAGE_SIZE)
+    if width * height > MAX_PIXELS:
+        r.fail("image", f"{width} x {height} is {width * height:,} pixels, more than the {MAX_PIXELS:,} "
+                        "(2048 x 2048) an image may have")
     background = _rgb01(r, img.get("background", [0, 0, 0]), "image.background")
 
     camera = _camera(r, doc["camera"])

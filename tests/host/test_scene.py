@@ -347,3 +347,19 @@ def test_resource_caps_lights_texels_text(tmp_path):
     path, text = error_of(tmp_path, BASE.replace(hat, chisel.format("x" * 2_000_000)))
     assert text == (f"{path}: materials[1].bump.text: 2,000,000 characters, more than the 4096 a chiselled text "
                     "may have"), text
+
+
+def test_image_pixels_are_capped_in_the_file_and_in_an_override(tmp_path):
+    """An 8192 x 8192 image (each edge within 8192) needed some 55 GB and an hour for a covered frame and was
+    killed for memory with no message; width x height is capped at 2048 x 2048, an edge may still be 8192."""
+    sized = BASE.replace("width = 32\nheight = 24", "width = {}\nheight = {}")
+    assert load_scene(write(tmp_path, sized.format(8192, 512))).width == 8192
+    scene = load_scene(write(tmp_path, sized.format(2048, 2048)))
+    path, text = error_of(tmp_path, sized.format(8192, 8192))
+    assert text == (f"{path}: image: 8192 x 8192 is 67,108,864 pixels, more than the 4,194,304 (2048 x 2048) an "
+                    "image may have"), text
+    assert scene.with_size(64).height == 64
+    with pytest.raises(ValueError, match="at 4096 x 4096, 16,777,216 pixels, more than the 4,194,304"):
+        scene.with_size(4096)
+    with pytest.raises(ValueError, match="more than the 4,194,304"):
+        load_scene(write(tmp_path, BASE), size=(8192, 8192))

@@ -271,6 +271,8 @@ def test_eval_checks_a_npy_header_against_the_file_before_loading(sandbox, capsy
     (["sim", "--shards", "0"], "--shards: 0 is out of range"),
     (["sim", "--latency", "99"], "--latency: 99 is out of range"),
     (["sim", "--wait-states", "1"], "--wait-states: 1 is out of range"),
+    (["scenes-stress", "--count", "-5"], "--count: -5 is out of range"),        # was an empty success, exit 0
+    (["scenes-stress", "--size", "0"], "--size: 0 is out of range"),
 ])
 def test_every_numeric_argument_is_ranged(sandbox, capsys, argv, words):
     with pytest.raises(SystemExit) as exc:
@@ -431,6 +433,17 @@ def test_sigterm_ends_in_one_line(sandbox):
     if proc.returncode == 0:                                # finished first on a fast machine
         pytest.skip("the render finished before the signal")
     assert proc.returncode == 143 and err.strip().splitlines()[-1] == "terminated" and "Traceback" not in err
+
+
+def test_out_of_memory_is_one_line(sandbox, capsys, monkeypatch):
+    """A ``MemoryError`` the limits did not prevent (numpy's allocation of a shape an input declared, before the
+    eval's header check) ended in a traceback; it is one line and exit 2 like any bad input."""
+    import host.render
+    def boom(*args, **kwargs):
+        raise MemoryError
+    monkeypatch.setattr(host.render, "prepare", boom)
+    assert bumpmap(["render", str(scene(sandbox)), "x.png"]) == 2
+    one_error(capsys, "error: out of memory")
 
 
 def test_exit_codes_page_states_the_limits_as_the_code_does():

@@ -229,12 +229,15 @@ def cmd_render(args) -> int:
 
 
 def cmd_fit(args) -> int:
-    from fxmodel.pipeline.presets import check_preset_name, presets_dir
+    from fxmodel.pipeline.presets import check_preset_name, preset_path, presets_dir
     from host.scene import SceneError
 
     from .fit import FitError, fit
     if args.name is not None:                                   # before any work: nothing written elsewhere
         check_preset_name(args.name)
+        # `fit scenes/a.toml --out scenes --name a` would replace the scene with the preset (the default name,
+        # <stem>-fit, never names the scene file)
+        check_output_not_input(preset_path(args.name, args.out), "preset file", [args.scene])
     check_output_dir(args.out if args.out is not None else presets_dir(), "preset folder")
     try:
         report = fit(args.scene, max_lsb=args.max_lsb, size=args.size or None, cube_size=args.cube_size,

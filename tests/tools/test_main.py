@@ -192,6 +192,8 @@ def test_an_output_that_is_an_input_is_refused_and_the_input_kept(sandbox, capsy
     one_error(capsys, "output in.npy: is the input in.npy")
     assert bumpmap(["send", "--scene", str(path), "--dry-run", str(path)]) == 2
     one_error(capsys, "--dry-run file", "is the input")
+    assert bumpmap(["fit", str(path), "--out", str(sandbox), "--name", "small", "--quiet"]) == 2
+    one_error(capsys, "preset file", "small.toml: is the input")
     assert listing(sandbox) == before
 
 

@@ -133,7 +133,10 @@ class Reader:
                 with Image.open(path) as im:    # reads the header only: the size is known before any decoding
                     fmt, size = im.format, im.size
                     if max(size) <= MAX_MAP_SIZE:
-                        im.verify()
+                        im.verify()             # the chunks and their checksums
+                if max(size) <= MAX_MAP_SIZE:
+                    with Image.open(path) as im:
+                        im.load()               # and the pixels: a broken deflate stream with good checksums
         except FileNotFoundError:
             self.fail(key, f"file {show_value(name)} not found (looked for {path})")
         except Exception as exc:                                         # noqa: BLE001 -- reported, not hidden

@@ -363,3 +363,19 @@ def test_image_pixels_are_capped_in_the_file_and_in_an_override(tmp_path):
         scene.with_size(4096)
     with pytest.raises(ValueError, match="more than the 4,194,304"):
         load_scene(write(tmp_path, BASE), size=(8192, 8192))
+
+
+def test_a_png_whose_pixels_do_not_decode_is_refused_by_key(tmp_path):
+    """A PNG with good chunk checksums but a broken deflate stream passed the load-time check (``verify``) and
+    stopped the render later with 'error: broken data stream when reading image file', naming no file or key."""
+    import struct
+    import zlib
+
+    def chunk(kind, data):
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
+    header = chunk(b"IHDR", struct.pack(">IIBBBBB", 8, 8, 8, 0, 0, 0, 0))
+    (tmp_path / "bad.png").write_bytes(b"\x89PNG\r\n\x1a\n" + header + chunk(b"IDAT", b"\x78\x9c" + b"\xff" * 50)
+                                       + chunk(b"IEND", b""))
+    path, text = error_of(tmp_path, BASE.replace('procedural = "mexican-hat"\nrepeat = [2, 2]', 'file = "bad.png"'))
+    assert text.startswith(f'{path}: materials[1].bump.file: cannot read "bad.png" as an image'), text
+    assert "broken data stream" in text

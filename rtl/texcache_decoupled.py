@@ -213,7 +213,8 @@ class DecoupledTexCache(wiring.Component):
     def _input_stage(self, m):
         """The input FIFO and a register stage after it (``s_valid``) that holds the next lookup with its corner
         lines and sets (:meth:`_lines`, computed from the FIFO's output register): ``(ififo, s_valid, nreq, nc,
-        nsame)``, so that the sets address the tag store from flip-flops; the duplicates and equal sets
+        nsame)``, so that the sets address the tag store from flip-flops (each corner's ``next_set``: the set the
+        stage loads, for the tag store's live-value table read a clock early); the duplicates and equal sets
         (:meth:`_relations`) are compared there."""
         m.submodules.ififo = ififo = SyncFIFOBuffered(width=self.req.size, depth=INPUT_DEPTH)
         m.d.comb += [ififo.w_en.eq(self.i.valid), ififo.w_data.eq(self.i.payload), self.i.ready.eq(ififo.w_rdy)]
@@ -222,7 +223,7 @@ class DecoupledTexCache(wiring.Component):
         fc = self._lines(m, freq, "f_")
         s_valid, nreq = Signal(name="s_valid"), Signal(self.req, name="nreq")
         nc = [SimpleNamespace(line=Signal.like(fc[q].line, name=f"nline{q}"),
-                              set=Signal.like(fc[q].set, name=f"nset{q}")) for q in range(4)]
+                              set=Signal.like(fc[q].set, name=f"nset{q}"), next_set=fc[q].set) for q in range(4)]
         with m.If(ififo.r_en):
             m.d.sync += [s_valid.eq(ififo.r_rdy), nreq.eq(freq)]
             m.d.sync += [x.eq(y) for q in range(4) for x, y in ((nc[q].line, fc[q].line), (nc[q].set, fc[q].set))]
@@ -339,7 +340,8 @@ class DecoupledTexCache(wiring.Component):
         fills = [act[q] & filling[q] for q in range(4)]
         self._outcomes(m, c, pre, hits_ok, accept, fire & (sum(fills) != 0))
         new = new_rows(m, P, self.line_bits, c, way_now)
-        stored = tag_store(m, P, self.line_bits, c, [nc[q].set for q in range(4)], wr, new, platform)
+        stored = tag_store(m, P, self.line_bits, c, wr, new, platform, read_sets=[nc[q].set for q in range(4)],
+                           load=ififo.r_en, next_sets=[nc[q].next_set for q in range(4)])
         self._rows(m, c, pre, nc, same, wr, p_load, accept, new, stored)
         self._queue(m, f, c, req, fills, fire, last, step_miss, nf, ways)
         f.tag_busy = t_valid | pre.valid | s_valid | (ififo.level != 0)   # a lookup in the input FIFO or held

@@ -18,10 +18,11 @@ request names one by its index). Organisation (``docs/texcache.md``):
   to the store), LRU or round robin, the lowest invalid way first, a duplicate line skipped -- exactly
   :func:`fxmodel.units.texcache.simulate`. LRU: all remaining lines in one clock when they fall in distinct sets
   and at most one of them misses (the common case: one line, or two neighbouring blocks, which the XOR index puts
-  in different sets); otherwise one line a clock, in order. Round robin: the lines up to the first miss in one
-  clock, the fill of that line in the next. A fill changes tags, so the outcomes are then compared again from the
-  held rows (a clock). A miss allocates its way at once and queues its line's ``AR`` burst (``INCR``, ``B^2``
-  beats of one 32-bit texel), so several bursts are outstanding, in order (one ID).
+  in different sets); otherwise one line a clock, in order (which of the two, and whether the step misses, is
+  decided a clock ahead into registers: :meth:`DecoupledTexCache._decide_ahead`). Round robin: the lines up to
+  the first miss in one clock, the fill of that line in the next. A fill changes tags, so the outcomes are then
+  compared again from the held rows (a clock). A miss allocates its way at once and queues its line's ``AR``
+  burst (``INCR``, ``B^2`` beats of one 32-bit texel), so several bursts are outstanding, in order (one ID).
 - **Lookup FIFO** (:attr:`~fxmodel.units.texcache.TexCacheParams.lookup_depth` entries): each lookup's four bank
   word addresses, the bank of each corner, its fill count and its sideband, from the tag stage to the data stage.
 - **Fill buffer** (:attr:`~fxmodel.units.texcache.TexCacheParams.misses` lines, four banks by texel parity): the

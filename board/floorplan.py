@@ -79,14 +79,19 @@ def write_floorplan(path: Path, sites: dict[str, str], source: dict) -> None:
 
 def read_floorplan(path: Path) -> dict[str, str]:
     """The sites of the floorplan record at ``path``; :class:`FloorplanError` naming the file and the key or cell
-    when it is not one (not JSON, no ``cells``, a cell not of the engine, a site not of nextpnr's form, one site
-    for two cells)."""
+    when it is not one (not JSON, ``types`` or ``prefix`` not :data:`CELL_TYPES` and :data:`ENGINE_PREFIX`, no
+    ``cells``, a cell not of the engine, a site not of nextpnr's form, one site for two cells)."""
     path = Path(path)
     try:
         rec = json.loads(path.read_text())
     except (OSError, ValueError) as e:
         raise FloorplanError(f"{path}: not a floorplan record ({e})") from None
-    cells = rec.get("cells") if isinstance(rec, dict) else None
+    if not isinstance(rec, dict):
+        raise FloorplanError(f"{path}: not a floorplan record (a JSON object with 'types', 'prefix' and 'cells')")
+    for key, ours in (("types", list(CELL_TYPES)), ("prefix", ENGINE_PREFIX)):
+        if rec.get(key) != ours:          # a record of other kinds of cell, or of another unit, is not this build's
+            raise FloorplanError(f"{path}: key {key!r} is {rec.get(key)!r}, this build places {ours!r}")
+    cells = rec.get("cells")
     if not isinstance(cells, dict) or not cells:
         raise FloorplanError(f"{path}: key 'cells' must be an object of cell name -> site, and not empty")
     seen = {}

@@ -400,11 +400,12 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
                          "%(default)s: board/top.py ENGINE_MARGIN); the report judges against the PLL's")
     ap.add_argument("--misses", action="store_true",
                     help="count every engine endpoint that misses its clock (nextpnr's per-net timing) in the report")
-    ap.add_argument("--floorplan", type=Path, metavar="PATH", default=None,
+    placing = ap.add_mutually_exclusive_group()        # a floorplan named and refused in one command is a mistake
+    placing.add_argument("--floorplan", type=Path, metavar="PATH", default=None,
                     help="place the engine's multiplier and block RAM cells at the sites of this floorplan record "
                          "(--save-floorplan; default with the frame in SDRAM: " + FLOORPLAN.as_posix() + "; "
                          "board/floorplan.py)")
-    ap.add_argument("--no-floorplan", action="store_true", help="place every cell freely")
+    placing.add_argument("--no-floorplan", action="store_true", help="place every cell freely")
     ap.add_argument("--save-floorplan", type=Path, metavar="PATH", default=None,
                     help="keep this build's sites of the engine's multiplier and block RAM cells as a floorplan record")
     ap.add_argument("--record", type=Path, metavar="PATH", help="also write the report there (docs/board/)")

@@ -130,8 +130,8 @@ def sim_textures(args, tframe, report: dict, out_dir, t0: float) -> int:
     import time
 
     from host.atomic import atomic_json
-    from host.images import summary_table
-    from host.render import save_png
+    from host.images import depth_rows, summary_table, verdict_row
+    from host.render import save_png, tell
 
     name = tframe.frame.scene.name
     params = dataclasses.replace(tframe.params, textures=CHOSEN_CACHE)
@@ -163,10 +163,11 @@ def sim_textures(args, tframe, report: dict, out_dir, t0: float) -> int:
                             f"(model {res['model_bytes']:,} B; bursts {'equal' if res['bursts_equal'] else 'DIFFER'})"),
         ("clocks / fragment", f"{res['clocks_per_fragment']:.3f} ({res['cycles']:,} cycles, scan converter "
                               f"{res['raster_clocks']:,})"),
+        *depth_rows(report)[1:2], verdict_row(report),
         ("wall seconds", f"{wall:.1f}"), ("output", str(out_dir))]))
     if not ok:
         print(f"RTL differs from the model: {res['mismatches']} fragments, bursts equal {res['bursts_equal']}, "
               f"bytes {res['rtl_bytes']} / {res['model_bytes']}; first: {res['first']}", file=sys.stderr)
         return 1
     print("  RTL == model on every fragment, texture bursts == model")
-    return 0
+    return tell(report, name)

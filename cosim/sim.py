@@ -64,7 +64,7 @@ import numpy as np
 from fxmodel.core.paths import build_dir, shown_path
 from host.args import SIZE_HELP, cube_size_arg, float_range, int_range, size_arg
 from host.atomic import atomic_json, check_output_dir
-from host.images import db_text, summary_table, truth_rows
+from host.images import db_text, depth_rows, summary_table, truth_rows, verdict_row
 from host.truth import DEFAULT_SAMPLES
 
 from .harness import simulator
@@ -88,17 +88,6 @@ def _stream(params, space, args, tag: str, what: str):
     with _bar(len(space), args, what) as bar:
         return run_stream(params, space, sim=args.sim, chunk=CHUNK, pattern=args.pattern, tag=tag,
                           dump=len(space) <= DUMP_MAX, progress=bar)
-
-
-def depth_rows(report: dict) -> list:
-    """The summary table's rows of a frame drawn from triangles: overdraw, the depth test, the disagreements
-    with reference (a)'s float z-buffer, the frame-buffer traffic."""
-    d, m = report["depth"], report["memory"]
-    return [("overdraw", f"{d['overdraw']} fragments per pixel ({d['passed']:,} passed, {d['failed']:,} failed "
-                         f"the depth test)"),
-            ("depth disagreements", f"{d['disagreements']} pixels, largest gap "
-                                    f"{d['max_depth_gap_of_disagreements']:.3g} (precision {d['precision']:.3g})"),
-            ("memory / pixel", f"{m['bytes_read_per_pixel']} bytes read, {m['bytes_written_per_pixel']} written")]
 
 
 def run_key(args, scene_file) -> str:
@@ -171,6 +160,9 @@ def sim_scene(args) -> int:
     if isinstance(drawn, int):
         return drawn
     name, frame, tframe, report, out_dir = drawn
+    # The verdict is the model's frame against reference (a) (the RTL must equal the model): judged here, once, for
+    # every way of drawing (--depth and --textures external exited 0 without it, whatever --max-lsb said).
+    judge(report, args.max_lsb)
     if args.model_only:
         return model_only(args, report, out_dir, name)
     key = out_dir.name
@@ -216,7 +208,6 @@ def sim_scene(args) -> int:
         report.update({"rtl_busy_cycles": result["busy_cycles"], "rtl_clocks_match_model": clocks_ok,
                        "shards": len(result["shards"]), "shard_triangles": result["shards"],
                        "rtl_shard_busy_cycles": result["shard_busy_cycles"], "model_shard_clocks": model_clocks})
-    judge(report, args.max_lsb)
     atomic_json(out_dir / "report.json", report)
     rows = [("scene", name), ("simulator", args.sim)]
     if tframe is not None:
@@ -236,7 +227,7 @@ def sim_scene(args) -> int:
         ff = report["from_fragments"]
         rows += [("from fragments vs float", f"{db_text(ff['psnr_db_vs_float'])} (max {ff['max_lsb_vs_float']} LSB)"),
                  *depth_rows(report)]
-    rows += [("verdict", f"{'pass' if report['verdict']['pass'] else 'FAIL'} (bound {args.max_lsb} LSB from (a))"),
+    rows += [verdict_row(report),
              ("RTL pixels/s", f"{report['pixels_per_second']:,}"),
              ("seconds", f"{wall:.1f} wall, simulator {result['sim_cpu_seconds']:.1f} CPU, build "
                          f"{result['build_seconds']:.1f}"),
@@ -253,9 +244,9 @@ def sim_scene(args) -> int:
 
 
 def model_only(args, report: dict, out_dir: Path, name: str) -> int:
-    """``--model-only``: the model side's report judged and written (``"rtl": null``), no RTL build."""
-    from host.render import judge, tell
-    judge(report, args.max_lsb)
+    """``--model-only``: the model side's report (judged by :func:`sim_scene`) written (``"rtl": null``), no RTL
+    build."""
+    from host.render import tell
     report.update({"rtl": None, "preset": args.preset, "simulator": args.sim})
     atomic_json(out_dir / "report.json", report)
     print(summary_table([("scene", name), ("PSNR vs float", f"{db_text(report['psnr_db_vs_float'])} (max "
@@ -269,7 +260,7 @@ def model_only(args, report: dict, out_dir: Path, name: str) -> int:
 def sim_depth(args, tframe, report, out_dir, t0) -> int:
     """``--depth``: the engine with its depth test; the frame is read from the memory model behind the ROP's
     AXI4 port at the end (``cosim.rop.run_engine``) and compared with the model's."""
-    from host.render import save_png
+    from host.render import save_png, tell
 
     from .rop import run_engine
 
@@ -301,6 +292,7 @@ def sim_depth(args, tframe, report, out_dir, t0) -> int:
         ("memory traffic", f"{dt['bytes_read_per_pixel']} B read, {dt['bytes_written_per_pixel']} B written per "
                            f"covered pixel (RTL {result['rtl_bytes_read']:,} / {result['rtl_bytes_written']:,} B)"),
         ("from triangles vs float", f"{db_text(tv['psnr_db_vs_float'])} (max {tv['max_lsb_vs_float']} LSB)"),
+        *depth_rows(report)[1:2], verdict_row(report),
         ("wall seconds", f"{wall:.1f}"), ("output", shown_path(out_dir))]))
     if result["mismatches"] or not traffic_ok or result["status"]:
         print(f"RTL differs from the model: {result['mismatches']} pixels, traffic {result['rtl_bytes_read']} / "
@@ -308,7 +300,7 @@ def sim_depth(args, tframe, report, out_dir, t0) -> int:
               file=sys.stderr)
         return 1
     print("  RTL == model on every pixel of the frame in memory")
-    return 0
+    return tell(report, name)
 
 
 def sim_unit(args) -> int:

@@ -119,7 +119,10 @@ def rows_coherent(h: Harness, s, p: TexCacheParams):
     copies), ``rows_coherent`` and ``p_rows_coherent`` (while the tag stage, or the prefetch stage, holds a lookup,
     each corner's held row is its set's row in the store: the forwarding and the updates), the sets' one-hot
     copies and pairwise equalities are the sets' (what the updates select by), and ``hits_current`` (the tag
-    stage's registered outcomes, when it marks them current, are its corners' compares with its held rows)."""
+    stage's registered outcomes, when it marks them current, are its corners' compares with its held rows), with
+    LRU ``decision_ahead`` (the registers that decide the tag stage's step, decided a clock ahead, are then what
+    its registered outcomes, corners and next corner decide); each read port's copy of the live-value table's
+    entry (``r_lvt*_is_table``) is the table's for the set stage's set."""
     W = p.ways
     states = row_states(p)                               # an age per way, or round robin's one pointer
     store = [[s(f"store{j}_r{r}") for j in range(p.sets)] for r in range(4)]
@@ -139,10 +142,17 @@ def rows_coherent(h: Harness, s, p: TexCacheParams):
                               for field, n in (("tag", W), ("valid", W), ("age", states))))
             ok = ok & (held == table[set_])
         h.check(~s(valid) | ok, f"{prefix}rows_coherent")
+    lvt, written = Array(s(f"lvt{j}") for j in range(p.sets)), Array(s(f"written{j}") for j in range(p.sets))
+    for r in range(4):
+        set_ = s(f"nset{r}")
+        h.check((s(f"r_lvt{r}") == lvt[set_]) & (s(f"r_written{r}") == written[set_]), f"r_lvt{r}_is_table")
     cur = 1
     for q in range(4):
         cur = cur & (s(f"hit{q}") == s(f"t_{q}_hit")) & (~s(f"hit{q}") | (s(f"hit_way{q}") == s(f"t_{q}_hit_way")))
     h.check(~(s("t_valid") & s("hits_ok")) | cur, "hits_current")
+    if p.replacement == "lru":                           # the step decided a clock ahead (_decide_ahead)
+        ahead = (s("allin") == s("now_allin")) & (s("step_miss") == s("now_step_miss"))
+        h.check(~(s("t_valid") & s("hits_ok")) | ahead, "decision_ahead")
 
 
 def _decoupled_invariants(h: Harness, sig, rd, inside, *, inner, top):

@@ -20,7 +20,7 @@ from fxmodel.core.paths import atomic_writer
 
 __all__ = ["atomic_write_bytes", "atomic_write_text", "atomic_save_png", "atomic_savefig", "atomic_json",
            "atomic_save_npy",
-           "strict_json", "check_output_file", "check_output_dir"]
+           "strict_json", "check_output_file", "check_output_not_input", "check_output_dir"]
 
 
 def atomic_write_bytes(path, data: bytes) -> Path:
@@ -69,14 +69,35 @@ def atomic_json(path, obj, indent: int | None = 2) -> Path:
     return atomic_write_text(path, strict_json(obj, indent) + "\n")
 
 
-def check_output_file(path, what: str = "output") -> Path:
-    """Refuse, before any work, an output file that cannot be written: the path is a directory, or its folder
-    is a file or is not writable (a missing folder is created). Raises ``OSError`` with one line naming it."""
+def check_output_file(path, what: str = "output", inputs=()) -> Path:
+    """Refuse, before any work, an output file that cannot be written: the path is a directory or another
+    non-regular file (a device such as ``/dev/null``, a FIFO: the rename of :func:`atomic_writer` would replace
+    it), its folder is a file or is not writable (a missing folder is created), or it is the same file as one of
+    ``inputs`` (the run would overwrite what it reads). Raises ``OSError`` with one line naming it."""
     path = Path(path)
     if path.is_dir():
         raise IsADirectoryError(f"{what} {path}: is a directory, expected a file name")
+    if path.exists() and not path.is_file():
+        raise OSError(f"{what} {path}: not a regular file (a device, a FIFO or a socket), which writing it "
+                      "(a temporary file renamed over it) would replace")
+    check_output_not_input(path, what, inputs)
     check_output_dir(path.parent, f"folder of the {what}")
     return path
+
+
+def check_output_not_input(path, what: str, inputs) -> None:
+    """Refuse an output ``path`` that is the same file as one of ``inputs`` (``None`` entries are skipped), by
+    identity (a hard link or another spelling of the path included). Raises ``OSError`` naming both."""
+    path = Path(path)
+    for src in inputs:
+        if src is None:
+            continue
+        try:
+            same = os.path.samefile(path, src)
+        except OSError:                         # either is missing: not the same existing file
+            same = False
+        if same:
+            raise OSError(f"{what} {path}: is the input {src}, which the run reads; give another output path")
 
 
 def check_output_dir(path, what: str = "output folder") -> Path:

@@ -11,7 +11,7 @@ from host.atomic import atomic_save_png
 from host.reference import max_lsb, psnr
 
 __all__ = ["DIFF_GAIN", "save_png", "compose", "diff_image", "psnr_db", "metrics", "summary_table", "db_text",
-           "truth_rows"]
+           "truth_rows", "depth_rows", "verdict_row"]
 
 #: Gain of the difference images (``diff.png``): one 8-bit step shows as this many.
 DIFF_GAIN = 16
@@ -71,7 +71,29 @@ def truth_rows(report: dict) -> list:
     vt = report.get("vs_truth")
     if not vt:
         return []
+    if not vt["full_pixels"]:                   # nothing compared: not "identical (exact)"
+        return [(f"{label} vs truth (c)", f"not compared: no fully covered pixel ({vt['edge_pixels']:,} edge pixels, "
+                                          f"{vt['samples']}x{vt['samples']} samples)")
+                for label in ("model", "float (a)")]
     return [(f"{label} vs truth (c)", f"{db_text(vt[k]['full']['psnr_db'])}, FLIP {vt[k]['full']['flip_mean']}, "
                                       f"p99 {vt[k]['full']['p99_lsb']} LSB ({vt['full_pixels']:,} covered pixels, "
                                       f"{vt['samples']}x{vt['samples']} samples)")
             for k, label in (("model", "model"), ("float", "float (a)"))]
+
+
+def depth_rows(report: dict) -> list:
+    """The summary table's rows of a frame drawn from triangles: overdraw, the depth test, the disagreements
+    with reference (a)'s float z-buffer, the frame-buffer traffic."""
+    d, m = report["depth"], report["memory"]
+    return [("overdraw", f"{d['overdraw']} fragments per pixel ({d['passed']:,} passed, {d['failed']:,} failed "
+                         f"the depth test)"),
+            ("depth disagreements", f"{d['disagreements']:,} of {d['covered_pixels']:,} pixels left out of the "
+                                    f"comparisons, largest gap {d['max_depth_gap_of_disagreements']:.3g} (precision "
+                                    f"{d['precision']:.3g})"),
+            ("memory / pixel", f"{m['bytes_read_per_pixel']} bytes read, {m['bytes_written_per_pixel']} written")]
+
+
+def verdict_row(report: dict) -> tuple:
+    """The summary row of a judged report (:func:`host.render.judge`): pass or FAIL against the bound."""
+    v = report["verdict"]
+    return ("verdict", f"{'pass' if v['pass'] else 'FAIL'} (bound {v['bound_lsb']} LSB from (a))")

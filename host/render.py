@@ -511,7 +511,12 @@ def from_triangles(frame: Frame, raster: RasterParams | None = None, depth: bool
     rop = frame_rop(frame, raster, scene.width, scene.height) if depth else None
     params = EngineParams(raster=raster, pipeline=p, rop=rop)
     t0 = time.perf_counter()
-    recs, tri = frame_records(frame, raster)
+    try:
+        recs, tri = frame_records(frame, raster)
+    except ValueError as exc:       # a vertex value or slope beyond the record's formats: name the scene, the remedy
+        where = str(scene.path or scene.name)
+        raise ValueError(f"{where}: the engine from triangles cannot set up this scene with this preset ({exc}); "
+                         f"`bumpmap fit {where}` finds a preset that draws it") from None
     t1 = time.perf_counter()
     fb = None
     if depth:

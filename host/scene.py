@@ -25,12 +25,14 @@ Conventions
 Schema
 ------
 Limits (module constants, the same for files and command-line options): image edges 1 .. 8192 pixels
-(:data:`MAX_IMAGE_SIZE`), map edges 1 .. 4096 texels (graffiti at least 4 high), every coordinate (positions,
-targets, origins, edges, centers, radii, texture coordinates, ``near``, ``far``) of magnitude at most 1e6
-(:data:`MAX_COORD`), colors of lights, ambient and specular at most 1e3 (:data:`MAX_COLOR`), shininess 1e4,
-bump strength 1e3, repeats 1e4, ``sigma`` 4096 texels; ``near`` at least 1e-6; at most 2^20 triangles
-(:data:`MAX_TRIANGLES`, a generator's count checked before it runs). A file may start with a UTF-8
-byte-order mark.
+(:data:`MAX_IMAGE_SIZE`), map edges 1 .. 4096 texels (PNG files too, from their header; graffiti at least 4
+high), every coordinate (positions, targets, origins, edges, centers, radii, texture coordinates, ``near``,
+``far``) of magnitude at most 1e6 (:data:`MAX_COORD`), colors of lights, ambient and specular at most 1e3
+(:data:`MAX_COLOR`), shininess 1e4, bump strength 1e3, repeats 1e4, ``sigma`` 4096 texels; ``near`` at least
+1e-6; at most 2^20 triangles (:data:`MAX_TRIANGLES`, each generator's count checked before it runs). Resource
+caps (:mod:`host.scene_types` gives the reasons): at most 2048 x 2048 pixels in all (:data:`MAX_PIXELS`), 32
+lights (:data:`MAX_LIGHTS`), maps of 2 x 4096^2 texels in all materials together (:data:`MAX_SCENE_TEXELS`), a
+chiselled text of 4096 characters (:data:`MAX_TEXT`). A file may start with a UTF-8 byte-order mark.
 
 The complete commented example below is also a valid scene (``SCHEMA_EXAMPLE``, tested)::
 
@@ -39,7 +41,7 @@ The complete commented example below is also a valid scene (``SCHEMA_EXAMPLE``, 
     ambient = [0.08, 0.08, 0.10]     # ambient RGB >= 0 (default [0, 0, 0])
 
     [image]
-    width = 256                      # pixels, 1 .. 8192
+    width = 256                      # pixels, 1 .. 8192, width x height at most 2048 x 2048
     height = 192
     background = [0.0, 0.0, 0.0]     # RGB in [0, 1] where no triangle covers a pixel (default black)
 
@@ -51,7 +53,7 @@ The complete commented example below is also a valid scene (``SCHEMA_EXAMPLE``, 
     near = 0.1                       # clipping distances along the view axis, 0 < near < far
     far = 100.0
 
-    [[lights]]                       # any number (zero included)
+    [[lights]]                       # 0 .. 32 of them
     direction = [-1.0, 1.0, 0.5]     # TOWARD the light, world space; normalized on load
     color = [0.7, 0.3, 0.8]          # RGB >= 0
 
@@ -143,11 +145,15 @@ from host.scene_types import (
     MAX_COLOR,
     MAX_COORD,
     MAX_IMAGE_SIZE,
+    MAX_LIGHTS,
     MAX_MAP_SIZE,
+    MAX_PIXELS,
     MAX_REPEAT,
+    MAX_SCENE_TEXELS,
     MAX_SHININESS,
     MAX_SIGMA,
     MAX_STRENGTH,
+    MAX_TEXT,
     MAX_TRIANGLES,
     MIN_GRAFFITI_HEIGHT,
     BumpSpec,
@@ -164,7 +170,8 @@ from host.scene_types import (
 __all__ = ["SceneError", "Camera", "Light", "ColorSpec", "BumpSpec", "Material", "Mesh", "Scene", "Triangles",
            "SCENES", "scene_path", "load_scene", "parse_scene", "SCHEMA_EXAMPLE",
            "MAX_IMAGE_SIZE", "MAX_MAP_SIZE", "MAX_COORD", "MAX_COLOR", "MAX_SHININESS", "MAX_STRENGTH",
-           "MAX_REPEAT", "MAX_SIGMA", "MAX_TRIANGLES", "COLOR_PROCEDURALS", "BUMP_PROCEDURALS"]
+           "MAX_REPEAT", "MAX_SIGMA", "MAX_TRIANGLES", "MAX_LIGHTS", "MAX_SCENE_TEXELS", "MAX_TEXT", "MAX_PIXELS",
+           "COLOR_PROCEDURALS", "BUMP_PROCEDURALS"]
 
 # ------------------------------------------------------------------------------------------------------------
 # procedural generators: parameter schemas (the generators live in host.bumpmap)
@@ -178,6 +185,13 @@ def _graffiti_size(r: Reader, v, key):
     if size[1] < MIN_GRAFFITI_HEIGHT:
         r.fail(key, f"graffiti needs a texture at least {MIN_GRAFFITI_HEIGHT} texels high, got {show_value(v)}")
     return size
+
+
+def _text(r: Reader, v, key):
+    text = r.string(v, key)
+    if len(text) > MAX_TEXT:
+        r.fail(key, f"{len(text):,} characters, more than the {MAX_TEXT} a chiselled text may have")
+    return text
 
 
 def _rgb01(r: Reader, v, key):
@@ -206,7 +220,7 @@ BUMP_PROCEDURALS: dict[str, dict[str, tuple[Any, Callable]]] = {
         "sigma": (lambda p: min(p["size"]) / 8.0, lambda r, v, k: r.number(v, k, lo=0.0, hi=MAX_SIGMA, lo_open=True)),
     },
     "chiselled-text": {
-        "text": ("Berlin Hauptstadt", lambda r, v, k: r.string(v, k)),
+        "text": ("Berlin Hauptstadt", lambda r, v, k: _text(r, v, k)),
         "size": ((512, 256), _size),
         "font_size": (lambda p: max(4, p["size"][1] // 5), lambda r, v, k: r.integer(v, k, 4, 1000)),
         "depth": (0.6, lambda r, v, k: r.number(v, k, lo=0.0, hi=1.0)),
@@ -282,6 +296,9 @@ def parse_scene(text: str, *, source: str = "<string>", base: Path | None = None
         doc = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise SceneError(f"{source}: TOML syntax error: {exc}") from None
+    except RecursionError:              # tomllib recurses per level: [[[[...]]]] a few hundred deep
+        raise SceneError(f"{source}: TOML nested too deeply to read (arrays or inline tables within each other "
+                         "hundreds of levels deep; a scene needs a few)") from None
     r.table(doc, "", ("name", "ambient", "image", "camera", "lights", "materials", "meshes", "animation"),
             ("image", "camera", "materials", "meshes"))
     name = r.string(doc.get("name", path.stem if path else "scene"), "name")
@@ -290,12 +307,18 @@ def parse_scene(text: str, *, source: str = "<string>", base: Path | None = None
     img = r.table(doc["image"], "image", ("width", "height", "background"), ("width", "height"))
     width = r.integer(img["width"], "image.width", 1, MAX_IMAGE_SIZE)
     height = r.integer(img["height"], "image.height", 1, MAX_IMAGE_SIZE)
+    if width * height > MAX_PIXELS:
+        r.fail("image", f"{width} x {height} is {width * height:,} pixels, more than the {MAX_PIXELS:,} "
+                        "(2048 x 2048) an image may have")
     background = _rgb01(r, img.get("background", [0, 0, 0]), "image.background")
 
     camera = _camera(r, doc["camera"])
 
     lights = []
-    for i, t in enumerate(r.array_of_tables(doc.get("lights", []), "lights")):
+    light_tables = r.array_of_tables(doc.get("lights", []), "lights")
+    if len(light_tables) > MAX_LIGHTS:
+        r.fail("lights", f"{len(light_tables):,} lights, more than the {MAX_LIGHTS} a scene may have")
+    for i, t in enumerate(light_tables):
         key = f"lights[{i}]"
         r.table(t, key, ("direction", "color"), ("direction", "color"))
         d = np.array(r.vector(t["direction"], f"{key}.direction", 3, nonzero=True, mag=MAX_COORD))
@@ -313,10 +336,14 @@ def parse_scene(text: str, *, source: str = "<string>", base: Path | None = None
         if m.name in names:
             r.fail(f"materials[{i}].name", f"{show_value(m.name)} is already the name of materials[{names[m.name]}]")
         names[m.name] = i
+    _texel_budget(r, materials)
 
-    meshes = [_mesh(r, t, f"meshes[{i}]", names, len(materials))
-              for i, t in enumerate(r.array_of_tables(doc["meshes"], "meshes"))]
-    _triangle_budget(r, sum(m.n_triangles for m in meshes), "meshes")
+    meshes, count = [], 0
+    for i, t in enumerate(r.array_of_tables(doc["meshes"], "meshes")):
+        # each mesh's count is checked against what the meshes before it leave of the budget, before its
+        # generator runs: many meshes, each within the budget alone, must not all be built first
+        meshes.append(_mesh(r, t, f"meshes[{i}]", names, len(materials), before=count))
+        count += meshes[-1].n_triangles
     anim = parse_animation(r, doc["animation"], camera, lights) if "animation" in doc else None
     return Scene(path=path, name=name, width=width, height=height, background=background, camera=camera,
                  ambient=ambient, lights=tuple(lights), materials=tuple(materials), meshes=tuple(meshes),
@@ -400,9 +427,40 @@ def _bump(r: Reader, v, key: str, base: Path) -> BumpSpec:
                     strength=strength, key=key)
 
 
-def _triangle_budget(r: Reader, count: int, key: str) -> None:
-    if count > MAX_TRIANGLES:
-        r.fail(key, f"makes {count:,} triangles, more than the {MAX_TRIANGLES:,} a scene may hold")
+def _map_texels(spec) -> int:
+    """Texels of a material's color texture or bump map (a PNG's from its header; a constant color, a 1 x 1
+    texture, is not counted)."""
+    if spec is None:
+        return 0
+    if spec.kind == "procedural":
+        w, h = spec.kwargs["size"]
+        return w * h
+    if spec.kind == "file":
+        from PIL import Image
+        with Image.open(spec.path) as im:           # the header only (Reader.png read it already)
+            w, h = im.size
+        return w * h
+    return 0
+
+
+def _texel_budget(r: Reader, materials) -> None:
+    """Refuse maps of more than :data:`MAX_SCENE_TEXELS` texels in all (every material's are built), naming the
+    first material beyond it; before any map is built."""
+    total = 0
+    for i, m in enumerate(materials):
+        total += _map_texels(m.color) + _map_texels(m.bump)
+        if total > MAX_SCENE_TEXELS:
+            r.fail(f"materials[{i}]", f"its maps bring the scene's maps to {total:,} texels, more than the "
+                                      f"{MAX_SCENE_TEXELS:,} (two of {MAX_MAP_SIZE} x {MAX_MAP_SIZE}) a scene "
+                                      "may have: every material's maps are built, though a frame shows one")
+
+
+def _triangle_budget(r: Reader, count: int, key: str, before: int = 0) -> None:
+    """Refuse ``count`` more triangles after the ``before`` of the meshes before this one, beyond
+    :data:`MAX_TRIANGLES` (called before a generator runs)."""
+    if before + count > MAX_TRIANGLES:
+        more = f" after the {before:,} of the meshes before it" if before else ""
+        r.fail(key, f"makes {count:,} triangles{more}, more than the {MAX_TRIANGLES:,} a scene may hold")
 
 
 def _unit_rows(r: Reader, n: np.ndarray, key: str) -> np.ndarray:
@@ -413,7 +471,7 @@ def _unit_rows(r: Reader, n: np.ndarray, key: str) -> np.ndarray:
     return n / length[..., None]
 
 
-def _mesh(r: Reader, t, key: str, names: dict, n_mat: int) -> Mesh:
+def _mesh(r: Reader, t, key: str, names: dict, n_mat: int, before: int = 0) -> Mesh:
     if not isinstance(t, dict):
         r.fail(key, f"expected a table, got {show_value(t)}")
     if "kind" not in t:
@@ -456,7 +514,7 @@ def _mesh(r: Reader, t, key: str, names: dict, n_mat: int) -> Mesh:
             if len(pos) % 3:
                 r.fail(f"{key}.positions", f"without indices, expected a multiple of 3 vertices, got {len(pos)}")
             idx = np.arange(len(pos)).reshape(-1, 3)
-        _triangle_budget(r, len(idx), f"{key}.indices" if "indices" in t else f"{key}.positions")
+        _triangle_budget(r, len(idx), f"{key}.indices" if "indices" in t else f"{key}.positions", before)
         P, UV = pos[idx], uvs[idx]
         cross = np.cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0])
         area = np.linalg.norm(cross, axis=-1)
@@ -478,14 +536,14 @@ def _mesh(r: Reader, t, key: str, names: dict, n_mat: int) -> Mesh:
         if uv[0][0] == uv[1][0] or uv[0][1] == uv[1][1]:
             r.fail(f"{key}.uv", f"u0 must differ from u1 and v0 from v1, got {show_value(t['uv'])}")
         div = r.vector(t.get("divisions", [1, 1]), f"{key}.divisions", 2, lo=1, hi=1024, integer=True)
-        _triangle_budget(r, 2 * div[0] * div[1], f"{key}.divisions")
+        _triangle_budget(r, 2 * div[0] * div[1], f"{key}.divisions", before)
         P, N, UV = quad_mesh(o, eu, ev, uv, div)
     else:
         c = r.vector(t["center"], f"{key}.center", 3, mag=MAX_COORD)
         rad = r.number(t["radius"], f"{key}.radius", lo=0.0, lo_open=True, hi=MAX_COORD)
         seg = r.integer(t.get("segments", 32), f"{key}.segments", 3, 4096)
         rings = r.integer(t.get("rings", 16), f"{key}.rings", 2, 4096)
-        _triangle_budget(r, 2 * seg * rings, f"{key}.segments")
+        _triangle_budget(r, 2 * seg * (rings - 1), f"{key}.segments", before)
         P, N, UV = sphere_mesh(c, rad, seg, rings)
     return Mesh(kind, mat, two_sided, P, N, UV, key)
 

@@ -5,11 +5,12 @@ from __future__ import annotations
 
 import json
 import math
+import reprlib
 from pathlib import Path
 
 import numpy as np
 
-from host.scene_types import SceneError
+from host.scene_types import MAX_MAP_SIZE, SceneError
 
 __all__ = ["Reader", "show_value"]
 
@@ -21,8 +22,8 @@ def show_value(value) -> str:
     """A short TOML-like rendering of a bad value for an error message."""
     try:
         text = json.dumps(value, default=str, ensure_ascii=False)
-    except (TypeError, ValueError):
-        text = repr(value)
+    except (TypeError, ValueError, RecursionError):     # RecursionError: nested hundreds of levels deep
+        text = reprlib.repr(value)
     return text if len(text) <= 60 else text[:57] + "..."
 
 
@@ -124,14 +125,25 @@ class Reader:
         name = self.string(v, key)
         path = (base / name).resolve()
         try:
+            import warnings
+
             from PIL import Image
-            with Image.open(path) as im:
-                im.verify()
-                fmt = im.format
+            with warnings.catch_warnings():     # a huge size is refused below, by the map limit, not warned about
+                warnings.simplefilter("ignore", Image.DecompressionBombWarning)
+                with Image.open(path) as im:    # reads the header only: the size is known before any decoding
+                    fmt, size = im.format, im.size
+                    if max(size) <= MAX_MAP_SIZE:
+                        im.verify()             # the chunks and their checksums
+                if max(size) <= MAX_MAP_SIZE:
+                    with Image.open(path) as im:
+                        im.load()               # and the pixels: a broken deflate stream with good checksums
         except FileNotFoundError:
             self.fail(key, f"file {show_value(name)} not found (looked for {path})")
         except Exception as exc:                                         # noqa: BLE001 -- reported, not hidden
             self.fail(key, f"cannot read {show_value(name)} as an image ({path}): {exc}")
         if fmt != "PNG":
             self.fail(key, f"{show_value(name)} is a {fmt} file, expected a PNG")
+        if max(size) > MAX_MAP_SIZE:
+            self.fail(key, f"{show_value(name)} is {size[0]} x {size[1]} pixels, more than the {MAX_MAP_SIZE} "
+                           f"texels a map edge may have")
         return path

@@ -27,6 +27,21 @@ MAX_SIGMA = float(MAX_MAP_SIZE)
 MAX_TRIANGLES = 1 << 20
 #: Smallest graffiti texture height (its bands need this many texels).
 MIN_GRAFFITI_HEIGHT = 4
+#: Resource caps (not what the hardware holds, but what keeps the host's work on one small file bounded):
+#: every material's maps are built before the frame is drawn (a full-size map takes 30 to 40 s and 1.5 to 5 GB),
+#: though a frame shows one material: the texels of all maps together are at most one material's color texture
+#: and bump map at the largest size. Each light is a pass over every texel of both reflectance cubes (about 1 s
+#: a light at the largest cube, 1024): at most 32 lights. A chiselled text is measured whole at every font size
+#: tried (Pillow refuses 10^6 characters): at most 4096 characters, more than the largest map shows at the
+#: smallest font (4 pixels).
+MAX_SCENE_TEXELS = 2 * MAX_MAP_SIZE ** 2
+#: The image's pixels (width x height, the file's or an override's such as ``--size``): the model keeps about
+#: 850 bytes a pixel of a covered frame at its peak (a 1024 x 1024 frame: 0.9 GB and 63 s), so an 8192 x 8192
+#: one needed some 55 GB and an hour, and was killed for memory without a message. 2048 x 2048 (about 3.5 GB)
+#: at most; an edge may still be 8192 (:data:`MAX_IMAGE_SIZE`, what the scan converter resolves).
+MAX_PIXELS = 2048 * 2048
+MAX_LIGHTS = 32
+MAX_TEXT = 4096
 
 
 class SceneError(ValueError):
@@ -241,6 +256,9 @@ class Scene:
         for name, v in (("width", width), ("height", height)):
             if not isinstance(v, int) or isinstance(v, bool) or not 1 <= v <= MAX_IMAGE_SIZE:
                 raise ValueError(f"{name}={v!r}: must be an int in 1..{MAX_IMAGE_SIZE}")
+        if width * height > MAX_PIXELS:
+            raise ValueError(f"{self.path or self.name}: at {width} x {height}, {width * height:,} pixels, more than "
+                             f"the {MAX_PIXELS:,} (2048 x 2048) an image may have")
         return replace(self, width=width, height=height)
 
     def triangles(self) -> Triangles:

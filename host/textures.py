@@ -52,9 +52,20 @@ def mexican_hat(size=(40, 40), sigma: float | None = None) -> np.ndarray:
     out = np.zeros((h, w))
     for ky in (-1, 0, 1):
         for kx in (-1, 0, 1):
-            r2 = ((x - w // 2 + kx * w) ** 2 + (y - h // 2 + ky * h) ** 2) / sigma ** 2
+            d2 = (x - w // 2 + kx * w) ** 2 + (y - h // 2 + ky * h) ** 2
+            # a tiny sigma (5e-324 is > 0) makes sigma**2 underflow to 0 and r2 inf ((1 - inf) * 0 is NaN) or
+            # 0 / 0 at the centre; beyond _R2_ZERO the term is exactly (1 - r2) * 0.0 in floats, so capping r2
+            # there changes no bit of the sum for any other sigma
+            with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
+                r2 = d2 / sigma ** 2
+            r2 = np.where(d2 == 0, 0.0, np.minimum(r2, _R2_ZERO))
             out += (1.0 - r2) * np.exp(-0.5 * r2)
     return out
+
+
+#: A squared radius (in sigmas) beyond which the Ricker wavelet's ``exp(-r2 / 2)`` is exactly 0.0 in float64
+#: (it underflows below ``exp(-745.2)``): :func:`mexican_hat` caps r2 here.
+_R2_ZERO = 2000.0
 
 
 def heights_from_image(image) -> np.ndarray:

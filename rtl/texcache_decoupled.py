@@ -18,10 +18,11 @@ request names one by its index). Organisation (``docs/texcache.md``):
   to the store), LRU or round robin, the lowest invalid way first, a duplicate line skipped -- exactly
   :func:`fxmodel.units.texcache.simulate`. LRU: all remaining lines in one clock when they fall in distinct sets
   and at most one of them misses (the common case: one line, or two neighbouring blocks, which the XOR index puts
-  in different sets); otherwise one line a clock, in order. Round robin: the lines up to the first miss in one
-  clock, the fill of that line in the next. A fill changes tags, so the outcomes are then compared again from the
-  held rows (a clock). A miss allocates its way at once and queues its line's ``AR`` burst (``INCR``, ``B^2``
-  beats of one 32-bit texel), so several bursts are outstanding, in order (one ID).
+  in different sets); otherwise one line a clock, in order (which of the two, and whether the step misses, is
+  decided a clock ahead into registers: :meth:`DecoupledTexCache._decide_ahead`). Round robin: the lines up to
+  the first miss in one clock, the fill of that line in the next. A fill changes tags, so the outcomes are then
+  compared again from the held rows (a clock). A miss allocates its way at once and queues its line's ``AR``
+  burst (``INCR``, ``B^2`` beats of one 32-bit texel), so several bursts are outstanding, in order (one ID).
 - **Lookup FIFO** (:attr:`~fxmodel.units.texcache.TexCacheParams.lookup_depth` entries): each lookup's four bank
   word addresses, the bank of each corner, its fill count and its sideband, from the tag stage to the data stage.
 - **Fill buffer** (:attr:`~fxmodel.units.texcache.TexCacheParams.misses` lines, four banks by texel parity): the
@@ -213,7 +214,8 @@ class DecoupledTexCache(wiring.Component):
     def _input_stage(self, m):
         """The input FIFO and a register stage after it (``s_valid``) that holds the next lookup with its corner
         lines and sets (:meth:`_lines`, computed from the FIFO's output register): ``(ififo, s_valid, nreq, nc,
-        nsame)``, so that the sets address the tag store from flip-flops; the duplicates and equal sets
+        nsame)``, so that the sets address the tag store from flip-flops (each corner's ``next_set``: the set the
+        stage loads, for the tag store's live-value table read a clock early); the duplicates and equal sets
         (:meth:`_relations`) are compared there."""
         m.submodules.ififo = ififo = SyncFIFOBuffered(width=self.req.size, depth=INPUT_DEPTH)
         m.d.comb += [ififo.w_en.eq(self.i.valid), ififo.w_data.eq(self.i.payload), self.i.ready.eq(ififo.w_rdy)]
@@ -222,7 +224,7 @@ class DecoupledTexCache(wiring.Component):
         fc = self._lines(m, freq, "f_")
         s_valid, nreq = Signal(name="s_valid"), Signal(self.req, name="nreq")
         nc = [SimpleNamespace(line=Signal.like(fc[q].line, name=f"nline{q}"),
-                              set=Signal.like(fc[q].set, name=f"nset{q}")) for q in range(4)]
+                              set=Signal.like(fc[q].set, name=f"nset{q}"), next_set=fc[q].set) for q in range(4)]
         with m.If(ififo.r_en):
             m.d.sync += [s_valid.eq(ififo.r_rdy), nreq.eq(freq)]
             m.d.sync += [x.eq(y) for q in range(4) for x, y in ((nc[q].line, fc[q].line), (nc[q].set, fc[q].set))]
@@ -288,20 +290,19 @@ class DecoupledTexCache(wiring.Component):
             used = [sum((k > j) & ~c[j].dup & same[q, j] & (way_reg[j] == v) for j in range(q)) != 0 if q else Const(0)
                     for v in range(W)] if rr else None
             c[q].victim = victim(m, P, c[q].valids, c[q].ages, used, f"c{q}_")
-        live = [Signal(name=f"live{q}") for q in range(4)]       # distinct and not yet checked
-        for q in range(4):
-            todo = ~c[q].dup & (q >= k)
-            m.d.comb += live[q].eq(todo & ~req.skip if self.skip else todo)
+        live = self._live(m, c, req, lambda q: q >= k, "live")  # distinct and not yet checked
         upd, mq = Signal(name="upd"), Signal(2, name="mq")     # round robin: corner mq's fill is this step
         if rr:
             act, step_miss, last, first = self._steps_two_phase(m, c, live, upd, mq)
         else:
-            act, step_miss, last = self._steps_one_phase(m, c, live, same, k)
+            act, step_miss, last, ahead = self._steps_one_phase(m, c, live, same, k)
         fire = Signal()
         m.d.comb += fire.eq(t_valid & hits_ok & (f.lfifo.w_rdy | ~last) & (~step_miss | (f.inflight < P.misses)))
         accept, p_load = Signal(), Signal()
         m.d.comb += [accept.eq(pre.valid & (~t_valid | (fire & last))),
                      p_load.eq(s_valid & (~pre.valid | accept)), ififo.r_en.eq(~s_valid | p_load)]
+        if not rr:
+            self._decide_ahead(m, ahead, (c, req, live, same, k), pre, hits_ok, accept, fire & ~last)
         with m.If(p_load):
             self._load(m, pre, SimpleNamespace(req=nreq, c=nc, same=nsame),
                        [Const(1, P.sets) << nc[q].set for q in range(4)])
@@ -340,7 +341,8 @@ class DecoupledTexCache(wiring.Component):
         fills = [act[q] & filling[q] for q in range(4)]
         self._outcomes(m, c, pre, hits_ok, accept, fire & (sum(fills) != 0))
         new = new_rows(m, P, self.line_bits, c, way_now)
-        stored = tag_store(m, P, self.line_bits, c, [nc[q].set for q in range(4)], wr, new, platform)
+        stored = tag_store(m, P, self.line_bits, c, wr, new, platform, read_sets=[nc[q].set for q in range(4)],
+                           load=ififo.r_en, next_sets=[nc[q].next_set for q in range(4)])
         self._rows(m, c, pre, nc, same, wr, p_load, accept, new, stored)
         self._queue(m, f, c, req, fills, fire, last, step_miss, nf, ways)
         f.tag_busy = t_valid | pre.valid | s_valid | (ififo.level != 0)   # a lookup in the input FIFO or held
@@ -361,24 +363,69 @@ class DecoupledTexCache(wiring.Component):
             m.d.sync += [x.eq(y) for q in range(4) for x, y in ((c[q].hit, c[q].cmp_hit),
                                                                 (c[q].hit_way, c[q].cmp_way))]
 
-    def _steps_one_phase(self, m, c, live, same, k):
-        """LRU: the corners a step checks (``act``), whether it misses, whether it is the lookup's last. All
-        remaining corners in one step when they fall in distinct sets and at most one of them misses, else corner
-        ``k`` alone; a step's hits and its miss update the rows in the clock it fires."""
-        clash = Signal()
+    def _live(self, m, c, req, todo, name):
+        """Each corner of ``c`` is live when distinct (not a duplicate), ``todo(q)`` and the lookup not skipped."""
+        live = [Signal(name=f"{name}{q}") for q in range(4)]
+        for q in range(4):
+            x = ~c[q].dup & todo(q)
+            m.d.comb += live[q].eq(x & ~req.skip if self.skip else x)
+        return live
+
+    @staticmethod
+    def _decision(m, hits, live, same, kk, name):
+        """LRU: the step of a lookup whose live corners are ``live`` and next corner ``kk``, from its outcomes
+        ``hits``: ``(allin, step_miss)``. All remaining corners in one step (``allin``) when they fall in distinct
+        sets and at most one of them misses, else corner ``kk`` alone; ``step_miss``: the step misses."""
+        clash = Signal(name=f"{name}clash")
         for q in range(4):
             for j in range(q):
                 with m.If(live[q] & live[j] & same[q, j]):
                     m.d.comb += clash.eq(1)
-        misses = sum(live[q] & ~c[q].hit for q in range(4))
-        allin = Signal()                                         # every remaining corner in this step
-        m.d.comb += allin.eq(~clash & (misses <= 1))
+        miss = [live[q] & ~hits[q] for q in range(4)]
+        misses = sum(miss)
+        allin, step_miss = Signal(name=f"{name}allin"), Signal(name=f"{name}step_miss")
+        m.d.comb += [allin.eq(~clash & (misses <= 1)), step_miss.eq(Mux(allin, misses != 0, Array(miss)[kk]))]
+        return allin, step_miss
+
+    def _steps_one_phase(self, m, c, live, same, k):
+        """LRU: the corners a step checks (``act``), whether it misses, whether it is the lookup's last, and the
+        registers that decide it (``ahead``: :meth:`_decision` of the held lookup, decided a clock ahead by
+        :meth:`_decide_ahead`, so that neither a compare's outcome nor the corners' relations lie between the
+        registers and the step's firing, the lookup's acceptance and the enables of every held row). A step's
+        hits and its miss update the rows in the clock it fires."""
+        ahead = SimpleNamespace(allin=Signal(name="allin"), step_miss=Signal(name="step_miss"))
+        # the same decision from this clock's registers: equal to ``ahead``'s whenever the outcomes are current
+        # (formal invariant ``decision_ahead``), for the proof only (nothing reads it in the hardware)
+        ahead.now = self._decision(m, [c[q].hit for q in range(4)], live, same, k, "now_")
         act = [Signal(name=f"act{q}") for q in range(4)]         # corners checked in this step
         for q in range(4):
-            m.d.comb += act[q].eq(live[q] & Mux(allin, 1, k == q))
-        step_miss, last = Signal(), Signal()
-        m.d.comb += [step_miss.eq(sum(act[q] & ~c[q].hit for q in range(4)) != 0), last.eq(allin | (k == 3))]
-        return act, step_miss, last
+            m.d.comb += act[q].eq(live[q] & Mux(ahead.allin, 1, k == q))
+        last = Signal()
+        m.d.comb += last.eq(ahead.allin | (k == 3))
+        return act, ahead.step_miss, last, ahead
+
+    def _decide_ahead(self, m, ahead, held, pre, hits_ok, accept, step_on):
+        """The registers of :meth:`_steps_one_phase`'s decision for the clock after this one, from what the
+        outcome registers (:meth:`_outcomes`) take in this clock: the prefetch stage's compares with the lookup
+        it hands over (corner 0 next), the held rows' compares when the outcomes are taken again after a fill,
+        or, after a step of one corner that writes no tag (``step_on``: it fired and was not the last; a hit),
+        the same outcomes with the next corner. After a step that writes tags the outcomes are stale and these
+        registers with them; they are decided again with the outcomes. ``held``: the tag stage's corners, request,
+        live corners, equal sets and next corner."""
+        c, req, live, same, k = held
+
+        def take(hits, live, same_, kk, name):
+            allin, step_miss = self._decision(m, hits, live, same_, kk, name)
+            m.d.sync += [ahead.allin.eq(allin), ahead.step_miss.eq(step_miss)]
+
+        with m.If(accept):
+            take([pre.c[q].hit for q in range(4)], self._live(m, pre.c, pre.req, lambda q: 1, "p_live"),
+                 pre.same, 0, "p_")
+        with m.Elif(~hits_ok):
+            take([c[q].cmp_hit for q in range(4)], live, same, k, "c_")
+        with m.Elif(step_on):
+            take([c[q].hit for q in range(4)], self._live(m, c, req, lambda q: q > k, "k_live"),
+                 same, k + 1, "k_")
 
     def _steps_two_phase(self, m, c, live, upd, mq):
         """Round robin: a hit changes no row, so a step is either the remaining corners up to the first that misses

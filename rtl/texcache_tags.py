@@ -106,7 +106,8 @@ def new_rows(m, params: TexCacheParams, line_bits: int, c, way_now) -> list:
     return out
 
 
-def tag_store(m, params: TexCacheParams, line_bits: int, c, read_sets, wr, new, platform) -> list:
+def tag_store(m, params: TexCacheParams, line_bits: int, c, wr, new, platform, *, read_sets, load,
+              next_sets) -> list:
     """The tag store: each set's row in LUT RAM with a write port per corner (corner ``w`` writes ``new[w]`` to
     its set ``c[w].set``, one-hot ``c[w].hot``, when ``wr[w]``; a step writes at most one set per corner, and a set
     from at most one corner) and a read port per set of ``read_sets``, built as a live-value table (LaForest &
@@ -115,6 +116,11 @@ def tag_store(m, params: TexCacheParams, line_bits: int, c, read_sets, wr, new, 
     did since reset (``written``; else the row is the empty one: no way valid, ages in way order). A read port
     reads its four memories and takes the live one's word. Returns per read port its set's row ``(tags, valids,
     state)``, combinational.
+
+    ``read_sets`` are registers loaded with ``next_sets`` when ``load``: the live-value table is read a clock
+    early, from ``next_sets``, into a copy per read port (``r_lvt{r}``, ``r_written{r}``, kept equal to the
+    table's entry for ``read_sets[r]`` by this clock's writes, forwarded), so that a read goes from the set
+    register through the LUT RAM and a four-way multiplexer on a register, not through the table.
 
     On the formal platform each set's live row as each read port sees it is named too (``store{j}_r{r}``:
     memories read at every address, as :class:`rtl.streams.CreditFIFO` names its slots), for the proof that the
@@ -131,15 +137,13 @@ def tag_store(m, params: TexCacheParams, line_bits: int, c, read_sets, wr, new, 
                 with m.If(c[w].hot[j]):
                     m.d.sync += [lvt[j].eq(w), written[j].eq(1)]
 
-    def live(mems, addr, name):                        # a set's live row through one read port's memories
+    def datas_at(mems, addr):                          # one read port's memories at addr
         datas = []
         for mem in mems:
             rp = mem.read_port(domain="comb")
             m.d.comb += rp.addr.eq(addr)
             datas.append(rp.data)
-        row = Signal(width, name=name)
-        m.d.comb += row.eq(Mux(Array(written)[addr], Array(datas)[Array(lvt)[addr]], empty))
-        return row
+        return datas
 
     out = []
     for r, rset in enumerate(read_sets):
@@ -150,9 +154,18 @@ def tag_store(m, params: TexCacheParams, line_bits: int, c, read_sets, wr, new, 
             wp = mem.write_port()
             m.d.comb += [wp.addr.eq(c[w].set), wp.data.eq(row_word(*new[w])), wp.en.eq(wr[w])]
             mems.append(mem)
-        row = live(mems, rset, f"stored{r}")
+        r_lvt, r_written = Signal(2, name=f"r_lvt{r}"), Signal(name=f"r_written{r}")
+        target = Mux(load, next_sets[r], rset)         # the set this read port holds from the next clock on
+        with m.If(load):
+            m.d.sync += [r_lvt.eq(Array(lvt)[next_sets[r]]), r_written.eq(Array(written)[next_sets[r]])]
+        for w in range(4):                             # this clock's write to that set, forwarded
+            with m.If(wr[w] & (c[w].set == target)):
+                m.d.sync += [r_lvt.eq(w), r_written.eq(1)]
+        row = Signal(width, name=f"stored{r}")
+        m.d.comb += row.eq(Mux(r_written, Array(datas_at(mems, rset))[r_lvt], empty))
         if platform == "formal":
             for j in range(S):
-                live(mems, Const(j, len(rset)), f"store{j}_r{r}")
+                live = Signal(width, name=f"store{j}_r{r}")
+                m.d.comb += live.eq(Mux(written[j], Array(datas_at(mems, Const(j, len(rset))))[lvt[j]], empty))
         out.append(row_fields(row, W, lb, n))
     return out

@@ -36,7 +36,7 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
     ap.add_argument("--preset", default="default", help="pipeline preset (built in or presets/<name>.toml)")
     add_size_argument(ap)
     ap.add_argument("--out", type=Path, default=Path("build/animate"), help="output folder")
-    ap.add_argument("--gif", type=Path, help="the animated picture (default OUT/<scene>.gif)")
+    ap.add_argument("--gif", type=Path, help="the animated picture (default OUT/<scene file's stem>.gif)")
     ap.add_argument("--rates", nargs="*", default=None, metavar="SCENE",
                     help="scenes of the frames-per-second table, each with its preset (host/shipped.py; default: "
                          "every shipped scene)")
@@ -148,20 +148,20 @@ def _gif(args) -> dict:
     import imageio.v3 as iio
 
     from board.frame import display_frame
+    from host.atomic import atomic_write_bytes, check_output_file
     from host.scene import load_scene, scene_path
     from host.scene_animation import frames
-    scene = load_scene(scene_path(args.scene))
+    file = scene_path(args.scene)
+    # named by the scene FILE (from the command line), never by its `name` (the file's contents: "../../x")
+    path = check_output_file(args.gif or args.out / f"{file.stem}.gif", "--gif file", inputs=[file])
+    scene = load_scene(file)
     pics = []
     for s in frames(scene):
         _, tf, _ = _prepare(s, args.size, args.preset)
         _, color, _, _, _ = tf.params.draw(tf.records.matrix())
         h, w = color.shape[:2]
         pics.append(display_frame(color, w, h).astype(np.uint8))
-    path = args.gif or args.out / f"{scene.name}.gif"
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(path.name + ".tmp.gif")
-    iio.imwrite(tmp, np.stack(pics), duration=100, loop=0)
-    tmp.replace(path)
+    atomic_write_bytes(path, iio.imwrite("<bytes>", np.stack(pics), extension=".gif", duration=100, loop=0))
     return {"scene": scene.name, "preset": args.preset, "frames": len(pics), "size": args.size, "gif": str(path)}
 
 

@@ -33,6 +33,8 @@
 from __future__ import annotations
 
 import json
+import math
+import os
 import sys
 import time
 from pathlib import Path
@@ -48,6 +50,7 @@ from host.atomic import (
     atomic_save_npy,
     check_output_dir,
     check_output_file,
+    check_output_not_input,
     strict_json,
 )
 from host.truth import DEFAULT_SAMPLES
@@ -76,14 +79,37 @@ def cmd_info(args) -> int:
     return 0
 
 
+def load_npy(path) -> np.ndarray:
+    """A ``.npy`` array from an untrusted file: never a pickle (``allow_pickle=False``), and its header's shape
+    and dtype checked against the file's size before numpy allocates the array (a 130-byte file declaring
+    ``shape (10**12,)`` made ``np.load`` ask for 7 TiB and end in a ``MemoryError`` traceback). Raises
+    ``ValueError`` (or ``OSError``) naming what is wrong."""
+    path = Path(path)
+    with open(path, "rb") as fh:
+        version = np.lib.format.read_magic(fh)
+        read_header = {(1, 0): np.lib.format.read_array_header_1_0,
+                       (2, 0): np.lib.format.read_array_header_2_0}.get(version)
+        if read_header is None:
+            raise ValueError(f"unsupported .npy format version {version}")
+        shape, _, dtype = read_header(fh, max_header_size=10_000)
+        data = os.fstat(fh.fileno()).st_size - fh.tell()
+    if dtype.hasobject:
+        raise ValueError(f"dtype {dtype} holds Python objects (a pickle), which are never loaded")
+    need = math.prod(shape) * dtype.itemsize
+    if need != data:
+        raise ValueError(f"its header declares shape {shape} of {dtype} ({need:,} bytes), but the file holds "
+                         f"{data:,} bytes of data")
+    return np.load(path, allow_pickle=False)
+
+
 def cmd_eval(args) -> int:
     params = _params(args)
-    check_output_file(args.output, "output")                  # before any work: nothing half done
+    check_output_file(args.output, "output", inputs=[args.input])     # before any work: nothing half done
     if args.hex:
-        check_output_file(args.hex, "--hex file")
+        check_output_file(args.hex, "--hex file", inputs=[args.input, args.output])
     src = Path(args.input)
     try:
-        values = np.load(src, allow_pickle=False)
+        values = load_npy(src)
     except (OSError, ValueError) as exc:
         raise SystemExit(f"error: cannot read {src} as a .npy array: {exc}") from None
     if values.ndim == 1 and len(params.inputs) == 1:
@@ -134,8 +160,7 @@ def cmd_errors(args) -> int:
 
 def render_summary(args, report: dict) -> str:
     """The few lines ``bumpmap render`` prints (``--json``: the whole report instead)."""
-    from host.images import db_text, summary_table, truth_rows
-    verdict = report["verdict"]
+    from host.images import db_text, depth_rows, summary_table, truth_rows, verdict_row
     rows = [("scene", f"{report.get('scene', args.scene)} ({report['width']}x{report['height']}, preset "
                       f"{args.preset})"),
             ("drawn from", "triangles (the engine)" if args.triangles else "fragments (the float front end)"),
@@ -143,9 +168,27 @@ def render_summary(args, report: dict) -> str:
             ("vs float (a)", f"{db_text(report['psnr_db_vs_float'])} (max {report['max_lsb_vs_float']} LSB)"),
             ("vs ideal (b)", f"{db_text(report['psnr_db_vs_ideal'])} (max {report['max_lsb_vs_ideal']} LSB)"),
             *truth_rows(report),
-            ("verdict", f"{'pass' if verdict['pass'] else 'FAIL'} (bound {verdict['bound_lsb']} LSB from (a))"),
+            *(depth_rows(report)[1:2] if "depth" in report else []),   # pixels the comparisons leave out
+            verdict_row(report),
             ("output", args.output + (f", references in {args.refs}" if args.refs else ""))]
     return summary_table(rows)
+
+
+def preset_file(name) -> Path | None:
+    """The file of pipeline preset ``name`` if it is read from one (not built in, a valid name), else ``None``:
+    an input an output must not overwrite."""
+    from fxmodel.pipeline.presets import BUILTIN_PRESET_UNITS, preset_path
+    if not isinstance(name, str) or name in BUILTIN_PRESET_UNITS:
+        return None
+    try:
+        return preset_path(name)
+    except ValueError:
+        return None
+
+
+def scene_images(scene) -> list:
+    """The PNG files a loaded scene reads (its materials' color textures and bump maps)."""
+    return [spec.path for m in scene.materials for spec in (m.color, m.bump) if spec is not None and spec.path]
 
 
 def cmd_render(args) -> int:
@@ -159,12 +202,14 @@ def cmd_render(args) -> int:
         tell,
     )
     from host.scene import SceneError
-    check_output_file(args.output, "output PNG")              # before any work
+    check_output_file(args.output, "output PNG", inputs=[args.scene, preset_file(args.preset)])  # before any work
     if args.refs:
         check_output_dir(args.refs, "--refs folder")
     try:
         frame = prepare(args.scene, size=args.size, preset=args.preset, cube_size=args.cube_size,
                         allow_clamp=args.allow_clamp)
+        # the scene's PNG maps, known once it is read: still before anything is written
+        check_output_not_input(args.output, "output PNG", scene_images(frame.scene))
         tframe = from_triangles(frame) if args.triangles else None
     except (SceneError, OSError) as exc:
         raise SystemExit(f"error: {exc}") from None
@@ -184,12 +229,15 @@ def cmd_render(args) -> int:
 
 
 def cmd_fit(args) -> int:
-    from fxmodel.pipeline.presets import check_preset_name, presets_dir
+    from fxmodel.pipeline.presets import check_preset_name, preset_path, presets_dir
     from host.scene import SceneError
 
     from .fit import FitError, fit
     if args.name is not None:                                   # before any work: nothing written elsewhere
         check_preset_name(args.name)
+        # `fit scenes/a.toml --out scenes --name a` would replace the scene with the preset (the default name,
+        # <stem>-fit, never names the scene file)
+        check_output_not_input(preset_path(args.name, args.out), "preset file", [args.scene])
     check_output_dir(args.out if args.out is not None else presets_dir(), "preset folder")
     try:
         report = fit(args.scene, max_lsb=args.max_lsb, size=args.size or None, cube_size=args.cube_size,

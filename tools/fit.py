@@ -295,7 +295,10 @@ def check_candidate(c: Candidate) -> dict:
     """``{"ok", "renders"}``: whether the candidate stays within ``max_lsb`` of reference (a) on every
     well-conditioned pixel, no more than ``max_lsb`` further from reference (b) than the start, and clamps no more
     fragment inputs and leaves no more texture addresses unresolved than the start (:func:`_refused`), at every
-    size (stopping at the first size that fails), drawn from triangles when ``c.triangles`` (:func:`_render`). A
+    size (stopping at the first size that fails), drawn from triangles when ``c.triangles`` (:func:`_render`;
+    then the frame from the front end's fragments, which ``bumpmap render`` judges, within ``max_lsb`` of (a)
+    too: the two frames quantize the attributes differently, and a preset fitted to one can miss by an LSB on
+    the other). A
     candidate that makes an invalid unit or a triangle the set-up cannot draw (``ValueError``, ``TypeError``) is
     not ok."""
     from host.render import prepare
@@ -310,6 +313,10 @@ def check_candidate(c: Candidate) -> dict:
             if (rep["max_lsb_vs_float_well_conditioned"] > c.max_lsb or _refused(frame) > clamped_ref
                     or rep["max_lsb_vs_ideal"] > lsb_b + c.max_lsb):
                 return {"ok": False, "renders": renders}
+            if c.triangles:             # what `bumpmap render` judges too: the frame from the front end's fragments
+                renders += 1
+                if _render(frame, False)["max_lsb_vs_float_well_conditioned"] > c.max_lsb:
+                    return {"ok": False, "renders": renders}
     except (ValueError, TypeError):
         return {"ok": False, "renders": renders}
     return {"ok": True, "renders": renders}

@@ -154,5 +154,9 @@ def main(argv=None) -> int:
     except ValueError as exc:           # unknown unit / preset: one clear line, no traceback
         print(f"error: {exc}", file=sys.stderr)
         return 2
+    except MemoryError:                 # the inputs' limits should prevent it; if not, still one line
+        print("error: out of memory: the inputs ask for more than this machine holds (docs/exit-codes.md: "
+              "limits)", file=sys.stderr)
+        return 2
     finally:
         signal.signal(signal.SIGTERM, previous)

@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from fxmodel.core.paths import build_dir
+from host.args import int_range, size_arg
 from host.atomic import atomic_json, atomic_write_text
 from host.render import SCENE_BOUND_LSB, ClampError, judge, prepare, render
 from host.scene import parse_scene
@@ -72,9 +73,9 @@ def summary(results: list) -> dict:
 
 def add_arguments(ap: argparse.ArgumentParser) -> None:
     """The command line (``bumpmap scenes-stress``, :mod:`tools.main`)."""
-    ap.add_argument("--count", type=int, default=200)
-    ap.add_argument("--seed", type=int, default=0, help="first seed (default: %(default)s)")
-    ap.add_argument("--size", type=int, default=32, help="image width and height (default: %(default)s)")
+    ap.add_argument("--count", type=int_range(1, 10**6), default=200, help="scenes (default: %(default)s)")
+    ap.add_argument("--seed", type=int_range(0, 2**63 - 1), default=0, help="first seed (default: %(default)s)")
+    ap.add_argument("--size", type=size_arg(), default=32, help="image width and height (default: %(default)s)")
     ap.add_argument("--preset", default="default")
     ap.add_argument("--out", default=str(build_dir("scenes_stress")), help="report folder")
     ap.add_argument("--keep", help="write the scenes of frames over 1 LSB here")

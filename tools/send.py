@@ -23,7 +23,7 @@ from pathlib import Path
 
 from board.frame import BOARD_PRESET, BOARD_SIZE, add_frame_argument
 from host.args import int_range
-from host.atomic import atomic_write_bytes
+from host.atomic import atomic_write_bytes, check_output_file
 from host.protocol import Err
 
 __all__ = ["add_arguments", "run", "scene_bytes"]
@@ -176,6 +176,9 @@ def run(args: argparse.Namespace) -> int:
         print("error: give --port PORT or --dry-run FILE", file=sys.stderr)
         return 2
     try:
+        if args.dry_run:                # before any work; not over the scene file it reads
+            from host.scene import scene_path
+            check_output_file(args.dry_run, "--dry-run file", inputs=[scene_path(args.scene)])
         frames = scene_bytes(args)
     except (SceneError, ValueError, OSError) as exc:
         print(f"error: {exc}", file=sys.stderr)

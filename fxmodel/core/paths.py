@@ -72,11 +72,16 @@ def atomic_writer(path, mode: str = "wb", encoding: str | None = None):
     Raises
     ------
     OSError
-        The folder is missing or not writable, or ``path`` is a directory (``IsADirectoryError``, checked first).
+        The folder is missing or not writable, ``path`` is a directory (``IsADirectoryError``, checked first), or
+        ``path`` is something else that is not a regular file (a device such as ``/dev/null``, a FIFO, a
+        socket): renaming over it would replace it, and a device node replaced by root stays broken.
     """
     path = Path(path)
     if path.is_dir():
         raise IsADirectoryError(21, "Is a directory", str(path))
+    if path.exists() and not path.is_file():
+        raise OSError(f"{path}: not a regular file (a device, a FIFO or a socket): an output is written to a "
+                      "temporary file and renamed over its path, which would replace it")
     try:
         fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     except OSError as exc:              # name the file asked for, not the temporary one

@@ -390,6 +390,9 @@ def load_preset(name: str, directory=None, base: Mapping | None = None) -> Pipel
         data = tomllib.loads(path.read_text(encoding="utf-8-sig"))      # a byte-order mark is accepted
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
         raise PresetError(f"{path}: not valid TOML: {exc}") from None
+    except RecursionError:              # tomllib recurses per level: [[[[...]]]] a few hundred deep
+        raise PresetError(f"{path}: TOML nested too deeply to read (arrays or inline tables within each other "
+                          "hundreds of levels deep)") from None
     base = base if base is not None else BUILTIN_PRESET_UNITS["default"]
     allowed = (*UNIT_KEYS, *TOP_KEYS, META_KEY)
     for key in data:

@@ -57,10 +57,17 @@ def test_a_record_round_trips_and_a_bad_one_is_named(tmp_path):
     fp.write_floorplan(path, {BRAM: "X12/Y50/DP16KD", MULT: "X40/Y29/MULT18_0"}, {"seed": 3})
     assert fp.read_floorplan(path) == {MULT: "X40/Y29/MULT18_0", BRAM: "X12/Y50/DP16KD"}
     assert json.loads(path.read_text())["source"] == {"seed": 3}
-    for body, message in [("{", "not a floorplan record"), ("[]", "'cells'"), ('{"cells": {}}', "'cells'"),
-                          ('{"cells": {"system.store.0": "X1/Y1/DP16KD"}}', "'system.store.0' is not the engine"),
-                          (f'{{"cells": {{"{MULT}": "../../etc"}}}}', "not of the form"),
-                          (f'{{"cells": {{"{MULT}": "X1/Y1/MULT18_0", "{BRAM}": "X1/Y1/MULT18_0"}}}}',
+    head = f'"types": {json.dumps(list(fp.CELL_TYPES))}, "prefix": "{fp.ENGINE_PREFIX}"'
+    for body, message in [("{", "not a floorplan record"), ("[]", "not a floorplan record"),
+                          ('{"cells": {}}', "'types' is None"),
+                          (f'{{"types": ["MULT18X18D"], "prefix": "{fp.ENGINE_PREFIX}", "cells": {{}}}}',
+                           "'types' is \\['MULT18X18D'\\]"),
+                          (f'{{{head.replace(fp.ENGINE_PREFIX, "system.")}, "cells": {{}}}}', "'prefix' is 'system.'"),
+                          (f'{{{head}, "cells": {{}}}}', "'cells'"),
+                          (f'{{{head}, "cells": {{"system.store.0": "X1/Y1/DP16KD"}}}}',
+                           "'system.store.0' is not the engine"),
+                          (f'{{{head}, "cells": {{"{MULT}": "../../etc"}}}}', "not of the form"),
+                          (f'{{{head}, "cells": {{"{MULT}": "X1/Y1/MULT18_0", "{BRAM}": "X1/Y1/MULT18_0"}}}}',
                            "the same site")]:
         path.write_text(body)
         with pytest.raises(fp.FloorplanError, match=message) as e:

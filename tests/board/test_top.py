@@ -4,6 +4,7 @@ is ``make bitstream BOARD=ulx3s`` (about a minute)."""
 
 from __future__ import annotations
 
+import json
 import re
 from fractions import Fraction
 
@@ -231,13 +232,18 @@ def test_the_command_refuses_a_bad_floorplan_before_building(tmp_path, monkeypat
     import argparse
     ap = argparse.ArgumentParser()
     top.add_arguments(ap)
-    (tmp_path / "bad.json").write_text('{"cells": {"system.engine.x_mult": "nowhere"}}')
+    from board.floorplan import CELL_TYPES, ENGINE_PREFIX
+    (tmp_path / "bad.json").write_text(json.dumps({"types": list(CELL_TYPES), "prefix": ENGINE_PREFIX,
+                                                   "cells": {"system.engine.x_mult": "nowhere"}}))
     monkeypatch.setattr(top, "Top", lambda *a, **k: pytest.fail("elaborated with a bad floorplan"))
     monkeypatch.setattr(top, "_platform", lambda *a, **k: pytest.fail("built with a bad floorplan"))
     args = ap.parse_args(["--out", str(tmp_path / "out"), "--floorplan", str(tmp_path / "bad.json"), "--size", "16"])
     assert top.run(args) == 2
     err = capsys.readouterr().err
     assert "--floorplan" in err and "bad.json" in err and "'nowhere'" in err
+    with pytest.raises(SystemExit) as e:            # a floorplan named and refused in one command
+        ap.parse_args(["--floorplan", str(tmp_path / "bad.json"), "--no-floorplan"])
+    assert e.value.code == 2 and "not allowed with" in capsys.readouterr().err
 
 
 def test_a_flow_that_stops_is_an_error_naming_its_folder(tmp_path, monkeypatch, capsys):

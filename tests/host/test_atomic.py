@@ -74,6 +74,27 @@ def test_output_checks(tmp_path):
     assert (tmp_path / "new").is_dir()
 
 
+def test_writer_and_checks_refuse_a_path_that_is_not_a_regular_file(tmp_path):
+    """A FIFO (or a device: ``/dev/null`` as an output, run as root, became a regular file) is not renamed over."""
+    fifo = tmp_path / "fifo"
+    os.mkfifo(fifo)
+    with pytest.raises(OSError, match="not a regular file"):
+        atomic_write_text(fifo, "x")
+    with pytest.raises(OSError, match="not a regular file"):
+        check_output_file(fifo)
+    assert [p.name for p in tmp_path.iterdir()] == ["fifo"] and os.path.exists(fifo) and not fifo.is_file()
+
+
+def test_output_check_refuses_an_input(tmp_path):
+    (tmp_path / "in.toml").write_text("x")
+    os.link(tmp_path / "in.toml", tmp_path / "hard.toml")
+    for out in (tmp_path / "in.toml", tmp_path / "sub" / ".." / "in.toml", tmp_path / "hard.toml"):
+        (tmp_path / "sub").mkdir(exist_ok=True)
+        with pytest.raises(OSError, match="is the input"):
+            check_output_file(out, inputs=[None, tmp_path / "in.toml"])
+    assert check_output_file(tmp_path / "new.png", inputs=[tmp_path / "in.toml", tmp_path / "missing"])
+
+
 def _outputs(folder: Path) -> dict:
     """Every visible file of ``folder``: name -> bytes (temporary files are hidden: ``.name.*.tmp``)."""
     return {p.name: p.read_bytes() for p in folder.iterdir() if p.is_file() and not p.name.startswith(".")}

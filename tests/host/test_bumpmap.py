@@ -87,6 +87,19 @@ def test_mexican_hat():
     assert w.shape == (20, 30) and w[10, 15] == pytest.approx(1.0, abs=1e-9)
 
 
+@pytest.mark.parametrize("sigma", [5e-324, 1e-160, 1e-10, 0.01])
+def test_mexican_hat_of_a_tiny_sigma_is_one_spike(sigma):
+    """Any sigma > 0 is valid in a scene file: a tiny one (sigma**2 underflows to 0) is a single spike at the
+    centre, not NaN (which surfaced as an error naming no file or key) nor a numpy warning."""
+    import warnings
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        h = mexican_hat((8, 6), sigma)
+    spike = np.zeros((6, 8))
+    spike[3, 4] = 1.0
+    assert np.array_equal(h, spike)
+
+
 def test_heights_from_image_8_and_16_bit(tmp_path):
     a8 = np.array([[0, 128, 255], [1, 2, 3]], np.uint8)
     Image.fromarray(a8, "L").save(tmp_path / "a.png")

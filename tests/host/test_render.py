@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 
 from fxmodel.core.paths import ROOT
-from host.render import SCENE_BOUND_LSB, ClampError, judge, prepare, render
+from host.render import SCENE_BOUND_LSB, ClampError, from_triangles, judge, prepare, render
 from tools.main import main
 
 STEEP = ROOT / "tests" / "scenes" / "steep-bumps.toml"          # A about 5.3: beyond bump.a_fmt without the exponent
@@ -142,3 +142,39 @@ def test_sim_folder_names_reference_c_only_when_asked():
     plain = run_key(argparse.Namespace(**base, truth=0), TIN)
     assert run_key(argparse.Namespace(**base), TIN) == plain
     assert run_key(argparse.Namespace(**base, truth=8), TIN) != plain
+
+
+def test_a_triangle_the_records_cannot_hold_is_refused_naming_the_scene_and_the_remedy(tmp_path):
+    # A triangle whose U spans exactly two tiles (vertex values -1 .. 1) fits the fragments of a preset fitted
+    # to another scene (sphere-fit: its vertex format holds [-1, 1)) but not its triangle record: `render` drew
+    # it, `render --triangles` and `sim` refused it with the set-up's bare "triangle 0: attribute U ..." (no
+    # scene, no remedy).
+    path = tmp_path / "two-tiles.toml"
+    path.write_text("""
+[image]
+width = 32
+height = 32
+[camera]
+position = [0.0, 0.0, 3.0]
+target = [0.0, 0.0, 0.0]
+fov = 45.0
+[[lights]]
+direction = [0.0, 0.0, 1.0]
+color = [0.9, 0.9, 0.9]
+[[materials]]
+name = "m"
+[materials.bump]
+procedural = "mexican-hat"
+size = [16, 16]
+repeat = [2, 2]
+[[meshes]]
+kind = "triangles"
+material = "m"
+positions = [[-1.0, -1.0, 0.0], [1.0, -1.0, 0.0], [0.0, 1.0, 0.0]]
+uvs = [[0.0, 1.0], [1.0, 1.0], [0.5, 0.0]]
+""")
+    frame = prepare(path, preset="sphere-fit")                             # the fragments fit
+    with pytest.raises(ValueError) as info:
+        from_triangles(frame)
+    msg = str(info.value)
+    assert str(path) in msg and "attribute U" in msg and f"bumpmap fit {path}" in msg

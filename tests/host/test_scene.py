@@ -262,3 +262,120 @@ def test_generated_meshes_share_edges_bit_for_bit(mesh):
         assert boundary == []
     else:                                                                      # the quad: its outline only
         assert len(boundary) == 2 * (7 + 3)
+
+
+def test_triangle_budget_is_checked_before_each_generator_runs(tmp_path, monkeypatch):
+    """The scene-wide triangle budget holds before a mesh is built: many meshes, each within the budget alone,
+    are refused at the first one beyond it, not after all of them were generated (6 meshes of 2^20 triangles
+    took 4 s and 1.4 GB before their sum was checked; a file of 100 lines, 60 of them, exhausts the memory). Here
+    the budget is 100 triangles."""
+    import host.scene as scene_module
+    built = []
+    real = scene_module.quad_mesh
+    monkeypatch.setattr(scene_module, "MAX_TRIANGLES", 100)
+    monkeypatch.setattr(scene_module, "quad_mesh", lambda *a, **k: built.append(1) or real(*a, **k))
+    quad = ('\n[[meshes]]\nkind = "quad"\nmaterial = "plain"\norigin = [0.0, 0.0, 0.0]\n'
+            'edge_u = [1.0, 0.0, 0.0]\nedge_v = [0.0, -1.0, 0.0]\ndivisions = [7, 7]\n')        # 98 triangles
+    head = BASE.split("[[meshes]]")[0]
+    assert len(load_scene(write(tmp_path, head + quad)).triangles().positions) == 98
+    built.clear()
+    path, text = error_of(tmp_path, head + quad * 5)
+    assert text.startswith(f"{path}: meshes[1].divisions: makes 98 triangles after the 98 of the meshes before "
+                           "it, more than the 100 a scene may hold"), text
+    assert len(built) == 1
+    path, text = error_of(tmp_path, head + quad + quad.replace("kind = \"quad\"", "kind = \"sphere\"")
+                          .replace("origin = [0.0, 0.0, 0.0]\nedge_u = [1.0, 0.0, 0.0]\nedge_v = [0.0, -1.0, 0.0]\n"
+                                   "divisions = [7, 7]", "center = [0.0, 0.0, 0.0]\nradius = 1.0\nsegments = 3\n"
+                                   "rings = 2"))                  # 6 triangles: 104 in all
+    assert "meshes[1].segments: makes 6 triangles after the 98" in text, text
+
+
+@pytest.mark.parametrize("where", ["color", "bump"])
+def test_png_maps_hold_the_map_edge_limit(tmp_path, where):
+    """A PNG map is held to the map edge limit (4096 texels) like a procedural one, from its header, before it
+    is decoded: a 35 kB PNG of 5000 x 5000 took 48 s and 2.4 GB to draw a 16 x 16 frame, and a larger one
+    exhausts the memory."""
+    Image.new("L", (4097, 1)).save(tmp_path / "wide.png")
+    Image.new("L", (4096, 2)).save(tmp_path / "ok.png")
+    table = ('[materials.bump]\nfile = "{}"\n' if where == "bump" else '[materials.color]\nfile = "{}"\n')
+    text = BASE.replace('[[materials]]\nname = "bumpy"\ncolor = [0.5, 0.5, 0.5]\n',
+                        '[[materials]]\nname = "bumpy"\n' + ("color = [0.5, 0.5, 0.5]\n" if where == "bump" else ""))
+    text = text.replace('[materials.bump]\nprocedural = "mexican-hat"\nrepeat = [2, 2]\n',
+                        table.format("ok.png"))
+    load_scene(write(tmp_path, text))
+    path, err = error_of(tmp_path, text.replace("ok.png", "wide.png"))
+    assert err == (f'{path}: materials[1].{where}.file: "wide.png" is 4097 x 1 pixels, more than the 4096 texels '
+                   "a map edge may have"), err
+
+
+def test_a_deeply_nested_bad_value_is_shown_short(tmp_path):
+    """The message shows a bad value nested deeper than json.dumps recurses (where tomllib still reads it) in a
+    few characters, not a ``RecursionError``."""
+    from host.scene_reader import show_value
+    deep = []
+    for _ in range(5000):
+        deep = [deep]
+    assert len(show_value(deep)) <= 60
+    path, text = error_of(tmp_path, BASE.replace("repeat = [2, 2]", "repeat = " + "[" * 200 + "]" * 200))
+    assert text.startswith(f"{path}: materials[1].bump.repeat: expected 2 numbers"), text
+
+
+def test_resource_caps_lights_texels_text(tmp_path):
+    """Caps that keep the host's work on one small file bounded (``host.scene_types``): 20,000 lights (a 2 MB
+    file) took 45 s at the default cube, more at a larger one; the maps of every material are built (three
+    hidden 2048^2 materials took 10 s, dozens of 4096^2 ones exhaust the memory); a chiselled text of 2 million
+    characters ended in Pillow's 'too many characters in string', naming no file or key."""
+    one = "[[lights]]\ndirection = [0.0, 0.0, 1.0]\ncolor = [1.0, 1.0, 1.0]\n\n"
+    assert len(load_scene(write(tmp_path, BASE.replace(one, one * 32))).lights) == 32
+    path, text = error_of(tmp_path, BASE.replace(one, one * 33))
+    assert text == f"{path}: lights: 33 lights, more than the 32 a scene may have", text
+
+    hat = '[materials.bump]\nprocedural = "mexican-hat"\nrepeat = [2, 2]\n'
+    big = hat + "size = [4096, 4096]\nsigma = 5.0\n"
+    plain = 'name = "plain"\ncolor = [0.5, 0.5, 0.5]\n'
+    two = BASE.replace(hat, big).replace(plain, plain + big)        # two full-size bump maps, constant colors
+    assert load_scene(write(tmp_path, two)).materials[1].bump.kwargs["size"] == (4096, 4096)
+    path, text = error_of(tmp_path, two.replace(plain, 'name = "plain"\ncolor = { procedural = "checker" }\n'))
+    assert text.startswith(f"{path}: materials[1]: its maps bring the scene's maps to 33,558,528 texels, more "
+                           "than the 33,554,432"), text                    # + the checker's 64 x 64
+    Image.new("RGB", (4096, 1)).save(tmp_path / "c.png")              # a PNG counts by its header's size
+    path, text = error_of(tmp_path, two.replace(plain, 'name = "plain"\ncolor = { file = "c.png" }\n'))
+    assert text.startswith(f"{path}: materials[1]: its maps bring the scene's maps to 33,558,528 texels"), text
+
+    chisel = '[materials.bump]\nprocedural = "chiselled-text"\nsize = [64, 32]\ntext = "{}"\n'
+    assert load_scene(write(tmp_path, BASE.replace(hat, chisel.format("x" * 4096)))).materials[1].bump
+    path, text = error_of(tmp_path, BASE.replace(hat, chisel.format("x" * 2_000_000)))
+    assert text == (f"{path}: materials[1].bump.text: 2,000,000 characters, more than the 4096 a chiselled text "
+                    "may have"), text
+
+
+def test_image_pixels_are_capped_in_the_file_and_in_an_override(tmp_path):
+    """An 8192 x 8192 image (each edge within 8192) needed some 55 GB and an hour for a covered frame and was
+    killed for memory with no message; width x height is capped at 2048 x 2048, an edge may still be 8192."""
+    sized = BASE.replace("width = 32\nheight = 24", "width = {}\nheight = {}")
+    assert load_scene(write(tmp_path, sized.format(8192, 512))).width == 8192
+    scene = load_scene(write(tmp_path, sized.format(2048, 2048)))
+    path, text = error_of(tmp_path, sized.format(8192, 8192))
+    assert text == (f"{path}: image: 8192 x 8192 is 67,108,864 pixels, more than the 4,194,304 (2048 x 2048) an "
+                    "image may have"), text
+    assert scene.with_size(64).height == 64
+    with pytest.raises(ValueError, match="at 4096 x 4096, 16,777,216 pixels, more than the 4,194,304"):
+        scene.with_size(4096)
+    with pytest.raises(ValueError, match="more than the 4,194,304"):
+        load_scene(write(tmp_path, BASE), size=(8192, 8192))
+
+
+def test_a_png_whose_pixels_do_not_decode_is_refused_by_key(tmp_path):
+    """A PNG with good chunk checksums but a broken deflate stream passed the load-time check (``verify``) and
+    stopped the render later with 'error: broken data stream when reading image file', naming no file or key."""
+    import struct
+    import zlib
+
+    def chunk(kind, data):
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
+    header = chunk(b"IHDR", struct.pack(">IIBBBBB", 8, 8, 8, 0, 0, 0, 0))
+    (tmp_path / "bad.png").write_bytes(b"\x89PNG\r\n\x1a\n" + header + chunk(b"IDAT", b"\x78\x9c" + b"\xff" * 50)
+                                       + chunk(b"IEND", b""))
+    path, text = error_of(tmp_path, BASE.replace('procedural = "mexican-hat"\nrepeat = [2, 2]', 'file = "bad.png"'))
+    assert text.startswith(f'{path}: materials[1].bump.file: cannot read "bad.png" as an image'), text
+    assert "broken data stream" in text

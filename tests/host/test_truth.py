@@ -123,6 +123,21 @@ def test_against_truth_reports_full_and_edge_and_excludes_pixels(tmp_path):
     assert rep["full_pixels"] == 63 and rep["edge_pixels"] == 35
 
 
+
+def test_excluded_pixels_do_not_leak_into_the_flip_of_their_neighbours(tmp_path):
+    # A frame drawn from triangles shows another surface than (c) at its depth disagreements (z-fighting of
+    # coplanar meshes: stripes over half the frame); those pixels are excluded. FLIP is spatial, so their
+    # differences must not count in the kept pixels around them: a frame equal to (c) on every kept pixel has
+    # FLIP 0 there (before the fix, 0.5 on a z-fighting scene whose kept pixels were within 6 LSB of (c)).
+    scene = square(tmp_path, 1.5)                                           # every pixel fully covered
+    truth = true_image(scene, 4)
+    other = truth.image.copy()
+    other[::2] = 255 - other[::2]                                           # every other row another surface
+    ys, xs = np.nonzero(np.broadcast_to((np.arange(16) % 2 == 0)[:, None], (16, 16)))
+    rep, _ = against_truth(scene, {"model": other}, 4, exclude=(xs, ys))
+    assert rep["full_pixels"] == 128
+    assert rep["model"]["full"]["max_lsb"] == 0 and rep["model"]["full"]["flip_mean"] == 0
+
 def test_grid_samples_are_the_frame_rasterized_at_k_times_the_resolution():
     n, k = 96, 4
     scene = load_scene(TIN, size=n)
@@ -140,3 +155,16 @@ def test_grid_samples_are_the_frame_rasterized_at_k_times_the_resolution():
     # the same samples up to vertex snapping (1/256 of a pixel here, of a sample there)
     d = np.abs(mean[truth.full] / (k * k) - truth.mean[truth.full])
     assert truth.full.sum() > 7000 and np.percentile(d, 99) < 0.05 and d.max() < 0.5
+
+
+def test_summary_of_a_frame_without_fully_covered_pixels_says_nothing_was_compared(tmp_path):
+    # A 1 x 200 frame of a sliver, or a 1 x 1 frame whose pixel an edge crosses: no pixel is fully covered, the
+    # figures are all None, and the summary said "identical (exact)" for a comparison that never happened.
+    from host.images import truth_rows
+    scene = square(tmp_path, 0.0625 + 0.03125)                              # 1.5 pixels: edge pixels only
+    truth = true_image(scene, 4)
+    rep, _ = against_truth(scene, {"model": truth.image, "float": truth.image}, 4, flip=False)
+    assert rep["full_pixels"] == 0 and rep["edge_pixels"] > 0 and rep["model"]["full"]["psnr_db"] is None
+    rows = dict(truth_rows({"vs_truth": rep}))
+    assert "identical" not in rows["model vs truth (c)"] and "not compared" in rows["model vs truth (c)"]
+    assert "not compared" in rows["float (a) vs truth (c)"]

@@ -168,6 +168,8 @@ def test_fit_small_scene_stays_within_bound_and_shrinks(presets, monkeypatch):
     a, _ = frame.references()
     assert max_lsb(rep["_model_bytes"], a) <= 3
     assert rep["max_lsb_vs_float"] == report["final"]["max_lsb_vs_float"] <= 3
+    # and drawn from the front end's fragments, as `bumpmap render` draws it, within the bound too
+    assert max_lsb(render(frame)["_model_bytes"], a) <= 3
     # and no more than the bound further from the ideal reference (b) than default (what holds the cube size:
     # reference (a) samples the same reflectance cubes)
     base = prepare(SCENE, size=48)
@@ -175,6 +177,31 @@ def test_fit_small_scene_stays_within_bound_and_shrinks(presets, monkeypatch):
     _, b = frame.references()
     assert max_lsb(rep["_model_bytes"], b) <= max_lsb(base_rep["_model_bytes"], base.references()[1]) + 3
     assert k["cube_size"] >= 4, "the cube size must be held by reference (b)"
+
+
+def test_a_candidate_is_judged_on_both_frames_the_tools_draw(monkeypatch):
+    """From triangles, a candidate is ok only when the frame from the front end's fragments (what `bumpmap render`
+    judges) is within the bound of (a) as well: the two quantize the attributes differently, and a preset fitted
+    to the engine's frame alone missed `render`'s verdict by an LSB on a strongly bumped scene."""
+    import tools.fit as fit_mod
+    over = {"triangles": 0, "fragments": 0}
+
+    def fake(frame, triangles):
+        lsb = over["triangles" if triangles else "fragments"]
+        return {"max_lsb_vs_float_well_conditioned": lsb, "max_lsb_vs_ideal": 0}
+    monkeypatch.setattr(fit_mod, "_render", fake)
+    monkeypatch.setattr(fit_mod, "_refused", lambda frame: 0)
+    cand = fit_mod.Candidate(scene=prepare(SCENE, size=16).scene, knobs=tuple(sorted(knobs_of(DEFAULT).items())),
+                             base=tuple(sorted(DEFAULT.items())), sizes=(None,), ref=((0, 0, 0),), max_lsb=2,
+                             triangles=True)
+    assert fit_mod.check_candidate(cand)["ok"]
+    over["fragments"] = 3
+    assert not fit_mod.check_candidate(cand)["ok"]
+    assert not fit_mod.check_candidate(dataclasses.replace(cand, triangles=False))["ok"]
+    over.update(triangles=3, fragments=0)
+    assert not fit_mod.check_candidate(cand)["ok"]
+    # a scene the scan converter cannot draw is judged from fragments alone: one frame a size
+    assert fit_mod.check_candidate(dataclasses.replace(cand, triangles=False)) == {"ok": True, "renders": 1}
 
 
 def test_fit_cli_writes_preset_and_json(presets, capsys):

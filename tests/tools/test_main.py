@@ -170,6 +170,58 @@ def test_output_problems_are_one_line_before_the_work(sandbox, capsys):
     one_error(capsys, "preset-file")
 
 
+def test_an_output_that_is_an_input_is_refused_and_the_input_kept(sandbox, capsys):
+    """``render scene.toml scene.toml`` replaced the scene file with the PNG, and an output naming the scene's PNG
+    map, the preset file or (another spelling, a hard link of) the input did the same; ``eval`` and ``send
+    --dry-run`` too. Each is refused (exit 2, one line) before the work, and the input is unchanged."""
+    import numpy as np
+    from PIL import Image
+    path = scene(sandbox, color='{ file = "paint.png" }')
+    Image.new("RGB", (4, 4), (200, 100, 50)).save(sandbox / "paint.png")
+    (sandbox / "presets").mkdir()
+    (sandbox / "presets" / "p.toml").write_text("weight_bits = 12\n")
+    os.link(path, sandbox / "link.toml")
+    before = listing(sandbox)
+    for out, preset in ((path, "default"), ("./small.toml", "default"), ("link.toml", "default"),
+                        ("paint.png", "default"), ("presets/p.toml", "p")):
+        assert bumpmap(["render", str(path), str(out), "--size", "8", "--cube-size", "8", "--preset", preset]) == 2
+        one_error(capsys, f"output PNG {Path(out)}: is the input")
+    np.save(sandbox / "in.npy", np.array([1.0, 1.5]))
+    before = listing(sandbox)
+    assert bumpmap(["eval", "recip", "in.npy", "in.npy"]) == 2
+    one_error(capsys, "output in.npy: is the input in.npy")
+    assert bumpmap(["send", "--scene", str(path), "--dry-run", str(path)]) == 2
+    one_error(capsys, "--dry-run file", "is the input")
+    assert bumpmap(["fit", str(path), "--out", str(sandbox), "--name", "small", "--quiet"]) == 2
+    one_error(capsys, "preset file", "small.toml: is the input")
+    assert listing(sandbox) == before
+
+
+def test_an_output_that_is_not_a_regular_file_is_refused(sandbox, capsys):
+    """An output path naming a FIFO or a device (``render scene.toml /dev/null``) was renamed over: run as root,
+    that replaced ``/dev/null`` with a regular file. It is refused before the work (exit 2, one line); here a
+    FIFO stands for the device."""
+    path = scene(sandbox)
+    os.mkfifo(sandbox / "fifo")
+    for argv in (["render", str(path), "fifo", "--size", "8", "--cube-size", "8"],
+                 ["send", "--scene", str(path), "--dry-run", "fifo"]):
+        assert bumpmap(argv) == 2
+        one_error(capsys, "fifo: not a regular file")
+        assert stat.S_ISFIFO(os.lstat(sandbox / "fifo").st_mode)
+
+
+def test_animate_names_its_picture_by_the_file_not_the_scene_name(sandbox, tmp_path):
+    """``bumpmap animate`` named its GIF by the scene's ``name``: ``name = "../../x"`` wrote ``../../x.gif``
+    outside ``--out``. The default is the scene file's stem."""
+    pytest.importorskip("imageio.v3")
+    path = scene(sandbox, name="../../escaped")
+    path.write_text(path.read_text() + "[animation]\nframes = 2\n")
+    before = listing(tmp_path)
+    assert bumpmap(["animate", "--scene", str(path), "--size", "16", "--out", "out", "--rates"]) == 0
+    after = listing(tmp_path)
+    assert sorted(k for k in after if before.get(k) != after[k]) == ["work/out/small.gif"]
+
+
 @pytest.mark.skipif(os.geteuid() == 0, reason="root writes into read-only folders")
 def test_read_only_output_folder_is_refused_before_the_work(sandbox, capsys):
     path = scene(sandbox)
@@ -194,6 +246,21 @@ def test_eval_checks_both_outputs_before_writing_either(sandbox, capsys):
     assert np.load(sandbox / "new" / "out.npy").shape[0] == 2
 
 
+def test_eval_checks_a_npy_header_against_the_file_before_loading(sandbox, capsys):
+    """A 144-byte ``.npy`` whose header declares ``shape (10**12,)`` made ``np.load`` ask for 7 TiB: a
+    ``MemoryError`` traceback. The header is checked against the file's size first; pickles are never loaded."""
+    import numpy as np
+    header = "{'descr': '<f8', 'fortran_order': False, 'shape': (1000000000000,), }".ljust(117) + "\n"
+    (sandbox / "huge.npy").write_bytes(b"\x93NUMPY\x01\x00" + len(header).to_bytes(2, "little") + header.encode()
+                                       + bytes(16))
+    assert bumpmap(["eval", "recip", "huge.npy", "out.npy"]) == 2
+    one_error(capsys, "huge.npy", "shape (1000000000000,)", "holds 16 bytes")
+    np.save(sandbox / "obj.npy", np.array([1.0, None], dtype=object), allow_pickle=True)
+    assert bumpmap(["eval", "recip", "obj.npy", "out.npy"]) == 2
+    one_error(capsys, "obj.npy", "never loaded")
+    assert not (sandbox / "out.npy").exists()
+
+
 @pytest.mark.parametrize("argv, words", [
     (["render", "S", "x.png", "--cube-size", "100000"], "--cube-size: 100000 is out of range"),
     (["render", "S", "x.png", "--cube-size", "0"], "--cube-size: 0 is out of range"),
@@ -206,6 +273,8 @@ def test_eval_checks_both_outputs_before_writing_either(sandbox, capsys):
     (["sim", "--shards", "0"], "--shards: 0 is out of range"),
     (["sim", "--latency", "99"], "--latency: 99 is out of range"),
     (["sim", "--wait-states", "1"], "--wait-states: 1 is out of range"),
+    (["scenes-stress", "--count", "-5"], "--count: -5 is out of range"),        # was an empty success, exit 0
+    (["scenes-stress", "--size", "0"], "--size: 0 is out of range"),
 ])
 def test_every_numeric_argument_is_ranged(sandbox, capsys, argv, words):
     with pytest.raises(SystemExit) as exc:
@@ -272,6 +341,22 @@ def test_preset_errors_blame_the_right_key(sandbox, capsys, text, words):
     one_error(capsys, words)
 
 
+@pytest.mark.parametrize("depth", [500, 5000])
+def test_toml_nested_too_deeply_is_one_line(sandbox, capsys, depth):
+    """``a = [[[[...]]]]`` a few hundred levels deep (a 10 kB file) made tomllib raise ``RecursionError``: a
+    traceback and exit 1, for a scene file and for a preset file."""
+    deep = "[" * depth + "]" * depth
+    bad = sandbox / "deep.toml"
+    bad.write_text(f"name = {deep}\n")
+    assert bumpmap(["render", str(bad), "x.png"]) == 2
+    one_error(capsys, "deep.toml: TOML nested too deeply")
+    (sandbox / "presets").mkdir()
+    (sandbox / "presets" / "deep.toml").write_text(f"weight_bits = {deep}\n")
+    assert bumpmap(["render", str(scene(sandbox)), "x.png", "--preset", "deep"]) == 2
+    one_error(capsys, "presets/deep.toml: TOML nested too deeply")
+    assert not (sandbox / "x.png").exists()
+
+
 # -- 5. no empty success ----------------------------------------------------------------------------------------
 def test_an_empty_frame_is_a_warning_in_render_and_a_refusal_in_fit_and_sim(sandbox, capsys):
     """Camera below the floor (back faces culled): render drew a black PNG with "pass": true and no word, fit
@@ -287,6 +372,42 @@ def test_an_empty_frame_is_a_warning_in_render_and_a_refusal_in_fit_and_sim(sand
     assert not (sandbox / "p" / "small-fit.toml").exists()
     assert bumpmap(["sim", "--scene", str(path), "--model-only"]) == 2
     one_error(capsys, "nothing is drawn")
+
+
+@pytest.mark.parametrize("way", ["--depth", "--textures"])
+def test_sim_with_the_frame_buffer_or_external_textures_judges_the_frame(sandbox, capsys, monkeypatch, way):
+    """``bumpmap sim --depth`` and ``--textures external`` exited 0 on "RTL == model" without judging the frame
+    against reference (a): ``--max-lsb`` was ignored, ``report.json`` had no verdict and a depth disagreement
+    beyond the precision could not fail. The simulator is replaced by one that returns the model's frame (RTL ==
+    model), so only the judging is tested; ``--max-lsb 0`` on a frame 1 LSB from (a) must fail."""
+    import cosim.engine_fetch
+    import cosim.rop
+    from cosim.sim import output_folder
+
+    def fake_depth(params, records, **kw):
+        zbuf, color, stats, out, scan = params.draw(records.matrix())
+        return {"color": color, "rtl_bytes_read": stats["bytes_read"], "rtl_bytes_written": stats["bytes_written"],
+                "mismatches": 0, "first": [], "status": 0, "cycles": 1, "seconds": 0.0, "build_seconds": 0.0}
+
+    def fake_fetch(params, records, **kw):
+        out, _ = params.compute(records)
+        return {"mismatches": 0, "first": [], "rtl": out, "bursts_equal": True, "rtl_bytes": 0,
+                "model_bytes": 0, "maps": {}, "cycles": 1, "clocks_per_fragment": 1.0, "raster_clocks": 1,
+                "seconds": 0.0, "build_seconds": 0.0}
+
+    monkeypatch.setattr(cosim.rop, "run_engine", fake_depth)
+    monkeypatch.setattr(cosim.engine_fetch, "run_engine_fetch", fake_fetch)
+    path = scene(sandbox, bump='[materials.bump]\nprocedural = "mexican-hat"\nsize = [8, 8]\nstrength = 2.0')
+    argv = ["--scene", str(path), "--truth", "0", *(["--depth"] if way == "--depth" else ["--textures", "external"])]
+    assert bumpmap(["sim", *argv]) == 0
+    report = json.loads((output_folder(argv) / "report.json").read_text())
+    assert report["verdict"]["pass"] and report["max_lsb_vs_float_well_conditioned"] == 1
+    capsys.readouterr()
+    assert bumpmap(["sim", *argv, "--max-lsb", "0"]) == 1
+    out, err = capsys.readouterr()
+    assert "RTL == model" in out and "verdict" in out and "FAIL" in out
+    assert "over the bound of 0 LSB" in err
+    assert not json.loads((output_folder([*argv, "--max-lsb", "0"]) / "report.json").read_text())["verdict"]["pass"]
 
 
 # -- 6. strict JSON -------------------------------------------------------------------------------------------
@@ -352,13 +473,24 @@ def test_sigterm_ends_in_one_line(sandbox):
     assert proc.returncode == 143 and err.strip().splitlines()[-1] == "terminated" and "Traceback" not in err
 
 
+def test_out_of_memory_is_one_line(sandbox, capsys, monkeypatch):
+    """A ``MemoryError`` the limits did not prevent (numpy's allocation of a shape an input declared, before the
+    eval's header check) ended in a traceback; it is one line and exit 2 like any bad input."""
+    import host.render
+    def boom(*args, **kwargs):
+        raise MemoryError
+    monkeypatch.setattr(host.render, "prepare", boom)
+    assert bumpmap(["render", str(scene(sandbox)), "x.png"]) == 2
+    one_error(capsys, "error: out of memory")
+
+
 def test_exit_codes_page_states_the_limits_as_the_code_does():
     """``docs/exit-codes.md``'s limits table: each value is the constant it names (so the page cannot drift)."""
     import importlib
     import re
     text = (ROOT / "docs" / "exit-codes.md").read_text(encoding="utf-8")
     rows = re.findall(r"^\| [^|]+ \| ([0-9.]+) \| `([\w.]+)`(?: \(`(\w+)`\))? \|$", text, re.M)
-    assert len(rows) == 11
+    assert len(rows) == 15
     for value, where, key in rows:
         module, name = where.rsplit(".", 1)
         constant = getattr(importlib.import_module(module), name)

@@ -22,6 +22,7 @@ and of what they found are printed at the end of the run (``pytest -s``).
 from __future__ import annotations
 
 import contextlib
+import copy
 import io
 import math
 import os
@@ -98,15 +99,15 @@ def mutate(data, doc: dict, count: int) -> list:
         path = data.draw(st.sampled_from(paths))
         parent, key = _parent(doc, path), path[-1]
         how = data.draw(st.sampled_from(["set", "set", "set", "delete", "unknown"]))
-        if how == "set":
-            parent[key] = data.draw(values)
+        if how == "set":                # a copy: a drawn list is a shared constant, and a later mutation of it
+            parent[key] = copy.deepcopy(data.draw(values))      # would change every example (or nest it in itself)
         elif how == "delete":
             if isinstance(parent, list):
                 parent.pop(key)
             else:
                 del parent[key]
         elif isinstance(parent, dict):
-            parent[data.draw(st.sampled_from(["colour", "nmae", "extra", "../x"]))] = data.draw(values)
+            parent[data.draw(st.sampled_from(["colour", "nmae", "extra", "../x"]))] = copy.deepcopy(data.draw(values))
         done.append((how, path))
     return done
 
@@ -204,7 +205,6 @@ def test_untrusted_scene_and_preset_files_thorough(data):
 def fuzz(data, thorough: int) -> None:
     """One fuzzed scene (and maybe preset) file through render, sim's model side and fit (module docstring); fit
     also runs on one in ``thorough`` of the files render accepts (never with 0)."""
-    import copy
     doc = copy.deepcopy(BASE_SCENE)
     mutations = mutate(data, doc, data.draw(st.integers(0, 3)))
     stem = data.draw(st.sampled_from(["scene", "..x", "a b", "ü-x", "-x", "x.y"]))

@@ -130,7 +130,7 @@ def sim_textures(args, tframe, report: dict, out_dir, t0: float) -> int:
     import time
 
     from host.atomic import atomic_json
-    from host.images import depth_rows, summary_table, verdict_row
+    from host.images import disagreement_row, summary_table, verdict_row
     from host.render import save_png, tell
 
     name = tframe.frame.scene.name
@@ -163,7 +163,7 @@ def sim_textures(args, tframe, report: dict, out_dir, t0: float) -> int:
                             f"(model {res['model_bytes']:,} B; bursts {'equal' if res['bursts_equal'] else 'DIFFER'})"),
         ("clocks / fragment", f"{res['clocks_per_fragment']:.3f} ({res['cycles']:,} cycles, scan converter "
                               f"{res['raster_clocks']:,})"),
-        *depth_rows(report)[1:2], verdict_row(report),
+        disagreement_row(report), verdict_row(report),
         ("wall seconds", f"{wall:.1f}"), ("output", str(out_dir))]))
     if not ok:
         print(f"RTL differs from the model: {res['mismatches']} fragments, bursts equal {res['bursts_equal']}, "

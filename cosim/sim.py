@@ -64,7 +64,7 @@ import numpy as np
 from fxmodel.core.paths import build_dir, shown_path
 from host.args import SIZE_HELP, cube_size_arg, float_range, int_range, size_arg
 from host.atomic import atomic_json, check_output_dir
-from host.images import db_text, depth_rows, summary_table, truth_rows, verdict_row
+from host.images import db_text, depth_rows, disagreement_row, summary_table, truth_rows, verdict_row
 from host.truth import DEFAULT_SAMPLES
 
 from .harness import simulator
@@ -292,7 +292,7 @@ def sim_depth(args, tframe, report, out_dir, t0) -> int:
         ("memory traffic", f"{dt['bytes_read_per_pixel']} B read, {dt['bytes_written_per_pixel']} B written per "
                            f"covered pixel (RTL {result['rtl_bytes_read']:,} / {result['rtl_bytes_written']:,} B)"),
         ("from triangles vs float", f"{db_text(tv['psnr_db_vs_float'])} (max {tv['max_lsb_vs_float']} LSB)"),
-        *depth_rows(report)[1:2], verdict_row(report),
+        disagreement_row(report), verdict_row(report),
         ("wall seconds", f"{wall:.1f}"), ("output", shown_path(out_dir))]))
     if result["mismatches"] or not traffic_ok or result["status"]:
         print(f"RTL differs from the model: {result['mismatches']} pixels, traffic {result['rtl_bytes_read']} / "

@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from fxmodel.core.paths import atomic_writer
+from fxmodel.core.paths import atomic_writer, refuse_special_file
 
 __all__ = ["atomic_write_bytes", "atomic_write_text", "atomic_save_png", "atomic_savefig", "atomic_json",
            "atomic_save_npy",
@@ -77,9 +77,7 @@ def check_output_file(path, what: str = "output", inputs=()) -> Path:
     path = Path(path)
     if path.is_dir():
         raise IsADirectoryError(f"{what} {path}: is a directory, expected a file name")
-    if path.exists() and not path.is_file():
-        raise OSError(f"{what} {path}: not a regular file (a device, a FIFO or a socket), which writing it "
-                      "(a temporary file renamed over it) would replace")
+    refuse_special_file(path, what)
     check_output_not_input(path, what, inputs)
     check_output_dir(path.parent, f"folder of the {what}")
     return path

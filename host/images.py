@@ -11,7 +11,7 @@ from host.atomic import atomic_save_png
 from host.reference import max_lsb, psnr
 
 __all__ = ["DIFF_GAIN", "save_png", "compose", "diff_image", "psnr_db", "metrics", "summary_table", "db_text",
-           "truth_rows", "depth_rows", "verdict_row"]
+           "truth_rows", "depth_rows", "disagreement_row", "verdict_row"]
 
 #: Gain of the difference images (``diff.png``): one 8-bit step shows as this many.
 DIFF_GAIN = 16
@@ -83,14 +83,21 @@ def truth_rows(report: dict) -> list:
 
 def depth_rows(report: dict) -> list:
     """The summary table's rows of a frame drawn from triangles: overdraw, the depth test, the disagreements
-    with reference (a)'s float z-buffer, the frame-buffer traffic."""
+    with reference (a)'s float z-buffer (:func:`disagreement_row`), the frame-buffer traffic."""
     d, m = report["depth"], report["memory"]
     return [("overdraw", f"{d['overdraw']} fragments per pixel ({d['passed']:,} passed, {d['failed']:,} failed "
                          f"the depth test)"),
-            ("depth disagreements", f"{d['disagreements']:,} of {d['covered_pixels']:,} pixels left out of the "
-                                    f"comparisons, largest gap {d['max_depth_gap_of_disagreements']:.3g} (precision "
-                                    f"{d['precision']:.3g})"),
+            disagreement_row(report),
             ("memory / pixel", f"{m['bytes_read_per_pixel']} bytes read, {m['bytes_written_per_pixel']} written")]
+
+
+def disagreement_row(report: dict) -> tuple:
+    """The summary row of the depth disagreements with reference (a): the pixels they leave out of the
+    comparisons."""
+    d = report["depth"]
+    return ("depth disagreements", f"{d['disagreements']:,} of {d['covered_pixels']:,} pixels left out of the "
+                                   f"comparisons, largest gap {d['max_depth_gap_of_disagreements']:.3g} (precision "
+                                   f"{d['precision']:.3g})")
 
 
 def verdict_row(report: dict) -> tuple:

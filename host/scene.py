@@ -427,18 +427,16 @@ def _bump(r: Reader, v, key: str, base: Path) -> BumpSpec:
                     strength=strength, key=key)
 
 
-def _map_texels(spec) -> int:
-    """Texels of a material's color texture or bump map (a PNG's from its header; a constant color, a 1 x 1
-    texture, is not counted)."""
+def _map_texels(r: Reader, spec) -> int:
+    """Texels of a material's color texture or bump map (a PNG's from the size :meth:`Reader.png` read from its
+    header; a constant color, a 1 x 1 texture, is not counted)."""
     if spec is None:
         return 0
     if spec.kind == "procedural":
         w, h = spec.kwargs["size"]
         return w * h
     if spec.kind == "file":
-        from PIL import Image
-        with Image.open(spec.path) as im:           # the header only (Reader.png read it already)
-            w, h = im.size
+        w, h = r.png_sizes[spec.path]
         return w * h
     return 0
 
@@ -448,7 +446,7 @@ def _texel_budget(r: Reader, materials) -> None:
     first material beyond it; before any map is built."""
     total = 0
     for i, m in enumerate(materials):
-        total += _map_texels(m.color) + _map_texels(m.bump)
+        total += _map_texels(r, m.color) + _map_texels(r, m.bump)
         if total > MAX_SCENE_TEXELS:
             r.fail(f"materials[{i}]", f"its maps bring the scene's maps to {total:,} texels, more than the "
                                       f"{MAX_SCENE_TEXELS:,} (two of {MAX_MAP_SIZE} x {MAX_MAP_SIZE}) a scene "

@@ -36,6 +36,7 @@ class Reader:
 
     def __init__(self, source: str):
         self.source = source
+        self.png_sizes: dict[Path, tuple[int, int]] = {}    # each PNG :meth:`png` read: (width, height)
 
     def fail(self, key: str, msg: str):
         raise SceneError(f"{self.source}: {key}: {msg}" if key else f"{self.source}: {msg}")
@@ -146,4 +147,5 @@ class Reader:
         if max(size) > MAX_MAP_SIZE:
             self.fail(key, f"{show_value(name)} is {size[0]} x {size[1]} pixels, more than the {MAX_MAP_SIZE} "
                            f"texels a map edge may have")
+        self.png_sizes[path] = size
         return path

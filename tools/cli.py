@@ -160,7 +160,7 @@ def cmd_errors(args) -> int:
 
 def render_summary(args, report: dict) -> str:
     """The few lines ``bumpmap render`` prints (``--json``: the whole report instead)."""
-    from host.images import db_text, depth_rows, summary_table, truth_rows, verdict_row
+    from host.images import db_text, disagreement_row, summary_table, truth_rows, verdict_row
     rows = [("scene", f"{report.get('scene', args.scene)} ({report['width']}x{report['height']}, preset "
                       f"{args.preset})"),
             ("drawn from", "triangles (the engine)" if args.triangles else "fragments (the float front end)"),
@@ -168,7 +168,7 @@ def render_summary(args, report: dict) -> str:
             ("vs float (a)", f"{db_text(report['psnr_db_vs_float'])} (max {report['max_lsb_vs_float']} LSB)"),
             ("vs ideal (b)", f"{db_text(report['psnr_db_vs_ideal'])} (max {report['max_lsb_vs_ideal']} LSB)"),
             *truth_rows(report),
-            *(depth_rows(report)[1:2] if "depth" in report else []),   # pixels the comparisons leave out
+            *([disagreement_row(report)] if "depth" in report else []),   # pixels the comparisons leave out
             verdict_row(report),
             ("output", args.output + (f", references in {args.refs}" if args.refs else ""))]
     return summary_table(rows)

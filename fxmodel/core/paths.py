@@ -17,7 +17,7 @@ import tempfile
 from pathlib import Path
 
 __all__ = ["ROOT", "SCENES", "shipped_scenes", "presets_dir", "build_dir", "shown_path", "source_digest",
-           "atomic_writer"]
+           "atomic_writer", "refuse_special_file"]
 
 #: The repository root (the folder holding ``fxmodel/``, ``scenes/`` and ``presets/``).
 ROOT = Path(__file__).resolve().parents[2]
@@ -63,6 +63,16 @@ def source_digest(folders: tuple[str, ...] = ("fxmodel", "rtl")) -> bytes:
     return h.digest()
 
 
+def refuse_special_file(path, what: str = "") -> None:
+    """Refuse an output ``path`` that exists and is not a regular file (a device such as ``/dev/null``, a FIFO,
+    a socket): :func:`atomic_writer` renames a temporary file over its path, which would replace it (and a device
+    node replaced by root stays broken). Raises ``OSError`` naming it (after ``what``, when given)."""
+    path = Path(path)
+    if path.exists() and not path.is_file():
+        raise OSError(f"{what + ' ' if what else ''}{path}: not a regular file (a device, a FIFO or a socket): an "
+                      "output is written to a temporary file and renamed over its path, which would replace it")
+
+
 @contextlib.contextmanager
 def atomic_writer(path, mode: str = "wb", encoding: str | None = None):
     """Write ``path`` atomically: yields a file open on a temporary file in the same folder (``mode`` ``"wb"`` or
@@ -79,9 +89,7 @@ def atomic_writer(path, mode: str = "wb", encoding: str | None = None):
     path = Path(path)
     if path.is_dir():
         raise IsADirectoryError(21, "Is a directory", str(path))
-    if path.exists() and not path.is_file():
-        raise OSError(f"{path}: not a regular file (a device, a FIFO or a socket): an output is written to a "
-                      "temporary file and renamed over its path, which would replace it")
+    refuse_special_file(path)
     try:
         fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     except OSError as exc:              # name the file asked for, not the temporary one

@@ -387,7 +387,8 @@ class TileCopy(wiring.Component):
     step) is not cleared. FRAME_START (``start``): ``stall`` rises (the engine takes no record) and, once quiet
     and no copy waiting, the tile is cleared: when it is known clear (``clean``: the memories start at the clear
     value, and a walk, a copy's or a clear's, leaves every word cleared; ``drawn``, a fragment entering the depth
-    test, makes it unclean: a walk begins only once the engine is quiet, so no fragment is then in flight) in one
+    test, heard a clock late, makes it unclean: a walk begins only once the engine is quiet, so no fragment is
+    then in flight) in one
     clock, else by a walk reading it out with ``fb.clear`` (every word to the clear value, nothing written to the
     store); ``stall`` falls when the clear is done. So a picture drawn a tile at a time walks each tile once, to
     copy it. The tile's place (``place``, held from before ``start``, taken with it) is the
@@ -469,15 +470,17 @@ class TileCopy(wiring.Component):
         ready = (quiet == self.quiet) & ~self.swap & ~self.copy & ~self.start
         with m.FSM():
             with m.State("idle"):
+                # (the walk's address is 0 here: it returns to 0 as the drain ends, so this decision, from the
+                # quiet count, does not reach the address's registers)
                 with m.If(want & ~waiting & ready):
-                    m.d.sync += [want.eq(0), addr.eq(0), reading.eq(1), self.copy_place.eq(tile_place),
+                    m.d.sync += [want.eq(0), reading.eq(1), self.copy_place.eq(tile_place),
                                  self.copy_show.eq(want_show), self.clean.eq(1)]
                     m.next = "walk"
-                with m.Elif(clear_want & ~want & ready & self.clean & ~self.drawn):
+                with m.Elif(clear_want & ~want & ready & self.clean):
                     m.d.sync += tile_place.eq(place_next)
                     m.next = "skip"
                 with m.Elif(clear_want & ~want & ready):
-                    m.d.sync += [addr.eq(0), reading.eq(1), clearing.eq(1),     # the copy's walk, clearing
+                    m.d.sync += [reading.eq(1), clearing.eq(1),     # the copy's walk, clearing
                                  tile_place.eq(place_next), self.clean.eq(1)]
                     m.next = "walk"
             with m.State("skip"):           # the tile is clean: the clear done in this clock
@@ -491,7 +494,7 @@ class TileCopy(wiring.Component):
                 with m.Elif(self.room | clearing):
                     m.d.sync += addr.eq(addr + 1)
             with m.State("drain"):          # the last words through the read-out and the store's registers
-                m.d.sync += addr.eq(addr + 1)
+                m.d.sync += addr.eq(Mux(addr == drained, 0, addr + 1))
                 with m.If((addr == drained) & clearing):
                     m.d.sync += [clearing.eq(0), clear_want.eq(0)]
                     m.next = "idle"
@@ -502,8 +505,13 @@ class TileCopy(wiring.Component):
                     m.next = "idle"
         # the tile is clean from the clock a walk begins (it clears every word it takes, to the end) until a
         # fragment is next drawn; the memories start at the clear value (set where the FSM begins a walk, above; a
-        # clock with a fragment drawn wins). Not ``active``: the walk's own clears keep the depth test busy
-        with m.If(self.drawn):
+        # fragment drawn wins). Not ``active``: the walk's own clears keep the depth test busy. ``drawn`` is heard a
+        # clock late, through a register (it comes from the depth test's input handshake): no decision is made
+        # then, as no fragment is drawn while ``ready`` (the quiet exceeds the pixel pipeline's latency) nor in the
+        # clock after (a fragment makes the engine active, which restarts the quiet count)
+        drawn_q = Signal()
+        m.d.sync += drawn_q.eq(self.drawn)
+        with m.If(drawn_q):
             m.d.sync += self.clean.eq(0)
         return m
 

@@ -2,8 +2,9 @@
 reads the on-chip depth test's frame out (``fb``) between pictures, for both board builds.
 
 Its commands (``swap``, ``copy``, ``start``, ``shown``), ``active`` (the engine's input, scan converter and depth
-test), ``drawn`` (a fragment into the depth test; assumed only while ``active``), ``room`` and the read-out's words
-are free. Proven by k-induction:
+test), ``drawn`` (a fragment into the depth test; assumed only while ``active`` and never once the engine has been
+quiet for ``quiet`` clocks, which on the board exceed the pixel pipeline's latency), ``room`` and the read-out's
+words are free. Proven by k-induction:
 
 - **the depth test's contract** (``formal/rop_chip.py`` assumes it): a walk over the tile (a copy's or a clear's)
   begins only after ``active`` has been low for ``quiet`` clocks; ``fb.clear`` only with ``fb.read``; while a walk
@@ -66,6 +67,9 @@ def tile_copy_set(kind: str = "proof", *, wait_every_copy: bool = False, broken_
     drawn = h.free(1, "engine_drawn")
     h.check(dut.drawn == (0 if broken_drawn else drawn), "drawn_is_the_engine", assume=True)
     h.check(~drawn | dut.active, "drawn_while_active", assume=True)
+    # and none once the engine has been quiet for ``quiet`` clocks (the board's exceeds the pixel pipeline's
+    # latency, whose fragments are not in ``active``; checked here against the unit's own count)
+    h.check(~drawn | (sig("quiet") != QUIET), "none_drawn_once_quiet", assume=True)
     n, L = P.pixels, P.readout_latency + broken_latency
     zb = P.z_fmt.width
     # the read-out's word is its address's: the address in the color bits, ``L`` clocks after it was given
@@ -110,8 +114,9 @@ def tile_copy_set(kind: str = "proof", *, wait_every_copy: bool = False, broken_
     # FRAME_START's clear skipped only on a clean tile: every word cleared by a walk, no fragment drawn from the
     # clock before its first read on, or none drawn since the start (the memories start at the clear value)
     clears = _walk_count(m, began, dut.fb.clear & (walk_addr < n), n, "f_clears")
+    drawn_before = h.past(drawn, "engine_drawn")
     walk_quiet = Signal(name="f_walk_quiet")        # no fragment drawn from the clock before the walk's first read
-    m.d.sync += walk_quiet.eq(~drawn & Mux(began, ~h.past(drawn, "engine_drawn"), walk_quiet))
+    m.d.sync += walk_quiet.eq(~drawn & Mux(began, ~drawn_before, walk_quiet))
     tile_clear = Signal(init=1, name="f_tile_clear")
     walk_end = drain & (walk_addr == n + P.readout_latency + 1)
     m.d.sync += tile_clear.eq(~drawn & Mux(walk_end, walk_quiet & (clears == n), tile_clear))
@@ -121,9 +126,13 @@ def tile_copy_set(kind: str = "proof", *, wait_every_copy: bool = False, broken_
     # the invariants that close it: the walk counts its clears, and the unit's flag is the walk's quiet
     if invariants:
         h.check(~((walk | drain) & ~began) | (clears == Mux(walk_addr < n, walk_addr, n)), "clears_are_the_walk")
-        h.check(~((walk | drain) & ~began) | (dut.clean == walk_quiet), "clean_is_walk_quiet")
-        h.check(~began | (dut.clean == ~h.past(drawn, "engine_drawn")), "clean_at_walk_start")
-        h.check(walk | drain | ~dut.clean | tile_clear, "clean_is_clear")
+        # (the unit hears ``drawn`` a clock late: its flag and the clock's ``drawn`` before)
+        heard = dut.clean & ~drawn_before
+        h.check(sig("drawn_q") == drawn_before, "drawn_heard_late")
+        h.check(~((walk | drain) & ~began) | (heard == walk_quiet), "clean_is_walk_quiet")
+        h.check(~began | dut.clean, "clean_at_walk_start")
+        h.check(walk | drain | ~heard | tile_clear, "clean_is_clear")
+        h.check(walk | drain | (walk_addr == 0), "idle_at_zero")
     walked = Signal(name="f_walked")
     m.d.sync += walked.eq(walked | walk_end)
     h.cover(skip & walked, "skip_after_walk_reach")

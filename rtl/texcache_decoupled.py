@@ -23,6 +23,10 @@ request names one by its index). Organisation (``docs/texcache.md``):
   the first miss in one clock, the fill of that line in the next. A fill changes tags, so the outcomes are then
   compared again from the held rows (a clock). A miss allocates its way at once and queues its line's ``AR``
   burst (``INCR``, ``B^2`` beats of one 32-bit texel), so several bursts are outstanding, in order (one ID).
+- **Step write** (registers after the tag stage's step): the rows a step writes, with their sets, reach the tag
+  store and every held row of their sets a clock later; meanwhile the step and the compares read the held rows
+  with that pending write over them (:meth:`DecoupledTexCache._overlay`), so the behaviour is clock for clock the
+  same.
 - **Lookup FIFO** (:attr:`~fxmodel.units.texcache.TexCacheParams.lookup_depth` entries): each lookup's four bank
   word addresses, the bank of each corner, its fill count and its sideband, from the tag stage to the data stage.
 - **Fill buffer** (:attr:`~fxmodel.units.texcache.TexCacheParams.misses` lines, four banks by texel parity): the
@@ -102,6 +106,21 @@ class DecoupledTexCache(wiring.Component):
     Ports: ``i`` (stream of :func:`request_layout`), ``o`` (stream of ``texels``, four of ``texel_bits``, corner 0
     in the low bits, and ``side``), ``mem`` (AXI4 manager, ``addr_bits`` address bits, 32-bit data; the read
     channels only), ``busy`` (a lookup or a fill anywhere inside).
+
+    The **step write** stage (``docs/texcache.md``): a step's write -- per corner whether it writes, its set (and
+    one-hot set) and its new row (tags, valid bits, LRU ages or the round-robin pointer) -- goes into registers
+    (``wp_*``, :meth:`_pending`) and is applied in the next clock, from those registers, to the tag store's LUT
+    RAMs and to every held row of the prefetch and tag stages in its set. So the step's victim and new row (from
+    a held row's valid bits and ages) end in its own corner's registers, not in the held rows of the other corners
+    of the same set, the prefetch stage's rows and the store's write ports. In the clock the write waits, the held
+    rows and the store are a clock behind; whatever reads a row then reads it with the pending write over it
+    (:meth:`_overlay`: the pending row of the corner that wrote its set, else the held row; a one-hot AND-OR whose
+    selects, ``fw*`` and ``p_fw*``, are registers decided with the write): the step's victim and new row, the tag
+    stage's compares taken again after a fill, the prefetch stage's compares and the rows the tag stage takes
+    from the prefetch stage. The prefetch stage's load reads the store with the pending write over it in the same
+    way. Nothing waits for the write: the behaviour is clock for clock that of a write in the step's own clock
+    (formal invariants ``wp_*`` and ``fw*_is_pending_sets`` in ``formal/fetch.py``; the held rows and the store
+    agree, both a clock behind).
     """
 
     def __init__(self, params: TexCacheParams, layout: Layout, side_bits: int = 0, addr_bits: int = 32,
@@ -241,7 +260,7 @@ class DecoupledTexCache(wiring.Component):
             cq.line = Signal.like(nc[q].line, name=f"{prefix}line{q}")
             cq.set = Signal.like(nc[q].set, name=f"{prefix}set{q}")
             cq.dup, cq.src = Signal(name=f"{prefix}dup{q}"), Signal(2, name=f"{prefix}src{q}")
-            cq.hot = Signal(P.sets, name=f"{prefix}hot{q}")              # the set, one-hot (the update's enables)
+            cq.hot = Signal(P.sets, name=f"{prefix}hot{q}")  # the set, one-hot (the store's enables: wp_hot)
             cq.tags = [Signal(self.line_bits, name=f"{prefix}row_tag{q}_{w}") for w in range(P.ways)]
             cq.valids = [Signal(name=f"{prefix}row_valid{q}_{w}") for w in range(P.ways)]
             cq.ages = [Signal(age_bits(P.ways), name=f"{prefix}row_age{q}_{w}") for w in range(row_states(P))]
@@ -269,7 +288,9 @@ class DecoupledTexCache(wiring.Component):
         compares them with its lines. The **tag stage** takes the lookup from the prefetch stage with its rows (this
         clock's write forwarded) and its compares' outcomes (hit, way): a register copy. A step decides from those
         registers; a fill changes tags, so after it the outcomes are taken again from the held rows (a clock).
-        The compares never reach the lookup's acceptance, and the store's read never reaches the tag stage."""
+        The compares never reach the lookup's acceptance, and the store's read never reaches the tag stage. The
+        step's write waits a clock in registers (the **step write** stage: the class's docstring, :meth:`_rows`)
+        before it reaches the store and the held rows, which are read with it over them meanwhile."""
         P = self.params
         W = P.ways
         wb = age_bits(W)
@@ -279,17 +300,24 @@ class DecoupledTexCache(wiring.Component):
         req, t_valid, c, same = t.req, t.valid, t.c, t.same
         k, nf = Signal(2, name="k"), Signal(3, name="nf")  # next corner to check, fills so far
         way_reg = [Signal(wb, name=f"way_reg{q}") for q in range(4)]
+        # the step's write, pending a clock (applied then to the store and to every held row of its set), and which
+        # of its corners' rows each held row takes with it (the last select: none)
+        wp = self._pending(m, nc)
+        fw = [[Signal(name=f"fw{q}_{j}") for j in range(5)] for q in range(4)]
+        pfw = [[Signal(name=f"p_fw{q}_{j}") for j in range(5)] for q in range(4)]
+        eff = [self._overlay(m, c[q], wp, fw[q], f"e{q}_") for q in range(4)]
+        peff = [self._overlay(m, pre.c[q], wp, pfw[q], f"pe{q}_") for q in range(4)]
         # the outcomes: the prefetch stage's compares; the tag stage's, registered, and whether they are current
         for q in range(4):
-            pre.c[q].hit, pre.c[q].hit_way = compare(m, pre.c[q].tags, pre.c[q].valids, pre.c[q].line, f"p_{q}_")
-            c[q].cmp_hit, c[q].cmp_way = compare(m, c[q].tags, c[q].valids, c[q].line, f"t_{q}_")
+            pre.c[q].hit, pre.c[q].hit_way = compare(m, peff[q].tags, peff[q].valids, pre.c[q].line, f"p_{q}_")
+            c[q].cmp_hit, c[q].cmp_way = compare(m, eff[q].tags, eff[q].valids, c[q].line, f"t_{q}_")
             c[q].hit, c[q].hit_way = Signal(name=f"hit{q}"), Signal(wb, name=f"hit_way{q}")
         hits_ok = Signal(name="hits_ok")
         for q in range(4):
             # round robin: the ways of this corner's set that earlier steps of the lookup used (its victim skips them)
             used = [sum((k > j) & ~c[j].dup & same[q, j] & (way_reg[j] == v) for j in range(q)) != 0 if q else Const(0)
                     for v in range(W)] if rr else None
-            c[q].victim = victim(m, P, c[q].valids, c[q].ages, used, f"c{q}_")
+            c[q].victim = victim(m, P, eff[q].valids, eff[q].ages, used, f"c{q}_")
         live = self._live(m, c, req, lambda q: q >= k, "live")  # distinct and not yet checked
         upd, mq = Signal(name="upd"), Signal(2, name="mq")     # round robin: corner mq's fill is this step
         if rr:
@@ -329,10 +357,10 @@ class DecoupledTexCache(wiring.Component):
             m.d.comb += way_now[q].eq(Mux(act[q], Mux(filling[q], c[q].victim, c[q].hit_way), way_reg[q]))
             with m.If(fire & act[q]):
                 m.d.sync += way_reg[q].eq(way_now[q])
-        eff = Array(way_now)
+        way_of = Array(way_now)
         ways = [Signal(wb, name=f"way_eff{q}") for q in range(4)]
         for q in range(4):
-            m.d.comb += ways[q].eq(eff[c[q].src])
+            m.d.comb += ways[q].eq(way_of[c[q].src])
         # the rows a step writes: every checked corner's (LRU), the filled corner's only (round robin: a hit
         # changes no row); a fill changes tags, so the outcomes are taken again
         wr = [Signal(name=f"wr{q}") for q in range(4)]
@@ -340,10 +368,16 @@ class DecoupledTexCache(wiring.Component):
             m.d.comb += wr[q].eq(fire & act[q] & (upd if rr else 1))
         fills = [act[q] & filling[q] for q in range(4)]
         self._outcomes(m, c, pre, hits_ok, accept, fire & (sum(fills) != 0))
-        new = new_rows(m, P, self.line_bits, c, way_now)
-        stored = tag_store(m, P, self.line_bits, c, wr, new, platform, read_sets=[nc[q].set for q in range(4)],
-                           load=ififo.r_en, next_sets=[nc[q].next_set for q in range(4)])
-        self._rows(m, c, pre, nc, same, wr, p_load, accept, new, stored)
+        new = new_rows(m, P, self.line_bits, [SimpleNamespace(line=c[q].line, tags=eff[q].tags, valids=eff[q].valids,
+                                                             ages=eff[q].ages, hit=c[q].hit, victim=c[q].victim)
+                                              for q in range(4)], way_now)
+        for j in range(4):                                       # the step's write, applied in the next clock
+            m.d.sync += [wp[j].en.eq(wr[j]), wp[j].set.eq(c[j].set), wp[j].hot.eq(c[j].hot)]
+            m.d.sync += [x.eq(y) for field in range(3) for x, y in zip(wp[j].row[field], new[j][field])]
+        stored = tag_store(m, P, self.line_bits, wp, [wp[j].en for j in range(4)], [wp[j].row for j in range(4)],
+                           platform, read_sets=[nc[q].set for q in range(4)], load=ififo.r_en,
+                           next_sets=[nc[q].next_set for q in range(4)])
+        self._rows(m, c, pre, nc, same, wr, p_load, accept, wp, fw, pfw, eff, peff, stored)
         self._queue(m, f, c, req, fills, fire, last, step_miss, nf, ways)
         f.tag_busy = t_valid | pre.valid | s_valid | (ififo.level != 0)   # a lookup in the input FIFO or held
 
@@ -476,40 +510,78 @@ class DecoupledTexCache(wiring.Component):
                     m.d.comb += entry.addr[b].eq(slot * self._words + self._word(xs[q], ys[q]))
         m.d.comb += [f.lfifo.w_en.eq(fire & last), f.lfifo.w_data.eq(entry)]
 
-    def _rows(self, m, c, pre, nc, same, wr, p_load, accept, new, stored):
-        """The held rows. The prefetch stage's: loaded with a lookup (each corner's set's row read from the tag
-        store, or the row this clock's step writes to that set), else updated by a step that writes their set. The
-        tag stage's: loaded from the prefetch stage's as this clock's step leaves them, else updated likewise."""
+    def _pending(self, m, nc) -> list:
+        """The step's write, pending a clock: per corner whether it writes (``en``), its set (``set``, one-hot
+        ``hot``) and the row it writes (``row``: tags, valid bits, replacement state; also as ``tags``, ``valids``,
+        ``ages``)."""
+        P = self.params
+        wp = []
+        for j in range(4):
+            w = SimpleNamespace(en=Signal(name=f"wp_en{j}"), set=Signal.like(nc[j].set, name=f"wp_set{j}"),
+                                hot=Signal(P.sets, name=f"wp_hot{j}"))
+            w.tags = [Signal(self.line_bits, name=f"wp_tag{j}_{v}") for v in range(P.ways)]
+            w.valids = [Signal(name=f"wp_valid{j}_{v}") for v in range(P.ways)]
+            w.ages = [Signal(age_bits(P.ways), name=f"wp_age{j}_{v}") for v in range(row_states(P))]
+            w.row = (w.tags, w.valids, w.ages)
+            wp.append(w)
+        return wp
+
+    @staticmethod
+    def _overlay(m, held, wp, sel, name):
+        """A held row with the pending write over it: the row of the pending corner ``j`` that ``sel[j]`` names,
+        else (``sel[4]``) the held row; the selects are one-hot (registers, formal invariants ``fw*``), so this is
+        an AND-OR of five terms, not a chain of multiplexers."""
+        out = SimpleNamespace()
+        for field in ("tags", "valids", "ages"):
+            sigs = []
+            for v, x in enumerate(getattr(held, field)):
+                y = Signal.like(x, name=f"{name}{field[:-1]}{v}")
+                terms = Mux(sel[4], x, 0)
+                for j in range(4):
+                    terms = terms | Mux(sel[j], getattr(wp[j], field)[v], 0)
+                m.d.comb += y.eq(terms)
+                sigs.append(y)
+            setattr(out, field, sigs)
+        return out
+
+    def _rows(self, m, c, pre, nc, same, wr, p_load, accept, wp, fw, pfw, eff, peff, stored):
+        """The held rows, a clock behind the step: each takes the pending write (``wp``: the previous clock's step)
+        to its set in this clock, as the store does, and the step and the compares read them with it over them
+        (``eff``, ``peff``: :meth:`_overlay`). The prefetch stage's: loaded with a lookup (each corner's set's row
+        read from the tag store, the pending write to that set over it), else the pending write to their set. The
+        tag stage's: loaded from the prefetch stage's with the pending write, else the pending write to their set.
+        The selects of the overlays for the next clock (``fw``, ``pfw``: which corner of this clock's step writes
+        the set the row holds then) are registers, decided from this clock's writes and sets."""
         P = self.params
         W = P.ways
 
         def assign(dst, row):
-            m.d.sync += [dst.tags[v].eq(row[0][v]) for v in range(W)]
-            m.d.sync += [dst.valids[v].eq(row[1][v]) for v in range(W)]
-            m.d.sync += [dst.ages[v].eq(row[2][v]) for v in range(len(row[2]))]
+            m.d.sync += [dst.tags[v].eq(row.tags[v]) for v in range(W)]
+            m.d.sync += [dst.valids[v].eq(row.valids[v]) for v in range(W)]
+            m.d.sync += [dst.ages[v].eq(row.ages[v]) for v in range(len(row.ages))]
 
-        def updated(dst, writes):                        # the writes this clock makes to dst's set
+        def selects(regs, hits):                         # registers of one-hot selects from this clock's writes
             for j in range(4):
-                with m.If(writes[j]):
-                    assign(dst, new[j])
+                m.d.sync += regs[j].eq(hits[j])
+            m.d.sync += regs[4].eq(~sum(hits[j] for j in range(4)).bool())
 
         for q in range(4):
             pc = pre.c[q]
-            held = (pc.tags, pc.valids, pc.ages)
-            to_pre = [Signal(name=f"p_fwd{q}_{j}") for j in range(4)]   # a write to the prefetched set
-            to_next = [Signal(name=f"n_fwd{q}_{j}") for j in range(4)]  # a write to the next lookup's set
-            for j in range(4):
-                m.d.comb += [to_pre[j].eq(wr[j] & (c[j].set == pc.set)), to_next[j].eq(wr[j] & (c[j].set == nc[q].set))]
+            # this clock's write to the set each row holds in the next clock
+            selects(fw[q], [wr[j] & Mux(accept, c[j].set == pc.set, 1 if j == q else same[max(q, j), min(q, j)])
+                            for j in range(4)])
+            selects(pfw[q], [wr[j] & (c[j].set == Mux(p_load, nc[q].set, pc.set)) for j in range(4)])
+            to_next = [wp[j].en & (wp[j].set == nc[q].set) for j in range(4)]   # the pending write to the next set
+            loaded = self._overlay(m, SimpleNamespace(tags=stored[q][0], valids=stored[q][1], ages=stored[q][2]), wp,
+                                   to_next + [~sum(to_next).bool()], f"ld{q}_")
             with m.If(p_load):
-                assign(pc, stored[q])
-                updated(pc, to_next)
+                assign(pc, loaded)
             with m.Else():
-                updated(pc, to_pre)
+                assign(pc, peff[q])
             with m.If(accept):
-                assign(c[q], held)
-                updated(c[q], to_pre)
+                assign(c[q], peff[q])
             with m.Else():
-                updated(c[q], [wr[j] & (1 if j == q else same[max(q, j), min(q, j)]) for j in range(4)])
+                assign(c[q], eff[q])
 
     def _memory_port(self, m, f):
         """``AR`` from the queue; ``R`` beats into the fill buffer (beat ``n`` = texel ``(n mod B, n div B)``)."""

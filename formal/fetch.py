@@ -164,6 +164,19 @@ def rows_coherent(h: Harness, s, p: TexCacheParams):
             for j in range(4):
                 ok = ok & (s(f"{prefix}fw{q}_{j}") == takes[j])
             h.check(~s(valid) | ok, f"{prefix}fw{q}_is_pending_sets")
+    # lemmas (consequences of the above, stated for the solver): held rows of one set agree with the pending write
+    # over them, across corners and across the two stages
+    def eff(prefix, q):
+        return row_word(*([s(f"{prefix}{q}_{field}{w}") for w in range(n)]
+                          for field, n in (("tag", W), ("valid", W), ("age", states))))
+    for q in range(4):
+        for j in range(4):
+            if j < q:
+                for prefix, valid, pv in (("e", "t_valid", ""), ("pe", "p_valid", "p_")):
+                    h.check(~s(valid) | ~s(f"{pv}same{q}_{j}") | (eff(prefix, q) == eff(prefix, j)),
+                            f"{prefix}{q}_{j}_agree")
+            h.check(~(s("t_valid") & s("p_valid") & (s(f"set{q}") == s(f"p_set{j}"))) | (eff("e", q) == eff("pe", j)),
+                    f"e{q}_pe{j}_agree")
     lvt, written = Array(s(f"lvt{j}") for j in range(p.sets)), Array(s(f"written{j}") for j in range(p.sets))
     for r in range(4):
         set_ = s(f"nset{r}")

@@ -25,7 +25,7 @@ request names one by its index). Organisation (``docs/texcache.md``):
   burst (``INCR``, ``B^2`` beats of one 32-bit texel), so several bursts are outstanding, in order (one ID).
 - **Step write** (registers after the tag stage's step): the rows a step writes, with their sets, reach the tag
   store and every held row of their sets a clock later; meanwhile the step and the compares read the held rows
-  with that pending write over them (:meth:`DecoupledTexCache._overlay`), so the behaviour is clock for clock the
+  with that pending write over them (:mod:`rtl.texcache_stepwrite`), so the behaviour is clock for clock the
   same.
 - **Lookup FIFO** (:attr:`~fxmodel.units.texcache.TexCacheParams.lookup_depth` entries): each lookup's four bank
   word addresses, the bank of each corner, its fill count and its sideband, from the tag stage to the data stage.
@@ -60,6 +60,7 @@ from fxmodel.core.unit import require
 from fxmodel.units.texcache import Layout, TexCacheParams
 from rtl.rop import axi_signature
 
+from .texcache_stepwrite import held_rows, step_write
 from .texcache_tags import age_bits, compare, new_rows, row_states, tag_store, victim
 
 __all__ = ["DecoupledTexCache", "request_layout", "INPUT_DEPTH", "HELD", "AFTER"]
@@ -109,18 +110,18 @@ class DecoupledTexCache(wiring.Component):
 
     The **step write** stage (``docs/texcache.md``): a step's write -- per corner whether it writes, its set (and
     one-hot set) and its new row (tags, valid bits, LRU ages or the round-robin pointer) -- goes into registers
-    (``wp_*``, :meth:`_pending`) and is applied in the next clock, from those registers, to the tag store's LUT
-    RAMs and to every held row of the prefetch and tag stages in its set. So the step's victim and new row (from
-    a held row's valid bits and ages) end in its own corner's registers, not in the held rows of the other corners
-    of the same set, the prefetch stage's rows and the store's write ports. In the clock the write waits, the held
-    rows and the store are a clock behind; whatever reads a row then reads it with the pending write over it
-    (:meth:`_overlay`: the pending row of the corner that wrote its set, else the held row; a one-hot AND-OR whose
-    selects, ``fw*`` and ``p_fw*``, are registers decided with the write): the step's victim and new row, the tag
-    stage's compares taken again after a fill, the prefetch stage's compares and the rows the tag stage takes
-    from the prefetch stage. The prefetch stage's load reads the store with the pending write over it in the same
-    way. Nothing waits for the write: the behaviour is clock for clock that of a write in the step's own clock
-    (formal invariants ``wp_*`` and ``fw*_is_pending_sets`` in ``formal/fetch.py``; the held rows and the store
-    agree, both a clock behind).
+    (``wp_*``, :func:`rtl.texcache_stepwrite.step_write`) and is applied in the next clock, from those registers, to
+    the tag store's LUT RAMs and to every held row of the prefetch and tag stages in its set. So the step's victim
+    and new row (from a held row's valid bits and ages) end in its own corner's registers, not in the held rows of
+    the other corners of the same set, the prefetch stage's rows and the store's write ports. In the clock the write
+    waits, the held rows and the store are a clock behind; whatever reads a row then reads it with the pending write
+    over it (:func:`rtl.texcache_stepwrite.overlay`: the pending row of the corner that wrote its set, else the held
+    row; a one-hot AND-OR whose selects, ``fw*`` and ``p_fw*``, are registers decided with the write): the step's
+    victim and new row, the tag stage's compares taken again after a fill, the prefetch stage's compares and the
+    rows the tag stage takes from the prefetch stage. The prefetch stage's load reads the store with the pending
+    write over it in the same way. Nothing waits for the write: the behaviour is clock for clock that of a write in
+    the step's own clock (formal invariants ``wp_*`` and ``fw*_is_pending_sets`` in ``formal/fetch.py``; the held
+    rows and the store agree, both a clock behind).
     """
 
     def __init__(self, params: TexCacheParams, layout: Layout, side_bits: int = 0, addr_bits: int = 32,
@@ -283,14 +284,15 @@ class DecoupledTexCache(wiring.Component):
         the tag stage reaches the stream before it. The **set stage** (:meth:`_input_stage`) holds the next lookup
         with its corners' lines and sets in registers. The **prefetch stage** takes it from there with its
         duplicates and each corner's set's row from the tag store
-        (:func:`rtl.texcache_tags.tag_store`, this clock's write forwarded), all into registers, keeps those rows
-        equal to the store while it holds them (a step that writes a set writes every held row of that set), and
-        compares them with its lines. The **tag stage** takes the lookup from the prefetch stage with its rows (this
-        clock's write forwarded) and its compares' outcomes (hit, way): a register copy. A step decides from those
-        registers; a fill changes tags, so after it the outcomes are taken again from the held rows (a clock).
-        The compares never reach the lookup's acceptance, and the store's read never reaches the tag stage. The
-        step's write waits a clock in registers (the **step write** stage: the class's docstring, :meth:`_rows`)
-        before it reaches the store and the held rows, which are read with it over them meanwhile."""
+        (:func:`rtl.texcache_tags.tag_store`, the pending write over it), all into registers, keeps those rows
+        equal to the store while it holds them (a step's write reaches every held row of its set with the store), and
+        compares them with its lines. The **tag stage** takes the lookup from the prefetch stage with its rows (the
+        pending write over them) and its compares' outcomes (hit, way): a register copy. A step decides from those
+        registers; a fill changes tags, so after it the outcomes are taken again from the held rows (a clock). The
+        compares never reach the lookup's acceptance, and the store's read never reaches the tag stage. The step's
+        write waits a clock in registers (the **step write** stage: the class's docstring,
+        :mod:`rtl.texcache_stepwrite`) before it reaches the store and the held rows, which are read with it over
+        them meanwhile."""
         P = self.params
         W = P.ways
         wb = age_bits(W)
@@ -300,13 +302,9 @@ class DecoupledTexCache(wiring.Component):
         req, t_valid, c, same = t.req, t.valid, t.c, t.same
         k, nf = Signal(2, name="k"), Signal(3, name="nf")  # next corner to check, fills so far
         way_reg = [Signal(wb, name=f"way_reg{q}") for q in range(4)]
-        # the step's write, pending a clock (applied then to the store and to every held row of its set), and which
-        # of its corners' rows each held row takes with it (the last select: none)
-        wp = self._pending(m, nc)
-        fw = [[Signal(name=f"fw{q}_{j}") for j in range(5)] for q in range(4)]
-        pfw = [[Signal(name=f"p_fw{q}_{j}") for j in range(5)] for q in range(4)]
-        eff = [self._overlay(m, c[q], wp, fw[q], f"e{q}_") for q in range(4)]
-        peff = [self._overlay(m, pre.c[q], wp, pfw[q], f"pe{q}_") for q in range(4)]
+        # the step's write, pending a clock, and the held rows with it over them (rtl/texcache_stepwrite.py)
+        sw = step_write(m, P, self.line_bits, c, pre, nc)
+        wp, eff, peff = sw.wp, sw.eff, sw.peff
         # the outcomes: the prefetch stage's compares; the tag stage's, registered, and whether they are current
         for q in range(4):
             pre.c[q].hit, pre.c[q].hit_way = compare(m, peff[q].tags, peff[q].valids, pre.c[q].line, f"p_{q}_")
@@ -371,13 +369,10 @@ class DecoupledTexCache(wiring.Component):
         new = new_rows(m, P, self.line_bits, [SimpleNamespace(line=c[q].line, tags=eff[q].tags, valids=eff[q].valids,
                                                              ages=eff[q].ages, hit=c[q].hit, victim=c[q].victim)
                                               for q in range(4)], way_now)
-        for j in range(4):                                       # the step's write, applied in the next clock
-            m.d.sync += [wp[j].en.eq(wr[j]), wp[j].set.eq(c[j].set), wp[j].hot.eq(c[j].hot)]
-            m.d.sync += [x.eq(y) for field in range(3) for x, y in zip(wp[j].row[field], new[j][field])]
         stored = tag_store(m, P, self.line_bits, wp, [wp[j].en for j in range(4)], [wp[j].row for j in range(4)],
                            platform, read_sets=[nc[q].set for q in range(4)], load=ififo.r_en,
                            next_sets=[nc[q].next_set for q in range(4)])
-        self._rows(m, c, pre, nc, same, wr, p_load, accept, wp, fw, pfw, eff, peff, stored)
+        held_rows(m, P, sw, c, pre, nc, same, wr, new, p_load, accept, stored)
         self._queue(m, f, c, req, fills, fire, last, step_miss, nf, ways)
         f.tag_busy = t_valid | pre.valid | s_valid | (ififo.level != 0)   # a lookup in the input FIFO or held
 
@@ -409,16 +404,18 @@ class DecoupledTexCache(wiring.Component):
     def _decision(m, hits, live, same, kk, name):
         """LRU: the step of a lookup whose live corners are ``live`` and next corner ``kk``, from its outcomes
         ``hits``: ``(allin, step_miss)``. All remaining corners in one step (``allin``) when they fall in distinct
-        sets and at most one of them misses, else corner ``kk`` alone; ``step_miss``: the step misses."""
+        sets and at most one of them misses, else corner ``kk`` alone; ``step_miss``: the step misses. In gates, not
+        a count of the misses (an adder and a compare, a carry chain on an ECP5, on the path from the compares)."""
         clash = Signal(name=f"{name}clash")
         for q in range(4):
             for j in range(q):
                 with m.If(live[q] & live[j] & same[q, j]):
                     m.d.comb += clash.eq(1)
         miss = [live[q] & ~hits[q] for q in range(4)]
-        misses = sum(miss)
+        two = Signal(name=f"{name}two_misses")
+        m.d.comb += two.eq(Cat(*(miss[q] & miss[j] for q in range(4) for j in range(q))).any())
         allin, step_miss = Signal(name=f"{name}allin"), Signal(name=f"{name}step_miss")
-        m.d.comb += [allin.eq(~clash & (misses <= 1)), step_miss.eq(Mux(allin, misses != 0, Array(miss)[kk]))]
+        m.d.comb += [allin.eq(~clash & ~two), step_miss.eq(Mux(allin, Cat(*miss).any(), Array(miss)[kk]))]
         return allin, step_miss
 
     def _steps_one_phase(self, m, c, live, same, k):
@@ -509,79 +506,6 @@ class DecoupledTexCache(wiring.Component):
                     slot = c[q].set * W + ways[q]
                     m.d.comb += entry.addr[b].eq(slot * self._words + self._word(xs[q], ys[q]))
         m.d.comb += [f.lfifo.w_en.eq(fire & last), f.lfifo.w_data.eq(entry)]
-
-    def _pending(self, m, nc) -> list:
-        """The step's write, pending a clock: per corner whether it writes (``en``), its set (``set``, one-hot
-        ``hot``) and the row it writes (``row``: tags, valid bits, replacement state; also as ``tags``, ``valids``,
-        ``ages``)."""
-        P = self.params
-        wp = []
-        for j in range(4):
-            w = SimpleNamespace(en=Signal(name=f"wp_en{j}"), set=Signal.like(nc[j].set, name=f"wp_set{j}"),
-                                hot=Signal(P.sets, name=f"wp_hot{j}"))
-            w.tags = [Signal(self.line_bits, name=f"wp_tag{j}_{v}") for v in range(P.ways)]
-            w.valids = [Signal(name=f"wp_valid{j}_{v}") for v in range(P.ways)]
-            w.ages = [Signal(age_bits(P.ways), name=f"wp_age{j}_{v}") for v in range(row_states(P))]
-            w.row = (w.tags, w.valids, w.ages)
-            wp.append(w)
-        return wp
-
-    @staticmethod
-    def _overlay(m, held, wp, sel, name):
-        """A held row with the pending write over it: the row of the pending corner ``j`` that ``sel[j]`` names,
-        else (``sel[4]``) the held row; the selects are one-hot (registers, formal invariants ``fw*``), so this is
-        an AND-OR of five terms, not a chain of multiplexers."""
-        out = SimpleNamespace()
-        for field in ("tags", "valids", "ages"):
-            sigs = []
-            for v, x in enumerate(getattr(held, field)):
-                y = Signal.like(x, name=f"{name}{field[:-1]}{v}")
-                terms = Mux(sel[4], x, 0)
-                for j in range(4):
-                    terms = terms | Mux(sel[j], getattr(wp[j], field)[v], 0)
-                m.d.comb += y.eq(terms)
-                sigs.append(y)
-            setattr(out, field, sigs)
-        return out
-
-    def _rows(self, m, c, pre, nc, same, wr, p_load, accept, wp, fw, pfw, eff, peff, stored):
-        """The held rows, a clock behind the step: each takes the pending write (``wp``: the previous clock's step)
-        to its set in this clock, as the store does, and the step and the compares read them with it over them
-        (``eff``, ``peff``: :meth:`_overlay`). The prefetch stage's: loaded with a lookup (each corner's set's row
-        read from the tag store, the pending write to that set over it), else the pending write to their set. The
-        tag stage's: loaded from the prefetch stage's with the pending write, else the pending write to their set.
-        The selects of the overlays for the next clock (``fw``, ``pfw``: which corner of this clock's step writes
-        the set the row holds then) are registers, decided from this clock's writes and sets."""
-        P = self.params
-        W = P.ways
-
-        def assign(dst, row):
-            m.d.sync += [dst.tags[v].eq(row.tags[v]) for v in range(W)]
-            m.d.sync += [dst.valids[v].eq(row.valids[v]) for v in range(W)]
-            m.d.sync += [dst.ages[v].eq(row.ages[v]) for v in range(len(row.ages))]
-
-        def selects(regs, hits):                         # registers of one-hot selects from this clock's writes
-            for j in range(4):
-                m.d.sync += regs[j].eq(hits[j])
-            m.d.sync += regs[4].eq(~sum(hits[j] for j in range(4)).bool())
-
-        for q in range(4):
-            pc = pre.c[q]
-            # this clock's write to the set each row holds in the next clock
-            selects(fw[q], [wr[j] & Mux(accept, c[j].set == pc.set, 1 if j == q else same[max(q, j), min(q, j)])
-                            for j in range(4)])
-            selects(pfw[q], [wr[j] & (c[j].set == Mux(p_load, nc[q].set, pc.set)) for j in range(4)])
-            to_next = [wp[j].en & (wp[j].set == nc[q].set) for j in range(4)]   # the pending write to the next set
-            loaded = self._overlay(m, SimpleNamespace(tags=stored[q][0], valids=stored[q][1], ages=stored[q][2]), wp,
-                                   to_next + [~sum(to_next).bool()], f"ld{q}_")
-            with m.If(p_load):
-                assign(pc, loaded)
-            with m.Else():
-                assign(pc, peff[q])
-            with m.If(accept):
-                assign(c[q], peff[q])
-            with m.Else():
-                assign(c[q], eff[q])
 
     def _memory_port(self, m, f):
         """``AR`` from the queue; ``R`` beats into the fill buffer (beat ``n`` = texel ``(n mod B, n div B)``)."""

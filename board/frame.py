@@ -46,7 +46,7 @@ __all__ = ["rgb565", "expand565", "display_frame", "board_engine", "board_grid",
            "EngineSystem", "BoardSim", "QUIET",
            "BOARD_PRESET", "BOARD_SIZE", "MAX_BOARD_SIZE", "add_size_argument", "FRAMES", "BOARD_FRAME",
            "add_frame_argument",
-           "TileCopy", "CLEAN_CLEAR_CLOCKS"]
+           "TileCopy"]
 
 
 #: The board's pipeline preset (``presets/tin-plane-board.toml``: the fitted tin plane's, 29-texel reflectance
@@ -267,7 +267,7 @@ class EngineSystem(wiring.Component):
         m.d.comb += [tc.swap.eq(toggle_sync(m, "swap", swap_req, "engine")),
                      tc.copy.eq(toggle_sync(m, "copy", copy_req, "engine")),
                      tc.start.eq(toggle_sync(m, "start", start_req, "engine")), tc.place.eq(place),
-                     tc.active.eq(eng.i.valid | eng.busy | eng.rop_busy), tc.drawn.eq(eng.rop_take)]
+                     tc.active.eq(eng.i.valid | eng.busy | eng.rop_busy)]
         # the depth test's flags over the picture's tiles: its own are cleared with each tile, these with the
         # picture's first (place 0, 0), during that tile's clear (the depth test's clear is registered: cleared
         # every clock of the walk, they end it clear)
@@ -369,11 +369,6 @@ class EngineSystem(wiring.Component):
         return rec_valid
 
 
-#: The clocks FRAME_START stalls the engine for on a clean tile (``TileCopy.clean``): the clock its pulse sets
-#: the clear wanted, and the clear's one clock (``tests/board/test_frame.py`` measures it).
-CLEAN_CLEAR_CLOCKS = 2
-
-
 class TileCopy(wiring.Component):
     """The tile's clear and copy (one clock domain, ``sync``; the engine's on the board). SWAP (``swap``, a pulse):
     once the engine has been quiet (``active`` low) for ``quiet`` clocks, the tile is read out through ``fb``, each
@@ -382,20 +377,12 @@ class TileCopy(wiring.Component):
     starts before ``shown`` (a pulse: the display shows it). COPY (``copy``, a pulse): the same copy without
     showing it (a picture's tile but its last): ``copied`` does not toggle, and the next copy waits for ``shown``
     only with ``wait_every_copy`` (the frame in SDRAM, where ``shown`` is the copy's last write, not the display).
-    A copy clears behind its reads: each word it takes (a step of its walk) is read with ``fb.clear``, so the
-    depth test writes the clear value behind it, and a word read while ``room`` is low (read again at the next
-    step) is not cleared. FRAME_START (``start``): ``stall`` rises (the engine takes no record) and, once quiet
-    and no copy waiting, the tile is cleared: when it is known clear (``clean``: the memories start at the clear
-    value, and a walk, a copy's or a clear's, leaves every word cleared; ``drawn``, a fragment entering the depth
-    test, heard a clock late, makes it unclean: a walk begins only once the engine is quiet, so no fragment is
-    then in flight) in one
-    clock, else by a walk reading it out with ``fb.clear`` (every word to the clear value, nothing written to the
-    store); ``stall`` falls when the clear is done. So a picture drawn a tile at a time walks each tile once, to
-    copy it. The tile's place (``place``, held from before ``start``, taken with it) is the
+    FRAME_START (``start``): ``stall`` rises (the engine takes no record) and, once quiet and no copy waiting, the
+    tile is read out with ``fb.clear`` (every word to the clear value, nothing written to the store); ``stall``
+    falls when the clear is done. The tile's place (``place``, held from before ``start``, taken with it) is the
     tile's when its clear begins, and offered with each copy of the tile (``copy_place``, with ``copy_show``: the
     copy is a SWAP's), held from before the copy's first word until the next copy begins; ``tile_place`` is the
-    tile's place, ``clearing`` high while FRAME_START's clear acts (its walk reads the tile, or its one clock when
-    the tile is clean; not during a copy). ``room`` (default
+    tile's place, ``clearing`` high while the clear's walk reads the tile. ``room`` (default
     high): the copy's walk steps only while it is high (a FIFO behind the writes with room for the words in
     flight, ``params.readout_latency + 1``; the frame in SDRAM, ``board/sdram_system.py``); the clear's walk
     ignores it.
@@ -415,11 +402,10 @@ class TileCopy(wiring.Component):
         self.params, self.quiet, self.wait_every_copy = params, quiet, wait_every_copy
         pixels = params.pixels
         super().__init__({"swap": In(1), "copy": In(1), "start": In(1), "shown": In(1), "active": In(1),
-                          "drawn": In(1),
                           "room": In(1, init=1), "place": In(place_bits), "fb": In(fb),
                           "w_en": Out(1), "w_addr": Out(range(2 * pixels)), "w_data": Out(16), "stall": Out(1),
                           "copied": Out(1), "copy_place": Out(place_bits), "copy_show": Out(1),
-                          "tile_place": Out(place_bits), "clearing": Out(1), "clean": Out(1, init=1)})
+                          "tile_place": Out(place_bits), "clearing": Out(1)})
 
     def elaborate(self, platform):
         m = Module()
@@ -452,16 +438,13 @@ class TileCopy(wiring.Component):
         # the tile's word is registered before the frame store's write port: both memories span the device's
         # block RAM rows, and the read-out's output straight into the other's inputs was a path through two
         # die-wide routes (the engine's clock at a third of its target after placement)
-        # a copy's step takes the word read (its write follows): the word is cleared behind it; a word read while
-        # ``room`` is low is read again at the next step, so it is not cleared
-        take = reading & ~clearing & (addr < pixels) & self.room
-        skipping = Signal()                 # FRAME_START's clear of a clean tile: its one clock
-        m.d.comb += [self.fb.read.eq(reading), self.fb.clear.eq((clearing & reading) | take),
-                     self.clearing.eq((clearing & reading) | skipping), self.fb.addr.eq(addr[:len(self.fb.addr)]),
+        m.d.comb += [self.fb.read.eq(reading), self.fb.clear.eq(clearing & reading),
+                     self.clearing.eq(clearing & reading), self.fb.addr.eq(addr[:len(self.fb.addr)]),
                      self.stall.eq(clear_want)]
         # the address's word comes ``readout_latency`` clocks later (``rtl/rop.py``): its valid and store address
         # follow it in a delay line (the back buffer's index with it: it changes as the walk ends)
-        m.d.sync += [wvalid.eq(take), waddr.eq(Cat(addr[:len(waddr) - 1], back))]
+        m.d.sync += [wvalid.eq(reading & ~clearing & (addr < pixels) & self.room),
+                     waddr.eq(Cat(addr[:len(waddr) - 1], back))]
         for _ in range(P.readout_latency - 1):
             v, a = Signal(), Signal.like(waddr)
             m.d.sync += [v.eq(wvalid), a.eq(waddr)]
@@ -470,23 +453,14 @@ class TileCopy(wiring.Component):
         ready = (quiet == self.quiet) & ~self.swap & ~self.copy & ~self.start
         with m.FSM():
             with m.State("idle"):
-                # (the walk's address is 0 here: it returns to 0 as the drain ends, so this decision, from the
-                # quiet count, does not reach the address's registers)
                 with m.If(want & ~waiting & ready):
-                    m.d.sync += [want.eq(0), reading.eq(1), self.copy_place.eq(tile_place),
-                                 self.copy_show.eq(want_show), self.clean.eq(1)]
+                    m.d.sync += [want.eq(0), addr.eq(0), reading.eq(1), self.copy_place.eq(tile_place),
+                                 self.copy_show.eq(want_show)]
                     m.next = "walk"
-                with m.Elif(clear_want & ~want & ready & self.clean):
-                    m.d.sync += tile_place.eq(place_next)
-                    m.next = "skip"
                 with m.Elif(clear_want & ~want & ready):
-                    m.d.sync += [reading.eq(1), clearing.eq(1),     # the copy's walk, clearing
-                                 tile_place.eq(place_next), self.clean.eq(1)]
+                    m.d.sync += [addr.eq(0), reading.eq(1), clearing.eq(1),     # the copy's walk, clearing
+                                 tile_place.eq(place_next)]
                     m.next = "walk"
-            with m.State("skip"):           # the tile is clean: the clear done in this clock
-                m.d.comb += skipping.eq(1)
-                m.d.sync += clear_want.eq(0)
-                m.next = "idle"
             with m.State("walk"):
                 with m.If(addr == pixels):
                     m.d.sync += reading.eq(0)
@@ -494,7 +468,7 @@ class TileCopy(wiring.Component):
                 with m.Elif(self.room | clearing):
                     m.d.sync += addr.eq(addr + 1)
             with m.State("drain"):          # the last words through the read-out and the store's registers
-                m.d.sync += addr.eq(Mux(addr == drained, 0, addr + 1))
+                m.d.sync += addr.eq(addr + 1)
                 with m.If((addr == drained) & clearing):
                     m.d.sync += [clearing.eq(0), clear_want.eq(0)]
                     m.next = "idle"
@@ -503,16 +477,6 @@ class TileCopy(wiring.Component):
                     with m.If(self.copy_show):                  # a SWAP's: the display shows this buffer next
                         m.d.sync += [self.copied.eq(~self.copied), back.eq(~back)]
                     m.next = "idle"
-        # the tile is clean from the clock a walk begins (it clears every word it takes, to the end) until a
-        # fragment is next drawn; the memories start at the clear value (set where the FSM begins a walk, above; a
-        # fragment drawn wins). Not ``active``: the walk's own clears keep the depth test busy. ``drawn`` is heard a
-        # clock late, through a register (it comes from the depth test's input handshake): no decision is made
-        # then, as no fragment is drawn while ``ready`` (the quiet exceeds the pixel pipeline's latency) nor in the
-        # clock after (a fragment makes the engine active, which restarts the quiet count)
-        drawn_q = Signal()
-        m.d.sync += drawn_q.eq(self.drawn)
-        with m.If(drawn_q):
-            m.d.sync += self.clean.eq(0)
         return m
 
 

@@ -70,10 +70,8 @@ def elaborate_frame(system, m: Module, tc, disp) -> None:
     # the registered word's: TileCopy writes ``readout_latency + 1`` clocks after a step) and those its level does
     # not show yet (UNSEEN_WRITES), so a write never finds the FIFO full (a word lost there would leave the copy's
     # last burst short, and the copy would never end); the next copy waits for this one's last write response, a
-    # pulse of the SDRAM's clock handed to the engine's as a toggle. ``room`` is registered (the level a clock old,
-    # so one step more in flight): it reaches the copy's step and, as the copy clears behind its reads, the depth
-    # test's write registers, which should not see the FIFO's level arithmetic in the same clock
-    flight = P.readout_latency + 1 + UNSEEN_WRITES + 1
+    # pulse of the SDRAM's clock handed to the engine's as a toggle
+    flight = P.readout_latency + 1 + UNSEEN_WRITES
     copied, lost = Signal(), Signal()
     with m.If(q.w_en & ~q.w_rdy):                      # cannot happen (the room above); sticky if it does
         m.d.engine += lost.eq(1)
@@ -84,10 +82,8 @@ def elaborate_frame(system, m: Module, tc, disp) -> None:
     # it through the FIFO's synchronised pointers, so they have settled in the SDRAM's clock
     cb = system.place_bits[0]
     m.d.comb += [f.col.eq(tc.copy_place[:cb]), f.row.eq(tc.copy_place[cb:]), f.show.eq(tc.copy_show)]
-    room = Signal()
-    m.d.engine += room.eq(q.w_level < COPY_FIFO - flight)
     m.d.comb += [f.i.valid.eq(q.r_rdy), f.i.payload.eq(q.r_data), q.r_en.eq(f.i.ready),
-                 q.w_en.eq(tc.w_en), q.w_data.eq(tc.w_data), tc.room.eq(room),
+                 q.w_en.eq(tc.w_en), q.w_data.eq(tc.w_data), tc.room.eq(q.w_level < COPY_FIFO - flight),
                  tc.shown.eq(toggle_sync(m, "copied", copied, "engine")),
                  system.mem_error.eq(f.error | lost), system.underrun.eq(f.underrun), system.front.eq(f.front)]
     # the display: the frame's word (LATENCY clocks) expanded to bytes and registered

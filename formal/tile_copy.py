@@ -2,9 +2,7 @@
 reads the on-chip depth test's frame out (``fb``) between pictures, for both board builds.
 
 Its commands (``swap``, ``copy``, ``start``, ``shown``), ``active`` (the engine's input, scan converter and depth
-test), ``drawn`` (a fragment into the depth test; assumed only while ``active`` and never once the engine has been
-quiet for ``quiet`` clocks, which on the board exceed the pixel pipeline's latency), ``room`` and the read-out's
-words are free. Proven by k-induction:
+test), ``room`` and the read-out's words are free. Proven by k-induction:
 
 - **the depth test's contract** (``formal/rop_chip.py`` assumes it): a walk over the tile (a copy's or a clear's)
   begins only after ``active`` has been low for ``quiet`` clocks; ``fb.clear`` only with ``fb.read``; while a walk
@@ -13,13 +11,7 @@ words are free. Proven by k-induction:
   the frame store once, at its pixel's address in the back buffer, narrowed to RGB565 (the read-out's words are
   assumed to be their address's, so a write of the wrong word or to the wrong place is seen); a copy writes the
   whole tile (``pixels`` writes) and a clear writes nothing;
-- ``copied`` toggles once per SWAP's copy, after its last write, and never for COPY's;
-- **the clear behind the copy**: ``fb.clear`` exactly with the reads a walk takes (a copy's step, whose word is
-  written; a clear's every read of the tile), so a word read while ``room`` is low is not cleared before the read
-  that takes it; and FRAME_START's clear is skipped (``clean``, one clock of ``clearing`` and no walk) only when
-  every word of the tile has been cleared since a fragment was last ``drawn``: by a walk that cleared all
-  ``pixels`` words with none drawn from the clock before its first read on, or since the start (the depth test's
-  memories start at the clear value).
+- ``copied`` toggles once per SWAP's copy, after its last write, and never for COPY's.
 """
 
 from __future__ import annotations
@@ -48,12 +40,9 @@ def small_tile() -> RopParams:
     return small_rop_chip()
 
 
-def tile_copy_set(kind: str = "proof", *, wait_every_copy: bool = False, broken_latency: int = 0,
-                  broken_drawn: bool = False, invariants: bool = True) -> Harness:
-    """The harness; bugs for the tests: ``broken_latency``, the read-out's word arrives that many clocks later
-    than the copy expects; ``broken_drawn``, the unit does not hear the engine draw (its ``drawn`` tied low: a
-    FRAME_START after drawn fragments would skip the clear). ``invariants=False`` leaves out the
-    invariants that close the clean tile's induction (a bounded check then fails on the behaviour itself)."""
+def tile_copy_set(kind: str = "proof", *, wait_every_copy: bool = False, broken_latency: int = 0) -> Harness:
+    """The harness; ``broken_latency`` (a bug for the test): the read-out's word arrives that many clocks later
+    than the copy expects."""
     P = small_tile()
     h = Harness(kind)
     m = h.m
@@ -62,14 +51,6 @@ def tile_copy_set(kind: str = "proof", *, wait_every_copy: bool = False, broken_
                                                         wait_every_copy=wait_every_copy))
     sig = lambda name: whitebox.signal(top, name)        # noqa: E731
     drive_inputs(h, dut)
-    # a fragment entering the depth test, which the unit hears as ``drawn`` (not at all, in the broken variant);
-    # the engine is active in that clock
-    drawn = h.free(1, "engine_drawn")
-    h.check(dut.drawn == (0 if broken_drawn else drawn), "drawn_is_the_engine", assume=True)
-    h.check(~drawn | dut.active, "drawn_while_active", assume=True)
-    # and none once the engine has been quiet for ``quiet`` clocks (the board's exceeds the pixel pipeline's
-    # latency, whose fragments are not in ``active``; checked here against the unit's own count)
-    h.check(~drawn | (sig("quiet") != QUIET), "none_drawn_once_quiet", assume=True)
     n, L = P.pixels, P.readout_latency + broken_latency
     zb = P.z_fmt.width
     # the read-out's word is its address's: the address in the color bits, ``L`` clocks after it was given
@@ -102,40 +83,11 @@ def tile_copy_set(kind: str = "proof", *, wait_every_copy: bool = False, broken_
     # and the walk's state machine: reading exactly in its walk, the address within the walk and the drain
     state = sig("fsm_state")
     walk, drain = state == state_value(state, "walk"), state == state_value(state, "drain")
-    h.check(walk | drain | (state == state_value(state, "idle")) | (state == state_value(state, "skip")),
-            "fsm_states")
+    h.check(walk | drain | (state == state_value(state, "idle")), "fsm_states")
     h.check(reading == walk, "read_is_walk")
     h.check(~walk | (walk_addr <= n), "walk_in_tile")
     h.check(~drain | ((walk_addr >= n) & (walk_addr <= n + P.readout_latency + 1)), "drain_after_tile")
     h.check(~(dut.w_en & clearing), "clear_writes_nothing")
-    # the clear behind the copy: the clear with the reads taken (a copy's steps, a clear's reads of the tile)
-    clear_walk = clearing & reading
-    h.check(dut.fb.clear == (clear_walk | read_one), "clear_with_taken_reads")
-    # FRAME_START's clear skipped only on a clean tile: every word cleared by a walk, no fragment drawn from the
-    # clock before its first read on, or none drawn since the start (the memories start at the clear value)
-    clears = _walk_count(m, began, dut.fb.clear & (walk_addr < n), n, "f_clears")
-    drawn_before = h.past(drawn, "engine_drawn")
-    walk_quiet = Signal(name="f_walk_quiet")        # no fragment drawn from the clock before the walk's first read
-    m.d.sync += walk_quiet.eq(~drawn & Mux(began, ~drawn_before, walk_quiet))
-    tile_clear = Signal(init=1, name="f_tile_clear")
-    walk_end = drain & (walk_addr == n + P.readout_latency + 1)
-    m.d.sync += tile_clear.eq(~drawn & Mux(walk_end, walk_quiet & (clears == n), tile_clear))
-    skip = state == state_value(state, "skip")
-    h.check(~skip | tile_clear, "skip_only_when_clear")
-    h.check(~skip | (dut.clearing & ~reading), "skip_is_one_clearing_clock")
-    # the invariants that close it: the walk counts its clears, and the unit's flag is the walk's quiet
-    if invariants:
-        h.check(~((walk | drain) & ~began) | (clears == Mux(walk_addr < n, walk_addr, n)), "clears_are_the_walk")
-        # (the unit hears ``drawn`` a clock late: its flag and the clock's ``drawn`` before)
-        heard = dut.clean & ~drawn_before
-        h.check(sig("drawn_q") == drawn_before, "drawn_heard_late")
-        h.check(~((walk | drain) & ~began) | (heard == walk_quiet), "clean_is_walk_quiet")
-        h.check(~began | dut.clean, "clean_at_walk_start")
-        h.check(walk | drain | ~heard | tile_clear, "clean_is_clear")
-        h.check(walk | drain | (walk_addr == 0), "idle_at_zero")
-    walked = Signal(name="f_walked")
-    m.d.sync += walked.eq(walked | walk_end)
-    h.cover(skip & walked, "skip_after_walk_reach")
     toggled = h.started & (dut.copied != h.past(dut.copied, "copied"))
     h.check(~toggled | ((writes == n) & h.past(dut.copy_show, "show")), "copied_after_whole_swap_copy")
     # reachability: a SWAP's copy done, a clear begun, a copy stalled by room

@@ -40,9 +40,8 @@ class Engine(wiring.Component):
     With ``params.rop`` (the engine with its depth test) ``o`` is replaced by the raster-operations unit
     (``rtl/rop.py``): the sideband also carries ``Z``, and the colors go through the depth test into the frame
     buffer; ports ``axi`` (its AXI4 manager port) or ``fb`` (its read-out, on chip), ``status`` (its sticky
-    flags), ``rop_busy`` (a fragment in the ROP not yet finished; fragments inside the pixel pipeline are not
-    counted: wait its ``latency`` after the last one left the scan converter) and ``rop_take`` (a fragment enters
-    the ROP in this clock: the transfer on its input).
+    flags) and ``rop_busy`` (a fragment in the ROP not yet finished; fragments inside the pixel pipeline are not
+    counted: wait its ``latency`` after the last one left the scan converter).
 
     ``writes`` (:class:`rtl.sampler.TexelWrites`, optional): the texel memories' write bus, driven by the design
     around the engine (the board's uploads); its signals are shared, not ports.
@@ -65,7 +64,7 @@ class Engine(wiring.Component):
             self._rop = Rop(params.rop)
             port = "fb" if params.rop.on_chip else "axi"
             members |= {port: Out(self._rop.signature.members[port].signature),
-                        "status": Out(self._rop.status.shape()), "rop_busy": Out(1), "rop_take": Out(1)}
+                        "status": Out(self._rop.status.shape()), "rop_busy": Out(1)}
         super().__init__(members)
 
     @staticmethod
@@ -101,8 +100,7 @@ class Engine(wiring.Component):
             m.submodules.rop = rop = self._rop
             port = "fb" if P.rop.on_chip else "axi"
             wiring.connect(m, wiring.flipped(getattr(self, port)), getattr(rop, port))
-            m.d.comb += [self.status.eq(rop.status), self.rop_busy.eq(rop.busy), rop.i.payload.z.eq(res.side.z),
-                         self.rop_take.eq(rop.i.valid & rop.i.ready)]
+            m.d.comb += [self.status.eq(rop.status), self.rop_busy.eq(rop.busy), rop.i.payload.z.eq(res.side.z)]
             sink = rop.i
         out = sink.payload
         m.d.comb += [sink.valid.eq(pix.o.valid), pix.o.ready.eq(sink.ready),

@@ -77,22 +77,19 @@ def picture_clocks(params, tiles, engine_hz: float, dram_hz: float) -> dict:
     """The engine's clocks for one picture drawn a tile at a time (``tiles`` as :func:`board.frame.picture_tiles`'s,
     ``params`` the tile's engine) on the board with its frame in SDRAM: for each tile its clear, its triangles and
     its copy. The triangles' clocks are the scan converter's (the model's, which the RTL matches clock for clock);
-    a copy waits :data:`board.cdc.QUIET` quiet clocks and walks the tile's pixels and the read-out's latency
-    (``board.frame.TileCopy``), clearing the tile behind its reads, so each tile's clear (after the copy of the
-    tile before, or from the start) is :data:`board.frame.CLEAN_CLEAR_CLOCKS`; a copy's words leave at most one an
-    SDRAM clock (its FIFO's read side), so a copy takes at least the tile's pixels at the SDRAM's clock: a lower
-    bound on the board's clocks (the SDRAM's refreshes and the scan-out's share of its port come on top)."""
+    a clear and a copy each wait :data:`board.cdc.QUIET` quiet clocks and walk the tile's pixels and the read-out's
+    latency (``board.frame.TileCopy``), and a copy's words leave at most one an SDRAM clock (its FIFO's read side),
+    so a copy takes at least the tile's pixels at the SDRAM's clock: a lower bound on the board's clocks (the
+    SDRAM's refreshes and the scan-out's share of its port come on top)."""
     import math
 
     from board.cdc import QUIET
-    from board.frame import CLEAN_CLEAR_CLOCKS
     from fxmodel.units.raster import scan
     rop = params.rop
     walk = QUIET + rop.pixels + rop.readout_latency + 1
     copy = max(walk, QUIET + math.ceil(rop.pixels * engine_hz / dram_hz))
     draw = sum(int(scan(params.raster, recs).clocks.sum()) for _, recs in tiles)
-    per_tile = CLEAN_CLEAR_CLOCKS + copy
-    return {"clocks": draw + len(tiles) * per_tile, "draw": draw, "clear_and_copy": len(tiles) * per_tile}
+    return {"clocks": draw + len(tiles) * (walk + copy), "draw": draw, "clear_and_copy": len(tiles) * (walk + copy)}
 
 
 def scene_rates(name: str, preset: str, engine_hz: float, baud: int, size: int) -> dict:

@@ -151,8 +151,7 @@ def board_animation() -> str:
             f"SDRAM MB/s (of {r['sdram_peak_MBps']:g})"]
     note = (f"\n*Engine at {r['engine_mhz']:g} MHz ({r['engine_clock']}), UART at {r['baud']:,} baud, "
             f"{r['mode']} a {r.get('tile', 128)}-pixel tile at a time; a picture's clocks are its tiles' triangles "
-            "(the scan converter's, in brackets) and each tile's copy and clear (the copy clears behind its "
-            "reads, so the clear after it takes a few clocks; a lower bound: "
+            "(the scan converter's, in brackets) and each tile's clear and copy (a lower bound: "
             "`tools/animate.py` `picture_clocks`); the SDRAM figure is scan-out plus the tiles' write-back at the "
             "rate shown (texel-cache misses not counted).*\n")
     return md_table(head, rows, col_align("lrrrrrrrrr")) + note + "\n" + provenance(record, path)

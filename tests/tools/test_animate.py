@@ -16,8 +16,7 @@ from tools import animate
 
 def test_a_still_scene_row_adds_up():
     """The berlin wall's row: its 640 x 480 picture in 20 tiles of 128 (five by four), each tile's records set up
-    here from the picture's triangles, the clocks each tile's scan plus its copy's walk and its clear (the tile
-    left clean by the copy before: ``CLEAN_CLEAR_CLOCKS``, measured in ``tests/board/test_frame.py``), the link's bytes
+    here from the picture's triangles, the clocks each tile's scan plus its clear and copy walks, the link's bytes
     each tile's FRAME_START (its place: 4 bytes more but for the first tile), records and COPY or SWAP."""
     import math
 
@@ -37,8 +36,7 @@ def test_a_still_scene_row_adds_up():
     latency = picture_tiles(frame, 128)[0].rop.readout_latency
     walk = QUIET + pixels + latency + 1
     copy = max(walk, QUIET + math.ceil(pixels * 50e6 / DRAM_HZ))
-    from board.frame import CLEAN_CLEAR_CLOCKS
-    clocks = sum(int(scan(raster, t).clocks.sum()) for t in tiles) + 20 * (CLEAN_CLEAR_CLOCKS + copy)
+    clocks = sum(int(scan(raster, t).clocks.sum()) for t in tiles) + 20 * (walk + copy)
     assert row["frames"] == 1 and row["engine_clocks_per_frame_max"] == clocks
     assert row["triangles"] == len(frame_records(frame, raster)[0])
     # SYNC, CMD, LEN (2), CRC (2) around each payload: FRAME_START's size (and place), COPY and SWAP empty, a

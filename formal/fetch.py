@@ -117,9 +117,13 @@ def rows_coherent(h: Harness, s, p: TexCacheParams):
     """The tag store (``rtl/texcache_tags.py``'s live-value table over LUT RAMs) and the held rows:
     ``store_copies_agree`` (each set's live row is the same through every read port: a write port writes all its
     copies), ``rows_coherent`` and ``p_rows_coherent`` (while the tag stage, or the prefetch stage, holds a lookup,
-    each corner's held row is its set's row in the store: the forwarding and the updates), the sets' one-hot
+    each corner's held row is its set's row in the store, both a clock behind the step: the forwarding and the
+    updates), the step's write pending a clock (``wp_*``: one corner's row a set at most, its one-hot set; with
+    round robin one corner's, a fill's, so the tag stage's outcomes are stale meanwhile) and
+    each held row's overlay selects (``fw*_is_pending_sets``: which pending row it takes, or none), the sets' one-hot
     copies and pairwise equalities are the sets' (what the updates select by), and ``hits_current`` (the tag
-    stage's registered outcomes, when it marks them current, are its corners' compares with its held rows), with
+    stage's registered outcomes, when it marks them current, are its corners' compares with its held rows, the
+    pending write over them), with
     LRU ``decision_ahead`` (the registers that decide the tag stage's step, decided a clock ahead, are then what
     its registered outcomes, corners and next corner decide); each read port's copy of the live-value table's
     entry (``r_lvt*_is_table``) is the table's for the set stage's set."""
@@ -142,6 +146,37 @@ def rows_coherent(h: Harness, s, p: TexCacheParams):
                               for field, n in (("tag", W), ("valid", W), ("age", states))))
             ok = ok & (held == table[set_])
         h.check(~s(valid) | ok, f"{prefix}rows_coherent")
+    # the step's write, pending a clock: at most one corner's row a set, its one-hot set its set's, and each held
+    # row's overlay selects (which pending row it takes, or none) the pending sets' equalities with its own set
+    for j in range(4):
+        h.check(~s(f"wp_en{j}") | (s(f"wp_hot{j}") == (1 << s(f"wp_set{j}"))[:p.sets]), f"wp_hot{j}_is_set")
+        for i in range(j):
+            both = s(f"wp_en{i}") & s(f"wp_en{j}")
+            h.check(~(both & (s(f"wp_set{i}") == s(f"wp_set{j}"))), f"wp_sets{i}_{j}_distinct")
+    if p.replacement == "fifo":                          # round robin writes in a fill step only: one corner's row
+        any_wp = s("wp_en0") | s("wp_en1") | s("wp_en2") | s("wp_en3")
+        h.check(sum(s(f"wp_en{j}") for j in range(4)) <= 1, "wp_one_corner")
+        h.check(~any_wp | ~(s("t_valid") & s("hits_ok")), "wp_outcomes_stale")
+    for prefix, valid in (("", "t_valid"), ("p_", "p_valid")):
+        for q in range(4):
+            takes = [s(f"wp_en{j}") & (s(f"wp_set{j}") == s(f"{prefix}set{q}")) for j in range(4)]
+            ok = s(f"{prefix}fw{q}_4") == ~(takes[0] | takes[1] | takes[2] | takes[3])
+            for j in range(4):
+                ok = ok & (s(f"{prefix}fw{q}_{j}") == takes[j])
+            h.check(~s(valid) | ok, f"{prefix}fw{q}_is_pending_sets")
+    # lemmas (consequences of the above, stated for the solver): held rows of one set agree with the pending write
+    # over them, across corners and across the two stages
+    def eff(prefix, q):
+        return row_word(*([s(f"{prefix}{q}_{field}{w}") for w in range(n)]
+                          for field, n in (("tag", W), ("valid", W), ("age", states))))
+    for q in range(4):
+        for j in range(4):
+            if j < q:
+                for prefix, valid, pv in (("e", "t_valid", ""), ("pe", "p_valid", "p_")):
+                    h.check(~s(valid) | ~s(f"{pv}same{q}_{j}") | (eff(prefix, q) == eff(prefix, j)),
+                            f"{prefix}{q}_{j}_agree")
+            h.check(~(s("t_valid") & s("p_valid") & (s(f"set{q}") == s(f"p_set{j}"))) | (eff("e", q) == eff("pe", j)),
+                    f"e{q}_pe{j}_agree")
     lvt, written = Array(s(f"lvt{j}") for j in range(p.sets)), Array(s(f"written{j}") for j in range(p.sets))
     for r in range(4):
         set_ = s(f"nset{r}")

@@ -44,7 +44,7 @@ from host.visibility import disagreement_picture, resolve
 __all__ = ["Frame", "prepare", "pipeline_params", "render", "save_png", "compose", "ClampError", "SCENE_BOUND_LSB",
            "judge", "tell", "bound_args", "INPUT_KNOBS", "ILL_CONDITIONED", "ADDRESS_LIMIT_TEXELS",
            "address_errors", "TriangleFrame", "from_triangles", "frame_records", "frame_raster", "frame_rop",
-           "render_triangles", "raster_params", "engine_params"]
+           "render_triangles", "raster_params", "engine_params", "REFERENCE_IMAGES"]
 
 
 #: The documented bound of a frame of an accepted scene: the largest per-channel distance, in 8-bit steps, of the
@@ -397,6 +397,11 @@ def engine_params(scene, preset: str | dict = "default", *, cube_size: int | Non
     return EngineParams(raster=raster_params(frame.units, frame.params.lod), pipeline=frame.params)
 
 
+#: The images :func:`render` and :func:`render_triangles` write into their ``out_dir`` (``bumpmap render --refs``),
+#: each as ``<name>.png``: fixed names, so a caller checks them against its inputs and outputs before any work.
+REFERENCE_IMAGES = ("model", "float", "ideal", "diff", "compare", "truth", "fragments", "depth_disagreements")
+
+
 def render(frame: Frame, out_dir=None, *, references: bool = True, model=None, exclude=None,
            truth_samples: int = 0) -> dict:
     """Run the bit-exact model (and the references) on a prepared frame; write the images if ``out_dir``.
@@ -440,6 +445,7 @@ def render(frame: Frame, out_dir=None, *, references: bool = True, model=None, e
             add_truth(frame, images, report, exclude, truth_samples)
     if out_dir is not None:
         for name, img in images.items():
+            assert name in REFERENCE_IMAGES, name
             save_png(Path(out_dir) / f"{name}.png", img)
     report["_model_bytes"] = model
     return report

@@ -23,6 +23,10 @@ request names one by its index). Organisation (``docs/texcache.md``):
   the first miss in one clock, the fill of that line in the next. A fill changes tags, so the outcomes are then
   compared again from the held rows (a clock). A miss allocates its way at once and queues its line's ``AR``
   burst (``INCR``, ``B^2`` beats of one 32-bit texel), so several bursts are outstanding, in order (one ID).
+- **Step write** (registers after the tag stage's step): the rows a step writes, with their sets, reach the tag
+  store and every held row of their sets a clock later; meanwhile the step and the compares read the held rows
+  with that pending write over them (:mod:`rtl.texcache_stepwrite`), so the behaviour is clock for clock the
+  same.
 - **Lookup FIFO** (:attr:`~fxmodel.units.texcache.TexCacheParams.lookup_depth` entries): each lookup's four bank
   word addresses, the bank of each corner, its fill count and its sideband, from the tag stage to the data stage.
 - **Fill buffer** (:attr:`~fxmodel.units.texcache.TexCacheParams.misses` lines, four banks by texel parity): the
@@ -56,6 +60,7 @@ from fxmodel.core.unit import require
 from fxmodel.units.texcache import Layout, TexCacheParams
 from rtl.rop import axi_signature
 
+from .texcache_stepwrite import held_rows, step_write
 from .texcache_tags import age_bits, compare, new_rows, row_states, tag_store, victim
 
 __all__ = ["DecoupledTexCache", "request_layout", "INPUT_DEPTH", "HELD", "AFTER"]
@@ -102,6 +107,21 @@ class DecoupledTexCache(wiring.Component):
     Ports: ``i`` (stream of :func:`request_layout`), ``o`` (stream of ``texels``, four of ``texel_bits``, corner 0
     in the low bits, and ``side``), ``mem`` (AXI4 manager, ``addr_bits`` address bits, 32-bit data; the read
     channels only), ``busy`` (a lookup or a fill anywhere inside).
+
+    The **step write** stage (``docs/texcache.md``): a step's write -- per corner whether it writes, its set (and
+    one-hot set) and its new row (tags, valid bits, LRU ages or the round-robin pointer) -- goes into registers
+    (``wp_*``, :func:`rtl.texcache_stepwrite.step_write`) and is applied in the next clock, from those registers, to
+    the tag store's LUT RAMs and to every held row of the prefetch and tag stages in its set. So the step's victim
+    and new row (from a held row's valid bits and ages) end in its own corner's registers, not in the held rows of
+    the other corners of the same set, the prefetch stage's rows and the store's write ports. In the clock the write
+    waits, the held rows and the store are a clock behind; whatever reads a row then reads it with the pending write
+    over it (:func:`rtl.texcache_stepwrite.overlay`: the pending row of the corner that wrote its set, else the held
+    row; a one-hot AND-OR whose selects, ``fw*`` and ``p_fw*``, are registers decided with the write): the step's
+    victim and new row, the tag stage's compares taken again after a fill, the prefetch stage's compares and the
+    rows the tag stage takes from the prefetch stage. The prefetch stage's load reads the store with the pending
+    write over it in the same way. Nothing waits for the write: the behaviour is clock for clock that of a write in
+    the step's own clock (formal invariants ``wp_*`` and ``fw*_is_pending_sets`` in ``formal/fetch.py``; the held
+    rows and the store agree, both a clock behind).
     """
 
     def __init__(self, params: TexCacheParams, layout: Layout, side_bits: int = 0, addr_bits: int = 32,
@@ -241,7 +261,7 @@ class DecoupledTexCache(wiring.Component):
             cq.line = Signal.like(nc[q].line, name=f"{prefix}line{q}")
             cq.set = Signal.like(nc[q].set, name=f"{prefix}set{q}")
             cq.dup, cq.src = Signal(name=f"{prefix}dup{q}"), Signal(2, name=f"{prefix}src{q}")
-            cq.hot = Signal(P.sets, name=f"{prefix}hot{q}")              # the set, one-hot (the update's enables)
+            cq.hot = Signal(P.sets, name=f"{prefix}hot{q}")  # the set, one-hot (the store's enables: wp_hot)
             cq.tags = [Signal(self.line_bits, name=f"{prefix}row_tag{q}_{w}") for w in range(P.ways)]
             cq.valids = [Signal(name=f"{prefix}row_valid{q}_{w}") for w in range(P.ways)]
             cq.ages = [Signal(age_bits(P.ways), name=f"{prefix}row_age{q}_{w}") for w in range(row_states(P))]
@@ -264,12 +284,15 @@ class DecoupledTexCache(wiring.Component):
         the tag stage reaches the stream before it. The **set stage** (:meth:`_input_stage`) holds the next lookup
         with its corners' lines and sets in registers. The **prefetch stage** takes it from there with its
         duplicates and each corner's set's row from the tag store
-        (:func:`rtl.texcache_tags.tag_store`, this clock's write forwarded), all into registers, keeps those rows
-        equal to the store while it holds them (a step that writes a set writes every held row of that set), and
-        compares them with its lines. The **tag stage** takes the lookup from the prefetch stage with its rows (this
-        clock's write forwarded) and its compares' outcomes (hit, way): a register copy. A step decides from those
-        registers; a fill changes tags, so after it the outcomes are taken again from the held rows (a clock).
-        The compares never reach the lookup's acceptance, and the store's read never reaches the tag stage."""
+        (:func:`rtl.texcache_tags.tag_store`, the pending write over it), all into registers, keeps those rows
+        equal to the store while it holds them (a step's write reaches every held row of its set with the store), and
+        compares them with its lines. The **tag stage** takes the lookup from the prefetch stage with its rows (the
+        pending write over them) and its compares' outcomes (hit, way): a register copy. A step decides from those
+        registers; a fill changes tags, so after it the outcomes are taken again from the held rows (a clock). The
+        compares never reach the lookup's acceptance, and the store's read never reaches the tag stage. The step's
+        write waits a clock in registers (the **step write** stage: the class's docstring,
+        :mod:`rtl.texcache_stepwrite`) before it reaches the store and the held rows, which are read with it over
+        them meanwhile."""
         P = self.params
         W = P.ways
         wb = age_bits(W)
@@ -279,17 +302,20 @@ class DecoupledTexCache(wiring.Component):
         req, t_valid, c, same = t.req, t.valid, t.c, t.same
         k, nf = Signal(2, name="k"), Signal(3, name="nf")  # next corner to check, fills so far
         way_reg = [Signal(wb, name=f"way_reg{q}") for q in range(4)]
+        # the step's write, pending a clock, and the held rows with it over them (rtl/texcache_stepwrite.py)
+        sw = step_write(m, P, self.line_bits, c, pre, nc)
+        wp, eff, peff = sw.wp, sw.eff, sw.peff
         # the outcomes: the prefetch stage's compares; the tag stage's, registered, and whether they are current
         for q in range(4):
-            pre.c[q].hit, pre.c[q].hit_way = compare(m, pre.c[q].tags, pre.c[q].valids, pre.c[q].line, f"p_{q}_")
-            c[q].cmp_hit, c[q].cmp_way = compare(m, c[q].tags, c[q].valids, c[q].line, f"t_{q}_")
+            pre.c[q].hit, pre.c[q].hit_way = compare(m, peff[q].tags, peff[q].valids, pre.c[q].line, f"p_{q}_")
+            c[q].cmp_hit, c[q].cmp_way = compare(m, eff[q].tags, eff[q].valids, c[q].line, f"t_{q}_")
             c[q].hit, c[q].hit_way = Signal(name=f"hit{q}"), Signal(wb, name=f"hit_way{q}")
         hits_ok = Signal(name="hits_ok")
         for q in range(4):
             # round robin: the ways of this corner's set that earlier steps of the lookup used (its victim skips them)
             used = [sum((k > j) & ~c[j].dup & same[q, j] & (way_reg[j] == v) for j in range(q)) != 0 if q else Const(0)
                     for v in range(W)] if rr else None
-            c[q].victim = victim(m, P, c[q].valids, c[q].ages, used, f"c{q}_")
+            c[q].victim = victim(m, P, eff[q].valids, eff[q].ages, used, f"c{q}_")
         live = self._live(m, c, req, lambda q: q >= k, "live")  # distinct and not yet checked
         upd, mq = Signal(name="upd"), Signal(2, name="mq")     # round robin: corner mq's fill is this step
         if rr:
@@ -329,10 +355,10 @@ class DecoupledTexCache(wiring.Component):
             m.d.comb += way_now[q].eq(Mux(act[q], Mux(filling[q], c[q].victim, c[q].hit_way), way_reg[q]))
             with m.If(fire & act[q]):
                 m.d.sync += way_reg[q].eq(way_now[q])
-        eff = Array(way_now)
+        way_of = Array(way_now)
         ways = [Signal(wb, name=f"way_eff{q}") for q in range(4)]
         for q in range(4):
-            m.d.comb += ways[q].eq(eff[c[q].src])
+            m.d.comb += ways[q].eq(way_of[c[q].src])
         # the rows a step writes: every checked corner's (LRU), the filled corner's only (round robin: a hit
         # changes no row); a fill changes tags, so the outcomes are taken again
         wr = [Signal(name=f"wr{q}") for q in range(4)]
@@ -340,10 +366,13 @@ class DecoupledTexCache(wiring.Component):
             m.d.comb += wr[q].eq(fire & act[q] & (upd if rr else 1))
         fills = [act[q] & filling[q] for q in range(4)]
         self._outcomes(m, c, pre, hits_ok, accept, fire & (sum(fills) != 0))
-        new = new_rows(m, P, self.line_bits, c, way_now)
-        stored = tag_store(m, P, self.line_bits, c, wr, new, platform, read_sets=[nc[q].set for q in range(4)],
-                           load=ififo.r_en, next_sets=[nc[q].next_set for q in range(4)])
-        self._rows(m, c, pre, nc, same, wr, p_load, accept, new, stored)
+        new = new_rows(m, P, self.line_bits, [SimpleNamespace(line=c[q].line, tags=eff[q].tags, valids=eff[q].valids,
+                                                             ages=eff[q].ages, hit=c[q].hit, victim=c[q].victim)
+                                              for q in range(4)], way_now)
+        stored = tag_store(m, P, self.line_bits, wp, [wp[j].en for j in range(4)], [wp[j].row for j in range(4)],
+                           platform, read_sets=[nc[q].set for q in range(4)], load=ififo.r_en,
+                           next_sets=[nc[q].next_set for q in range(4)])
+        held_rows(m, P, sw, c, pre, nc, same, wr, new, p_load, accept, stored)
         self._queue(m, f, c, req, fills, fire, last, step_miss, nf, ways)
         f.tag_busy = t_valid | pre.valid | s_valid | (ififo.level != 0)   # a lookup in the input FIFO or held
 
@@ -375,16 +404,18 @@ class DecoupledTexCache(wiring.Component):
     def _decision(m, hits, live, same, kk, name):
         """LRU: the step of a lookup whose live corners are ``live`` and next corner ``kk``, from its outcomes
         ``hits``: ``(allin, step_miss)``. All remaining corners in one step (``allin``) when they fall in distinct
-        sets and at most one of them misses, else corner ``kk`` alone; ``step_miss``: the step misses."""
+        sets and at most one of them misses, else corner ``kk`` alone; ``step_miss``: the step misses. In gates, not
+        a count of the misses (an adder and a compare, a carry chain on an ECP5, on the path from the compares)."""
         clash = Signal(name=f"{name}clash")
         for q in range(4):
             for j in range(q):
                 with m.If(live[q] & live[j] & same[q, j]):
                     m.d.comb += clash.eq(1)
         miss = [live[q] & ~hits[q] for q in range(4)]
-        misses = sum(miss)
+        two = Signal(name=f"{name}two_misses")
+        m.d.comb += two.eq(Cat(*(miss[q] & miss[j] for q in range(4) for j in range(q))).any())
         allin, step_miss = Signal(name=f"{name}allin"), Signal(name=f"{name}step_miss")
-        m.d.comb += [allin.eq(~clash & (misses <= 1)), step_miss.eq(Mux(allin, misses != 0, Array(miss)[kk]))]
+        m.d.comb += [allin.eq(~clash & ~two), step_miss.eq(Mux(allin, Cat(*miss).any(), Array(miss)[kk]))]
         return allin, step_miss
 
     def _steps_one_phase(self, m, c, live, same, k):
@@ -475,41 +506,6 @@ class DecoupledTexCache(wiring.Component):
                     slot = c[q].set * W + ways[q]
                     m.d.comb += entry.addr[b].eq(slot * self._words + self._word(xs[q], ys[q]))
         m.d.comb += [f.lfifo.w_en.eq(fire & last), f.lfifo.w_data.eq(entry)]
-
-    def _rows(self, m, c, pre, nc, same, wr, p_load, accept, new, stored):
-        """The held rows. The prefetch stage's: loaded with a lookup (each corner's set's row read from the tag
-        store, or the row this clock's step writes to that set), else updated by a step that writes their set. The
-        tag stage's: loaded from the prefetch stage's as this clock's step leaves them, else updated likewise."""
-        P = self.params
-        W = P.ways
-
-        def assign(dst, row):
-            m.d.sync += [dst.tags[v].eq(row[0][v]) for v in range(W)]
-            m.d.sync += [dst.valids[v].eq(row[1][v]) for v in range(W)]
-            m.d.sync += [dst.ages[v].eq(row[2][v]) for v in range(len(row[2]))]
-
-        def updated(dst, writes):                        # the writes this clock makes to dst's set
-            for j in range(4):
-                with m.If(writes[j]):
-                    assign(dst, new[j])
-
-        for q in range(4):
-            pc = pre.c[q]
-            held = (pc.tags, pc.valids, pc.ages)
-            to_pre = [Signal(name=f"p_fwd{q}_{j}") for j in range(4)]   # a write to the prefetched set
-            to_next = [Signal(name=f"n_fwd{q}_{j}") for j in range(4)]  # a write to the next lookup's set
-            for j in range(4):
-                m.d.comb += [to_pre[j].eq(wr[j] & (c[j].set == pc.set)), to_next[j].eq(wr[j] & (c[j].set == nc[q].set))]
-            with m.If(p_load):
-                assign(pc, stored[q])
-                updated(pc, to_next)
-            with m.Else():
-                updated(pc, to_pre)
-            with m.If(accept):
-                assign(c[q], held)
-                updated(c[q], to_pre)
-            with m.Else():
-                updated(c[q], [wr[j] & (1 if j == q else same[max(q, j), min(q, j)]) for j in range(4)])
 
     def _memory_port(self, m, f):
         """``AR`` from the queue; ``R`` beats into the fill buffer (beat ``n`` = texel ``(n mod B, n div B)``)."""

@@ -110,8 +110,9 @@ def tag_store(m, params: TexCacheParams, line_bits: int, c, wr, new, platform, *
               next_sets) -> list:
     """The tag store: each set's row in LUT RAM with a write port per corner (corner ``w`` writes ``new[w]`` to
     its set ``c[w].set``, one-hot ``c[w].hot``, when ``wr[w]``; a step writes at most one set per corner, and a set
-    from at most one corner) and a read port per set of ``read_sets``, built as a live-value table (LaForest &
-    Steffan, FPGA 2010): a memory per write and read port (each write port writes its row into its four memories,
+    from at most one corner; the decoupled cache writes from its step-write registers, a clock after the step) and
+    a read port per set of ``read_sets``, built as a live-value table (LaForest & Steffan, FPGA 2010): a memory
+    per write and read port (each write port writes its row into its four memories,
     one per read port), and per set a register naming the write port that wrote it last (``lvt``) and whether any
     did since reset (``written``; else the row is the empty one: no way valid, ages in way order). A read port
     reads its four memories and takes the live one's word. Returns per read port its set's row ``(tags, valids,

@@ -193,6 +193,7 @@ def scene_images(scene) -> list:
 
 def cmd_render(args) -> int:
     from host.render import (
+        REFERENCE_IMAGES,
         from_triangles,
         judge,
         prepare,
@@ -210,6 +211,16 @@ def cmd_render(args) -> int:
                         allow_clamp=args.allow_clamp)
         # the scene's PNG maps, known once it is read: still before anything is written
         check_output_not_input(args.output, "output PNG", scene_images(frame.scene))
+        if args.refs:                   # the references' fixed names: none may be an input or the output PNG
+            inputs = [args.scene, preset_file(args.preset), args.output, *scene_images(frame.scene)]
+            for name in REFERENCE_IMAGES:
+                ref = Path(args.refs) / f"{name}.png"
+                if ref.resolve() == Path(args.output).resolve():
+                    if name == "model":     # the same picture as the output: written twice, the same bytes
+                        continue
+                    raise OSError(f"output PNG {args.output}: is --refs' {name}.png, which the run also writes; "
+                                  "give another output path or --refs folder")
+                check_output_file(ref, f"--refs image {name}.png", inputs=inputs)
         tframe = from_triangles(frame) if args.triangles else None
     except (SceneError, OSError) as exc:
         raise SystemExit(f"error: {exc}") from None

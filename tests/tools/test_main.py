@@ -197,6 +197,25 @@ def test_an_output_that_is_an_input_is_refused_and_the_input_kept(sandbox, capsy
     assert listing(sandbox) == before
 
 
+def test_refs_images_that_are_inputs_or_the_output_are_refused(sandbox, capsys):
+    """``render --refs DIR`` writes fixed names (``host.render.REFERENCE_IMAGES``) into DIR: a scene's PNG map
+    named ``diff.png`` there was overwritten by the difference image, and an output PNG named ``DIR/diff.png`` by
+    the model's image over the difference image. Each is refused (exit 2, one line) before the work, and nothing
+    is written. ``DIR/model.png`` as the output is the same picture as the references' own, and is drawn."""
+    from PIL import Image
+    path = scene(sandbox, color='{ file = "diff.png" }')
+    Image.new("RGB", (4, 4), (200, 100, 50)).save(sandbox / "diff.png")
+    before = listing(sandbox)
+    size = ["--size", "8", "--cube-size", "8"]
+    assert bumpmap(["render", str(path), "out.png", "--refs", ".", *size]) == 2
+    one_error(capsys, "--refs image diff.png", "is the input")
+    assert bumpmap(["render", str(path), "refs/diff.png", "--refs", "refs", *size]) == 2
+    one_error(capsys, "output PNG refs/diff.png", "diff.png")
+    assert {k: v for k, v in listing(sandbox).items() if k != "refs"} == before
+    assert bumpmap(["render", str(path), "refs/model.png", "--refs", "refs", *size]) in (0, 1)   # drawn
+    assert (sandbox / "refs" / "diff.png").exists() and listing(sandbox)["diff.png"] == before["diff.png"]
+
+
 def test_an_output_that_is_not_a_regular_file_is_refused(sandbox, capsys):
     """An output path naming a FIFO or a device (``render scene.toml /dev/null``) was renamed over: run as root,
     that replaced ``/dev/null`` with a regular file. It is refused before the work (exit 2, one line); here a

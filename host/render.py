@@ -44,7 +44,7 @@ from host.visibility import disagreement_picture, resolve
 __all__ = ["Frame", "prepare", "pipeline_params", "render", "save_png", "compose", "ClampError", "SCENE_BOUND_LSB",
            "judge", "tell", "bound_args", "INPUT_KNOBS", "ILL_CONDITIONED", "ADDRESS_LIMIT_TEXELS",
            "address_errors", "TriangleFrame", "from_triangles", "frame_records", "frame_raster", "frame_rop",
-           "render_triangles", "raster_params", "engine_params", "REFERENCE_IMAGES"]
+           "render_triangles", "raster_params", "engine_params", "REFERENCE_IMAGES", "save_references"]
 
 
 #: The documented bound of a frame of an accepted scene: the largest per-channel distance, in 8-bit steps, of the
@@ -402,6 +402,15 @@ def engine_params(scene, preset: str | dict = "default", *, cube_size: int | Non
 REFERENCE_IMAGES = ("model", "float", "ideal", "diff", "compare", "truth", "fragments", "depth_disagreements")
 
 
+def save_references(out_dir, images: dict) -> None:
+    """Write ``images`` (name -> picture) into ``out_dir`` as ``<name>.png``, each name one of
+    :data:`REFERENCE_IMAGES` (the names callers check before any work)."""
+    for name, img in images.items():
+        if name not in REFERENCE_IMAGES:
+            raise ValueError(f"{name!r}: not one of REFERENCE_IMAGES, which callers check before writing")
+        save_png(Path(out_dir) / f"{name}.png", img)
+
+
 def render(frame: Frame, out_dir=None, *, references: bool = True, model=None, exclude=None,
            truth_samples: int = 0) -> dict:
     """Run the bit-exact model (and the references) on a prepared frame; write the images if ``out_dir``.
@@ -444,9 +453,7 @@ def render(frame: Frame, out_dir=None, *, references: bool = True, model=None, e
         if truth_samples:
             add_truth(frame, images, report, exclude, truth_samples)
     if out_dir is not None:
-        for name, img in images.items():
-            assert name in REFERENCE_IMAGES, name
-            save_png(Path(out_dir) / f"{name}.png", img)
+        save_references(out_dir, images)
     report["_model_bytes"] = model
     return report
 
@@ -581,8 +588,8 @@ def render_triangles(tframe: TriangleFrame, out_dir=None, truth_samples: int = 0
                                         "pixels_differing_from_fragments":
                                             int(np.any(tri_bytes != frag_bytes, -1).sum())}
     if out_dir is not None:
-        save_png(Path(out_dir) / "fragments.png", frame.image(frag_bytes))
-        save_png(Path(out_dir) / "depth_disagreements.png",
-                 disagreement_picture(frame.image(tri_bytes), tframe.vis, frame.scene.width))
+        save_references(out_dir, {"fragments": frame.image(frag_bytes),
+                                  "depth_disagreements": disagreement_picture(frame.image(tri_bytes), tframe.vis,
+                                                                              frame.scene.width)})
     report["_triangle_bytes"] = tframe.out
     return report

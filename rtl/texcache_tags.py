@@ -138,13 +138,15 @@ def tag_store(m, params: TexCacheParams, line_bits: int, c, wr, new, platform, *
                 with m.If(c[w].hot[j]):
                     m.d.sync += [lvt[j].eq(w), written[j].eq(1)]
 
-    def datas_at(mems, addr):                          # one read port's memories at addr
+    def live_row(mems, addr, was_written, port, name):   # a set's row through one read port's memories
+        row = Signal(width, name=name)              # the live write port's word, or the empty row
         datas = []
         for mem in mems:
             rp = mem.read_port(domain="comb")
             m.d.comb += rp.addr.eq(addr)
             datas.append(rp.data)
-        return datas
+        m.d.comb += row.eq(Mux(was_written, Array(datas)[port], empty))
+        return row
 
     out = []
     for r, rset in enumerate(read_sets):
@@ -162,11 +164,9 @@ def tag_store(m, params: TexCacheParams, line_bits: int, c, wr, new, platform, *
         for w in range(4):                             # this clock's write to that set, forwarded
             with m.If(wr[w] & (c[w].set == target)):
                 m.d.sync += [r_lvt.eq(w), r_written.eq(1)]
-        row = Signal(width, name=f"stored{r}")
-        m.d.comb += row.eq(Mux(r_written, Array(datas_at(mems, rset))[r_lvt], empty))
+        row = live_row(mems, rset, r_written, r_lvt, f"stored{r}")
         if platform == "formal":
             for j in range(S):
-                live = Signal(width, name=f"store{j}_r{r}")
-                m.d.comb += live.eq(Mux(written[j], Array(datas_at(mems, Const(j, len(rset))))[lvt[j]], empty))
+                live_row(mems, Const(j, len(rset)), written[j], lvt[j], f"store{j}_r{r}")
         out.append(row_fields(row, W, lb, n))
     return out

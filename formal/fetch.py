@@ -89,6 +89,9 @@ def cache_invariants(h: Harness, sig, top, path: str, cache, pend, beat_ref, ins
         for name, fifo in (("lfifo", lfifo), ("arq", arq), ("slots", slots), ("ififo", ififo)):
             buffered_fifo_invariants(h, lambda n, name=name: sig(n, f"{path}/{name}".strip("/")),
                                      fifo, name)
+        # the tag stage's copy of the lookup FIFO's room and inner level (rtl/streams.py buffered_room)
+        h.check((s("lfifo_inner") == sig("inner_level", f"{path}/lfifo".strip("/"))) & (s("lfifo_room") == lfifo.w_rdy),
+                "lfifo_room_is_w_rdy")
         h.check(slots.r_rdy | ((slots.level == arq.level) & ~arq.r_rdy), "slot_queue_ahead")
         h.check(inflight == arq.level + pend + filled, "owed_lines")
         h.check(inflight <= p.misses, "owed_bound")

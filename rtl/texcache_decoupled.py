@@ -59,6 +59,7 @@ from amaranth.lib.wiring import In, Out
 from fxmodel.core.unit import require
 from fxmodel.units.texcache import Layout, TexCacheParams
 from rtl.rop import axi_signature
+from rtl.streams import buffered_room
 
 from .texcache_stepwrite import held_rows, step_write
 from .texcache_tags import age_bits, compare, new_rows, row_states, tag_store, victim
@@ -322,8 +323,10 @@ class DecoupledTexCache(wiring.Component):
             act, step_miss, last, first = self._steps_two_phase(m, c, live, upd, mq)
         else:
             act, step_miss, last, ahead = self._steps_one_phase(m, c, live, same, k)
+        # the lookup FIFO's room, a register equal to its w_rdy (rtl/streams.py buffered_room)
+        room, _ = buffered_room(m, f.lfifo, P.lookup_depth, f.lfifo.w_en, "lfifo")
         fire = Signal()
-        m.d.comb += fire.eq(t_valid & hits_ok & (f.lfifo.w_rdy | ~last) & (~step_miss | (f.inflight < P.misses)))
+        m.d.comb += fire.eq(t_valid & hits_ok & (room | ~last) & (~step_miss | (f.inflight < P.misses)))
         accept, p_load = Signal(), Signal()
         m.d.comb += [accept.eq(pre.valid & (~t_valid | (fire & last))),
                      p_load.eq(s_valid & (~pre.valid | accept)), ififo.r_en.eq(~s_valid | p_load)]

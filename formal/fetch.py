@@ -187,7 +187,8 @@ def rows_coherent(h: Harness, s, p: TexCacheParams):
     cur = 1
     for q in range(4):
         cur = cur & (s(f"hit{q}") == s(f"t_{q}_hit")) & (~s(f"hit{q}") | (s(f"hit_way{q}") == s(f"t_{q}_hit_way")))
-    h.check(~(s("t_valid") & s("hits_ok")) | cur, "hits_current")
+    taken = s("hits_ok") | s("hits_fresh") if p.replacement == "lru" else s("hits_ok")
+    h.check(~(s("t_valid") & taken) | cur, "hits_current")
     if p.replacement == "lru":                           # the step decided a clock ahead (_decide_ahead)
         ahead = (s("allin") == s("now_allin")) & (s("step_miss") == s("now_step_miss"))
         h.check(~(s("t_valid") & s("hits_ok")) | ahead, "decision_ahead")

@@ -312,6 +312,8 @@ class DecoupledTexCache(wiring.Component):
             c[q].cmp_hit, c[q].cmp_way = compare(m, eff[q].tags, eff[q].valids, c[q].line, f"t_{q}_")
             c[q].hit, c[q].hit_way = Signal(name=f"hit{q}"), Signal(wb, name=f"hit_way{q}")
         hits_ok = Signal(name="hits_ok")
+        # LRU: the outcomes taken again after a fill, the decision not yet (it is taken from them a clock later)
+        fresh = None if rr else Signal(name="hits_fresh")
         for q in range(4):
             # round robin: the ways of this corner's set that earlier steps of the lookup used (its victim skips them)
             used = [sum((k > j) & ~c[j].dup & same[q, j] & (way_reg[j] == v) for j in range(q)) != 0 if q else Const(0)
@@ -331,7 +333,7 @@ class DecoupledTexCache(wiring.Component):
         m.d.comb += [accept.eq(pre.valid & (~t_valid | (fire & last))),
                      p_load.eq(s_valid & (~pre.valid | accept)), ififo.r_en.eq(~s_valid | p_load)]
         if not rr:
-            self._decide_ahead(m, ahead, (c, req, live, same, k), pre, hits_ok, accept, fire & ~last)
+            self._decide_ahead(m, ahead, (c, req, live, same, k), pre, fresh, accept, fire & ~last)
         with m.If(p_load):
             self._load(m, pre, SimpleNamespace(req=nreq, c=nc, same=nsame),
                        [Const(1, P.sets) << nc[q].set for q in range(4)])
@@ -368,7 +370,7 @@ class DecoupledTexCache(wiring.Component):
         for q in range(4):
             m.d.comb += wr[q].eq(fire & act[q] & (upd if rr else 1))
         fills = [act[q] & filling[q] for q in range(4)]
-        self._outcomes(m, c, pre, hits_ok, accept, fire & (sum(fills) != 0))
+        self._outcomes(m, c, pre, hits_ok, accept, fire & (sum(fills) != 0), fresh)
         new = new_rows(m, P, self.line_bits, [SimpleNamespace(line=c[q].line, tags=eff[q].tags, valids=eff[q].valids,
                                                              ages=eff[q].ages, hit=c[q].hit, victim=c[q].victim)
                                               for q in range(4)], way_now)
@@ -380,18 +382,28 @@ class DecoupledTexCache(wiring.Component):
         f.tag_busy = t_valid | pre.valid | s_valid | (ififo.level != 0)   # a lookup in the input FIFO or held
 
     @staticmethod
-    def _outcomes(m, c, pre, hits_ok, accept, tag_write):
+    def _outcomes(m, c, pre, hits_ok, accept, tag_write, fresh=None):
         """The tag stage's registered outcomes (each corner's hit and way) and whether they are current
         (``hits_ok``): taken with the lookup from the prefetch stage's compares, stale after a step that writes
-        tags (``tag_write``), then taken again from the compares of the held rows (a clock)."""
+        tags (``tag_write``), then taken again from the compares of the held rows (a clock). With ``fresh`` (LRU:
+        the step is decided from the outcomes, :meth:`_decide_ahead`) the outcomes so taken are marked ``fresh``
+        and current a clock later, when the decision has been taken from them: the held rows' compares (a pending
+        row through the overlay) then end at the outcome registers, not at the decision's (the fetch's slowest
+        path out of context, at both seeds measured, once the lookup FIFO's room was a register); a clock more
+        per step that fills."""
         with m.If(accept):
             m.d.sync += hits_ok.eq(~tag_write)
+            if fresh is not None:
+                m.d.sync += fresh.eq(0)
             m.d.sync += [x.eq(y) for q in range(4) for x, y in ((c[q].hit, pre.c[q].hit),
                                                                 (c[q].hit_way, pre.c[q].hit_way))]
         with m.Elif(tag_write):
             m.d.sync += hits_ok.eq(0)
+        if fresh is not None:
+            with m.Elif(fresh):
+                m.d.sync += [hits_ok.eq(1), fresh.eq(0)]
         with m.Elif(~hits_ok):
-            m.d.sync += hits_ok.eq(1)
+            m.d.sync += hits_ok.eq(1) if fresh is None else fresh.eq(1)
             m.d.sync += [x.eq(y) for q in range(4) for x, y in ((c[q].hit, c[q].cmp_hit),
                                                                 (c[q].hit_way, c[q].cmp_way))]
 
@@ -438,13 +450,13 @@ class DecoupledTexCache(wiring.Component):
         m.d.comb += last.eq(ahead.allin | (k == 3))
         return act, ahead.step_miss, last, ahead
 
-    def _decide_ahead(self, m, ahead, held, pre, hits_ok, accept, step_on):
+    def _decide_ahead(self, m, ahead, held, pre, fresh, accept, step_on):
         """The registers of :meth:`_steps_one_phase`'s decision for the clock after this one, from what the
         outcome registers (:meth:`_outcomes`) take in this clock: the prefetch stage's compares with the lookup
-        it hands over (corner 0 next), the held rows' compares when the outcomes are taken again after a fill,
-        or, after a step of one corner that writes no tag (``step_on``: it fired and was not the last; a hit),
+        it hands over (corner 0 next), the outcomes themselves in the clock after they were taken again after a
+        fill (``fresh``), or, after a step of one corner that writes no tag (``step_on``: it fired and was not the last; a hit),
         the same outcomes with the next corner. After a step that writes tags the outcomes are stale and these
-        registers with them; they are decided again with the outcomes. ``held``: the tag stage's corners, request,
+        registers with them; they are decided again a clock after the outcomes are taken again. ``held``: the tag stage's corners, request,
         live corners, equal sets and next corner."""
         c, req, live, same, k = held
 
@@ -455,8 +467,8 @@ class DecoupledTexCache(wiring.Component):
         with m.If(accept):
             take([pre.c[q].hit for q in range(4)], self._live(m, pre.c, pre.req, lambda q: 1, "p_live"),
                  pre.same, 0, "p_")
-        with m.Elif(~hits_ok):
-            take([c[q].cmp_hit for q in range(4)], live, same, k, "c_")
+        with m.Elif(fresh):
+            take([c[q].hit for q in range(4)], live, same, k, "c_")
         with m.Elif(step_on):
             take([c[q].hit for q in range(4)], self._live(m, c, req, lambda q: q > k, "k_live"),
                  same, k + 1, "k_")

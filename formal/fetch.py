@@ -156,8 +156,10 @@ def rows_coherent(h: Harness, s, p: TexCacheParams):
         for i in range(j):
             both = s(f"wp_en{i}") & s(f"wp_en{j}")
             h.check(~(both & (s(f"wp_set{i}") == s(f"wp_set{j}"))), f"wp_sets{i}_{j}_distinct")
+    any_wp = s("wp_en0") | s("wp_en1") | s("wp_en2") | s("wp_en3")
+    if p.replacement == "lru":                           # the outcomes, fresh, were taken with no step since
+        h.check(~s("hits_fresh") | ~any_wp, "wp_none_fresh")
     if p.replacement == "fifo":                          # round robin writes in a fill step only: one corner's row
-        any_wp = s("wp_en0") | s("wp_en1") | s("wp_en2") | s("wp_en3")
         h.check(sum(s(f"wp_en{j}") for j in range(4)) <= 1, "wp_one_corner")
         h.check(~any_wp | ~(s("t_valid") & s("hits_ok")), "wp_outcomes_stale")
     for prefix, valid in (("", "t_valid"), ("p_", "p_valid")):

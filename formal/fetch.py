@@ -159,6 +159,7 @@ def rows_coherent(h: Harness, s, p: TexCacheParams):
     any_wp = s("wp_en0") | s("wp_en1") | s("wp_en2") | s("wp_en3")
     if p.replacement == "lru":                           # the outcomes, fresh, were taken with no step since
         h.check(~s("hits_fresh") | ~any_wp, "wp_none_fresh")
+        h.check(~(s("hits_fresh") & s("hits_ok")), "fresh_not_current")
     if p.replacement == "fifo":                          # round robin writes in a fill step only: one corner's row
         h.check(sum(s(f"wp_en{j}") for j in range(4)) <= 1, "wp_one_corner")
         h.check(~any_wp | ~(s("t_valid") & s("hits_ok")), "wp_outcomes_stale")

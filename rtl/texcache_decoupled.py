@@ -289,7 +289,8 @@ class DecoupledTexCache(wiring.Component):
         equal to the store while it holds them (a step's write reaches every held row of its set with the store), and
         compares them with its lines. The **tag stage** takes the lookup from the prefetch stage with its rows (the
         pending write over them) and its compares' outcomes (hit, way): a register copy. A step decides from those
-        registers; a fill changes tags, so after it the outcomes are taken again from the held rows (a clock). The
+        registers; a fill changes tags, so after it the outcomes are taken again from the held rows (a clock; with LRU
+        a second one, in which the step is decided from them: :meth:`_outcomes`). The
         compares never reach the lookup's acceptance, and the store's read never reaches the tag stage. The step's
         write waits a clock in registers (the **step write** stage: the class's docstring,
         :mod:`rtl.texcache_stepwrite`) before it reaches the store and the held rows, which are read with it over
@@ -454,10 +455,10 @@ class DecoupledTexCache(wiring.Component):
         """The registers of :meth:`_steps_one_phase`'s decision for the clock after this one, from what the
         outcome registers (:meth:`_outcomes`) take in this clock: the prefetch stage's compares with the lookup
         it hands over (corner 0 next), the outcomes themselves in the clock after they were taken again after a
-        fill (``fresh``), or, after a step of one corner that writes no tag (``step_on``: it fired and was not the last; a hit),
-        the same outcomes with the next corner. After a step that writes tags the outcomes are stale and these
-        registers with them; they are decided again a clock after the outcomes are taken again. ``held``: the tag stage's corners, request,
-        live corners, equal sets and next corner."""
+        fill (``fresh``), or, after a step of one corner that writes no tag (``step_on``: it fired and was not the
+        last; a hit), the same outcomes with the next corner. After a step that writes tags the outcomes are stale
+        and these registers with them; they are decided again a clock after the outcomes are taken again.
+        ``held``: the tag stage's corners, request, live corners, equal sets and next corner."""
         c, req, live, same, k = held
 
         def take(hits, live, same_, kk, name):

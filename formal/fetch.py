@@ -125,8 +125,9 @@ def rows_coherent(h: Harness, s, p: TexCacheParams):
     round robin one corner's, a fill's, so the tag stage's outcomes are stale meanwhile) and
     each held row's overlay selects (``fw*_is_pending_sets``: which pending row it takes, or none), the sets' one-hot
     copies and pairwise equalities are the sets' (what the updates select by), and ``hits_current`` (the tag
-    stage's registered outcomes, when it marks them current, are its corners' compares with its held rows, the
-    pending write over them), with
+    stage's registered outcomes, when it marks them current or, LRU, fresh, are its corners' compares with its
+    held rows, the pending write over them; fresh, no write is pending and the step is not yet decided:
+    ``wp_none_fresh``, ``fresh_not_current``), with
     LRU ``decision_ahead`` (the registers that decide the tag stage's step, decided a clock ahead, are then what
     its registered outcomes, corners and next corner decide); each read port's copy of the live-value table's
     entry (``r_lvt*_is_table``) is the table's for the set stage's set."""

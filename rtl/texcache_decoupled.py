@@ -62,7 +62,7 @@ from rtl.rop import axi_signature
 from rtl.streams import buffered_room
 
 from .texcache_stepwrite import held_rows, step_write
-from .texcache_tags import age_bits, compare, new_rows, row_states, tag_store, victim
+from .texcache_tags import age_bits, compare, new_rows, row_states, step_decision, tag_store, victim
 
 __all__ = ["DecoupledTexCache", "request_layout", "INPUT_DEPTH", "HELD", "AFTER"]
 
@@ -326,13 +326,7 @@ class DecoupledTexCache(wiring.Component):
             act, step_miss, last, first = self._steps_two_phase(m, c, live, upd, mq)
         else:
             act, step_miss, last, ahead = self._steps_one_phase(m, c, live, same, k)
-        # the lookup FIFO's room, a register equal to its w_rdy (rtl/streams.py buffered_room)
-        room, _ = buffered_room(m, f.lfifo, P.lookup_depth, f.lfifo.w_en, "lfifo")
-        fire = Signal()
-        m.d.comb += fire.eq(t_valid & hits_ok & (room | ~last) & (~step_miss | (f.inflight < P.misses)))
-        accept, p_load = Signal(), Signal()
-        m.d.comb += [accept.eq(pre.valid & (~t_valid | (fire & last))),
-                     p_load.eq(s_valid & (~pre.valid | accept)), ififo.r_en.eq(~s_valid | p_load)]
+        fire, accept, p_load = self._handshake(m, f, (s_valid, ififo), pre.valid, (t_valid, hits_ok), last, step_miss)
         if not rr:
             self._decide_ahead(m, ahead, (c, req, live, same, k), pre, fresh, accept, fire & ~last)
         with m.If(p_load):
@@ -382,6 +376,19 @@ class DecoupledTexCache(wiring.Component):
         self._queue(m, f, c, req, fills, fire, last, step_miss, nf, ways)
         f.tag_busy = t_valid | pre.valid | s_valid | (ififo.level != 0)   # a lookup in the input FIFO or held
 
+    def _handshake(self, m, f, input_stage, p_valid, tag_stage, last, step_miss):
+        """Whether the tag stage's step fires (``tag_stage``: it holds a lookup, with current outcomes; the lookup FIFO
+        has room for the lookup's ``last`` step, a register equal to its ``w_rdy``: :func:`rtl.streams.buffered_room`;
+        a miss finds a free miss register), the prefetch stage's lookup is accepted and the set stage's loaded
+        into the prefetch stage (and the input FIFO read): ``(fire, accept, p_load)``."""
+        (s_valid, ififo), (t_valid, hits_ok) = input_stage, tag_stage
+        room, _ = buffered_room(m, f.lfifo, self.params.lookup_depth, f.lfifo.w_en, "lfifo")
+        fire, accept, p_load = Signal(name="fire"), Signal(), Signal()
+        m.d.comb += [fire.eq(t_valid & hits_ok & (room | ~last) & (~step_miss | (f.inflight < self.params.misses))),
+                     accept.eq(p_valid & (~t_valid | (fire & last))),
+                     p_load.eq(s_valid & (~p_valid | accept)), ififo.r_en.eq(~s_valid | p_load)]
+        return fire, accept, p_load
+
     @staticmethod
     def _outcomes(m, c, pre, hits_ok, accept, tag_write, fresh=None):
         """The tag stage's registered outcomes (each corner's hit and way) and whether they are current
@@ -416,34 +423,16 @@ class DecoupledTexCache(wiring.Component):
             m.d.comb += live[q].eq(x & ~req.skip if self.skip else x)
         return live
 
-    @staticmethod
-    def _decision(m, hits, live, same, kk, name):
-        """LRU: the step of a lookup whose live corners are ``live`` and next corner ``kk``, from its outcomes
-        ``hits``: ``(allin, step_miss)``. All remaining corners in one step (``allin``) when they fall in distinct
-        sets and at most one of them misses, else corner ``kk`` alone; ``step_miss``: the step misses. In gates, not
-        a count of the misses (an adder and a compare, a carry chain on an ECP5, on the path from the compares)."""
-        clash = Signal(name=f"{name}clash")
-        for q in range(4):
-            for j in range(q):
-                with m.If(live[q] & live[j] & same[q, j]):
-                    m.d.comb += clash.eq(1)
-        miss = [live[q] & ~hits[q] for q in range(4)]
-        two = Signal(name=f"{name}two_misses")
-        m.d.comb += two.eq(Cat(*(miss[q] & miss[j] for q in range(4) for j in range(q))).any())
-        allin, step_miss = Signal(name=f"{name}allin"), Signal(name=f"{name}step_miss")
-        m.d.comb += [allin.eq(~clash & ~two), step_miss.eq(Mux(allin, Cat(*miss).any(), Array(miss)[kk]))]
-        return allin, step_miss
-
     def _steps_one_phase(self, m, c, live, same, k):
         """LRU: the corners a step checks (``act``), whether it misses, whether it is the lookup's last, and the
-        registers that decide it (``ahead``: :meth:`_decision` of the held lookup, decided a clock ahead by
-        :meth:`_decide_ahead`, so that neither a compare's outcome nor the corners' relations lie between the
-        registers and the step's firing, the lookup's acceptance and the enables of every held row). A step's
-        hits and its miss update the rows in the clock it fires."""
+        registers that decide it (``ahead``: :func:`rtl.texcache_tags.step_decision` of the held lookup, decided a
+        clock ahead by :meth:`_decide_ahead`, so that neither a compare's outcome nor the corners' relations lie
+        between the registers and the step's firing, the lookup's acceptance and the enables of every held row). A
+        step's hits and its miss update the rows in the clock it fires."""
         ahead = SimpleNamespace(allin=Signal(name="allin"), step_miss=Signal(name="step_miss"))
         # the same decision from this clock's registers: equal to ``ahead``'s whenever the outcomes are current
         # (formal invariant ``decision_ahead``), for the proof only (nothing reads it in the hardware)
-        ahead.now = self._decision(m, [c[q].hit for q in range(4)], live, same, k, "now_")
+        ahead.now = step_decision(m, [c[q].hit for q in range(4)], live, same, k, "now_")
         act = [Signal(name=f"act{q}") for q in range(4)]         # corners checked in this step
         for q in range(4):
             m.d.comb += act[q].eq(live[q] & Mux(ahead.allin, 1, k == q))
@@ -462,7 +451,7 @@ class DecoupledTexCache(wiring.Component):
         c, req, live, same, k = held
 
         def take(hits, live, same_, kk, name):
-            allin, step_miss = self._decision(m, hits, live, same_, kk, name)
+            allin, step_miss = step_decision(m, hits, live, same_, kk, name)
             m.d.sync += [ahead.allin.eq(allin), ahead.step_miss.eq(step_miss)]
 
         with m.If(accept):

@@ -89,6 +89,9 @@ def cache_invariants(h: Harness, sig, top, path: str, cache, pend, beat_ref, ins
         for name, fifo in (("lfifo", lfifo), ("arq", arq), ("slots", slots), ("ififo", ififo)):
             buffered_fifo_invariants(h, lambda n, name=name: sig(n, f"{path}/{name}".strip("/")),
                                      fifo, name)
+        # the tag stage's copy of the lookup FIFO's room and inner level (rtl/streams.py buffered_room)
+        h.check((s("lfifo_inner") == sig("inner_level", f"{path}/lfifo".strip("/"))) & (s("lfifo_room") == lfifo.w_rdy),
+                "lfifo_room_is_w_rdy")
         h.check(slots.r_rdy | ((slots.level == arq.level) & ~arq.r_rdy), "slot_queue_ahead")
         h.check(inflight == arq.level + pend + filled, "owed_lines")
         h.check(inflight <= p.misses, "owed_bound")
@@ -122,8 +125,9 @@ def rows_coherent(h: Harness, s, p: TexCacheParams):
     round robin one corner's, a fill's, so the tag stage's outcomes are stale meanwhile) and
     each held row's overlay selects (``fw*_is_pending_sets``: which pending row it takes, or none), the sets' one-hot
     copies and pairwise equalities are the sets' (what the updates select by), and ``hits_current`` (the tag
-    stage's registered outcomes, when it marks them current, are its corners' compares with its held rows, the
-    pending write over them), with
+    stage's registered outcomes, when it marks them current or, LRU, fresh, are its corners' compares with its
+    held rows, the pending write over them; fresh, no write is pending and the step is not yet decided:
+    ``wp_none_fresh``, ``fresh_not_current``), with
     LRU ``decision_ahead`` (the registers that decide the tag stage's step, decided a clock ahead, are then what
     its registered outcomes, corners and next corner decide); each read port's copy of the live-value table's
     entry (``r_lvt*_is_table``) is the table's for the set stage's set."""
@@ -153,8 +157,11 @@ def rows_coherent(h: Harness, s, p: TexCacheParams):
         for i in range(j):
             both = s(f"wp_en{i}") & s(f"wp_en{j}")
             h.check(~(both & (s(f"wp_set{i}") == s(f"wp_set{j}"))), f"wp_sets{i}_{j}_distinct")
+    any_wp = s("wp_en0") | s("wp_en1") | s("wp_en2") | s("wp_en3")
+    if p.replacement == "lru":                           # the outcomes, fresh, were taken with no step since
+        h.check(~s("hits_fresh") | ~any_wp, "wp_none_fresh")
+        h.check(~(s("hits_fresh") & s("hits_ok")), "fresh_not_current")
     if p.replacement == "fifo":                          # round robin writes in a fill step only: one corner's row
-        any_wp = s("wp_en0") | s("wp_en1") | s("wp_en2") | s("wp_en3")
         h.check(sum(s(f"wp_en{j}") for j in range(4)) <= 1, "wp_one_corner")
         h.check(~any_wp | ~(s("t_valid") & s("hits_ok")), "wp_outcomes_stale")
     for prefix, valid in (("", "t_valid"), ("p_", "p_valid")):
@@ -184,7 +191,8 @@ def rows_coherent(h: Harness, s, p: TexCacheParams):
     cur = 1
     for q in range(4):
         cur = cur & (s(f"hit{q}") == s(f"t_{q}_hit")) & (~s(f"hit{q}") | (s(f"hit_way{q}") == s(f"t_{q}_hit_way")))
-    h.check(~(s("t_valid") & s("hits_ok")) | cur, "hits_current")
+    taken = s("hits_ok") | s("hits_fresh") if p.replacement == "lru" else s("hits_ok")
+    h.check(~(s("t_valid") & taken) | cur, "hits_current")
     if p.replacement == "lru":                           # the step decided a clock ahead (_decide_ahead)
         ahead = (s("allin") == s("now_allin")) & (s("step_miss") == s("now_step_miss"))
         h.check(~(s("t_valid") & s("hits_ok")) | ahead, "decision_ahead")

@@ -79,6 +79,28 @@ def less_one_if(sel, base, test=lambda v: v):
     return Mux(sel, test(base - 1), test(base))
 
 
+def buffered_room(m, fifo, depth: int, w, name: str):
+    """A register equal on every clock to ``fifo.w_rdy`` of an Amaranth ``SyncFIFOBuffered`` of ``depth`` (at
+    least 2) words, for a writer that decides late: ``w_rdy`` is a compare of the FIFO's inner level (a counter),
+    and through the writer's decision it led into whatever that decision loads (the texel cache's lookup FIFO:
+    its level, the tag stage's step, the next lookup's acceptance and the prefetch stage's load were the texture
+    fetch's slowest path). ``w`` is the FIFO's write (its ``w_en``, which the writer gates with this room). The
+    inner level is counted beside the FIFO's own (its read: the inner FIFO holds a word and the output register
+    is empty or read), and the room after the clock is chosen by the write and the read at the last logic level.
+    ``(room, inner)``: the formal sets check both against the FIFO's (``formal/fetch.py``)."""
+    if depth < 2:
+        raise ValueError(f"buffered_room: depth {depth} must be at least 2 (SyncFIFOBuffered's register alone)")
+    top = depth - 1                                       # the inner FIFO's depth
+    inner = Signal(range(top + 1), name=f"{name}_inner")
+    room = Signal(name=f"{name}_room", init=1)
+    r = (inner != 0) & (~fifo.r_rdy | fifo.r_en)          # SyncFIFOBuffered's inner read
+    with m.If(w & ~r):
+        m.d.sync += [inner.eq(inner + 1), room.eq(inner != top - 1)]
+    with m.Elif(r & ~w):
+        m.d.sync += [inner.eq(inner - 1), room.eq(1)]
+    return room, inner
+
+
 class _Core(wiring.Component):
     """The flat unit and the sideband's delay line."""
 

@@ -59,9 +59,10 @@ from amaranth.lib.wiring import In, Out
 from fxmodel.core.unit import require
 from fxmodel.units.texcache import Layout, TexCacheParams
 from rtl.rop import axi_signature
+from rtl.streams import buffered_room
 
 from .texcache_stepwrite import held_rows, step_write
-from .texcache_tags import age_bits, compare, new_rows, row_states, tag_store, victim
+from .texcache_tags import age_bits, compare, new_rows, row_states, step_decision, tag_store, victim
 
 __all__ = ["DecoupledTexCache", "request_layout", "INPUT_DEPTH", "HELD", "AFTER"]
 
@@ -288,7 +289,8 @@ class DecoupledTexCache(wiring.Component):
         equal to the store while it holds them (a step's write reaches every held row of its set with the store), and
         compares them with its lines. The **tag stage** takes the lookup from the prefetch stage with its rows (the
         pending write over them) and its compares' outcomes (hit, way): a register copy. A step decides from those
-        registers; a fill changes tags, so after it the outcomes are taken again from the held rows (a clock). The
+        registers; a fill changes tags, so after it the outcomes are taken again from the held rows (a clock; with LRU
+        a second one, in which the step is decided from them: :meth:`_outcomes`). The
         compares never reach the lookup's acceptance, and the store's read never reaches the tag stage. The step's
         write waits a clock in registers (the **step write** stage: the class's docstring,
         :mod:`rtl.texcache_stepwrite`) before it reaches the store and the held rows, which are read with it over
@@ -311,6 +313,8 @@ class DecoupledTexCache(wiring.Component):
             c[q].cmp_hit, c[q].cmp_way = compare(m, eff[q].tags, eff[q].valids, c[q].line, f"t_{q}_")
             c[q].hit, c[q].hit_way = Signal(name=f"hit{q}"), Signal(wb, name=f"hit_way{q}")
         hits_ok = Signal(name="hits_ok")
+        # LRU: the outcomes taken again after a fill, the decision not yet (it is taken from them a clock later)
+        fresh = None if rr else Signal(name="hits_fresh")
         for q in range(4):
             # round robin: the ways of this corner's set that earlier steps of the lookup used (its victim skips them)
             used = [sum((k > j) & ~c[j].dup & same[q, j] & (way_reg[j] == v) for j in range(q)) != 0 if q else Const(0)
@@ -322,13 +326,9 @@ class DecoupledTexCache(wiring.Component):
             act, step_miss, last, first = self._steps_two_phase(m, c, live, upd, mq)
         else:
             act, step_miss, last, ahead = self._steps_one_phase(m, c, live, same, k)
-        fire = Signal()
-        m.d.comb += fire.eq(t_valid & hits_ok & (f.lfifo.w_rdy | ~last) & (~step_miss | (f.inflight < P.misses)))
-        accept, p_load = Signal(), Signal()
-        m.d.comb += [accept.eq(pre.valid & (~t_valid | (fire & last))),
-                     p_load.eq(s_valid & (~pre.valid | accept)), ififo.r_en.eq(~s_valid | p_load)]
+        fire, accept, p_load = self._handshake(m, f, (s_valid, ififo), pre.valid, (t_valid, hits_ok), last, step_miss)
         if not rr:
-            self._decide_ahead(m, ahead, (c, req, live, same, k), pre, hits_ok, accept, fire & ~last)
+            self._decide_ahead(m, ahead, (c, req, live, same, k), pre, fresh, accept, fire & ~last)
         with m.If(p_load):
             self._load(m, pre, SimpleNamespace(req=nreq, c=nc, same=nsame),
                        [Const(1, P.sets) << nc[q].set for q in range(4)])
@@ -365,7 +365,7 @@ class DecoupledTexCache(wiring.Component):
         for q in range(4):
             m.d.comb += wr[q].eq(fire & act[q] & (upd if rr else 1))
         fills = [act[q] & filling[q] for q in range(4)]
-        self._outcomes(m, c, pre, hits_ok, accept, fire & (sum(fills) != 0))
+        self._outcomes(m, c, pre, hits_ok, accept, fire & (sum(fills) != 0), fresh)
         new = new_rows(m, P, self.line_bits, [SimpleNamespace(line=c[q].line, tags=eff[q].tags, valids=eff[q].valids,
                                                              ages=eff[q].ages, hit=c[q].hit, victim=c[q].victim)
                                               for q in range(4)], way_now)
@@ -376,19 +376,42 @@ class DecoupledTexCache(wiring.Component):
         self._queue(m, f, c, req, fills, fire, last, step_miss, nf, ways)
         f.tag_busy = t_valid | pre.valid | s_valid | (ififo.level != 0)   # a lookup in the input FIFO or held
 
+    def _handshake(self, m, f, input_stage, p_valid, tag_stage, last, step_miss):
+        """Whether the tag stage's step fires (``tag_stage``: it holds a lookup, with current outcomes; the lookup FIFO
+        has room for the lookup's ``last`` step, a register equal to its ``w_rdy``: :func:`rtl.streams.buffered_room`;
+        a miss finds a free miss register), the prefetch stage's lookup is accepted and the set stage's loaded
+        into the prefetch stage (and the input FIFO read): ``(fire, accept, p_load)``."""
+        (s_valid, ififo), (t_valid, hits_ok) = input_stage, tag_stage
+        room, _ = buffered_room(m, f.lfifo, self.params.lookup_depth, f.lfifo.w_en, "lfifo")
+        fire, accept, p_load = Signal(name="fire"), Signal(), Signal()
+        m.d.comb += [fire.eq(t_valid & hits_ok & (room | ~last) & (~step_miss | (f.inflight < self.params.misses))),
+                     accept.eq(p_valid & (~t_valid | (fire & last))),
+                     p_load.eq(s_valid & (~p_valid | accept)), ififo.r_en.eq(~s_valid | p_load)]
+        return fire, accept, p_load
+
     @staticmethod
-    def _outcomes(m, c, pre, hits_ok, accept, tag_write):
+    def _outcomes(m, c, pre, hits_ok, accept, tag_write, fresh=None):
         """The tag stage's registered outcomes (each corner's hit and way) and whether they are current
         (``hits_ok``): taken with the lookup from the prefetch stage's compares, stale after a step that writes
-        tags (``tag_write``), then taken again from the compares of the held rows (a clock)."""
+        tags (``tag_write``), then taken again from the compares of the held rows (a clock). With ``fresh`` (LRU:
+        the step is decided from the outcomes, :meth:`_decide_ahead`) the outcomes so taken are marked ``fresh``
+        and current a clock later, when the decision has been taken from them: the held rows' compares (a pending
+        row through the overlay) then end at the outcome registers, not at the decision's (the fetch's slowest
+        path out of context, at both seeds measured, once the lookup FIFO's room was a register); a clock more
+        per step that fills."""
         with m.If(accept):
             m.d.sync += hits_ok.eq(~tag_write)
+            if fresh is not None:
+                m.d.sync += fresh.eq(0)
             m.d.sync += [x.eq(y) for q in range(4) for x, y in ((c[q].hit, pre.c[q].hit),
                                                                 (c[q].hit_way, pre.c[q].hit_way))]
         with m.Elif(tag_write):
             m.d.sync += hits_ok.eq(0)
+        if fresh is not None:
+            with m.Elif(fresh):
+                m.d.sync += [hits_ok.eq(1), fresh.eq(0)]
         with m.Elif(~hits_ok):
-            m.d.sync += hits_ok.eq(1)
+            m.d.sync += hits_ok.eq(1) if fresh is None else fresh.eq(1)
             m.d.sync += [x.eq(y) for q in range(4) for x, y in ((c[q].hit, c[q].cmp_hit),
                                                                 (c[q].hit_way, c[q].cmp_way))]
 
@@ -400,34 +423,16 @@ class DecoupledTexCache(wiring.Component):
             m.d.comb += live[q].eq(x & ~req.skip if self.skip else x)
         return live
 
-    @staticmethod
-    def _decision(m, hits, live, same, kk, name):
-        """LRU: the step of a lookup whose live corners are ``live`` and next corner ``kk``, from its outcomes
-        ``hits``: ``(allin, step_miss)``. All remaining corners in one step (``allin``) when they fall in distinct
-        sets and at most one of them misses, else corner ``kk`` alone; ``step_miss``: the step misses. In gates, not
-        a count of the misses (an adder and a compare, a carry chain on an ECP5, on the path from the compares)."""
-        clash = Signal(name=f"{name}clash")
-        for q in range(4):
-            for j in range(q):
-                with m.If(live[q] & live[j] & same[q, j]):
-                    m.d.comb += clash.eq(1)
-        miss = [live[q] & ~hits[q] for q in range(4)]
-        two = Signal(name=f"{name}two_misses")
-        m.d.comb += two.eq(Cat(*(miss[q] & miss[j] for q in range(4) for j in range(q))).any())
-        allin, step_miss = Signal(name=f"{name}allin"), Signal(name=f"{name}step_miss")
-        m.d.comb += [allin.eq(~clash & ~two), step_miss.eq(Mux(allin, Cat(*miss).any(), Array(miss)[kk]))]
-        return allin, step_miss
-
     def _steps_one_phase(self, m, c, live, same, k):
         """LRU: the corners a step checks (``act``), whether it misses, whether it is the lookup's last, and the
-        registers that decide it (``ahead``: :meth:`_decision` of the held lookup, decided a clock ahead by
-        :meth:`_decide_ahead`, so that neither a compare's outcome nor the corners' relations lie between the
-        registers and the step's firing, the lookup's acceptance and the enables of every held row). A step's
-        hits and its miss update the rows in the clock it fires."""
+        registers that decide it (``ahead``: :func:`rtl.texcache_tags.step_decision` of the held lookup, decided a
+        clock ahead by :meth:`_decide_ahead`, so that neither a compare's outcome nor the corners' relations lie
+        between the registers and the step's firing, the lookup's acceptance and the enables of every held row). A
+        step's hits and its miss update the rows in the clock it fires."""
         ahead = SimpleNamespace(allin=Signal(name="allin"), step_miss=Signal(name="step_miss"))
         # the same decision from this clock's registers: equal to ``ahead``'s whenever the outcomes are current
         # (formal invariant ``decision_ahead``), for the proof only (nothing reads it in the hardware)
-        ahead.now = self._decision(m, [c[q].hit for q in range(4)], live, same, k, "now_")
+        ahead.now = step_decision(m, [c[q].hit for q in range(4)], live, same, k, "now_")
         act = [Signal(name=f"act{q}") for q in range(4)]         # corners checked in this step
         for q in range(4):
             m.d.comb += act[q].eq(live[q] & Mux(ahead.allin, 1, k == q))
@@ -435,25 +440,25 @@ class DecoupledTexCache(wiring.Component):
         m.d.comb += last.eq(ahead.allin | (k == 3))
         return act, ahead.step_miss, last, ahead
 
-    def _decide_ahead(self, m, ahead, held, pre, hits_ok, accept, step_on):
+    def _decide_ahead(self, m, ahead, held, pre, fresh, accept, step_on):
         """The registers of :meth:`_steps_one_phase`'s decision for the clock after this one, from what the
         outcome registers (:meth:`_outcomes`) take in this clock: the prefetch stage's compares with the lookup
-        it hands over (corner 0 next), the held rows' compares when the outcomes are taken again after a fill,
-        or, after a step of one corner that writes no tag (``step_on``: it fired and was not the last; a hit),
-        the same outcomes with the next corner. After a step that writes tags the outcomes are stale and these
-        registers with them; they are decided again with the outcomes. ``held``: the tag stage's corners, request,
-        live corners, equal sets and next corner."""
+        it hands over (corner 0 next), the outcomes themselves in the clock after they were taken again after a
+        fill (``fresh``), or, after a step of one corner that writes no tag (``step_on``: it fired and was not the
+        last; a hit), the same outcomes with the next corner. After a step that writes tags the outcomes are stale
+        and these registers with them; they are decided again a clock after the outcomes are taken again.
+        ``held``: the tag stage's corners, request, live corners, equal sets and next corner."""
         c, req, live, same, k = held
 
         def take(hits, live, same_, kk, name):
-            allin, step_miss = self._decision(m, hits, live, same_, kk, name)
+            allin, step_miss = step_decision(m, hits, live, same_, kk, name)
             m.d.sync += [ahead.allin.eq(allin), ahead.step_miss.eq(step_miss)]
 
         with m.If(accept):
             take([pre.c[q].hit for q in range(4)], self._live(m, pre.c, pre.req, lambda q: 1, "p_live"),
                  pre.same, 0, "p_")
-        with m.Elif(~hits_ok):
-            take([c[q].cmp_hit for q in range(4)], live, same, k, "c_")
+        with m.Elif(fresh):
+            take([c[q].hit for q in range(4)], live, same, k, "c_")
         with m.Elif(step_on):
             take([c[q].hit for q in range(4)], self._live(m, c, req, lambda q: q > k, "k_live"),
                  same, k + 1, "k_")

@@ -14,7 +14,8 @@ from amaranth.lib.memory import Memory
 
 from fxmodel.units.texcache import TexCacheParams
 
-__all__ = ["age_bits", "row_states", "row_word", "row_fields", "compare", "victim", "new_rows", "tag_store"]
+__all__ = ["age_bits", "row_states", "row_word", "row_fields", "compare", "victim", "new_rows", "tag_store",
+           "step_decision"]
 
 
 def age_bits(ways: int) -> int:
@@ -170,3 +171,21 @@ def tag_store(m, params: TexCacheParams, line_bits: int, c, wr, new, platform, *
                 live_row(mems, Const(j, len(rset)), written[j], lvt[j], f"store{j}_r{r}")
         out.append(row_fields(row, W, lb, n))
     return out
+
+
+def step_decision(m, hits, live, same, kk, name):
+    """LRU: the step of a lookup whose live corners are ``live`` and next corner ``kk``, from its outcomes
+    ``hits``: ``(allin, step_miss)``. All remaining corners in one step (``allin``) when they fall in distinct
+    sets and at most one of them misses, else corner ``kk`` alone; ``step_miss``: the step misses. In gates, not
+    a count of the misses (an adder and a compare, a carry chain on an ECP5, on the path from the compares)."""
+    clash = Signal(name=f"{name}clash")
+    for q in range(4):
+        for j in range(q):
+            with m.If(live[q] & live[j] & same[q, j]):
+                m.d.comb += clash.eq(1)
+    miss = [live[q] & ~hits[q] for q in range(4)]
+    two = Signal(name=f"{name}two_misses")
+    m.d.comb += two.eq(Cat(*(miss[q] & miss[j] for q in range(4) for j in range(q))).any())
+    allin, step_miss = Signal(name=f"{name}allin"), Signal(name=f"{name}step_miss")
+    m.d.comb += [allin.eq(~clash & ~two), step_miss.eq(Mux(allin, Cat(*miss).any(), Array(miss)[kk]))]
+    return allin, step_miss

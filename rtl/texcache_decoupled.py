@@ -382,7 +382,7 @@ class DecoupledTexCache(wiring.Component):
         a miss finds a free miss register), the prefetch stage's lookup is accepted and the set stage's loaded
         into the prefetch stage (and the input FIFO read): ``(fire, accept, p_load)``."""
         (s_valid, ififo), (t_valid, hits_ok) = input_stage, tag_stage
-        room, _ = buffered_room(m, f.lfifo, self.params.lookup_depth, f.lfifo.w_en, "lfifo")
+        room = buffered_room(m, f.lfifo, self.params.lookup_depth, f.lfifo.w_en, "lfifo")
         fire, accept, p_load = Signal(name="fire"), Signal(), Signal()
         m.d.comb += [fire.eq(t_valid & hits_ok & (room | ~last) & (~step_miss | (f.inflight < self.params.misses))),
                      accept.eq(p_valid & (~t_valid | (fire & last))),

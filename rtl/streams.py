@@ -87,7 +87,8 @@ def buffered_room(m, fifo, depth: int, w, name: str):
     fetch's slowest path). ``w`` is the FIFO's write (its ``w_en``, which the writer gates with this room). The
     inner level is counted beside the FIFO's own (its read: the inner FIFO holds a word and the output register
     is empty or read), and the room after the clock is chosen by the write and the read at the last logic level.
-    ``(room, inner)``: the formal sets check both against the FIFO's (``formal/fetch.py``)."""
+    Returns the room; the formal sets check it and the count (``{name}_room``, ``{name}_inner``) against the
+    FIFO's (``formal/fetch.py``)."""
     if depth < 2:
         raise ValueError(f"buffered_room: depth {depth} must be at least 2 (SyncFIFOBuffered's register alone)")
     top = depth - 1                                       # the inner FIFO's depth
@@ -98,7 +99,7 @@ def buffered_room(m, fifo, depth: int, w, name: str):
         m.d.sync += [inner.eq(inner + 1), room.eq(inner != top - 1)]
     with m.Elif(r & ~w):
         m.d.sync += [inner.eq(inner - 1), room.eq(1)]
-    return room, inner
+    return room
 
 
 class _Core(wiring.Component):

@@ -325,7 +325,7 @@ class DecoupledTexCache(wiring.Component):
         if rr:
             act, step_miss, last, first = self._steps_two_phase(m, c, live, upd, mq)
         else:
-            act, step_miss, last, ahead = self._steps_one_phase(m, c, live, same, k)
+            act, step_miss, last, ahead = self._steps_one_phase(m, c, live, same, k, platform)
         fire, accept, p_load = self._handshake(m, f, (s_valid, ififo), pre.valid, (t_valid, hits_ok), last, step_miss)
         if not rr:
             self._decide_ahead(m, ahead, (c, req, live, same, k), pre, fresh, accept, fire & ~last)
@@ -382,7 +382,7 @@ class DecoupledTexCache(wiring.Component):
         a miss finds a free miss register), the prefetch stage's lookup is accepted and the set stage's loaded
         into the prefetch stage (and the input FIFO read): ``(fire, accept, p_load)``."""
         (s_valid, ififo), (t_valid, hits_ok) = input_stage, tag_stage
-        room, _ = buffered_room(m, f.lfifo, self.params.lookup_depth, f.lfifo.w_en, "lfifo")
+        room = buffered_room(m, f.lfifo, self.params.lookup_depth, f.lfifo.w_en, "lfifo")
         fire, accept, p_load = Signal(name="fire"), Signal(), Signal()
         m.d.comb += [fire.eq(t_valid & hits_ok & (room | ~last) & (~step_miss | (f.inflight < self.params.misses))),
                      accept.eq(p_valid & (~t_valid | (fire & last))),
@@ -423,16 +423,17 @@ class DecoupledTexCache(wiring.Component):
             m.d.comb += live[q].eq(x & ~req.skip if self.skip else x)
         return live
 
-    def _steps_one_phase(self, m, c, live, same, k):
+    def _steps_one_phase(self, m, c, live, same, k, platform):
         """LRU: the corners a step checks (``act``), whether it misses, whether it is the lookup's last, and the
         registers that decide it (``ahead``: :func:`rtl.texcache_tags.step_decision` of the held lookup, decided a
         clock ahead by :meth:`_decide_ahead`, so that neither a compare's outcome nor the corners' relations lie
         between the registers and the step's firing, the lookup's acceptance and the enables of every held row). A
         step's hits and its miss update the rows in the clock it fires."""
         ahead = SimpleNamespace(allin=Signal(name="allin"), step_miss=Signal(name="step_miss"))
-        # the same decision from this clock's registers: equal to ``ahead``'s whenever the outcomes are current
-        # (formal invariant ``decision_ahead``), for the proof only (nothing reads it in the hardware)
-        ahead.now = step_decision(m, [c[q].hit for q in range(4)], live, same, k, "now_")
+        if platform == "formal":
+            # the same decision from this clock's registers (``now_allin``, ``now_step_miss``): equal to ``ahead``'s
+            # whenever the outcomes are current (formal invariant ``decision_ahead``); nothing else reads it
+            step_decision(m, [c[q].hit for q in range(4)], live, same, k, "now_")
         act = [Signal(name=f"act{q}") for q in range(4)]         # corners checked in this step
         for q in range(4):
             m.d.comb += act[q].eq(live[q] & Mux(ahead.allin, 1, k == q))

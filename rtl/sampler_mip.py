@@ -65,15 +65,19 @@ def trilinear(c, m, pipe) -> dict:
         wts |= {f"fx{p}": getattr(s3, f"x{p}_f"), f"fy{p}": getattr(s3, f"y{p}_f")}
     s4 = pipe.stage(**addr, **wts, g=s3.g, odd=s3.odd)
 
-    # 5: the memory read
-    data = {}
+    # 5: the memory read (blank memories when the board uploads them: the even levels' words, then the odd's)
+    data, mems = {}, []
+    blank = c.writes is not None and c.writes.blank
     for p in (0, 1):
-        mem = Memory(shape=P.word_bits, depth=len(P.parity_words[p]), init=P.parity_words[p])
+        mem = Memory(shape=P.word_bits, depth=len(P.parity_words[p]), init=[] if blank else P.parity_words[p])
         m.submodules[f"levels{p}"] = mem
+        mems.append(mem)
         for n in range(4):
             port = mem.read_port(domain="sync")
             m.d.comb += port.addr.eq(getattr(s4, f"a{p}{n}"))
             data[(p, n)] = port.data
+    if c.writes is not None:
+        c._writes(m, mems)
     late = pipe.stage(**wts_of(s4), g=s4.g, odd=s4.odd)
     return blends(c, pipe, data, late)
 

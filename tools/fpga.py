@@ -118,6 +118,10 @@ class Flow:
     route : bool
         ``False``: placement alone (``--no-route``), for designs whose route does not converge; Fmax is then
         nextpnr's estimate after placement, recorded with ``routed`` false (``docs/fpga.md``).
+    misses : bool
+        nextpnr also writes its per-net timing (``--detailed-timing-report``) and the record counts every
+        endpoint that misses the target, by unit and kind, with the worst (:func:`board.timing.timing_misses`,
+        as ``bumpmap bitstream --misses``): where a design that misses its clock misses it. Changes no placement.
     """
 
     device: str = "85k"
@@ -127,6 +131,7 @@ class Flow:
     router: str = "router1"
     tmg_ripup: bool = False
     route: bool = True
+    misses: bool = False
 
     def __post_init__(self):
         if self.device not in ("12k", "25k", "45k", "85k", "um-25k", "um-45k", "um-85k",
@@ -150,6 +155,8 @@ class Flow:
             del out["tmg_ripup"]
         if self.route:
             del out["route"]
+        if not self.misses:
+            del out["misses"]
         return out
 
 
@@ -241,6 +248,8 @@ def _run_tools(rdir: Path, top: str, settings: dict, synth_only: bool = False) -
         cmd.append(TMG_RIPUP)
     if not settings.get("route", True):
         cmd.append("--no-route")
+    if settings.get("misses"):
+        cmd.append("--detailed-timing-report")
     res = subprocess.run(cmd, cwd=rdir, capture_output=True, text=True)
     if res.returncode:
         return {"error": f"nextpnr failed ({res.returncode}), see {rdir / 'nextpnr.log'}"}
@@ -356,7 +365,8 @@ def _finish(job: _Job) -> dict:
               "latency": getattr(P, "latency", None), "results_per_clock": 1, "target_mhz": freq,
               "met": None if synthesized else bool(fmax is not None and fmax >= freq),
               "routed": not synthesized and job.settings.get("route", True),
-              "critical_path": res.get("critical_path"), "mode": job.settings["mode"],
+              "critical_path": res.get("critical_path"), **({"misses": res["misses"]} if "misses" in res else {}),
+              "mode": job.settings["mode"],
               "device": f"{_device_name(job.settings['device'])} speed {job.settings['speed']} "
                         f"{job.settings['package']}", "seed": job.settings["seed"],
               "router": job.settings.get("router", "router1"), "flow_seconds": res.get("flow_seconds"),
@@ -533,6 +543,9 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
                          "recorded as not routed (for designs whose route does not converge)")
     ap.add_argument("--tmg-ripup", action="store_true",
                     help="nextpnr's timing-driven rip-up in the router (as bumpmap bitstream --tmg-ripup)")
+    ap.add_argument("--misses", action="store_true",
+                    help="count every endpoint that misses the target (nextpnr's per-net timing), by unit and "
+                         "kind, with the worst, in the report and the placement record")
     jobrunner.add_arguments(ap, what="designs placed and routed")
     ap.add_argument("--out", default=str(BUILD), help="output folder (default: build/fpga)")
     ap.add_argument("--no-cache", action="store_true", help="rerun every tool")
@@ -561,7 +574,8 @@ def run(args: argparse.Namespace) -> int:
             if args.scene is None:
                 raise ValueError("--textures: the engine of a scene (give --scene)")
         designs = design_list(args.unit, args.preset, scene=args.scene, textures=cache)
-        flow = Flow(seed=args.seed, router=args.router, tmg_ripup=args.tmg_ripup, route=not args.no_route)
+        flow = Flow(seed=args.seed, router=args.router, tmg_ripup=args.tmg_ripup, route=not args.no_route,
+                    misses=args.misses)
     except ValueError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2

@@ -11,7 +11,7 @@ import json
 import re
 from pathlib import Path
 
-from board.timing import clock_fmax, register_name
+from board.timing import clock_fmax, register_name, timing_misses
 
 __all__ = ["parse_results", "parse_run", "placement_fmax", "critical_path_summary", "describe_path", "route_seconds",
            "markdown_table",
@@ -86,15 +86,24 @@ def placement_fmax(log: str) -> dict:
     return {"fmax_mhz": round(clocks[clock]["fmax_mhz"], 2), "clock": clock}
 
 
+#: The hierarchy above a pipeline's units, left out of the units of its missed endpoints (as the board's
+#: ``board.top.UNIT_PREFIXES``): ``pipeline.core.unit.diffuse`` is ``diffuse``; ``pipeline.fetch.bump_map`` stays.
+MISS_PREFIXES = ("pipeline.core.unit.",)
+
+
 def parse_run(rdir: Path) -> dict:
     """The results of a run folder's tool outputs (nextpnr's ``report.json`` and log, yosys' ``stat.json``): a run
-    placed alone has no Fmax in its report, and takes nextpnr's estimate after placement from its log."""
+    placed alone has no Fmax in its report, and takes nextpnr's estimate after placement from its log. A report
+    with per-net timing (``Flow.misses``) adds ``misses``: the endpoints that miss the slowest clock's target."""
     report = json.loads((rdir / "report.json").read_text())
     stat = json.loads((rdir / "stat.json").read_text())
     log = (rdir / "nextpnr.log").read_text(errors="replace")
     res = parse_results(report, stat)
     if res["fmax_mhz"] is None:
         res.update(placement_fmax(log))
+    if report.get("detailed_net_timings") and res["clock"]:     # run with --misses: the endpoints that miss
+        target = report["fmax"][res["clock"]]["constraint"]
+        res["misses"] = timing_misses(report, res["clock"], round(1000.0 / target, 3), MISS_PREFIXES)
     return {**res, "route_seconds": route_seconds(log)}
 
 

@@ -347,3 +347,13 @@ def test_the_placement_page_says_when_a_design_was_not_routed(tmp_path, monkeypa
         page = docs_records.fpga_placement("p")
         assert all(w in page for w in words), page
         assert ("not routed" in page) != routed
+    # a design placed with --misses: its missed endpoints by unit under the table
+    worst = [{"ns": 14.27, "unit": "pipeline.fetch.bump_map", "register": "r_lvt3", "pin": "DI"}]
+    misses = {"clock": "clk", "period_ns": 10.0, "endpoints": 3, "worst": worst,
+              "by_unit": {"pipeline.fetch.bump_map": 2, "diffuse": 1}, "by_kind": {"register": 3}}
+    record.write(tmp_path / "fpga" / "p.json", "bumpmap fpga", {"flow": {"seed": 1}, "designs": [
+        {**design, "routed": True, "misses": misses}]})
+    page = docs_records.fpga_placement("p")
+    assert "3 endpoints of `clk` arrive later than its period, 10 ns" in page, page
+    assert "| `pipeline.fetch.bump_map` | 2 |" in page
+    assert "| 14.27 | `pipeline.fetch.bump_map` | `r_lvt3` | DI |" in page

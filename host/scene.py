@@ -30,9 +30,11 @@ high), every coordinate (positions, targets, origins, edges, centers, radii, tex
 ``far``) of magnitude at most 1e6 (:data:`MAX_COORD`), colors of lights, ambient and specular at most 1e3
 (:data:`MAX_COLOR`), shininess 1e4, bump strength 1e3, repeats 1e4, ``sigma`` 4096 texels; ``near`` at least
 1e-6; at most 2^20 triangles (:data:`MAX_TRIANGLES`, each generator's count checked before it runs). Resource
-caps (:mod:`host.scene_types` gives the reasons): at most 2048 x 2048 pixels in all (:data:`MAX_PIXELS`), 32
-lights (:data:`MAX_LIGHTS`), maps of 2 x 4096^2 texels in all materials together (:data:`MAX_SCENE_TEXELS`), a
-chiselled text of 4096 characters (:data:`MAX_TEXT`). A file may start with a UTF-8 byte-order mark.
+caps (:mod:`host.scene_types` gives the reasons): at most 2048 x 2048 pixels in all (:data:`MAX_PIXELS`; a
+file declaring more is drawn only at a size given that has fewer, such as ``--size``, its own giving the
+aspect ratio), 32 lights (:data:`MAX_LIGHTS`), maps of 2 x 4096^2 texels in all materials together
+(:data:`MAX_SCENE_TEXELS`), a chiselled text of 4096 characters (:data:`MAX_TEXT`). A file may start with a
+UTF-8 byte-order mark.
 
 The complete commented example below is also a valid scene (``SCHEMA_EXAMPLE``, tested)::
 
@@ -267,7 +269,8 @@ def load_scene(path, *, size: int | tuple[int, int] | None = None) -> Scene:
         The TOML file. Relative PNG paths inside resolve against its folder.
     size : int or (int, int), optional
         Override the image size: ``(width, height)``, or a width with the height keeping the aspect ratio
-        (for tests at, e.g., 64 x 64).
+        (for tests at, e.g., 64 x 64). The override's pixels are checked, not the file's: a file declaring
+        more than :data:`MAX_PIXELS` is drawn at a size that has fewer.
 
     Raises
     ------
@@ -281,15 +284,17 @@ def load_scene(path, *, size: int | tuple[int, int] | None = None) -> Scene:
         raise SceneError(f"{path}: cannot read the scene file: {exc.strerror or exc}") from None
     except UnicodeDecodeError as exc:
         raise SceneError(f"{path}: not UTF-8 text: {exc}") from None
-    scene = parse_scene(text, source=str(path), base=path.resolve().parent, path=path)
+    scene = parse_scene(text, source=str(path), base=path.resolve().parent, path=path, resized=size is not None)
     if size is not None:
         scene = scene.with_size(*size) if isinstance(size, tuple) else scene.with_size(size)
     return scene
 
 
 def parse_scene(text: str, *, source: str = "<string>", base: Path | None = None,
-                path: Path | None = None) -> Scene:
-    """Parse scene TOML ``text``; ``source`` names it in errors, ``base`` resolves relative PNG paths."""
+                path: Path | None = None, resized: bool = False) -> Scene:
+    """Parse scene TOML ``text``; ``source`` names it in errors, ``base`` resolves relative PNG paths.
+    ``resized``: the caller draws it at another size (:meth:`Scene.with_size`, which checks that size's pixels),
+    so the declared image gives the aspect ratio alone and may have more pixels than an image may."""
     r = Reader(source)
     base = Path.cwd() if base is None else base
     try:
@@ -307,7 +312,7 @@ def parse_scene(text: str, *, source: str = "<string>", base: Path | None = None
     img = r.table(doc["image"], "image", ("width", "height", "background"), ("width", "height"))
     width = r.integer(img["width"], "image.width", 1, MAX_IMAGE_SIZE)
     height = r.integer(img["height"], "image.height", 1, MAX_IMAGE_SIZE)
-    if width * height > MAX_PIXELS:
+    if width * height > MAX_PIXELS and not resized:
         r.fail("image", f"{width} x {height} is {width * height:,} pixels, more than the {MAX_PIXELS:,} "
                         "(2048 x 2048) an image may have")
     background = _rgb01(r, img.get("background", [0, 0, 0]), "image.background")

@@ -98,8 +98,6 @@ class Sampler(UnitComponent):
     """
 
     def __init__(self, params: SamplerParams, writes: TexelPort | None = None):
-        if writes is not None and params.trilinear:
-            raise ValueError("writes: uploads into a trilinear sampler's level memories are not built")
         self.writes = writes
         super().__init__(params)
 

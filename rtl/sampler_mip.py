@@ -7,10 +7,13 @@ parity, so the two bilinear lookups of a pixel read both memories in the same cl
 ``p`` looks up the level of parity ``p`` among ``L, L + 1`` (at the last level, where ``L + 1`` does not exist and the
 blend weight is 0, ``L - 1``: any level of that parity, never used).
 
-Stages (latency ``params.latency`` = 15; one carry chain or one product a stage, as ``rtl/sampler.py``): level,
+Stages (latency ``params.latency`` = 16; one carry chain or one product a stage, as ``rtl/sampler.py``): level,
 blend weight and each memory's level | scaled positions (each level's size a constant product, selected) | indices,
-wraps, weights | addresses | memory read | texel differences | ``fx`` products | row blends | row difference | ``fy``
-product | column blend (both lookups, before narrowing) | level difference | ``g`` product | level blend | rounding.
+wraps, weights | addresses | memory read | words registered | texel differences | ``fx`` products | row blends | row
+difference | ``fy`` product | column blend (both lookups, before narrowing) | level difference | ``g`` product |
+level blend | rounding. The words are registered as they leave the block RAMs (whose output Yosys leaves
+unregistered): the MIP engine's routed clock was held by the level memories' words through the texel differences'
+carry chains into the ``fx`` products' multiplier blocks (``docs/fpga/placement.json``, its missed endpoints).
 With ``blend_frac`` the row and column blends are rounded in their own stages (:func:`_blend_sum`: no extra carry
 chain, no extra stage), so the differences after them fit one multiplier block each.
 """
@@ -27,9 +30,10 @@ from .recip import product_stage
 
 __all__ = ["trilinear", "level_indices", "blends", "TEXEL_STAGES"]
 
-#: Stages before the blends: level, scaled positions, indices, addresses, memory read (the corner words of both
-#: lookups are there after them; the texture fetch of ``rtl/pixel_fetch.py`` splits the sampler at this point).
-TEXEL_STAGES = 5
+#: Stages before the blends: level, scaled positions, indices, addresses, memory read, words registered (the corner
+#: words of both lookups are there after them; the texture fetch of ``rtl/pixel_fetch.py`` splits the sampler at
+#: this point).
+TEXEL_STAGES = 6
 
 
 def _pick(k, values):
@@ -65,17 +69,23 @@ def trilinear(c, m, pipe) -> dict:
         wts |= {f"fx{p}": getattr(s3, f"x{p}_f"), f"fy{p}": getattr(s3, f"y{p}_f")}
     s4 = pipe.stage(**addr, **wts, g=s3.g, odd=s3.odd)
 
-    # 5: the memory read
-    data = {}
+    # 5: the memory read (blank memories when the board uploads them: the even levels' words, then the odd's)
+    data, mems = {}, []
+    blank = c.writes is not None and c.writes.blank
     for p in (0, 1):
-        mem = Memory(shape=P.word_bits, depth=len(P.parity_words[p]), init=P.parity_words[p])
+        mem = Memory(shape=P.word_bits, depth=len(P.parity_words[p]), init=[] if blank else P.parity_words[p])
         m.submodules[f"levels{p}"] = mem
+        mems.append(mem)
         for n in range(4):
             port = mem.read_port(domain="sync")
             m.d.comb += port.addr.eq(getattr(s4, f"a{p}{n}"))
             data[(p, n)] = port.data
+    if c.writes is not None:
+        c._writes(m, mems)
     late = pipe.stage(**wts_of(s4), g=s4.g, odd=s4.odd)
-    return blends(c, pipe, data, late)
+    # 6: the words registered (in the fabric, a route from the blocks), the weights beside them
+    words = pipe.stage(**wts_of(late), g=late.g, odd=late.odd, **{f"d{p}{n}": v for (p, n), v in data.items()})
+    return blends(c, pipe, {(p, n): getattr(words, f"d{p}{n}") for (p, n) in data}, words)
 
 
 def level_indices(c, pipe):

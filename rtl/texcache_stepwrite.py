@@ -87,7 +87,8 @@ def held_rows(m, params: TexCacheParams, sw, c, pre, nc, same, wr, new, p_load, 
         # this clock's write to the set each row holds in the next clock
         selects(sw.fw[q], [wr[j] & Mux(accept, c[j].set == pc.set, 1 if j == q else same[max(q, j), min(q, j)])
                            for j in range(4)])
-        selects(sw.pfw[q], [wr[j] & (c[j].set == Mux(p_load, nc[q].set, pc.set)) for j in range(4)])
+        selects(sw.pfw[q], [wr[j] & Mux(p_load, c[j].set == nc[q].set, c[j].set == pc.set)   # p_load selects last
+                            for j in range(4)])
         to_next = [wp[j].en & (wp[j].set == nc[q].set) for j in range(4)]   # the pending write to the next set
         loaded = overlay(m, SimpleNamespace(tags=stored[q][0], valids=stored[q][1], ages=stored[q][2]), wp,
                          to_next + [~sum(to_next).bool()], f"ld{q}_")

@@ -122,7 +122,11 @@ def tag_store(m, params: TexCacheParams, line_bits: int, c, wr, new, platform, *
     ``read_sets`` are registers loaded with ``next_sets`` when ``load``: the live-value table is read a clock
     early, from ``next_sets``, into a copy per read port (``r_lvt{r}``, ``r_written{r}``, kept equal to the
     table's entry for ``read_sets[r]`` by this clock's writes, forwarded), so that a read goes from the set
-    register through the LUT RAM and a four-way multiplexer on a register, not through the table.
+    register through the LUT RAM and a four-way multiplexer on a register, not through the table. The
+    forwarding compares both sets the port may hold next (``n_lvt{r}``: the next set's entry; ``h_lvt{r}``: the
+    held set's), and ``load``, late in the clock (it comes from the tag stage's firing), selects between them
+    at the last level, not ahead of the compares (the whole engine's slowest routed path ran from the step's
+    decision through ``load`` into the compares).
 
     On the formal platform each set's live row as each read port sees it is named too (``store{j}_r{r}``:
     memories read at every address, as :class:`rtl.streams.CreditFIFO` names its slots), for the proof that the
@@ -159,12 +163,17 @@ def tag_store(m, params: TexCacheParams, line_bits: int, c, wr, new, platform, *
             m.d.comb += [wp.addr.eq(c[w].set), wp.data.eq(row_word(*new[w])), wp.en.eq(wr[w])]
             mems.append(mem)
         r_lvt, r_written = Signal(2, name=f"r_lvt{r}"), Signal(name=f"r_written{r}")
-        target = Mux(load, next_sets[r], rset)         # the set this read port holds from the next clock on
-        with m.If(load):
-            m.d.sync += [r_lvt.eq(Array(lvt)[next_sets[r]]), r_written.eq(Array(written)[next_sets[r]])]
-        for w in range(4):                             # this clock's write to that set, forwarded
-            with m.If(wr[w] & (c[w].set == target)):
-                m.d.sync += [r_lvt.eq(w), r_written.eq(1)]
+        # the entry for the set this read port holds from the next clock on, with this clock's write to it
+        # forwarded, for both sets it may hold (the next one, loaded, and the one held); ``load`` selects last
+        nxt = (Signal(2, name=f"n_lvt{r}"), Signal(name=f"n_written{r}"))
+        hold = (Signal(2, name=f"h_lvt{r}"), Signal(name=f"h_written{r}"))
+        m.d.comb += [nxt[0].eq(Array(lvt)[next_sets[r]]), nxt[1].eq(Array(written)[next_sets[r]]),
+                     hold[0].eq(r_lvt), hold[1].eq(r_written)]
+        for w in range(4):
+            for entry, s in ((nxt, next_sets[r]), (hold, rset)):
+                with m.If(wr[w] & (c[w].set == s)):
+                    m.d.comb += [entry[0].eq(w), entry[1].eq(1)]
+        m.d.sync += [r_lvt.eq(Mux(load, nxt[0], hold[0])), r_written.eq(Mux(load, nxt[1], hold[1]))]
         row = live_row(mems, rset, r_written, r_lvt, f"stored{r}")
         if platform == "formal":
             for j in range(S):

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import json
 
-from .docs_records import DOCS, col_align, load_record, md_table, missing_record, provenance
+from .docs_records import DOCS, col_align, load_record, md_table, misses_tables, missing_record, provenance
 
 # -- the board --------------------------------------------------------------------------------------------------
 BOARD = DOCS / "board"
@@ -157,24 +157,12 @@ def board_animation() -> str:
     return md_table(head, rows, col_align("lrrrrrrrrr")) + note + "\n" + provenance(record, path)
 
 
-def _misses_tables(m: dict) -> str:
-    """The endpoints of a clock that missed its period (``bumpmap bitstream --misses``): how many, by unit, by
-    kind, and the worst, one per register."""
-    units = md_table(["unit", "endpoints"], [[f"`{u}`", n] for u, n in m["by_unit"].items()], col_align("lr"))
-    kinds = md_table(["endpoint", "endpoints"], [[k, n] for k, n in m["by_kind"].items()], col_align("lr"))
-    worst = md_table(["arrival (ns)", "unit", "register", "pin"],
-                   [[w["ns"], f"`{w['unit']}`", f"`{w['register']}`", w["pin"]] for w in m["worst"]], col_align("rlll"))
-    return (f"{m['endpoints']} endpoints of `{m['clock']}` arrive later than its period, {m['period_ns']:g} ns "
-            "(nextpnr's per-net timing; a register's setup time is not in it, so the count is a floor).\n\n"
-            + units + "\n" + kinds + "\n" + worst)
-
-
 def board_engine_misses() -> str:
     """The board top with the engine routed at a clock its engine misses (``bumpmap bitstream --engine-div N
     --misses``): Fmax per clock, resources, and every endpoint that misses the engine clock."""
     r, path = _board_record("engine-misses")
     if r is None:
         return missing_record(path, "bumpmap bitstream --engine-div 5 --misses --record docs/board/engine-misses.json")
-    return (_clock_tables(r, "Fmax (routed)") + "\n" + _misses_tables(r["misses"])
+    return (_clock_tables(r, "Fmax (routed)") + "\n" + misses_tables(r["misses"])
             + f"\n*Measured by `{r['command']}` in {r['seconds']} s; record: "
               "[`board/engine-misses.json`](board/engine-misses.json).*\n")

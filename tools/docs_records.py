@@ -21,7 +21,7 @@ from .record import RECORDS, read
 
 __all__ = ["provenance", "quickstart", "timed_commands", "scene_results", "triangle_results", "scenes_stress",
            "depth", "precision", "exhaustive_rcp32", "exhaustive_throughput", "fpga_resources", "bench", "raster_guard",
-           "recip_errors", "rop_throughput", "records_index"]
+           "recip_errors", "rop_throughput", "records_index", "misses_tables"]
 
 DOCS = ROOT / "docs"
 
@@ -267,6 +267,18 @@ def fpga_resources() -> str:
               f"[`{_rel(RESOURCES)}`]({_rel(RESOURCES)}).*\n")
 
 
+def misses_tables(m: dict) -> str:
+    """The endpoints of a clock that missed its period (``bumpmap bitstream --misses``, ``bumpmap fpga
+    --misses``): how many, by unit, by kind, and the worst, one per register."""
+    units = md_table(["unit", "endpoints"], [[f"`{u}`", n] for u, n in m["by_unit"].items()], col_align("lr"))
+    kinds = md_table(["endpoint", "endpoints"], [[k, n] for k, n in m["by_kind"].items()], col_align("lr"))
+    worst = md_table(["arrival (ns)", "unit", "register", "pin"],
+                   [[w["ns"], f"`{w['unit']}`", f"`{w['register']}`", w["pin"]] for w in m["worst"]], col_align("rlll"))
+    return (f"{m['endpoints']} endpoints of `{m['clock']}` arrive later than its period, {m['period_ns']:g} ns "
+            "(nextpnr's per-net timing; a register's setup time is not in it, so the count is a floor).\n\n"
+            + units + "\n" + kinds + "\n" + worst)
+
+
 def fpga_placement(name: str = "placement", design: str = "--unit engine --scene SCENE --preset PRESET "
                                                            "--router router2") -> str:
     """Placed and routed designs (``bumpmap fpga ... --placement-record docs/fpga/<name>.json``): Fmax against
@@ -294,10 +306,11 @@ def fpga_placement(name: str = "placement", design: str = "--unit engine --scene
                      describe_path(d["critical_path"]) if d.get("critical_path") else ""))
     head = ("design", "target", "Fmax", "met", "LUT4", "FF", "MULT18X18D", "DP16KD", "critical path")
     flow = r.get("flow", {})
+    misses = "".join(f"\n{misses_tables(d['misses'])}" for d in r["designs"] if d.get("misses"))
     return (md_table(head, rows, ["---"] + ["---:"] * 2 + ["---"] + ["---:"] * 4 + ["---"])
             + f"\n*nextpnr {flow.get('router', '') if flow.get('route', True) else 'placement alone (--no-route)'}"
             f"{', timing-driven rip-up' if flow.get('tmg_ripup') and flow.get('route', True) else ''}, "
-            f"seed {flow.get('seed', '')}.* " + provenance(record, path))
+            f"seed {flow.get('seed', '')}.* " + provenance(record, path) + misses)
 
 
 # -- speed and design space ------------------------------------------------------------------------------------

@@ -91,8 +91,7 @@ def add_arguments(ap) -> None:
 
 def _load(name: str, size):
     from host.scene import load_scene
-    scene = load_scene(SCENES / f"{name}.toml")
-    return scene.with_size(size) if size else scene
+    return load_scene(SCENES / f"{name}.toml", size=size or None)
 
 
 def _frame(scene, name: str):

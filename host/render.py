@@ -37,7 +37,7 @@ from host.frontend import rasterize
 from host.images import compose, diff_image, metrics, save_png
 from host.mipmap import lod_increments, reference_texture
 from host.reference import float_pipeline, ideal_phong, max_lsb, perturbed
-from host.scene import load_scene, scene_path
+from host.scene import scene_at, scene_path
 from host.truth import add_truth
 from host.visibility import disagreement_picture, resolve
 
@@ -290,10 +290,7 @@ def prepare(scene, *, size=None, preset: str | dict = "default", cube_size: int 
         fragments use more than one material.
     """
     t0 = time.perf_counter()
-    if not hasattr(scene, "materials"):
-        scene = load_scene(scene, size=size)
-    elif size is not None:
-        scene = scene.with_size(*((size, size) if isinstance(size, int) else size))
+    scene = scene_at(scene, size)
     units = preset_units(preset)
     frame, clamped, imprecise, cols, timing = _build(scene, units, cube_size, t0)
     if (clamped or imprecise) and not allow_clamp:

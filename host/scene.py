@@ -170,7 +170,7 @@ from host.scene_types import (
 )
 
 __all__ = ["SceneError", "Camera", "Light", "ColorSpec", "BumpSpec", "Material", "Mesh", "Scene", "Triangles",
-           "SCENES", "scene_path", "load_scene", "parse_scene", "SCHEMA_EXAMPLE",
+           "SCENES", "scene_path", "load_scene", "scene_at", "parse_scene", "SCHEMA_EXAMPLE",
            "MAX_IMAGE_SIZE", "MAX_MAP_SIZE", "MAX_COORD", "MAX_COLOR", "MAX_SHININESS", "MAX_STRENGTH",
            "MAX_REPEAT", "MAX_SIGMA", "MAX_TRIANGLES", "MAX_LIGHTS", "MAX_SCENE_TEXELS", "MAX_TEXT", "MAX_PIXELS",
            "COLOR_PROCEDURALS", "BUMP_PROCEDURALS"]
@@ -288,6 +288,17 @@ def load_scene(path, *, size: int | tuple[int, int] | None = None) -> Scene:
     if size is not None:
         scene = scene.with_size(*size) if isinstance(size, tuple) else scene.with_size(size)
     return scene
+
+
+def scene_at(scene, size: int | tuple[int, int] | None = None) -> Scene:
+    """A scene given by path (loaded by :func:`load_scene`, ``size`` its override) or already loaded (then at
+    ``size`` if given: ``(width, height)``, or an int for a square image), as :func:`host.render.prepare` takes
+    it. A file is read once, at the size asked, so its own pixels may exceed :data:`MAX_PIXELS`."""
+    if not hasattr(scene, "materials"):
+        return load_scene(scene, size=size)
+    if size is None:
+        return scene
+    return scene.with_size(*((size, size) if isinstance(size, int) else size))
 
 
 def parse_scene(text: str, *, source: str = "<string>", base: Path | None = None,

@@ -493,12 +493,9 @@ def _setup(scene, size, cube_size, scene_size) -> _Job:
     import re
 
     from host.render import prepare
-    from host.scene import load_scene
+    from host.scene import scene_at
 
-    if not hasattr(scene, "materials"):             # at the screening size, if any (the file's may be larger)
-        scene = load_scene(scene, size=(scene_size, scene_size) if scene_size else None)
-    elif scene_size:
-        scene = scene.with_size(scene_size, scene_size)
+    scene = scene_at(scene, (scene_size, scene_size) if scene_size else None)  # the file's may be larger
     base = BUILTIN_PRESET_UNITS["default"]
     if cube_size is not None:
         base = {**base, "cube_size": cube_size}

@@ -306,13 +306,10 @@ def measure_pipeline_point(name: str, units, changes: dict, *, scene=SCENE, size
     ``None`` for a preset that draws the scene."""
     from fxmodel.pipeline.presets import preset_units
     from host.render import prepare, render
-    from host.scene import load_scene
+    from host.scene import scene_at
     from tools.fit import hardware
 
-    if not hasattr(scene, "materials"):
-        sc = load_scene(scene, size=(size, size) if size else None)
-    else:
-        sc = scene.with_size(size, size) if size else scene
+    sc = scene_at(scene, (size, size) if size else None)
     t0 = time.perf_counter()
     frame = prepare(sc, preset=units, allow_clamp=True, **({} if cube_size is None else {"cube_size": cube_size}))
     rep = render(frame)

@@ -13,7 +13,8 @@ texture fetch (``rtl/texfetch.py``), three stream units in a row:
   :meth:`~fxmodel.pipeline.engine.EngineParams.texture_layout`, the lookup FIFOs carry the rest of the fragment
   (weights, inputs, flag and the caller's sideband);
 - **back** (:class:`BackParams`): both samplers' blends (:meth:`rtl.sampler.Sampler.blend`; trilinear:
-  :func:`rtl.sampler_mip.blends` on both level caches' texels) on the four corner texels the fetch returns, then
+  :func:`rtl.sampler_mip.blends` on both level caches' texels) on the four corner texels the fetch returns
+  (registered as they arrive, :data:`BACK_IN_STAGES`), then
   bump, reflection, cube addresses and lookups and shading, the schedule of
   :attr:`~fxmodel.pipeline.pixel.PipelineParams.stage_latency` shifted (:func:`rtl.pixel.shade_half`).
 
@@ -47,14 +48,15 @@ from .texcache_decoupled import request_layout
 from .texfetch import MAPS, TexFetch
 from .unit import Pipe, UnitComponent, register
 
-__all__ = ["FrontParams", "BackParams", "FetchPipeline", "CORNERS", "WORDS_STAGES"]
+__all__ = ["FrontParams", "BackParams", "FetchPipeline", "CORNERS", "BACK_IN_STAGES"]
 
 #: Prefix of the fragment inputs the front hands on (an output may not share an input's name).
 CARRIED = "c_"
-#: Stages of the back before a map's blend: its corner words and weights registered as they leave the texel
-#: caches' banks (the routed Berlin wall engine's slowest paths ran from the banks' words, unregistered in the
-#: block RAMs, through the texel differences into the blends' multipliers: ``docs/fpga/placement-texcache.json``).
-WORDS_STAGES = 1
+#: Input registers of the back (:class:`~rtl.streams.StreamUnit`'s ``in_stages``): the corner words leave the
+#: texel caches' banks (block RAM words, unregistered, through the bank multiplexer), and the routed Berlin wall
+#: engine's slowest paths ran from them through the blends' texel differences into their multipliers
+#: (``docs/fpga/placement-texcache.json``).
+BACK_IN_STAGES = 1
 #: Request fields of a map's footprint (``rtl.texcache_decoupled.request_layout``) the front computes.
 CORNERS = ("x0", "x1", "y0", "y1")
 
@@ -168,10 +170,9 @@ class BackParams:
         return self.pipeline.outputs
 
     def blend_latency(self, name: str) -> int:
-        """Cycles from a map's texels to its blended channels: the words registered as they arrive
-        (:data:`WORDS_STAGES`), then the sampler's stages after its texels."""
+        """Cycles from a map's texels to its blended channels: the sampler's stages after its texels arrive."""
         smp = getattr(self.pipeline, name)
-        return WORDS_STAGES + smp.latency - texel_stages(smp)
+        return smp.latency - texel_stages(smp)
 
     @cached_property
     def schedule(self) -> dict:
@@ -272,22 +273,18 @@ class Back(UnitComponent):
             sp = Pipe(m, f"{name}_", platform, pipe.sources)
             wb = smp.params.word_bits
 
-            ports = [q[0] for q in texture_ports(P) if q[1] == name]
-            arrived = sp.stage(**{f"{port}_texels": getattr(self, f"{port}_texels") for port in ports},
-                               **{w.name: getattr(self, w.name) for w in _weights(P, name)})
-
-            def corners(port, wb=wb, arrived=arrived):
-                words = getattr(arrived, f"{port}_texels")
+            def corners(port, wb=wb):
+                words = getattr(self, f"{port}_texels")
                 return [words[k * wb:(k + 1) * wb] for k in range(4)]
 
             if smp.params.trilinear:                        # the level caches' texels, memory p = parity p
+                ports = [q[0] for q in texture_ports(P) if q[1] == name]
                 data_ = {(p, n): w for p, port in enumerate(ports) for n, w in enumerate(corners(port))}
-                wts = SimpleNamespace(**{f"f{a}{p}": getattr(arrived, f"{name}_f{a}{p}") for p in (0, 1)
-                                         for a in "xy"},
-                                      g=getattr(arrived, f"{name}_g"), odd=getattr(arrived, f"{name}_odd"))
+                wts = SimpleNamespace(**{f"f{a}{p}": getattr(self, f"{name}_f{a}{p}") for p in (0, 1) for a in "xy"},
+                                      g=getattr(self, f"{name}_g"), odd=getattr(self, f"{name}_odd"))
                 outs = blends(smp, sp, data_, wts)
             elif smp.params.bilinear:
-                w = SimpleNamespace(fx=getattr(arrived, f"{name}_fx"), fy=getattr(arrived, f"{name}_fy"))
+                w = SimpleNamespace(fx=getattr(self, f"{name}_fx"), fy=getattr(self, f"{name}_fy"))
                 outs = smp.blend(sp, corners(name), w)
             else:
                 outs = {n: smp._channel(corners(name)[0], k) for k, n in enumerate(smp.params.out_names)}
@@ -342,7 +339,7 @@ class FetchPipeline(wiring.Component):
         m = Module()
         m.submodules.front = front = StreamUnit(self.front, self.side)
         m.submodules.fetch = fetch = self.fetch
-        m.submodules.back = back = StreamUnit(self.back, self.side)
+        m.submodules.back = back = StreamUnit(self.back, self.side, in_stages=BACK_IN_STAGES)
         wiring.connect(m, wiring.flipped(self.i), front.i)
         wiring.connect(m, back.o, wiring.flipped(self.o))
         wiring.connect(m, wiring.flipped(self.mem), fetch.mem)

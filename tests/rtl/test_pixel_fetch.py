@@ -11,7 +11,7 @@ import pytest
 from amaranth.hdl import Shape
 
 from fxmodel.units.texcache import TexCacheParams
-from rtl.pixel_fetch import CORNERS, WORDS_STAGES, BackParams, FetchPipeline, FrontParams
+from rtl.pixel_fetch import CORNERS, BackParams, FetchPipeline, FrontParams
 from rtl.sampler import texel_stages
 from rtl.texcache_decoupled import request_layout
 from rtl.texfetch import MAPS
@@ -32,7 +32,7 @@ def test_back_keeps_the_flat_schedule_shifted(engine):
     T = P.stage_latency
     shift = back.schedule["samples"] - T["samples"]
     assert all(back.schedule[k] - T[k] == shift for k in back.schedule)
-    assert back.schedule["samples"] == max(WORDS_STAGES + s.latency - texel_stages(s) for s in (P.bump_map, P.texture))
+    assert back.schedule["samples"] == max(s.latency - texel_stages(s) for s in (P.bump_map, P.texture))
     assert back.latency == back.schedule["out"]
 
 
@@ -85,7 +85,7 @@ def test_mip_halves_have_a_request_per_level_cache(mip_engine):
     for port in ("texture_even", "texture_odd"):
         assert {f"{port}_{c}" for c in CORNERS + ("surface", "skip")} <= outs
         assert f"{port}_texels" in {p.name for p in back.inputs}
-    assert back.blend_latency("texture") == WORDS_STAGES + P.texture.latency - texel_stages(P.texture)
+    assert back.blend_latency("texture") == P.texture.latency - texel_stages(P.texture)
     assert not {"Ucx", "Wy"} & {p.name for p in back.inputs}
     from rtl.verilog import component_verilog
     for half in (front, back):
@@ -101,3 +101,14 @@ def test_engine_ports(engine):
     with pytest.raises(ValueError, match="^caches="):
         FetchPipeline(engine.pipeline, dict(reversed(engine.texture_caches().items())), engine.texture_layout())
     assert set(fp.carry.members) == {p.name for p in fp.back.inputs if not p.name.endswith("_texels")}
+
+
+
+def test_the_back_registers_the_texels_as_they_arrive(engine):
+    """The caches' words (block RAM outputs through the bank multiplexer) reach the back's first stage, the texel
+    differences, from registers: the back's stream unit has its input registers, and its latency counts them."""
+    from rtl.pixel_fetch import BACK_IN_STAGES
+    fp = FetchPipeline(engine.pipeline, engine.texture_caches(), engine.texture_layout())
+    back, _ = fp.elaborate(None)._named_submodules["back"]
+    assert back.params == fp.back and back.in_stages == BACK_IN_STAGES >= 1
+    assert back.latency == fp.back.latency + BACK_IN_STAGES

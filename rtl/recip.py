@@ -218,11 +218,11 @@ class Recip(UnitComponent):
 
     Latency: ``params.latency`` = 2 t + 4 cycles (t >= 2) plus one per product wider than one DSP block
     (``split_products``: its partial products get a stage of their own) and one more for a split ``B d``
-    (``settled_products``: its partials registered twice, as its sum feeds the next product), 6 for t = 1. Stages: magnitude | leading-zero
-    count | normalizing shift | table ROM read and ``d`` | ``q = B d`` | t - 2 Horner steps, each a product stage then
-    an add stage | ``B g`` | add and round | renormalize and sign. Each stage holds at most one carry chain or one
-    product
-    (ECP5 speed grade 8: about 150 MHz for ``default``, see ``bumpmap fpga``).
+    (``settled_products``: its partials registered twice, as its sum feeds the next product), 6 for t = 1.
+    Stages: magnitude | leading-zero count | normalizing shift | table ROM read and ``d`` | ``q = B d`` | t - 2
+    Horner steps, each a product stage then an add stage | ``B g`` | add and round | renormalize and sign. Each
+    stage holds at most one carry chain or one product (ECP5 speed grade 8: about 150 MHz for ``default``, see
+    ``bumpmap fpga``).
     """
 
     def elaborate(self, platform):

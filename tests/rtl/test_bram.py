@@ -92,10 +92,23 @@ def test_the_comparison_catches_a_block_without_its_output_register(tmp_path):
     assert done and int(done[1]) > 0, out
 
 
+def _default_cube():
+    """A bordered cube of the default 64-texel faces: banks of 6534 words, deeper than every port."""
+    import numpy as np
+
+    from fxmodel.units.sampler import Texels
+    border = preset("sampler", "border")
+    return border.replace(texels=Texels(np.random.default_rng(64).integers(0, 4096, size=(6, 66, 66, 3))))
+
+
 @needs_icarus
-def test_a_banked_sampler_equals_its_fabric_form_on_every_clock(tmp_path):
-    params = preset("sampler", "border")              # faces 6 and 7 lie beyond its banks: drawn from 0..5
-    assert params.banked
+@pytest.mark.parametrize("which", ["border", "default cube"])
+def test_a_banked_sampler_equals_its_fabric_form_on_every_clock(tmp_path, which):
+    params = preset("sampler", "border") if which == "border" else _default_cube()
+    assert params.banked                              # faces 6 and 7 lie beyond its banks: drawn from 0..5
+    if which != "border":
+        (bank,) = params.memories()
+        assert bank.words == 6534 and bram.blocks(bank.words, bank.bits) == 7 * 2
     ref = verilog_text(params, "fab", flat=True)
     alt = verilog_text(params, "blk", flat=True, platform=dsp.ECP5)
     assert "DP16KD" in alt and "DP16KD" not in ref

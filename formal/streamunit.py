@@ -94,6 +94,7 @@ def stream_unit(params, *, kind: str = "proof", wrap=None) -> Harness:
     h.check(~(fifo.w_en & fifo.w_rdy) | (fifo.w_data[-t:] == (n_out + level)[:t]), "fifo_write_seq")
     h.check(~fifo.r_rdy | (fifo.r_data[-t:] == n_out), "fifo_read_seq", assume=True)
     h.check(whitebox.signal(frag, "fifo_nonempty", pre) == fifo.r_rdy, "nonempty_register_agrees")
+    h.check(whitebox.signal(frag, "room", pre) == (whitebox.signal(frag, "used", pre) < depth), "room_register_agrees")
     # reachability: a full FIFO with the input held off, the longest stall released, a wrap of the numbers
     run = Signal(range(depth + 2), name="f_run")
     with m.If(dut.o.valid & ~dut.o.ready):

@@ -12,14 +12,14 @@ pipeline (section 4) takes one fragment per clock from the scan converter; whate
   a field ``side`` when a sideband layout is given: data carried alongside the fragment with the unit's latency
   (the pixel's x, y and depth, for example), untouched.
 - Design: the unit's flat pipeline runs free, with no stage enable, and a first-word-fall-through FIFO of
-  :func:`buffer_depth` ``= params.latency + 1`` results sits at its output. A counter ``used`` counts the results
-  in flight and in the FIFO; ``i.ready`` is ``used < buffer_depth`` (a register, equal to that compare on every
-  clock: it does not depend on ``i.valid`` or on ``o.ready`` in the same clock), so every accepted input has a FIFO slot waiting for its result and nothing can
-  overflow. Neither the consumer's ``ready`` nor any enable reaches the pipeline's registers: Fmax is the flat
-  unit's. (The design before this one held every register of the pipeline under one stage enable, a flip-flop
-  with a fan-out of every register: on the pixel pipeline, 13 500 flip-flops, it alone was an 11 ns route and
-  held the fitted pipeline at 85 MHz.) The FIFO's memory has an asynchronous read port (LUT RAM on an FPGA;
-  no block RAM or multiplier), the sideband rides a shift register beside the pipeline.
+  :func:`buffer_depth` ``= params.latency + 1`` results sits at its output. A counter ``used`` counts the results in
+  flight and in the FIFO; ``i.ready`` is ``used < buffer_depth`` (a register, equal to that compare on every clock:
+  it does not depend on ``i.valid`` or on ``o.ready`` in the same clock), so every accepted input has a FIFO slot
+  waiting for its result and nothing can overflow. Neither the consumer's ``ready`` nor any enable reaches the
+  pipeline's registers: Fmax is the flat unit's. (The design before this one held every register of the pipeline
+  under one stage enable, a flip-flop with a fan-out of every register: on the pixel pipeline, 13 500 flip-flops, it
+  alone was an 11 ns route and held the fitted pipeline at 85 MHz.) The FIFO's memory has an asynchronous read port
+  (LUT RAM on an FPGA; no block RAM or multiplier), the sideband rides a shift register beside the pipeline.
 - Timing: while the FIFO is empty, the result in the pipeline's last stage goes straight to ``o`` (``o.valid =``
   the last stage's valid), so without stalls the latency is ``params.latency`` and one result flows per clock
   (``used`` stays at the latency, below the depth). A result that ``o`` does not take in the cycle it appears,

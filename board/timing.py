@@ -51,15 +51,26 @@ def _endpoint_kind(port: str) -> str:
 
 def _endpoint_unit(cell: str, prefixes: tuple) -> str:
     """The design unit an endpoint belongs to: its cell's hierarchy with ``prefixes`` (wrappers, in order)
-    removed, without the cell itself (``system.engine.pipeline.core.unit.diffuse.s5_b1_...`` -> ``diffuse``)."""
+    removed, without the cell itself (``system.engine.pipeline.core.unit.diffuse.s5_b1_...`` -> ``diffuse``). A
+    cell with no hierarchy left whose name is a stage register of a pipe with a prefix (``rtl.unit.Pipe``:
+    ``texture_s2_pb2_mult``, a sampler's blend built inside the back of ``rtl/pixel_fetch.py``) belongs to the
+    prefix's unit (``texture``)."""
     path = cell.lstrip("\\")
     for prefix in prefixes:
         path = path[len(prefix):] if path.startswith(prefix) else path
-    parts = path.split(".")[:-1]
+    parts = path.split(".")
+    name, parts = parts[-1], parts[:-1]
     # LUT RAM bits and block-RAM slices carry numeric path parts (``rows.storage.0.105``): the memory's name
     while parts and parts[-1].isdigit():
         parts.pop()
-    return ".".join(p for p in parts if p != "storage") or "(top)"
+    unit = ".".join(p for p in parts if p != "storage")
+    if not unit and (pipe := _PIPE_STAGE.match(name)):
+        return pipe[1]
+    return unit or "(top)"
+
+
+#: A stage register of a pipe with a prefix (``rtl.unit.Pipe``: ``{prefix}s{stage}_{name}``), the prefix's unit.
+_PIPE_STAGE = re.compile(r"([A-Za-z][A-Za-z0-9]*?(?:_[A-Za-z][A-Za-z0-9]*?)*?)_s\d+_")
 
 
 def timing_misses(report: dict, clock: str, period_ns: float, prefixes: tuple = (), worst: int = 25) -> dict:

@@ -115,7 +115,8 @@ def stream_unit(params, *, kind: str = "proof", wrap=None) -> Harness:
 def stream_counts(h: Harness, params, dut, frag, pre: str) -> SimpleNamespace:
     """The counts of a :class:`~rtl.streams.StreamUnit` ``dut`` (at path ``pre``, ``""`` or ending in ``/``, of
     ``frag``) that need no sideband: transfers in - out (``out``) = ``used`` = FIFO level + the delay line's valid
-    bits, never above the FIFO's depth; no output without an input; rule 3 as a bound. Returns the counters."""
+    bits, never above the FIFO's depth, the room register (``i.ready``) equal to ``used < depth``; no output
+    without an input; rule 3 as a bound. Returns the counters."""
     m = h.m
     unit = dut
     while not hasattr(unit, "in_stages"):       # a broken variant's wrapper (formal/broken.py) around the StreamUnit
@@ -133,6 +134,7 @@ def stream_counts(h: Harness, params, dut, frag, pre: str) -> SimpleNamespace:
     h.check(out <= depth, "o_capacity")
     h.check(~x_out | (out != 0), "o_no_dup")
     h.check(used == out, "o_used")
+    h.check(whitebox.signal(frag, "room", pre) == (used < depth), "room_register_agrees")    # i.ready, a register
     # the delay line counted without counting its valid bits (a population count defeats the solver at latency
     # 74): a ghost line g beside the delay line, g[0] the inputs accepted so far, g[k] = g[k - 1] one cycle ago.
     # Stage k holds the input accepted k cycles ago, so g[k - 1] - g[k] is stage k's valid bit (its number, in a

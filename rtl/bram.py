@@ -7,17 +7,20 @@ it (the clock-to-out of a register). Yosys never uses the output register (its `
 ``REGMODE`` to ``NOREG``), so the register after a read stays in the fabric, a route away from the block, and a
 memory deeper than the widest port that holds it gets a multiplexer of Yosys' own between the blocks and that
 register: the samplers' texel words into their bank registers were among the board's slowest paths (``bumpmap
-bitstream --misses``).
+bitstream --misses``), and the default 64-texel cubes' banks (6534 words, deeper than any port) among the routed
+engines' (``docs/fpga/placement.json``).
 
 What: :class:`RegisteredMemory` is ``depth`` words of ``width`` bits with one synchronous read port whose word is
 registered once more (``r_data`` holds the word at ``r_addr`` of two clocks before) and one write port (``w_en``,
 ``w_addr``, ``w_data``: the word is there for reads from the next clock on; a read of the word being written gives
-the word before the write). On an ECP5 platform (:func:`rtl.dsp.uses_blocks`) with ``depth`` at most the deepest
-port kept here (:data:`PORTS`), and too large to stay in logic (the cost model's rule, which Yosys' follows), it
-is built of ``DP16KD`` blocks side by side, each holding every word of a column of :func:`port_width` bits (so no
-multiplexer follows them), written through port A and read through port B with the block's output register as
-the register. Otherwise (simulation, co-simulation, a deeper memory) it is
-an Amaranth ``Memory`` and a register: the same function, clock for clock.
+the word before the write). On an ECP5 platform (:func:`rtl.dsp.uses_blocks`), when too large to stay in logic
+(the cost model's rule, which Yosys' follows), it is built of ``DP16KD`` blocks of one port of :data:`PORTS`
+(:func:`fxmodel.core.cost.registered_shape`): side by side, each holding every word of a column of the port's
+bits, written through port A and read through port B with the block's output register as the register; a memory
+deeper than the port is groups of such columns, each the port's words, written where the write address' top bits
+select, and a multiplexer after the output registers picks the group the read address' top bits (registered
+with the read) select: the word leaves a register, not a block's array. Otherwise (simulation, co-simulation)
+it is an Amaranth ``Memory`` and a register: the same function, clock for clock.
 
 The blocks' initial contents (``INITVAL_00`` to ``INITVAL_3F``) follow the layout Yosys' own ``DP16KD`` mapping
 writes (``tests/rtl/test_bram.py`` checks them against Yosys' for the same contents), and :data:`MODEL`, a
@@ -29,17 +32,17 @@ from __future__ import annotations
 
 from types import SimpleNamespace
 
-from amaranth.hdl import ClockSignal, Const, Instance, Module, ResetSignal, Signal
+from amaranth.hdl import ClockSignal, Const, Instance, Module, Mux, ResetSignal, Signal
 from amaranth.lib import wiring
 from amaranth.lib.memory import Memory
 from amaranth.lib.wiring import In, Out
 
-from fxmodel.core.cost import REGISTERED_PORTS, in_logic, registered_port_width
+from fxmodel.core.cost import REGISTERED_PORTS, in_logic, registered_shape
 from fxmodel.core.cost import Memory as CostMemory
 
 from .dsp import uses_blocks
 
-__all__ = ["PORTS", "ROW_BITS", "port_width", "blocks", "init_values", "RegisteredMemory", "MODEL"]
+__all__ = ["PORTS", "ROW_BITS", "blocks", "init_values", "RegisteredMemory", "MODEL"]
 
 #: The ``DP16KD`` port shapes used, ``(words, bits)`` (:data:`fxmodel.core.cost.REGISTERED_PORTS`).
 PORTS = REGISTERED_PORTS
@@ -47,36 +50,33 @@ PORTS = REGISTERED_PORTS
 #: Bits of one row of the block's initial contents (``INITVAL_xx``: 16 rows of 20 bits, 18 used, in each of 64).
 ROW_BITS = 18
 
-#: The widest port of :data:`PORTS` holding a depth, or ``None`` when none does.
-port_width = registered_port_width
-
-
-def blocks(depth: int, width: int) -> int | None:
-    """``DP16KD`` blocks of a :class:`RegisteredMemory` on an ECP5 (one per column), ``None`` when it is too deep
-    for :data:`PORTS` (then Yosys maps it, without the output register)."""
-    w = port_width(depth)
-    return None if w is None else -(-width // w)
+def blocks(depth: int, width: int) -> int:
+    """``DP16KD`` blocks of a :class:`RegisteredMemory` on an ECP5 (its groups of columns)."""
+    _, w, groups = registered_shape(depth, width)
+    return groups * -(-width // w)
 
 
 def init_values(init, width: int, depth: int) -> list[list[int]]:
-    """For each block of a :class:`RegisteredMemory` (column ``j``: bits ``[j w, (j + 1) w)`` of every word), its 64
-    ``INITVAL_xx`` values: word ``k``'s column at bit ``k w`` of the 18432-bit contents, which row ``r`` (18 bits)
-    of ``INITVAL_{r // 16}`` holds at bit ``20 (r % 16)``."""
-    w = port_width(depth)
-    init = list(init) + [0] * (depth - len(init))
+    """For each block of a :class:`RegisteredMemory` (group ``g``, column ``j``, in that order: bits ``[j w, (j + 1)
+    w)`` of words ``[g D, (g + 1) D)``, ``D`` the port's words), its 64 ``INITVAL_xx`` values: the group's word
+    ``k``'s column at bit ``k w`` of the 18432-bit contents, which row ``r`` (18 bits) of ``INITVAL_{r // 16}``
+    holds at bit ``20 (r % 16)``."""
+    D, w, groups = registered_shape(depth, width)
+    init = list(init) + [0] * (groups * D - len(init))
     out = []
-    for j in range(blocks(depth, width)):
-        flat = 0
-        for k, word in enumerate(init):
-            flat |= ((word >> (j * w)) & ((1 << w) - 1)) << (k * w)
-        vals = []
-        for idx in range(64):
-            v = 0
-            for i in range(16):
-                row = idx * 16 + i
-                v |= ((flat >> (row * ROW_BITS)) & ((1 << ROW_BITS) - 1)) << (20 * i)
-            vals.append(v)
-        out.append(vals)
+    for g in range(groups):
+        for j in range(-(-width // w)):
+            flat = 0
+            for k, word in enumerate(init[g * D:(g + 1) * D]):
+                flat |= ((word >> (j * w)) & ((1 << w) - 1)) << (k * w)
+            vals = []
+            for idx in range(64):
+                v = 0
+                for i in range(16):
+                    row = idx * 16 + i
+                    v |= ((flat >> (row * ROW_BITS)) & ((1 << ROW_BITS) - 1)) << (20 * i)
+                vals.append(v)
+            out.append(vals)
     return out
 
 
@@ -113,7 +113,7 @@ class RegisteredMemory(wiring.Component):
 
     def elaborate(self, platform):
         m = Module()
-        if uses_blocks(platform) and port_width(self.depth) is not None and not self.in_logic:
+        if uses_blocks(platform) and not self.in_logic:
             self._blocks(m)
             return m
         m.submodules.mem = mem = Memory(shape=self.width, depth=self.depth, init=self.init)
@@ -124,35 +124,57 @@ class RegisteredMemory(wiring.Component):
         return m
 
     def _blocks(self, m: Module) -> None:
-        w = port_width(self.depth)
+        D, w, groups = registered_shape(self.depth, self.width)
         low = 4 if w == 18 else 3                       # the word's address on ADx13..ADx4 (x18), ADx13..ADx3 (x9)
-        for j, vals in enumerate(init_values(self.init, self.width, self.depth)):
-            lo, hi = j * w, min(self.width, (j + 1) * w)
-            dob = Signal(w, name=f"{self.name}_col{j}_do")
-            ports = {"i_CLKA": ClockSignal("sync"), "i_CLKB": ClockSignal("sync"),
-                     "i_CEA": Const(1, 1), "i_CEB": Const(1, 1), "i_OCEA": Const(1, 1), "i_OCEB": Const(1, 1),
-                     "i_RSTA": Const(0, 1), "i_RSTB": ResetSignal("sync", allow_reset_less=True),
-                     "i_WEA": self.w_en, "i_WEB": Const(0, 1)}        # RSTB: the output register, as the domain's
-            for c in "AB":
-                for k in range(3):
-                    ports[f"i_CS{c}{k}"] = Const(0, 1)
-            for pin in range(14):
-                ports[f"i_ADA{pin}"] = self.w_addr[pin - low] if low <= pin < low + len(self.w_addr) else \
-                    Const(1 if w == 18 and pin < 2 else 0, 1)          # x18: ADA1..0 are the write's byte enables
-                ports[f"i_ADB{pin}"] = self.r_addr[pin - low] if low <= pin < low + len(self.r_addr) else \
-                    Const(0, 1)
-            for b in range(18):
-                ports[f"i_DIA{b}"] = self.w_data[lo + b] if b < hi - lo else Const(0, 1)
-                ports[f"i_DIB{b}"] = Const(0, 1)
-                if b < w:
-                    ports[f"o_DOB{b}"] = dob[b]
-            params = {"p_DATA_WIDTH_A": w, "p_DATA_WIDTH_B": w, "p_REGMODE_A": "NOREG", "p_REGMODE_B": "OUTREG",
-                      "p_RESETMODE": "SYNC", "p_ASYNC_RESET_RELEASE": "SYNC", "p_CSDECODE_A": "0b000",
-                      "p_CSDECODE_B": "0b000", "p_WRITEMODE_A": "NORMAL", "p_WRITEMODE_B": "NORMAL",
-                      "p_GSR": "DISABLED"}
-            params |= {f"p_INITVAL_{idx:02X}": Const(v, 320) for idx, v in enumerate(vals)}
-            m.submodules[f"col{j}"] = Instance("DP16KD", **params, **ports)
-            m.d.comb += self.r_data[lo:hi].eq(dob[:hi - lo])
+        abits = (D - 1).bit_length()                    # the address within a group; the top bits pick the group
+        cols = -(-self.width // w)
+        vals = init_values(self.init, self.width, self.depth)
+        words = []
+        for g in range(groups):
+            word = Signal(self.width, name=f"{self.name}_g{g}")
+            words.append(word)
+            w_en = self.w_en & (self.w_addr[abits:] == g) if groups > 1 else self.w_en
+            for j in range(cols):
+                self._block(m, f"g{g}c{j}" if groups > 1 else f"col{j}", w, low, w_en, j, vals[g * cols + j], word)
+        out = words[-1]
+        if groups > 1:
+            # the group read, registered twice: with the read (as the block's own read register, not reset),
+            # then with the output register
+            sel = Signal(range(groups), name=f"{self.name}_sel", reset_less=True)
+            sel_q = Signal(range(groups), name=f"{self.name}_sel_q")
+            m.d.sync += [sel.eq(self.r_addr[abits:]), sel_q.eq(sel)]
+            for g in reversed(range(groups - 1)):   # every group's output register reset to 0: so is the word
+                out = Mux(sel_q == g, words[g], out)
+        m.d.comb += self.r_data.eq(out)
+
+    def _block(self, m: Module, name: str, w: int, low: int, w_en, j: int, vals: list, word) -> None:
+        """The block of column ``j`` of one group, its output register's word into ``word``."""
+        lo, hi = j * w, min(self.width, (j + 1) * w)
+        dob = Signal(w, name=f"{self.name}_{name}_do")
+        ports = {"i_CLKA": ClockSignal("sync"), "i_CLKB": ClockSignal("sync"),
+                 "i_CEA": Const(1, 1), "i_CEB": Const(1, 1), "i_OCEA": Const(1, 1), "i_OCEB": Const(1, 1),
+                 "i_RSTA": Const(0, 1), "i_RSTB": ResetSignal("sync", allow_reset_less=True),
+                 "i_WEA": w_en, "i_WEB": Const(0, 1)}        # RSTB: the output register, as the domain's
+        for c in "AB":
+            for k in range(3):
+                ports[f"i_CS{c}{k}"] = Const(0, 1)
+        abits = min(len(self.r_addr), 14 - low)
+        for pin in range(14):
+            ports[f"i_ADA{pin}"] = self.w_addr[pin - low] if low <= pin < low + abits else \
+                Const(1 if w == 18 and pin < 2 else 0, 1)          # x18: ADA1..0 are the write's byte enables
+            ports[f"i_ADB{pin}"] = self.r_addr[pin - low] if low <= pin < low + abits else Const(0, 1)
+        for b in range(18):
+            ports[f"i_DIA{b}"] = self.w_data[lo + b] if b < hi - lo else Const(0, 1)
+            ports[f"i_DIB{b}"] = Const(0, 1)
+            if b < w:
+                ports[f"o_DOB{b}"] = dob[b]
+        params = {"p_DATA_WIDTH_A": w, "p_DATA_WIDTH_B": w, "p_REGMODE_A": "NOREG", "p_REGMODE_B": "OUTREG",
+                  "p_RESETMODE": "SYNC", "p_ASYNC_RESET_RELEASE": "SYNC", "p_CSDECODE_A": "0b000",
+                  "p_CSDECODE_B": "0b000", "p_WRITEMODE_A": "NORMAL", "p_WRITEMODE_B": "NORMAL",
+                  "p_GSR": "DISABLED"}
+        params |= {f"p_INITVAL_{idx:02X}": Const(v, 320) for idx, v in enumerate(vals)}
+        m.submodules[name] = Instance("DP16KD", **params, **ports)
+        m.d.comb += word[lo:hi].eq(dob[:hi - lo])
 
 
 def _model() -> str:

@@ -13,7 +13,8 @@ texture fetch (``rtl/texfetch.py``), three stream units in a row:
   :meth:`~fxmodel.pipeline.engine.EngineParams.texture_layout`, the lookup FIFOs carry the rest of the fragment
   (weights, inputs, flag and the caller's sideband);
 - **back** (:class:`BackParams`): both samplers' blends (:meth:`rtl.sampler.Sampler.blend`; trilinear:
-  :func:`rtl.sampler_mip.blends` on both level caches' texels) on the four corner texels the fetch returns, then
+  :func:`rtl.sampler_mip.blends` on both level caches' texels) on the four corner texels the fetch returns
+  (registered as they arrive, :data:`BACK_IN_STAGES`), then
   bump, reflection, cube addresses and lookups and shading, the schedule of
   :attr:`~fxmodel.pipeline.pixel.PipelineParams.stage_latency` shifted (:func:`rtl.pixel.shade_half`).
 
@@ -47,10 +48,15 @@ from .texcache_decoupled import request_layout
 from .texfetch import MAPS, TexFetch
 from .unit import Pipe, UnitComponent, register
 
-__all__ = ["FrontParams", "BackParams", "FetchPipeline", "CORNERS"]
+__all__ = ["FrontParams", "BackParams", "FetchPipeline", "CORNERS", "BACK_IN_STAGES"]
 
 #: Prefix of the fragment inputs the front hands on (an output may not share an input's name).
 CARRIED = "c_"
+#: Input registers of the back (:class:`~rtl.streams.StreamUnit`'s ``in_stages``): the corner words leave the
+#: texel caches' banks (block RAM words, unregistered, through the bank multiplexer), and the routed Berlin wall
+#: engine's slowest paths ran from them through the blends' texel differences into their multipliers
+#: (``docs/fpga/placement-texcache.json``).
+BACK_IN_STAGES = 1
 #: Request fields of a map's footprint (``rtl.texcache_decoupled.request_layout``) the front computes.
 CORNERS = ("x0", "x1", "y0", "y1")
 
@@ -333,7 +339,7 @@ class FetchPipeline(wiring.Component):
         m = Module()
         m.submodules.front = front = StreamUnit(self.front, self.side)
         m.submodules.fetch = fetch = self.fetch
-        m.submodules.back = back = StreamUnit(self.back, self.side)
+        m.submodules.back = back = StreamUnit(self.back, self.side, in_stages=BACK_IN_STAGES)
         wiring.connect(m, wiring.flipped(self.i), front.i)
         wiring.connect(m, back.o, wiring.flipped(self.o))
         wiring.connect(m, wiring.flipped(self.mem), fetch.mem)

@@ -321,8 +321,11 @@ class Raster(wiring.Component):
                  *(f"a_{n}" for n in P.names)]
         nonempty = ~s2.empty & (s2.L <= s2.R)
         s3 = pipe.stage(xl=(s2.x0 + s2.L)[:w], n=(s2.R - s2.L)[:w], nonempty=nonempty,
-                        single=~nonempty | (s2.L == s2.R), **({} if P.span_dsp else {"L": s2.L}), **_passing(s2, keep3))
-        offset = {n: kept_copy(m, s2.L, f"span_L_{n}") if P.span_dsp else s3.L for n in P.names}
+                        single=~nonempty | (s2.L == s2.R), **_passing(s2, keep3))
+        # a copy per attribute in logic too: each bit of L selects a copy of every bit of a_x, a fan-out of
+        # hundreds of LUTs from one register ahead of the carry-save levels (the fitted MIP engine's raster
+        # endpoints, ``docs/fpga/placement.json``)
+        offset = {n: kept_copy(m, s2.L, f"span_L_{n}") for n in P.names}
 
         # (4) the partial products a_x L
         parts, shifts = {}, {}

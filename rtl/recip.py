@@ -71,9 +71,9 @@ def product_stage(pipe: Pipe, products: dict, carry: dict, name: str = "pp"):
     return values, regs
 
 
-def split_product(pipe: Pipe, a, b, carry: dict, name: str = "pp"):
+def split_product(pipe: Pipe, a, b, carry: dict, name: str = "pp", settle: bool = False):
     """``(a * b, carry)``: :func:`split_products` of one product."""
-    totals, carry = split_products(pipe, {"": (a, b)}, carry, name)
+    totals, carry = split_products(pipe, {"": (a, b)}, carry, name, settle)
     return totals[""], carry
 
 
@@ -217,11 +217,12 @@ class Recip(UnitComponent):
     dbz : Signal(1), out -- ``w`` was zero (``mant``, ``exp`` then the largest magnitude)
 
     Latency: ``params.latency`` = 2 t + 4 cycles (t >= 2) plus one per product wider than one DSP block
-    (``split_products``: its partial products get a stage of their own), 6 for t = 1. Stages: magnitude | leading-zero
-    count | normalizing shift | table ROM read and ``d`` | ``q = B d`` | t - 2 Horner steps, each a product stage then
-    an add stage | ``B g`` | add and round | renormalize and sign. Each stage holds at most one carry chain or one
-    product
-    (ECP5 speed grade 8: about 150 MHz for ``default``, see ``bumpmap fpga``).
+    (``split_products``: its partial products get a stage of their own) and one more for a split ``B d``
+    (``settled_products``: its partials registered twice, as its sum feeds the next product), 6 for t = 1.
+    Stages: magnitude | leading-zero count | normalizing shift | table ROM read and ``d`` | ``q = B d`` | t - 2
+    Horner steps, each a product stage then an add stage | ``B g`` | add and round | renormalize and sign. Each
+    stage holds at most one carry chain or one product (ECP5 speed grade 8: about 150 MHz for ``default``, see
+    ``bumpmap fpga``).
     """
 
     def elaborate(self, platform):
@@ -258,7 +259,8 @@ class Recip(UnitComponent):
             # Each product below gets one more stage when split_product cuts it into partial products
             # (an operand wider than one DSP block; RecipParams.split_products counts them).
             # q = B d (B truncated to bq bits)
-            prod, c = split_product(pipe, B[P.b - P.bq:], s4.d, dict(B=B, **flags), "pd")
+            prod, c = split_product(pipe, B[P.b - P.bq:], s4.d, dict(B=B, **flags), "pd",
+                                    settle=bool(P.settled_products))
             q, _ = narrow(prod, P.bq - 1 + P.fd, P.q_fmt, Rounding.TRUNC, Overflow.PROVEN)
             s = pipe.stage(q=q, **c)
             g = s.q

@@ -12,14 +12,14 @@ pipeline (section 4) takes one fragment per clock from the scan converter; whate
   a field ``side`` when a sideband layout is given: data carried alongside the fragment with the unit's latency
   (the pixel's x, y and depth, for example), untouched.
 - Design: the unit's flat pipeline runs free, with no stage enable, and a first-word-fall-through FIFO of
-  :func:`buffer_depth` ``= params.latency + 1`` results sits at its output. A counter ``used`` counts the results
-  in flight and in the FIFO; ``i.ready`` is ``used < buffer_depth`` (registers only: it does not depend on
-  ``i.valid`` or on ``o.ready``), so every accepted input has a FIFO slot waiting for its result and nothing can
-  overflow. Neither the consumer's ``ready`` nor any enable reaches the pipeline's registers: Fmax is the flat
-  unit's. (The design before this one held every register of the pipeline under one stage enable, a flip-flop
-  with a fan-out of every register: on the pixel pipeline, 13 500 flip-flops, it alone was an 11 ns route and
-  held the fitted pipeline at 85 MHz.) The FIFO's memory has an asynchronous read port (LUT RAM on an FPGA;
-  no block RAM or multiplier), the sideband rides a shift register beside the pipeline.
+  :func:`buffer_depth` ``= params.latency + 1`` results sits at its output. A counter ``used`` counts the results in
+  flight and in the FIFO; ``i.ready`` is ``used < buffer_depth`` (a register, equal to that compare on every clock:
+  it does not depend on ``i.valid`` or on ``o.ready`` in the same clock), so every accepted input has a FIFO slot
+  waiting for its result and nothing can overflow. Neither the consumer's ``ready`` nor any enable reaches the
+  pipeline's registers: Fmax is the flat unit's. (The design before this one held every register of the pipeline
+  under one stage enable, a flip-flop with a fan-out of every register: on the pixel pipeline, 13 500 flip-flops, it
+  alone was an 11 ns route and held the fitted pipeline at 85 MHz.) The FIFO's memory has an asynchronous read port
+  (LUT RAM on an FPGA; no block RAM or multiplier), the sideband rides a shift register beside the pipeline.
 - Timing: while the FIFO is empty, the result in the pipeline's last stage goes straight to ``o`` (``o.valid =``
   the last stage's valid), so without stalls the latency is ``params.latency`` and one result flows per clock
   (``used`` stays at the latency, below the depth). A result that ``o`` does not take in the cycle it appears,
@@ -148,7 +148,7 @@ class StreamUnit(wiring.Component):
     -----
     i : ``In(stream.Signature(input_layout(params, side)))``
         ``i.payload.<input>`` in the input's format (e.g. ``i.payload.w`` in ``RecipParams.in_fmt``);
-        ``i.ready`` depends on registers only (the results in flight and buffered), not on ``i.valid``.
+        ``i.ready`` is a register (room for the results in flight and buffered), not a function of ``i.valid``.
     o : ``Out(stream.Signature(output_layout(params, side)))``
         ``o.payload.<output>`` in the output's format; the result of the input accepted ``params.latency``
         cycles earlier when nothing stalled.
@@ -172,14 +172,21 @@ class StreamUnit(wiring.Component):
         depth = buffer_depth(self.params, self.in_stages)
         lay = output_layout(self.params, self.side)
         m.submodules.fifo = fifo = SyncFIFO(width=lay.size, depth=depth)
-        used = Signal(range(depth + 1))                   # results in flight and in the FIFO
+        used = Signal(range(depth + 1), name="used")      # results in flight and in the FIFO
         take_in = self.i.valid & self.i.ready
         valid, payload = take_in, self.i.payload.as_value()
         for k in range(1, self.in_stages + 1):            # the input registers (``in_stages``)
             v, p = Signal(name=f"in{k}_valid"), Signal(len(payload), name=f"in{k}_payload")
             m.d.sync += [v.eq(valid), p.eq(payload)]
             valid, payload = v, p
-        m.d.comb += [self.i.ready.eq(used < depth), core.i_valid.eq(valid), core.i_payload.eq(payload)]
+        # ``i.ready`` is a register equal on every clock to ``used < depth`` (the formal set checks it), the
+        # compares on ``used`` side by side and the handshakes choosing at the last level: the compare and its
+        # route led into the producer's read enables (the texel caches' lookup FIFOs before the back of
+        # ``rtl/pixel_fetch.py``: ``docs/fpga/placement-texcache.json``)
+        room = Signal(name="room", init=1)
+        take_out = self.o.valid & self.o.ready
+        m.d.sync += room.eq(Mux(take_out, 1, Mux(take_in, used < depth - 1, room)))
+        m.d.comb += [self.i.ready.eq(room), core.i_valid.eq(valid), core.i_payload.eq(payload)]
         # the last stage's result goes straight out while the FIFO is empty, else the FIFO's oldest. Whether it
         # is empty is a register of its own, kept beside the FIFO's level (equal to ``~fifo.r_rdy``: the formal
         # set checks it): ``r_rdy`` is a compare of the level, and through the output multiplexer it led into the

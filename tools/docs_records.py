@@ -269,7 +269,10 @@ def fpga_resources() -> str:
 
 def misses_tables(m: dict) -> str:
     """The endpoints of a clock that missed its period (``bumpmap bitstream --misses``, ``bumpmap fpga
-    --misses``): how many, by unit, by kind, and the worst, one per register."""
+    --misses``): how many, by unit, by kind, and the worst, one per register; none, one sentence."""
+    if not m["endpoints"]:
+        return (f"No endpoint of `{m['clock']}` arrives later than its period, {m['period_ns']:g} ns (nextpnr's "
+                "per-net timing; a register's setup time is not in it).\n")
     units = md_table(["unit", "endpoints"], [[f"`{u}`", n] for u, n in m["by_unit"].items()], col_align("lr"))
     kinds = md_table(["endpoint", "endpoints"], [[k, n] for k, n in m["by_kind"].items()], col_align("lr"))
     worst = md_table(["arrival (ns)", "unit", "register", "pin"],

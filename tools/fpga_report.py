@@ -95,8 +95,10 @@ def placement_fmax(log: str) -> dict:
 
 
 #: The hierarchy above a pipeline's units, left out of the units of its missed endpoints (as the board's
-#: ``board.top.UNIT_PREFIXES``): ``pipeline.core.unit.diffuse`` is ``diffuse``; ``pipeline.fetch.bump_map`` stays.
-MISS_PREFIXES = ("pipeline.core.unit.",)
+#: ``board.top.UNIT_PREFIXES``): ``pipeline.core.unit.diffuse`` is ``diffuse``, and so is the split pipeline's
+#: ``pipeline.back.core.unit.diffuse`` (``rtl/pixel_fetch.py``: its front and back, the samplers' stages inside
+#: them named by their pipes, ``board.timing``); ``pipeline.fetch.bump_map`` stays.
+MISS_PREFIXES = ("pipeline.core.unit.", "pipeline.front.core.unit.", "pipeline.back.core.unit.")
 
 
 def parse_run(rdir: Path) -> dict:

@@ -30,7 +30,7 @@ import math
 from dataclasses import dataclass, replace
 
 __all__ = ["DSP_BITS", "LOGIC_PRODUCT_BITS", "DP16KD_SHAPES", "REGISTERED_PORTS", "LOGIC_ROM_BITS_PER_BLOCK",
-           "MEMORY_KINDS", "Product", "Memory", "pieces", "piece_pairs", "mult_blocks", "registered_port_width",
+           "MEMORY_KINDS", "Product", "Memory", "pieces", "piece_pairs", "mult_blocks", "registered_shape",
            "blocks_in_bram", "in_logic", "bram_blocks", "estimate"]
 
 #: Widest operand of one ECP5 multiplier block (MULT18X18D, signed or unsigned operands).
@@ -47,9 +47,9 @@ MEMORY_KINDS = ("table", "texels", "frame")
 DP16KD_SHAPES = ((16384, 1), (8192, 2), (4096, 4), (2048, 9), (1024, 18), (512, 36))
 
 #: The DP16KD ports of a memory read through its blocks' own output registers (``rtl/bram.py``), ``(words,
-#: bits)``: for a depth the port with the most bits, every word of a column in one block (no multiplexer after the
-#: blocks). The 36-bit port needs the pseudo-dual-port block, and the narrower ones a layout of the blocks' initial
-#: contents not checked against Yosys' (``tests/rtl/test_bram.py``); deeper memories are left to Yosys.
+#: bits)``: a memory is columns of one port's bits, and when deeper than the port, groups of such columns, each
+#: group the port's words (:func:`registered_shape`). The 36-bit port needs the pseudo-dual-port block, and the
+#: narrower ones a layout of the blocks' initial contents not checked against Yosys' (``tests/rtl/test_bram.py``).
 REGISTERED_PORTS = ((1024, 18), (2048, 9))
 
 #: A ROM stays in logic (LUTs) when it has at most this many bits per block RAM it would take: Yosys'
@@ -128,8 +128,8 @@ class Memory:
     name : str
         What it holds (for reports).
     registered : bool
-        Read through its blocks' own output registers (``rtl/bram.py``): on an ECP5, columns of the
-        :data:`REGISTERED_PORTS` port that holds its depth, one block each, when one does.
+        Read through its blocks' own output registers (``rtl/bram.py``): on an ECP5, the groups of columns of
+        :func:`registered_shape`.
     """
 
     words: int
@@ -152,7 +152,7 @@ class Memory:
 
     def times(self, k: int) -> Memory:
         """The same memory ``k`` times as often."""
-        return Memory(self.words, self.bits, self.read_ports, self.rom, self.count * k, self.kind, self.name)
+        return replace(self, count=self.count * k)
 
 
 def pieces(width: int, signed: bool, limit: int = DSP_BITS) -> list[tuple[int, int, bool]]:
@@ -214,18 +214,26 @@ def mult_blocks(products) -> int:
     return sum(p.count * sum(_yosys_blocks(*pair) for pair in piece_pairs(p)) for p in products)
 
 
-def registered_port_width(words: int) -> int | None:
-    """The bits of the :data:`REGISTERED_PORTS` port holding ``words`` words, ``None`` when none does."""
-    return next((bits for depth, bits in REGISTERED_PORTS if words <= depth), None)
+def registered_shape(words: int, bits: int) -> tuple[int, int, int]:
+    """How ``rtl/bram.py`` builds a memory of ``words`` words of ``bits`` bits read through its blocks' output
+    registers: ``(port words, port bits, groups)``, the :data:`REGISTERED_PORTS` port with the fewest blocks
+    (``groups`` of ``ceil(bits / port bits)`` columns, each group ``port words`` of the words), on a tie the fewer
+    groups (a smaller multiplexer after the blocks)."""
+    def key(port):
+        depth, width = port
+        groups = math.ceil(words / depth)
+        return groups * math.ceil(bits / width), groups
+    depth, width = min(REGISTERED_PORTS, key=key)
+    return depth, width, math.ceil(words / depth)
 
 
 def blocks_in_bram(mem: Memory) -> int:
     """DP16KD blocks of one memory (``count`` 1) put in block RAM: the cheapest shape, or for a
-    :attr:`~Memory.registered` one the columns of its :func:`registered_port_width`; one copy per two read
+    :attr:`~Memory.registered` one its :func:`registered_shape`'s groups of columns; one copy per two read
     ports."""
-    w = registered_port_width(mem.words) if mem.registered else None
-    if w is not None:
-        return math.ceil(mem.bits / w) * math.ceil(mem.read_ports / 2)
+    if mem.registered:
+        _, w, groups = registered_shape(mem.words, mem.bits)
+        return groups * math.ceil(mem.bits / w) * math.ceil(mem.read_ports / 2)
     return min(math.ceil(mem.words / d) * math.ceil(mem.bits / w) for d, w in DP16KD_SHAPES) \
         * math.ceil(mem.read_ports / 2)
 

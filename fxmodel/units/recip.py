@@ -277,6 +277,15 @@ class RecipParams(Unit):
         pipeline stage each (``rtl/recip.py``)."""
         return sum(max(a, b) > self.DSP_BITS for _, a, b in self.product_operands())
 
+    @property
+    def settled_products(self) -> int:
+        """Split multipliers whose sum is another multiplier's operand: ``B*d`` (its ``q`` feeds the Horner steps,
+        or ``B*g`` when ``t = 2``), when split. The RTL registers its partial products twice (in the multiplier
+        blocks, then in the fabric near their sum), one more stage: the routed MIP engine's slowest path ran from
+        the blocks' outputs through the sum's carry chain into the next blocks' input registers
+        (``docs/fpga/placement.json``). The other products' sums go into the fabric."""
+        return int(self.t >= 2 and max(self.product_operands()[0][1:]) > self.DSP_BITS)
+
     def times_split(self, width: int) -> int:
         """Extra stages of ``x * mant`` for a ``width``-bit ``x`` (the users of ``1/w``: divider, perspective
         coordinates, cube address): 2 when an operand is wider than :attr:`DSP_BITS` (the RTL registers the
@@ -323,11 +332,12 @@ class RecipParams(Unit):
     def latency(self) -> int:
         """Stages: magnitude | leading-zero count | normalizing shift | table read | [q | t-2 Horner steps of two
         stages each (product, then add) | B*g] | sum and round | renormalize and sign: 6 for ``t = 1``,
-        ``2 t + 4`` for ``t >= 2``, plus one stage for each of the :attr:`split_products` (partial products).
+        ``2 t + 4`` for ``t >= 2``, plus one stage for each of the :attr:`split_products` (partial products) and
+        one for each of the :attr:`settled_products`.
 
         Each stage holds at most one carry chain or one 18x18 product (``rtl/recip.py``; ECP5 timing from
         ``bumpmap fpga``)."""
-        return 6 if self.t == 1 else 2 * self.t + 4 + self.split_products
+        return 6 if self.t == 1 else 2 * self.t + 4 + self.split_products + self.settled_products
 
     # -- the table ----------------------------------------------------------------------------------------
     @cached_property

@@ -66,8 +66,9 @@ def _equal_on_every_clock(out: str, cycles=CYCLES):
 
 
 #: (depth, width, initialised): one x18 block; four x9 columns of a 36-bit word; two x18 columns, the second
-#: narrow, written from empty (addresses are random over the whole address range, so the depths are powers of 2).
-SHAPES = [(1024, 18, True), (2048, 36, True), (512, 24, False)]
+#: narrow, written from empty; deeper than any port: two groups of two x9 columns, and four groups of three written
+#: from empty (addresses are random over the whole address range, so the depths are powers of 2).
+SHAPES = [(1024, 18, True), (2048, 36, True), (512, 24, False), (4096, 12, True), (8192, 20, False)]
 
 
 @needs_icarus
@@ -91,10 +92,23 @@ def test_the_comparison_catches_a_block_without_its_output_register(tmp_path):
     assert done and int(done[1]) > 0, out
 
 
+def _default_cube():
+    """A bordered cube of the default 64-texel faces: banks of 6534 words, deeper than every port."""
+    import numpy as np
+
+    from fxmodel.units.sampler import Texels
+    border = preset("sampler", "border")
+    return border.replace(texels=Texels(np.random.default_rng(64).integers(0, 4096, size=(6, 66, 66, 3))))
+
+
 @needs_icarus
-def test_a_banked_sampler_equals_its_fabric_form_on_every_clock(tmp_path):
-    params = preset("sampler", "border")              # faces 6 and 7 lie beyond its banks: drawn from 0..5
-    assert params.banked
+@pytest.mark.parametrize("which", ["border", "default cube"])
+def test_a_banked_sampler_equals_its_fabric_form_on_every_clock(tmp_path, which):
+    params = preset("sampler", "border") if which == "border" else _default_cube()
+    assert params.banked                              # faces 6 and 7 lie beyond its banks: drawn from 0..5
+    if which != "border":
+        (bank,) = params.memories()
+        assert bank.words == 6534 and bram.blocks(bank.words, bank.bits) == 7 * 2
     ref = verilog_text(params, "fab", flat=True)
     alt = verilog_text(params, "blk", flat=True, platform=dsp.ECP5)
     assert "DP16KD" in alt and "DP16KD" not in ref
@@ -104,11 +118,14 @@ def test_a_banked_sampler_equals_its_fabric_form_on_every_clock(tmp_path):
 
 
 def test_the_cost_model_counts_the_blocks_built():
-    for depth, width in [(1536, 36), (400, 24), (1024, 18), (2048, 9), (1025, 18)]:
+    for depth, width in [(1536, 36), (400, 24), (1024, 18), (2048, 9), (1025, 18), (4096, 12), (6534, 36)]:
         mem = CostMemory(depth, width, 1, registered=True)
         assert blocks_in_bram(mem) == bram.blocks(depth, width)
-    assert bram.blocks(4096, 4) is None
-    deep = CostMemory(4096, 4, 1, registered=True)           # too deep for the ports used: Yosys' cheapest shape
-    assert blocks_in_bram(deep) == blocks_in_bram(CostMemory(4096, 4, 1))
+        assert blocks_in_bram(mem) == len(bram.init_values([], width, depth))
+        alt = component_verilog(bram.RegisteredMemory(width, depth), "blk", platform=dsp.ECP5)
+        assert alt.count("DP16KD") == bram.blocks(depth, width)
+    # a default cube's bank, deeper than every port: seven groups of two x18 columns (sixteen x9 blocks in four)
+    assert bram.blocks(6534, 36) == 7 * 2
+    assert bram.blocks(4096, 12) == 2 * 2                     # a tie with four x18 blocks: the fewer groups
     with pytest.raises(ValueError, match="3 initial words for a depth of 2"):
         bram.RegisteredMemory(8, 2, [1, 2, 3])

@@ -101,3 +101,14 @@ def test_engine_ports(engine):
     with pytest.raises(ValueError, match="^caches="):
         FetchPipeline(engine.pipeline, dict(reversed(engine.texture_caches().items())), engine.texture_layout())
     assert set(fp.carry.members) == {p.name for p in fp.back.inputs if not p.name.endswith("_texels")}
+
+
+
+def test_the_back_registers_the_texels_as_they_arrive(engine):
+    """The caches' words (block RAM outputs through the bank multiplexer) reach the back's first stage, the texel
+    differences, from registers: the back's stream unit has its input registers, and its latency counts them."""
+    from rtl.pixel_fetch import BACK_IN_STAGES
+    fp = FetchPipeline(engine.pipeline, engine.texture_caches(), engine.texture_layout())
+    back, _ = fp.elaborate(None)._named_submodules["back"]
+    assert back.params == fp.back and back.in_stages == BACK_IN_STAGES >= 1
+    assert back.latency == fp.back.latency + BACK_IN_STAGES

@@ -400,3 +400,13 @@ def test_a_missing_board_records_hint_makes_that_record():
         hint, rec = (ap.parse_args(shlex.split(c)[1:]) for c in (_record_command(tool, name, folder), made))
         keys = ("frame", "size") + (("uploads",) if tool == "board-sim" else ())
         assert [getattr(hint, k) for k in keys] == [getattr(rec, k) for k in keys], name
+
+
+def test_missed_endpoints_are_tabled_and_none_is_said_in_a_sentence():
+    from tools.docs_records import misses_tables
+    base = {"clock": "clk", "period_ns": 10.0}
+    some = misses_tables({**base, "endpoints": 2, "by_unit": {"persp.recip": 2}, "by_kind": {"register": 2},
+                          "worst": [{"ns": 11.4, "unit": "persp.recip", "register": "s7_pg", "pin": "A"}]})
+    assert some.startswith("2 endpoints of `clk`") and "| `persp.recip` | 2 |" in some and "| 11.4 |" in some
+    none = misses_tables({**base, "endpoints": 0, "by_unit": {}, "by_kind": {}, "worst": []})
+    assert none.startswith("No endpoint of `clk` arrives later") and "|" not in none

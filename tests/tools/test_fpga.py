@@ -279,7 +279,11 @@ def test_misses_count_the_endpoints_that_miss_the_target_by_unit(tmp_path, monke
     nets = [{"event": f"posedge {CLK}", "endpoints": [
         endpoint("pipeline.fetch.bump_map.r_lvt3_TRELLIS_FF_Q.DI", 7.1),          # misses
         endpoint("pipeline.core.unit.diffuse.s5_b1_TRELLIS_FF_Q.CE", 6.9),        # misses: a clock enable
-        endpoint("pipeline.core.unit.diffuse.s6_TRELLIS_FF_Q.DI", 6.5)]}]         # meets
+        endpoint("pipeline.core.unit.diffuse.s6_TRELLIS_FF_Q.DI", 6.5),           # meets
+        # the split pipeline's back: a unit of its own, and a sampler's blend built inside it (its pipe's name)
+        endpoint("pipeline.back.core.unit.specular.r_data_TRELLIS_FF_Q.M", 6.8),
+        endpoint("pipeline.back.core.unit.bump_map_s2_pt0_mult.B3", 6.7),
+        endpoint("pipeline.back.core.unit.s3_top_TRELLIS_FF_Q.DI", 6.75)]}]
     commands, real_run = [], fpga.subprocess.run
 
     def fake_run(cmd, **kwargs):
@@ -306,10 +310,10 @@ def test_misses_count_the_endpoints_that_miss_the_target_by_unit(tmp_path, monke
         assert "misses" not in rec
         return
     m = rec["misses"]
-    assert m["period_ns"] == 6.667 and m["endpoints"] == 2
-    assert m["by_unit"] == {"diffuse": 1, "pipeline.fetch.bump_map": 1}
-    assert m["by_kind"] == {"clock enable": 1, "register": 1}
-    assert [w["ns"] for w in m["worst"]] == [7.1, 6.9]
+    assert m["period_ns"] == 6.667 and m["endpoints"] == 5
+    assert m["by_unit"] == {"diffuse": 1, "pipeline.fetch.bump_map": 1, "specular": 1, "bump_map": 1, "(top)": 1}
+    assert m["by_kind"] == {"clock enable": 1, "register": 3, "multiplier block": 1}
+    assert [w["ns"] for w in m["worst"]] == [7.1, 6.9, 6.8, 6.75, 6.7]
 
 
 def test_route_seconds_add_every_router_pass_of_the_log():

@@ -185,12 +185,13 @@ def test_info_shows_the_estimate():
 
 
 def test_bram_estimate_counts_blocks_copies_and_memories_in_logic():
-    """DP16KD estimate against hand counts. A bordered 64-texel cube map is banked by texel parity: four banks of
-    6 x 33 x 33 = 6534 words of 36 bits, 13 blocks of 512 x 36 each; nearest filtering, one memory of 26136
-    words, 52 blocks. A 41 x 40 two-channel 12-bit repeat map (odd width: not banked) is 1640 words of 24 bits,
-    3 blocks of 2048 x 9 per copy, two copies for four read ports; at 40 x 40 it is banked, four banks of 400
-    words read through their blocks' output registers (``rtl/bram.py``), two 1024 x 18 columns each. An 8 x 8
-    map, four banks of 16 words, stays in logic."""
+    """DP16KD estimate against hand counts. A bordered 64-texel cube map is banked by texel parity: four banks of 6 x
+    33 x 33 = 6534 words of 36 bits read through their blocks' output registers (``rtl/bram.py``), seven groups of
+    two 1024 x 18 columns each (Yosys' cheapest shape would be 13 blocks of 512 x 36); nearest filtering, one memory
+    of 26136 words, 52 blocks. A 41 x 40 two-channel 12-bit repeat map (odd width: not banked) is 1640 words of 24
+    bits, 3 blocks of 2048 x 9 per copy, two copies for four read ports; at 40 x 40 it is banked, four banks of 400
+    words read through their blocks' output registers (``rtl/bram.py``), two 1024 x 18 columns each. An 8 x 8 map,
+    four banks of 16 words, stays in logic."""
     import dataclasses
 
     import numpy as np
@@ -204,7 +205,7 @@ def test_bram_estimate_counts_blocks_copies_and_memories_in_logic():
     u2 = Fmt(False, 2, 10)
     cube = SamplerParams(texels=Texels(np.zeros((6, 66, 66, 3), np.int64)), channels=(u2,) * 3,
                          coord_fmt=Fmt(False, 1, 16), edge="border")
-    assert cube.banked and blocks(cube) == 4 * 13
+    assert cube.banked and blocks(cube) == 4 * 7 * 2
     assert blocks(dataclasses.replace(cube, filter="nearest")) == 52
     s12 = Fmt(True, 1, 11)
     odd = SamplerParams(texels=Texels(np.zeros((1, 40, 41, 2), np.int64)), channels=(s12,) * 2)

@@ -272,11 +272,12 @@ def test_rcp24_preset_is_24_bit_faithful_by_the_bound_from_at_most_128_entries()
 
 def test_default_products_fit_one_dsp_block_each_and_rcp24_splits_its_four():
     """Latency counts one extra stage per product wider than a MULT18X18D (the RTL registers its partial
-    products); the default's three products fit one block each."""
-    assert DEFAULT.split_products == 0 and DEFAULT.latency == 2 * DEFAULT.t + 4
+    products), and one more for a split ``B*d`` (its sum feeds the next product: registered twice); the default's
+    three products fit one block each."""
+    assert DEFAULT.split_products == 0 and DEFAULT.settled_products == 0 and DEFAULT.latency == 2 * DEFAULT.t + 4
     assert all(max(a, b) <= RecipParams.DSP_BITS for _, a, b in DEFAULT.product_operands())
     assert [name for name, _, _ in RCP24.product_operands()] == ["B*d", "q*q", "q*g", "B*g"]
-    assert RCP24.split_products == 4 and RCP24.latency == 2 * 4 + 4 + 4
+    assert RCP24.split_products == 4 and RCP24.settled_products == 1 and RCP24.latency == 2 * 4 + 4 + 4 + 1
 
 
 def test_rcp24_hard_cases_and_random_are_faithful():

@@ -63,7 +63,8 @@ def _endpoint_unit(cell: str, prefixes: tuple) -> str:
     # LUT RAM bits and block-RAM slices carry numeric path parts (``rows.storage.0.105``): the memory's name
     while parts and parts[-1].isdigit():
         parts.pop()
-    unit = ".".join(p for p in parts if p != "storage")
+    # a submodule Amaranth or Yosys renamed apart from a twin carries a ``$n`` suffix (``lod$1067``): its name
+    unit = ".".join(re.sub(r"\$\d+$", "", p) for p in parts if p != "storage")
     if not unit and (pipe := _PIPE_STAGE.match(name)):
         return pipe[1]
     return unit or "(top)"

@@ -52,8 +52,8 @@ ROW_BITS = 18
 
 def blocks(depth: int, width: int) -> int:
     """``DP16KD`` blocks of a :class:`RegisteredMemory` on an ECP5 (its groups of columns)."""
-    _, w, groups = registered_shape(depth, width)
-    return groups * -(-width // w)
+    _, _, groups, columns = registered_shape(depth, width)
+    return groups * columns
 
 
 def init_values(init, width: int, depth: int) -> list[list[int]]:
@@ -61,11 +61,11 @@ def init_values(init, width: int, depth: int) -> list[list[int]]:
     w)`` of words ``[g D, (g + 1) D)``, ``D`` the port's words), its 64 ``INITVAL_xx`` values: the group's word
     ``k``'s column at bit ``k w`` of the 18432-bit contents, which row ``r`` (18 bits) of ``INITVAL_{r // 16}``
     holds at bit ``20 (r % 16)``."""
-    D, w, groups = registered_shape(depth, width)
+    D, w, groups, columns = registered_shape(depth, width)
     init = list(init) + [0] * (groups * D - len(init))
     out = []
     for g in range(groups):
-        for j in range(-(-width // w)):
+        for j in range(columns):
             flat = 0
             for k, word in enumerate(init[g * D:(g + 1) * D]):
                 flat |= ((word >> (j * w)) & ((1 << w) - 1)) << (k * w)
@@ -124,10 +124,9 @@ class RegisteredMemory(wiring.Component):
         return m
 
     def _blocks(self, m: Module) -> None:
-        D, w, groups = registered_shape(self.depth, self.width)
+        D, w, groups, cols = registered_shape(self.depth, self.width)
         low = 4 if w == 18 else 3                       # the word's address on ADx13..ADx4 (x18), ADx13..ADx3 (x9)
         abits = (D - 1).bit_length()                    # the address within a group; the top bits pick the group
-        cols = -(-self.width // w)
         vals = init_values(self.init, self.width, self.depth)
         words = []
         for g in range(groups):
@@ -158,11 +157,11 @@ class RegisteredMemory(wiring.Component):
         for c in "AB":
             for k in range(3):
                 ports[f"i_CS{c}{k}"] = Const(0, 1)
-        abits = min(len(self.r_addr), 14 - low)
+        pins = min(len(self.r_addr), 14 - low)          # the address bits within the group the block holds
         for pin in range(14):
-            ports[f"i_ADA{pin}"] = self.w_addr[pin - low] if low <= pin < low + abits else \
+            ports[f"i_ADA{pin}"] = self.w_addr[pin - low] if low <= pin < low + pins else \
                 Const(1 if w == 18 and pin < 2 else 0, 1)          # x18: ADA1..0 are the write's byte enables
-            ports[f"i_ADB{pin}"] = self.r_addr[pin - low] if low <= pin < low + abits else Const(0, 1)
+            ports[f"i_ADB{pin}"] = self.r_addr[pin - low] if low <= pin < low + pins else Const(0, 1)
         for b in range(18):
             ports[f"i_DIA{b}"] = self.w_data[lo + b] if b < hi - lo else Const(0, 1)
             ports[f"i_DIB{b}"] = Const(0, 1)

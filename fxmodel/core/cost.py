@@ -214,17 +214,15 @@ def mult_blocks(products) -> int:
     return sum(p.count * sum(_yosys_blocks(*pair) for pair in piece_pairs(p)) for p in products)
 
 
-def registered_shape(words: int, bits: int) -> tuple[int, int, int]:
+def registered_shape(words: int, bits: int) -> tuple[int, int, int, int]:
     """How ``rtl/bram.py`` builds a memory of ``words`` words of ``bits`` bits read through its blocks' output
-    registers: ``(port words, port bits, groups)``, the :data:`REGISTERED_PORTS` port with the fewest blocks
-    (``groups`` of ``ceil(bits / port bits)`` columns, each group ``port words`` of the words), on a tie the fewer
-    groups (a smaller multiplexer after the blocks)."""
-    def key(port):
+    registers: ``(port words, port bits, groups, columns)``, the :data:`REGISTERED_PORTS` port with the fewest
+    blocks (``groups`` of ``columns = ceil(bits / port bits)`` blocks, each group ``port words`` of the words), on a
+    tie the fewer groups (a smaller multiplexer after the blocks)."""
+    def shape(port):
         depth, width = port
-        groups = math.ceil(words / depth)
-        return groups * math.ceil(bits / width), groups
-    depth, width = min(REGISTERED_PORTS, key=key)
-    return depth, width, math.ceil(words / depth)
+        return depth, width, math.ceil(words / depth), math.ceil(bits / width)
+    return min((shape(port) for port in REGISTERED_PORTS), key=lambda s: (s[2] * s[3], s[2]))
 
 
 def blocks_in_bram(mem: Memory) -> int:
@@ -232,8 +230,8 @@ def blocks_in_bram(mem: Memory) -> int:
     :attr:`~Memory.registered` one its :func:`registered_shape`'s groups of columns; one copy per two read
     ports."""
     if mem.registered:
-        _, w, groups = registered_shape(mem.words, mem.bits)
-        return groups * math.ceil(mem.bits / w) * math.ceil(mem.read_ports / 2)
+        _, _, groups, columns = registered_shape(mem.words, mem.bits)
+        return groups * columns * math.ceil(mem.read_ports / 2)
     return min(math.ceil(mem.words / d) * math.ceil(mem.bits / w) for d, w in DP16KD_SHAPES) \
         * math.ceil(mem.read_ports / 2)
 

@@ -196,6 +196,8 @@ def rows_coherent(h: Harness, s, p: TexCacheParams):
     if p.replacement == "lru":                           # the step decided a clock ahead (_decide_ahead)
         ahead = (s("allin") == s("now_allin")) & (s("step_miss") == s("now_step_miss"))
         h.check(~(s("t_valid") & s("hits_ok")) | ahead, "decision_ahead")
+        # the step's firing and its last, registers decided from the next values (_fire_ahead), on every clock
+        h.check((s("fire_ahead") == s("now_fire")) & (s("last_ahead") == s("now_last")), "firing_decided_ahead")
 
 
 def _decoupled_invariants(h: Harness, sig, rd, inside, *, inner, top):

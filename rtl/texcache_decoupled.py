@@ -63,6 +63,7 @@ from rtl.streams import buffered_room
 
 from .texcache_stepwrite import held_rows, step_write
 from .texcache_tags import age_bits, compare, new_rows, row_states, step_decision, tag_store, victim
+from .unit import with_next
 
 __all__ = ["DecoupledTexCache", "request_layout", "INPUT_DEPTH", "HELD", "AFTER"]
 
@@ -186,7 +187,8 @@ class DecoupledTexCache(wiring.Component):
             inflight=Signal(range(P.misses + 1), name="inflight"), miss_now=Signal(name="miss_now"),
             copy_done=Signal(name="copy_done"))
         m.submodules.lfifo, m.submodules.arq, m.submodules.slots = f.lfifo, f.arq, f.slots
-        m.d.sync += f.inflight.eq(f.inflight + f.miss_now - f.copy_done)
+        f.inflight_next = with_next(m, f.inflight)
+        m.d.comb += f.inflight_next.eq(f.inflight + f.miss_now - f.copy_done)
         self._tag_stage(m, f, platform)
         self._memory_port(m, f)
         self._data_stage(m, f)
@@ -257,6 +259,7 @@ class DecoupledTexCache(wiring.Component):
         P = self.params
         valid = f"{prefix}valid" if prefix else "t_valid"
         h = SimpleNamespace(req=Signal(self.req, name=f"{prefix}req"), valid=Signal(name=valid))
+        h.valid_next = with_next(m, h.valid)
         h.c = [SimpleNamespace() for _ in range(4)]
         for q, cq in enumerate(h.c):
             cq.line = Signal.like(nc[q].line, name=f"{prefix}line{q}")
@@ -271,7 +274,8 @@ class DecoupledTexCache(wiring.Component):
 
     def _load(self, m, dst, src, sets):
         """``dst``'s request, corners and set equalities from ``src`` (``sets``: the one-hot sets computed or held)."""
-        m.d.sync += [dst.req.eq(src.req), dst.valid.eq(1)]
+        m.d.sync += dst.req.eq(src.req)
+        m.d.comb += dst.valid_next.eq(1)
         for q in range(4):
             d, s_ = dst.c[q], src.c[q]
             m.d.sync += [d.line.eq(s_.line), d.set.eq(s_.set), d.dup.eq(s_.dup), d.src.eq(s_.src), d.hot.eq(sets[q])]
@@ -303,6 +307,7 @@ class DecoupledTexCache(wiring.Component):
         pre, t = self._held(m, nc, "p_"), self._held(m, nc, "")
         req, t_valid, c, same = t.req, t.valid, t.c, t.same
         k, nf = Signal(2, name="k"), Signal(3, name="nf")  # next corner to check, fills so far
+        k_next = with_next(m, k)
         way_reg = [Signal(wb, name=f"way_reg{q}") for q in range(4)]
         # the step's write, pending a clock, and the held rows with it over them (rtl/texcache_stepwrite.py)
         sw = step_write(m, P, self.line_bits, c, pre, nc)
@@ -326,27 +331,33 @@ class DecoupledTexCache(wiring.Component):
             act, step_miss, last, first = self._steps_two_phase(m, c, live, upd, mq)
         else:
             act, step_miss, last, ahead = self._steps_one_phase(m, c, live, same, k, platform)
-        fire, accept, p_load = self._handshake(m, f, (s_valid, ififo), pre.valid, (t_valid, hits_ok), last, step_miss)
+        fire, accept, p_load, room = self._handshake(m, f, (s_valid, ififo), pre.valid, (t_valid, hits_ok), last,
+                                                     step_miss, None if rr else ahead, platform)
         if not rr:
             self._decide_ahead(m, ahead, (c, req, live, same, k), pre, fresh, accept, fire & ~last)
         with m.If(p_load):
             self._load(m, pre, SimpleNamespace(req=nreq, c=nc, same=nsame),
                        [Const(1, P.sets) << nc[q].set for q in range(4)])
         with m.Elif(accept):
-            m.d.sync += pre.valid.eq(0)
+            m.d.comb += pre.valid_next.eq(0)
         with m.If(accept):
             self._load(m, t, pre, [pre.c[q].hot for q in range(4)])
-            m.d.sync += [k.eq(0), nf.eq(0), upd.eq(0)]
+            m.d.comb += k_next.eq(0)
+            m.d.sync += [nf.eq(0), upd.eq(0)]
         with m.Elif(fire & last):
-            m.d.sync += [t_valid.eq(0), upd.eq(0)]
+            m.d.comb += t.valid_next.eq(0)
+            m.d.sync += upd.eq(0)
         if rr:
             with m.Elif(fire & upd):                             # the fill done: decide again from the next corner
-                m.d.sync += [k.eq(mq + 1), nf.eq(nf + 1), upd.eq(0)]
+                m.d.comb += k_next.eq(mq + 1)
+                m.d.sync += [nf.eq(nf + 1), upd.eq(0)]
             with m.Elif(fire):                                   # the hits before the first miss: fill it next
-                m.d.sync += [k.eq(first), mq.eq(first), upd.eq(1)]
+                m.d.comb += k_next.eq(first)
+                m.d.sync += [mq.eq(first), upd.eq(1)]
         else:
             with m.Elif(fire):
-                m.d.sync += [k.eq(k + 1), nf.eq(nf + step_miss)]
+                m.d.comb += k_next.eq(k + 1)
+                m.d.sync += nf.eq(nf + step_miss)
         # whether a corner that acts fills its victim: on a miss (LRU), in the fill step only (round robin)
         filling = [upd if rr else ~c[q].hit for q in range(4)]
         # ways: this step's, else the registered ones; a duplicate takes its source's
@@ -365,7 +376,11 @@ class DecoupledTexCache(wiring.Component):
         for q in range(4):
             m.d.comb += wr[q].eq(fire & act[q] & (upd if rr else 1))
         fills = [act[q] & filling[q] for q in range(4)]
-        self._outcomes(m, c, pre, hits_ok, accept, fire & (sum(fills) != 0), fresh)
+        hits_ok_next = self._outcomes(m, c, pre, hits_ok, accept, fire & (sum(fills) != 0), fresh)
+        if not rr:   # the step's firing and whether it is the lookup's last, from the registers' next values
+            self._fire_ahead(m, ahead, SimpleNamespace(t_valid=t.valid_next, hits_ok=hits_ok_next, room=room[1],
+                                                       allin=ahead.allin_next, k=k_next,
+                                                       step_miss=ahead.step_miss_next, inflight=f.inflight_next))
         new = new_rows(m, P, self.line_bits, [SimpleNamespace(line=c[q].line, tags=eff[q].tags, valids=eff[q].valids,
                                                              ages=eff[q].ages, hit=c[q].hit, victim=c[q].victim)
                                               for q in range(4)], way_now)
@@ -376,18 +391,44 @@ class DecoupledTexCache(wiring.Component):
         self._queue(m, f, c, req, fills, fire, last, step_miss, nf, ways)
         f.tag_busy = t_valid | pre.valid | s_valid | (ififo.level != 0)   # a lookup in the input FIFO or held
 
-    def _handshake(self, m, f, input_stage, p_valid, tag_stage, last, step_miss):
-        """Whether the tag stage's step fires (``tag_stage``: it holds a lookup, with current outcomes; the lookup FIFO
-        has room for the lookup's ``last`` step, a register equal to its ``w_rdy``: :func:`rtl.streams.buffered_room`;
-        a miss finds a free miss register), the prefetch stage's lookup is accepted and the set stage's loaded
-        into the prefetch stage (and the input FIFO read): ``(fire, accept, p_load)``."""
+    def _fires(self, s):
+        """Whether the tag stage's step fires in a state ``s`` (this clock's registers or their next values): it
+        holds a lookup (``t_valid``) with current outcomes (``hits_ok``), the lookup FIFO has room (``room``) for
+        the lookup's ``last`` step, and a miss (``step_miss``) finds a free miss register (``inflight``)."""
+        return s.t_valid & s.hits_ok & (s.room | ~s.last) & (~s.step_miss | (s.inflight < self.params.misses))
+
+    def _handshake(self, m, f, input_stage, p_valid, tag_stage, last, step_miss, ahead, platform):
+        """Whether the tag stage's step fires (:meth:`_fires`; ``tag_stage``: its valid bit and ``hits_ok``; the
+        lookup FIFO's room is a register equal to its ``w_rdy``, :func:`rtl.streams.buffered_room`), the prefetch
+        stage's lookup is accepted and the set stage's loaded into the prefetch stage (and the input FIFO read):
+        ``(fire, accept, p_load, (room, room_next))``. With ``ahead`` (LRU) the firing is its register
+        (:meth:`_fire_ahead`), so all four are a logic level or two from registers: they are the clock enables of
+        the held stages, the input FIFO and the lookup FIFO, hundreds of flip-flops spread over the cache."""
         (s_valid, ififo), (t_valid, hits_ok) = input_stage, tag_stage
         room = buffered_room(m, f.lfifo, self.params.lookup_depth, f.lfifo.w_en, "lfifo")
         fire, accept, p_load = Signal(name="fire"), Signal(), Signal()
-        m.d.comb += [fire.eq(t_valid & hits_ok & (room | ~last) & (~step_miss | (f.inflight < self.params.misses))),
-                     accept.eq(p_valid & (~t_valid | (fire & last))),
+        now = SimpleNamespace(t_valid=t_valid, hits_ok=hits_ok, room=room[0], last=last, step_miss=step_miss,
+                              inflight=f.inflight)
+        if ahead is None:
+            m.d.comb += fire.eq(self._fires(now))
+        else:
+            m.d.comb += fire.eq(ahead.fire)
+            if platform == "formal":   # this clock's firing from its registers (invariant firing_decided_ahead)
+                m.d.comb += Signal(name="now_fire").eq(self._fires(now))
+        m.d.comb += [accept.eq(p_valid & (~t_valid | (fire & last))),
                      p_load.eq(s_valid & (~p_valid | accept)), ififo.r_en.eq(~s_valid | p_load)]
-        return fire, accept, p_load
+        return fire, accept, p_load, room
+
+    def _fire_ahead(self, m, ahead, nxt):
+        """LRU: the registers ``ahead.fire`` and ``ahead.last`` take what the step's firing (:meth:`_fires`) and
+        whether it is the lookup's last (``allin``, or the last corner) are in the next clock, from the next values
+        of the registers they are functions of (``nxt``: :func:`rtl.unit.with_next`). Equal on every clock to the
+        same functions of this clock's registers (formal invariant ``firing_decided_ahead``): the decision goes from
+        the registers through the next-state logic into two flip-flops beside it, not through the handshake into the
+        clock enables of the whole cache (the Berlin wall engine's slowest routed paths, from the step's decision
+        across the die to the input FIFO's read and the tag store's read port: ``docs/texcache.md``)."""
+        last = nxt.allin | (nxt.k == 3)
+        m.d.sync += [ahead.last.eq(last), ahead.fire.eq(self._fires(SimpleNamespace(**vars(nxt), last=last)))]
 
     @staticmethod
     def _outcomes(m, c, pre, hits_ok, accept, tag_write, fresh=None):
@@ -398,22 +439,25 @@ class DecoupledTexCache(wiring.Component):
         and current a clock later, when the decision has been taken from them: the held rows' compares (a pending
         row through the overlay) then end at the outcome registers, not at the decision's (the fetch's slowest
         path out of context, at both seeds measured, once the lookup FIFO's room was a register); a clock more
-        per step that fills."""
+        per step that fills. Returns ``hits_ok``'s next value (:func:`rtl.unit.with_next`)."""
+        ok_next = with_next(m, hits_ok)
+        fresh_next = None if fresh is None else with_next(m, fresh)
         with m.If(accept):
-            m.d.sync += hits_ok.eq(~tag_write)
+            m.d.comb += ok_next.eq(~tag_write)
             if fresh is not None:
-                m.d.sync += fresh.eq(0)
+                m.d.comb += fresh_next.eq(0)
             m.d.sync += [x.eq(y) for q in range(4) for x, y in ((c[q].hit, pre.c[q].hit),
                                                                 (c[q].hit_way, pre.c[q].hit_way))]
         with m.Elif(tag_write):
-            m.d.sync += hits_ok.eq(0)
+            m.d.comb += ok_next.eq(0)
         if fresh is not None:
             with m.Elif(fresh):
-                m.d.sync += [hits_ok.eq(1), fresh.eq(0)]
+                m.d.comb += [ok_next.eq(1), fresh_next.eq(0)]
         with m.Elif(~hits_ok):
-            m.d.sync += hits_ok.eq(1) if fresh is None else fresh.eq(1)
+            m.d.comb += ok_next.eq(1) if fresh is None else fresh_next.eq(1)
             m.d.sync += [x.eq(y) for q in range(4) for x, y in ((c[q].hit, c[q].cmp_hit),
                                                                 (c[q].hit_way, c[q].cmp_way))]
+        return ok_next
 
     def _live(self, m, c, req, todo, name):
         """Each corner of ``c`` is live when distinct (not a duplicate), ``todo(q)`` and the lookup not skipped."""
@@ -429,17 +473,19 @@ class DecoupledTexCache(wiring.Component):
         clock ahead by :meth:`_decide_ahead`, so that neither a compare's outcome nor the corners' relations lie
         between the registers and the step's firing, the lookup's acceptance and the enables of every held row). A
         step's hits and its miss update the rows in the clock it fires."""
-        ahead = SimpleNamespace(allin=Signal(name="allin"), step_miss=Signal(name="step_miss"))
+        ahead = SimpleNamespace(allin=Signal(name="allin"), step_miss=Signal(name="step_miss"),
+                                fire=Signal(name="fire_ahead"), last=Signal(name="last_ahead"))
+        ahead.allin_next, ahead.step_miss_next = with_next(m, ahead.allin), with_next(m, ahead.step_miss)
         if platform == "formal":
             # the same decision from this clock's registers (``now_allin``, ``now_step_miss``): equal to ``ahead``'s
             # whenever the outcomes are current (formal invariant ``decision_ahead``); nothing else reads it
             step_decision(m, [c[q].hit for q in range(4)], live, same, k, "now_")
+            # ``last_ahead`` from this clock's registers (formal invariant ``firing_decided_ahead``)
+            m.d.comb += Signal(name="now_last").eq(ahead.allin | (k == 3))
         act = [Signal(name=f"act{q}") for q in range(4)]         # corners checked in this step
         for q in range(4):
             m.d.comb += act[q].eq(live[q] & Mux(ahead.allin, 1, k == q))
-        last = Signal()
-        m.d.comb += last.eq(ahead.allin | (k == 3))
-        return act, ahead.step_miss, last, ahead
+        return act, ahead.step_miss, ahead.last, ahead
 
     def _decide_ahead(self, m, ahead, held, pre, fresh, accept, step_on):
         """The registers of :meth:`_steps_one_phase`'s decision for the clock after this one, from what the
@@ -453,7 +499,7 @@ class DecoupledTexCache(wiring.Component):
 
         def take(hits, live, same_, kk, name):
             allin, step_miss = step_decision(m, hits, live, same_, kk, name)
-            m.d.sync += [ahead.allin.eq(allin), ahead.step_miss.eq(step_miss)]
+            m.d.comb += [ahead.allin_next.eq(allin), ahead.step_miss_next.eq(step_miss)]
 
         with m.If(accept):
             take([pre.c[q].hit for q in range(4)], self._live(m, pre.c, pre.req, lambda q: 1, "p_live"),

@@ -63,7 +63,7 @@ from rtl.streams import buffered_room
 
 from .texcache_stepwrite import held_rows, step_write
 from .texcache_tags import age_bits, compare, new_rows, row_states, step_decision, tag_store, victim
-from .unit import with_next
+from .unit import named, with_next
 
 __all__ = ["DecoupledTexCache", "request_layout", "INPUT_DEPTH", "HELD", "AFTER"]
 
@@ -426,9 +426,19 @@ class DecoupledTexCache(wiring.Component):
         same functions of this clock's registers (formal invariant ``firing_decided_ahead``): the decision goes from
         the registers through the next-state logic into two flip-flops beside it, not through the handshake into the
         clock enables of the whole cache (the Berlin wall engine's slowest routed paths, from the step's decision
-        across the die to the input FIFO's read and the tag store's read port: ``docs/texcache.md``)."""
+        across the die to the input FIFO's read and the tag store's read port: ``docs/texcache.md``). The next
+        decision (``allin``, ``step_miss``: the prefetch stage's compares through the step's decision) is the
+        deepest of those values, so it selects at the last level among the firings for each of its four values,
+        each from the other, shallow, next values."""
         last = nxt.allin | (nxt.k == 3)
-        m.d.sync += [ahead.last.eq(last), ahead.fire.eq(self._fires(SimpleNamespace(**vars(nxt), last=last)))]
+        fires = {}
+        for allin in (0, 1):
+            for miss in (0, 1):
+                state = SimpleNamespace(**{**vars(nxt), "last": Const(allin) | (nxt.k == 3), "step_miss": Const(miss)})
+                fires[allin, miss] = named(m, self._fires(state), f"fire_if{allin}{miss}")
+        m.d.sync += [ahead.last.eq(last),
+                     ahead.fire.eq(Mux(nxt.allin, Mux(nxt.step_miss, fires[1, 1], fires[1, 0]),
+                                       Mux(nxt.step_miss, fires[0, 1], fires[0, 0])))]
 
     @staticmethod
     def _outcomes(m, c, pre, hits_ok, accept, tag_write, fresh=None):

@@ -191,7 +191,7 @@ class DecoupledTexCache(StepControl, wiring.Component):
         m.d.comb += f.inflight_next.eq(f.inflight + f.miss_now - f.copy_done)
         self._tag_stage(m, f, platform)
         self._memory_port(m, f)
-        self._data_stage(m, f)
+        self._data_stage(m, f, platform)
         return m
 
     def _entry_layout(self) -> data.StructLayout:
@@ -429,10 +429,15 @@ class DecoupledTexCache(StepControl, wiring.Component):
                 m.d.comb += f.line_in.eq(1)
                 m.d.sync += wring.eq(wring + 1 if P.misses > 1 else 0)
 
-    def _data_stage(self, m, f):
+    def _data_stage(self, m, f, platform):
         """Copy the head lookup's fills into the data banks, then read its four texels (one read per bank). The
         head is a register loaded from the lookup FIFO (``h_valid``, ``head``): the fill count, the bank addresses
-        and the corners' banks come from flip-flops, not from the FIFO's block RAM."""
+        and the corners' banks come from flip-flops, not from the FIFO's block RAM. Whether the head is ready to
+        leave (it holds a lookup whose fills are all copied, none being copied) is a register too (``head_ready``),
+        decided a clock ahead: a new head's is that it has no fills, a kept head's that its fills are copied after
+        this clock's copy; the FIFO's read picks at the last level (formal invariant ``head_ready_decided_ahead``).
+        The read is the FIFO's read enable, and through its inner read the lookup FIFO's room and the tag stage's
+        firing decided ahead: it ran from the compare of the copied fills across the die into them."""
         P = self.params
         Q = self._words
         ent, h_valid = Signal(self._entry_layout(), name="head"), Signal(name="h_valid")
@@ -453,7 +458,12 @@ class DecoupledTexCache(StepControl, wiring.Component):
         o_valid, sel = Signal(name="o_valid"), Signal(data.ArrayLayout(2, 4), name="sel")
         side = Signal(max(1, self.side_bits))
         advance = ~o_valid | self.o.ready
-        ready = h_valid & (done == ent.fills) & ~copying
+        ready = Signal(name="head_ready")
+        kept = h_valid & ((done + (copying & (cc == Q)))[:len(done)] == ent.fills) & ~(start | (copying & (cc != Q)))
+        new = f.lfifo.r_rdy & (data.View(self._entry_layout(), f.lfifo.r_data).fills == 0)
+        m.d.sync += ready.eq(Mux(f.lfifo.r_en, new, kept))
+        if platform == "formal":   # the same from this clock's registers (invariant head_ready_decided_ahead)
+            m.d.comb += Signal(name="now_head_ready").eq(h_valid & (done == ent.fills) & ~copying)
         banks = []
         for b in range(4):
             mem = Memory(shape=P.texel_bits, depth=P.lines * Q, init=[])

@@ -56,9 +56,10 @@ class StepControl:
         """Whether the tag stage's step fires (:meth:`_fires`; ``tag_stage``: its valid bit and ``hits_ok``; the
         lookup FIFO's room is a register equal to its ``w_rdy``, :func:`rtl.streams.buffered_room`), the prefetch
         stage's lookup is accepted and the set stage's loaded into the prefetch stage (and the input FIFO read):
-        ``(fire, accept, p_load, (room, room_next))``. With ``ahead`` (LRU) the firing is its register
-        (:meth:`_fire_ahead`), so all four are a logic level or two from registers: they are the clock enables of
-        the held stages, the input FIFO and the lookup FIFO, hundreds of flip-flops spread over the cache."""
+        ``(fire, accept, p_load, (room, after))`` (``after``: :func:`rtl.streams.buffered_room`'s). With
+        ``ahead`` (LRU) the firing is its register (:meth:`_fire_ahead`), so all four are a logic level or two from
+        registers: they are the clock enables of the held stages, the input FIFO and the lookup FIFO, hundreds of
+        flip-flops spread over the cache."""
         (s_valid, ififo), (t_valid, hits_ok) = input_stage, tag_stage
         room = buffered_room(m, f.lfifo, self.params.lookup_depth, f.lfifo.w_en, "lfifo")
         fire, accept, p_load = Signal(name="fire"), Signal(), Signal()
@@ -84,16 +85,23 @@ class StepControl:
         across the die to the input FIFO's read and the tag store's read port: ``docs/texcache.md``). The next
         decision (``allin``, ``step_miss``: the prefetch stage's compares through the step's decision) is the
         deepest of those values, so it selects at the last level among the firings for each of its four values,
-        each from the other, shallow, next values."""
+        each from the other, shallow, next values; and the lookup FIFO's read (the data stage's decision, across the
+        cache) selects after it, between the rooms after a read and after none."""
         last = nxt.allin | (nxt.k == 3)
         fires = {}
-        for allin in (0, 1):
-            for miss in (0, 1):
-                state = SimpleNamespace(**{**vars(nxt), "last": Const(allin) | (nxt.k == 3), "step_miss": Const(miss)})
-                fires[allin, miss] = named(m, self._fires(state), f"fire_if{allin}{miss}")
-        m.d.sync += [ahead.last.eq(last),
-                     ahead.fire.eq(Mux(nxt.allin, Mux(nxt.step_miss, fires[1, 1], fires[1, 0]),
-                                       Mux(nxt.step_miss, fires[0, 1], fires[0, 0])))]
+        for read in (0, 1):
+            for allin in (0, 1):
+                for miss in (0, 1):
+                    state = SimpleNamespace(**{**vars(nxt), "last": Const(allin) | (nxt.k == 3),
+                                               "step_miss": Const(miss),
+                                               "room": nxt.room.if_read if read else nxt.room.if_not})
+                    fires[read, allin, miss] = named(m, self._fires(state), f"fire_if{read}{allin}{miss}")
+
+        def pick(read):
+            return Mux(nxt.allin, Mux(nxt.step_miss, fires[read, 1, 1], fires[read, 1, 0]),
+                       Mux(nxt.step_miss, fires[read, 0, 1], fires[read, 0, 0]))
+
+        m.d.sync += [ahead.last.eq(last), ahead.fire.eq(Mux(nxt.room.read, pick(1), pick(0)))]
 
     @staticmethod
     def _outcomes(m, c, pre, hits_ok, accept, tag_write, fresh=None):

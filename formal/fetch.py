@@ -196,6 +196,11 @@ def rows_coherent(h: Harness, s, p: TexCacheParams):
     if p.replacement == "lru":                           # the step decided a clock ahead (_decide_ahead)
         ahead = (s("allin") == s("now_allin")) & (s("step_miss") == s("now_step_miss"))
         h.check(~(s("t_valid") & s("hits_ok")) | ahead, "decision_ahead")
+        # the step's firing and its last, registers decided from the next values (_fire_ahead), on every clock
+        h.check((s("fire_ahead") == s("now_fire")) & (s("last_ahead") == s("now_last")), "firing_decided_ahead")
+    # the data stage's readiness, a clock ahead; an empty head has copied nothing and copies nothing
+    h.check(s("h_valid") | ((s("done") == 0) & ~s("copying")), "empty_head_idle")
+    h.check(s("head_ready") == s("now_head_ready"), "head_ready_decided_ahead")
 
 
 def _decoupled_invariants(h: Harness, sig, rd, inside, *, inner, top):

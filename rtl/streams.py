@@ -30,6 +30,8 @@ pipeline (section 4) takes one fragment per clock from the scan converter; whate
 
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 from amaranth.hdl import Assert, Module, Mux, Signal
 from amaranth.lib import data, memory, stream, wiring
 from amaranth.lib.fifo import SyncFIFO
@@ -87,19 +89,25 @@ def buffered_room(m, fifo, depth: int, w, name: str):
     fetch's slowest path). ``w`` is the FIFO's write (its ``w_en``, which the writer gates with this room). The
     inner level is counted beside the FIFO's own (its read: the inner FIFO holds a word and the output register
     is empty or read), and the room after the clock is chosen by the write and the read at the last logic level.
-    Returns the room; the formal sets check it and the count (``{name}_room``, ``{name}_inner``) against the
-    FIFO's (``formal/fetch.py``)."""
+    Returns the room and what it is after the clock, ``after``: the FIFO's inner ``read`` of this clock (late:
+    the reader decides it) and the room after the clock if it reads (``if_read``) and if not (``if_not``), from
+    this clock's write alone, so that a writer deciding a clock ahead takes the read at its last level too. The
+    formal sets check the room and the count (``{name}_room``, ``{name}_inner``) against the FIFO's
+    (``formal/fetch.py``)."""
     if depth < 2:
         raise ValueError(f"buffered_room: depth {depth} must be at least 2 (SyncFIFOBuffered's register alone)")
     top = depth - 1                                       # the inner FIFO's depth
     inner = Signal(range(top + 1), name=f"{name}_inner")
     room = Signal(name=f"{name}_room", init=1)
-    r = (inner != 0) & (~fifo.r_rdy | fifo.r_en)          # SyncFIFOBuffered's inner read
-    with m.If(w & ~r):
-        m.d.sync += [inner.eq(inner + 1), room.eq(inner != top - 1)]
-    with m.Elif(r & ~w):
-        m.d.sync += [inner.eq(inner - 1), room.eq(1)]
-    return room
+    after = SimpleNamespace(read=Signal(name=f"{name}_read"), if_read=Mux(w, room, 1),
+                            if_not=Mux(w, inner != top - 1, room))
+    m.d.comb += after.read.eq((inner != 0) & (~fifo.r_rdy | fifo.r_en))    # SyncFIFOBuffered's inner read
+    with m.If(w & ~after.read):
+        m.d.sync += inner.eq(inner + 1)
+    with m.Elif(after.read & ~w):
+        m.d.sync += inner.eq(inner - 1)
+    m.d.sync += room.eq(Mux(after.read, after.if_read, after.if_not))
+    return room, after
 
 
 class _Core(wiring.Component):

@@ -59,10 +59,11 @@ from amaranth.lib.wiring import In, Out
 from fxmodel.core.unit import require
 from fxmodel.units.texcache import Layout, TexCacheParams
 from rtl.rop import axi_signature
-from rtl.streams import buffered_room
 
+from .texcache_step import StepControl
 from .texcache_stepwrite import held_rows, step_write
-from .texcache_tags import age_bits, compare, new_rows, row_states, step_decision, tag_store, victim
+from .texcache_tags import age_bits, compare, new_rows, row_states, tag_store, victim
+from .unit import with_next
 
 __all__ = ["DecoupledTexCache", "request_layout", "INPUT_DEPTH", "HELD", "AFTER"]
 
@@ -99,7 +100,7 @@ def _corner_xy(req) -> tuple:
     return [req.x0, req.x1, req.x0, req.x1], [req.y0, req.y0, req.y1, req.y1]
 
 
-class DecoupledTexCache(wiring.Component):
+class DecoupledTexCache(StepControl, wiring.Component):
     """The decoupled cache of ``params`` over the surfaces of ``layout`` (module docstring).
 
     With ``skip``, a request has a ``skip`` bit (:func:`request_layout`): such a lookup checks no line (the
@@ -186,10 +187,11 @@ class DecoupledTexCache(wiring.Component):
             inflight=Signal(range(P.misses + 1), name="inflight"), miss_now=Signal(name="miss_now"),
             copy_done=Signal(name="copy_done"))
         m.submodules.lfifo, m.submodules.arq, m.submodules.slots = f.lfifo, f.arq, f.slots
-        m.d.sync += f.inflight.eq(f.inflight + f.miss_now - f.copy_done)
+        f.inflight_next = with_next(m, f.inflight)
+        m.d.comb += f.inflight_next.eq(f.inflight + f.miss_now - f.copy_done)
         self._tag_stage(m, f, platform)
         self._memory_port(m, f)
-        self._data_stage(m, f)
+        self._data_stage(m, f, platform)
         return m
 
     def _entry_layout(self) -> data.StructLayout:
@@ -257,6 +259,7 @@ class DecoupledTexCache(wiring.Component):
         P = self.params
         valid = f"{prefix}valid" if prefix else "t_valid"
         h = SimpleNamespace(req=Signal(self.req, name=f"{prefix}req"), valid=Signal(name=valid))
+        h.valid_next = with_next(m, h.valid)
         h.c = [SimpleNamespace() for _ in range(4)]
         for q, cq in enumerate(h.c):
             cq.line = Signal.like(nc[q].line, name=f"{prefix}line{q}")
@@ -271,7 +274,8 @@ class DecoupledTexCache(wiring.Component):
 
     def _load(self, m, dst, src, sets):
         """``dst``'s request, corners and set equalities from ``src`` (``sets``: the one-hot sets computed or held)."""
-        m.d.sync += [dst.req.eq(src.req), dst.valid.eq(1)]
+        m.d.sync += dst.req.eq(src.req)
+        m.d.comb += dst.valid_next.eq(1)
         for q in range(4):
             d, s_ = dst.c[q], src.c[q]
             m.d.sync += [d.line.eq(s_.line), d.set.eq(s_.set), d.dup.eq(s_.dup), d.src.eq(s_.src), d.hot.eq(sets[q])]
@@ -303,6 +307,7 @@ class DecoupledTexCache(wiring.Component):
         pre, t = self._held(m, nc, "p_"), self._held(m, nc, "")
         req, t_valid, c, same = t.req, t.valid, t.c, t.same
         k, nf = Signal(2, name="k"), Signal(3, name="nf")  # next corner to check, fills so far
+        k_next = with_next(m, k)
         way_reg = [Signal(wb, name=f"way_reg{q}") for q in range(4)]
         # the step's write, pending a clock, and the held rows with it over them (rtl/texcache_stepwrite.py)
         sw = step_write(m, P, self.line_bits, c, pre, nc)
@@ -326,27 +331,17 @@ class DecoupledTexCache(wiring.Component):
             act, step_miss, last, first = self._steps_two_phase(m, c, live, upd, mq)
         else:
             act, step_miss, last, ahead = self._steps_one_phase(m, c, live, same, k, platform)
-        fire, accept, p_load = self._handshake(m, f, (s_valid, ififo), pre.valid, (t_valid, hits_ok), last, step_miss)
+        fire, accept, p_load, room = self._handshake(m, f, (s_valid, ififo), pre.valid, (t_valid, hits_ok), last,
+                                                     step_miss, None if rr else ahead, platform)
         if not rr:
             self._decide_ahead(m, ahead, (c, req, live, same, k), pre, fresh, accept, fire & ~last)
         with m.If(p_load):
             self._load(m, pre, SimpleNamespace(req=nreq, c=nc, same=nsame),
                        [Const(1, P.sets) << nc[q].set for q in range(4)])
         with m.Elif(accept):
-            m.d.sync += pre.valid.eq(0)
-        with m.If(accept):
-            self._load(m, t, pre, [pre.c[q].hot for q in range(4)])
-            m.d.sync += [k.eq(0), nf.eq(0), upd.eq(0)]
-        with m.Elif(fire & last):
-            m.d.sync += [t_valid.eq(0), upd.eq(0)]
-        if rr:
-            with m.Elif(fire & upd):                             # the fill done: decide again from the next corner
-                m.d.sync += [k.eq(mq + 1), nf.eq(nf + 1), upd.eq(0)]
-            with m.Elif(fire):                                   # the hits before the first miss: fill it next
-                m.d.sync += [k.eq(first), mq.eq(first), upd.eq(1)]
-        else:
-            with m.Elif(fire):
-                m.d.sync += [k.eq(k + 1), nf.eq(nf + step_miss)]
+            m.d.comb += pre.valid_next.eq(0)
+        self._advance(m, (pre, t), (fire, accept, last, step_miss),
+                      SimpleNamespace(k=k, k_next=k_next, nf=nf, upd=upd, mq=mq, first=first if rr else None))
         # whether a corner that acts fills its victim: on a miss (LRU), in the fill step only (round robin)
         filling = [upd if rr else ~c[q].hit for q in range(4)]
         # ways: this step's, else the registered ones; a duplicate takes its source's
@@ -365,7 +360,11 @@ class DecoupledTexCache(wiring.Component):
         for q in range(4):
             m.d.comb += wr[q].eq(fire & act[q] & (upd if rr else 1))
         fills = [act[q] & filling[q] for q in range(4)]
-        self._outcomes(m, c, pre, hits_ok, accept, fire & (sum(fills) != 0), fresh)
+        hits_ok_next = self._outcomes(m, c, pre, hits_ok, accept, fire & (sum(fills) != 0), fresh)
+        if not rr:   # the step's firing and whether it is the lookup's last, from the registers' next values
+            self._fire_ahead(m, ahead, SimpleNamespace(t_valid=t.valid_next, hits_ok=hits_ok_next, room=room[1],
+                                                       allin=ahead.allin_next, k=k_next,
+                                                       step_miss=ahead.step_miss_next, inflight=f.inflight_next))
         new = new_rows(m, P, self.line_bits, [SimpleNamespace(line=c[q].line, tags=eff[q].tags, valids=eff[q].valids,
                                                              ages=eff[q].ages, hit=c[q].hit, victim=c[q].victim)
                                               for q in range(4)], way_now)
@@ -375,117 +374,6 @@ class DecoupledTexCache(wiring.Component):
         held_rows(m, P, sw, c, pre, nc, same, wr, new, p_load, accept, stored)
         self._queue(m, f, c, req, fills, fire, last, step_miss, nf, ways)
         f.tag_busy = t_valid | pre.valid | s_valid | (ififo.level != 0)   # a lookup in the input FIFO or held
-
-    def _handshake(self, m, f, input_stage, p_valid, tag_stage, last, step_miss):
-        """Whether the tag stage's step fires (``tag_stage``: it holds a lookup, with current outcomes; the lookup FIFO
-        has room for the lookup's ``last`` step, a register equal to its ``w_rdy``: :func:`rtl.streams.buffered_room`;
-        a miss finds a free miss register), the prefetch stage's lookup is accepted and the set stage's loaded
-        into the prefetch stage (and the input FIFO read): ``(fire, accept, p_load)``."""
-        (s_valid, ififo), (t_valid, hits_ok) = input_stage, tag_stage
-        room = buffered_room(m, f.lfifo, self.params.lookup_depth, f.lfifo.w_en, "lfifo")
-        fire, accept, p_load = Signal(name="fire"), Signal(), Signal()
-        m.d.comb += [fire.eq(t_valid & hits_ok & (room | ~last) & (~step_miss | (f.inflight < self.params.misses))),
-                     accept.eq(p_valid & (~t_valid | (fire & last))),
-                     p_load.eq(s_valid & (~p_valid | accept)), ififo.r_en.eq(~s_valid | p_load)]
-        return fire, accept, p_load
-
-    @staticmethod
-    def _outcomes(m, c, pre, hits_ok, accept, tag_write, fresh=None):
-        """The tag stage's registered outcomes (each corner's hit and way) and whether they are current
-        (``hits_ok``): taken with the lookup from the prefetch stage's compares, stale after a step that writes
-        tags (``tag_write``), then taken again from the compares of the held rows (a clock). With ``fresh`` (LRU:
-        the step is decided from the outcomes, :meth:`_decide_ahead`) the outcomes so taken are marked ``fresh``
-        and current a clock later, when the decision has been taken from them: the held rows' compares (a pending
-        row through the overlay) then end at the outcome registers, not at the decision's (the fetch's slowest
-        path out of context, at both seeds measured, once the lookup FIFO's room was a register); a clock more
-        per step that fills."""
-        with m.If(accept):
-            m.d.sync += hits_ok.eq(~tag_write)
-            if fresh is not None:
-                m.d.sync += fresh.eq(0)
-            m.d.sync += [x.eq(y) for q in range(4) for x, y in ((c[q].hit, pre.c[q].hit),
-                                                                (c[q].hit_way, pre.c[q].hit_way))]
-        with m.Elif(tag_write):
-            m.d.sync += hits_ok.eq(0)
-        if fresh is not None:
-            with m.Elif(fresh):
-                m.d.sync += [hits_ok.eq(1), fresh.eq(0)]
-        with m.Elif(~hits_ok):
-            m.d.sync += hits_ok.eq(1) if fresh is None else fresh.eq(1)
-            m.d.sync += [x.eq(y) for q in range(4) for x, y in ((c[q].hit, c[q].cmp_hit),
-                                                                (c[q].hit_way, c[q].cmp_way))]
-
-    def _live(self, m, c, req, todo, name):
-        """Each corner of ``c`` is live when distinct (not a duplicate), ``todo(q)`` and the lookup not skipped."""
-        live = [Signal(name=f"{name}{q}") for q in range(4)]
-        for q in range(4):
-            x = ~c[q].dup & todo(q)
-            m.d.comb += live[q].eq(x & ~req.skip if self.skip else x)
-        return live
-
-    def _steps_one_phase(self, m, c, live, same, k, platform):
-        """LRU: the corners a step checks (``act``), whether it misses, whether it is the lookup's last, and the
-        registers that decide it (``ahead``: :func:`rtl.texcache_tags.step_decision` of the held lookup, decided a
-        clock ahead by :meth:`_decide_ahead`, so that neither a compare's outcome nor the corners' relations lie
-        between the registers and the step's firing, the lookup's acceptance and the enables of every held row). A
-        step's hits and its miss update the rows in the clock it fires."""
-        ahead = SimpleNamespace(allin=Signal(name="allin"), step_miss=Signal(name="step_miss"))
-        if platform == "formal":
-            # the same decision from this clock's registers (``now_allin``, ``now_step_miss``): equal to ``ahead``'s
-            # whenever the outcomes are current (formal invariant ``decision_ahead``); nothing else reads it
-            step_decision(m, [c[q].hit for q in range(4)], live, same, k, "now_")
-        act = [Signal(name=f"act{q}") for q in range(4)]         # corners checked in this step
-        for q in range(4):
-            m.d.comb += act[q].eq(live[q] & Mux(ahead.allin, 1, k == q))
-        last = Signal()
-        m.d.comb += last.eq(ahead.allin | (k == 3))
-        return act, ahead.step_miss, last, ahead
-
-    def _decide_ahead(self, m, ahead, held, pre, fresh, accept, step_on):
-        """The registers of :meth:`_steps_one_phase`'s decision for the clock after this one, from what the
-        outcome registers (:meth:`_outcomes`) take in this clock: the prefetch stage's compares with the lookup
-        it hands over (corner 0 next), the outcomes themselves in the clock after they were taken again after a
-        fill (``fresh``), or, after a step of one corner that writes no tag (``step_on``: it fired and was not the
-        last; a hit), the same outcomes with the next corner. After a step that writes tags the outcomes are stale
-        and these registers with them; they are decided again a clock after the outcomes are taken again.
-        ``held``: the tag stage's corners, request, live corners, equal sets and next corner."""
-        c, req, live, same, k = held
-
-        def take(hits, live, same_, kk, name):
-            allin, step_miss = step_decision(m, hits, live, same_, kk, name)
-            m.d.sync += [ahead.allin.eq(allin), ahead.step_miss.eq(step_miss)]
-
-        with m.If(accept):
-            take([pre.c[q].hit for q in range(4)], self._live(m, pre.c, pre.req, lambda q: 1, "p_live"),
-                 pre.same, 0, "p_")
-        with m.Elif(fresh):
-            take([c[q].hit for q in range(4)], live, same, k, "c_")
-        with m.Elif(step_on):
-            take([c[q].hit for q in range(4)], self._live(m, c, req, lambda q: q > k, "k_live"),
-                 same, k + 1, "k_")
-
-    def _steps_two_phase(self, m, c, live, upd, mq):
-        """Round robin: a hit changes no row, so a step is either the remaining corners up to the first that misses
-        (all of them when none misses; the lookup's last step then), which decides and writes nothing, or (``upd``)
-        the fill of that corner (``mq``), from registers alone: its victim, its row, its burst. The compare of the
-        rows with the lines reaches the lookup's acceptance only, never a row. Returns ``(act, step_miss, last,
-        first)``, ``first`` the first corner that misses."""
-        miss = [Signal(name=f"miss{q}") for q in range(4)]
-        for q in range(4):
-            m.d.comb += miss[q].eq(live[q] & ~c[q].hit)
-        first = Signal(2, name="first_miss")
-        for q in reversed(range(4)):
-            with m.If(miss[q]):
-                m.d.comb += first.eq(q)
-        after = Signal()                                         # corners left after the one being filled
-        m.d.comb += after.eq(sum(live[q] & (mq < q) for q in range(1, 4)) != 0)
-        act = [Signal(name=f"act{q}") for q in range(4)]
-        for q in range(4):
-            earlier = sum(miss[j] for j in range(q + 1)) != 0
-            m.d.comb += act[q].eq(Mux(upd, mq == q, live[q] & ~earlier))
-        step_miss, last = Signal(), Signal()
-        m.d.comb += [step_miss.eq(upd), last.eq(Mux(upd, ~after, sum(miss) == 0))]
-        return act, step_miss, last, first
 
     def _queue(self, m, f, c, req, fills, fire, last, step_miss, nf, ways):
         """The step's miss (at most one: the corner ``fills`` names) into the ``AR`` queue and the slot queue; the
@@ -541,10 +429,15 @@ class DecoupledTexCache(wiring.Component):
                 m.d.comb += f.line_in.eq(1)
                 m.d.sync += wring.eq(wring + 1 if P.misses > 1 else 0)
 
-    def _data_stage(self, m, f):
+    def _data_stage(self, m, f, platform):
         """Copy the head lookup's fills into the data banks, then read its four texels (one read per bank). The
         head is a register loaded from the lookup FIFO (``h_valid``, ``head``): the fill count, the bank addresses
-        and the corners' banks come from flip-flops, not from the FIFO's block RAM."""
+        and the corners' banks come from flip-flops, not from the FIFO's block RAM. Whether the head is ready to
+        leave (it holds a lookup whose fills are all copied, none being copied) is a register too (``head_ready``),
+        decided a clock ahead: a new head's is that it has no fills, a kept head's that its fills are copied after
+        this clock's copy; the FIFO's read picks at the last level (formal invariant ``head_ready_decided_ahead``).
+        The read is the FIFO's read enable, and through its inner read the lookup FIFO's room and the tag stage's
+        firing decided ahead: it ran from the compare of the copied fills across the die into them."""
         P = self.params
         Q = self._words
         ent, h_valid = Signal(self._entry_layout(), name="head"), Signal(name="h_valid")
@@ -565,7 +458,12 @@ class DecoupledTexCache(wiring.Component):
         o_valid, sel = Signal(name="o_valid"), Signal(data.ArrayLayout(2, 4), name="sel")
         side = Signal(max(1, self.side_bits))
         advance = ~o_valid | self.o.ready
-        ready = h_valid & (done == ent.fills) & ~copying
+        ready = Signal(name="head_ready")
+        kept = h_valid & ((done + (copying & (cc == Q)))[:len(done)] == ent.fills) & ~(start | (copying & (cc != Q)))
+        new = f.lfifo.r_rdy & (data.View(self._entry_layout(), f.lfifo.r_data).fills == 0)
+        m.d.sync += ready.eq(Mux(f.lfifo.r_en, new, kept))
+        if platform == "formal":   # the same from this clock's registers (invariant head_ready_decided_ahead)
+            m.d.comb += Signal(name="now_head_ready").eq(h_valid & (done == ent.fills) & ~copying)
         banks = []
         for b in range(4):
             mem = Memory(shape=P.texel_bits, depth=P.lines * Q, init=[])

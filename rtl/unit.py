@@ -20,8 +20,8 @@ from amaranth.lib.wiring import In, Out
 from .dsp import RegisterSources, block, logic_product, registered_product, uses_blocks
 from .fixed import shape
 
-__all__ = ["unit_signature", "Pipe", "kept_copy", "named", "COPY_SUFFIX", "KEEP_COPIES", "register", "build",
-           "stream_native", "component_class"]
+__all__ = ["unit_signature", "Pipe", "kept_copy", "named", "with_next", "COPY_SUFFIX", "KEEP_COPIES", "register",
+           "build", "stream_native", "component_class"]
 
 
 def unit_signature(params) -> wiring.Signature:
@@ -71,6 +71,18 @@ def kept_copy(m: Module, value, name: str) -> Signal:
     reg = Signal(value.shape(), name=f"{name}{COPY_SUFFIX}")
     m.d.sync += reg.eq(value)
     return reg
+
+
+def with_next(m: Module, reg: Signal) -> Signal:
+    """The value ``reg`` takes at the end of this clock, a combinational signal named ``<reg>_next``: ``reg``
+    unless assigned (in ``m.d.comb``, under the conditions that change the register, where ``m.d.sync`` would
+    assign ``reg``), and ``reg`` its register. For a decision taken a clock ahead from what the registers become,
+    so that it is itself a register (the texel cache's step: :mod:`rtl.texcache_decoupled`); ``reg`` must have no
+    other driver."""
+    nxt = Signal(reg.shape(), name=f"{reg.name}_next")
+    m.d.comb += nxt.eq(reg)
+    m.d.sync += reg.eq(nxt)
+    return nxt
 
 
 def named(m: Module, value, name: str) -> Signal:

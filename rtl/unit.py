@@ -77,7 +77,7 @@ def with_next(m: Module, reg: Signal) -> Signal:
     """The value ``reg`` takes at the end of this clock, a combinational signal named ``<reg>_next``: ``reg``
     unless assigned (in ``m.d.comb``, under the conditions that change the register, where ``m.d.sync`` would
     assign ``reg``), and ``reg`` its register. For a decision taken a clock ahead from what the registers become,
-    so that it is itself a register (the texel cache's step: :mod:`rtl.texcache_decoupled`); ``reg`` must have no
+    so that it is itself a register (the texel cache's step: :mod:`rtl.texcache_step`); ``reg`` must have no
     other driver."""
     nxt = Signal(reg.shape(), name=f"{reg.name}_next")
     m.d.comb += nxt.eq(reg)

@@ -447,11 +447,12 @@ class DecoupledTexCache(StepControl, wiring.Component):
         start = h_valid & (done != ent.fills) & (f.filled != 0) & ~copying
         with m.If(start):
             m.d.sync += [copying.eq(1), cc.eq(0)]
+        finish = copying & (cc == Q)                             # a fill's last word copied in this clock
         with m.If(copying):
             m.d.sync += cc.eq(cc + 1)
-            with m.If(cc == Q):
-                m.d.comb += [f.copy_done.eq(1), f.slots.r_en.eq(1)]
-                m.d.sync += [copying.eq(0), done.eq(done + 1), rring.eq(rring + 1 if P.misses > 1 else 0)]
+        with m.If(finish):
+            m.d.comb += [f.copy_done.eq(1), f.slots.r_en.eq(1)]
+            m.d.sync += [copying.eq(0), done.eq(done + 1), rring.eq(rring + 1 if P.misses > 1 else 0)]
         rd_word = cc[:(Q - 1).bit_length()]
         for rp in f.fill_banks:
             m.d.comb += rp.addr.eq(Cat(rd_word, rring) if P.misses > 1 else rd_word)
@@ -459,7 +460,7 @@ class DecoupledTexCache(StepControl, wiring.Component):
         side = Signal(max(1, self.side_bits))
         advance = ~o_valid | self.o.ready
         ready = Signal(name="head_ready")
-        kept = h_valid & ((done + (copying & (cc == Q)))[:len(done)] == ent.fills) & ~(start | (copying & (cc != Q)))
+        kept = h_valid & ((done + finish)[:len(done)] == ent.fills) & ~(start | (copying & ~finish))
         new = f.lfifo.r_rdy & (data.View(self._entry_layout(), f.lfifo.r_data).fills == 0)
         m.d.sync += ready.eq(Mux(f.lfifo.r_en, new, kept))
         if platform == "formal":   # the same from this clock's registers (invariant head_ready_decided_ahead)

@@ -46,6 +46,11 @@ class StepControl:
                 m.d.comb += st.k_next.eq(st.k + 1)
                 m.d.sync += st.nf.eq(st.nf + step_miss)
 
+    @staticmethod
+    def _last(allin, k):
+        """LRU: whether a step is its lookup's last: it takes every remaining corner (``allin``), or the last one."""
+        return allin | (k == 3)
+
     def _fires(self, s):
         """Whether the tag stage's step fires in a state ``s`` (this clock's registers or their next values): it
         holds a lookup (``t_valid``) with current outcomes (``hits_ok``), the lookup FIFO has room (``room``) for
@@ -87,12 +92,12 @@ class StepControl:
         deepest of those values, so it selects at the last level among the firings for each of its four values,
         each from the other, shallow, next values; and the lookup FIFO's read (the data stage's decision, across the
         cache) selects after it, between the rooms after a read and after none."""
-        last = nxt.allin | (nxt.k == 3)
+        last = self._last(nxt.allin, nxt.k)
         fires = {}
         for read in (0, 1):
             for allin in (0, 1):
                 for miss in (0, 1):
-                    state = SimpleNamespace(**{**vars(nxt), "last": Const(allin) | (nxt.k == 3),
+                    state = SimpleNamespace(**{**vars(nxt), "last": self._last(Const(allin), nxt.k),
                                                "step_miss": Const(miss),
                                                "room": nxt.room.if_read if read else nxt.room.if_not})
                     fires[read, allin, miss] = named(m, self._fires(state), f"fire_if{read}{allin}{miss}")
@@ -154,7 +159,7 @@ class StepControl:
             # whenever the outcomes are current (formal invariant ``decision_ahead``); nothing else reads it
             step_decision(m, [c[q].hit for q in range(4)], live, same, k, "now_")
             # ``last_ahead`` from this clock's registers (formal invariant ``firing_decided_ahead``)
-            m.d.comb += Signal(name="now_last").eq(ahead.allin | (k == 3))
+            m.d.comb += Signal(name="now_last").eq(self._last(ahead.allin, k))
         act = [Signal(name=f"act{q}") for q in range(4)]         # corners checked in this step
         for q in range(4):
             m.d.comb += act[q].eq(live[q] & Mux(ahead.allin, 1, k == q))

@@ -124,7 +124,7 @@ def board_engine(scene: str = "tin-plane", preset: str = BOARD_PRESET, size: int
     from fxmodel.pipeline.engine import EngineParams
     from host.render import from_triangles, prepare
     from host.scene import scene_path
-    frame = prepare(scene_path(scene), size=size, preset=preset)
+    frame = prepare(scene_path(scene), size=(size, size), preset=preset)
     tframe = from_triangles(frame, depth=True)
     p = tframe.params
     return EngineParams(raster=p.raster, pipeline=p.pipeline, rop=dataclasses.replace(p.rop, on_chip=True)), \

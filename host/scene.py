@@ -292,13 +292,14 @@ def load_scene(path, *, size: int | tuple[int, int] | None = None) -> Scene:
 
 def scene_at(scene, size: int | tuple[int, int] | None = None) -> Scene:
     """A scene given by path (loaded by :func:`load_scene`, ``size`` its override) or already loaded (then at
-    ``size`` if given: ``(width, height)``, or an int for a square image), as :func:`host.render.prepare` takes
-    it. A file is read once, at the size asked, so its own pixels may exceed :data:`MAX_PIXELS`."""
+    ``size`` if given), as :func:`host.render.prepare` takes it: ``size`` means the same either way,
+    ``(width, height)``, or a width with the height keeping the aspect ratio (:meth:`Scene.with_size`). A file is
+    read once, at the size asked, so its own pixels may exceed :data:`MAX_PIXELS`."""
     if not hasattr(scene, "materials"):
         return load_scene(scene, size=size)
     if size is None:
         return scene
-    return scene.with_size(*((size, size) if isinstance(size, int) else size))
+    return scene.with_size(size) if isinstance(size, int) else scene.with_size(*size)
 
 
 def parse_scene(text: str, *, source: str = "<string>", base: Path | None = None,

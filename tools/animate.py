@@ -157,7 +157,7 @@ def _gif(args) -> dict:
     scene = load_scene(file)
     pics = []
     for s in frames(scene):
-        _, tf, _ = _prepare(s, args.size, args.preset)
+        _, tf, _ = _prepare(s, (args.size, args.size), args.preset)     # --size: the board's square frame
         _, color, _, _, _ = tf.params.draw(tf.records.matrix())
         h, w = color.shape[:2]
         pics.append(display_frame(color, w, h).astype(np.uint8))

@@ -74,7 +74,8 @@ def scene_bytes(args) -> list[bytes]:
             sent = upload_frames_of(frame.params) + picture_frames(
                 params.raster.record, [(place, recs.matrix()) for place, recs in tiles], (args.size, args.size))
         else:
-            frame = prepare(s, size=args.size, preset=args.preset, cube_size=args.cube_size)
+            frame = prepare(s, size=(args.size, args.size), preset=args.preset,   # the on-chip tile
+                            cube_size=args.cube_size)
             tframe = from_triangles(frame)
             sent = scene_frames(frame.params, tframe.params.raster.record, tframe.records.matrix(),
                                 (frame.scene.width, frame.scene.height))

@@ -52,6 +52,15 @@ def test_the_system_needs_the_tile_on_chip_and_inside_the_display():
                                                                       params.raster.record) // 8)
 
 
+def test_the_board_engine_draws_a_wide_scene_on_the_square_tile():
+    """The frame on chip is one ``size x size`` tile: a 320 x 200 scene (the Berlin wall) is drawn at the tile's
+    size, not at its width with the aspect kept (an int size keeps the aspect, ``host.scene.scene_at``)."""
+    from board.frame import board_engine
+    params, frame, _ = board_engine("berlin-wall", preset="default", size=16)
+    assert (frame.scene.width, frame.scene.height) == (16, 16)
+    assert (params.rop.width, params.rop.height) == (16, 16)
+
+
 def _fragments(P, rng, k, z_lo, z_hi):
     """``k`` fragments (codes of ``P.inputs``) inside the tile, depth codes in ``[z_lo, z_hi)``."""
     idx = rng.integers(0, P.pixels, k)

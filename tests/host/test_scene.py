@@ -10,7 +10,7 @@ from PIL import Image
 
 from fxmodel.core.paths import SCENES
 from host.meshes import quad_mesh, sphere_mesh
-from host.scene import SCHEMA_EXAMPLE, SceneError, load_scene, parse_scene
+from host.scene import SCHEMA_EXAMPLE, SceneError, load_scene, parse_scene, scene_at
 
 SHIPPED = ["tin-plane", "berlin-wall", "sphere"]
 
@@ -198,6 +198,17 @@ def test_size_override(tmp_path):
     assert (s.width, s.height) == (64, 48)                          # keeps the aspect ratio
     with pytest.raises(ValueError):
         s.with_size(0)
+
+
+@pytest.mark.parametrize("size", [64, (64, 64), (40, 10), None])
+def test_scene_at_size_means_the_same_for_a_path_and_a_loaded_scene(tmp_path, size):
+    """``scene_at`` (what ``prepare`` draws) sizes a loaded scene as ``load_scene`` sizes its file: an int is a
+    width keeping the aspect ratio (32 x 24 here), not a square."""
+    path = write(tmp_path, BASE)
+    by_path, loaded = scene_at(path, size), scene_at(load_scene(path), size)
+    assert (loaded.width, loaded.height) == (by_path.width, by_path.height)
+    if size == 64:
+        assert (loaded.width, loaded.height) == (64, 48)
 
 
 def test_quad_mesh_winding_and_uv():

@@ -284,10 +284,16 @@ def load_scene(path, *, size: int | tuple[int, int] | None = None) -> Scene:
         raise SceneError(f"{path}: cannot read the scene file: {exc.strerror or exc}") from None
     except UnicodeDecodeError as exc:
         raise SceneError(f"{path}: not UTF-8 text: {exc}") from None
-    scene = parse_scene(text, source=str(path), base=path.resolve().parent, path=path, resized=size is not None)
-    if size is not None:
-        scene = scene.with_size(*size) if isinstance(size, tuple) else scene.with_size(size)
-    return scene
+    return _at_size(parse_scene(text, source=str(path), base=path.resolve().parent, path=path,
+                                resized=size is not None), size)
+
+
+def _at_size(scene: Scene, size) -> Scene:
+    """``scene`` at ``size``: unchanged for ``None``, ``(width, height)``, or a width with the height keeping the
+    aspect ratio (:meth:`Scene.with_size`), the one meaning of a size for :func:`load_scene` and :func:`scene_at`."""
+    if size is None:
+        return scene
+    return scene.with_size(*size) if isinstance(size, tuple) else scene.with_size(size)
 
 
 def scene_at(scene, size: int | tuple[int, int] | None = None) -> Scene:
@@ -295,11 +301,7 @@ def scene_at(scene, size: int | tuple[int, int] | None = None) -> Scene:
     ``size`` if given), as :func:`host.render.prepare` takes it: ``size`` means the same either way,
     ``(width, height)``, or a width with the height keeping the aspect ratio (:meth:`Scene.with_size`). A file is
     read once, at the size asked, so its own pixels may exceed :data:`MAX_PIXELS`."""
-    if not hasattr(scene, "materials"):
-        return load_scene(scene, size=size)
-    if size is None:
-        return scene
-    return scene.with_size(size) if isinstance(size, int) else scene.with_size(*size)
+    return load_scene(scene, size=size) if not hasattr(scene, "materials") else _at_size(scene, size)
 
 
 def parse_scene(text: str, *, source: str = "<string>", base: Path | None = None,

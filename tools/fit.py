@@ -308,7 +308,7 @@ def check_candidate(c: Candidate) -> dict:
         units = units_of(dict(c.knobs), dict(c.base))
         for at, (_lsb_a, clamped_ref, lsb_b) in zip(c.sizes, c.ref):
             renders += 1
-            frame = prepare(c.scene if at is None else c.scene.with_size(*at), preset=units, allow_clamp=True)
+            frame = prepare(c.scene, size=at, preset=units, allow_clamp=True)
             rep = _render(frame, c.triangles)
             if (rep["max_lsb_vs_float_well_conditioned"] > c.max_lsb or _refused(frame) > clamped_ref
                     or rep["max_lsb_vs_ideal"] > lsb_b + c.max_lsb):
@@ -483,8 +483,7 @@ class _Job:
         """Frame and render report of candidate ``units`` (a units dict) at size ``at`` (None: full size)."""
         from host.render import prepare
         self.renders += 1
-        sc = self.scene if at is None else self.scene.with_size(*at)
-        frame = prepare(sc, preset=units, allow_clamp=True)      # the cube size is the units' (a knob)
+        frame = prepare(self.scene, size=at, preset=units, allow_clamp=True)   # the cube size is the units' (a knob)
         return frame, _render(frame, self.triangles)
 
 

@@ -61,7 +61,7 @@ def small_texfetch(cls=TexFetch) -> TexFetch:
 
 def _capacity(p: TexCacheParams) -> int:
     """Lookups a decoupled cache holds at most: the input FIFO's, the set, prefetch and tag stages', the lookup FIFO's,
-    its head's and the output register's."""
+    its head's, the data banks' read's and the output register's."""
     return INPUT_DEPTH + HELD + p.lookup_depth + AFTER
 
 
@@ -99,7 +99,8 @@ def cache_invariants(h: Harness, sig, top, path: str, cache, pend, beat_ref, ins
         h.check(~copying | (filled != 0), "copy_of_complete_line")
         h.check(beat == beat_ref, "beat_is_burst_beat")
         held = s("s_valid") + s("p_valid") + s("t_valid")
-        h.check(inside == ififo.level + held + lfifo.level + s("h_valid") + s("o_valid"), "inside_is_stages")
+        h.check(inside == ififo.level + held + lfifo.level + s("h_valid") + s("rd_valid") + s("o_valid"),
+                "inside_is_stages")
         rows_coherent(h, s, p)
         next_lines(h, s, cache)
     h.cover(pend == p.misses, "misses_outstanding_reach")
@@ -271,7 +272,7 @@ ENTRIES = [
                 f"TexFetch: two DecoupledTexCache as above on one AXI4 port (two 4x4 maps, the second across 4 KB, "
                 f"memory stalls <= {STALL})", small_texfetch, arlen=DEC_PARAMS.beats_per_line - 1,
                 max_out=2 * DEC_PARAMS.misses, capacity=_capacity(DEC_PARAMS), invariants=_fetch_invariants,
-                mode="bmc", depth=FETCH_DEPTH, cover_depth=24, why=FETCH_WHY,
+                mode="bmc", depth=FETCH_DEPTH, cover_depth=26, why=FETCH_WHY,
                 extra={"covers": "; fork/join: fragments in = out + inside; each AR from one cache with its fields, "
                                  "each cache's outstanding <= misses, every R beat to the cache that issued its "
                                  "burst, none lost"}),

@@ -13,7 +13,10 @@ engines' (``docs/fpga/placement.json``).
 What: :class:`RegisteredMemory` is ``depth`` words of ``width`` bits with one synchronous read port whose word is
 registered once more (``r_data`` holds the word at ``r_addr`` of two clocks before) and one write port (``w_en``,
 ``w_addr``, ``w_data``: the word is there for reads from the next clock on; a read of the word being written gives
-the word before the write). On an ECP5 platform (:func:`rtl.dsp.uses_blocks`), when too large to stay in logic
+the word before the write). With ``enables``, the two registers advance only when told: ``r_en`` the read (the
+word at ``r_addr`` into the read register), ``o_en`` the output register (the read register's word into it), so
+the read and the output are a pipeline of two stages that a stream's handshake can hold (the blocks' ``CEB`` and
+``OCEB``). On an ECP5 platform (:func:`rtl.dsp.uses_blocks`), when too large to stay in logic
 (the cost model's rule, which Yosys' follows), it is built of ``DP16KD`` blocks of one port of :data:`PORTS`
 (:func:`fxmodel.core.cost.registered_shape`): side by side, each holding every word of a column of the port's
 bits, written through port A and read through port B with the block's output register as the register; a memory
@@ -89,17 +92,25 @@ class RegisteredMemory(wiring.Component):
     r_addr : in, ``range(depth)`` -- the word read
     r_data : out, ``width`` -- the word at ``r_addr`` two clocks before
     w_en, w_addr, w_data : in -- a write (the word is read from the next clock on)
+    r_en, o_en : in, with ``enables`` -- the read register's and the output register's enables (without, both
+        always enabled: ``r_data`` is then the word at ``r_addr`` two clocks before)
     """
 
-    def __init__(self, width: int, depth: int, init=(), name: str = "mem"):
+    def __init__(self, width: int, depth: int, init=(), name: str = "mem", enables: bool = False):
         if not (isinstance(width, int) and width >= 1 and isinstance(depth, int) and depth >= 1):
             raise ValueError(f"RegisteredMemory {name}: width={width!r}, depth={depth!r}: must be positive ints")
         if len(init) > depth:
             raise ValueError(f"RegisteredMemory {name}: {len(init)} initial words for a depth of {depth}")
-        self.width, self.depth, self.init, self.name = width, depth, list(init), name
+        self.width, self.depth, self.init, self.name, self.enables = width, depth, list(init), name, enables
         abits = max(1, (depth - 1).bit_length())
-        super().__init__({"r_addr": In(abits), "r_data": Out(width),
-                          "w_en": In(1), "w_addr": In(abits), "w_data": In(width)})
+        ports = {"r_addr": In(abits), "r_data": Out(width), "w_en": In(1), "w_addr": In(abits), "w_data": In(width)}
+        if enables:
+            ports |= {"r_en": In(1), "o_en": In(1)}
+        super().__init__(ports)
+
+    def _enables(self) -> tuple:
+        """The read register's and the output register's enables (constants 1 without ``enables``)."""
+        return (self.r_en, self.o_en) if self.enables else (Const(1, 1), Const(1, 1))
 
     @property
     def in_logic(self) -> bool:
@@ -118,9 +129,11 @@ class RegisteredMemory(wiring.Component):
             return m
         m.submodules.mem = mem = Memory(shape=self.width, depth=self.depth, init=self.init)
         rd, wr = mem.read_port(domain="sync"), mem.write_port(domain="sync")
-        m.d.comb += [rd.addr.eq(self.r_addr), wr.en.eq(self.w_en), wr.addr.eq(self.w_addr),
+        r_en, o_en = self._enables()
+        m.d.comb += [rd.addr.eq(self.r_addr), rd.en.eq(r_en), wr.en.eq(self.w_en), wr.addr.eq(self.w_addr),
                      wr.data.eq(self.w_data)]
-        m.d.sync += self.r_data.eq(rd.data)
+        with m.If(o_en):
+            m.d.sync += self.r_data.eq(rd.data)
         return m
 
     def _blocks(self, m: Module) -> None:
@@ -141,7 +154,11 @@ class RegisteredMemory(wiring.Component):
             # then with the output register
             sel = Signal(range(groups), name=f"{self.name}_sel", reset_less=True)
             sel_q = Signal(range(groups), name=f"{self.name}_sel_q")
-            m.d.sync += [sel.eq(self.r_addr[abits:]), sel_q.eq(sel)]
+            r_en, o_en = self._enables()
+            with m.If(r_en):
+                m.d.sync += sel.eq(self.r_addr[abits:])
+            with m.If(o_en):
+                m.d.sync += sel_q.eq(sel)
             for g in reversed(range(groups - 1)):   # every group's output register reset to 0: so is the word
                 out = Mux(sel_q == g, words[g], out)
         m.d.comb += self.r_data.eq(out)
@@ -151,7 +168,8 @@ class RegisteredMemory(wiring.Component):
         lo, hi = j * w, min(self.width, (j + 1) * w)
         dob = Signal(w, name=f"{self.name}_{name}_do")
         ports = {"i_CLKA": ClockSignal("sync"), "i_CLKB": ClockSignal("sync"),
-                 "i_CEA": Const(1, 1), "i_CEB": Const(1, 1), "i_OCEA": Const(1, 1), "i_OCEB": Const(1, 1),
+                 "i_CEA": Const(1, 1), "i_CEB": self._enables()[0], "i_OCEA": Const(1, 1),
+                 "i_OCEB": self._enables()[1],
                  "i_RSTA": Const(0, 1), "i_RSTB": ResetSignal("sync", allow_reset_less=True),
                  "i_WEA": w_en, "i_WEB": Const(0, 1)}        # RSTB: the output register, as the domain's
         for c in "AB":

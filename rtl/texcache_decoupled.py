@@ -34,7 +34,10 @@ request names one by its index). Organisation (``docs/texcache.md``):
   queued). The data stage copies a lookup's fills into the data banks (four texels a clock) only when that lookup
   is at the head of the FIFO, so a line replaced at tag time by a later miss is intact for every earlier lookup: no
   line locking. Then it reads the four banks (one read per bank) and the texels leave on ``o`` with the sideband,
-  in order.
+  in order, two clocks later: the banks are read through their blocks' output registers (:mod:`rtl.bram`), so the
+  texels leave flip-flops for the bank multiplexer and the consumer, not a block RAM's array (whose word comes
+  more than half a 100 MHz clock after the edge); the read and the output are two stages that ``o.ready`` holds,
+  the read taking the head whenever it is empty.
 - **Stalls** only through the streams: the tag stage holds while the lookup FIFO is full, or a miss finds the
   outstanding budget (``misses``) spent, and ``i.ready`` falls when the input FIFO fills behind it; ``o.ready``
   low holds the data stage.
@@ -60,6 +63,7 @@ from fxmodel.core.unit import require
 from fxmodel.units.texcache import Layout, TexCacheParams
 from rtl.rop import axi_signature
 
+from .bram import RegisteredMemory
 from .texcache_step import StepControl
 from .texcache_stepwrite import held_rows, step_write
 from .texcache_tags import age_bits, compare, new_rows, row_states, tag_store, victim
@@ -77,8 +81,8 @@ INPUT_DEPTH = 3
 HELD = 3
 
 #: Lookups held in registers after the lookup FIFO: its head (so that the data stage decides from flip-flops, not
-#: from the block RAM's unregistered output) and the output register.
-AFTER = 2
+#: from the block RAM's unregistered output), the data banks' read (stage 1) and their output registers (stage 2).
+AFTER = 3
 
 
 def request_layout(layout: Layout, side_bits: int = 0, skip: bool = False) -> data.StructLayout:
@@ -456,9 +460,14 @@ class DecoupledTexCache(StepControl, wiring.Component):
         rd_word = cc[:(Q - 1).bit_length()]
         for rp in f.fill_banks:
             m.d.comb += rp.addr.eq(Cat(rd_word, rring) if P.misses > 1 else rd_word)
+        # the read (stage 1: the banks' read registers) and the output (stage 2: their output registers), each
+        # with its valid bit, bank selects and sideband; the read takes the head when it is empty or moves on
         o_valid, sel = Signal(name="o_valid"), Signal(data.ArrayLayout(2, 4), name="sel")
-        side = Signal(max(1, self.side_bits))
+        rd_valid, rd_sel = Signal(name="rd_valid"), Signal(data.ArrayLayout(2, 4), name="rd_sel")
+        side, rd_side = Signal(max(1, self.side_bits)), Signal(max(1, self.side_bits), name="rd_side")
         advance = ~o_valid | self.o.ready
+        read = Signal(name="read")
+        m.d.comb += read.eq(~rd_valid | advance)
         ready = Signal(name="head_ready")
         kept = h_valid & ((done + finish)[:len(done)] == ent.fills) & ~(start | (copying & ~finish))
         new = f.lfifo.r_rdy & (data.View(self._entry_layout(), f.lfifo.r_data).fills == 0)
@@ -467,26 +476,26 @@ class DecoupledTexCache(StepControl, wiring.Component):
             m.d.comb += Signal(name="now_head_ready").eq(h_valid & (done == ent.fills) & ~copying)
         banks = []
         for b in range(4):
-            mem = Memory(shape=P.texel_bits, depth=P.lines * Q, init=[])
+            mem = RegisteredMemory(P.texel_bits, P.lines * Q, name=f"bank{b}", enables=True)
             m.submodules[f"bank{b}"] = mem
-            wp, rp = mem.write_port(), mem.read_port(domain="sync")
-            banks.append(rp)
+            wp = mem.write_port()
+            banks.append(mem)
             slot_word = (f.slots.r_data * Q + (cc - 1))[:len(wp.addr)]
             m.d.comb += [wp.addr.eq(slot_word), wp.data.eq(f.fill_banks[b].data), wp.en.eq(copying & (cc != 0)),
-                         rp.addr.eq(ent.addr[b]), rp.en.eq(advance)]
+                         mem.r_addr.eq(ent.addr[b]), mem.r_en.eq(read), mem.o_en.eq(advance)]
         take = Signal(name="take")                               # the head's texels read: it leaves
-        m.d.comb += take.eq(advance & ready)
+        m.d.comb += take.eq(read & ready)
+        with m.If(read):
+            m.d.sync += [rd_valid.eq(ready), rd_sel.eq(ent.bank), rd_side.eq(ent.side if self.side_bits else 0)]
+        with m.If(take):
+            m.d.sync += done.eq(0)
         with m.If(advance):
-            m.d.sync += o_valid.eq(ready)
-            with m.If(ready):
-                m.d.sync += [done.eq(0), sel.eq(ent.bank)]
-                if self.side_bits:
-                    m.d.sync += side.eq(ent.side)
+            m.d.sync += [o_valid.eq(rd_valid), sel.eq(rd_sel), side.eq(rd_side)]
         m.d.comb += f.lfifo.r_en.eq(~h_valid | take)
         with m.If(f.lfifo.r_en):
             m.d.sync += [h_valid.eq(f.lfifo.r_rdy), ent.eq(f.lfifo.r_data)]
-        rdata = Array(rp.data for rp in banks)
+        rdata = Array(mem.r_data for mem in banks)
         m.d.comb += [self.o.valid.eq(o_valid), self.o.payload.texels.eq(Cat(*(rdata[sel[q]] for q in range(4))))]
         if self.side_bits:
             m.d.comb += self.o.payload.side.eq(side)
-        m.d.comb += self.busy.eq(f.tag_busy | f.lfifo.r_rdy | h_valid | o_valid | (f.inflight != 0))
+        m.d.comb += self.busy.eq(f.tag_busy | f.lfifo.r_rdy | h_valid | rd_valid | o_valid | (f.inflight != 0))

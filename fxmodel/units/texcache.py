@@ -164,11 +164,12 @@ class TexCacheParams:
         """The RAMs an RTL cache builds (:class:`fxmodel.core.cost.Memory`): four data banks by texel parity, one
         read port each (the fill writes through the block RAM's second port), and the tags (the line number, of
         ``address_bits - log2(line_bytes)`` bits, plus a valid bit, one word per set holding every way). With
-        ``decoupled`` also the lookup FIFO (:attr:`lookup_depth` entries of :attr:`lookup_bits` plus
+        ``decoupled`` the data banks are read through their blocks' output registers (``rtl/bram.py``) and there
+        are also the lookup FIFO (:attr:`lookup_depth` entries of :attr:`lookup_bits` plus
         ``side_bits``) and the fill buffer (four banks by parity, :attr:`misses` lines)."""
         tag_bits = address_bits - self.line_bytes.bit_length() + 1 + 1
         mems = (Memory(self.lines * self.line_texels // 4, self.texel_bits, 1, rom=False, count=4, kind="texels",
-                       name="texel cache bank"),
+                       name="texel cache bank", registered=decoupled),
                 Memory(self.sets, tag_bits * self.ways, 1, rom=False, kind="table", name="texel cache tags"))
         if decoupled:
             mems += (Memory(self.lookup_depth, self.lookup_bits + side_bits, 1, rom=False, kind="table",

@@ -65,21 +65,34 @@ def _equal_on_every_clock(out: str, cycles=CYCLES):
     assert int(done[2]) < int(done[3]) // 10, out
 
 
-#: (depth, width, initialised): one x18 block; four x9 columns of a 36-bit word; two x18 columns, the second
-#: narrow, written from empty; deeper than any port: two groups of two x9 columns, and four groups of three written
+#: (depth, width, initialised, enables): one x18 block; four x9 columns of a 36-bit word; two x18 columns, the second
+#: narrow, written from empty (with and without the registers' enables, driven at random: a texel cache's data
+#: bank); deeper than any port: two groups of two x9 columns (with enables too), and four groups of three written
 #: from empty (addresses are random over the whole address range, so the depths are powers of 2).
-SHAPES = [(1024, 18, True), (2048, 36, True), (512, 24, False), (4096, 12, True), (8192, 20, False)]
+SHAPES = [(1024, 18, True, False), (2048, 36, True, False), (512, 24, False, False), (512, 24, False, True),
+          (4096, 12, True, False), (4096, 12, True, True), (8192, 20, False, False)]
 
 
 @needs_icarus
-@pytest.mark.parametrize("depth, width, filled", SHAPES)
-def test_registered_memory_equals_its_fabric_form_on_every_clock(tmp_path, depth, width, filled):
+@pytest.mark.parametrize("depth, width, filled, enables", SHAPES)
+def test_registered_memory_equals_its_fabric_form_on_every_clock(tmp_path, depth, width, filled, enables):
     rng = random.Random(width)
     init = [rng.getrandbits(width) for _ in range(depth)] if filled else []
-    ref, alt, tb = _both_ways(lambda: bram.RegisteredMemory(width, depth, init))
+    ref, alt, tb = _both_ways(lambda: bram.RegisteredMemory(width, depth, init, enables=enables))
     assert alt.count("DP16KD") == bram.blocks(depth, width) and "DP16KD" not in ref
     assert alt.count('.REGMODE_B("OUTREG")') == bram.blocks(depth, width)
     _equal_on_every_clock(run_icarus(tmp_path, {"ref.v": ref, "alt.v": alt, "model.v": bram.MODEL, "tb.v": tb}))
+
+
+@needs_icarus
+@pytest.mark.parametrize("enable", ["CEB", "OCEB"])
+def test_the_comparison_catches_a_block_that_ignores_an_enable(tmp_path, enable):
+    ref, alt, tb = _both_ways(lambda: bram.RegisteredMemory(24, 512, enables=True))
+    held = bram.MODEL.replace(f"if ({enable}) ", "")
+    assert held != bram.MODEL
+    out = run_icarus(tmp_path, {"ref.v": ref, "alt.v": alt, "model.v": held, "tb.v": tb})
+    done = re.search(rf"DONE {CYCLES} (\d+) UNKNOWN", out)
+    assert done and int(done[1]) > 0, out
 
 
 @needs_icarus

@@ -4,6 +4,8 @@ footprint-per-bank property; the blocked layout's bijectivity; validation."""
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -231,13 +233,14 @@ def test_bad_parameters_name_themselves(kw, word):
 
 
 def test_decoupled_cost_adds_the_lookup_fifo_and_the_fill_buffer():
-    """The decoupled RTL's memories: the blocking cache's, a lookup FIFO of ``lookup_depth`` entries (a word
-    address per bank, a bank per corner, the fill count, the sideband) and four fill-buffer banks of ``misses``
-    lines by parity."""
+    """The decoupled RTL's memories: the blocking cache's, its data banks read through their blocks' output
+    registers (``rtl/bram.py``), a lookup FIFO of ``lookup_depth`` entries (a word address per bank, a bank per
+    corner, the fill count, the sideband) and four fill-buffer banks of ``misses`` lines by parity."""
     p = TexCacheParams(block=8, sets=32, ways=4, texel_bits=28, lookup_depth=64, misses=8)
     base = p.memories()
     mems = p.memories(side_bits=5, decoupled=True)
-    assert mems[:2] == base and len(mems) == 4
+    assert not base[0].registered and mems[0] == replace(base[0], registered=True)
+    assert mems[1] == base[1] and len(mems) == 4
     fifo, fill = mems[2:]
     bank_words = p.lines * 64 // 4                                  # 2048 words: 11 address bits
     assert (fifo.words, fifo.bits) == (64, 4 * (bank_words - 1).bit_length() + 4 * 2 + 3 + 5)

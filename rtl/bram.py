@@ -167,9 +167,9 @@ class RegisteredMemory(wiring.Component):
         """The block of column ``j`` of one group, its output register's word into ``word``."""
         lo, hi = j * w, min(self.width, (j + 1) * w)
         dob = Signal(w, name=f"{self.name}_{name}_do")
+        r_en, o_en = self._enables()
         ports = {"i_CLKA": ClockSignal("sync"), "i_CLKB": ClockSignal("sync"),
-                 "i_CEA": Const(1, 1), "i_CEB": self._enables()[0], "i_OCEA": Const(1, 1),
-                 "i_OCEB": self._enables()[1],
+                 "i_CEA": Const(1, 1), "i_CEB": r_en, "i_OCEA": Const(1, 1), "i_OCEB": o_en,
                  "i_RSTA": Const(0, 1), "i_RSTB": ResetSignal("sync", allow_reset_less=True),
                  "i_WEA": w_en, "i_WEB": Const(0, 1)}        # RSTB: the output register, as the domain's
         for c in "AB":

@@ -134,17 +134,30 @@ def run(params: TexCacheParams, layout: Layout, maps: list, trace: Trace, *, sid
 
 
 def _simulate_bench(make, key, reqs: list, image: bytes, base: int, *, latency, p_valid, p_ready, p_pause, seed,
-                    sim, tag, budget) -> tuple[dict, float, float]:
-    """Build (once per ``key``) and run the bench around the design ``make()`` builds; the testbench's result."""
+                    sim, tag, budget, dram_ns=None) -> tuple[dict, float, float]:
+    """Build (once per ``key``) and run the bench around the design ``make()`` builds; the testbench's result.
+    With ``dram_ns`` the bench is :class:`cosim.texfetch_dram.FetchDramBench` (the memory LiteDRAM's simulation
+    core in a clock of that period; ``latency`` and ``p_pause`` do not apply), else :class:`FetchBench`."""
     if not 0 <= latency <= MAX_LATENCY:
         raise ValueError(f"latency={latency}: must be in 0..{MAX_LATENCY}")
-    top, bdir, src = component_build("texfetch", params_key(key), sim, lambda: FetchBench(make()))
+    if dram_ns is None:
+        top, bdir, src = component_build("texfetch", params_key(key), sim, lambda: FetchBench(make()))
+        tb = "cosim.texfetch_tb"
+    else:
+        from fxmodel.core.paths import source_digest
+
+        from .sdram_frame import litedram_sources
+        from .texfetch_dram import FetchDramBench
+        bkey = params_key(key, source_digest(("board", "cosim")).hex())
+        top, bdir, src = litedram_sources(sim, "texfetch_dram", bkey, lambda: FetchDramBench(make()), textures=True)
+        tb, budget = "cosim.texfetch_dram_tb", budget * max(1, -(-dram_ns // 10)) + 4000
     job = job_folder(bdir, tag or "texfetch", {"key": repr(key), "sim": sim, "lookups": len(reqs), "seed": seed,
-                                               "p": [p_valid, p_ready, p_pause], "latency": latency})
+                                               "p": [p_valid, p_ready, p_pause], "latency": latency,
+                                               "dram_ns": dram_ns})
     meta = {"requests": [format(r, "x") for r in reqs], "image": image.hex(), "base": base, "p_valid": p_valid,
-            "p_ready": p_ready, "p_pause": p_pause, "seed": seed, "latency": latency,
+            "p_ready": p_ready, "p_pause": p_pause, "seed": seed, "latency": latency, "dram_ns": dram_ns,
             "max_cycles": int(budget / max(min(p_valid, p_ready, 1 - p_pause), 0.05))}
-    out, build_seconds, seconds = run_testbench(sim, src, top, bdir, job, "cosim.texfetch_tb", meta, "result.json")
+    out, build_seconds, seconds = run_testbench(sim, src, top, bdir, job, tb, meta, "result.json")
     got = json.loads(out.read_text())
     remove_job(job)
     return got, build_seconds, seconds
@@ -152,11 +165,13 @@ def _simulate_bench(make, key, reqs: list, image: bytes, base: int, *, latency, 
 
 def run_fetch(caches: dict, layout: Layout, maps: list, traces: dict, *, side_bits: int = 4, latency: int = 1,
               p_valid: float = 1.0, p_ready: float = 1.0, p_pause: float = 0.0, seed: int = 1,
-              sim: str | None = None, tag: str = "") -> dict:
+              sim: str | None = None, tag: str = "", dram_ns: int | None = None) -> dict:
     """Fragments through the texture fetch (``rtl/texfetch.py``): ``traces[map]`` (one row per fragment, the
     same fragments) in the caches ``caches[map]`` over ``layout`` holding ``maps`` (one array per surface); the
     texels of both maps and the sideband against the maps, and each map's bursts (the ``AR`` transfers to its
-    surfaces, in order) against its cache's model.
+    surfaces, in order) against its cache's model. ``dram_ns``: the maps in LiteDRAM's simulation core behind the
+    board's clock crossing, the SDRAM's clock of that period (``cosim/texfetch_dram.py``), instead of an
+    ``AxiRam`` behind a delay queue of ``latency`` with wait states ``p_pause``.
 
     Returns
     -------
@@ -176,10 +191,16 @@ def run_fetch(caches: dict, layout: Layout, maps: list, traces: dict, *, side_bi
         sub = pack_requests(request_layout(layout), traces[k])
         reqs = reqs + np.asarray(sub, dtype=object) * (1 << lay[k].offset)
     beats = sum(v.totals["beats"] + 40 * v.totals["bursts"] for v in models.values())
+    if dram_ns is None:
+        make, key = (lambda: TexFetch(caches, layout, side_bits)), (tuple(caches.items()), layout, side_bits, "fetch")
+    else:
+        from board.litedram import ADDR_BITS
+        make = lambda: TexFetch(caches, layout, side_bits, addr_bits=ADDR_BITS)     # noqa: E731
+        key = (tuple(caches.items()), layout, side_bits, "fetch", "dram")
     got, build_seconds, seconds = _simulate_bench(
-        lambda: TexFetch(caches, layout, side_bits), (tuple(caches.items()), layout, side_bits, "fetch"),
-        [int(r) for r in reqs], layout_image(layout, maps), layout.base, budget=400 + 6 * n + 3 * beats,
-        **dict(latency=latency, p_valid=p_valid, p_ready=p_ready, p_pause=p_pause, seed=seed, sim=sim, tag=tag))
+        make, key, [int(r) for r in reqs], layout_image(layout, maps), layout.base, budget=400 + 6 * n + 3 * beats,
+        **dict(latency=latency, p_valid=p_valid, p_ready=p_ready, p_pause=p_pause, seed=seed, sim=sim, tag=tag,
+               dram_ns=dram_ns))
     vals = [int(v, 16) for v in got["outputs"]]
     bad = np.zeros(n, bool) if len(vals) == n else np.ones(n, bool)
     if len(vals) == n:
@@ -207,4 +228,4 @@ def run_fetch(caches: dict, layout: Layout, maps: list, traces: dict, *, side_bi
                 v["bursts"] for v in per_map.values()),
             "rtl_bytes": 4 * got["beats"], "model_bytes": model_bytes, "cycles": got["cycles"],
             "fragments_per_clock": n / max(got["cycles"], 1), "latency": latency, "simulator": sim,
-            "build_seconds": build_seconds, "seconds": seconds}
+            "mem_error": got.get("mem_error"), "dram_ns": dram_ns, "build_seconds": build_seconds, "seconds": seconds}

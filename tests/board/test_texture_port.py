@@ -1,0 +1,121 @@
+"""The texel caches' read channels across clocks (``board/texture_port.py``), in Amaranth's simulator with two
+unrelated clocks (each faster than the other in turn): every ``AR`` transfer and every ``R`` beat arrives once, in
+order, unchanged, under random ``valid`` and ``ready`` on both sides; an offered transfer stays offered with the same
+payload until taken (AXI's rule); the ID is widened with zeros and narrowed back; a beat with an error response or
+an ID the manager did not send raises ``error``, and clean traffic does not."""
+
+from __future__ import annotations
+
+import random
+
+import pytest
+from amaranth.sim import Simulator
+
+from board.litedram import ID_BITS
+from board.texture_port import TextureReadCrossing
+
+AR_FIELDS = ("araddr", "arlen", "arsize", "arburst")
+R_FIELDS = ("rdata", "rresp", "rlast")
+
+
+def _send(port, fields, prefix, items, domain, rng, p):
+    """A source on ``port``'s channel ``prefix`` in ``domain``: ``items`` (dicts of ``fields``) offered with
+    probability ``p`` a clock, each held until taken."""
+    async def process(ctx):
+        for item in items:
+            while rng.random() >= p:
+                ctx.set(getattr(port, f"{prefix}valid"), 0)
+                await ctx.tick(domain)
+            ctx.set(getattr(port, f"{prefix}valid"), 1)
+            for f in fields:
+                ctx.set(getattr(port, f), item[f])
+            await ctx.tick(domain).until(getattr(port, f"{prefix}ready"))
+        ctx.set(getattr(port, f"{prefix}valid"), 0)
+    return process
+
+
+def _receive(port, fields, prefix, out, domain, rng, p, held):
+    """A sink on ``port``'s channel ``prefix`` in ``domain``: ``ready`` with probability ``p`` a clock; each
+    transfer appended to ``out``; an offer not taken must stay offered with the same payload (else ``held`` gets
+    the clock's note)."""
+    async def process(ctx):
+        waiting = None
+        while True:
+            ready = int(rng.random() < p)
+            ctx.set(getattr(port, f"{prefix}ready"), ready)
+            valid = ctx.get(getattr(port, f"{prefix}valid"))
+            item = {f: ctx.get(getattr(port, f)) for f in fields}
+            if waiting is not None and (not valid or item != waiting):
+                held.append((prefix, waiting, valid, item))
+            if valid and ready:
+                out.append(item)
+            waiting = item if valid and not ready else None
+            await ctx.tick(domain)
+    return process
+
+
+def _run(ar, r, periods, seed, p=(0.6, 0.6)):
+    """The crossing with ``ar`` sent up and ``r`` sent down; ``(ARs at the core, beats at the caches, held
+    violations, error, the core side's ID bits above the caches')``."""
+    dut = TextureReadCrossing(1)
+    rng = random.Random(seed)
+    sim = Simulator(dut)
+    sim.add_clock(periods[0], domain="sync")
+    sim.add_clock(periods[1], domain="dram")
+    got_ar, got_r, held, upper = [], [], [], []
+    sim.add_testbench(_send(dut.up, ("arid",) + AR_FIELDS, "ar", ar, "sync", rng, p[0]))
+    sim.add_testbench(_receive(dut.down, ("arid",) + AR_FIELDS, "ar", got_ar, "dram", random.Random(seed + 1), p[1],
+                               held), background=True)
+    sim.add_testbench(_send(dut.down, ("rid",) + R_FIELDS, "r", r, "dram", random.Random(seed + 2), p[0]))
+    sim.add_testbench(_receive(dut.up, ("rid",) + R_FIELDS, "r", got_r, "sync", random.Random(seed + 3), p[1],
+                               held), background=True)
+    result = {}
+
+    async def bench(ctx):
+        limit = 40 * (len(ar) + len(r)) + 200
+        for _ in range(limit):
+            await ctx.tick("sync")
+            if len(got_ar) == len(ar) and len(got_r) == len(r):
+                break
+        for _ in range(10):
+            await ctx.tick("sync")
+        result["error"] = ctx.get(dut.error)
+
+    sim.add_testbench(bench)
+    sim.run()
+    upper += [a["arid"] >> 1 for a in got_ar]
+    return got_ar, got_r, held, result["error"], upper
+
+
+def _traffic(rng, n):
+    ar = [{"arid": rng.randrange(2), "araddr": rng.randrange(1 << 25), "arlen": rng.randrange(256),
+           "arsize": 2, "arburst": 1} for _ in range(n)]
+    r = [{"rid": rng.randrange(2), "rdata": rng.randrange(1 << 32), "rresp": 0, "rlast": int(k % 4 == 3)}
+         for k in range(4 * n)]
+    return ar, r
+
+
+@pytest.mark.parametrize("periods", [(10e-9, 17e-9), (17e-9, 10e-9), (10e-9, 20e-9)])
+def test_every_transfer_crosses_once_in_order(periods):
+    rng = random.Random(int(periods[1] * 1e9))
+    ar, r = _traffic(rng, 40)
+    got_ar, got_r, held, error, upper = _run(ar, r, periods, seed=int(periods[0] * 1e9))
+    assert got_ar == ar and got_r == r
+    assert held == [] and error == 0 and set(upper) == {0}
+
+
+@pytest.mark.parametrize("bad", [{"rresp": 2}, {"rresp": 3}, {"rid": 2}, {"rid": 1 << (ID_BITS - 1)}])
+def test_an_error_response_or_a_stray_id_raises_error(bad):
+    rng = random.Random(5)
+    ar, r = _traffic(rng, 6)
+    r[9] = {**r[9], **bad}
+    got_ar, got_r, held, error, _ = _run(ar, r, (10e-9, 17e-9), seed=5)
+    assert error == 1 and len(got_r) == len(r) and held == []
+
+
+def test_a_okay_exclusive_response_is_not_an_error():
+    """``EXOKAY`` (1) is a success; only ``SLVERR`` and ``DECERR`` (bit 1 set) are errors."""
+    rng = random.Random(6)
+    ar, r = _traffic(rng, 6)
+    r[3] = {**r[3], "rresp": 1}
+    assert _run(ar, r, (10e-9, 17e-9), seed=6)[3] == 0

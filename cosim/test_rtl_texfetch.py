@@ -95,7 +95,7 @@ def tin_plane(n: int):
 def test_scene_lookups_chosen_cache(latency):
     """The tin plane's bump-map lookups through the chosen cache (``CHOSEN_CACHE``: 8 x 8-texel lines, 32 sets, 4
     ways, LRU): the sampler's packed texel words come back exactly, the bursts are the model's."""
-    from cosim.engine_fetch import CHOSEN_CACHE
+    from fxmodel.units.texcache import CHOSEN_CACHE
     trace, words, bits = tin_plane(500)
     params = dataclasses.replace(CHOSEN_CACHE, texel_bits=bits)
     layout = Layout(((("bump_map", 0),) + words.shape,), params.block, params.texel_bytes)

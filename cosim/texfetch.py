@@ -24,7 +24,7 @@ from .harness import component_build, run_testbench, simulator
 from .job import job_folder, remove_job
 from .rop import LATENCY_BITS, DelayQueue
 
-__all__ = ["FetchBench", "run", "run_fetch", "layout_image", "pack_requests", "MAX_LATENCY"]
+__all__ = ["FetchBench", "run", "run_fetch", "pack_requests", "MAX_LATENCY"]
 
 #: Largest ``lat`` of the bench (its ``lat`` input's range).
 MAX_LATENCY = (1 << LATENCY_BITS) - 1
@@ -65,19 +65,6 @@ class FetchBench(wiring.Component):
         return m
 
 
-def layout_image(layout: Layout, maps: list) -> bytes:
-    """The surfaces' texel words (``maps[k]``: ``(height, width)`` of surface ``k``) at their layout addresses
-    (little-endian, 4 bytes a texel), from the layout's base to its end; padding zero."""
-    img = bytearray(layout.size_bytes)
-    for k, words in enumerate(maps):
-        h, w = words.shape
-        yy, xx = np.mgrid[0:h, 0:w]
-        addr = layout.address(np.full(xx.size, k, np.int64), xx.ravel(), yy.ravel()) - layout.base
-        for a, v in zip(addr.tolist(), words.ravel().tolist()):
-            img[a:a + 4] = int(v).to_bytes(4, "little")
-    return bytes(img)
-
-
 def pack_requests(lay, trace: Trace, side=None) -> list[int]:
     """Request words of ``lay`` (:func:`rtl.texcache_decoupled.request_layout`; ``side`` per lookup, if it has a
     sideband)."""
@@ -110,7 +97,7 @@ def run(params: TexCacheParams, layout: Layout, maps: list, trace: Trace, *, sid
     budget = 400 + len(reqs) * 6 + (model.totals["beats"] + 40 * model.totals["bursts"]) * 3
     got, build_seconds, seconds = _simulate_bench(
         lambda: DecoupledTexCache(params, layout, side_bits), (params, layout, side_bits), reqs,
-        layout_image(layout, maps), layout.base, budget=budget,
+        layout.image(maps), layout.base, budget=budget,
         **dict(latency=latency, p_valid=p_valid, p_ready=p_ready, p_pause=p_pause, seed=seed, sim=sim, tag=tag))
     tb = params.texel_bits
     x, y = trace.corners()
@@ -198,7 +185,7 @@ def run_fetch(caches: dict, layout: Layout, maps: list, traces: dict, *, side_bi
         make = lambda: TexFetch(caches, layout, side_bits, addr_bits=ADDR_BITS)     # noqa: E731
         key = (tuple(caches.items()), layout, side_bits, "fetch", "dram")
     got, build_seconds, seconds = _simulate_bench(
-        make, key, [int(r) for r in reqs], layout_image(layout, maps), layout.base, budget=400 + 6 * n + 3 * beats,
+        make, key, [int(r) for r in reqs], layout.image(maps), layout.base, budget=400 + 6 * n + 3 * beats,
         **dict(latency=latency, p_valid=p_valid, p_ready=p_ready, p_pause=p_pause, seed=seed, sim=sim, tag=tag,
                dram_ns=dram_ns))
     vals = [int(v, 16) for v in got["outputs"]]

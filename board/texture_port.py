@@ -9,8 +9,12 @@ engine's.
 sides keep AXI's rules by construction: a FIFO's ``w_rdy`` is the ``ready`` of the side that writes it, its ``r_rdy``
 the ``valid`` of the side that reads it, and a word read leaves only with its handshake. The caches hold ``rready``
 high (each line's space is reserved when its miss is queued), so the ``R`` FIFO drains as fast as it fills; the
-core sees ``rready`` fall only while the FIFO is full. The caches' ports are built with the core's address bits
-(:data:`board.litedram.ADDR_BITS`), so addresses pass unchanged. Their one-bit ID is widened with zeros on ``AR``;
+core sees ``rready`` fall only while the FIFO is full.
+
+The maps live in the upper half of the SDRAM (:data:`TEXTURE_BASE`; the frame's buffers in the lower,
+``board/sdram_frame.py``): the caches' ports are built with :data:`TEXTURE_ADDR_BITS` address bits, so every
+address they make is below :data:`TEXTURE_BASE`, a power of two, and the crossing sets that one bit above them:
+the SDRAM address is ``TEXTURE_BASE + address`` with no carry and nothing cut. Their one-bit ID is widened with zeros on ``AR``;
 the core returns the ID it was given, so on ``R`` the ID's upper bits are zero and only its low bits go on: a
 beat whose upper bits are not zero, or whose response is an error (``SLVERR``, ``DECERR``), sets ``error``
 (sticky, in the engine's clock) instead of passing unseen. The caches never write: ``AW`` and ``W`` stay idle.
@@ -26,9 +30,14 @@ from amaranth.lib.wiring import In, Out
 from fxmodel.core.unit import require
 from rtl.rop import axi_signature
 
-from .litedram import ADDR_BITS, ID_BITS, TEXTURE_DATA_BITS
+from .litedram import ADDR_BITS, ID_BITS, SDRAM_BYTES, TEXTURE_DATA_BITS
 
-__all__ = ["TextureReadCrossing", "AR_DEPTH", "R_DEPTH"]
+__all__ = ["TextureReadCrossing", "AR_DEPTH", "R_DEPTH", "TEXTURE_BASE", "TEXTURE_ADDR_BITS"]
+
+#: Byte address of the maps in the SDRAM (the texture layout's address 0): the chip's upper half.
+TEXTURE_BASE = SDRAM_BYTES // 2
+#: Address bits of the caches' ports: their addresses lie below :data:`TEXTURE_BASE`.
+TEXTURE_ADDR_BITS = (TEXTURE_BASE - 1).bit_length()
 
 #: ``AR`` transfers the crossing holds (the caches' bursts outstanding are counted by their miss registers).
 AR_DEPTH = 4
@@ -42,23 +51,30 @@ _R = ("rdata", "rresp", "rlast")
 
 class TextureReadCrossing(wiring.Component):
     """AXI4 read channels from domain ``i_domain`` (port ``up``: the texture fetch's manager connects to it; ``ID``
-    of ``up_id_bits``) to domain ``o_domain`` (port ``down``: connect it to the core's texture port), ``ar_depth``
+    of ``up_id_bits``, ``up_addr_bits`` address bits, each address put at ``base + address``) to domain ``o_domain`` (port ``down``: connect it to the core's texture port), ``ar_depth``
     and ``r_depth`` words of ``AsyncFIFO`` (module docstring); ``error`` (domain ``i_domain``, sticky): an ``R``
     beat with an error response or an ID the manager did not send."""
 
-    def __init__(self, up_id_bits: int = 1, *, i_domain: str = "sync", o_domain: str = "dram",
-                 ar_depth: int = AR_DEPTH, r_depth: int = R_DEPTH):
+    def __init__(self, up_id_bits: int = 1, *, up_addr_bits: int = TEXTURE_ADDR_BITS, base: int = TEXTURE_BASE,
+                 i_domain: str = "sync", o_domain: str = "dram", ar_depth: int = AR_DEPTH, r_depth: int = R_DEPTH):
         require(1 <= up_id_bits <= ID_BITS, "up_id_bits", up_id_bits, f"must be in 1..{ID_BITS} (the core's ID)")
+        require(1 <= up_addr_bits <= ADDR_BITS, "up_addr_bits", up_addr_bits, f"must be in 1..{ADDR_BITS}")
+        require(base % (1 << up_addr_bits) == 0 and 0 <= base <= SDRAM_BYTES - (1 << up_addr_bits), "base", base,
+                f"must be a multiple of 2**{up_addr_bits} with 2**{up_addr_bits} bytes after it in the SDRAM")
+        self.base = base
         for name, depth in (("ar_depth", ar_depth), ("r_depth", r_depth)):
             require(depth >= 2 and depth & (depth - 1) == 0, name, depth, "must be a power of two, at least 2")
         self.i_domain, self.o_domain, self.ar_depth, self.r_depth = i_domain, o_domain, ar_depth, r_depth
-        super().__init__({"up": In(axi_signature(ADDR_BITS, TEXTURE_DATA_BITS, up_id_bits)),
+        super().__init__({"up": In(axi_signature(up_addr_bits, TEXTURE_DATA_BITS, up_id_bits)),
                           "down": Out(axi_signature(ADDR_BITS, TEXTURE_DATA_BITS, ID_BITS)), "error": Out(1)})
 
     def elaborate(self, platform):
         m = Module()
         up, down = self.up, self.down
-        ar_up, ar_down = Cat(up.arid, *(getattr(up, f) for f in _AR)), Cat(*(getattr(down, f) for f in _AR))
+        addr = Signal.like(down.araddr)
+        m.d.comb += down.araddr.eq(addr | self.base)        # the bits of ``base`` lie above every ``up`` address
+        ar_up = Cat(up.arid, up.araddr, *(getattr(up, f) for f in _AR[1:]))
+        ar_down = Cat(addr[:len(up.araddr)], *(getattr(down, f) for f in _AR[1:]))
         m.submodules.ar = ar = AsyncFIFO(width=len(ar_up), depth=self.ar_depth, w_domain=self.i_domain,
                                          r_domain=self.o_domain)
         m.d.comb += [ar.w_data.eq(ar_up), ar.w_en.eq(up.arvalid), up.arready.eq(ar.w_rdy),

@@ -137,7 +137,9 @@ def _simulate_bench(make, key, reqs: list, image: bytes, base: int, *, latency, 
         from .texfetch_dram import FetchDramBench
         bkey = params_key(key, source_digest(("board", "cosim")).hex())
         top, bdir, src = litedram_sources(sim, "texfetch_dram", bkey, lambda: FetchDramBench(make()), textures=True)
+        from board.texture_port import TEXTURE_BASE
         tb, budget = "cosim.texfetch_dram_tb", budget * max(1, -(-dram_ns // 10)) + 4000
+        base += TEXTURE_BASE                                # where the testbench writes the maps
     job = job_folder(bdir, tag or "texfetch", {"key": repr(key), "sim": sim, "lookups": len(reqs), "seed": seed,
                                                "p": [p_valid, p_ready, p_pause], "latency": latency,
                                                "dram_ns": dram_ns})
@@ -181,8 +183,8 @@ def run_fetch(caches: dict, layout: Layout, maps: list, traces: dict, *, side_bi
     if dram_ns is None:
         make, key = (lambda: TexFetch(caches, layout, side_bits)), (tuple(caches.items()), layout, side_bits, "fetch")
     else:
-        from board.litedram import ADDR_BITS
-        make = lambda: TexFetch(caches, layout, side_bits, addr_bits=ADDR_BITS)     # noqa: E731
+        from board.texture_port import TEXTURE_ADDR_BITS
+        make = lambda: TexFetch(caches, layout, side_bits, addr_bits=TEXTURE_ADDR_BITS)     # noqa: E731
         key = (tuple(caches.items()), layout, side_bits, "fetch", "dram")
     got, build_seconds, seconds = _simulate_bench(
         make, key, [int(r) for r in reqs], layout.image(maps), layout.base, budget=400 + 6 * n + 3 * beats,

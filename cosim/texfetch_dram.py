@@ -24,8 +24,9 @@ WATCHED = ("arvalid", "arready", "araddr", "arlen", "rvalid", "rready")
 
 
 class FetchDramBench(wiring.Component):
-    """Simulation top: ``inner`` (a :class:`~rtl.texfetch.TexFetch` built with ``addr_bits=ADDR_BITS``) in domain
-    ``sync`` (``clk``, ``rst``), its ``mem`` port through :class:`~board.texture_port.TextureReadCrossing` into
+    """Simulation top: ``inner`` (a :class:`~rtl.texfetch.TexFetch` built with
+    ``addr_bits=board.texture_port.TEXTURE_ADDR_BITS``) in domain ``sync`` (``clk``, ``rst``), its ``mem`` port
+    through :class:`~board.texture_port.TextureReadCrossing` (the board's: the maps at ``TEXTURE_BASE``) into
     :class:`~board.sdram_core.LiteDram`'s texture port (simulation core, domain ``dram``: ``dram_clk``,
     ``dram_rst``; the init sequence with a ``cke_delay``-clock power-up wait). Ports: the fetch's ``i``, ``o``,
     ``busy``; ``mem`` (a copy of the fetch's port's :data:`WATCHED` signals); ``load`` (the core's first AXI4 port,

@@ -1,6 +1,7 @@
 """The texel caches' read channels across clocks (``board/texture_port.py``), in Amaranth's simulator with two
 unrelated clocks (each faster than the other in turn): every ``AR`` transfer and every ``R`` beat arrives once, in
-order, unchanged, under random ``valid`` and ``ready`` on both sides; an offered transfer stays offered with the same
+order, unchanged but for the address's base (the maps' half of the SDRAM), under random ``valid`` and ``ready`` on
+both sides; an offered transfer stays offered with the same
 payload until taken (AXI's rule); the ID is widened with zeros and narrowed back; a beat with an error response or
 an ID the manager did not send raises ``error``, and clean traffic does not."""
 
@@ -11,8 +12,8 @@ import random
 import pytest
 from amaranth.sim import Simulator
 
-from board.litedram import ID_BITS
-from board.texture_port import TextureReadCrossing
+from board.litedram import ADDR_BITS, ID_BITS
+from board.texture_port import TEXTURE_ADDR_BITS, TEXTURE_BASE, TextureReadCrossing
 
 AR_FIELDS = ("araddr", "arlen", "arsize", "arburst")
 R_FIELDS = ("rdata", "rresp", "rlast")
@@ -54,10 +55,10 @@ def _receive(port, fields, prefix, out, domain, rng, p, held):
     return process
 
 
-def _run(ar, r, periods, seed, p=(0.6, 0.6)):
+def _run(ar, r, periods, seed, p=(0.6, 0.6), **kw):
     """The crossing with ``ar`` sent up and ``r`` sent down; ``(ARs at the core, beats at the caches, held
     violations, error, the core side's ID bits above the caches')``."""
-    dut = TextureReadCrossing(1)
+    dut = TextureReadCrossing(1, **kw)
     rng = random.Random(seed)
     sim = Simulator(dut)
     sim.add_clock(periods[0], domain="sync")
@@ -87,8 +88,8 @@ def _run(ar, r, periods, seed, p=(0.6, 0.6)):
     return got_ar, got_r, held, result["error"], upper
 
 
-def _traffic(rng, n):
-    ar = [{"arid": rng.randrange(2), "araddr": rng.randrange(1 << 25), "arlen": rng.randrange(256),
+def _traffic(rng, n, addr_bits=TEXTURE_ADDR_BITS):
+    ar = [{"arid": rng.randrange(2), "araddr": rng.randrange(1 << addr_bits), "arlen": rng.randrange(256),
            "arsize": 2, "arburst": 1} for _ in range(n)]
     r = [{"rid": rng.randrange(2), "rdata": rng.randrange(1 << 32), "rresp": 0, "rlast": int(k % 4 == 3)}
          for k in range(4 * n)]
@@ -100,8 +101,22 @@ def test_every_transfer_crosses_once_in_order(periods):
     rng = random.Random(int(periods[1] * 1e9))
     ar, r = _traffic(rng, 40)
     got_ar, got_r, held, error, upper = _run(ar, r, periods, seed=int(periods[0] * 1e9))
-    assert got_ar == ar and got_r == r
+    assert got_ar == [{**a, "araddr": TEXTURE_BASE + a["araddr"]} for a in ar] and got_r == r
     assert held == [] and error == 0 and set(upper) == {0}
+
+
+def test_the_whole_sdram_with_base_zero():
+    rng = random.Random(3)
+    ar, r = _traffic(rng, 20, ADDR_BITS)
+    got_ar, got_r, held, error, _ = _run(ar, r, (10e-9, 13e-9), seed=3, up_addr_bits=ADDR_BITS, base=0)
+    assert got_ar == ar and got_r == r and held == [] and error == 0
+
+
+@pytest.mark.parametrize("kw", [{"base": TEXTURE_BASE // 2}, {"base": TEXTURE_BASE, "up_addr_bits": ADDR_BITS},
+                                {"up_addr_bits": 0}, {"up_addr_bits": ADDR_BITS + 1, "base": 0}])
+def test_a_base_that_would_overlap_or_leave_the_sdram_is_refused(kw):
+    with pytest.raises(ValueError, match="base|up_addr_bits"):
+        TextureReadCrossing(1, **kw)
 
 
 @pytest.mark.parametrize("bad", [{"rresp": 2}, {"rresp": 3}, {"rid": 2}, {"rid": 1 << (ID_BITS - 1)}])

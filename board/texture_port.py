@@ -14,10 +14,12 @@ core sees ``rready`` fall only while the FIFO is full.
 The maps live in the upper half of the SDRAM (:data:`TEXTURE_BASE`; the frame's buffers in the lower,
 ``board/sdram_frame.py``): the caches' ports are built with :data:`TEXTURE_ADDR_BITS` address bits, so every
 address they make is below :data:`TEXTURE_BASE`, a power of two, and the crossing sets that one bit above them:
-the SDRAM address is ``TEXTURE_BASE + address`` with no carry and nothing cut. Their one-bit ID is widened with zeros on ``AR``;
-the core returns the ID it was given, so on ``R`` the ID's upper bits are zero and only its low bits go on: a
-beat whose upper bits are not zero, or whose response is an error (``SLVERR``, ``DECERR``), sets ``error``
-(sticky, in the engine's clock) instead of passing unseen. The caches never write: ``AW`` and ``W`` stay idle.
+the SDRAM address is ``TEXTURE_BASE + address`` with no carry and nothing cut. Their one-bit ID is widened with
+zeros on ``AR``; the core returns the ID it was given, so on ``R`` the ID's upper bits are zero and only its low
+bits go on: a beat whose upper bits are not zero, or whose response is an error (``SLVERR``, ``DECERR``), sets
+``error`` (sticky, in the engine's clock) instead of passing unseen. The caches never write: ``AW`` and ``W`` stay
+idle in the crossing; the board's TEXTURE uploads write the maps through them (:class:`TextureWrites`; both on the one
+port: :class:`TexturePort`).
 """
 
 from __future__ import annotations
@@ -30,9 +32,11 @@ from amaranth.lib.wiring import In, Out
 from fxmodel.core.unit import require
 from rtl.rop import axi_signature
 
+from .cdc import toggle_sync
 from .litedram import ADDR_BITS, ID_BITS, SDRAM_BYTES, TEXTURE_DATA_BITS
 
-__all__ = ["TextureReadCrossing", "AR_DEPTH", "R_DEPTH", "TEXTURE_BASE", "TEXTURE_ADDR_BITS"]
+__all__ = ["TextureReadCrossing", "TextureWrites", "TexturePort", "AR_DEPTH", "R_DEPTH", "TEXTURE_BASE",
+           "TEXTURE_ADDR_BITS"]
 
 #: Byte address of the maps in the SDRAM (the texture layout's address 0): the chip's upper half.
 TEXTURE_BASE = SDRAM_BYTES // 2
@@ -51,9 +55,10 @@ _R = ("rdata", "rresp", "rlast")
 
 class TextureReadCrossing(wiring.Component):
     """AXI4 read channels from domain ``i_domain`` (port ``up``: the texture fetch's manager connects to it; ``ID``
-    of ``up_id_bits``, ``up_addr_bits`` address bits, each address put at ``base + address``) to domain ``o_domain`` (port ``down``: connect it to the core's texture port), ``ar_depth``
-    and ``r_depth`` words of ``AsyncFIFO`` (module docstring); ``error`` (domain ``i_domain``, sticky): an ``R``
-    beat with an error response or an ID the manager did not send."""
+    of ``up_id_bits``, ``up_addr_bits`` address bits, each address put at ``base + address``) to domain
+    ``o_domain`` (port ``down``: connect it to the core's texture port), ``ar_depth`` and ``r_depth`` words of
+    ``AsyncFIFO`` (module docstring); ``error`` (domain ``i_domain``, sticky): an ``R`` beat with an error
+    response or an ID the manager did not send."""
 
     def __init__(self, up_id_bits: int = 1, *, up_addr_bits: int = TEXTURE_ADDR_BITS, base: int = TEXTURE_BASE,
                  i_domain: str = "sync", o_domain: str = "dram", ar_depth: int = AR_DEPTH, r_depth: int = R_DEPTH):
@@ -89,4 +94,82 @@ class TextureReadCrossing(wiring.Component):
         with m.If(r.r_rdy & up.rready & (up.rresp[1] | rid[len(up.rid):].any())):
             m.d[self.i_domain] += self.error.eq(1)
         m.d.comb += [down.awvalid.eq(0), down.wvalid.eq(0), down.bready.eq(1)]
+        return m
+
+
+class TextureWrites(wiring.Component):
+    """The TEXTURE uploads' words into the SDRAM, one single-beat AXI4 write each, in domain ``domain`` (the
+    SDRAM's). A word comes from another clock as the board's other uploads do (``board/upload.py``): ``addr`` (an
+    SDRAM byte address) and ``data`` are holding registers of that clock, and ``req`` toggles when they hold a new
+    word; two registers later the word is taken into registers of this clock, and ``AW`` (``INCR``, one beat of
+    four bytes) and ``W`` (every byte, ``WLAST``) are offered, each held until taken, then the response awaited.
+    Words come at most once a UART byte, far slower than a write; a word seen while the last is still being written
+    is not written and sets ``error``, as does an error response (sticky, this clock). ``busy``: a write offered or
+    its response awaited. Port ``down``: the write channels of an AXI4 manager (the read channels stay idle)."""
+
+    def __init__(self, domain: str = "dram"):
+        self.domain = domain
+        super().__init__({"req": In(1), "addr": In(ADDR_BITS), "data": In(TEXTURE_DATA_BITS),
+                          "down": Out(axi_signature(ADDR_BITS, TEXTURE_DATA_BITS, ID_BITS)), "busy": Out(1),
+                          "error": Out(1)})
+
+    def elaborate(self, platform):
+        m = Module()
+        d, sync = self.down, m.d[self.domain]
+        seen = toggle_sync(m, "texture_word", self.req, self.domain)
+        aw, w, b = Signal(), Signal(), Signal()              # offered on AW, on W; the response awaited
+        m.d.comb += [d.awvalid.eq(aw), d.awlen.eq(0), d.awsize.eq(2), d.awburst.eq(1), d.wvalid.eq(w),
+                     d.wstrb.eq((1 << (TEXTURE_DATA_BITS // 8)) - 1), d.wlast.eq(1), d.bready.eq(1),
+                     d.arvalid.eq(0), d.rready.eq(1), self.busy.eq(aw | w | b)]
+        with m.If(aw & d.awready):
+            sync += aw.eq(0)
+        with m.If(w & d.wready):
+            sync += w.eq(0)
+        with m.If(b & d.bvalid):
+            sync += b.eq(0)
+            with m.If(d.bresp[1]):
+                sync += self.error.eq(1)
+        with m.If(seen):
+            with m.If(self.busy):                            # the last word still in flight: this one is lost
+                sync += self.error.eq(1)
+            with m.Else():
+                sync += [d.awaddr.eq(self.addr), d.wdata.eq(self.data), aw.eq(1), w.eq(1), b.eq(1)]
+        return m
+
+
+class TexturePort(wiring.Component):
+    """The engine's side of the SDRAM's texture port: :class:`TextureReadCrossing` (the texture fetch's reads,
+    port ``up`` in domain ``i_domain``) and :class:`TextureWrites` (the uploads' words: ``req``, ``addr``,
+    ``data``) on the one port ``down`` (domain ``o_domain``), the reads on its read channels and the writes on its
+    write channels. ``error`` (sticky, domain ``o_domain``): a write's error (:class:`TextureWrites`), or an ``AR``
+    while an upload's word is being written, which the board never does (uploads are refused while a frame is
+    drawn, and a write ends long before the next frame's first lookup), since LiteDRAM would not order them; the
+    read crossing's ``error`` (domain ``i_domain``) is ``read_error``."""
+
+    def __init__(self, up_id_bits: int = 1, *, i_domain: str = "sync", o_domain: str = "dram"):
+        self._read = TextureReadCrossing(up_id_bits, i_domain=i_domain, o_domain=o_domain)
+        self._write = TextureWrites(o_domain)
+        self.o_domain = o_domain
+        sig = self._read.signature.members
+        super().__init__({"up": sig["up"], "down": sig["down"], "req": In(1), "addr": In(ADDR_BITS),
+                          "data": In(TEXTURE_DATA_BITS), "error": Out(1), "read_error": Out(1)})
+
+    def elaborate(self, platform):
+        m = Module()
+        m.submodules.read = r = self._read
+        m.submodules.write = w = self._write
+        wiring.connect(m, wiring.flipped(self.up), r.up)
+        m.d.comb += [w.req.eq(self.req), w.addr.eq(self.addr), w.data.eq(self.data), self.read_error.eq(r.error)]
+        down, rd, wr = self.down, r.down, w.down
+        for name in ("arid", "araddr", "arlen", "arsize", "arburst", "arvalid", "rready"):
+            m.d.comb += getattr(down, name).eq(getattr(rd, name))
+        for name in ("rid", "rdata", "rresp", "rlast", "rvalid"):
+            m.d.comb += getattr(rd, name).eq(getattr(down, name))
+        for name in ("awid", "awaddr", "awlen", "awsize", "awburst", "awvalid", "wdata", "wstrb", "wlast", "wvalid",
+                     "bready"):
+            m.d.comb += getattr(down, name).eq(getattr(wr, name))
+        for name in ("awready", "wready", "bid", "bresp", "bvalid"):
+            m.d.comb += getattr(wr, name).eq(getattr(down, name))
+        with m.If(w.error | (down.arvalid & w.busy)):
+            m.d[self.o_domain] += self.error.eq(1)
         return m

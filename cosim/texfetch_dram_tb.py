@@ -3,9 +3,9 @@
 
 ``job.json`` (folder ``COSIM_JOB``) holds what ``cosim/texfetch_tb.py``'s does and the SDRAM's clock period
 (``dram_ns``). With the engine's clock held in reset, the SDRAM's clock starts, the core's init sequence opens its
-ports (``ready``), the memory image is written at its base (the maps' place in the SDRAM) through the core's first port (``load``, cocotbext-axi's
-``AxiMaster``) and read back (the load must be exact); then the requests run as in that testbench, the fetch's
-bursts and beats counted at its own port (``mem``, the engine's clock).
+ports (``ready``), the memory image is written at its base (the maps' place in the SDRAM) through the core's
+first port (``load``, cocotbext-axi's ``AxiMaster``) and read back (the load must be exact); then the requests run
+as in that testbench, the fetch's bursts and beats counted at its own port (``mem``, the engine's clock).
 """
 
 from __future__ import annotations

@@ -70,6 +70,11 @@ class TextureReadCrossing(wiring.Component):
         for name, depth in (("ar_depth", ar_depth), ("r_depth", r_depth)):
             require(depth >= 2 and depth & (depth - 1) == 0, name, depth, "must be a power of two, at least 2")
         self.i_domain, self.o_domain, self.ar_depth, self.r_depth = i_domain, o_domain, ar_depth, r_depth
+        ar_bits = up_id_bits + up_addr_bits + 8 + 3 + 2
+        r_bits = ID_BITS + TEXTURE_DATA_BITS + 2 + 1
+        #: the two FIFOs (the ``AR`` transfers', the ``R`` beats')
+        self.ar_fifo = AsyncFIFO(width=ar_bits, depth=ar_depth, w_domain=i_domain, r_domain=o_domain)
+        self.r_fifo = AsyncFIFO(width=r_bits, depth=r_depth, w_domain=o_domain, r_domain=i_domain)
         super().__init__({"up": In(axi_signature(up_addr_bits, TEXTURE_DATA_BITS, up_id_bits)),
                           "down": Out(axi_signature(ADDR_BITS, TEXTURE_DATA_BITS, ID_BITS)), "error": Out(1)})
 
@@ -80,15 +85,15 @@ class TextureReadCrossing(wiring.Component):
         m.d.comb += down.araddr.eq(addr | self.base)        # the bits of ``base`` lie above every ``up`` address
         ar_up = Cat(up.arid, up.araddr, *(getattr(up, f) for f in _AR[1:]))
         ar_down = Cat(addr[:len(up.araddr)], *(getattr(down, f) for f in _AR[1:]))
-        m.submodules.ar = ar = AsyncFIFO(width=len(ar_up), depth=self.ar_depth, w_domain=self.i_domain,
-                                         r_domain=self.o_domain)
+        m.submodules.ar = ar = self.ar_fifo
+        assert ar.width == len(ar_up)
         m.d.comb += [ar.w_data.eq(ar_up), ar.w_en.eq(up.arvalid), up.arready.eq(ar.w_rdy),
                      Cat(down.arid[:len(up.arid)], ar_down).eq(ar.r_data), down.arvalid.eq(ar.r_rdy),
                      ar.r_en.eq(down.arready)]
         rid = Signal.like(down.rid)
         r_down, r_up = Cat(*(getattr(down, f) for f in ("rid",) + _R)), Cat(rid, *(getattr(up, f) for f in _R))
-        m.submodules.r = r = AsyncFIFO(width=len(r_down), depth=self.r_depth, w_domain=self.o_domain,
-                                       r_domain=self.i_domain)
+        m.submodules.r = r = self.r_fifo
+        assert r.width == len(r_down)
         m.d.comb += [r.w_data.eq(r_down), r.w_en.eq(down.rvalid), down.rready.eq(r.w_rdy),
                      r_up.eq(r.r_data), up.rid.eq(rid[:len(up.rid)]), up.rvalid.eq(r.r_rdy), r.r_en.eq(up.rready)]
         with m.If(r.r_rdy & up.rready & (up.rresp[1] | rid[len(up.rid):].any())):
@@ -144,26 +149,29 @@ class TexturePort(wiring.Component):
     write channels. ``error`` (sticky, domain ``o_domain``): a write's error (:class:`TextureWrites`), or an ``AR``
     while an upload's word is being written, which the board never does (uploads are refused while a frame is
     drawn, and a write ends long before the next frame's first lookup), since LiteDRAM would not order them; the
-    read crossing's ``error`` (domain ``i_domain``) is ``read_error``."""
+    read crossing's ``error`` (domain ``i_domain``) is ``read_error``; ``write_busy``: an upload's write in
+    flight."""
 
     def __init__(self, up_id_bits: int = 1, *, i_domain: str = "sync", o_domain: str = "dram"):
-        self._read = TextureReadCrossing(up_id_bits, i_domain=i_domain, o_domain=o_domain)
-        self._write = TextureWrites(o_domain)
+        self.crossing = TextureReadCrossing(up_id_bits, i_domain=i_domain, o_domain=o_domain)
+        self.writes = TextureWrites(o_domain)
         self.o_domain = o_domain
-        sig = self._read.signature.members
+        sig = self.crossing.signature.members
         super().__init__({"up": sig["up"], "down": sig["down"], "req": In(1), "addr": In(ADDR_BITS),
-                          "data": In(TEXTURE_DATA_BITS), "error": Out(1), "read_error": Out(1)})
+                          "data": In(TEXTURE_DATA_BITS), "error": Out(1), "read_error": Out(1),
+                          "write_busy": Out(1)})
 
     def elaborate(self, platform):
         m = Module()
-        m.submodules.read = r = self._read
-        m.submodules.write = w = self._write
+        m.submodules.read = r = self.crossing
+        m.submodules.write = w = self.writes
         wiring.connect(m, wiring.flipped(self.up), r.up)
-        m.d.comb += [w.req.eq(self.req), w.addr.eq(self.addr), w.data.eq(self.data), self.read_error.eq(r.error)]
+        m.d.comb += [w.req.eq(self.req), w.addr.eq(self.addr), w.data.eq(self.data), self.read_error.eq(r.error),
+                     self.write_busy.eq(w.busy)]
         down, rd, wr = self.down, r.down, w.down
         for name in ("arid", "araddr", "arlen", "arsize", "arburst", "arvalid", "rready"):
             m.d.comb += getattr(down, name).eq(getattr(rd, name))
-        for name in ("rid", "rdata", "rresp", "rlast", "rvalid"):
+        for name in ("arready", "rid", "rdata", "rresp", "rlast", "rvalid"):
             m.d.comb += getattr(rd, name).eq(getattr(down, name))
         for name in ("awid", "awaddr", "awlen", "awsize", "awburst", "awvalid", "wdata", "wstrb", "wlast", "wvalid",
                      "bready"):

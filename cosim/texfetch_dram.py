@@ -26,7 +26,8 @@ WATCHED = ("arvalid", "arready", "araddr", "arlen", "rvalid", "rready")
 class FetchDramBench(wiring.Component):
     """Simulation top: ``inner`` (a :class:`~rtl.texfetch.TexFetch` built with
     ``addr_bits=board.texture_port.TEXTURE_ADDR_BITS``) in domain ``sync`` (``clk``, ``rst``), its ``mem`` port
-    through :class:`~board.texture_port.TextureReadCrossing` (the board's: the maps at ``TEXTURE_BASE``) into
+    through the board's :class:`~board.texture_port.TexturePort` (its read crossing: the maps at ``TEXTURE_BASE``;
+    no upload's word offered) into
     :class:`~board.sdram_core.LiteDram`'s texture port (simulation core, domain ``dram``: ``dram_clk``,
     ``dram_rst``; the init sequence with a ``cke_delay``-clock power-up wait). Ports: the fetch's ``i``, ``o``,
     ``busy``; ``mem`` (a copy of the fetch's port's :data:`WATCHED` signals); ``load`` (the core's first AXI4 port,
@@ -35,9 +36,9 @@ class FetchDramBench(wiring.Component):
 
     def __init__(self, inner, cke_delay: int = 200):
         from board.sdram_core import LiteDram
-        from board.texture_port import TextureReadCrossing
+        from board.texture_port import TexturePort
         self.inner = inner
-        self._cross = TextureReadCrossing(len(inner.mem.arid))
+        self._cross = TexturePort(len(inner.mem.arid), i_domain="sync", o_domain="dram")
         self._dram = LiteDram(None, cke_delay, textures=True)
         sig = inner.signature.members
         watch = wiring.Signature({n: Out(len(getattr(inner.mem, n))) for n in WATCHED})
@@ -57,6 +58,6 @@ class FetchDramBench(wiring.Component):
         wiring.connect(m, f.mem, x.up)
         wiring.connect(m, x.down, d.tex)
         wiring.connect(m, wiring.flipped(self.load), d.axi)
-        m.d.comb += [self.busy.eq(f.busy), self.ready.eq(d.ready), self.mem_error.eq(x.error)]
+        m.d.comb += [self.busy.eq(f.busy), self.ready.eq(d.ready), self.mem_error.eq(x.error | x.read_error)]
         m.d.comb += [getattr(self.mem, n).eq(getattr(f.mem, n)) for n in WATCHED]
         return m

@@ -55,24 +55,30 @@ def _receive(port, fields, prefix, out, domain, rng, p, held):
     return process
 
 
-def _run(ar, r, periods, seed, p=(0.6, 0.6), **kw):
+def _run(ar, r, periods, seed, p=(0.6, 0.6), port=False, **kw):
     """The crossing with ``ar`` sent up and ``r`` sent down; ``(ARs at the core, beats at the caches, held
     violations, error, the core side's ID bits above the caches')``."""
-    dut = TextureReadCrossing(1, **kw)
+    if port:                                                 # the same through the board's whole texture port
+        from board.texture_port import TexturePort
+        dut = TexturePort(1, i_domain="sync", o_domain="dram")
+    else:
+        dut = TextureReadCrossing(1, **kw)
     rng = random.Random(seed)
     sim = Simulator(dut)
     sim.add_clock(periods[0], domain="sync")
     sim.add_clock(periods[1], domain="dram")
     got_ar, got_r, held, upper = [], [], [], []
-    sim.add_testbench(_send(dut.up, ("arid",) + AR_FIELDS, "ar", ar, "sync", rng, p[0]))
+    sim.add_testbench(_send(dut.up, ("arid",) + AR_FIELDS, "ar", ar, "sync", rng, p[0]), background=True)
     sim.add_testbench(_receive(dut.down, ("arid",) + AR_FIELDS, "ar", got_ar, "dram", random.Random(seed + 1), p[1],
                                held), background=True)
-    sim.add_testbench(_send(dut.down, ("rid",) + R_FIELDS, "r", r, "dram", random.Random(seed + 2), p[0]))
+    sim.add_testbench(_send(dut.down, ("rid",) + R_FIELDS, "r", r, "dram", random.Random(seed + 2), p[0]),
+                      background=True)
     sim.add_testbench(_receive(dut.up, ("rid",) + R_FIELDS, "r", got_r, "sync", random.Random(seed + 3), p[1],
                                held), background=True)
     result = {}
 
     async def bench(ctx):
+        result["error"] = 0
         limit = 40 * (len(ar) + len(r)) + 200
         for _ in range(limit):
             await ctx.tick("sync")
@@ -80,7 +86,7 @@ def _run(ar, r, periods, seed, p=(0.6, 0.6), **kw):
                 break
         for _ in range(10):
             await ctx.tick("sync")
-        result["error"] = ctx.get(dut.error)
+        result["error"] = ctx.get(dut.read_error if port else dut.error)
 
     sim.add_testbench(bench)
     sim.run()
@@ -96,11 +102,13 @@ def _traffic(rng, n, addr_bits=TEXTURE_ADDR_BITS):
     return ar, r
 
 
+@pytest.mark.parametrize("port", [False, True])
 @pytest.mark.parametrize("periods", [(10e-9, 17e-9), (17e-9, 10e-9), (10e-9, 20e-9)])
-def test_every_transfer_crosses_once_in_order(periods):
+def test_every_transfer_crosses_once_in_order(periods, port):
+    """The crossing alone and inside the board's texture port (which also carries the uploads' writes)."""
     rng = random.Random(int(periods[1] * 1e9))
     ar, r = _traffic(rng, 40)
-    got_ar, got_r, held, error, upper = _run(ar, r, periods, seed=int(periods[0] * 1e9))
+    got_ar, got_r, held, error, upper = _run(ar, r, periods, seed=int(periods[0] * 1e9), port=port)
     assert got_ar == [{**a, "araddr": TEXTURE_BASE + a["araddr"]} for a in ar] and got_r == r
     assert held == [] and error == 0 and set(upper) == {0}
 
@@ -225,3 +233,16 @@ def test_a_lookup_during_an_upload_write_raises_error():
     one made is flagged (the same write without it is not)."""
     assert _writes(_words(1, 4), 200, seed=4, ar_during=True)[1] == 1
     assert _writes(_words(1, 4), 200, seed=4)[1] == 0
+
+
+def test_the_maps_in_sdram_need_the_frame_in_sdram():
+    from board.frame import EngineSystem, board_engine, board_textures
+    from board.video import VGA_640x480
+    params = board_engine("tin-plane", size=16)[0]
+    with pytest.raises(ValueError, match="frame"):
+        board_textures(params, True, "chip")
+    with pytest.raises(ValueError, match="frame in SDRAM"):
+        EngineSystem(board_textures(params, True, "sdram"), VGA_640x480, 25, frame="chip")
+    system = EngineSystem(board_textures(params, True, "sdram"), VGA_640x480, 25, frame="sdram")
+    assert system.textures and "tex" in system.signature.members
+    assert "tex" not in EngineSystem(params, VGA_640x480, 25, frame="sdram").signature.members

@@ -23,6 +23,9 @@ ROUTER   ?= router1
 BOARD    ?= ulx3s
 FRAME    ?=
 FRAME_ARG = $(if $(FRAME),--frame $(FRAME))
+# MAPS=sdram: the board's bump map and color texture in SDRAM behind the engine's texel caches (--textures)
+MAPS     ?=
+MAPS_ARG  = $(if $(filter sdram,$(MAPS)),--textures)
 # PRESET or SCENE given on the command line or in the environment: `make verilog` and `make fpga` build the pixel
 # pipeline with SCENE's tables and PRESET (built in or presets/<name>.toml); otherwise every unit and preset.
 SCENE_ARGS = $(if $(filter-out file default undefined,$(origin PRESET) $(origin SCENE)),--scene $(SCENE) --preset $(PRESET))
@@ -46,10 +49,11 @@ help:
 	@echo "                ROUTER=router2 for a quick check of the pipeline (nextpnr's router1 is the default)"
 	@echo "make bitstream  BOARD=ulx3s: the board top (PLL, the engine, the frame in SDRAM, DVI, UART link) through Yosys,"
 	@echo "                nextpnr-ecp5 and ecppack -> build/bitstream/\$$BOARD/top.bit and report.json (Fmax per clock,"
-	@echo "                resources); FRAME=chip: the frame in block RAM, one 128 x 128 tile"
+	@echo "                resources); FRAME=chip: the frame in block RAM, one 128 x 128 tile; MAPS=sdram: the bump"
+	@echo "                map and texture in SDRAM behind the texel caches"
 	@echo "make board-sim  BOARD=ulx3s: the board simulated end to end on Verilator: bumpmap send's bytes of SCENE into"
 	@echo "                the UART, the engine, its tiles, the DVI output decoded and compared with the model's picture"
-	@echo "                (FRAME=chip as for make bitstream)"
+	@echo "                (FRAME=chip and MAPS=sdram as for make bitstream)"
 	@echo "make exhaustive exhaustive RTL equivalence (streaming co-simulation) -> build/exhaustive/report.json"
 	@echo "make exhaustive-wide  the 2^32-input proof of recip rcp32: model vs exact math, RTL vs model on Verilator"
 	@echo "                (long: Dask, --jobs \$$JOBS local workers or DASK_SCHEDULER_ADDRESS; resumes where it stopped)"
@@ -103,15 +107,16 @@ fpga: setup
 
 bitstream: setup
 	@test "$(BOARD)" = ulx3s || { echo "BOARD=$(BOARD): the board top exists for ulx3s only" >&2; exit 2; }
-	$(BUMPMAP) bitstream $(FRAME_ARG) --out build/bitstream/$(BOARD)
+	$(BUMPMAP) bitstream $(FRAME_ARG) $(MAPS_ARG) --out build/bitstream/$(BOARD)
 
 # the board end to end (tools/board_sim.py): the host tool's bytes, written by `bumpmap send`, are the input;
 # the board's own preset (board/frame.py BOARD_PRESET) unless PRESET is given
 BOARD_PRESET_ARG = $(if $(filter-out file default undefined,$(origin PRESET)),--preset $(PRESET))
 board-sim: setup
 	@test "$(BOARD)" = ulx3s || { echo "BOARD=$(BOARD): the board top exists for ulx3s only" >&2; exit 2; }
-	$(BUMPMAP) send --scene $(SCENE) $(BOARD_PRESET_ARG) $(FRAME_ARG) --dry-run build/board-sim/$(SCENE).bin
-	$(BUMPMAP) board-sim --scene $(SCENE) $(BOARD_PRESET_ARG) $(FRAME_ARG) --bytes build/board-sim/$(SCENE).bin
+	$(BUMPMAP) send --scene $(SCENE) $(BOARD_PRESET_ARG) $(FRAME_ARG) $(MAPS_ARG) --dry-run build/board-sim/$(SCENE).bin
+	$(BUMPMAP) board-sim --scene $(SCENE) $(BOARD_PRESET_ARG) $(FRAME_ARG) $(MAPS_ARG) \
+		--bytes build/board-sim/$(SCENE).bin
 
 exhaustive: setup
 	HYPOTHESIS_PROFILE=thorough $(PY) -m pytest -n $(JOBS) -q -m slow -k "not test_exhaustive_target"

@@ -45,7 +45,7 @@ __all__ = ["rgb565", "expand565", "display_frame", "board_engine", "board_grid",
            "tiled_color",
            "EngineSystem", "BoardSim", "QUIET",
            "BOARD_PRESET", "BOARD_SIZE", "MAX_BOARD_SIZE", "add_size_argument", "FRAMES", "BOARD_FRAME",
-           "add_frame_argument",
+           "add_frame_argument", "add_textures_argument", "board_textures",
            "TileCopy"]
 
 
@@ -83,6 +83,28 @@ def add_frame_argument(ap, what: str = "the frame store") -> None:
     ap.add_argument("--frame", choices=FRAMES, default=BOARD_FRAME,
                     help=f"{what}: sdram, the display's 640 x 480 picture a --size tile at a time in SDRAM behind "
                          "LiteDRAM's core (default); chip, block RAM, the picture one tile at the display's top left")
+
+
+def add_textures_argument(ap) -> None:
+    """``--textures`` of the commands that build, drive or simulate the board: the maps in SDRAM."""
+    ap.add_argument("--textures", action="store_true",
+                    help="the bump map and the color texture in SDRAM behind the engine's texel caches (the chosen "
+                         "cache, fxmodel.units.texcache.CHOSEN_CACHE; with --frame sdram; TEXTURE frames load "
+                         "them: docs/board.md, Textures in SDRAM)")
+
+
+def board_textures(params, textures: bool, frame: str):
+    """The board's engine ``params`` with its maps in SDRAM behind the chosen texel cache when ``textures``
+    (:data:`fxmodel.units.texcache.CHOSEN_CACHE`), else as it is; ``ValueError`` for the maps in SDRAM with the
+    frame on chip (the SDRAM is there only with the frame in it)."""
+    if not textures:
+        return params
+    if frame != "sdram":
+        raise ValueError("--textures: the maps in SDRAM need the frame in SDRAM (--frame sdram)")
+    import dataclasses
+
+    from fxmodel.units.texcache import CHOSEN_CACHE
+    return dataclasses.replace(params, textures=CHOSEN_CACHE)
 
 
 def rgb565(color: np.ndarray) -> np.ndarray:
@@ -196,6 +218,10 @@ class EngineSystem(wiring.Component):
         The texel memories start at zero instead of holding the scene's tables: an upload must fill them
         (TEXTURE and CUBE frames, ``board/upload.py``, write them either way).
 
+    With ``params.textures`` (the bump map and the texture in SDRAM behind the engine's texel caches, ``docs/board.md``,
+    "Textures in SDRAM"; the frame must be in SDRAM too) TEXTURE frames write the maps into the SDRAM through port
+    ``tex`` and the caches read them there; the SDRAM starts without them, so they must be uploaded.
+
     Ports: ``rx``, ``tx`` (the UART), ``words`` (the three TMDS lanes' 10-bit words, lane 0 low), ``error`` (the
     link's sticky error), ``upload_bad`` (sticky: an upload's word named no map or lay beyond its map, not
     written), ``good`` (a pulse per good frame), ``overrun`` (sticky until FRAME_START: a record arrived
@@ -220,7 +246,15 @@ class EngineSystem(wiring.Component):
         self.record_bits = sum(p.fmt.width for p in params.raster.record)
         self.record_len = -(-self.record_bits // 8)
         self._writes = TexelWrites(params.pipeline, blank)
-        self._engine = Engine(params, self._writes)
+        self.textures = params.textures is not None
+        if self.textures and frame != "sdram":
+            raise ValueError("the maps in SDRAM (EngineParams.textures) need the frame in SDRAM (frame='sdram')")
+        if self.textures:
+            from .texture_port import TEXTURE_ADDR_BITS
+            self._engine = Engine(params, self._writes, tex_addr_bits=TEXTURE_ADDR_BITS, tex_flush=True)
+        else:
+            self._engine = Engine(params, self._writes)
+        self.tex_error = Signal(name="tex_error")
         self.grid = board_grid(params.rop, timing, frame)
         self.place_bits = tuple(max(0, (n - 1).bit_length()) for n in self.grid)
         self._link = CommandLink(divisor, self.record_len, (params.rop.width, params.rop.height), self.grid)
@@ -232,7 +266,7 @@ class EngineSystem(wiring.Component):
                  "good": Out(1), "overrun": Out(1), "front": Out(1), "status": Out(self._engine.status.shape())}
         if frame == "sdram":                    # the frame in SDRAM: its AXI4 port and flags (board/sdram_system.py)
             from .sdram_system import members
-            ports |= members()
+            ports |= members(self.textures)
         super().__init__(ports)
 
     def elaborate(self, platform):
@@ -246,7 +280,14 @@ class EngineSystem(wiring.Component):
         m.d.comb += [link.rx.eq(self.rx), self.tx.eq(link.tx), self.error.eq(link.error), self.good.eq(link.done),
                      self.status.eq(self._picture_status)]
         # -- TEXTURE, CUBE: each word into its texel memory, in the engine's clock (board/upload.py)
-        m.submodules.upload = up = UploadWriter(self._writes)
+        spans = None
+        if self.textures:
+            from .sdram_system import texture_spans
+            spans = texture_spans(self.params)
+        m.submodules.upload = up = UploadWriter(self._writes, sdram=spans)
+        if self.textures:
+            from .sdram_system import elaborate_textures
+            m.d.comb += self.tex_error.eq(elaborate_textures(self, m, eng, up))
         m.d.comb += [up.cmd.eq(link.cmd), up.index.eq(link.index), up.data.eq(link.data),
                      up.data_valid.eq(link.data_valid), self.upload_bad.eq(up.bad)]
         # -- FRAME_START, SWAP: toggles to the engine's clock; the tile's clear and copy (TileCopy), whichever
@@ -267,7 +308,7 @@ class EngineSystem(wiring.Component):
         m.d.comb += [tc.swap.eq(toggle_sync(m, "swap", swap_req, "engine")),
                      tc.copy.eq(toggle_sync(m, "copy", copy_req, "engine")),
                      tc.start.eq(toggle_sync(m, "start", start_req, "engine")), tc.place.eq(place),
-                     tc.active.eq(eng.i.valid | eng.busy | eng.rop_busy)]
+                     tc.active.eq(eng.i.valid | eng.busy | eng.rop_busy | (eng.fetch_busy if self.textures else 0))]
         # the depth test's flags over the picture's tiles: its own are cleared with each tile, these with the
         # picture's first (place 0, 0), during that tile's clear (the depth test's clear is registered: cleared
         # every clock of the walk, they end it clear)

@@ -12,13 +12,13 @@ LiteDRAM's delay in clocks (20 000 after CKE: 200 us at 100 MHz, the chip's powe
 
 from __future__ import annotations
 
-from amaranth import Array, Const, Instance, Module, Signal
+from amaranth import Array, Cat, Const, Instance, Module, Signal
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
 from rtl.rop import axi_signature
 
-from .litedram import ADDR_BITS, DATA_BITS, ID_BITS
+from .litedram import ADDR_BITS, DATA_BITS, ID_BITS, TEXTURE_DATA_BITS, TEXTURE_PORT
 
 __all__ = ["CSR", "DFII", "CMD", "INIT", "MIN_GAP", "writes", "SdramInit", "LiteDram"]
 
@@ -94,34 +94,43 @@ class SdramInit(wiring.Component):
         return m
 
 
+def _axi_ports(a, name: str) -> dict:
+    """The ``Instance`` ports of the core's AXI4 user port ``name`` on the port ``a`` (:func:`rtl.rop.axi_signature`);
+    the core's ``AxSIZE`` has 4 bits, AXI's 3 (the top bit tied to 0)."""
+    ports = {f"i_user_port_{name}_{n}": getattr(a, n) for n in
+             ("awid", "awaddr", "awlen", "awburst", "awvalid", "wdata", "wstrb", "wlast", "wvalid", "bready",
+              "arid", "araddr", "arlen", "arburst", "arvalid", "rready")}
+    ports |= {f"o_user_port_{name}_{n}": getattr(a, n) for n in
+              ("awready", "wready", "bid", "bresp", "bvalid", "arready", "rid", "rdata", "rresp", "rlast", "rvalid")}
+    return ports | {f"i_user_port_{name}_awsize": Cat(a.awsize, Const(0, 1)),
+                    f"i_user_port_{name}_arsize": Cat(a.arsize, Const(0, 1))}
+
+
 class LiteDram(wiring.Component):
     """LiteDRAM's core (module ``litedram_core``, ``board/litedram.py``) in domain ``dram`` (its ``clk``; its user
     clock is the same clock) with :class:`SdramInit` on its control port. ``axi``: the AXI4 user port (a
-    subordinate: connect a manager to it); ``ready`` high once the init sequence is done and the core reports no
-    init error. ``pins``: for the board's core, the platform's ``sdram`` resource requested with ``dir="-"`` (its
-    clock pin is driven by the caller); ``None`` for the simulation core (its DRAM model inside)."""
+    subordinate: connect a manager to it); with ``textures`` also ``tex``, the core's second user port
+    (:data:`~board.litedram.TEXTURE_PORT`, :data:`~board.litedram.TEXTURE_DATA_BITS` data bits: the texel caches'
+    misses), arbitrated with the first by the core's crossbar; ``ready`` high once the init sequence is done and
+    the core reports no init error. ``pins``: for the board's core, the platform's ``sdram`` resource requested
+    with ``dir="-"`` (its clock pin is driven by the caller); ``None`` for the simulation core (its DRAM model
+    inside)."""
 
-    def __init__(self, pins=None, cke_delay: int | None = None):
-        self.pins = pins
+    def __init__(self, pins=None, cke_delay: int | None = None, textures: bool = False):
+        self.pins, self.textures = pins, textures
         self._init = SdramInit(cke_delay)
-        super().__init__({"axi": In(axi_signature(ADDR_BITS, DATA_BITS, ID_BITS)), "ready": Out(1),
-                          "init_error": Out(1)})
+        members = {"axi": In(axi_signature(ADDR_BITS, DATA_BITS, ID_BITS)), "ready": Out(1), "init_error": Out(1)}
+        if textures:
+            members["tex"] = In(axi_signature(ADDR_BITS, TEXTURE_DATA_BITS, ID_BITS))
+        super().__init__(members)
 
     def elaborate(self, platform):
-        from amaranth import Cat, ClockSignal, DomainRenamer, ResetSignal
+        from amaranth import ClockSignal, DomainRenamer, ResetSignal
         m = Module()
         init = self._init
         m.submodules.init = DomainRenamer("dram")(init)
         done, error = Signal(), Signal()
-        a = self.axi
-        ports = {f"i_user_port_axi_0_{n}": getattr(a, n) for n in
-                 ("awid", "awaddr", "awlen", "awburst", "awvalid", "wdata", "wstrb", "wlast", "wvalid", "bready",
-                  "arid", "araddr", "arlen", "arburst", "arvalid", "rready")}
-        ports |= {f"o_user_port_axi_0_{n}": getattr(a, n) for n in
-                  ("awready", "wready", "bid", "bresp", "bvalid", "arready", "rid", "rdata", "rresp", "rlast",
-                   "rvalid")}
-        ports |= {"i_user_port_axi_0_awsize": Cat(a.awsize, Const(0, 1)),      # its AxSIZE has 4 bits, AXI's 3
-                  "i_user_port_axi_0_arsize": Cat(a.arsize, Const(0, 1))}
+        ports = _axi_ports(self.axi, "axi_0") | (_axi_ports(self.tex, TEXTURE_PORT) if self.textures else {})
         ports |= {"i_wb_ctrl_adr": init.adr, "i_wb_ctrl_dat_w": init.dat_w, "i_wb_ctrl_sel": init.sel,
                   "i_wb_ctrl_cyc": init.cyc, "i_wb_ctrl_stb": init.stb, "i_wb_ctrl_we": init.we,
                   "i_wb_ctrl_cti": Const(0, 3), "i_wb_ctrl_bte": Const(0, 2), "o_wb_ctrl_ack": init.ack,
@@ -137,4 +146,3 @@ class LiteDram(wiring.Component):
         m.submodules.core = Instance("litedram_core", **ports)
         m.d.comb += [self.ready.eq(done & ~error & init.done), self.init_error.eq(error)]
         return m
-

@@ -25,10 +25,12 @@ from amaranth.lib.wiring import Out
 from rtl.rop import axi_signature
 
 from .cdc import toggle_sync
-from .litedram import ADDR_BITS, DATA_BITS, ID_BITS
+from .litedram import ADDR_BITS, DATA_BITS, ID_BITS, TEXTURE_DATA_BITS
 from .sdram_frame import LATENCY, FrameLayout, SdramFrame
+from .texture_port import TEXTURE_BASE
 
-__all__ = ["members", "elaborate_frame", "burst", "BURST", "COPY_FIFO", "UNSEEN_WRITES"]
+__all__ = ["members", "elaborate_frame", "elaborate_textures", "texture_spans", "burst", "BURST", "COPY_FIFO",
+           "UNSEEN_WRITES"]
 
 #: Beats of the frame's bursts (128 bytes: a 128-pixel line is two).
 BURST = 64
@@ -47,11 +49,42 @@ def burst(tile_width: int, cols: int) -> int:
     return min(BURST, 1 << (tile_width - 1).bit_length() if cols == 1 else tile_width & -tile_width)
 
 
-def members() -> dict:
+def members(textures: bool = False) -> dict:
     """The engine system's ports added for the frame in SDRAM: ``mem`` (the AXI4 manager, ``dram``),
-    ``mem_error`` (an error response, or a copied word the copy's FIFO could not take; sticky), ``underrun`` (the
-    scan-out missed a word, sticky)."""
-    return {"mem": Out(axi_signature(ADDR_BITS, DATA_BITS, ID_BITS)), "mem_error": Out(1), "underrun": Out(1)}
+    ``mem_error`` (an error response, or a copied word the copy's FIFO could not take, or an error of the texture
+    port; sticky), ``underrun`` (the scan-out missed a word, sticky); with ``textures`` (the maps in SDRAM) also
+    ``tex``, the manager of the core's texture port (``dram``, :func:`elaborate_textures`)."""
+    out = {"mem": Out(axi_signature(ADDR_BITS, DATA_BITS, ID_BITS)), "mem_error": Out(1), "underrun": Out(1)}
+    if textures:
+        out["tex"] = Out(axi_signature(ADDR_BITS, TEXTURE_DATA_BITS, ID_BITS))
+    return out
+
+
+def texture_spans(params) -> dict:
+    """Per map in SDRAM (``params``: an :class:`~fxmodel.pipeline.engine.EngineParams` with ``textures``) its
+    span in the SDRAM ``(byte address, bytes)``: its span of the texture layout
+    (:meth:`~fxmodel.units.texcache.Layout.span`) at :data:`~board.texture_port.TEXTURE_BASE`."""
+    from fxmodel.pipeline.engine import TEXTURE_MAPS
+
+    from .texture_port import TEXTURE_BASE
+    layout = params.texture_layout()
+    return {name: (TEXTURE_BASE + layout.span(name)[0], layout.span(name)[1]) for name in TEXTURE_MAPS}
+
+
+def elaborate_textures(system, m: Module, eng, up):
+    """The maps in SDRAM (``docs/board.md``, "Textures in SDRAM") into ``system``'s module ``m``: the engine
+    ``eng``'s texture fetch reads through :class:`~board.texture_port.TexturePort` (from the engine's clock to the
+    SDRAM's) on the system's ``tex`` port, whose write channels take the uploads' words of the maps in SDRAM
+    (``up``: the :class:`~board.upload.UploadWriter`'s ``sd_*``); each such word also empties the texel caches
+    (``eng.tex_flush``, a pulse of the engine's clock from the word's toggle: uploads come while the engine is
+    idle). Returns the port's errors (sticky, of both clocks) for ``mem_error``."""
+    from .texture_port import TexturePort
+    m.submodules.texture_port = tp = TexturePort(i_domain="engine", o_domain="dram")
+    wiring.connect(m, eng.tex, tp.up)
+    wiring.connect(m, tp.down, wiring.flipped(system.tex))
+    m.d.comb += [tp.req.eq(up.sd_req), tp.addr.eq(up.sd_addr), tp.data.eq(up.sd_data),
+                 eng.tex_flush.eq(toggle_sync(m, "tex_flush", up.sd_req, "engine"))]
+    return tp.error | tp.read_error
 
 
 def elaborate_frame(system, m: Module, tc, disp) -> None:
@@ -61,8 +94,10 @@ def elaborate_frame(system, m: Module, tc, disp) -> None:
     if disp.latency != LATENCY + 1:
         raise AssertionError(f"the display's pixel latency must be {LATENCY + 1} (the frame's and a register)")
     t, cols = system.timing, system.grid[0]
-    m.submodules.sdram_frame = f = SdramFrame(FrameLayout(t.h_active, t.v_active, burst=burst(P.width, cols)), t,
-                                              tile=(P.width, P.height))
+    layout = FrameLayout(t.h_active, t.v_active, burst=burst(P.width, cols))
+    if layout.base + 2 * layout.buffer_bytes > TEXTURE_BASE:
+        raise AssertionError("the frame's buffers reach the maps' half of the SDRAM (board/texture_port.py)")
+    m.submodules.sdram_frame = f = SdramFrame(layout, t, tile=(P.width, P.height))
     q = AsyncFIFO(width=DATA_BITS, depth=COPY_FIFO, w_domain="engine", r_domain="dram")
     m.submodules.copy_fifo = q
     wiring.connect(m, f.mem, wiring.flipped(system.mem))
@@ -85,7 +120,8 @@ def elaborate_frame(system, m: Module, tc, disp) -> None:
     m.d.comb += [f.i.valid.eq(q.r_rdy), f.i.payload.eq(q.r_data), q.r_en.eq(f.i.ready),
                  q.w_en.eq(tc.w_en), q.w_data.eq(tc.w_data), tc.room.eq(q.w_level < COPY_FIFO - flight),
                  tc.shown.eq(toggle_sync(m, "copied", copied, "engine")),
-                 system.mem_error.eq(f.error | lost), system.underrun.eq(f.underrun), system.front.eq(f.front)]
+                 system.mem_error.eq(f.error | lost | system.tex_error), system.underrun.eq(f.underrun),
+                 system.front.eq(f.front)]
     # the display: the frame's word (LATENCY clocks) expanded to bytes and registered
     m.d.comb += [f.x.eq(disp.x), f.y.eq(disp.y)]
     px = f.color
@@ -115,19 +151,22 @@ def wire_sdram(m: Module, platform, system, clk_hz: int) -> None:
     its init sequence need, unlike the engine's registers), the chip's clock from a double-data-rate output at 180
     degrees (its rising edge in the middle of the core's clock period, as LiteX's ULX3S target does), the core's
     Verilog for ``clk_hz`` added to the build (generated into the build folder when missing:
-    :func:`board.litedram.core`), LEDs 4 (underrun), 5 (an AXI error response) and 6 (the SDRAM ready)."""
+    :func:`board.litedram.core`; with the texture port when the system has its maps in SDRAM), LEDs 4
+    (underrun), 5 (an AXI error response) and 6 (the SDRAM ready)."""
     from amaranth.lib import io
 
     from .litedram import core
     from .sdram_core import LiteDram
     pins = platform.request("sdram", 0, dir="-")
-    d = LiteDram(pins)
+    d = LiteDram(pins, textures=system.textures)
     m.submodules.dram = d
     wiring.connect(m, system.mem, d.axi)
+    if system.textures:                                 # the maps on the core's texture port
+        wiring.connect(m, system.tex, d.tex)
     m.submodules.sdram_clk = clk = io.DDRBuffer("o", pins.clk, o_domain="dram")
     m.d.comb += [clk.o[0].eq(0), clk.o[1].eq(1)]
     leds = {k: io.Buffer("o", platform.request("led", k, dir="-")) for k in (4, 5, 6)}
     for k, buf in leds.items():
         m.submodules[f"led{k}"] = buf
     m.d.comb += [leds[4].o.eq(system.underrun), leds[5].o.eq(system.mem_error), leds[6].o.eq(d.ready)]
-    platform.add_file("litedram_core.v", core_verilog(core(False, clk_hz).read_text()))
+    platform.add_file("litedram_core.v", core_verilog(core(False, clk_hz, system.textures).read_text()))

@@ -28,7 +28,7 @@ from amaranth.lib.cdc import ResetSynchronizer
 from .budget import write_text_atomic
 from .command import CommandLink
 from .dvi import CLOCK_WORD, Display, Serializer, pattern
-from .frame import BOARD_PRESET, EngineSystem, add_frame_argument, add_size_argument
+from .frame import BOARD_PRESET, EngineSystem, add_frame_argument, add_size_argument, add_textures_argument
 from .ulx3s import BAUD, wire_link
 from .video import VGA_640x480
 
@@ -383,6 +383,7 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
     add_size_argument(ap)
     ap.add_argument("--no-engine", action="store_true", help="the first stage: the test picture and the link")
     add_frame_argument(ap)
+    add_textures_argument(ap)
     ap.add_argument("--router", choices=ROUTERS, default=ROUTERS[0], help="nextpnr's router")
     ap.add_argument("--placer", choices=PLACERS, default=PLACERS[0], help="nextpnr's placer")
     ap.add_argument("--tmg-ripup", action=argparse.BooleanOptionalAction, default=True,
@@ -416,11 +417,12 @@ def run(args: argparse.Namespace) -> int:
 
     from host.scene import SceneError
 
-    from .frame import board_engine
+    from .frame import board_engine, board_textures
     engine = None
     if not args.no_engine:
         try:
             engine = board_engine(args.scene, args.preset, args.size)[0]
+            engine = board_textures(engine, args.textures, args.frame)
         except (SceneError, ValueError, OSError) as exc:
             print(f"error: {exc}", file=sys.stderr)
             return 2
@@ -434,7 +436,10 @@ def run(args: argparse.Namespace) -> int:
         print(f"error: --engine-margin {args.engine_margin}: a fraction in 0..0.2", file=sys.stderr)
         return 2
     seed = args.seed if args.seed is not None else SDRAM_SEED if args.frame == "sdram" else SEED
-    floorplan = None if args.no_floorplan or engine is None else args.floorplan or floorplan_of(args.frame)
+    # the committed floorplan is the engine's with its maps on chip: the engine with its maps in SDRAM places freely
+    # unless given one of its own
+    default_plan = None if args.textures else floorplan_of(args.frame)
+    floorplan = None if args.no_floorplan or engine is None else args.floorplan or default_plan
     from .floorplan import FloorplanError
     try:
         rec = build(args.out, engine, args.router, args.frame, seed, args.engine_div, args.misses, args.tmg_ripup,
@@ -451,7 +456,8 @@ def run(args: argparse.Namespace) -> int:
     rec = {"command": getattr(args, "command_line", "bumpmap bitstream"),
            "design": "test picture and link" if engine is None else
            f"engine ({args.scene}, preset {args.preset}, {args.size}x{args.size} tile), link, display"
-           + (", frame in SDRAM" if args.frame == "sdram" else ""), **rec}
+           + (", frame in SDRAM" if args.frame == "sdram" else "")
+           + (", maps in SDRAM behind the texel caches" if args.textures else ""), **rec}
     write_text_atomic(args.out / "report.json", json.dumps(rec, indent=1) + "\n")
     if args.record:
         write_text_atomic(args.record, json.dumps({k: v for k, v in rec.items() if k != "bitstream"}, indent=1)

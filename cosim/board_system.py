@@ -11,8 +11,10 @@ The upload frames (TEXTURE, CUBE) are left out of the simulated stream by defaul
 the scene's tables (as ``make sim`` does), and the uploads are nearly all of the bytes (most of a second of the
 board's time at 1 MBd). With ``uploads`` they are sent, into texel memories that start at zero
 (``BoardSim(blank=True)``), with the UART at :data:`UPLOAD_DIVISOR` pixel clocks a bit, so the picture shows that
-every word reached its memory. The clocks: the board's 25 MHz pixel clock (UART at 1 MBd, 25 clocks a bit) and
-the engine at 100 MHz.
+every word reached its memory. With the maps in SDRAM (``params.textures``, the frame in SDRAM) the TEXTURE frames
+are always sent (the SDRAM starts without the maps), with the UART at :data:`UPLOAD_DIVISOR` pixel clocks a bit;
+the cubes keep their tables. The clocks: the board's 25 MHz pixel clock (UART at 1 MBd, 25 clocks a bit) and the
+engine at 100 MHz.
 """
 
 from __future__ import annotations
@@ -88,10 +90,16 @@ def simulate(params, records, data: bytes, *, timing: VideoTiming = VGA_640x480,
     sim = simulator(sim)
     if uploads and frame != "chip":
         raise ValueError("uploads: simulated with the frame on chip only")
+    textures = params.textures is not None
+    if textures and frame != "sdram":
+        raise ValueError("the maps in SDRAM (params.textures): simulated with the frame in SDRAM only")
     frames = split_frames(data)
-    kept = frames if uploads else [f for f in frames if f[1] not in (Cmd.TEXTURE, Cmd.CUBE)]
+    left_out = () if uploads else (Cmd.CUBE,) if textures else (Cmd.TEXTURE, Cmd.CUBE)
+    kept = [f for f in frames if f[1] not in left_out]
+    if textures and not any(f[1] == Cmd.TEXTURE for f in kept):
+        raise ValueError("the maps in SDRAM (params.textures): the bytes carry no TEXTURE frame to load them")
     stream = b"".join(kept)
-    divisor = UPLOAD_DIVISOR if uploads else DIVISOR
+    divisor = UPLOAD_DIVISOR if uploads or textures else DIVISOR
     color = params.draw(records)[1] if picture is None else picture
     want = display_frame(color, timing.h_active, timing.v_active)
     key = hashlib.sha1(repr((params, timing, divisor, uploads)).encode()
@@ -101,7 +109,8 @@ def simulate(params, records, data: bytes, *, timing: VideoTiming = VGA_640x480,
         from board.sdram_sim import SdramBoardSim
 
         from .sdram_frame import litedram_sources
-        top, bdir, src = litedram_sources(sim, "board_sim_sdram", key, lambda: SdramBoardSim(params, timing, divisor))
+        top, bdir, src = litedram_sources(sim, "board_sim_sdram", key, lambda: SdramBoardSim(params, timing, divisor),
+                                          textures=textures)
     else:
         top, bdir, src = component_build("board_sim", key, sim, lambda: BoardSim(params, timing, divisor, uploads))
     verilog_seconds = time.perf_counter() - t0
@@ -123,7 +132,7 @@ def simulate(params, records, data: bytes, *, timing: VideoTiming = VGA_640x480,
            "state_answer": res["state_answer"],
            "state_ok": res["state_answer"] is not None and int(res["state_answer"], 16) == STATE_ANSWER,
            "error": res["error"], "overrun": res["overrun"], "rop_status": res["status"], "shown": shown,
-           "uploads": uploads, "upload_bad": res.get("upload_bad"),
+           "uploads": uploads, "textures": textures, "upload_bad": res.get("upload_bad"),
            "frame": frame, "underrun": res.get("underrun"), "mem_error": res.get("mem_error"),
            "dram_ready": res.get("dram_ready"),
            "sim_ms": {"uart_done": res["sent_ns"] / 1e6, "shown": res["shown_ns"] / 1e6, "end": res["end_ns"] / 1e6},

@@ -4,8 +4,8 @@ texture fetch, ``rtl/pixel_fetch.py``; the engine of the paper's Fig. 5, the map
 
 The bench is :class:`cosim.texfetch.FetchBench` around the engine (its texture port ``tex``): both maps in
 cocotbext-axi's ``AxiRam`` in the model's blocked layout (:meth:`~fxmodel.pipeline.engine.EngineParams.
-texture_layout`, :func:`cosim.texfetch.layout_image`) behind a delay queue of ``lat`` cycles on ``AR`` (one build
-serves every latency), random wait states on both read channels, random gaps in the triangle records and
+texture_layout`, :meth:`fxmodel.units.texcache.Layout.image`) behind a delay queue of ``lat`` cycles on ``AR``
+(one build serves every latency), random wait states on both read channels, random gaps in the triangle records and
 backpressure on the fragments (``cosim.texfetch_tb``). Compared: every fragment out (``x, y``, the bytes, the
 flags) with :meth:`~fxmodel.pipeline.engine.EngineParams.compute`, in order, none lost and none extra; each map's
 ``AR`` bursts (address and length, in order) with its cache's model
@@ -21,30 +21,15 @@ import sys
 
 import numpy as np
 
-from fxmodel.units.texcache import TexCacheParams
+from fxmodel.units.texcache import CHOSEN_CACHE
 from rtl.digest import params_key
 
 from .harness import component_build, run_testbench, simulator
 from .job import job_folder, remove_job
 from .raster import pack, unpack
-from .texfetch import MAX_LATENCY, FetchBench, layout_image
+from .texfetch import MAX_LATENCY, FetchBench
 
-__all__ = ["run_engine_fetch", "map_words", "port_of", "sim_textures", "CHOSEN_CACHE"]
-
-#: The texel cache ``bumpmap cache-sweep`` chose (``docs/texcache.md``, ``docs/records/texcache.json``), one per map.
-CHOSEN_CACHE = TexCacheParams(block=8, sets=32, ways=4)
-
-
-def map_words(params) -> list:
-    """The texel words of each surface in external memory (``(height, width)`` arrays, layout order: each map's
-    MIP levels, :meth:`~fxmodel.pipeline.engine.EngineParams.texture_layout`)."""
-    p = params.pipeline
-    out = []
-    for (name, lv), h, w in params.texture_layout().surfaces:
-        smp = getattr(p, name)
-        out.append(np.array(smp._pack(smp.level_codes(lv)), np.int64).reshape(h, w))
-    return out
-
+__all__ = ["run_engine_fetch", "port_of", "sim_textures"]
 
 def port_of(params, layout, address: int):
     """The cache (:meth:`~fxmodel.pipeline.engine.EngineParams.texture_ports`) whose surfaces hold ``address``."""
@@ -92,7 +77,7 @@ def run_engine_fetch(params, records, *, latency: int = 1, p_valid: float = 1.0,
                                                    "latency": latency})
     beats = sum(t.totals["beats"] + 2 * (latency + 8) * t.totals["bursts"] for t in traffic.values())
     budget = 2000 + 4 * (int(scan.clocks.sum()) + len(want) + params.latency) + 3 * beats
-    meta = {"requests": [format(r, "x") for r in reqs], "image": layout_image(layout, map_words(params)).hex(),
+    meta = {"requests": [format(r, "x") for r in reqs], "image": layout.image(params.texture_words()).hex(),
             "base": layout.base, "p_valid": p_valid, "p_ready": p_ready, "p_pause": p_pause, "seed": seed,
             "latency": latency, "max_cycles": int(budget / max(min(p_valid, p_ready, 1 - p_pause), 0.05)),
             "outputs": len(want)}

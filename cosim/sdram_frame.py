@@ -85,11 +85,12 @@ class SdramFrameLiteDramBench(wiring.Component):
         return m
 
 
-def litedram_sources(sim: str, top: str, key: str, component) -> tuple[str, Path, Path]:
-    """:func:`~cosim.harness.component_build` of a design holding LiteDRAM's simulation core, with the core's
-    Verilog (generated into the build folder when missing: :func:`board.litedram.core`) appended."""
+def litedram_sources(sim: str, top: str, key: str, component, textures: bool = False) -> tuple[str, Path, Path]:
+    """:func:`~cosim.harness.component_build` of a design holding LiteDRAM's simulation core (with its texture
+    port when ``textures``), with the core's Verilog (generated into the build folder when missing:
+    :func:`board.litedram.core`) appended."""
     from board.litedram import core as litedram_core
-    core = litedram_core(True)
+    core = litedram_core(True, textures=textures)
     top, bdir, src = component_build(top, key, sim, component)
     both = bdir / f"{top}_with_litedram.v"
     if not both.exists():

@@ -93,20 +93,25 @@ class Source:
         return cls(words, rng, p_valid, *(getattr(dut, f"{port}__{s}") for s in ("valid", "payload", "ready")))
 
 
-async def read_manager_walk(dut, meta: dict, latency: int | None = None) -> None:
+async def read_manager_walk(dut, meta: dict, latency: int | None = None, *, memory=None) -> None:
     """Drive a stream-in/stream-out AXI4 read manager (a texel cache, the texture fetch) from ``job.json``: requests
     offered with probability ``p_valid``, the sink ready with ``p_ready``, an ``AxiRam`` with wait states behind
     ``mem``; record every ``AR`` (address, length), the ``R`` beats, the outputs and the cycles into the result
     file (``outputs`` in the job: how many outputs to wait for, default one per request; the engine's are its
     fragments). ``latency``: the value of the bench's ``lat`` input (the fetch bench's delay queue), if it has
-    one."""
+    one. ``memory``: instead of the ``AxiRam``, a coroutine function awaited (with ``dut``) while the design is
+    held in reset, which puts the image in the bench's own memory; ``mem`` is then the bench's copy of the
+    manager's port, watched only, and the bench's ``mem_error`` at the end is recorded too."""
     reqs = [int(r, 16) for r in meta["requests"]]
     rng = random.Random(meta["seed"])
     start(dut)
     if latency is not None:
         dut.lat.value = latency
-    _ram = axi_ram(dut, meta["base"], bytes.fromhex(meta["image"]), meta["seed"], meta["p_pause"],
-                   write=False)                            # the memory model lives as long as the test
+    if memory is None:
+        _ram = axi_ram(dut, meta["base"], bytes.fromhex(meta["image"]), meta["seed"], meta["p_pause"],
+                       write=False)                        # the memory model lives as long as the test
+    else:
+        await memory(dut)
     for _ in range(3):
         await FallingEdge(dut.clk)
     dut.rst.value = 0
@@ -126,4 +131,7 @@ async def read_manager_walk(dut, meta: dict, latency: int | None = None) -> None
         if int(dut.mem__arvalid.value) and int(dut.mem__arready.value):
             ar.append([int(dut.mem__araddr.value), int(dut.mem__arlen.value)])
         beats += int(dut.mem__rvalid.value) & int(dut.mem__rready.value)
-    Path(meta["out"]).write_text(json.dumps({"outputs": outputs, "ar": ar, "beats": beats, "cycles": cycles}))
+    result = {"outputs": outputs, "ar": ar, "beats": beats, "cycles": cycles}
+    if memory is not None:                                  # the bench's memory: its error flag
+        result["mem_error"] = int(dut.mem_error.value)
+    Path(meta["out"]).write_text(json.dumps(result))

@@ -20,3 +20,25 @@ def test_the_tin_plane_from_host_bytes_to_the_decoded_dvi_frame():
     assert rep["shown"] and rep["acks_ok"] and not rep["error"] and not rep["overrun"]
     assert rep["mismatches"] == 0, rep["first_mismatches"]
     assert rep["timing_ok"], rep["timing"]
+
+
+@pytest.mark.slow
+def test_the_tin_plane_with_its_maps_in_sdram():
+    """``--textures``: the maps loaded into the SDRAM by the host's TEXTURE frames and read through the texel
+    caches; the whole 640 x 480 picture a tile at a time, decoded and equal to the model's on every pixel, no
+    upload's word refused, no memory error."""
+    import numpy as np
+
+    from board.frame import board_picture, board_textures, tiled_color
+    from host.protocol import picture_frames, upload_frames_of
+    params, frame, tiles = board_picture("tin-plane", BOARD_PRESET, 128)
+    params = board_textures(params, True, "sdram")
+    per_tile = [(place, recs.matrix()) for place, recs in tiles]
+    data = b"".join(upload_frames_of(frame.params, params) + picture_frames(params.raster.record, per_tile,
+                                                                            (128, 128)))
+    picture = tiled_color(params, tiles, (frame.scene.width, frame.scene.height))
+    rep = simulate(params, np.concatenate([m for _, m in per_tile]), data, sim="verilator", frame="sdram",
+                   picture=picture)
+    assert rep["shown"] and rep["acks_ok"] and rep["state_ok"] and rep["textures"]
+    assert not any(rep[k] for k in ("error", "overrun", "underrun", "mem_error", "upload_bad"))
+    assert rep["mismatches"] == 0, rep["first_mismatches"]

@@ -95,7 +95,7 @@ def tin_plane(n: int):
 def test_scene_lookups_chosen_cache(latency):
     """The tin plane's bump-map lookups through the chosen cache (``CHOSEN_CACHE``: 8 x 8-texel lines, 32 sets, 4
     ways, LRU): the sampler's packed texel words come back exactly, the bursts are the model's."""
-    from cosim.engine_fetch import CHOSEN_CACHE
+    from fxmodel.units.texcache import CHOSEN_CACHE
     trace, words, bits = tin_plane(500)
     params = dataclasses.replace(CHOSEN_CACHE, texel_bits=bits)
     layout = Layout(((("bump_map", 0),) + words.shape,), params.block, params.texel_bytes)
@@ -162,3 +162,20 @@ def test_fetch_both_maps_of_a_scene(latency):
     assert res["outputs"] == res["fragments"] == 600 and res["mismatches"] == 0
     assert res["bursts_equal"] and res["rtl_bytes"] == res["model_bytes"] > 0
     assert all(v["model"]["misses"] > 0 for v in res["maps"].values())
+
+
+@pytest.mark.parametrize("dram_ns", [20, 7])
+def test_fetch_maps_in_sdram(dram_ns):
+    """The same fragments with both maps in LiteDRAM's simulation core, as the board reads them: the fetch in the
+    engine's 10 ns clock, its read channels across the board's clock crossing into the core's texture port in the
+    SDRAM's clock (20 ns: the board's 50 MHz; 7 ns: faster than the engine), the maps written into the SDRAM through
+    the core's other port and read back first. Texels, sideband and bursts exact, no error response; and no faster
+    than the chip can deliver the bytes (one 16-bit word an SDRAM clock)."""
+    from board.litedram import DATA_BITS
+    from cosim.texfetch import run_fetch
+    eng, traces, words = engine_fetch("tin-plane", 48, 600, TexCacheParams(block=8, sets=8, ways=2))
+    res = run_fetch(eng.texture_caches(), eng.texture_layout(), words, traces, p_valid=0.9, p_ready=0.8,
+                    seed=dram_ns, tag=f"dram_{dram_ns}", dram_ns=dram_ns, sim="verilator")
+    assert res["outputs"] == res["fragments"] == 600 and res["mismatches"] == 0
+    assert res["bursts_equal"] and res["rtl_bytes"] == res["model_bytes"] > 0 and res["mem_error"] == 0
+    assert res["cycles"] * 10 >= res["rtl_bytes"] * 8 // DATA_BITS * dram_ns

@@ -24,7 +24,7 @@ from .harness import component_build, run_testbench, simulator
 from .job import job_folder, remove_job
 from .rop import LATENCY_BITS, DelayQueue
 
-__all__ = ["FetchBench", "run", "run_fetch", "layout_image", "pack_requests", "MAX_LATENCY"]
+__all__ = ["FetchBench", "run", "run_fetch", "pack_requests", "MAX_LATENCY"]
 
 #: Largest ``lat`` of the bench (its ``lat`` input's range).
 MAX_LATENCY = (1 << LATENCY_BITS) - 1
@@ -65,19 +65,6 @@ class FetchBench(wiring.Component):
         return m
 
 
-def layout_image(layout: Layout, maps: list) -> bytes:
-    """The surfaces' texel words (``maps[k]``: ``(height, width)`` of surface ``k``) at their layout addresses
-    (little-endian, 4 bytes a texel), from the layout's base to its end; padding zero."""
-    img = bytearray(layout.size_bytes)
-    for k, words in enumerate(maps):
-        h, w = words.shape
-        yy, xx = np.mgrid[0:h, 0:w]
-        addr = layout.address(np.full(xx.size, k, np.int64), xx.ravel(), yy.ravel()) - layout.base
-        for a, v in zip(addr.tolist(), words.ravel().tolist()):
-            img[a:a + 4] = int(v).to_bytes(4, "little")
-    return bytes(img)
-
-
 def pack_requests(lay, trace: Trace, side=None) -> list[int]:
     """Request words of ``lay`` (:func:`rtl.texcache_decoupled.request_layout`; ``side`` per lookup, if it has a
     sideband)."""
@@ -110,7 +97,7 @@ def run(params: TexCacheParams, layout: Layout, maps: list, trace: Trace, *, sid
     budget = 400 + len(reqs) * 6 + (model.totals["beats"] + 40 * model.totals["bursts"]) * 3
     got, build_seconds, seconds = _simulate_bench(
         lambda: DecoupledTexCache(params, layout, side_bits), (params, layout, side_bits), reqs,
-        layout_image(layout, maps), layout.base, budget=budget,
+        layout.image(maps), layout.base, budget=budget,
         **dict(latency=latency, p_valid=p_valid, p_ready=p_ready, p_pause=p_pause, seed=seed, sim=sim, tag=tag))
     tb = params.texel_bits
     x, y = trace.corners()
@@ -134,17 +121,32 @@ def run(params: TexCacheParams, layout: Layout, maps: list, trace: Trace, *, sid
 
 
 def _simulate_bench(make, key, reqs: list, image: bytes, base: int, *, latency, p_valid, p_ready, p_pause, seed,
-                    sim, tag, budget) -> tuple[dict, float, float]:
-    """Build (once per ``key``) and run the bench around the design ``make()`` builds; the testbench's result."""
+                    sim, tag, budget, dram_ns=None) -> tuple[dict, float, float]:
+    """Build (once per ``key``) and run the bench around the design ``make()`` builds; the testbench's result.
+    With ``dram_ns`` the bench is :class:`cosim.texfetch_dram.FetchDramBench` (the memory LiteDRAM's simulation
+    core in a clock of that period; ``latency`` and ``p_pause`` do not apply), else :class:`FetchBench`."""
     if not 0 <= latency <= MAX_LATENCY:
         raise ValueError(f"latency={latency}: must be in 0..{MAX_LATENCY}")
-    top, bdir, src = component_build("texfetch", params_key(key), sim, lambda: FetchBench(make()))
+    if dram_ns is None:
+        top, bdir, src = component_build("texfetch", params_key(key), sim, lambda: FetchBench(make()))
+        tb = "cosim.texfetch_tb"
+    else:
+        from fxmodel.core.paths import source_digest
+
+        from .sdram_frame import litedram_sources
+        from .texfetch_dram import FetchDramBench
+        bkey = params_key(key, source_digest(("board", "cosim")).hex())
+        top, bdir, src = litedram_sources(sim, "texfetch_dram", bkey, lambda: FetchDramBench(make()), textures=True)
+        from board.texture_port import TEXTURE_BASE
+        tb, budget = "cosim.texfetch_dram_tb", budget * max(1, -(-dram_ns // 10)) + 4000
+        base += TEXTURE_BASE                                # where the testbench writes the maps
     job = job_folder(bdir, tag or "texfetch", {"key": repr(key), "sim": sim, "lookups": len(reqs), "seed": seed,
-                                               "p": [p_valid, p_ready, p_pause], "latency": latency})
+                                               "p": [p_valid, p_ready, p_pause], "latency": latency,
+                                               "dram_ns": dram_ns})
     meta = {"requests": [format(r, "x") for r in reqs], "image": image.hex(), "base": base, "p_valid": p_valid,
-            "p_ready": p_ready, "p_pause": p_pause, "seed": seed, "latency": latency,
+            "p_ready": p_ready, "p_pause": p_pause, "seed": seed, "latency": latency, "dram_ns": dram_ns,
             "max_cycles": int(budget / max(min(p_valid, p_ready, 1 - p_pause), 0.05))}
-    out, build_seconds, seconds = run_testbench(sim, src, top, bdir, job, "cosim.texfetch_tb", meta, "result.json")
+    out, build_seconds, seconds = run_testbench(sim, src, top, bdir, job, tb, meta, "result.json")
     got = json.loads(out.read_text())
     remove_job(job)
     return got, build_seconds, seconds
@@ -152,11 +154,13 @@ def _simulate_bench(make, key, reqs: list, image: bytes, base: int, *, latency, 
 
 def run_fetch(caches: dict, layout: Layout, maps: list, traces: dict, *, side_bits: int = 4, latency: int = 1,
               p_valid: float = 1.0, p_ready: float = 1.0, p_pause: float = 0.0, seed: int = 1,
-              sim: str | None = None, tag: str = "") -> dict:
+              sim: str | None = None, tag: str = "", dram_ns: int | None = None) -> dict:
     """Fragments through the texture fetch (``rtl/texfetch.py``): ``traces[map]`` (one row per fragment, the
     same fragments) in the caches ``caches[map]`` over ``layout`` holding ``maps`` (one array per surface); the
     texels of both maps and the sideband against the maps, and each map's bursts (the ``AR`` transfers to its
-    surfaces, in order) against its cache's model.
+    surfaces, in order) against its cache's model. ``dram_ns``: the maps in LiteDRAM's simulation core behind the
+    board's clock crossing, the SDRAM's clock of that period (``cosim/texfetch_dram.py``), instead of an
+    ``AxiRam`` behind a delay queue of ``latency`` with wait states ``p_pause``.
 
     Returns
     -------
@@ -176,10 +180,16 @@ def run_fetch(caches: dict, layout: Layout, maps: list, traces: dict, *, side_bi
         sub = pack_requests(request_layout(layout), traces[k])
         reqs = reqs + np.asarray(sub, dtype=object) * (1 << lay[k].offset)
     beats = sum(v.totals["beats"] + 40 * v.totals["bursts"] for v in models.values())
+    if dram_ns is None:
+        make, key = (lambda: TexFetch(caches, layout, side_bits)), (tuple(caches.items()), layout, side_bits, "fetch")
+    else:
+        from board.texture_port import TEXTURE_ADDR_BITS
+        make = lambda: TexFetch(caches, layout, side_bits, addr_bits=TEXTURE_ADDR_BITS)     # noqa: E731
+        key = (tuple(caches.items()), layout, side_bits, "fetch", "dram")
     got, build_seconds, seconds = _simulate_bench(
-        lambda: TexFetch(caches, layout, side_bits), (tuple(caches.items()), layout, side_bits, "fetch"),
-        [int(r) for r in reqs], layout_image(layout, maps), layout.base, budget=400 + 6 * n + 3 * beats,
-        **dict(latency=latency, p_valid=p_valid, p_ready=p_ready, p_pause=p_pause, seed=seed, sim=sim, tag=tag))
+        make, key, [int(r) for r in reqs], layout.image(maps), layout.base, budget=400 + 6 * n + 3 * beats,
+        **dict(latency=latency, p_valid=p_valid, p_ready=p_ready, p_pause=p_pause, seed=seed, sim=sim, tag=tag,
+               dram_ns=dram_ns))
     vals = [int(v, 16) for v in got["outputs"]]
     bad = np.zeros(n, bool) if len(vals) == n else np.ones(n, bool)
     if len(vals) == n:
@@ -207,4 +217,4 @@ def run_fetch(caches: dict, layout: Layout, maps: list, traces: dict, *, side_bi
                 v["bursts"] for v in per_map.values()),
             "rtl_bytes": 4 * got["beats"], "model_bytes": model_bytes, "cycles": got["cycles"],
             "fragments_per_clock": n / max(got["cycles"], 1), "latency": latency, "simulator": sim,
-            "build_seconds": build_seconds, "seconds": seconds}
+            "mem_error": got.get("mem_error"), "dram_ns": dram_ns, "build_seconds": build_seconds, "seconds": seconds}

@@ -266,11 +266,25 @@ def scene_frames(pipeline, raster_ports, records, size: tuple[int, int]) -> list
     return upload_frames_of(pipeline) + picture_frames(raster_ports, [((0, 0), records)], size)
 
 
-def upload_frames_of(pipeline) -> list[bytes]:
-    """The TEXTURE and CUBE frames of ``pipeline``'s four texel memories (:func:`scene_frames`)."""
+def upload_frames_of(pipeline, engine=None) -> list[bytes]:
+    """The TEXTURE and CUBE frames of ``pipeline``'s four texel memories (:func:`scene_frames`). With ``engine``
+    (an :class:`~fxmodel.pipeline.engine.EngineParams` whose ``textures`` is set: the board with its bump map and
+    texture in SDRAM) each TEXTURE map is sent as the 4-byte words of its span of the engine's texture layout
+    (:meth:`~fxmodel.units.texcache.Layout.span`, :meth:`~fxmodel.units.texcache.Layout.image`: its levels,
+    blocked, padding included), word ``k`` for byte ``4 k`` of the span."""
     out = []
+    image = layout = None
+    if engine is not None and engine.textures is not None:
+        layout = engine.texture_layout()
+        image = layout.image(engine.texture_words())
     for cmd, names in MEMORIES.items():
         for mem, name in enumerate(names):
+            if cmd == Cmd.TEXTURE and image is not None:
+                start, size = layout.span(name)
+                chunk = image[start - layout.base:start - layout.base + size]
+                words = [int.from_bytes(chunk[k:k + 4], "little") for k in range(0, size, 4)]
+                out += upload_frames(cmd, mem, words, 32)
+                continue
             sampler = getattr(pipeline, name)
             out += upload_frames(cmd, mem, sampler.upload_words, sampler.word_bits)
     return out

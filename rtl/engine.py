@@ -44,19 +44,25 @@ class Engine(wiring.Component):
     counted: wait its ``latency`` after the last one left the scan converter).
 
     ``writes`` (:class:`rtl.sampler.TexelWrites`, optional): the texel memories' write bus, driven by the design
-    around the engine (the board's uploads); its signals are shared, not ports.
+    around the engine (the board's uploads); its signals are shared, not ports. With the maps in external memory
+    it reaches the reflectance cubes' memories only.
+
+    With ``params.textures`` the maps are read through port ``tex`` (AXI4 manager, read channels, ``tex_addr_bits``
+    address bits), ``fetch_busy`` is high while a lookup or a fill is inside the texture fetch (a fragment may
+    wait there for its misses far longer than the pipeline's latency), and with ``tex_flush`` the input ``tex_flush``
+    empties the texel caches (``rtl.pixel_fetch.FetchPipeline``'s ``flush``: a map was loaded).
     """
 
-    def __init__(self, params: EngineParams, writes=None):
+    def __init__(self, params: EngineParams, writes=None, tex_addr_bits: int = 32, tex_flush: bool = False):
         self.params, self.writes = params, writes
-        if writes is not None and params.textures is not None:
-            raise ValueError("writes: the texel memories' write bus is for maps on chip (EngineParams.textures unset)")
         members = {"i": In(stream.Signature(record_layout(params.raster))), "busy": Out(1)}
         if params.textures is not None:
             from .pixel_fetch import FetchPipeline
             self._pixel = FetchPipeline(params.pipeline, params.texture_caches(), params.texture_layout(),
-                                        self._side_layout(params))
-            members["tex"] = Out(self._pixel.signature.members["mem"].signature)
+                                        self._side_layout(params), tex_addr_bits, writes, tex_flush)
+            members |= {"tex": Out(self._pixel.signature.members["mem"].signature), "fetch_busy": Out(1)}
+            if tex_flush:
+                members["tex_flush"] = In(1)
         if params.rop is None:
             members["o"] = Out(stream.Signature(payload_layout(params.outputs)))
         else:
@@ -87,6 +93,9 @@ class Engine(wiring.Component):
         else:                                               # the maps through the texture fetch, port ``tex``
             m.submodules.pipeline = pix = self._pixel
             wiring.connect(m, wiring.flipped(self.tex), pix.mem)
+            m.d.comb += self.fetch_busy.eq(pix.busy)
+            if hasattr(self, "tex_flush"):
+                m.d.comb += pix.flush.eq(self.tex_flush)
         wiring.connect(m, wiring.flipped(self.i), ras.i)
         m.d.comb += [pix.i.valid.eq(ras.o.valid), ras.o.ready.eq(pix.i.ready), self.busy.eq(ras.busy)]
         m.d.comb += [pix.i.payload[p.name].eq(ras.o.payload[p.name]) for p in P.pipeline.inputs]

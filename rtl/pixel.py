@@ -13,7 +13,7 @@ from fxmodel.pipeline.pixel import FLAG_BITS, LOD_INPUTS, TEXEL_MAPS, PipelinePa
 
 from .unit import Pipe, UnitComponent, build, register
 
-__all__ = ["Pipeline", "add_unit", "add_lod"]
+__all__ = ["Pipeline", "add_unit", "add_lod", "written_units"]
 
 
 @register(PipelineParams)
@@ -50,11 +50,7 @@ class Pipeline(UnitComponent):
         m = Module()
         pipe = Pipe(m, platform=platform)
 
-        def unit(name, params, valid, **inputs):
-            if self.writes is not None and name in TEXEL_MAPS:
-                from .sampler import Sampler
-                return add_unit(m, name, params, valid, comp=Sampler(params, self.writes.port(name)), **inputs)
-            return add_unit(m, name, params, valid, **inputs)
+        unit = written_units(m, self.writes)
 
         def late(value, now, when, name):
             """``value``, ready at cycle ``now``, delayed to cycle ``when``."""
@@ -76,6 +72,18 @@ class Pipeline(UnitComponent):
                           (bmap, t0 + P.bump_map.latency), (tex, t_tex + P.texture.latency), (persp.dbz, t0))
         self.finish(m, pipe, rest)
         return m
+
+
+def written_units(m: Module, writes):
+    """:func:`add_unit` for a pipeline's units, each texel map's sampler (:data:`~fxmodel.pipeline.pixel.TEXEL_MAPS`)
+    with its memories written through ``writes`` (:class:`rtl.sampler.TexelWrites`: the board's uploads) when
+    given."""
+    def unit(name, params, valid, **inputs):
+        if writes is not None and name in TEXEL_MAPS:
+            from .sampler import Sampler
+            return add_unit(m, name, params, valid, comp=Sampler(params, writes.port(name)), **inputs)
+        return add_unit(m, name, params, valid, **inputs)
+    return unit
 
 
 def add_unit(m: Module, name: str, params, valid, comp=None, **inputs):

@@ -29,7 +29,7 @@ from dataclasses import dataclass
 from functools import cached_property
 from types import SimpleNamespace
 
-from amaranth.hdl import Module, Shape
+from amaranth.hdl import Module, ResetInserter, Shape
 from amaranth.lib import data, stream, wiring
 from amaranth.lib.wiring import In, Out
 
@@ -40,7 +40,7 @@ from fxmodel.pipeline.pixel import LOD_INPUTS, PipelineParams
 from fxmodel.units.texcache import Layout
 
 from .fixed import shape
-from .pixel import add_lod, add_unit, shade_half
+from .pixel import add_lod, add_unit, shade_half, written_units
 from .sampler import Sampler, texel_stages
 from .sampler_mip import blends, level_indices
 from .streams import StreamUnit, input_layout, output_layout
@@ -252,7 +252,12 @@ class Front(UnitComponent):
 
 @register(BackParams)
 class Back(UnitComponent):
-    """The back (:class:`BackParams`), flat ports as every unit's (``rtl/unit.py``)."""
+    """The back (:class:`BackParams`), flat ports as every unit's (``rtl/unit.py``); ``writes``
+    (:class:`rtl.sampler.TexelWrites`, optional): the board's uploads into the reflectance cubes' memories."""
+
+    def __init__(self, params: BackParams, writes=None):
+        self.writes = writes
+        super().__init__(params)
 
     def elaborate(self, platform):
         B = self.params
@@ -264,9 +269,7 @@ class Back(UnitComponent):
         def late(value, now, when, name):
             return pipe.delay(value, when - now, name)
 
-        def unit(name, params, valid, **inputs):
-            return add_unit(m, name, params, valid, **inputs)
-
+        unit = written_units(m, self.writes)
         res = {}
         for name in MAPS:
             smp = _sampler(getattr(P, name))
@@ -313,33 +316,42 @@ class FetchPipeline(wiring.Component):
     side : ShapeLike, optional
         Sideband carried with each fragment, as :class:`~rtl.streams.StreamUnit`'s.
     addr_bits : int
+    writes : TexelWrites, optional
+        The reflectance cubes' write bus (:class:`rtl.sampler.TexelWrites`: the board's uploads; the maps in
+        memory are not on it).
 
     Ports: ``i``, ``o`` as ``StreamUnit(pipeline, side)``'s; ``mem`` (AXI4 manager, read channels); ``busy`` (a
-    lookup or fill inside the fetch).
+    lookup or fill inside the fetch); with ``flush`` also ``flush`` (in): the fetch's registers to their reset
+    values in the next clock, every cache empty (its tags invalid): the board raises it when a map in memory is
+    loaded, while the fetch is idle (``busy`` low, no burst outstanding).
     """
 
-    def __init__(self, pipeline: PipelineParams, caches: dict, layout: Layout, side=None, addr_bits: int = 32):
+    def __init__(self, pipeline: PipelineParams, caches: dict, layout: Layout, side=None, addr_bits: int = 32,
+                 writes=None, flush: bool = False):
         self.front = FrontParams(pipeline, layout)
         ports = self.front.ports
         require(list(caches) == [q[0] for q in ports], "caches", list(caches),
                 f"must name the caches {[q[0] for q in ports]} in that order")
         self.back = BackParams(pipeline)
-        self.pipeline, self.side = pipeline, side
+        self.pipeline, self.side, self.writes = pipeline, side, writes
         fields = {p.name: shape(p.fmt) for p in self.back.inputs if not p.name.endswith("_texels")}
         if side is not None:
             fields["side"] = side
         self.carry = data.StructLayout(fields)
         self.fetch = TexFetch(caches, layout, self.carry.size, addr_bits,
                               skips=[q[0] for q in ports if q[2] is not None])
-        super().__init__({"i": In(stream.Signature(input_layout(pipeline, side))),
-                          "o": Out(stream.Signature(output_layout(pipeline, side))),
-                          "mem": Out(self.fetch.signature.members["mem"].signature), "busy": Out(1)})
+        members = {"i": In(stream.Signature(input_layout(pipeline, side))),
+                   "o": Out(stream.Signature(output_layout(pipeline, side))),
+                   "mem": Out(self.fetch.signature.members["mem"].signature), "busy": Out(1)}
+        super().__init__(members | ({"flush": In(1)} if flush else {}))
 
     def elaborate(self, platform):
         m = Module()
         m.submodules.front = front = StreamUnit(self.front, self.side)
-        m.submodules.fetch = fetch = self.fetch
-        m.submodules.back = back = StreamUnit(self.back, self.side, in_stages=BACK_IN_STAGES)
+        fetch = self.fetch
+        m.submodules.fetch = ResetInserter(self.flush)(fetch) if hasattr(self, "flush") else fetch
+        back_unit = None if self.writes is None else Back(self.back, self.writes)
+        m.submodules.back = back = StreamUnit(self.back, self.side, back_unit, in_stages=BACK_IN_STAGES)
         wiring.connect(m, wiring.flipped(self.i), front.i)
         wiring.connect(m, back.o, wiring.flipped(self.o))
         wiring.connect(m, wiring.flipped(self.mem), fetch.mem)

@@ -12,7 +12,16 @@ from pathlib import Path
 
 import numpy as np
 
-from board.frame import BOARD_PRESET, add_frame_argument, add_size_argument, board_engine, board_picture, tiled_color
+from board.frame import (
+    BOARD_PRESET,
+    add_frame_argument,
+    add_size_argument,
+    add_textures_argument,
+    board_engine,
+    board_picture,
+    board_textures,
+    tiled_color,
+)
 from cosim.board_system import simulate, split_frames
 from host.protocol import Cmd
 
@@ -32,6 +41,7 @@ def add_arguments(ap) -> None:
                          "the same frames made here")
     ap.add_argument("--sim", default="verilator", choices=("verilator", "icarus"), help="simulator")
     add_frame_argument(ap, "the frame store (SDRAM: LiteDRAM's simulation core)")
+    add_textures_argument(ap)
     ap.add_argument("--uploads", action="store_true",
                     help="send the TEXTURE and CUBE frames too, into texel memories that start at zero, the UART "
                          "faster in simulation (with --frame chip; without it the memories hold the scene's tables "
@@ -57,11 +67,13 @@ def run(args) -> int:
     try:
         if tiled:                               # the display's picture a tile at a time (bumpmap send --frame)
             params, frame, tiles = board_picture(args.scene, args.preset, args.size)
+            params = board_textures(params, args.textures, args.frame)
             per_tile = [(place, recs.matrix()) for place, recs in tiles]
             mat = np.concatenate([m for _, m in per_tile])
-            made = upload_frames_of(frame.params) + picture_frames(params.raster.record, per_tile,
-                                                                   (args.size, args.size))
+            made = upload_frames_of(frame.params, params) + picture_frames(params.raster.record, per_tile,
+                                                                           (args.size, args.size))
         else:
+            board_textures(None, args.textures, args.frame)         # (refused with the frame on chip)
             params, frame, tframe = board_engine(args.scene, args.preset, args.size)
             mat = tframe.records.matrix()
             made = scene_frames(frame.params, params.raster.record, mat, (params.rop.width, params.rop.height))

@@ -252,6 +252,7 @@ PAGES = {
     "board-budget": board.board_budget, "board-bitstream": board.board_bitstream, "board-sim": board.board_sim,
     "board-sdram-bandwidth": board.board_sdram_bandwidth, "board-sim-sdram": lambda: board.board_sim("board-sim-sdram"),
     "board-sim-uploads": lambda: board.board_sim("board-sim-uploads"),
+    "board-sim-textures": lambda: board.board_sim("board-sim-textures"),
     "board-animation": board.board_animation, "board-engine-misses": board.board_engine_misses,
     "board-bitstream-sdram": lambda: board.board_bitstream("bitstream-sdram"),
 }

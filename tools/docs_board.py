@@ -78,7 +78,7 @@ def _clock_tables(r: dict, fmax_head: str) -> str:
 #: frame on chip (``--frame chip``) or in SDRAM (the default, ``board.frame.BOARD_FRAME``).
 RECORD_OPTIONS = {"bitstream": "--frame chip", "bitstream-sdram": "",
                   "board-sim": "--frame chip", "board-sim-sdram": "",
-                  "board-sim-uploads": "--frame chip --uploads --size 32"}
+                  "board-sim-uploads": "--frame chip --uploads --size 32", "board-sim-textures": "--textures"}
 
 
 def _record_command(tool: str, name: str, folder: str) -> str:
@@ -103,7 +103,8 @@ def board_bitstream(name: str = "bitstream") -> str:
 def board_sim(name: str = "board-sim") -> str:
     """The board's end-to-end simulation (``make board-sim``): host bytes to the decoded DVI frame; ``name`` the
     record (``board-sim``: the frame on chip; ``board-sim-sdram``: the frame in SDRAM, the default;
-    ``board-sim-uploads``: the uploads sent into blank texel memories, the frame on chip)."""
+    ``board-sim-uploads``: the uploads sent into blank texel memories, the frame on chip; ``board-sim-textures``:
+    the maps in SDRAM, loaded by the TEXTURE frames)."""
     record, path = load_record(name)
     if record is None:
         return missing_record(path, _record_command("board-sim", name, "docs/records"))
@@ -116,6 +117,9 @@ def board_sim(name: str = "board-sim") -> str:
             ["host bytes into the UART", f"{r['bytes_sent']} in {r['frames_sent']} frames " + (
                 "(the uploads into blank texel memories; an upload's word refused: "
                 f"{'**yes**' if r['upload_bad'] else 'no'})" if r.get("uploads") else
+                "(the maps' TEXTURE frames into the SDRAM; an upload's word refused: "
+                f"{'**yes**' if r['upload_bad'] else 'no'}; CUBE frames left out: {r['frames_left_out']} frames, "
+                f"{r['bytes_left_out']} bytes)" if r.get("textures") else
                 f"(uploads left out: {r['frames_left_out']} frames, {r['bytes_left_out']} bytes)")],
             ["answers", f"{len(r['replies']) // 2} bytes, all ACK: {'yes' if r['acks_ok'] else '**no**'}"],
             *([["STATUS after the picture", f"0x{r['state_answer'] or '--'}: "

@@ -46,7 +46,7 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
     ap.add_argument("--wait-states", type=float, default=0.2, metavar="P",
                     help="probability of a wait state on each read channel in the second run of each latency "
                          "(with gaps and backpressure; default %(default)s; 0: no second run)")
-    from cosim.engine_fetch import CHOSEN_CACHE as C
+    from fxmodel.units.texcache import CHOSEN_CACHE as C
     ap.add_argument("--block", type=int, default=C.block, help="line edge B in texels (default: the chosen cache's "
                     "%(default)s)")
     ap.add_argument("--sets", type=int, default=C.sets, help="sets (default: the chosen cache's %(default)s)")

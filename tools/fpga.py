@@ -498,7 +498,7 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
                          "the pipeline)")
     ap.add_argument("--textures", action="store_true",
                     help="with --scene: the engine with its maps in external memory behind the chosen texel cache "
-                         "(cosim.engine_fetch.CHOSEN_CACHE)")
+                         "(fxmodel.units.texcache.CHOSEN_CACHE)")
     ap.add_argument("--no-route", action="store_true",
                     help="placement alone (nextpnr --no-route): Fmax is nextpnr's estimate after placement, "
                          "recorded as not routed (for designs whose route does not converge)")
@@ -531,7 +531,7 @@ def run(args: argparse.Namespace) -> int:
     try:
         cache = None
         if args.textures:
-            from cosim.engine_fetch import CHOSEN_CACHE as cache
+            from fxmodel.units.texcache import CHOSEN_CACHE as cache
             if args.scene is None:
                 raise ValueError("--textures: the engine of a scene (give --scene)")
         designs = design_list(args.unit, args.preset, scene=args.scene, textures=cache)

@@ -21,7 +21,7 @@ import sys
 import time
 from pathlib import Path
 
-from board.frame import BOARD_PRESET, BOARD_SIZE, add_frame_argument
+from board.frame import BOARD_PRESET, BOARD_SIZE, add_frame_argument, add_textures_argument
 from host.args import int_range
 from host.atomic import atomic_write_bytes, check_output_file
 from host.protocol import Err
@@ -55,12 +55,15 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
                     help="send the frames of the scene's [animation] in turn (default: its first frame)")
     add_frame_argument(ap, "the bitstream's frame store (bumpmap bitstream --frame; the triangles binned by "
                             "tile)")
+    add_textures_argument(ap)
 
 
 def scene_bytes(args) -> list[bytes]:
     """The frames of the scene (``args.scene``, ``args.preset``, ``args.size``, ``args.cube_size``; with
-    ``args.frame`` ``sdram`` the display's picture a ``size`` tile at a time, :func:`board.frame.board_picture`)."""
-    from board.frame import board_picture
+    ``args.frame`` ``sdram`` the display's picture a ``size`` tile at a time, :func:`board.frame.board_picture`;
+    with ``args.textures`` the maps in SDRAM, sent as the words of their spans of the texture layout:
+    :func:`host.protocol.upload_frames_of`)."""
+    from board.frame import board_picture, board_textures
     from host.protocol import Cmd, picture_frames, scene_frames, upload_frames_of
     from host.render import from_triangles, prepare
     from host.scene import load_scene, scene_path
@@ -69,11 +72,14 @@ def scene_bytes(args) -> list[bytes]:
     scene = load_scene(scene_path(args.scene))
     out = []
     for k, s in enumerate(animation_frames(scene) if getattr(args, "animate", False) else [scene]):
+        textures = getattr(args, "textures", False)
         if getattr(args, "frame", "chip") == "sdram":
             params, frame, tiles = board_picture(s, args.preset, args.size, cube_size=args.cube_size)
-            sent = upload_frames_of(frame.params) + picture_frames(
+            params = board_textures(params, textures, "sdram")
+            sent = upload_frames_of(frame.params, params) + picture_frames(
                 params.raster.record, [(place, recs.matrix()) for place, recs in tiles], (args.size, args.size))
         else:
+            board_textures(None, textures, "chip")              # (refused: no SDRAM with the frame on chip)
             frame = prepare(s, size=(args.size, args.size), preset=args.preset,   # the on-chip tile
                             cube_size=args.cube_size)
             tframe = from_triangles(frame)

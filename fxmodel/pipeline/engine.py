@@ -125,6 +125,15 @@ class EngineParams:
                             for lv, size in enumerate(getattr(self.pipeline, name).level_sizes)),
                       T.block, T.texel_bytes, base)
 
+    def texture_words(self) -> list:
+        """The texel words of each surface in external memory (``(height, width)`` arrays, layout order: each
+        map's MIP levels, :meth:`texture_layout`): the samplers' packed words, as their memories on chip hold them."""
+        out = []
+        for (name, lv), h, w in self.texture_layout().surfaces:
+            smp = getattr(self.pipeline, name)
+            out.append(np.array(smp.level_words(lv), np.int64).reshape(h, w))
+        return out
+
     def texture_ports(self) -> tuple:
         """The texel caches, in request order (:func:`texture_ports` of the pipeline)."""
         return texture_ports(self.pipeline)

@@ -240,6 +240,10 @@ class SamplerParams(TrilinearSampling, Unit):
         """Memory words in texel order ``(face, row, column)`` (one memory; see :attr:`banked`)."""
         return self._pack(self.texels.codes)
 
+    def level_words(self, level: int) -> list:
+        """The words of MIP level ``level`` in texel order (row, column): level 0 is :attr:`words` of one face."""
+        return self._pack(self.level_codes(level))
+
     @property
     def banked(self) -> bool:
         """Bilinear lookups read their four texels from four banks by texel parity (bank ``(i mod 2, j mod 2)``

@@ -51,7 +51,7 @@ import numpy as np
 from fxmodel.core.cost import Memory
 from fxmodel.core.unit import require
 
-__all__ = ["REPLACEMENTS", "INDEXES", "TexCacheParams", "Layout", "Trace", "CacheResult", "footprints",
+__all__ = ["REPLACEMENTS", "INDEXES", "TexCacheParams", "CHOSEN_CACHE", "Layout", "Trace", "CacheResult", "footprints",
            "level_lookups", "interleave", "simulate", "bank_of", "plru_touch", "plru_victim"]
 
 REPLACEMENTS = ("lru", "plru", "fifo")
@@ -190,6 +190,10 @@ def bank_of(x, y):
     return (np.asarray(x) & 1) + 2 * (np.asarray(y) & 1)
 
 
+#: The texel cache ``bumpmap cache-sweep`` chose (``docs/texcache.md``, ``docs/records/texcache.json``), one per map.
+CHOSEN_CACHE = TexCacheParams(block=8, sets=32, ways=4)
+
+
 @dataclass(frozen=True)
 class Layout:
     """The blocked memory layout of a set of surfaces (see the module docstring).
@@ -271,6 +275,29 @@ class Layout:
         by, bx = divmod(line - int(self.first_line[k]), int(self.blocks_per_row[k]))
         x, y = bx * B + offset % B, by * B + offset // B
         return (k, x, y) if x < w and y < h else None
+
+    def span(self, name) -> tuple[int, int]:
+        """``(address, bytes)`` of the surfaces of map ``name`` (its levels), from the first's first line to the end
+        of its last (they follow each other in memory order); ``KeyError`` for a map with no surface."""
+        ks = [k for k, s in enumerate(self.surfaces) if s[0][0] == name]
+        if not ks:
+            raise KeyError(f"no surface of map {name!r} in the layout")
+        _, h, w = self.surfaces[ks[-1]]
+        end = int(self.first_line[ks[-1]]) + -(-h // self.block) * -(-w // self.block)
+        return int(self.first_line[ks[0]]) * self.line_bytes, (end - int(self.first_line[ks[0]])) * self.line_bytes
+
+    def image(self, maps: list) -> bytes:
+        """The surfaces' texel words (``maps[k]``: ``(height, width)`` of surface ``k``) at their addresses
+        (little-endian, :attr:`texel_bytes` a texel), from :attr:`base` to the end; padding zero."""
+        img = bytearray(self.size_bytes)
+        tb = self.texel_bytes
+        for k, words in enumerate(maps):
+            h, w = words.shape
+            yy, xx = np.mgrid[0:h, 0:w]
+            addr = self.address(np.full(xx.size, k, np.int64), xx.ravel(), yy.ravel()) - self.base
+            for a, v in zip(addr.tolist(), words.ravel().tolist()):
+                img[a:a + tb] = int(v).to_bytes(tb, "little")
+        return bytes(img)
 
     def set_of(self, params: TexCacheParams, surface, x, y):
         """The cache set of the line holding texel ``(x, y)`` (``params.index``)."""

@@ -19,6 +19,28 @@ def test_the_widths_are_the_generated_ports():
     assert SDRAM_BYTES == 32 << 20 == 1 << ADDR_BITS
 
 
+def test_the_texture_port_is_the_caches_bus_beside_the_frames_port():
+    """The core with the texture port keeps the first port as it was and adds a second of the texel caches' bus
+    (32-bit words, the caches' ``bus_bytes``), the same address and ID bits."""
+    from board.litedram import TEXTURE_DATA_BITS
+    from fxmodel.units.texcache import TexCacheParams
+    rec = json.loads((ROOT / "docs" / "board" / "litedram.json").read_text())
+    assert TEXTURE_DATA_BITS == 8 * TexCacheParams().bus_bytes
+    for variant in ("board", "sim"):
+        both = rec[f"{variant}_textures"]
+        assert both["axi_port"] == rec[variant]["axi_port"] and both["other_ports"] == rec[variant]["other_ports"]
+        tex = both["texture_port"]
+        assert tex["araddr"] == ["input", ADDR_BITS] and tex["arid"] == ["input", ID_BITS]
+        assert tex["rdata"] == ["output", TEXTURE_DATA_BITS] and tex["wstrb"] == ["input", TEXTURE_DATA_BITS // 8]
+
+
+def test_the_texture_config_adds_only_the_port():
+    from board.litedram import PORTS_LINE, SDRAM_HZ, TEXTURE_PORT, config
+    plain, tex = config(SDRAM_HZ), config(SDRAM_HZ, textures=True)
+    added = tex.replace(plain.split(PORTS_LINE)[0], "", 1).replace(plain.split(PORTS_LINE)[1], "", 1)
+    assert added.startswith(PORTS_LINE) and f'"{TEXTURE_PORT}"' in added and added.count("\n") == 1
+
+
 def test_the_config_for_another_clock_changes_only_the_clock():
     from board.litedram import CLOCK_LINE, CONFIG, SDRAM_HZ, config
     base = CONFIG.read_text()

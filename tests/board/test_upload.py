@@ -23,29 +23,38 @@ MAPS = SimpleNamespace(bump_map=preset("sampler", "default"), texture=preset("sa
                        diffuse=preset("sampler", "cube"), specular=preset("sampler", "border"))
 
 
-def _writes(data: bytes):
+def _writes(data: bytes, sdram=None):
     """Feed ``data`` (a byte every third clock) through the parser into the writer; the bus's writes
-    ``(sel, addr, data)`` and the final ``bad``."""
+    ``(sel, addr, data)`` (and with ``sdram``, the maps in SDRAM, the SDRAM's words ``("sdram", addr, data)``
+    at each change of ``sd_req``) and the final ``bad``."""
     writes = TexelWrites(MAPS)
     m = Module()
     m.submodules.parser = p = CommandParser(record_len=290)
-    m.submodules.up = up = UploadWriter(writes, domain="sync")
+    m.submodules.up = up = UploadWriter(writes, domain="sync", sdram=sdram)
     m.d.comb += [up.cmd.eq(p.cmd), up.index.eq(p.index), up.data.eq(p.data), up.data_valid.eq(p.data_valid)]
     got = []
 
     async def bench(ctx):
+        last = 0
+
+        def look():
+            nonlocal last
+            if ctx.get(writes.en):
+                got.append((ctx.get(writes.sel), ctx.get(writes.addr), ctx.get(writes.data)))
+            if sdram and ctx.get(up.sd_req) != last:
+                last ^= 1
+                got.append(("sdram", ctx.get(up.sd_addr), ctx.get(up.sd_data)))
+
         for b in data:
             ctx.set(p.byte, b)
             ctx.set(p.valid, 1)
             for _ in range(3):
                 await ctx.tick()
                 ctx.set(p.valid, 0)
-                if ctx.get(writes.en):
-                    got.append((ctx.get(writes.sel), ctx.get(writes.addr), ctx.get(writes.data)))
+                look()
         for _ in range(8):
             await ctx.tick()
-            if ctx.get(writes.en):
-                got.append((ctx.get(writes.sel), ctx.get(writes.addr), ctx.get(writes.data)))
+            look()
         got.append(ctx.get(up.bad))
 
     sim = Simulator(m)
@@ -79,3 +88,32 @@ def test_a_word_outside_every_map_is_refused(case):
     far = bytes([1]) + (1 << 16 | 1).to_bytes(4, "little") + (5).to_bytes(wb, "little")
     got, bad = _writes(frame(Cmd.TEXTURE, far))
     assert got == [] and bad                                 # not narrowed to word 1
+
+
+def test_the_maps_in_sdram_go_to_their_spans_the_cubes_on_the_bus():
+    """With the bump map and the texture in SDRAM, TEXTURE words (four bytes each) leave for the SDRAM at their
+    map's span start + 4 k, never on the bus; CUBE words still go on the bus; a word beyond a map's span is
+    refused."""
+    from board.texture_port import TEXTURE_BASE
+    spans = {"bump_map": (TEXTURE_BASE + 256, 4 * 40), "texture": (TEXTURE_BASE + 256 + 4 * 40, 4 * 24)}
+    data, want = b"", []
+    for mem, name in enumerate(MEMORIES[Cmd.TEXTURE]):
+        words = [(k * 0x01010101 + 7 * mem) & 0xFFFFFFFF for k in range(spans[name][1] // 4)]
+        data += b"".join(upload_frames(Cmd.TEXTURE, mem, words, 32, chunk=64))
+        want += [("sdram", spans[name][0] + 4 * k, w) for k, w in enumerate(words)]
+    for mem, name in enumerate(MEMORIES[Cmd.CUBE]):
+        s = getattr(MAPS, name)
+        data += b"".join(upload_frames(Cmd.CUBE, mem, s.upload_words, s.word_bits, chunk=64))
+        want += [(TEXEL_MAPS.index(name), a, w) for a, w in enumerate(s.upload_words)]
+    got, bad = _writes(data, spans)
+    assert got == want and not bad
+    beyond = frame(Cmd.TEXTURE, bytes([1]) + (24).to_bytes(4, "little") + (5).to_bytes(4, "little"))
+    got, bad = _writes(beyond, spans)
+    assert got == [] and bad
+
+
+def test_a_span_outside_the_sdram_is_refused():
+    from board.litedram import SDRAM_BYTES
+    for bad in ({"bump_map": (SDRAM_BYTES - 4, 8)}, {"texture": (2, 8)}, {"diffusee": (0, 4)}):
+        with pytest.raises(ValueError, match="span"):
+            UploadWriter(TexelWrites(MAPS), sdram=bad)

@@ -388,7 +388,7 @@ def test_links_within_the_documents_resolve():
 
 def test_a_missing_board_records_hint_makes_that_record():
     """The command a missing board record's page names (``tools.docs_board.RECORD_OPTIONS``) parses to the same frame
-    store, uploads and size as the command that made the committed record."""
+    store, maps in SDRAM, uploads and size as the command that made the committed record."""
     import shlex
 
     from tools.docs_board import RECORD_OPTIONS, _record_command
@@ -398,7 +398,7 @@ def test_a_missing_board_records_hint_makes_that_record():
         tool, folder = ("bitstream", "docs/board") if name.startswith("bitstream") else ("board-sim", "docs/records")
         made = json.loads((ROOT / folder / f"{name}.json").read_text(encoding="utf-8"))["command"]
         hint, rec = (ap.parse_args(shlex.split(c)[1:]) for c in (_record_command(tool, name, folder), made))
-        keys = ("frame", "size") + (("uploads",) if tool == "board-sim" else ())
+        keys = ("frame", "size", "textures") + (("uploads",) if tool == "board-sim" else ())
         assert [getattr(hint, k) for k in keys] == [getattr(rec, k) for k in keys], name
 
 

@@ -41,7 +41,7 @@ def test_chosen_cache_is_the_sweeps():
     """The cache ``bumpmap sim --textures external`` and ``engine-rate`` use is the one ``cache-sweep`` chose."""
     import json
 
-    from cosim.engine_fetch import CHOSEN_CACHE
+    from fxmodel.units.texcache import CHOSEN_CACHE
     from tools.record import RECORDS
     chosen = json.loads((RECORDS / "texcache.json").read_text())["chosen"]["cache"]
     keys = ("block", "sets", "ways", "replacement", "index")

@@ -96,6 +96,51 @@ def test_the_picture_a_tile_at_a_time_for_the_board_with_its_frame_in_sdram(tmp_
     assert parse(out.read_bytes(), n, (BOARD_SIZE, BOARD_SIZE)).error == Err.SIZE
 
 
+def test_the_maps_in_sdram_are_sent_as_their_spans_of_the_texture_layout(tmp_path, capsys):
+    """``--textures``: each TEXTURE map's words are the 4-byte words of its span of the engine's texture layout,
+    which hold every texel of the map at its blocked address (read back through the layout, independently of
+    how the host cut them), from word 0 on; the cubes are sent as without it; with ``--frame chip`` it is
+    refused."""
+    import dataclasses
+
+    from board.frame import BOARD_PRESET, BOARD_SIZE, board_picture
+    from board.video import VGA_640x480
+    from fxmodel.units.texcache import CHOSEN_CACHE
+    out = tmp_path / "tex.bin"
+    assert main(["send", "--textures", "--dry-run", str(out)]) == 0
+    params, frame, _ = board_picture("tin-plane", BOARD_PRESET, BOARD_SIZE)
+    eng = dataclasses.replace(params, textures=CHOSEN_CACHE)
+    layout = eng.texture_layout()
+    t = VGA_640x480
+    parsed = parse(out.read_bytes(), record_bytes(params.raster.record), (BOARD_SIZE, BOARD_SIZE),
+                   grid=(-(-t.h_active // BOARD_SIZE), -(-t.v_active // BOARD_SIZE)))
+    assert parsed.error == 0
+    for mem, name in enumerate(MEMORIES[Cmd.TEXTURE]):
+        chunks = [p for c, p in parsed.commands if c == Cmd.TEXTURE and p[0] == mem]
+        assert [int.from_bytes(p[1:5], "little") for p in chunks] == \
+            [sum(len(q) - 5 for q in chunks[:k]) // 4 for k in range(len(chunks))]
+        data = b"".join(p[5:] for p in chunks)
+        start, size = layout.span(name)
+        assert len(data) == size
+        for k, (key, h, w) in enumerate(layout.surfaces):
+            if key[0] != name:
+                continue
+            smp = getattr(frame.params, name)
+            words = np.array(smp.level_words(key[1])).reshape(h, w)
+            for y in range(h):
+                for x in range(w):
+                    a = int(layout.address(k, x, y)) - start
+                    assert int.from_bytes(data[a:a + 4], "little") == words[y, x]
+    for mem, name in enumerate(MEMORIES[Cmd.CUBE]):
+        chunks = [p for c, p in parsed.commands if c == Cmd.CUBE and p[0] == mem]
+        wb = (getattr(frame.params, name).word_bits + 7) // 8
+        got = [int.from_bytes(p[5 + k:5 + k + wb], "little") for p in chunks for k in range(0, len(p) - 5, wb)]
+        assert got == getattr(frame.params, name).upload_words
+    capsys.readouterr()
+    assert main(["send", "--textures", "--frame", "chip", "--dry-run", str(tmp_path / "x.bin")]) == 2
+    assert "--textures" in capsys.readouterr().err
+
+
 class _Board:
     """A board behind a serial port: every byte written so far goes through :func:`host.protocol.parse` (the
     reference the board's RTL is checked against), whose answers are read one by one; each STATUS answer carries

@@ -208,6 +208,35 @@ def test_layout_is_a_bijection(shapes, B, tb, base_lines):
     assert min(addrs) % lay.line_bytes == 0
 
 
+@given(st.lists(st.tuples(st.integers(1, 3), st.integers(1, 20), st.integers(1, 20)), min_size=1, max_size=3),
+       st.sampled_from([2, 4]), st.integers(0, 3), st.integers(0, 2**31 - 1))
+def test_map_spans_and_the_image(maps, B, base_lines, seed):
+    """Each map's span holds exactly its levels' texels and nothing of another map's, the spans tile the layout in
+    order; the image holds each texel's word at its address (read back through ``texel_at``), padding zero."""
+    surfaces = tuple(((f"m{k}", lv), max(1, h >> lv), max(1, w >> lv)) for k, (n, h, w) in enumerate(maps)
+                     for lv in range(n))
+    lay = Layout(surfaces, B, 4, base=base_lines * B * B * 4)
+    rng = np.random.default_rng(seed)
+    words = [rng.integers(1, 1 << 32, (h, w)) for _, h, w in surfaces]
+    img = lay.image(words)
+    assert len(img) == lay.size_bytes
+    end = lay.base
+    for k in range(len(maps)):
+        a, n = lay.span(f"m{k}")
+        assert a == end and n > 0 and n % lay.line_bytes == 0
+        end = a + n
+        for off in range(0, n, 4):
+            at = lay.texel_at(a + off)
+            assert at is None or surfaces[at[0]][0][0] == f"m{k}"
+    assert end == lay.base + lay.size_bytes
+    for off in range(0, len(img), 4):
+        at = lay.texel_at(lay.base + off)
+        want = 0 if at is None else int(words[at[0]][at[2], at[1]])
+        assert int.from_bytes(img[off:off + 4], "little") == want
+    with pytest.raises(KeyError, match="no surface"):
+        lay.span("absent")
+
+
 def test_footprints_follow_the_sampler_and_interleave():
     smp = SamplerParams.PRESETS["default"]
     s = np.array([0, 100, -5000, 2**15])

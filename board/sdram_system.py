@@ -65,10 +65,9 @@ def texture_spans(params) -> dict:
     span in the SDRAM ``(byte address, bytes)``: its span of the texture layout
     (:meth:`~fxmodel.units.texcache.Layout.span`) at :data:`~board.texture_port.TEXTURE_BASE`."""
     from fxmodel.pipeline.engine import TEXTURE_MAPS
-
-    from .texture_port import TEXTURE_BASE
     layout = params.texture_layout()
-    return {name: (TEXTURE_BASE + layout.span(name)[0], layout.span(name)[1]) for name in TEXTURE_MAPS}
+    spans = {name: layout.span(name) for name in TEXTURE_MAPS}
+    return {name: (TEXTURE_BASE + start, size) for name, (start, size) in spans.items()}
 
 
 def elaborate_textures(system, m: Module, eng, up):

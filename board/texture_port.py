@@ -70,32 +70,40 @@ class TextureReadCrossing(wiring.Component):
         for name, depth in (("ar_depth", ar_depth), ("r_depth", r_depth)):
             require(depth >= 2 and depth & (depth - 1) == 0, name, depth, "must be a power of two, at least 2")
         self.i_domain, self.o_domain, self.ar_depth, self.r_depth = i_domain, o_domain, ar_depth, r_depth
-        ar_bits = up_id_bits + up_addr_bits + 8 + 3 + 2
-        r_bits = ID_BITS + TEXTURE_DATA_BITS + 2 + 1
-        #: the two FIFOs (the ``AR`` transfers', the ``R`` beats')
-        self.ar_fifo = AsyncFIFO(width=ar_bits, depth=ar_depth, w_domain=i_domain, r_domain=o_domain)
-        self.r_fifo = AsyncFIFO(width=r_bits, depth=r_depth, w_domain=o_domain, r_domain=i_domain)
         super().__init__({"up": In(axi_signature(up_addr_bits, TEXTURE_DATA_BITS, up_id_bits)),
                           "down": Out(axi_signature(ADDR_BITS, TEXTURE_DATA_BITS, ID_BITS)), "error": Out(1)})
+        #: the two FIFOs: an ``AR`` transfer as the caches make it, an ``R`` beat as the core returns it
+        self.ar_fifo = AsyncFIFO(width=len(self._ar_word(self.up)), depth=ar_depth, w_domain=i_domain,
+                                 r_domain=o_domain)
+        self.r_fifo = AsyncFIFO(width=len(self._r_word(self.down)), depth=r_depth, w_domain=o_domain,
+                                r_domain=i_domain)
+
+    @staticmethod
+    def _ar_word(port):
+        """An ``AR`` transfer's fields of ``port`` as one word (the ``AR`` FIFO's)."""
+        return Cat(*(getattr(port, f) for f in ("arid",) + _AR))
+
+    @staticmethod
+    def _r_word(port):
+        """An ``R`` beat's fields of ``port`` as one word (the ``R`` FIFO's)."""
+        return Cat(*(getattr(port, f) for f in ("rid",) + _R))
 
     def elaborate(self, platform):
         m = Module()
         up, down = self.up, self.down
-        addr = Signal.like(down.araddr)
-        m.d.comb += down.araddr.eq(addr | self.base)        # the bits of ``base`` lie above every ``up`` address
-        ar_up = Cat(up.arid, up.araddr, *(getattr(up, f) for f in _AR[1:]))
-        ar_down = Cat(addr[:len(up.araddr)], *(getattr(down, f) for f in _AR[1:]))
+        taken = wiring.Signature(up.signature.members).create()       # the AR transfer as it leaves the FIFO
+        m.d.comb += [down.arid.eq(taken.arid), down.araddr.eq(taken.araddr | self.base)]  # ``base``: above every
+        m.d.comb += [getattr(down, f).eq(getattr(taken, f)) for f in _AR[1:]]             # ``up`` address
         m.submodules.ar = ar = self.ar_fifo
-        assert ar.width == len(ar_up)
-        m.d.comb += [ar.w_data.eq(ar_up), ar.w_en.eq(up.arvalid), up.arready.eq(ar.w_rdy),
-                     Cat(down.arid[:len(up.arid)], ar_down).eq(ar.r_data), down.arvalid.eq(ar.r_rdy),
-                     ar.r_en.eq(down.arready)]
-        rid = Signal.like(down.rid)
-        r_down, r_up = Cat(*(getattr(down, f) for f in ("rid",) + _R)), Cat(rid, *(getattr(up, f) for f in _R))
+        m.d.comb += [ar.w_data.eq(self._ar_word(up)), ar.w_en.eq(up.arvalid), up.arready.eq(ar.w_rdy),
+                     self._ar_word(taken).eq(ar.r_data), down.arvalid.eq(ar.r_rdy), ar.r_en.eq(down.arready)]
+        beat = wiring.Signature(down.signature.members).create()      # the R beat as it leaves the FIFO
+        rid = beat.rid
         m.submodules.r = r = self.r_fifo
-        assert r.width == len(r_down)
-        m.d.comb += [r.w_data.eq(r_down), r.w_en.eq(down.rvalid), down.rready.eq(r.w_rdy),
-                     r_up.eq(r.r_data), up.rid.eq(rid[:len(up.rid)]), up.rvalid.eq(r.r_rdy), r.r_en.eq(up.rready)]
+        m.d.comb += [r.w_data.eq(self._r_word(down)), r.w_en.eq(down.rvalid), down.rready.eq(r.w_rdy),
+                     self._r_word(beat).eq(r.r_data), up.rid.eq(rid[:len(up.rid)]), up.rvalid.eq(r.r_rdy),
+                     r.r_en.eq(up.rready)]
+        m.d.comb += [getattr(up, f).eq(getattr(beat, f)) for f in _R]
         with m.If(r.r_rdy & up.rready & (up.rresp[1] | rid[len(up.rid):].any())):
             m.d[self.i_domain] += self.error.eq(1)
         m.d.comb += [down.awvalid.eq(0), down.wvalid.eq(0), down.bready.eq(1)]
@@ -168,16 +176,13 @@ class TexturePort(wiring.Component):
         wiring.connect(m, wiring.flipped(self.up), r.up)
         m.d.comb += [w.req.eq(self.req), w.addr.eq(self.addr), w.data.eq(self.data), self.read_error.eq(r.error),
                      self.write_busy.eq(w.busy)]
-        down, rd, wr = self.down, r.down, w.down
-        for name in ("arid", "araddr", "arlen", "arsize", "arburst", "arvalid", "rready"):
-            m.d.comb += getattr(down, name).eq(getattr(rd, name))
-        for name in ("arready", "rid", "rdata", "rresp", "rlast", "rvalid"):
-            m.d.comb += getattr(rd, name).eq(getattr(down, name))
-        for name in ("awid", "awaddr", "awlen", "awsize", "awburst", "awvalid", "wdata", "wstrb", "wlast", "wvalid",
-                     "bready"):
-            m.d.comb += getattr(down, name).eq(getattr(wr, name))
-        for name in ("awready", "wready", "bid", "bresp", "bvalid"):
-            m.d.comb += getattr(wr, name).eq(getattr(down, name))
+        # every member of the port from its signature: the read channels' (``AR``, ``R``) to the crossing, the
+        # write channels' to the writes, each in its direction
+        down = self.down
+        for name, member in down.signature.members.items():
+            side = r.down if name.startswith(("ar", "r")) else w.down
+            src, dst = (side, down) if member.flow == Out else (down, side)
+            m.d.comb += getattr(dst, name).eq(getattr(src, name))
         with m.If(w.error | (down.arvalid & w.busy)):
             m.d[self.o_domain] += self.error.eq(1)
         return m

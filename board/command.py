@@ -7,13 +7,15 @@ consumer never has to stall the line) and a frame takes effect at ``done``, whic
 triangle's consumer keeps the record until then; an upload's words are written as they arrive (a bad CRC leaves
 the words it carried undefined and the error state set, and the host sends the upload again after CLEAR).
 
-Two checks beyond the frame's form: a FRAME_START whose width and height are not the board's tile, or whose
-column and row lie outside the board's grid of tiles, enters the error state with ``Err.SIZE`` (after its CRC
-matched, so ``done`` does not pulse); an upload's command byte while a frame is drawn (after FRAME_START until
-SWAP, COPY or CLEAR, or while the board's ``state`` says ``busy``: a SWAP's picture not shown yet) enters it with
-``Err.BUSY``, before any of its words is passed on. STATUS is answered with the board's ``state``
-(``host.protocol.STATE_BITS``) instead of ``ACK``. A FRAME_START's column and row (0, 0 in its 4-byte form) are
-on ``col``, ``row`` when its ``done`` pulses.
+Two checks beyond the frame's form: a FRAME_START whose width and height are not the board's tile, or whose column
+and row lie outside the board's grid of tiles, enters the error state with ``Err.SIZE`` (after its CRC matched, so
+``done`` does not pulse); an upload's command byte while a frame is drawn (after FRAME_START until SWAP, COPY or
+CLEAR, or while the board's ``state`` says ``busy``: a SWAP's picture not shown yet) enters it with ``Err.BUSY``,
+before any of its words is passed on; a TEXTURE frame whose memory byte names the other form of words than the
+board's maps (``host.protocol.SDRAM_FORM``: the maps in SDRAM or on chip) enters it with ``Err.MAPS`` after its CRC
+matched (the upload writer writes none of its words: ``board/upload.py``). STATUS is answered with the board's
+``state`` (``host.protocol.STATE_BITS``) instead of ``ACK``. A FRAME_START's column and row (0, 0 in its 4-byte
+form) are on ``col``, ``row`` when its ``done`` pulses.
 """
 
 from __future__ import annotations
@@ -26,8 +28,11 @@ from host.protocol import (
     ACK,
     CLEAR_FRAME,
     ENDS_TILE,
+    ERROR_BITS,
     LENGTHS,
+    MAPS_FORMS,
     MEMORIES,
+    SDRAM_FORM,
     STATE_ANSWER,
     STATE_BITS,
     SYNC,
@@ -36,7 +41,7 @@ from host.protocol import (
     crc16,
 )
 
-__all__ = ["CommandParser", "CommandLink", "check_tile", "check_grid", "crc16_byte"]
+__all__ = ["CommandParser", "CommandLink", "check_tile", "check_grid", "check_maps", "crc16_byte"]
 
 
 def _crc_step(crc: int, byte: int) -> int:
@@ -78,6 +83,14 @@ def check_grid(grid):
     return grid
 
 
+def check_maps(maps):
+    """``maps`` if it is ``None`` or a form of the board's maps (``host.protocol.MAPS_FORMS``); else ``ValueError``
+    naming it."""
+    if maps is not None and maps not in MAPS_FORMS:
+        raise ValueError(f"maps={maps!r}: where the board's maps are, one of {sorted(MAPS_FORMS)}, or None")
+    return maps
+
+
 class CommandParser(wiring.Component):
     """Parser of the byte stream (``byte`` with ``valid``; ``framing`` from the UART). Out: ``cmd``, ``length``;
     ``data``/``index``/``data_valid`` per payload byte; ``done`` for a good frame; ``error`` (sticky) with ``code``
@@ -85,15 +98,19 @@ class CommandParser(wiring.Component):
     STATUS's ``STATE_ANSWER | state``, ``0x80 | code`` on entering the error state, ``ACK`` on leaving it). In:
     ``state``, the board's :data:`host.protocol.STATE_BITS` (``sync``). ``tile``: the ``(width, height)`` a
     FRAME_START must name (:func:`host.protocol.parse`'s), or ``None`` (a board without a frame) to accept any;
-    ``grid``: the ``(columns, rows)`` of tiles its place must lie in. ``col``, ``row``: a FRAME_START's place,
-    valid at its ``done``."""
+    ``grid``: the ``(columns, rows)`` of tiles its place must lie in; ``maps``: where the board's maps are
+    (``chip``, ``sdram``: the form a TEXTURE frame must name), or ``None`` to accept either. ``col``, ``row``: a
+    FRAME_START's place, valid at its ``done``."""
 
-    def __init__(self, record_len: int, tile: tuple[int, int] | None = None, grid: tuple[int, int] = (1, 1)):
+    def __init__(self, record_len: int, tile: tuple[int, int] | None = None, grid: tuple[int, int] = (1, 1),
+                 maps: str | None = None):
         self.record_len, self.tile, self.grid = record_len, check_tile(tile), check_grid(grid)
+        self.maps = check_maps(maps)
         self.lengths = LENGTHS(record_len)
         super().__init__({"byte": In(8), "valid": In(1), "framing": In(1), "state": In(len(STATE_BITS)),
                           "cmd": Out(8), "length": Out(16), "data": Out(8), "index": Out(16), "data_valid": Out(1),
-                          "done": Out(1), "error": Out(1), "code": Out(3), "reply": Out(8), "reply_valid": Out(1),
+                          "done": Out(1), "error": Out(1), "code": Out(ERROR_BITS), "reply": Out(8),
+                          "reply_valid": Out(1),
                           "col": Out(16), "row": Out(16)})
 
     def elaborate(self, platform):
@@ -102,6 +119,7 @@ class CommandParser(wiring.Component):
         crc, got, count = Signal(16), Signal(8), Signal(16)
         last8 = Signal(64)                              # the payload's last eight bytes (FRAME_START's), LE
         drawing = Signal()                              # after FRAME_START, until SWAP, COPY or CLEAR: no uploads
+        other_form = Signal()                           # a TEXTURE frame's memory byte names the other form
         # FRAME_START's size and place: its 4-byte form in last8's high half, its 8-byte form whole
         short = self.length == 4
         size = Mux(short, last8[32:], last8[:32])
@@ -152,7 +170,7 @@ class CommandParser(wiring.Component):
                             m.d.sync += self.length[:8].eq(b)
                             m.next = nxt
                         elif state == "len1":
-                            m.d.sync += [self.length[8:].eq(b), count.eq(0)]
+                            m.d.sync += [self.length[8:].eq(b), count.eq(0), other_form.eq(0)]
                             with m.If(~in_range):
                                 fail(Err.LENGTH)
                             with m.Else():
@@ -162,6 +180,9 @@ class CommandParser(wiring.Component):
                         elif state == "body":
                             m.d.sync += [self.data.eq(b), self.index.eq(count), self.data_valid.eq(1),
                                          count.eq(count + 1), last8.eq(Cat(last8[8:], b))]
+                            if self.maps is not None:
+                                with m.If((count == 0) & (self.cmd == Cmd.TEXTURE)):
+                                    m.d.sync += other_form.eq((b & SDRAM_FORM) != MAPS_FORMS[self.maps])
                             with m.If(count == self.length - 1):
                                 m.next = "crc0"
                         elif state == "crc0":
@@ -170,12 +191,9 @@ class CommandParser(wiring.Component):
                         else:
                             with m.If(Cat(got, b) != crc):
                                 fail(Err.CRC)
-                            if self.tile is not None:
-                                w, h = self.tile
-                                placed = (size == (w | h << 16)) & (self.col < self.grid[0]) & \
-                                    (self.row < self.grid[1])
-                                with m.Elif((self.cmd == Cmd.FRAME_START) & ~placed):
-                                    fail(Err.SIZE)
+                            for refused, code in self._refusals(size, other_form):
+                                with m.Elif(refused):
+                                    fail(code)
                             with m.Else():
                                 answer = Mux(self.cmd == Cmd.STATUS, STATE_ANSWER | self.state, ACK)
                                 m.d.sync += [self.done.eq(1), self.reply.eq(answer), self.reply_valid.eq(1)]
@@ -195,18 +213,32 @@ class CommandParser(wiring.Component):
         return m
 
 
+    def _refusals(self, size, other_form):
+        """The checks of a frame whose CRC matched, ``(condition, code)`` in turn: a FRAME_START not naming the
+        board's tile at a place in its grid (``size``: its width and height), a TEXTURE frame of the other form
+        than the board's maps (``other_form``, registered from its memory byte); none without a tile or maps."""
+        out = []
+        if self.tile is not None:
+            w, h = self.tile
+            placed = (size == (w | h << 16)) & (self.col < self.grid[0]) & (self.row < self.grid[1])
+            out.append(((self.cmd == Cmd.FRAME_START) & ~placed, Err.SIZE))
+        if self.maps is not None:
+            out.append((other_form, Err.MAPS))
+        return out
+
+
 class CommandLink(wiring.Component):
     """The UART link of the board: :class:`~board.uart.UartRx` -> :class:`CommandParser` -> replies through
-    :class:`~board.uart.UartTx`. Ports: ``rx``, ``tx``, the parser's outputs and its ``state`` input; ``tile`` and
-    ``grid`` the parser's."""
+    :class:`~board.uart.UartTx`. Ports: ``rx``, ``tx``, the parser's outputs and its ``state`` input; ``tile``,
+    ``grid`` and ``maps`` the parser's."""
 
     def __init__(self, divisor: int, record_len: int, tile: tuple[int, int] | None = None,
-                 grid: tuple[int, int] = (1, 1)):
-        self.divisor, self.record_len, self.tile, self.grid = divisor, record_len, tile, grid
+                 grid: tuple[int, int] = (1, 1), maps: str | None = None):
+        self.divisor, self.record_len, self.tile, self.grid, self.maps = divisor, record_len, tile, grid, maps
         super().__init__({"rx": In(1, init=1), "tx": Out(1, init=1), "state": In(len(STATE_BITS)),
                           "cmd": Out(8), "length": Out(16),
                           "data": Out(8), "index": Out(16), "data_valid": Out(1), "done": Out(1), "error": Out(1),
-                          "code": Out(3), "col": Out(16), "row": Out(16)})
+                          "code": Out(ERROR_BITS), "col": Out(16), "row": Out(16)})
 
     def elaborate(self, platform):
         from amaranth.lib.fifo import SyncFIFOBuffered
@@ -214,7 +246,7 @@ class CommandLink(wiring.Component):
         from .uart import UartRx, UartTx
         m = Module()
         m.submodules.rx = rx = UartRx(self.divisor)
-        m.submodules.parser = p = CommandParser(self.record_len, self.tile, self.grid)
+        m.submodules.parser = p = CommandParser(self.record_len, self.tile, self.grid, self.maps)
         m.submodules.tx = tx = UartTx(self.divisor)
         # a reply is due at the stop bit of a received byte, at most one per byte, and takes as long to send as a
         # byte to receive; a small queue absorbs the one-clock slips between the two

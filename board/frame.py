@@ -257,7 +257,8 @@ class EngineSystem(wiring.Component):
         self.tex_error = Signal(name="tex_error")
         self.grid = board_grid(params.rop, timing, frame)
         self.place_bits = tuple(max(0, (n - 1).bit_length()) for n in self.grid)
-        self._link = CommandLink(divisor, self.record_len, (params.rop.width, params.rop.height), self.grid)
+        self._link = CommandLink(divisor, self.record_len, (params.rop.width, params.rop.height), self.grid,
+                                 maps="sdram" if self.textures else "chip")
         self._display = Display(timing, latency=3)
         self._copy = TileCopy(params.rop, self._engine.fb.signature, place_bits=sum(self.place_bits),
                               wait_every_copy=frame == "sdram")

@@ -21,6 +21,10 @@ With the maps in SDRAM (``sdram``: the engine's bump map and color texture behin
 holding registers of its own (``sd_addr``, ``sd_data``) and a toggle (``sd_req``) for the SDRAM's writes
 (:class:`board.texture_port.TextureWrites`), not on the texel memories' bus; the board invalidates the caches with
 the same toggle. The reflectance cubes stay on chip (CUBE frames as before).
+
+A TEXTURE frame's memory byte carries the form of its words (``host.protocol.SDRAM_FORM`` for the 4-byte words of
+a map in SDRAM): a frame of the other form than its map's writes nothing, and is not ``bad`` either: the command
+parser refuses it with ``Err.MAPS`` once its CRC matched (``board/command.py``), which the host names.
 """
 
 from __future__ import annotations
@@ -30,7 +34,7 @@ from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
 from fxmodel.pipeline.pixel import TEXEL_MAPS
-from host.protocol import MEMORIES
+from host.protocol import MEMORIES, SDRAM_FORM, Cmd
 
 from .cdc import toggle_sync
 
@@ -69,6 +73,7 @@ class UploadWriter(wiring.Component):
         nbytes = [4 if e else (s.word_bits + 7) // 8 for s, e in zip(self.maps, ext)]
         count = [self.sdram[n][1] // 4 if e else len(mp.upload_words) for n, mp, e in zip(TEXEL_MAPS, self.maps, ext)]
         sel, ok, emit = Signal.like(w.sel), Signal(), Signal()
+        other_form = Signal()                               # a TEXTURE frame of the other form: nothing, not bad
         addr = Signal(32)                                   # the word's index as sent, never narrowed
         word = Signal(8 * max(nbytes))
         k = Signal(range(max(nbytes)))                     # the byte of the word
@@ -80,16 +85,22 @@ class UploadWriter(wiring.Component):
         m.d.comb += external.eq((sum((sel == s) for s, e in enumerate(ext) if e) != 0) if any(ext) else 0)
         hold_sel, hold_addr, hold_data, req = Signal.like(w.sel), Signal.like(w.addr), Signal.like(w.data), Signal()
         upload = (self.cmd == MEMORY_CMDS[0]) | (self.cmd == MEMORY_CMDS[1])
+        # the memory byte: the id with the form of its map's words (SDRAM_FORM for a map in SDRAM)
+        forms = [(cmd, mem, name, SDRAM_FORM if name in self.sdram else 0)
+                 for cmd, names in MEMORIES.items() for mem, name in enumerate(names)]
+        hits = [((self.cmd == cmd) & (self.data == form | mem), TEXEL_MAPS.index(name))
+                for cmd, mem, name, form in forms]
+        # a TEXTURE frame of the other form: not written, refused by the parser (Err.MAPS), not ``bad``
+        other = [(self.cmd == cmd) & (self.data == (form ^ SDRAM_FORM) | mem)
+                 for cmd, mem, name, form in forms if cmd == Cmd.TEXTURE]
         m.d.sync += emit.eq(0)
         with m.If(self.data_valid & upload):
             with m.If(self.index == 0):                    # the memory id: the map, or none
-                m.d.sync += [ok.eq(0), k.eq(0)]
-                hits = [((self.cmd == cmd) & (self.data == mem), TEXEL_MAPS.index(name))
-                        for cmd, names in MEMORIES.items() for mem, name in enumerate(names)]
+                m.d.sync += [ok.eq(0), k.eq(0), other_form.eq(Cat(*other).any())]
                 for hit, s in hits:
                     with m.If(hit):
                         m.d.sync += [sel.eq(s), ok.eq(1)]
-                with m.If(~Cat(*(hit for hit, _ in hits)).any()):
+                with m.If(~Cat(*(hit for hit, _ in hits), *other).any()):
                     m.d.sync += self.bad.eq(1)
             with m.Elif(self.index < HEADER):              # the first word's index, little-endian
                 with m.Switch(self.index):
@@ -111,7 +122,7 @@ class UploadWriter(wiring.Component):
             with m.Elif(ok & in_range):                # in range: the index fits the bus's address exactly
                 m.d.sync += [hold_sel.eq(sel), hold_addr.eq(addr[:len(hold_addr)]),
                              hold_data.eq(word[:len(hold_data)]), req.eq(~req)]
-            with m.Else():
+            with m.Elif(~other_form):
                 m.d.sync += self.bad.eq(1)
             m.d.sync += addr.eq(addr + 1)
         seen = toggle_sync(m, "upload", req, self.domain)

@@ -21,14 +21,15 @@ CLOCK_NS, DIVISOR = 10, 16
 
 
 def run(data: bytes, record_len: int, tile: tuple[int, int] | None = None, board_state: int = 0, *,
-        grid: tuple[int, int] = (1, 1), sim: str | None = None) -> dict:
-    """Send ``data`` to ``CommandLink(DIVISOR, record_len, tile, grid)`` with ``board_state`` on its ``state``; return
-    ``commands`` [(cmd, payload bytes)], ``replies`` (bytes from ``tx``), ``error``, ``code`` (the error state at
-    the end) and the times."""
+        grid: tuple[int, int] = (1, 1), maps: str | None = None, sim: str | None = None) -> dict:
+    """Send ``data`` to ``CommandLink(DIVISOR, record_len, tile, grid, maps)`` with ``board_state`` on its
+    ``state``; return ``commands`` [(cmd, payload bytes)], ``replies`` (bytes from ``tx``), ``error``, ``code``
+    (the error state at the end) and the times."""
     sim = simulator(sim)
-    key = hashlib.sha1(f"{DIVISOR} {record_len} {tile} {grid}".encode()
+    key = hashlib.sha1(f"{DIVISOR} {record_len} {tile} {grid} {maps}".encode()
                        + source_digest(("board", "host"))).hexdigest()[:12]
-    top, bdir, src = component_build("command_link", key, sim, lambda: CommandLink(DIVISOR, record_len, tile, grid))
+    top, bdir, src = component_build("command_link", key, sim, lambda: CommandLink(DIVISOR, record_len, tile, grid,
+                                                                                         maps))
     job = job_folder(bdir, "uart", {"data": hashlib.sha1(data).hexdigest(), "record_len": record_len,
                                     "board_state": board_state})
     out, build_seconds, seconds = run_testbench(sim, src, top, bdir, job, "cosim.board_uart_tb",

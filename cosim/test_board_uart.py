@@ -3,7 +3,7 @@
 reference parser :func:`host.protocol.parse`, through good frames of every command (STATUS answered with the board's
 state on the link's input; a picture's tiles at their places in the grid, each ended by COPY) and each error (bad
 CRC, unknown command, bad length, a FRAME_START of another size or outside the grid, an upload while a frame is
-drawn, a stray byte), each cleared by the CLEAR frame."""
+drawn, a TEXTURE frame of the other form than the board's maps, a stray byte), each cleared by the CLEAR frame."""
 
 from __future__ import annotations
 
@@ -50,6 +50,7 @@ def _stream() -> tuple[bytes, list]:
               frame_start(*TILE, 0, GRID[1]),                         # a row outside the grid (its high byte)
               frame_start(TILE[0], TILE[0], 1, 1),                    # another size at a place in the grid
               frame_start(*TILE) + upload_frames(Cmd.CUBE, 1, [5], 27)[0],   # an upload while a frame is drawn
+              upload_frames(Cmd.TEXTURE, 0, [5], 32, maps="sdram")[0],      # the maps-in-SDRAM form to chip maps
               b"\x00"]                                                # a stray byte where a frame must start
     data = b"".join(good)
     for e in errors:
@@ -59,13 +60,13 @@ def _stream() -> tuple[bytes, list]:
 
 def test_commands_replies_and_errors_match_the_reference_parser(sim):
     data, good = _stream()
-    want = parse(data, RECORD_LEN, TILE, STATE, GRID)
+    want = parse(data, RECORD_LEN, TILE, STATE, GRID, maps="chip")
     codes = [r & 0x7F for r in want.replies if r & 0x80]
-    assert codes == [Err.CRC, Err.COMMAND, Err.LENGTH] + [Err.SIZE] * 5 + [Err.BUSY, Err.SYNC]  # every error meant
+    assert codes == [Err.CRC, Err.COMMAND, Err.LENGTH] + [Err.SIZE] * 5 + [Err.BUSY, Err.MAPS, Err.SYNC]  # each meant
     assert len(want.commands) == len(good) + len(codes) + 1         # the STATUS after each CLEAR, a FRAME_START
     assert want.replies.count(STATE_ANSWER | STATE) == 1 + len(codes)
     assert parse(data, RECORD_LEN, TILE, STATE).replies != want.replies       # the grid's places are checked
-    res = run(data, RECORD_LEN, TILE, STATE, grid=GRID, sim=sim)
+    res = run(data, RECORD_LEN, TILE, STATE, grid=GRID, maps="chip", sim=sim)
     assert res["commands"] == want.commands
     assert res["places"] == [list(frame_place(p)[2:]) for c, p in want.commands if c == Cmd.FRAME_START]
     assert [1, 0] in res["places"] and [2, 257] in res["places"]
@@ -81,6 +82,20 @@ def test_uploads_are_refused_while_the_board_is_busy(sim):
     want = parse(data, RECORD_LEN, TILE, 1)
     assert want.replies == [STATE_ANSWER | 1, 0x80 | Err.BUSY, ACK, ACK]
     res = run(data, RECORD_LEN, TILE, 1, sim=sim)
+    assert res["commands"] == want.commands and res["replies"] == bytes(want.replies)
+
+
+def test_a_board_with_its_maps_in_sdram_refuses_the_on_chip_form(sim):
+    """A board built with its maps in SDRAM takes TEXTURE frames of their form (``SDRAM_FORM`` in the memory
+    byte) and refuses the on-chip form with MAPS once its CRC matched; CUBE frames are taken as ever."""
+    from host.protocol import SDRAM_FORM
+    good = upload_frames(Cmd.TEXTURE, 1, [7, 8], 32, maps="sdram")[0]
+    chip = upload_frames(Cmd.TEXTURE, 1, [7, 8], 32)[0]
+    data = good + upload_frames(Cmd.CUBE, 0, [3], 27)[0] + chip + CLEAR_FRAME + frame(Cmd.STATUS)
+    want = parse(data, RECORD_LEN, TILE, maps="sdram")
+    assert want.replies == [ACK, ACK, 0x80 | Err.MAPS, ACK, STATE_ANSWER]
+    assert want.commands[0][1][0] == SDRAM_FORM | 1
+    res = run(data, RECORD_LEN, TILE, maps="sdram", sim=sim)
     assert res["commands"] == want.commands and res["replies"] == bytes(want.replies)
 
 

@@ -14,7 +14,9 @@ tile, copies that one and shows the whole picture.
 STATUS is answered with the board's state instead of ``ACK``: ``STATE_ANSWER | bits`` (:data:`STATE_BITS`: a
 frame not yet shown, and the sticky flags of what went wrong in the current frame or since the board was
 configured). An upload while a frame is drawn is refused (:data:`Err.BUSY`): its words would change the texels of
-the triangles being drawn.
+the triangles being drawn. A TEXTURE frame says which form its words have (:data:`SDRAM_FORM`, bit 7 of its memory
+byte: the maps in SDRAM or on chip) and a board whose maps are the other form refuses it (:data:`Err.MAPS`): its
+words would be taken for the other form's and drawn as a wrong picture, silently.
 """
 
 from __future__ import annotations
@@ -26,7 +28,8 @@ import numpy as np
 __all__ = ["SYNC", "ACK", "STATE_ANSWER", "STATE_BITS", "FRAME_FLAGS", "state_names", "Cmd", "Err", "LENGTHS",
            "MAX_PAYLOAD", "crc16", "frame", "CLEAR_FRAME", "record_bytes",
            "triangle_frames", "upload_frames", "frame_start", "frame_place", "scene_frames", "picture_frames",
-           "upload_frames_of", "Parsed", "parse", "MEMORIES", "ENDS_TILE"]
+           "upload_frames_of", "Parsed", "parse", "MEMORIES", "ENDS_TILE", "SDRAM_FORM", "MAPS_FORMS",
+           "ERROR_BITS"]
 
 SYNC = 0xA5
 ACK = 0x00
@@ -76,10 +79,23 @@ class Err:
     BUSY = 7             # an upload (TEXTURE, CUBE) while a frame is drawn: after FRAME_START, before its picture
                          # is shown (the SWAP taken and STATUS no longer busy), unless a COPY ended the tile or a
                          # CLEAR the frame
+    MAPS = 8             # a TEXTURE frame whose words are not the form of the board's maps (SDRAM_FORM in its
+                         # memory byte for a board with its maps on chip, or not for one with its maps in SDRAM)
+
+
+#: Bits of an error code (the RTL's ``code``).
+ERROR_BITS = max(v for k, v in vars(Err).items() if k.isupper()).bit_length()
 
 
 #: Memory ids of TEXTURE (0 the bump map, 1 the color texture) and CUBE (0 diffuse, 1 specular).
 MEMORIES = {Cmd.TEXTURE: ("bump_map", "texture"), Cmd.CUBE: ("diffuse", "specular")}
+#: Bit 7 of a TEXTURE frame's memory byte: its words are the 4-byte words of the map's span of the texture layout
+#: (the board's maps in SDRAM behind the texel caches), not the texel memories' words (the maps on chip). The board
+#: refuses a TEXTURE frame of the other form (:data:`Err.MAPS`): the two forms' words are not told apart otherwise.
+SDRAM_FORM = 0x80
+#: Where a board keeps its bump map and color texture: TEXTURE's memory byte carries :data:`SDRAM_FORM` for
+#: ``sdram`` alone.
+MAPS_FORMS = {"chip": 0, "sdram": SDRAM_FORM}
 
 
 def LENGTHS(record_len: int) -> dict[int, tuple[int, int]]:  # noqa: N802 (a table, read like a constant)
@@ -151,19 +167,23 @@ def triangle_frames(ports, rows) -> list[bytes]:
     return out
 
 
-def upload_frames(cmd: int, memory: int, words, word_bits: int, chunk: int = 4096) -> list[bytes]:
+def upload_frames(cmd: int, memory: int, words, word_bits: int, chunk: int = 4096, maps: str = "chip") -> list[bytes]:
     """TEXTURE or CUBE frames writing ``words`` (ints of ``word_bits``) from word 0 of memory ``memory``: each
     payload ``memory, first word (4 bytes LE), words (ceil(word_bits / 8) bytes LE each)``, at most ``chunk``
-    bytes of words a frame."""
+    bytes of words a frame. ``maps`` (TEXTURE alone): the form of the words (:data:`MAPS_FORMS`), whose bit the
+    memory byte carries."""
     if cmd not in MEMORIES or not 0 <= memory < len(MEMORIES[cmd]):
         raise ValueError(f"upload command {cmd:#x} memory {memory}: TEXTURE or CUBE with memory 0 or 1")
+    if maps not in MAPS_FORMS or (maps != "chip" and cmd != Cmd.TEXTURE):
+        raise ValueError(f"upload command {cmd:#x} maps={maps!r}: one of {sorted(MAPS_FORMS)}, and 'chip' but for "
+                         f"TEXTURE (the cubes stay on chip)")
     wb = (word_bits + 7) // 8
     per = max(1, min(chunk, MAX_PAYLOAD - 5) // wb)
     words = [int(w) for w in words]
     out = []
     for first in range(0, len(words), per):
         data = b"".join(w.to_bytes(wb, "little") for w in words[first:first + per])
-        out.append(frame(cmd, bytes([memory]) + first.to_bytes(4, "little") + data))
+        out.append(frame(cmd, bytes([MAPS_FORMS[maps] | memory]) + first.to_bytes(4, "little") + data))
     return out
 
 
@@ -185,13 +205,18 @@ def state_names(answer: int) -> list[str]:
 
 
 def parse(data: bytes, record_len: int, tile: tuple[int, int] | None = None, board_state: int = 0,
-          grid: tuple[int, int] = (1, 1)) -> Parsed:
+          grid: tuple[int, int] = (1, 1), maps: str | None = None) -> Parsed:
     """The board's parser (``board/command.py``) in Python: the reference its RTL is checked against. ``tile``:
     the ``(width, height)`` the board draws; a FRAME_START naming another size, or a column and row outside
     ``grid`` (the board's ``(columns, rows)`` of tiles), is refused (:data:`Err.SIZE`), after its CRC matched.
     ``None`` (a board without a frame): any FRAME_START is accepted. ``board_state``: the board's
     :data:`STATE_BITS`, held for the whole stream, which a STATUS is answered with; with ``busy`` set, every upload
-    is refused (:data:`Err.BUSY`), as is one after a FRAME_START not yet ended by SWAP, COPY or CLEAR."""
+    is refused (:data:`Err.BUSY`), as is one after a FRAME_START not yet ended by SWAP, COPY or CLEAR. ``maps``
+    (``chip`` or ``sdram``, :data:`MAPS_FORMS`): where the board keeps its bump map and texture; a TEXTURE frame
+    of the other form is refused (:data:`Err.MAPS`), after its CRC matched. ``None`` (a board without them): any
+    form is accepted."""
+    if maps is not None and maps not in MAPS_FORMS:
+        raise ValueError(f"maps={maps!r}: one of {sorted(MAPS_FORMS)} or None")
     if not 0 <= board_state < 1 << len(STATE_BITS):
         raise ValueError(f"board_state={board_state!r}: {len(STATE_BITS)} bits (STATE_BITS)")
     if not (len(grid) == 2 and all(isinstance(g, int) and 1 <= g <= 0xFFFF for g in grid)):
@@ -243,6 +268,8 @@ def parse(data: bytes, record_len: int, tile: tuple[int, int] | None = None, boa
                     fail(Err.CRC)
                 elif buf[0] == Cmd.FRAME_START and tile is not None and not _placed(buf[3:3 + need], tile, grid):
                     fail(Err.SIZE)
+                elif buf[0] == Cmd.TEXTURE and maps is not None and buf[3] & SDRAM_FORM != MAPS_FORMS[maps]:
+                    fail(Err.MAPS)
                 else:
                     out.commands.append((buf[0], bytes(buf[3:3 + need])))
                     if buf[0] == Cmd.FRAME_START or buf[0] in ENDS_TILE:
@@ -283,7 +310,7 @@ def upload_frames_of(pipeline, engine=None) -> list[bytes]:
                 start, size = layout.span(name)
                 chunk = image[start - layout.base:start - layout.base + size]
                 words = [int.from_bytes(chunk[k:k + 4], "little") for k in range(0, size, 4)]
-                out += upload_frames(cmd, mem, words, 32)
+                out += upload_frames(cmd, mem, words, 32, maps="sdram")
                 continue
             sampler = getattr(pipeline, name)
             out += upload_frames(cmd, mem, sampler.upload_words, sampler.word_bits)

@@ -33,7 +33,9 @@ ERRORS = {Err.SYNC: "SYNC (a byte where a frame must start)", Err.COMMAND: "COMM
           Err.CRC: "CRC (the frame's checksum did not match)", Err.FRAMING: "FRAMING (the UART saw no stop bit)",
           Err.SIZE: "SIZE (FRAME_START's width and height are not the board's tile, or its place is outside the "
                     "board's grid of tiles: give --size and --frame the bitstream's)",
-          Err.BUSY: "BUSY (an upload while a frame is drawn)"}
+          Err.BUSY: "BUSY (an upload while a frame is drawn)",
+          Err.MAPS: "MAPS (a TEXTURE frame whose words are not the form of the board's maps, on chip or in SDRAM: "
+                    "give --textures as the bitstream was built)"}
 
 
 def add_arguments(ap: argparse.ArgumentParser) -> None:

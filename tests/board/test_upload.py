@@ -1,7 +1,8 @@
 """The board's uploads (``board/upload.py``) in Amaranth's simulator: the host's TEXTURE and CUBE frames
 (``host.protocol.upload_frames``, several frames a map) through the command parser (``board/command.py``) become one
 write a word on the texel memories' bus, each at its map and index with its word; a memory id naming no map and a
-word beyond its map's words are not written and set ``bad``."""
+word beyond its map's words are not written and set ``bad``; a TEXTURE frame of the other form than its map's
+(in SDRAM or on chip) is not written either."""
 
 from __future__ import annotations
 
@@ -15,7 +16,7 @@ from board.command import CommandParser
 from board.upload import UploadWriter
 from fxmodel.core.unit import preset
 from fxmodel.pipeline.pixel import TEXEL_MAPS
-from host.protocol import MEMORIES, Cmd, frame, upload_frames
+from host.protocol import MEMORIES, SDRAM_FORM, Cmd, frame, upload_frames
 from rtl.sampler import TexelWrites
 
 #: Four maps of different word widths (2, 3 and 5 bytes) and memory layouts.
@@ -99,7 +100,7 @@ def test_the_maps_in_sdram_go_to_their_spans_the_cubes_on_the_bus():
     data, want = b"", []
     for mem, name in enumerate(MEMORIES[Cmd.TEXTURE]):
         words = [(k * 0x01010101 + 7 * mem) & 0xFFFFFFFF for k in range(spans[name][1] // 4)]
-        data += b"".join(upload_frames(Cmd.TEXTURE, mem, words, 32, chunk=64))
+        data += b"".join(upload_frames(Cmd.TEXTURE, mem, words, 32, chunk=64, maps="sdram"))
         want += [("sdram", spans[name][0] + 4 * k, w) for k, w in enumerate(words)]
     for mem, name in enumerate(MEMORIES[Cmd.CUBE]):
         s = getattr(MAPS, name)
@@ -107,9 +108,22 @@ def test_the_maps_in_sdram_go_to_their_spans_the_cubes_on_the_bus():
         want += [(TEXEL_MAPS.index(name), a, w) for a, w in enumerate(s.upload_words)]
     got, bad = _writes(data, spans)
     assert got == want and not bad
-    beyond = frame(Cmd.TEXTURE, bytes([1]) + (24).to_bytes(4, "little") + (5).to_bytes(4, "little"))
+    beyond = frame(Cmd.TEXTURE, bytes([SDRAM_FORM | 1]) + (24).to_bytes(4, "little") + (5).to_bytes(4, "little"))
     got, bad = _writes(beyond, spans)
     assert got == [] and bad
+
+
+def test_a_texture_frame_of_the_other_form_writes_nothing():
+    """A TEXTURE frame whose memory byte names the other form than its map's (``SDRAM_FORM`` to a map on chip, or
+    not to a map in SDRAM) writes no word anywhere, and is not ``bad``: the parser refuses it (``Err.MAPS``,
+    ``tests/host/test_protocol.py``, ``cosim/test_board_uart.py``), which the host names and can undo."""
+    from board.texture_port import TEXTURE_BASE
+    spans = {"bump_map": (TEXTURE_BASE, 64), "texture": (TEXTURE_BASE + 64, 64)}
+    chip = frame(Cmd.TEXTURE, bytes([1]) + bytes(4) + (5).to_bytes(3, "little"))
+    in_sdram = frame(Cmd.TEXTURE, bytes([SDRAM_FORM | 1]) + bytes(4) + (5).to_bytes(4, "little"))
+    assert _writes(chip, spans) == ([], 0)
+    assert _writes(in_sdram) == ([], 0)
+    assert _writes(chip)[0] and _writes(in_sdram, spans)[0]           # each form to its own maps is written
 
 
 def test_a_span_outside_the_sdram_is_refused():

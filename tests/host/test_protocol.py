@@ -97,6 +97,36 @@ def test_uploads_are_chunked_with_their_first_word():
         upload_frames(Cmd.CUBE, 2, [1], 8)
 
 
+@given(st.integers(0, 255), st.sampled_from([None, "chip", "sdram"]), st.booleans())
+def test_a_texture_frame_of_the_other_form_than_the_boards_maps_is_refused(memory, maps, cube):
+    """Bit 7 of a TEXTURE frame's memory byte says its words are the maps-in-SDRAM form (``SDRAM_FORM``): a board
+    whose maps are the other form refuses the frame (MAPS, after its CRC, no command, nothing after it taken) and a
+    board without maps (``None``) takes either. CUBE frames are never refused so (the cubes stay on chip)."""
+    from host.protocol import MAPS_FORMS
+    data = frame(Cmd.CUBE if cube else Cmd.TEXTURE, bytes([memory]) + bytes(7)) + frame(Cmd.SWAP)
+    res = parse(data, 8, (4, 4), maps=maps)
+    refused = not cube and maps is not None and (memory >= 0x80) != (maps == "sdram")
+    assert res.error == (Err.MAPS if refused else 0)
+    assert len(res.commands) == (0 if refused else 2)
+    assert res.replies == ([0x80 | Err.MAPS] if refused else [ACK, ACK])
+    assert MAPS_FORMS == {"chip": 0, "sdram": 0x80}
+    bad = bytearray(data)                                   # a corrupted frame is a CRC error first
+    bad[-3 - len(frame(Cmd.SWAP))] ^= 1
+    assert parse(bytes(bad), 8, (4, 4), maps=maps).error == Err.CRC
+
+
+def test_upload_frames_carry_their_form():
+    for maps, first in (("chip", 1), ("sdram", 0x81)):
+        cmds = parse(b"".join(upload_frames(Cmd.TEXTURE, 1, range(3), 32, maps=maps)), 8, maps=maps).commands
+        assert [p[0] for _, p in cmds] == [first]
+    with pytest.raises(ValueError, match="cubes stay on chip"):
+        upload_frames(Cmd.CUBE, 0, [1], 8, maps="sdram")
+    with pytest.raises(ValueError, match="maps="):
+        upload_frames(Cmd.TEXTURE, 0, [1], 8, maps="dram")
+    with pytest.raises(ValueError, match="maps="):
+        parse(b"", 8, maps="dram")
+
+
 @given(st.integers(0, (1 << 6) - 1))
 def test_status_is_answered_with_the_board_state(bits):
     """STATUS's answer is ``STATE_ANSWER | state``: never ACK nor an error byte, and its bits name the state."""

@@ -106,17 +106,20 @@ def test_the_maps_in_sdram_are_sent_as_their_spans_of_the_texture_layout(tmp_pat
     from board.frame import BOARD_PRESET, BOARD_SIZE, board_picture
     from board.video import VGA_640x480
     from fxmodel.units.texcache import CHOSEN_CACHE
+    from host.protocol import SDRAM_FORM, Err
     out = tmp_path / "tex.bin"
     assert main(["send", "--textures", "--dry-run", str(out)]) == 0
     params, frame, _ = board_picture("tin-plane", BOARD_PRESET, BOARD_SIZE)
     eng = dataclasses.replace(params, textures=CHOSEN_CACHE)
     layout = eng.texture_layout()
     t = VGA_640x480
-    parsed = parse(out.read_bytes(), record_bytes(params.raster.record), (BOARD_SIZE, BOARD_SIZE),
-                   grid=(-(-t.h_active // BOARD_SIZE), -(-t.v_active // BOARD_SIZE)))
+    board = record_bytes(params.raster.record), (BOARD_SIZE, BOARD_SIZE)
+    grid = (-(-t.h_active // BOARD_SIZE), -(-t.v_active // BOARD_SIZE))
+    parsed = parse(out.read_bytes(), *board, grid=grid, maps="sdram")
     assert parsed.error == 0
+    assert parse(out.read_bytes(), *board, grid=grid, maps="chip").error == Err.MAPS   # a board with them on chip
     for mem, name in enumerate(MEMORIES[Cmd.TEXTURE]):
-        chunks = [p for c, p in parsed.commands if c == Cmd.TEXTURE and p[0] == mem]
+        chunks = [p for c, p in parsed.commands if c == Cmd.TEXTURE and p[0] == SDRAM_FORM | mem]
         assert [int.from_bytes(p[1:5], "little") for p in chunks] == \
             [sum(len(q) - 5 for q in chunks[:k]) // 4 for k in range(len(chunks))]
         data = b"".join(p[5:] for p in chunks)
@@ -146,8 +149,8 @@ class _Board:
     reference the board's RTL is checked against), whose answers are read one by one; each STATUS answer carries
     the next of ``states`` (the last one repeated)."""
 
-    def __init__(self, record_len: int, tile: tuple[int, int], states: list[int]):
-        self.record_len, self.tile, self.states = record_len, tile, list(states)
+    def __init__(self, record_len: int, tile: tuple[int, int], states: list[int], maps: str = "chip"):
+        self.record_len, self.tile, self.states, self.maps = record_len, tile, list(states), maps
         self.written, self.answered, self.timeout, self.asked = bytearray(), 0, 0.01, 0
 
     def __enter__(self):
@@ -161,7 +164,7 @@ class _Board:
 
     def read(self, n: int) -> bytes:
         from host.protocol import STATE_ANSWER
-        replies = parse(bytes(self.written), self.record_len, self.tile).replies
+        replies = parse(bytes(self.written), self.record_len, self.tile, maps=self.maps).replies
         if self.answered >= len(replies):
             return b""
         r = replies[self.answered]
@@ -172,14 +175,14 @@ class _Board:
         return bytes([r])
 
 
-def _send_to(monkeypatch, capsys, states: list[int], *extra: str):
+def _send_to(monkeypatch, capsys, states: list[int], *extra: str, maps: str = "chip"):
     import serial
 
     from board.frame import BOARD_PRESET
     from host.protocol import STATE_BITS
     size = 16
     ports = from_triangles(prepare(scene_path("tin-plane"), size=size, preset=BOARD_PRESET)).params.raster.record
-    board = _Board(record_bytes(ports), (size, size), [sum(1 << STATE_BITS[n] for n in s) for s in states])
+    board = _Board(record_bytes(ports), (size, size), [sum(1 << STATE_BITS[n] for n in s) for s in states], maps)
     monkeypatch.setattr(serial, "Serial", lambda *a, **k: board)
     rc = main(["send", "--port", "fake", "--frame", "chip", "--size", str(size), *extra])
     return rc, board, capsys.readouterr().err
@@ -213,3 +216,13 @@ def test_send_stops_when_the_board_does_not_answer_status(monkeypatch, capsys):
     monkeypatch.setattr(_Board, "read", lambda self, n: b"\x00")
     rc, board, err = _send_to(monkeypatch, capsys, [[]])
     assert rc == 1 and "got 0x00" in err and b"\xa5\x02" not in board.written    # no upload sent
+
+
+def test_send_stops_at_a_board_whose_maps_are_elsewhere(monkeypatch, capsys):
+    """A board built with its maps in SDRAM (``bumpmap bitstream --textures``) refuses the on-chip form's TEXTURE
+    words (MAPS) instead of taking them as its 4-byte words: send names the error and the option, sends CLEAR and
+    stops before the frame's triangles."""
+    from host.protocol import CLEAR_FRAME
+    rc, board, err = _send_to(monkeypatch, capsys, [[]], maps="sdram")
+    assert rc == 1 and "MAPS" in err and "--textures" in err
+    assert bytes(board.written).endswith(CLEAR_FRAME) and b"\xa5\x04" not in board.written    # no FRAME_START

@@ -212,7 +212,6 @@ class CommandParser(wiring.Component):
                         m.next = "sync"
         return m
 
-
     def _refusals(self, size, other_form):
         """The checks of a frame whose CRC matched, ``(condition, code)`` in turn: a FRAME_START not naming the
         board's tile at a place in its grid (``size``: its width and height), a TEXTURE frame of the other form

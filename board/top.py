@@ -329,9 +329,11 @@ def build(out: Path, engine=None, router: str = ROUTERS[0], frame: str = "chip",
     from rtl.unit import KEEP_COPIES
     opts = (f"--placer {placer} --router {router}{f' {TMG_RIPUP}' if tmg_ripup else ''} --timing-allow-fail"
             + ("" if seed is None else f" --seed {seed}"))
-    timing = Path(out).resolve() / "timing.json"
+    # nextpnr's files named from the build folder, where the flow runs: YoWASP's tools see a /tmp of their own,
+    # so an absolute name under the caller's /tmp (``--out /tmp/x``) is not the caller's file
+    timing = Path(out) / "timing.json"
     if misses:
-        opts += f" --report {timing} --detailed-timing-report"
+        opts += f" --report {timing.name} --detailed-timing-report"
     if save_floorplan is not None:
         opts += " --write top_routed.json"
     top = Top(engine, frame=frame, engine_div=engine_div)

@@ -165,6 +165,7 @@ def test_an_engine_divider_is_the_pll_output_and_the_misses_are_counted_per_unit
             (tmp_path / "top.tim").write_text(TIM)
             opts = kwargs["nextpnr_opts"].split()
             assert "--detailed-timing-report" in opts
+            assert opts[opts.index("--report") + 1] == "timing.json"    # from the build folder: YoWASP's own /tmp
             (tmp_path / "timing.json").write_text(__import__("json").dumps(timing))
 
     monkeypatch.setattr(top, "_platform", Platform)

@@ -35,7 +35,7 @@ from .video import VGA_640x480
 __all__ = ["Top", "PLL", "ENGINE_DIVS", "SDRAM_ENGINE_DIV", "TEXTURES_ENGINE_DIV", "TEXTURES_ROUTER",
            "check_engine_div", "engine_div_of", "engine_hz",
            "UNIT_PREFIXES", "SEED", "build", "report",
-           "critical_paths", "add_arguments", "run", "SDRAM_SEED", "FLOORPLAN", "floorplan_of"]
+           "critical_paths", "add_arguments", "run", "SDRAM_SEED", "FLOORPLAN", "TEXTURES_FLOORPLAN", "floorplan_of"]
 
 #: The PLL: 25 MHz in, VCO 500 MHz; CLKOP 125 MHz (TMDS, five times the pixel clock, fed back), CLKOS 25 MHz
 #: (pixel), CLKOS2 the engine's: 500/5 = 100 MHz, the engine's target, which the routed engine with the frame on
@@ -85,10 +85,20 @@ def engine_div_of(frame: str, textures: bool = False) -> int:
 FLOORPLAN = Path("board") / "floorplan-engine.json"
 
 
-def floorplan_of(frame: str) -> Path | None:
+#: The floorplan of the build with the maps in SDRAM too (``--textures``): its engine's cells are not those of
+#: :data:`FLOORPLAN` (the texel caches' memories instead of the maps'), so its sites are those of its own routed
+#: build placed freely, at 500/9 (``bumpmap bitstream --textures --engine-div 9 --save-floorplan``). Placed by it,
+#: the build routes in about half the time and to the same engine clock whatever the target.
+TEXTURES_FLOORPLAN = Path("board") / "floorplan-textures.json"
+
+
+def floorplan_of(frame: str, textures: bool = False) -> Path | None:
     """The floorplan record a build whose frame is ``frame`` uses by default: :data:`FLOORPLAN` (in this checkout)
-    with the frame in SDRAM, none with the frame on chip (the build the floorplan is taken from)."""
+    with the frame in SDRAM, :data:`TEXTURES_FLOORPLAN` with the maps there too (``textures``), none with the
+    frame on chip (the build the floorplan is taken from)."""
     from fxmodel.core.paths import ROOT
+    if textures:
+        return ROOT / TEXTURES_FLOORPLAN
     return ROOT / FLOORPLAN if frame == "sdram" else None
 
 
@@ -426,8 +436,8 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
     placing = ap.add_mutually_exclusive_group()        # a floorplan named and refused in one command is a mistake
     placing.add_argument("--floorplan", type=Path, metavar="PATH", default=None,
                     help="place the engine's multiplier and block RAM cells at the sites of this floorplan record "
-                         "(--save-floorplan; default with the frame in SDRAM: " + FLOORPLAN.as_posix() + "; "
-                         "board/floorplan.py)")
+                         "(--save-floorplan; default with the frame in SDRAM: " + FLOORPLAN.as_posix() + ", with "
+                         "--textures: " + TEXTURES_FLOORPLAN.as_posix() + "; board/floorplan.py)")
     placing.add_argument("--no-floorplan", action="store_true", help="place every cell freely")
     ap.add_argument("--save-floorplan", type=Path, metavar="PATH", default=None,
                     help="keep this build's sites of the engine's multiplier and block RAM cells as a floorplan record")
@@ -458,9 +468,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"error: --engine-margin {args.engine_margin}: a fraction in 0..0.2", file=sys.stderr)
         return 2
     seed = args.seed if args.seed is not None else SDRAM_SEED if args.frame == "sdram" else SEED
-    # the committed floorplan is the engine's with its maps on chip: the engine with its maps in SDRAM places freely
-    # unless given one of its own
-    default_plan = None if args.textures else floorplan_of(args.frame)
+    default_plan = floorplan_of(args.frame, args.textures)
     floorplan = None if args.no_floorplan or engine is None else args.floorplan or default_plan
     from .floorplan import FloorplanError
     try:

@@ -199,9 +199,9 @@ def test_each_frame_builds_with_its_own_engine_clock(tmp_path, monkeypatch):
 
 def test_the_maps_in_sdram_build_with_their_own_clock_and_router(tmp_path, monkeypatch):
     """``--textures`` without ``--engine-div``, ``--router`` or ``--tmg-ripup``: the engine at
-    ``TEXTURES_ENGINE_DIV``, routed by ``TEXTURES_ROUTER`` without router2's rip-up, placed freely (the committed
-    floorplan is the engine's with its maps on chip); the options given still win, and the board's other builds
-    keep router2 with rip-up."""
+    ``TEXTURES_ENGINE_DIV``, routed by ``TEXTURES_ROUTER`` without router2's rip-up, placed by its own floorplan
+    (``TEXTURES_FLOORPLAN``: the committed ``FLOORPLAN`` is the engine's with its maps on chip); the options given
+    still win, and the board's other builds keep router2 with rip-up and their floorplan."""
     import argparse
     ap = argparse.ArgumentParser()
     top.add_arguments(ap)
@@ -211,9 +211,9 @@ def test_the_maps_in_sdram_build_with_their_own_clock_and_router(tmp_path, monke
     monkeypatch.setattr(top, "write_text_atomic", lambda *a: None)
     for argv in (["--textures"], ["--textures", "--router", "router2", "--tmg-ripup", "--engine-div", "6"], []):
         assert top.run(ap.parse_args(["--out", str(tmp_path), "--size", "16", *argv])) == 0
-    assert seen[0] == (top.TEXTURES_ROUTER, None, False, None) == ("router1", None, False, None)
+    assert seen[0][:3] == (top.TEXTURES_ROUTER, None, False) == ("router1", None, False)
     assert seen[1][:3] == ("router2", 6, True) and seen[2][:3] == ("router2", None, True)
-    assert seen[2][3] is not None                     # the engine's floorplan without --textures
+    assert seen[0][3].name == top.TEXTURES_FLOORPLAN.name and seen[2][3].name == top.FLOORPLAN.name
     assert top.engine_div_of("sdram", textures=True) == top.TEXTURES_ENGINE_DIV
     assert top.engine_hz("sdram", True) == 500_000_000 // top.TEXTURES_ENGINE_DIV
 

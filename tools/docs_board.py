@@ -76,7 +76,7 @@ def _clock_tables(r: dict, fmax_head: str) -> str:
 
 #: The options of the command each board record is made with, beyond ``--record`` (a missing record's hint): the
 #: frame on chip (``--frame chip``) or in SDRAM (the default, ``board.frame.BOARD_FRAME``).
-RECORD_OPTIONS = {"bitstream": "--frame chip", "bitstream-sdram": "",
+RECORD_OPTIONS = {"bitstream": "--frame chip", "bitstream-sdram": "", "bitstream-textures": "--textures",
                   "board-sim": "--frame chip", "board-sim-sdram": "",
                   "board-sim-uploads": "--frame chip --uploads --size 32", "board-sim-textures": "--textures"}
 
@@ -89,7 +89,7 @@ def _record_command(tool: str, name: str, folder: str) -> str:
 def board_bitstream(name: str = "bitstream") -> str:
     """The board top's last bitstream: Fmax per clock domain against its target, and resources; ``name`` the
     record (``bitstream``: the frame on chip; ``bitstream-sdram``: the frame in SDRAM, ``make bitstream``'s
-    build)."""
+    build; ``bitstream-textures``: the maps in SDRAM too, ``make bitstream MAPS=sdram``'s)."""
     r, path = _board_record(name)
     if r is None:
         return missing_record(path, _record_command("bitstream", name, "docs/board"))

@@ -107,10 +107,12 @@ def test_the_board_build_runs_the_step_between_yosys_and_nextpnr(tmp_path):
     assert "board.floorplan" not in plain and "--json top.json" in plain
 
 
-def test_the_sdram_build_takes_the_committed_floorplan_by_default():
+@pytest.mark.parametrize("textures", [False, True])
+def test_the_sdram_build_takes_the_committed_floorplan_by_default(textures):
     assert top.floorplan_of("chip") is None
-    path = top.floorplan_of("sdram")
+    path = top.floorplan_of("sdram", textures)
     assert path is not None and path.exists(), "the SDRAM build's floorplan record is missing"
+    assert path != top.floorplan_of("sdram", not textures)
     sites = fp.read_floorplan(path)
     assert {name.rsplit(".", 1)[0].split(".")[2] for name in sites} >= {"pipeline", "raster"}
 
@@ -147,16 +149,19 @@ def test_nextpnr_places_a_constrained_block_at_its_site(tmp_path):
     assert fp.placed_sites(json.loads((tmp_path / "placed.json").read_text()), prefix="") == {mults[0]: site}
 
 
-def test_the_committed_floorplan_is_the_board_engines():
+@pytest.mark.parametrize("textures", [False, True])
+def test_the_committed_floorplan_is_the_board_engines(textures):
     """Every multiplier block and block RAM the board's engine instantiates (the RTL's names, which Yosys and
-    nextpnr keep) has a site in the committed floorplan, and every other cell of it is a block of one of the
-    engine's inferred memories: a change to the RTL that renames or adds one fails here, not minutes into a build
-    (``python -m board.floorplan`` would refuse the netlist)."""
+    nextpnr keep) has a site in the committed floorplan (the maps on chip, and in SDRAM: ``textures``), and every
+    other cell of it is a block of one of the engine's inferred memories or a product Yosys mapped into a block
+    (named after the register it feeds: the texel caches' line numbers): a change to the RTL that renames or adds
+    one fails here, not minutes into a build (``python -m board.floorplan`` would refuse the netlist)."""
     import re
 
-    from board.frame import board_engine
-    il = plan_text(top._platform().prepare(top.Top(board_engine()[0], frame="sdram"), name="top"), "top.il")
-    blocks, memories, module = set(), set(), None
+    from board.frame import board_engine, board_textures
+    engine = board_textures(board_engine()[0], textures, "sdram")
+    il = plan_text(top._platform().prepare(top.Top(engine, frame="sdram"), name="top"), "top.il")
+    blocks, memories, wires, module = set(), set(), set(), None
     for line in il.splitlines():
         if m := re.match(r"module \\(\S+)", line):
             module = m.group(1).removeprefix("top.")
@@ -164,11 +169,19 @@ def test_the_committed_floorplan_is_the_board_engines():
             blocks.add(f"{module}.{c.group(2)}")
         elif c := re.match(r"\s*(?:memory .*|cell \$mem_v2) \\(\S+)$", line):     # a memory Yosys maps to blocks
             memories.add(f"{module}.{c.group(1)}")
-    sites = fp.read_floorplan(top.floorplan_of("sdram"))
+        elif c := re.match(r"\s*wire .*\\(\S+)$", line):
+            wires.add(f"{module}.{c.group(1)}")
+    sites = fp.read_floorplan(top.floorplan_of("sdram", textures))
     engine_blocks = {b for b in blocks if b.startswith(fp.ENGINE_PREFIX)}
     assert engine_blocks and engine_blocks <= set(sites), sorted(engine_blocks - set(sites))[:5]
     inferred = set(sites) - engine_blocks
-    assert all(re.sub(r"(\.\d+)+$", "", name) in memories for name in inferred), sorted(inferred)[:5]
+
+    def yosys_product(name):        # a product Yosys mapped into a block, named after the register it feeds
+        where, cell = name.rsplit(".", 1)
+        return "_MULT18X18D" in cell and f"{where}.{cell.split('_TRELLIS_')[0]}" in wires
+
+    odd = [n for n in inferred if re.sub(r"(\.\d+)+$", "", n) not in memories and not yosys_product(n)]
+    assert not odd, sorted(odd)[:5]
 
 
 def test_a_real_build_stops_at_the_step_when_the_floorplan_is_not_its_netlists(tmp_path):

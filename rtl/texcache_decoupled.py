@@ -66,7 +66,7 @@ from rtl.rop import axi_signature
 from .bram import RegisteredMemory
 from .texcache_step import StepControl
 from .texcache_stepwrite import held_rows, step_write
-from .texcache_tags import age_bits, compare, new_rows, row_states, tag_store, victim
+from .texcache_tags import age_bits, compare, new_rows, row_states, state_bits, tag_store, victim
 from .unit import with_next
 
 __all__ = ["DecoupledTexCache", "request_layout", "INPUT_DEPTH", "HELD", "AFTER"]
@@ -272,7 +272,7 @@ class DecoupledTexCache(StepControl, wiring.Component):
             cq.hot = Signal(P.sets, name=f"{prefix}hot{q}")  # the set, one-hot (the store's enables: wp_hot)
             cq.tags = [Signal(self.line_bits, name=f"{prefix}row_tag{q}_{w}") for w in range(P.ways)]
             cq.valids = [Signal(name=f"{prefix}row_valid{q}_{w}") for w in range(P.ways)]
-            cq.ages = [Signal(age_bits(P.ways), name=f"{prefix}row_age{q}_{w}") for w in range(row_states(P))]
+            cq.ages = [Signal(state_bits(P), name=f"{prefix}row_age{q}_{w}") for w in range(row_states(P))]
         h.same = {(q, j): Signal(name=f"{prefix}same{q}_{j}") for q in range(4) for j in range(q)}
         return h
 

@@ -12,7 +12,7 @@ from amaranth.hdl import Mux, Signal
 
 from fxmodel.units.texcache import TexCacheParams
 
-from .texcache_tags import age_bits, row_states
+from .texcache_tags import row_states, state_bits
 
 __all__ = ["step_write", "overlay", "held_rows"]
 
@@ -48,7 +48,7 @@ def step_write(m, params: TexCacheParams, line_bits: int, c, pre, nc) -> SimpleN
                             hot=Signal(P.sets, name=f"wp_hot{j}"))
         w.tags = [Signal(line_bits, name=f"wp_tag{j}_{v}") for v in range(P.ways)]
         w.valids = [Signal(name=f"wp_valid{j}_{v}") for v in range(P.ways)]
-        w.ages = [Signal(age_bits(P.ways), name=f"wp_age{j}_{v}") for v in range(row_states(P))]
+        w.ages = [Signal(state_bits(P), name=f"wp_age{j}_{v}") for v in range(row_states(P))]
         w.row = (w.tags, w.valids, w.ages)
         wp.append(w)
     fw = [[Signal(name=f"fw{q}_{j}") for j in range(5)] for q in range(4)]

@@ -52,6 +52,8 @@ CASES = [
     (TexCacheParams(block=2, sets=8, ways=2, index="linear", lookup_depth=8, misses=4), 12, 20),
     (TexCacheParams(block=4, sets=8, ways=1, lookup_depth=32, misses=4), 16, 16),
     (TexCacheParams(block=8, sets=2, ways=2, texel_bits=28, lookup_depth=64, misses=8), 24, 40),
+    # LRU over three ways (its pair bits' oldest way when the ways are not a power of two)
+    (TexCacheParams(block=2, sets=2, ways=3, index="linear", lookup_depth=8, misses=4), 12, 20),
     # round robin: a hit changes nothing, the victim skips the ways the lookup used (two ways; three, not a power of 2)
     (TexCacheParams(block=4, sets=4, ways=2, replacement="fifo", lookup_depth=16, misses=4), 12, 16),
     (TexCacheParams(block=2, sets=2, ways=3, replacement="fifo", index="linear", lookup_depth=8, misses=4), 12, 20),

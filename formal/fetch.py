@@ -133,7 +133,7 @@ def rows_coherent(h: Harness, s, p: TexCacheParams):
     its registered outcomes, corners and next corner decide); each read port's copy of the live-value table's
     entry (``r_lvt*_is_table``) is the table's for the set stage's set."""
     W = p.ways
-    states = row_states(p)                               # an age per way, or round robin's one pointer
+    states = row_states(p)                               # LRU's bit per pair of ways, or round robin's pointer
     store = [[s(f"store{j}_r{r}") for j in range(p.sets)] for r in range(4)]
     for j in range(p.sets):
         for r in range(1, 4):

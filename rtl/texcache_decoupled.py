@@ -65,8 +65,8 @@ from rtl.rop import axi_signature
 
 from .bram import RegisteredMemory
 from .texcache_step import StepControl
-from .texcache_stepwrite import held_rows, step_write
-from .texcache_tags import age_bits, compare, new_rows, row_states, tag_store, victim
+from .texcache_stepwrite import compare_over, held_rows, step_write
+from .texcache_tags import age_bits, compare, new_rows, row_states, state_bits, tag_store, victim
 from .unit import with_next
 
 __all__ = ["DecoupledTexCache", "request_layout", "INPUT_DEPTH", "HELD", "AFTER"]
@@ -272,7 +272,7 @@ class DecoupledTexCache(StepControl, wiring.Component):
             cq.hot = Signal(P.sets, name=f"{prefix}hot{q}")  # the set, one-hot (the store's enables: wp_hot)
             cq.tags = [Signal(self.line_bits, name=f"{prefix}row_tag{q}_{w}") for w in range(P.ways)]
             cq.valids = [Signal(name=f"{prefix}row_valid{q}_{w}") for w in range(P.ways)]
-            cq.ages = [Signal(age_bits(P.ways), name=f"{prefix}row_age{q}_{w}") for w in range(row_states(P))]
+            cq.ages = [Signal(state_bits(P), name=f"{prefix}row_age{q}_{w}") for w in range(row_states(P))]
         h.same = {(q, j): Signal(name=f"{prefix}same{q}_{j}") for q in range(4) for j in range(q)}
         return h
 
@@ -315,10 +315,11 @@ class DecoupledTexCache(StepControl, wiring.Component):
         way_reg = [Signal(wb, name=f"way_reg{q}") for q in range(4)]
         # the step's write, pending a clock, and the held rows with it over them (rtl/texcache_stepwrite.py)
         sw = step_write(m, P, self.line_bits, c, pre, nc)
-        wp, eff, peff = sw.wp, sw.eff, sw.peff
-        # the outcomes: the prefetch stage's compares; the tag stage's, registered, and whether they are current
+        wp, eff = sw.wp, sw.eff
+        # the outcomes: the prefetch stage's compares (term by term, under the pending write); the tag stage's,
+        # registered, and whether they are current
         for q in range(4):
-            pre.c[q].hit, pre.c[q].hit_way = compare(m, peff[q].tags, peff[q].valids, pre.c[q].line, f"p_{q}_")
+            pre.c[q].hit, pre.c[q].hit_way = compare_over(m, pre.c[q], wp, sw.pfw[q], pre.c[q].line, f"p_{q}_")
             c[q].cmp_hit, c[q].cmp_way = compare(m, eff[q].tags, eff[q].valids, c[q].line, f"t_{q}_")
             c[q].hit, c[q].hit_way = Signal(name=f"hit{q}"), Signal(wb, name=f"hit_way{q}")
         hits_ok = Signal(name="hits_ok")

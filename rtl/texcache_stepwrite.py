@@ -12,9 +12,9 @@ from amaranth.hdl import Mux, Signal
 
 from fxmodel.units.texcache import TexCacheParams
 
-from .texcache_tags import age_bits, row_states
+from .texcache_tags import age_bits, compare, row_states, state_bits
 
-__all__ = ["step_write", "overlay", "held_rows"]
+__all__ = ["step_write", "overlay", "compare_over", "held_rows"]
 
 
 def overlay(m, held, wp, sel, name: str) -> SimpleNamespace:
@@ -35,6 +35,23 @@ def overlay(m, held, wp, sel, name: str) -> SimpleNamespace:
     return out
 
 
+def compare_over(m, held, wp, sel, line, name: str) -> tuple:
+    """``(hit, way)`` of :func:`rtl.texcache_tags.compare` on the held row with the pending write over it
+    (:func:`overlay` with the one-hot selects ``sel``), taken term by term: each pending row and the held row are
+    compared with ``line`` from their registers, and the selects pick the outcome at the last level instead of
+    the row at the first. Equal whenever the selects are one-hot (formal invariants ``fw*``); the selects, from
+    across the cache, then meet the compare's end, not its start (the prefetch stage's compares lead into the
+    step's decision a clock ahead and its firing: ``docs/texcache.md``)."""
+    outs = [compare(m, w.tags, w.valids, line, f"{name}w{j}_") for j, w in enumerate(wp)]
+    outs.append(compare(m, held.tags, held.valids, line, f"{name}h_"))
+    hit, way = Signal(name=f"{name}hit"), Signal(age_bits(len(held.tags)), name=f"{name}hit_way")
+    hit_terms, way_terms = 0, 0
+    for t, (h, w) in enumerate(outs):
+        hit_terms, way_terms = hit_terms | (sel[t] & h), way_terms | Mux(sel[t], w, 0)
+    m.d.comb += [hit.eq(hit_terms), way.eq(way_terms)]
+    return hit, way
+
+
 def step_write(m, params: TexCacheParams, line_bits: int, c, pre, nc) -> SimpleNamespace:
     """The step's write, pending a clock (``wp``: per corner whether it writes, ``en``; its set, ``set``, one-hot
     ``hot``; the row it writes, ``row``: tags, valid bits, replacement state, also as ``tags``, ``valids``,
@@ -48,7 +65,7 @@ def step_write(m, params: TexCacheParams, line_bits: int, c, pre, nc) -> SimpleN
                             hot=Signal(P.sets, name=f"wp_hot{j}"))
         w.tags = [Signal(line_bits, name=f"wp_tag{j}_{v}") for v in range(P.ways)]
         w.valids = [Signal(name=f"wp_valid{j}_{v}") for v in range(P.ways)]
-        w.ages = [Signal(age_bits(P.ways), name=f"wp_age{j}_{v}") for v in range(row_states(P))]
+        w.ages = [Signal(state_bits(P), name=f"wp_age{j}_{v}") for v in range(row_states(P))]
         w.row = (w.tags, w.valids, w.ages)
         wp.append(w)
     fw = [[Signal(name=f"fw{q}_{j}") for j in range(5)] for q in range(4)]

@@ -3,8 +3,17 @@
 row as one word (its ways' tags, valid bits and replacement state), the compare of a row with a line, the victim a
 miss fills, the row after a step, and the tag store that holds every set's row in LUT RAM.
 
-The replacement state of a row is an age per way for LRU (``0`` the youngest) or one pointer for round robin
-(``replacement = "fifo"``: the next way to fill), :func:`row_states` fields of :func:`age_bits` bits.
+The replacement state of a row is, for LRU, the order of its ways as a matrix of bits, one per pair of ways
+(:func:`lru_pairs`: bit ``(i, j)``, ``i < j``, says way ``i`` is older than way ``j``), or for round robin
+(``replacement = "fifo"``) one pointer (the next way to fill): :func:`row_states` fields of :func:`state_bits` bits.
+The matrix is exact LRU (the same victims as the model's ages, :mod:`fxmodel.units.texcache`), not an
+approximation: a use of way ``u`` sets ``u`` younger than every other way and keeps the others' order, so the
+ways stay totally ordered, and the oldest is the way older than all others. Ages (``0`` the youngest, ``ways - 1``
+the oldest) would take a way's age, a compare with every other age and an increment to update, and a compare with
+``ways - 1`` to find the oldest; a bit of the matrix updates from its own value and the way used alone, and the
+oldest is an AND of ``ways - 1`` bits. The update and the victim are on the tag stage's step, which closes
+every clock (``docs/texcache.md``), so the matrix keeps them a few gates deep; it is also narrower than the ages
+for four ways (six bits against eight).
 """
 
 from __future__ import annotations
@@ -14,8 +23,8 @@ from amaranth.lib.memory import Memory
 
 from fxmodel.units.texcache import TexCacheParams
 
-__all__ = ["age_bits", "row_states", "row_word", "row_fields", "compare", "victim", "new_rows", "tag_store",
-           "step_decision"]
+__all__ = ["age_bits", "lru_pairs", "row_states", "state_bits", "row_word", "row_fields", "compare", "victim",
+           "new_rows", "tag_store", "step_decision"]
 
 
 def age_bits(ways: int) -> int:
@@ -23,9 +32,26 @@ def age_bits(ways: int) -> int:
     return max(1, (ways - 1).bit_length())
 
 
+def lru_pairs(ways: int) -> list[tuple[int, int]]:
+    """The pairs of ways ``(i, j)``, ``i < j``, in the order of a row's LRU bits (bit set: way ``i`` is older)."""
+    return [(i, j) for j in range(ways) for i in range(j)]
+
+
 def row_states(params: TexCacheParams) -> int:
-    """Replacement-state fields of a row: an age per way (LRU) or one pointer (round robin)."""
-    return params.ways if params.replacement == "lru" else 1
+    """Replacement-state fields of a row: a bit per pair of ways (LRU, :func:`lru_pairs`) or one pointer (round
+    robin)."""
+    return len(lru_pairs(params.ways)) if params.replacement == "lru" else 1
+
+
+def state_bits(params: TexCacheParams) -> int:
+    """Bits of a replacement-state field: one (LRU's pairs) or a way number (round robin's pointer)."""
+    return 1 if params.replacement == "lru" else age_bits(params.ways)
+
+
+def older(states, ways: int, a: int, b: int):
+    """Whether way ``a`` is older than way ``b`` (``a != b``) in a row's LRU bits ``states``."""
+    k = lru_pairs(ways).index((min(a, b), max(a, b)))
+    return states[k] if a < b else ~states[k]
 
 
 def row_word(tags, valids, ages):
@@ -33,10 +59,9 @@ def row_word(tags, valids, ages):
     return Cat(*tags, *valids, *ages)
 
 
-def row_fields(word, ways: int, line_bits: int, states: int) -> tuple[list, list, list]:
+def row_fields(word, ways: int, line_bits: int, states: int, wb: int) -> tuple[list, list, list]:
     """``(tags, valids, state)`` of a word of :func:`row_word` (``ways`` ways of ``line_bits``-bit tags; the
-    replacement state: ``states`` fields of :func:`age_bits` bits, :func:`row_states`)."""
-    wb = age_bits(ways)
+    replacement state: ``states`` fields of ``wb`` bits, :func:`row_states` and :func:`state_bits`)."""
     tags = [word[v * line_bits:(v + 1) * line_bits] for v in range(ways)]
     valids = [word[ways * line_bits + v] for v in range(ways)]
     base = ways * (line_bits + 1)
@@ -53,9 +78,10 @@ def compare(m, tags, valids, line, name: str) -> tuple:
     return hit, way
 
 
-def victim(m, params: TexCacheParams, valids, ages, used, name: str):
-    """The way a miss in the row fills: the lowest invalid way, else the oldest (LRU), else the pointer's way or
-    the first after it that ``used`` does not name (round robin; ``used`` is ``None`` for LRU)."""
+def victim(m, params: TexCacheParams, valids, states, used, name: str):
+    """The way a miss in the row fills: the lowest invalid way, else the oldest (LRU: the way older than every
+    other in the row's bits ``states``), else the pointer's way or the first after it that ``used`` does not name
+    (round robin; ``used`` is ``None`` for LRU)."""
     W = params.ways
     wb = age_bits(W)
     free, free_way = Signal(name=f"{name}free"), Signal(wb, name=f"{name}free_way")
@@ -63,11 +89,12 @@ def victim(m, params: TexCacheParams, valids, ages, used, name: str):
     for w in reversed(range(W)):
         with m.If(~valids[w]):
             m.d.comb += [free.eq(1), free_way.eq(w)]
-        if params.replacement == "lru":
-            with m.If(ages[w] == W - 1):
-                m.d.comb += old_way.eq(w)
+    if params.replacement == "lru":                              # one way is the oldest: its bits, OR-ed
+        for b in range(wb):
+            m.d.comb += old_way[b].eq(Cat(*(Cat(*(older(states, W, w, v) for v in range(W) if v != w)).all()
+                                            for w in range(W) if w >> b & 1)).any())
     if params.replacement == "fifo":                             # the first way from the pointer on not used
-        ptr = ages[0]
+        ptr = states[0]
         m.d.comb += old_way.eq(ptr)
         for d in reversed(range(W)):
             cand = (ptr + d)[:wb] if W & (W - 1) == 0 else Mux(ptr + d >= W, ptr + d - W, ptr + d)[:wb]
@@ -80,10 +107,11 @@ def victim(m, params: TexCacheParams, valids, ages, used, name: str):
 
 def new_rows(m, params: TexCacheParams, line_bits: int, c, way_now) -> list:
     """Each corner's row after its check (``c[q]``: ``line, tags, valids, ages, hit, victim``): on a miss, the
-    victim's tag and valid bit; the replacement state of LRU (the way used, ``way_now[q]``, becomes the youngest, the
-    younger ones age by one) or of round robin (a fill moves the pointer past its way). Round robin writes a row only
-    in a fill (a hit changes none), so its new row is the fill's, from the held row and the victim alone. ``[(tags,
-    valids, state)]`` per corner."""
+    victim's tag and valid bit; the replacement state of LRU (the way used, ``way_now[q]``, becomes the youngest,
+    the others keep their order: a pair's bit from its own value and the way used, :func:`lru_pairs`) or of round
+    robin (a fill moves the pointer past its way). Round robin writes a row only in a fill (a hit changes none), so
+    its new row is the fill's, from the held row and the victim alone. ``[(tags, valids, state)]`` per corner
+    (``c[q].ages``: the held row's state fields)."""
     W = params.ways
     wb = age_bits(W)
     rr = params.replacement == "fifo"
@@ -97,13 +125,10 @@ def new_rows(m, params: TexCacheParams, line_bits: int, c, way_now) -> list:
         if rr:
             out.append((tags, valids, [Mux(c[q].victim == W - 1, 0, c[q].victim + 1)[:wb]]))
             continue
-        used_age = Signal(wb, name=f"used_age{q}")
-        m.d.comb += used_age.eq(Array(c[q].ages)[way_now[q]])
-        ages = [Signal(wb, name=f"new_age{q}_{v}") for v in range(W)]
-        for v in range(W):
-            m.d.comb += ages[v].eq(Mux(way_now[q] == v, 0, Mux(c[q].ages[v] < used_age, c[q].ages[v] + 1,
-                                                               c[q].ages[v])))
-        out.append((tags, valids, ages))
+        states = [Signal(name=f"new_older{q}_{i}_{j}") for i, j in lru_pairs(W)]
+        for k, (i, j) in enumerate(lru_pairs(W)):     # the way used becomes younger than every other
+            m.d.comb += states[k].eq(Mux(way_now[q] == i, 0, Mux(way_now[q] == j, 1, c[q].ages[k])))
+        out.append((tags, valids, states))
     return out
 
 
@@ -115,7 +140,8 @@ def tag_store(m, params: TexCacheParams, line_bits: int, c, wr, new, platform, *
     a read port per set of ``read_sets``, built as a live-value table (LaForest & Steffan, FPGA 2010): a memory
     per write and read port (each write port writes its row into its four memories,
     one per read port), and per set a register naming the write port that wrote it last (``lvt``) and whether any
-    did since reset (``written``; else the row is the empty one: no way valid, ages in way order). A read port
+    did since reset (``written``; else the row is the empty one: no way valid, the ways in order, way 0 the
+    youngest: every LRU bit clear). A read port
     reads its four memories and takes the live one's word. Returns per read port its set's row ``(tags, valids,
     state)``, combinational.
 
@@ -132,8 +158,8 @@ def tag_store(m, params: TexCacheParams, line_bits: int, c, wr, new, platform, *
     memories read at every address, as :class:`rtl.streams.CreditFIFO` names its slots), for the proof that the
     held rows are the store's (``formal/fetch.py``)."""
     W, S = params.ways, params.sets
-    wb, lb, n = age_bits(W), line_bits, row_states(params)
-    empty = row_word([Const(0, lb)] * W, [Const(0, 1)] * W, [Const(w, wb) for w in range(n)])
+    wb, lb, n = state_bits(params), line_bits, row_states(params)
+    empty = row_word([Const(0, lb)] * W, [Const(0, 1)] * W, [Const(0, wb)] * n)
     width = len(empty)
     lvt = [Signal(2, name=f"lvt{j}") for j in range(S)]
     written = [Signal(name=f"written{j}") for j in range(S)]
@@ -178,7 +204,7 @@ def tag_store(m, params: TexCacheParams, line_bits: int, c, wr, new, platform, *
         if platform == "formal":
             for j in range(S):
                 live_row(mems, Const(j, len(rset)), written[j], lvt[j], f"store{j}_r{r}")
-        out.append(row_fields(row, W, lb, n))
+        out.append(row_fields(row, W, lb, n, wb))
     return out
 
 

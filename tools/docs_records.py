@@ -313,7 +313,10 @@ def fpga_placement(name: str = "placement", design: str = "--unit engine --scene
     return (md_table(head, rows, ["---"] + ["---:"] * 2 + ["---"] + ["---:"] * 4 + ["---"])
             + f"\n*nextpnr {flow.get('router', '') if flow.get('route', True) else 'placement alone (--no-route)'}"
             f"{', timing-driven rip-up' if flow.get('tmg_ripup') and flow.get('route', True) else ''}, "
-            f"seed {flow.get('seed', '')}.* " + provenance(record, path) + misses)
+            + "".join(f"placer {what} {flow[key]}, " for key, what in (("timing_weight", "timing weight"),
+                                                                        ("crit_exp", "criticality exponent"))
+                      if flow.get(key) is not None)
+            + f"seed {flow.get('seed', '')}.* " + provenance(record, path) + misses)
 
 
 # -- speed and design space ------------------------------------------------------------------------------------

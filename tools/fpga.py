@@ -121,6 +121,11 @@ class Flow:
         nextpnr also writes its per-net timing (``--detailed-timing-report``) and the record counts every
         endpoint that misses the target, by unit and kind, with the worst (:func:`board.timing.timing_misses`,
         as ``bumpmap bitstream --misses``): where a design that misses its clock misses it. Changes no placement.
+    timing_weight, crit_exp : int or None
+        nextpnr's analytic placer's timing weight and criticality exponent (``--placer-heap-timingweight``,
+        ``--placer-heap-critexp``; nextpnr's defaults, 10 and 2, when ``None``): how strongly the placer pulls
+        the cells of critical paths together, against wire length. Raised for the Berlin wall's engine with its
+        texel caches, whose slowest paths are mostly routing (the record's command, ``docs/fpga.md``).
     """
 
     device: str = "85k"
@@ -131,6 +136,8 @@ class Flow:
     tmg_ripup: bool = False
     route: bool = True
     misses: bool = False
+    timing_weight: int | None = None
+    crit_exp: int | None = None
 
     def __post_init__(self):
         if self.device not in ("12k", "25k", "45k", "85k", "um-25k", "um-45k", "um-85k",
@@ -142,12 +149,16 @@ class Flow:
             raise ValueError(f"seed={self.seed!r}: must be a positive int")
         if self.router not in ROUTERS:
             raise ValueError(f"router={self.router!r}: nextpnr's routers are {', '.join(ROUTERS)}")
+        for name in PLACER_OPTIONS:
+            value = getattr(self, name)
+            if value is not None and (not isinstance(value, int) or isinstance(value, bool) or value < 1):
+                raise ValueError(f"{name}={value!r}: must be a positive int (or None: nextpnr's default)")
 
     def settings(self) -> dict:
         """The settings that enter the cache keys. ``router1`` is nextpnr's default (its command line has no
         ``--router``), so it is left out of the key: runs made before the option existed stay valid (and
-        ``tmg_ripup`` when off)."""
-        out = asdict(self)
+        ``tmg_ripup`` when off, the placer's weights when nextpnr's defaults)."""
+        out = {k: v for k, v in asdict(self).items() if k not in PLACER_OPTIONS or v is not None}
         if self.router == "router1":
             del out["router"]
         if not self.tmg_ripup:
@@ -161,6 +172,8 @@ class Flow:
 
 #: nextpnr's routers.
 ROUTERS = ("router1", "router2")
+#: The placer's weights of :class:`Flow` and their nextpnr options.
+PLACER_OPTIONS = {"timing_weight": "--placer-heap-timingweight", "crit_exp": "--placer-heap-critexp"}
 #: The flow of unit designs, sweep points and the README's figures (``make fpga``): nextpnr's default router1.
 FLOW = Flow()
 #: Quick checks of large designs (the pipeline), where routing dominates: router2 (README, "Place and route").
@@ -235,6 +248,9 @@ def _run_tools(rdir: Path, top: str, settings: dict, synth_only: bool = False) -
         cmd += ["--router", settings["router"]]
     if settings.get("tmg_ripup"):
         cmd.append(TMG_RIPUP)
+    for name, option in PLACER_OPTIONS.items():
+        if settings.get(name) is not None:
+            cmd += [option, str(settings[name])]
     if not settings.get("route", True):
         cmd.append("--no-route")
     if settings.get("misses"):
@@ -504,6 +520,10 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
                          "recorded as not routed (for designs whose route does not converge)")
     ap.add_argument("--tmg-ripup", action="store_true",
                     help="nextpnr's timing-driven rip-up in the router (as bumpmap bitstream --tmg-ripup)")
+    ap.add_argument("--placer-timing-weight", type=int, metavar="N",
+                    help="nextpnr's placer timing weight (--placer-heap-timingweight; default: nextpnr's, 10)")
+    ap.add_argument("--placer-crit-exp", type=int, metavar="N",
+                    help="nextpnr's placer criticality exponent (--placer-heap-critexp; default: nextpnr's, 2)")
     ap.add_argument("--misses", action="store_true",
                     help="count every endpoint that misses the target (nextpnr's per-net timing), by unit and "
                          "kind, with the worst, in the report and the placement record")
@@ -536,7 +556,7 @@ def run(args: argparse.Namespace) -> int:
                 raise ValueError("--textures: the engine of a scene (give --scene)")
         designs = design_list(args.unit, args.preset, scene=args.scene, textures=cache)
         flow = Flow(seed=args.seed, router=args.router, tmg_ripup=args.tmg_ripup, route=not args.no_route,
-                    misses=args.misses)
+                    misses=args.misses, timing_weight=args.placer_timing_weight, crit_exp=args.placer_crit_exp)
     except ValueError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2

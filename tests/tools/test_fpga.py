@@ -368,3 +368,31 @@ def test_the_placement_page_says_when_a_design_was_not_routed(tmp_path, monkeypa
     assert "3 endpoints of `clk` arrive later than its period, 10 ns" in page, page
     assert "| `pipeline.fetch.bump_map` | 2 |" in page
     assert "| 14.27 | `pipeline.fetch.bump_map` | `r_lvt3` | DI |" in page
+
+
+# -- the placer's weights: flow options --------------------------------------------------------------------------
+@pytest.mark.parametrize("weights", [{}, {"timing_weight": 30}, {"timing_weight": 30, "crit_exp": 4}])
+def test_placer_weights_are_flow_options_on_nextpnr_command_line_and_in_the_cache_key(tmp_path, monkeypatch,
+                                                                                     weights):
+    """``--placer-timing-weight`` and ``--placer-crit-exp`` reach nextpnr as its HeAP placer's options; left at
+    nextpnr's defaults, neither its command line nor the cache key (the runs made before the options) changes."""
+    commands = []
+
+    def fake_run(cmd, **kwargs):
+        commands.append(cmd)
+        return type("Done", (), {"returncode": 1 if "nextpnr" in cmd[0] else 0})()
+
+    monkeypatch.setattr(fpga.subprocess, "run", fake_run)
+    flow = fpga.Flow(**weights)
+    rec = fpga.measure(preset("recip", "small"), build=tmp_path, flow=flow)
+    assert rec["error"].startswith("nextpnr failed")
+    nextpnr = commands[-1]
+    for name, option in fpga.PLACER_OPTIONS.items():
+        if name in weights:
+            assert nextpnr[nextpnr.index(option) + 1] == str(weights[name])
+        else:
+            assert option not in nextpnr
+    assert {k for k in fpga.PLACER_OPTIONS if k in flow.settings()} == set(weights)
+    for bad in (0, -3, 2.5, True):
+        with pytest.raises(ValueError, match="timing_weight"):
+            fpga.Flow(timing_weight=bad)

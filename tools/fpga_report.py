@@ -29,11 +29,10 @@ _PLACER_WORDS = {"timing_weight": "timing weight", "crit_exp": "criticality expo
 
 
 def flow_caption(flow: dict) -> str:
-    """The flow of a placement record in words, for its table's caption: the mapping when not Yosys' default,
-    nextpnr's router (or placement alone), its timing-driven rip-up, the placer's weights when set, the seed."""
+    """The flow of a placement record in words, for its table's caption: nextpnr's router (or placement alone),
+    its timing-driven rip-up, the placer's weights when set, the seed."""
     route = flow.get("route", True)
-    words = ["Yosys with ABC9 (synth_ecp5 -abc9)"] if flow.get("abc9") else []
-    words.append(f"nextpnr {flow.get('router', '') if route else 'placement alone (--no-route)'}")
+    words = [f"nextpnr {flow.get('router', '') if route else 'placement alone (--no-route)'}"]
     if flow.get("tmg_ripup") and route:
         words.append("timing-driven rip-up")
     words += [f"placer {_PLACER_WORDS[key]} {flow[key]}" for key in PLACER_OPTIONS if flow.get(key) is not None]

@@ -359,15 +359,15 @@ def test_the_placement_page_says_when_a_design_was_not_routed(tmp_path, monkeypa
         assert all(w in page for w in words), page
         assert ("not routed" in page) != routed
     # the flow's options in the caption: the mapping and the placer's weights, when not the defaults
-    for flow, words in (({"abc9": True, "timing_weight": 30, "seed": 2}, ("*Yosys with ABC9 (synth_ecp5 -abc9), "
-                                                                         "nextpnr router1, placer timing weight 30, "
-                                                                         "seed 2.*",)),
+    for flow, words in (({"timing_weight": 30, "seed": 2}, ("*nextpnr router1, placer timing weight 30, seed 2.*",)),
+                        ({"crit_exp": 4, "tmg_ripup": True, "seed": 1},
+                         ("*nextpnr router1, timing-driven rip-up, placer criticality exponent 4, seed 1.*",)),
                         ({"seed": 1}, ("*nextpnr router1, seed 1.*",))):
         record.write(tmp_path / "fpga" / "p.json", "bumpmap fpga",
                      {"flow": {"router": "router1", **flow}, "designs": [{**design, "routed": True}]})
         page = docs_records.fpga_placement("p")
         assert all(w in page for w in words), page
-        assert ("ABC9" in page) == ("abc9" in flow)
+        assert ("placer" in page) == ("timing_weight" in flow or "crit_exp" in flow)
     # a design placed with --misses: its missed endpoints by unit under the table
     worst = [{"ns": 14.27, "unit": "pipeline.fetch.bump_map", "register": "r_lvt3", "pin": "DI"}]
     misses = {"clock": "clk", "period_ns": 10.0, "endpoints": 3, "worst": worst,
@@ -407,23 +407,3 @@ def test_placer_weights_are_flow_options_on_nextpnr_command_line_and_in_the_cach
         with pytest.raises(ValueError, match="timing_weight"):
             fpga.Flow(timing_weight=bad)
 
-
-@pytest.mark.parametrize("abc9", [False, True])
-def test_abc9_is_a_flow_option_on_the_yosys_script_and_in_the_cache_key(tmp_path, monkeypatch, abc9):
-    """``--abc9`` reaches Yosys as ``synth_ecp5 -abc9``; off, neither the script nor the cache key (the runs made
-    before the option) changes, and the runs with and without it are kept apart."""
-    commands = []
-
-    def fake_run(cmd, **kwargs):
-        commands.append(cmd)
-        return type("Done", (), {"returncode": 1})()
-
-    monkeypatch.setattr(fpga.subprocess, "run", fake_run)
-    flow = fpga.Flow(abc9=abc9)
-    rec = fpga.measure(preset("recip", "small"), build=tmp_path, flow=flow)
-    assert rec["error"].startswith("yosys failed")
-    script = commands[-1][commands[-1].index("-p") + 1]
-    assert ("synth_ecp5 -abc9 -top" in script) == abc9
-    assert ("synth_ecp5 -top" in script) != abc9
-    assert ("abc9" in flow.settings()) == abc9
-    assert fpga.Flow().settings() == fpga.Flow(abc9=False).settings() != fpga.Flow(abc9=True).settings()

@@ -93,6 +93,9 @@ def cache_invariants(h: Harness, sig, top, path: str, cache, pend, beat_ref, ins
         h.check((s("lfifo_inner") == sig("inner_level", f"{path}/lfifo".strip("/"))) & (s("lfifo_room") == lfifo.w_rdy),
                 "lfifo_room_is_w_rdy")
         h.check(slots.r_rdy | ((slots.level == arq.level) & ~arq.r_rdy), "slot_queue_ahead")
+        # the input FIFO's output register holds the corners' sets of the lookup it holds (rtl.streams
+        # TailFIFOBuffered), the sets the set stage loads
+        h.check(~ififo.r_rdy | (ififo.r_tail == Cat(*(s(f"f_set{q}") for q in range(4)))), "ififo_tail")
         h.check(inflight == arq.level + pend + filled, "owed_lines")
         h.check(inflight <= p.misses, "owed_bound")
         h.check(slots.level == inflight, "slot_queue")

@@ -8,8 +8,9 @@ request names one by its index). Organisation (``docs/texcache.md``):
 
 - **Input FIFO** (:data:`INPUT_DEPTH` lookups): ``i.ready`` is a register, so a stall does not travel up the
   stream in the clock the tag stage decides it.
-- **Set stage**: the next lookup with its corners' lines and sets, computed from the FIFO's output register, in
-  registers, so that the sets address the tag store from flip-flops.
+- **Set stage**: the next lookup with its corners' lines (computed from the FIFO's output register) and sets
+  (computed as the lookup enters the FIFO, and carried in it), in registers, so that the sets address the tag
+  store from flip-flops.
 - **Prefetch stage**: the next lookup, its corners' lines and sets, each corner's set's row read from the tag
   store (:mod:`rtl.texcache_tags`, LUT RAM) and the compares of those rows with the lines, all in registers, the
   rows kept equal to the store while it waits.
@@ -64,6 +65,7 @@ from fxmodel.units.texcache import Layout, TexCacheParams
 from rtl.rop import axi_signature
 
 from .bram import RegisteredMemory
+from .streams import TailFIFOBuffered
 from .texcache_step import StepControl
 from .texcache_stepwrite import compare_over, held_rows, step_write
 from .texcache_tags import age_bits, compare, new_rows, row_states, state_bits, tag_store, victim
@@ -71,9 +73,9 @@ from .unit import with_next
 
 __all__ = ["DecoupledTexCache", "request_layout", "INPUT_DEPTH", "HELD", "AFTER"]
 
-#: Lookups the input FIFO holds: Amaranth's ``SyncFIFOBuffered`` (registered ``w_rdy`` and output) takes one a
-#: clock from depth 3 (its inner FIFO of 2 has room while one entry leaves; at depth 2 it would take one every
-#: other clock).
+#: Lookups the input FIFO holds: a ``SyncFIFOBuffered`` (registered ``w_rdy`` and output; here
+#: :class:`rtl.streams.TailFIFOBuffered`, the corners' sets in its output register) takes one a clock from depth 3
+#: (its inner FIFO of 2 has room while one entry leaves; at depth 2 it would take one every other clock).
 INPUT_DEPTH = 3
 
 #: Lookups held in registers between the input FIFO and the lookup FIFO: the set stage's (the next lookup with its
@@ -240,18 +242,28 @@ class DecoupledTexCache(StepControl, wiring.Component):
 
     def _input_stage(self, m):
         """The input FIFO and a register stage after it (``s_valid``) that holds the next lookup with its corner
-        lines and sets (:meth:`_lines`, computed from the FIFO's output register): ``(ififo, s_valid, nreq, nc,
-        nsame)``, so that the sets address the tag store from flip-flops (each corner's ``next_set``: the set the
-        stage loads, for the tag store's live-value table read a clock early); the duplicates and equal sets
-        (:meth:`_relations`) are compared there."""
-        m.submodules.ififo = ififo = SyncFIFOBuffered(width=self.req.size, depth=INPUT_DEPTH)
+        lines and sets: ``(ififo, s_valid, nreq, nc, nsame)``, so that the sets address the tag store from
+        flip-flops (each corner's ``next_set``: the set the stage loads, for the tag store's live-value table read
+        a clock early); the duplicates and equal sets (:meth:`_relations`) are compared there. The lines are
+        computed from the FIFO's output register (:meth:`_lines`); the sets as the lookup enters that register,
+        which holds them beside it (:class:`rtl.streams.TailFIFOBuffered`), so that ``next_set`` is a register
+        itself: it selects a table entry of every set, through the forwarding, into the read ports' registers (the
+        Berlin wall engine's caches missed their target there, from the FIFO's output through the XOR index)."""
+        def corner_sets(word):
+            return Cat(*(set_ for _, set_ in self.corner_lines(self.req(word))))
+
+        sb = len(self.corner_lines(self.req(Const(0, self.req.size)))[0][1])
+        m.submodules.ififo = ififo = TailFIFOBuffered(width=self.req.size, depth=INPUT_DEPTH, tail=corner_sets,
+                                                      tail_width=4 * sb)
         m.d.comb += [ififo.w_en.eq(self.i.valid), ififo.w_data.eq(self.i.payload), self.i.ready.eq(ififo.w_rdy)]
         freq = Signal(self.req, name="freq")
         m.d.comb += freq.eq(ififo.r_data)
         fc = self._lines(m, freq, "f_")
+        for q in range(4):      # the sets the register took with the lookup: the lines' (formal ``ififo_tail``)
+            fc[q].set = ififo.r_tail[q * sb:(q + 1) * sb]
         s_valid, nreq = Signal(name="s_valid"), Signal(self.req, name="nreq")
         nc = [SimpleNamespace(line=Signal.like(fc[q].line, name=f"nline{q}"),
-                              set=Signal.like(fc[q].set, name=f"nset{q}"), next_set=fc[q].set) for q in range(4)]
+                              set=Signal(sb, name=f"nset{q}"), next_set=fc[q].set) for q in range(4)]
         with m.If(ififo.r_en):
             m.d.sync += [s_valid.eq(ififo.r_rdy), nreq.eq(freq)]
             m.d.sync += [x.eq(y) for q in range(4) for x, y in ((nc[q].line, fc[q].line), (nc[q].set, fc[q].set))]

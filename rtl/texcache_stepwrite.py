@@ -14,22 +14,28 @@ from fxmodel.units.texcache import TexCacheParams
 
 from .texcache_tags import age_bits, compare, row_states, state_bits
 
-__all__ = ["step_write", "overlay", "compare_over", "held_rows"]
+__all__ = ["step_write", "one_hot_pick", "overlay", "compare_over", "held_rows"]
+
+
+def one_hot_pick(sel, values):
+    """The value whose select is set, of one-hot selects ``sel``: an AND-OR of the terms, not a chain of
+    multiplexers (zero when none is set)."""
+    out = 0
+    for t, v in enumerate(values):
+        out = out | Mux(sel[t], v, 0)
+    return out
 
 
 def overlay(m, held, wp, sel, name: str) -> SimpleNamespace:
     """A held row (``tags``, ``valids``, ``ages``) with the pending write ``wp`` over it: the row of the pending
     corner ``j`` that ``sel[j]`` names, else (``sel[4]``) the held row; the selects are one-hot (formal invariants
-    ``fw*`` for the registered ones), so this is an AND-OR of five terms, not a chain of multiplexers."""
+    ``fw*`` for the registered ones), so this is :func:`one_hot_pick` of five terms."""
     out = SimpleNamespace()
     for field in ("tags", "valids", "ages"):
         sigs = []
         for v, x in enumerate(getattr(held, field)):
             y = Signal.like(x, name=f"{name}{field[:-1]}{v}")
-            terms = Mux(sel[4], x, 0)
-            for j in range(4):
-                terms = terms | Mux(sel[j], getattr(wp[j], field)[v], 0)
-            m.d.comb += y.eq(terms)
+            m.d.comb += y.eq(one_hot_pick(sel, [getattr(wp[j], field)[v] for j in range(4)] + [x]))
             sigs.append(y)
         setattr(out, field, sigs)
     return out
@@ -46,10 +52,7 @@ def compare_over(m, held, wp, sel, lines, name: str) -> tuple:
     outs = [compare(m, w.tags, w.valids, lines[j], f"{name}w{j}_") for j, w in enumerate(wp)]
     outs.append(compare(m, held.tags, held.valids, lines[4], f"{name}h_"))
     hit, way = Signal(name=f"{name}hit"), Signal(age_bits(len(held.tags)), name=f"{name}hit_way")
-    hit_terms, way_terms = 0, 0
-    for t, (h, w) in enumerate(outs):
-        hit_terms, way_terms = hit_terms | (sel[t] & h), way_terms | Mux(sel[t], w, 0)
-    m.d.comb += [hit.eq(hit_terms), way.eq(way_terms)]
+    m.d.comb += [hit.eq(one_hot_pick(sel, [h for h, _ in outs])), way.eq(one_hot_pick(sel, [w for _, w in outs]))]
     return hit, way
 
 

@@ -155,7 +155,7 @@ def rows_coherent(h: Harness, s, p: TexCacheParams):
                 h.check(~s(valid) | (s(f"{prefix}same{q}_{j}") == (set_ == s(f"{prefix}set{j}"))),
                         f"{prefix}same{q}_{j}_is_sets")
             held = row_word(*([s(f"{prefix}row_{field}{q}_{w}") for w in range(n)]
-                              for field, n in (("tag", W), ("valid", W), ("age", states))))
+                              for field, n in (("tag", W), ("valid", W), ("state", states))))
             ok = ok & (held == table[set_])
         h.check(~s(valid) | ok, f"{prefix}rows_coherent")
     # the step's write, pending a clock: at most one corner's row a set, its one-hot set its set's, and each held
@@ -183,7 +183,7 @@ def rows_coherent(h: Harness, s, p: TexCacheParams):
     # over them, across corners and across the two stages
     def eff(prefix, q):
         return row_word(*([s(f"{prefix}{q}_{field}{w}") for w in range(n)]
-                          for field, n in (("tag", W), ("valid", W), ("age", states))))
+                          for field, n in (("tag", W), ("valid", W), ("state", states))))
     for q in range(4):
         for j in range(4):
             if j < q:

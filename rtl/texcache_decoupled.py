@@ -117,10 +117,10 @@ class DecoupledTexCache(StepControl, wiring.Component):
     channels only), ``busy`` (a lookup or a fill anywhere inside).
 
     The **step write** stage (``docs/texcache.md``): a step's write -- per corner whether it writes, its set (and
-    one-hot set) and its new row (tags, valid bits, LRU ages or the round-robin pointer) -- goes into registers
+    one-hot set) and its new row (tags, valid bits, LRU state or the round-robin pointer) -- goes into registers
     (``wp_*``, :func:`rtl.texcache_stepwrite.step_write`) and is applied in the next clock, from those registers, to
     the tag store's LUT RAMs and to every held row of the prefetch and tag stages in its set. So the step's victim
-    and new row (from a held row's valid bits and ages) end in its own corner's registers, not in the held rows of
+    and new row (from a held row's valid bits and LRU state) end in its own corner's registers, not in the held rows of
     the other corners of the same set, the prefetch stage's rows and the store's write ports. In the clock the write
     waits, the held rows and the store are a clock behind; whatever reads a row then reads it with the pending write
     over it (:func:`rtl.texcache_stepwrite.overlay`: the pending row of the corner that wrote its set, else the held
@@ -284,7 +284,7 @@ class DecoupledTexCache(StepControl, wiring.Component):
             cq.hot = Signal(P.sets, name=f"{prefix}hot{q}")  # the set, one-hot (the store's enables: wp_hot)
             cq.tags = [Signal(self.line_bits, name=f"{prefix}row_tag{q}_{w}") for w in range(P.ways)]
             cq.valids = [Signal(name=f"{prefix}row_valid{q}_{w}") for w in range(P.ways)]
-            cq.ages = [Signal(state_bits(P), name=f"{prefix}row_age{q}_{w}") for w in range(row_states(P))]
+            cq.states = [Signal(state_bits(P), name=f"{prefix}row_state{q}_{w}") for w in range(row_states(P))]
         h.same = {(q, j): Signal(name=f"{prefix}same{q}_{j}") for q in range(4) for j in range(q)}
         return h
 
@@ -344,7 +344,7 @@ class DecoupledTexCache(StepControl, wiring.Component):
             # round robin: the ways of this corner's set that earlier steps of the lookup used (its victim skips them)
             used = [sum((k > j) & ~c[j].dup & same[q, j] & (way_reg[j] == v) for j in range(q)) != 0 if q else Const(0)
                     for v in range(W)] if rr else None
-            c[q].victim = victim(m, P, eff[q].valids, eff[q].ages, used, f"c{q}_")
+            c[q].victim = victim(m, P, eff[q].valids, eff[q].states, used, f"c{q}_")
         live = self._live(m, c, req, lambda q: q >= k, "live")  # distinct and not yet checked
         upd, mq = Signal(name="upd"), Signal(2, name="mq")     # round robin: corner mq's fill is this step
         if rr:
@@ -387,7 +387,7 @@ class DecoupledTexCache(StepControl, wiring.Component):
                                                        allin=ahead.allin_next, k=k_next,
                                                        step_miss=ahead.step_miss_next, inflight=f.inflight_next))
         new = new_rows(m, P, self.line_bits, [SimpleNamespace(line=c[q].line, tags=eff[q].tags, valids=eff[q].valids,
-                                                             ages=eff[q].ages, hit=c[q].hit, victim=c[q].victim)
+                                                             states=eff[q].states, hit=c[q].hit, victim=c[q].victim)
                                               for q in range(4)], way_now)
         stored = tag_store(m, P, self.line_bits, wp, [wp[j].en for j in range(4)], [wp[j].row for j in range(4)],
                            platform, read_sets=[nc[q].set for q in range(4)], load=ififo.r_en,

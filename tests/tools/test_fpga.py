@@ -434,3 +434,19 @@ def test_the_flows_yosys_script_keeps_the_flip_flop_copies(tmp_path):
         stat = json.loads((tmp_path / f"{name}.json").read_text())
         flip_flops[name] = stat["modules"]["\\top"]["num_cells_by_type"].get("TRELLIS_FF", 0)
     assert flip_flops == {"flow": 24, "plain": 8}
+
+
+def test_make_fpga_places_a_scenes_engine_with_its_maps_outside_when_asked():
+    """``make fpga SCENE=berlin-wall MAPS=sdram`` places the Berlin wall's engine with its maps behind the texel
+    caches (``--textures``); without a scene ``MAPS`` changes nothing (every unit and preset)."""
+    from fxmodel.core.paths import ROOT
+
+    def dry(*args):
+        out = subprocess.run(["make", "-n", "fpga", *args], cwd=ROOT, capture_output=True, text=True, check=True)
+        (line,) = [x for x in out.stdout.splitlines() if " fpga " in x]
+        return line.split()
+
+    assert dry("SCENE=berlin-wall", "MAPS=sdram")[-5:] == ["--scene", "berlin-wall", "--preset", "default",
+                                                           "--textures"]
+    assert "--textures" not in dry("MAPS=sdram") and "--scene" not in dry("MAPS=sdram")
+    assert "--textures" not in dry("SCENE=berlin-wall")

@@ -23,7 +23,8 @@ ROUTER   ?= router1
 BOARD    ?= ulx3s
 FRAME    ?=
 FRAME_ARG = $(if $(FRAME),--frame $(FRAME))
-# MAPS=sdram: the board's bump map and color texture in SDRAM behind the engine's texel caches (--textures)
+# MAPS=sdram: the board's bump map and color texture in SDRAM behind the engine's texel caches (--textures); with
+# SCENE, `make fpga` places that engine (SCENE=berlin-wall MAPS=sdram: the Berlin wall at its full resolution)
 MAPS     ?=
 MAPS_ARG  = $(if $(filter sdram,$(MAPS)),--textures)
 # PRESET or SCENE given on the command line or in the environment: `make verilog` and `make fpga` build the pixel
@@ -104,7 +105,7 @@ bench: setup
 	$(BUMPMAP) bench --docs
 
 fpga: setup
-	$(BUMPMAP) fpga --jobs $(JOBS) --router $(ROUTER) $(SCENE_ARGS)
+	$(BUMPMAP) fpga --jobs $(JOBS) --router $(ROUTER) $(SCENE_ARGS) $(if $(SCENE_ARGS),$(MAPS_ARG))
 
 bitstream: setup
 	@test "$(BOARD)" = ulx3s || { echo "BOARD=$(BOARD): the board top exists for ulx3s only" >&2; exit 2; }

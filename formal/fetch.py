@@ -29,6 +29,7 @@ from fxmodel.units.texcache import Layout, TexCacheParams
 from rtl.texcache_decoupled import AFTER, HELD, INPUT_DEPTH, DecoupledTexCache
 from rtl.texcache_tags import row_states, row_word
 from rtl.texfetch import MAPS, TexFetch
+from rtl.unit import COPY_SUFFIX
 
 from . import whitebox
 from .axiread import LenQueue
@@ -93,6 +94,12 @@ def cache_invariants(h: Harness, sig, top, path: str, cache, pend, beat_ref, ins
         h.check((s("lfifo_inner") == sig("inner_level", f"{path}/lfifo".strip("/"))) & (s("lfifo_room") == lfifo.w_rdy),
                 "lfifo_room_is_w_rdy")
         h.check(slots.r_rdy | ((slots.level == arq.level) & ~arq.r_rdy), "slot_queue_ahead")
+        # the input FIFO's output register holds the corners' sets of the lookup it holds (rtl.streams
+        # TailFIFOBuffered), the sets the set stage loads
+        h.check(~ififo.r_rdy | (ififo.r_tail == Cat(*(s(f"f_set{q}") for q in range(4)))), "ififo_tail")
+        # the prefetch stage's line copies, one per compare term, are its lines (loaded together)
+        h.check(Cat(*(s(f"p_line{q}_t{t}{COPY_SUFFIX}") == s(f"p_line{q}") for q in range(4) for t in range(5))).all(),
+                "p_line_copies")
         h.check(inflight == arq.level + pend + filled, "owed_lines")
         h.check(inflight <= p.misses, "owed_bound")
         h.check(slots.level == inflight, "slot_queue")
@@ -148,7 +155,7 @@ def rows_coherent(h: Harness, s, p: TexCacheParams):
                 h.check(~s(valid) | (s(f"{prefix}same{q}_{j}") == (set_ == s(f"{prefix}set{j}"))),
                         f"{prefix}same{q}_{j}_is_sets")
             held = row_word(*([s(f"{prefix}row_{field}{q}_{w}") for w in range(n)]
-                              for field, n in (("tag", W), ("valid", W), ("age", states))))
+                              for field, n in (("tag", W), ("valid", W), ("state", states))))
             ok = ok & (held == table[set_])
         h.check(~s(valid) | ok, f"{prefix}rows_coherent")
     # the step's write, pending a clock: at most one corner's row a set, its one-hot set its set's, and each held
@@ -176,7 +183,7 @@ def rows_coherent(h: Harness, s, p: TexCacheParams):
     # over them, across corners and across the two stages
     def eff(prefix, q):
         return row_word(*([s(f"{prefix}{q}_{field}{w}") for w in range(n)]
-                          for field, n in (("tag", W), ("valid", W), ("age", states))))
+                          for field, n in (("tag", W), ("valid", W), ("state", states))))
     for q in range(4):
         for j in range(4):
             if j < q:

@@ -34,14 +34,14 @@ from types import SimpleNamespace
 
 from amaranth.hdl import Assert, Module, Mux, Signal
 from amaranth.lib import data, memory, stream, wiring
-from amaranth.lib.fifo import SyncFIFO
+from amaranth.lib.fifo import SyncFIFO, SyncFIFOBuffered
 from amaranth.lib.wiring import In, Out
 
 from .fixed import shape
 from .unit import Pipe, build
 
 __all__ = ["payload_layout", "input_layout", "output_layout", "StreamUnit", "buffer_depth", "CreditFIFO",
-           "less_one_if"]
+           "less_one_if", "TailFIFOBuffered"]
 
 def buffer_depth(params, in_stages: int = 0) -> int:
     """Results the output FIFO holds: one per pipeline stage (``in_stages`` input registers included) and one more,
@@ -108,6 +108,38 @@ def buffered_room(m, fifo, depth: int, w, name: str):
         m.d.sync += inner.eq(inner - 1)
     m.d.sync += room.eq(Mux(after.read, after.if_read, after.if_not))
     return room, after
+
+
+class TailFIFOBuffered(SyncFIFOBuffered):
+    """Amaranth's ``SyncFIFOBuffered`` (its ports, its timing, clock for clock; depth at least 2) whose output
+    register also holds ``r_tail``: ``tail(word)`` of the word it holds (``tail_width`` bits), computed as the word
+    leaves the inner FIFO for the output register, so that a reader has a function of the word from flip-flops,
+    not through that function's logic (the texel cache's corner sets from its input FIFO's output:
+    :mod:`rtl.texcache_decoupled`). The inner FIFO holds the words alone; ``r_tail`` is current whenever
+    ``r_rdy``, which a proof can state from registers alone (``formal/fetch.py``, ``ififo_tail``), where a tail
+    carried through the FIFO's memory would need every slot's contents. Its inner level is named ``inner_level``,
+    as in ``SyncFIFOBuffered`` (:func:`buffered_room`, the formal sets)."""
+
+    def __init__(self, *, width: int, depth: int, tail, tail_width: int):
+        if depth < 2:
+            raise ValueError(f"TailFIFOBuffered: depth {depth} must be at least 2 (an inner FIFO and the register)")
+        super().__init__(width=width, depth=depth)
+        self.tail, self.r_tail = tail, Signal(tail_width, name="r_tail")
+
+    def elaborate(self, platform):
+        m = Module()
+        m.submodules.inner = inner = SyncFIFO(width=self.width, depth=self.depth - 1)
+        inner_level = Signal(range(self.depth), name="inner_level")
+        load = Signal(name="load")                    # the inner FIFO's read: the output register takes its word
+        m.d.comb += [inner_level.eq(inner.level), self.w_rdy.eq(inner.w_rdy), inner.w_en.eq(self.w_en),
+                     inner.w_data.eq(self.w_data), load.eq(inner.r_rdy & (~self.r_rdy | self.r_en)),
+                     inner.r_en.eq(load), self.level.eq(inner_level + self.r_rdy),
+                     self.w_level.eq(self.level), self.r_level.eq(self.level)]
+        with m.If(load):
+            m.d.sync += [self.r_data.eq(inner.r_data), self.r_tail.eq(self.tail(inner.r_data)), self.r_rdy.eq(1)]
+        with m.Elif(self.r_en):
+            m.d.sync += self.r_rdy.eq(0)
+        return m
 
 
 class _Core(wiring.Component):

@@ -8,8 +8,9 @@ request names one by its index). Organisation (``docs/texcache.md``):
 
 - **Input FIFO** (:data:`INPUT_DEPTH` lookups): ``i.ready`` is a register, so a stall does not travel up the
   stream in the clock the tag stage decides it.
-- **Set stage**: the next lookup with its corners' lines and sets, computed from the FIFO's output register, in
-  registers, so that the sets address the tag store from flip-flops.
+- **Set stage**: the next lookup with its corners' lines (computed from the FIFO's output register) and sets
+  (computed as the lookup enters the FIFO, and carried in it), in registers, so that the sets address the tag
+  store from flip-flops.
 - **Prefetch stage**: the next lookup, its corners' lines and sets, each corner's set's row read from the tag
   store (:mod:`rtl.texcache_tags`, LUT RAM) and the compares of those rows with the lines, all in registers, the
   rows kept equal to the store while it waits.
@@ -64,16 +65,17 @@ from fxmodel.units.texcache import Layout, TexCacheParams
 from rtl.rop import axi_signature
 
 from .bram import RegisteredMemory
+from .streams import TailFIFOBuffered
 from .texcache_step import StepControl
 from .texcache_stepwrite import compare_over, held_rows, step_write
 from .texcache_tags import age_bits, compare, new_rows, row_states, state_bits, tag_store, victim
-from .unit import with_next
+from .unit import COPY_SUFFIX, with_next
 
 __all__ = ["DecoupledTexCache", "request_layout", "INPUT_DEPTH", "HELD", "AFTER"]
 
-#: Lookups the input FIFO holds: Amaranth's ``SyncFIFOBuffered`` (registered ``w_rdy`` and output) takes one a
-#: clock from depth 3 (its inner FIFO of 2 has room while one entry leaves; at depth 2 it would take one every
-#: other clock).
+#: Lookups the input FIFO holds: a ``SyncFIFOBuffered`` (registered ``w_rdy`` and output; here
+#: :class:`rtl.streams.TailFIFOBuffered`, the corners' sets in its output register) takes one a clock from depth 3
+#: (its inner FIFO of 2 has room while one entry leaves; at depth 2 it would take one every other clock).
 INPUT_DEPTH = 3
 
 #: Lookups held in registers between the input FIFO and the lookup FIFO: the set stage's (the next lookup with its
@@ -115,10 +117,10 @@ class DecoupledTexCache(StepControl, wiring.Component):
     channels only), ``busy`` (a lookup or a fill anywhere inside).
 
     The **step write** stage (``docs/texcache.md``): a step's write -- per corner whether it writes, its set (and
-    one-hot set) and its new row (tags, valid bits, LRU ages or the round-robin pointer) -- goes into registers
+    one-hot set) and its new row (tags, valid bits, LRU state or the round-robin pointer) -- goes into registers
     (``wp_*``, :func:`rtl.texcache_stepwrite.step_write`) and is applied in the next clock, from those registers, to
     the tag store's LUT RAMs and to every held row of the prefetch and tag stages in its set. So the step's victim
-    and new row (from a held row's valid bits and ages) end in its own corner's registers, not in the held rows of
+    and new row (from a held row's valid bits and LRU state) end in its own corner's registers, not in the held rows of
     the other corners of the same set, the prefetch stage's rows and the store's write ports. In the clock the write
     waits, the held rows and the store are a clock behind; whatever reads a row then reads it with the pending write
     over it (:func:`rtl.texcache_stepwrite.overlay`: the pending row of the corner that wrote its set, else the held
@@ -240,18 +242,28 @@ class DecoupledTexCache(StepControl, wiring.Component):
 
     def _input_stage(self, m):
         """The input FIFO and a register stage after it (``s_valid``) that holds the next lookup with its corner
-        lines and sets (:meth:`_lines`, computed from the FIFO's output register): ``(ififo, s_valid, nreq, nc,
-        nsame)``, so that the sets address the tag store from flip-flops (each corner's ``next_set``: the set the
-        stage loads, for the tag store's live-value table read a clock early); the duplicates and equal sets
-        (:meth:`_relations`) are compared there."""
-        m.submodules.ififo = ififo = SyncFIFOBuffered(width=self.req.size, depth=INPUT_DEPTH)
+        lines and sets: ``(ififo, s_valid, nreq, nc, nsame)``, so that the sets address the tag store from
+        flip-flops (each corner's ``next_set``: the set the stage loads, for the tag store's live-value table read
+        a clock early); the duplicates and equal sets (:meth:`_relations`) are compared there. The lines are
+        computed from the FIFO's output register (:meth:`_lines`); the sets as the lookup enters that register,
+        which holds them beside it (:class:`rtl.streams.TailFIFOBuffered`), so that ``next_set`` is a register
+        itself: it selects a table entry of every set, through the forwarding, into the read ports' registers (the
+        Berlin wall engine's caches missed their target there, from the FIFO's output through the XOR index)."""
+        def corner_sets(word):
+            return Cat(*(set_ for _, set_ in self.corner_lines(self.req(word))))
+
+        sb = len(self.corner_lines(self.req(Const(0, self.req.size)))[0][1])
+        m.submodules.ififo = ififo = TailFIFOBuffered(width=self.req.size, depth=INPUT_DEPTH, tail=corner_sets,
+                                                      tail_width=4 * sb)
         m.d.comb += [ififo.w_en.eq(self.i.valid), ififo.w_data.eq(self.i.payload), self.i.ready.eq(ififo.w_rdy)]
         freq = Signal(self.req, name="freq")
         m.d.comb += freq.eq(ififo.r_data)
         fc = self._lines(m, freq, "f_")
+        for q in range(4):      # the sets the register took with the lookup: the lines' (formal ``ififo_tail``)
+            fc[q].set = ififo.r_tail[q * sb:(q + 1) * sb]
         s_valid, nreq = Signal(name="s_valid"), Signal(self.req, name="nreq")
         nc = [SimpleNamespace(line=Signal.like(fc[q].line, name=f"nline{q}"),
-                              set=Signal.like(fc[q].set, name=f"nset{q}"), next_set=fc[q].set) for q in range(4)]
+                              set=Signal(sb, name=f"nset{q}"), next_set=fc[q].set) for q in range(4)]
         with m.If(ififo.r_en):
             m.d.sync += [s_valid.eq(ififo.r_rdy), nreq.eq(freq)]
             m.d.sync += [x.eq(y) for q in range(4) for x, y in ((nc[q].line, fc[q].line), (nc[q].set, fc[q].set))]
@@ -272,7 +284,7 @@ class DecoupledTexCache(StepControl, wiring.Component):
             cq.hot = Signal(P.sets, name=f"{prefix}hot{q}")  # the set, one-hot (the store's enables: wp_hot)
             cq.tags = [Signal(self.line_bits, name=f"{prefix}row_tag{q}_{w}") for w in range(P.ways)]
             cq.valids = [Signal(name=f"{prefix}row_valid{q}_{w}") for w in range(P.ways)]
-            cq.ages = [Signal(state_bits(P), name=f"{prefix}row_age{q}_{w}") for w in range(row_states(P))]
+            cq.states = [Signal(state_bits(P), name=f"{prefix}row_state{q}_{w}") for w in range(row_states(P))]
         h.same = {(q, j): Signal(name=f"{prefix}same{q}_{j}") for q in range(4) for j in range(q)}
         return h
 
@@ -319,7 +331,10 @@ class DecoupledTexCache(StepControl, wiring.Component):
         # the outcomes: the prefetch stage's compares (term by term, under the pending write); the tag stage's,
         # registered, and whether they are current
         for q in range(4):
-            pre.c[q].hit, pre.c[q].hit_way = compare_over(m, pre.c[q], wp, sw.pfw[q], pre.c[q].line, f"p_{q}_")
+            # the line in a register per compare term, loaded with it (each beside its comparators: the line
+            # register's fan-out spread them over the cache, the first hop of the Berlin wall engine's slowest path)
+            pre.c[q].lines = [Signal.like(pre.c[q].line, name=f"p_line{q}_t{t}{COPY_SUFFIX}") for t in range(5)]
+            pre.c[q].hit, pre.c[q].hit_way = compare_over(m, pre.c[q], wp, sw.pfw[q], pre.c[q].lines, f"p_{q}_")
             c[q].cmp_hit, c[q].cmp_way = compare(m, eff[q].tags, eff[q].valids, c[q].line, f"t_{q}_")
             c[q].hit, c[q].hit_way = Signal(name=f"hit{q}"), Signal(wb, name=f"hit_way{q}")
         hits_ok = Signal(name="hits_ok")
@@ -329,7 +344,7 @@ class DecoupledTexCache(StepControl, wiring.Component):
             # round robin: the ways of this corner's set that earlier steps of the lookup used (its victim skips them)
             used = [sum((k > j) & ~c[j].dup & same[q, j] & (way_reg[j] == v) for j in range(q)) != 0 if q else Const(0)
                     for v in range(W)] if rr else None
-            c[q].victim = victim(m, P, eff[q].valids, eff[q].ages, used, f"c{q}_")
+            c[q].victim = victim(m, P, eff[q].valids, eff[q].states, used, f"c{q}_")
         live = self._live(m, c, req, lambda q: q >= k, "live")  # distinct and not yet checked
         upd, mq = Signal(name="upd"), Signal(2, name="mq")     # round robin: corner mq's fill is this step
         if rr:
@@ -343,6 +358,7 @@ class DecoupledTexCache(StepControl, wiring.Component):
         with m.If(p_load):
             self._load(m, pre, SimpleNamespace(req=nreq, c=nc, same=nsame),
                        [Const(1, P.sets) << nc[q].set for q in range(4)])
+            m.d.sync += [x.eq(nc[q].line) for q in range(4) for x in pre.c[q].lines]
         with m.Elif(accept):
             m.d.comb += pre.valid_next.eq(0)
         self._advance(m, (pre, t), (fire, accept, last, step_miss),
@@ -371,7 +387,7 @@ class DecoupledTexCache(StepControl, wiring.Component):
                                                        allin=ahead.allin_next, k=k_next,
                                                        step_miss=ahead.step_miss_next, inflight=f.inflight_next))
         new = new_rows(m, P, self.line_bits, [SimpleNamespace(line=c[q].line, tags=eff[q].tags, valids=eff[q].valids,
-                                                             ages=eff[q].ages, hit=c[q].hit, victim=c[q].victim)
+                                                             states=eff[q].states, hit=c[q].hit, victim=c[q].victim)
                                               for q in range(4)], way_now)
         stored = tag_store(m, P, self.line_bits, wp, [wp[j].en for j in range(4)], [wp[j].row for j in range(4)],
                            platform, read_sets=[nc[q].set for q in range(4)], load=ififo.r_en,

@@ -14,48 +14,52 @@ from fxmodel.units.texcache import TexCacheParams
 
 from .texcache_tags import age_bits, compare, row_states, state_bits
 
-__all__ = ["step_write", "overlay", "compare_over", "held_rows"]
+__all__ = ["step_write", "one_hot_pick", "overlay", "compare_over", "held_rows"]
+
+
+def one_hot_pick(sel, values):
+    """The value whose select is set, of one-hot selects ``sel``: an AND-OR of the terms, not a chain of
+    multiplexers (zero when none is set)."""
+    out = 0
+    for t, v in enumerate(values):
+        out = out | Mux(sel[t], v, 0)
+    return out
 
 
 def overlay(m, held, wp, sel, name: str) -> SimpleNamespace:
-    """A held row (``tags``, ``valids``, ``ages``) with the pending write ``wp`` over it: the row of the pending
+    """A held row (``tags``, ``valids``, ``states``) with the pending write ``wp`` over it: the row of the pending
     corner ``j`` that ``sel[j]`` names, else (``sel[4]``) the held row; the selects are one-hot (formal invariants
-    ``fw*`` for the registered ones), so this is an AND-OR of five terms, not a chain of multiplexers."""
+    ``fw*`` for the registered ones), so this is :func:`one_hot_pick` of five terms."""
     out = SimpleNamespace()
-    for field in ("tags", "valids", "ages"):
+    for field in ("tags", "valids", "states"):
         sigs = []
         for v, x in enumerate(getattr(held, field)):
             y = Signal.like(x, name=f"{name}{field[:-1]}{v}")
-            terms = Mux(sel[4], x, 0)
-            for j in range(4):
-                terms = terms | Mux(sel[j], getattr(wp[j], field)[v], 0)
-            m.d.comb += y.eq(terms)
+            m.d.comb += y.eq(one_hot_pick(sel, [getattr(wp[j], field)[v] for j in range(4)] + [x]))
             sigs.append(y)
         setattr(out, field, sigs)
     return out
 
 
-def compare_over(m, held, wp, sel, line, name: str) -> tuple:
+def compare_over(m, held, wp, sel, lines, name: str) -> tuple:
     """``(hit, way)`` of :func:`rtl.texcache_tags.compare` on the held row with the pending write over it
     (:func:`overlay` with the one-hot selects ``sel``), taken term by term: each pending row and the held row are
-    compared with ``line`` from their registers, and the selects pick the outcome at the last level instead of
-    the row at the first. Equal whenever the selects are one-hot (formal invariants ``fw*``); the selects, from
-    across the cache, then meet the compare's end, not its start (the prefetch stage's compares lead into the
-    step's decision a clock ahead and its firing: ``docs/texcache.md``)."""
-    outs = [compare(m, w.tags, w.valids, line, f"{name}w{j}_") for j, w in enumerate(wp)]
-    outs.append(compare(m, held.tags, held.valids, line, f"{name}h_"))
+    compared with the line from registers (``lines``: a copy of it per term, the four pending rows' then the held
+    row's), and the selects pick the outcome at the last level instead of the row at the first. Equal whenever the
+    selects are one-hot (formal invariants ``fw*``); the selects, from across the cache, then meet the compare's
+    end, not its start (the prefetch stage's compares lead into the step's decision a clock ahead and its firing:
+    ``docs/texcache.md``)."""
+    outs = [compare(m, w.tags, w.valids, lines[j], f"{name}w{j}_") for j, w in enumerate(wp)]
+    outs.append(compare(m, held.tags, held.valids, lines[4], f"{name}h_"))
     hit, way = Signal(name=f"{name}hit"), Signal(age_bits(len(held.tags)), name=f"{name}hit_way")
-    hit_terms, way_terms = 0, 0
-    for t, (h, w) in enumerate(outs):
-        hit_terms, way_terms = hit_terms | (sel[t] & h), way_terms | Mux(sel[t], w, 0)
-    m.d.comb += [hit.eq(hit_terms), way.eq(way_terms)]
+    m.d.comb += [hit.eq(one_hot_pick(sel, [h for h, _ in outs])), way.eq(one_hot_pick(sel, [w for _, w in outs]))]
     return hit, way
 
 
 def step_write(m, params: TexCacheParams, line_bits: int, c, pre, nc) -> SimpleNamespace:
     """The step's write, pending a clock (``wp``: per corner whether it writes, ``en``; its set, ``set``, one-hot
     ``hot``; the row it writes, ``row``: tags, valid bits, replacement state, also as ``tags``, ``valids``,
-    ``ages``), the registers that select which pending row each held row takes (``fw`` for the tag stage's corners
+    ``states``), the registers that select which pending row each held row takes (``fw`` for the tag stage's corners
     ``c``, ``pfw`` for the prefetch stage's ``pre.c``; the last select: none), and the held rows with the pending
     write over them (``eff``, ``peff``: :func:`overlay`)."""
     P = params
@@ -65,8 +69,8 @@ def step_write(m, params: TexCacheParams, line_bits: int, c, pre, nc) -> SimpleN
                             hot=Signal(P.sets, name=f"wp_hot{j}"))
         w.tags = [Signal(line_bits, name=f"wp_tag{j}_{v}") for v in range(P.ways)]
         w.valids = [Signal(name=f"wp_valid{j}_{v}") for v in range(P.ways)]
-        w.ages = [Signal(state_bits(P), name=f"wp_age{j}_{v}") for v in range(row_states(P))]
-        w.row = (w.tags, w.valids, w.ages)
+        w.states = [Signal(state_bits(P), name=f"wp_state{j}_{v}") for v in range(row_states(P))]
+        w.row = (w.tags, w.valids, w.states)
         wp.append(w)
     fw = [[Signal(name=f"fw{q}_{j}") for j in range(5)] for q in range(4)]
     pfw = [[Signal(name=f"p_fw{q}_{j}") for j in range(5)] for q in range(4)]
@@ -92,7 +96,7 @@ def held_rows(m, params: TexCacheParams, sw, c, pre, nc, same, wr, new, p_load, 
     def assign(dst, row):
         m.d.sync += [dst.tags[v].eq(row.tags[v]) for v in range(W)]
         m.d.sync += [dst.valids[v].eq(row.valids[v]) for v in range(W)]
-        m.d.sync += [dst.ages[v].eq(row.ages[v]) for v in range(len(row.ages))]
+        m.d.sync += [dst.states[v].eq(row.states[v]) for v in range(len(row.states))]
 
     def selects(regs, hits):                                 # registers of one-hot selects from this clock's writes
         for j in range(4):
@@ -107,7 +111,7 @@ def held_rows(m, params: TexCacheParams, sw, c, pre, nc, same, wr, new, p_load, 
         selects(sw.pfw[q], [wr[j] & Mux(p_load, c[j].set == nc[q].set, c[j].set == pc.set)   # p_load selects last
                             for j in range(4)])
         to_next = [wp[j].en & (wp[j].set == nc[q].set) for j in range(4)]   # the pending write to the next set
-        loaded = overlay(m, SimpleNamespace(tags=stored[q][0], valids=stored[q][1], ages=stored[q][2]), wp,
+        loaded = overlay(m, SimpleNamespace(tags=stored[q][0], valids=stored[q][1], states=stored[q][2]), wp,
                          to_next + [~sum(to_next).bool()], f"ld{q}_")
         with m.If(p_load):
             assign(pc, loaded)

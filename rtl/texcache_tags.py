@@ -54,9 +54,10 @@ def older(states, ways: int, a: int, b: int):
     return states[k] if a < b else ~states[k]
 
 
-def row_word(tags, valids, ages):
-    """A set's row as one word of the tag store: its ways' tags, then their valid bits, then their ages."""
-    return Cat(*tags, *valids, *ages)
+def row_word(tags, valids, states):
+    """A set's row as one word of the tag store: its ways' tags, then their valid bits, then its replacement state
+    (:func:`row_states` fields)."""
+    return Cat(*tags, *valids, *states)
 
 
 def row_fields(word, ways: int, line_bits: int, states: int, wb: int) -> tuple[list, list, list]:
@@ -106,12 +107,12 @@ def victim(m, params: TexCacheParams, valids, states, used, name: str):
 
 
 def new_rows(m, params: TexCacheParams, line_bits: int, c, way_now) -> list:
-    """Each corner's row after its check (``c[q]``: ``line, tags, valids, ages, hit, victim``): on a miss, the
+    """Each corner's row after its check (``c[q]``: ``line, tags, valids, states, hit, victim``): on a miss, the
     victim's tag and valid bit; the replacement state of LRU (the way used, ``way_now[q]``, becomes the youngest,
     the others keep their order: a pair's bit from its own value and the way used, :func:`lru_pairs`) or of round
     robin (a fill moves the pointer past its way). Round robin writes a row only in a fill (a hit changes none), so
     its new row is the fill's, from the held row and the victim alone. ``[(tags, valids, state)]`` per corner
-    (``c[q].ages``: the held row's state fields)."""
+    (``c[q].states``: the held row's state fields)."""
     W = params.ways
     wb = age_bits(W)
     rr = params.replacement == "fifo"
@@ -127,7 +128,7 @@ def new_rows(m, params: TexCacheParams, line_bits: int, c, way_now) -> list:
             continue
         states = [Signal(name=f"new_older{q}_{i}_{j}") for i, j in lru_pairs(W)]
         for k, (i, j) in enumerate(lru_pairs(W)):     # the way used becomes younger than every other
-            m.d.comb += states[k].eq(Mux(way_now[q] == i, 0, Mux(way_now[q] == j, 1, c[q].ages[k])))
+            m.d.comb += states[k].eq(Mux(way_now[q] == i, 0, Mux(way_now[q] == j, 1, c[q].states[k])))
         out.append((tags, valids, states))
     return out
 

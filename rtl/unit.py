@@ -57,9 +57,11 @@ class UnitComponent(wiring.Component):
 #: :data:`KEEP_COPIES`.
 COPY_SUFFIX = "_kept_copy"
 
-#: The Yosys command (run right after reading the design, before any optimisation) that marks the cells driving
-#: the copies (:data:`COPY_SUFFIX`) ``keep`` (``%a``: Amaranth's RTLIL may name the register's output after a
-#: port it drives, the copy's name an alias of it).
+#: The Yosys command (run after reading the design, before any optimisation) that marks the cells driving the
+#: copies (:data:`COPY_SUFFIX`) ``keep`` (``%a``: Amaranth's RTLIL may name the register's output after a port
+#: it drives, the copy's name an alias of it). The registers must be cells by then: Amaranth's RTLIL makes them
+#: so; a design read from Verilog is elaborated first (``hierarchy``, ``proc``: ``tools.fpga.SYNTH_SCRIPT``), or
+#: the selection is empty and every copy merged.
 KEEP_COPIES = f"setattr -set keep 1 w:*{COPY_SUFFIX} %a %ci1 t:* %i"
 
 

@@ -16,7 +16,7 @@ from pathlib import Path
 
 from fxmodel.core.paths import ROOT
 
-from .fpga_report import describe_path
+from .fpga_report import describe_path, flow_caption
 from .record import RECORDS, read
 
 __all__ = ["provenance", "quickstart", "timed_commands", "scene_results", "triangle_results", "scenes_stress",
@@ -311,12 +311,7 @@ def fpga_placement(name: str = "placement", design: str = "--unit engine --scene
     flow = r.get("flow", {})
     misses = "".join(f"\n{misses_tables(d['misses'])}" for d in r["designs"] if d.get("misses"))
     return (md_table(head, rows, ["---"] + ["---:"] * 2 + ["---"] + ["---:"] * 4 + ["---"])
-            + f"\n*nextpnr {flow.get('router', '') if flow.get('route', True) else 'placement alone (--no-route)'}"
-            f"{', timing-driven rip-up' if flow.get('tmg_ripup') and flow.get('route', True) else ''}, "
-            + "".join(f"placer {what} {flow[key]}, " for key, what in (("timing_weight", "timing weight"),
-                                                                        ("crit_exp", "criticality exponent"))
-                      if flow.get(key) is not None)
-            + f"seed {flow.get('seed', '')}.* " + provenance(record, path) + misses)
+            + f"\n*{flow_caption(flow)}.* " + provenance(record, path) + misses)
 
 
 # -- speed and design space ------------------------------------------------------------------------------------

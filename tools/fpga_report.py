@@ -20,7 +20,23 @@ from host.atomic import atomic_json
 __all__ = ["parse_results", "parse_run", "placement_fmax", "critical_path_summary", "describe_path", "route_seconds",
            "markdown_table",
            "params_digest", "design_key", "compare_routers", "KNOWN_DIFFERENCES", "record_resources", "RESOURCES",
-           "tool_versions"]
+           "tool_versions", "PLACER_OPTIONS", "flow_caption"]
+
+#: The placer's weights of :class:`tools.fpga.Flow`: their nextpnr options and the words the records' captions
+#: give them (:func:`flow_caption`).
+PLACER_OPTIONS = {"timing_weight": "--placer-heap-timingweight", "crit_exp": "--placer-heap-critexp"}
+_PLACER_WORDS = {"timing_weight": "timing weight", "crit_exp": "criticality exponent"}
+
+
+def flow_caption(flow: dict) -> str:
+    """The flow of a placement record in words, for its table's caption: nextpnr's router (or placement alone),
+    its timing-driven rip-up, the placer's weights when set, the seed."""
+    route = flow.get("route", True)
+    words = [f"nextpnr {flow.get('router', '') if route else 'placement alone (--no-route)'}"]
+    if flow.get("tmg_ripup") and route:
+        words.append("timing-driven rip-up")
+    words += [f"placer {_PLACER_WORDS[key]} {flow[key]}" for key in PLACER_OPTIONS if flow.get(key) is not None]
+    return ", ".join(words + [f"seed {flow.get('seed', '')}"])
 
 #: The committed record of synthesized MULT18X18D / DP16KD counts (``--record``; ``tests/fxmodel/core/test_cost.py``).
 RESOURCES = ROOT / "docs" / "fpga" / "resources.json"

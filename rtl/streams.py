@@ -32,7 +32,7 @@ from __future__ import annotations
 
 from types import SimpleNamespace
 
-from amaranth.hdl import Assert, Module, Mux, Signal
+from amaranth.hdl import Assert, Module, Mux, Signal, Value
 from amaranth.lib import data, memory, stream, wiring
 from amaranth.lib.fifo import SyncFIFO, SyncFIFOBuffered
 from amaranth.lib.wiring import In, Out
@@ -112,19 +112,21 @@ def buffered_room(m, fifo, depth: int, w, name: str):
 
 class TailFIFOBuffered(SyncFIFOBuffered):
     """Amaranth's ``SyncFIFOBuffered`` (its ports, its timing, clock for clock; depth at least 2) whose output
-    register also holds ``r_tail``: ``tail(word)`` of the word it holds (``tail_width`` bits), computed as the word
-    leaves the inner FIFO for the output register, so that a reader has a function of the word from flip-flops,
+    register also holds ``r_tail``: ``tail(word)`` of the word it holds (as wide as ``tail`` makes it), computed
+    as the word leaves the inner FIFO for the output register, so that a reader has a function of the word from
+    flip-flops,
     not through that function's logic (the texel cache's corner sets from its input FIFO's output:
     :mod:`rtl.texcache_decoupled`). The inner FIFO holds the words alone; ``r_tail`` is current whenever
     ``r_rdy``, which a proof can state from registers alone (``formal/fetch.py``, ``ififo_tail``), where a tail
     carried through the FIFO's memory would need every slot's contents. Its inner level is named ``inner_level``,
     as in ``SyncFIFOBuffered`` (:func:`buffered_room`, the formal sets)."""
 
-    def __init__(self, *, width: int, depth: int, tail, tail_width: int):
+    def __init__(self, *, width: int, depth: int, tail):
         if depth < 2:
             raise ValueError(f"TailFIFOBuffered: depth {depth} must be at least 2 (an inner FIFO and the register)")
         super().__init__(width=width, depth=depth)
-        self.tail, self.r_tail = tail, Signal(tail_width, name="r_tail")
+        self.tail = tail
+        self.r_tail = Signal(len(Value.cast(tail(Signal(width)))), name="r_tail")
 
     def elaborate(self, platform):
         m = Module()

@@ -9,8 +9,8 @@ request names one by its index). Organisation (``docs/texcache.md``):
 - **Input FIFO** (:data:`INPUT_DEPTH` lookups): ``i.ready`` is a register, so a stall does not travel up the
   stream in the clock the tag stage decides it.
 - **Set stage**: the next lookup with its corners' lines (computed from the FIFO's output register) and sets
-  (computed as the lookup enters the FIFO, and carried in it), in registers, so that the sets address the tag
-  store from flip-flops.
+  (computed as the lookup enters that register, and held beside it), in registers, so that the sets address the
+  tag store from flip-flops.
 - **Prefetch stage**: the next lookup, its corners' lines and sets, each corner's set's row read from the tag
   store (:mod:`rtl.texcache_tags`, LUT RAM) and the compares of those rows with the lines, all in registers, the
   rows kept equal to the store while it waits.
@@ -252,9 +252,8 @@ class DecoupledTexCache(StepControl, wiring.Component):
         def corner_sets(word):
             return Cat(*(set_ for _, set_ in self.corner_lines(self.req(word))))
 
-        sb = len(self.corner_lines(self.req(Const(0, self.req.size)))[0][1])
-        m.submodules.ififo = ififo = TailFIFOBuffered(width=self.req.size, depth=INPUT_DEPTH, tail=corner_sets,
-                                                      tail_width=4 * sb)
+        m.submodules.ififo = ififo = TailFIFOBuffered(width=self.req.size, depth=INPUT_DEPTH, tail=corner_sets)
+        sb = len(ififo.r_tail) // 4
         m.d.comb += [ififo.w_en.eq(self.i.valid), ififo.w_data.eq(self.i.payload), self.i.ready.eq(ififo.w_rdy)]
         freq = Signal(self.req, name="freq")
         m.d.comb += freq.eq(ififo.r_data)

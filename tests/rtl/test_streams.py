@@ -258,7 +258,7 @@ def test_tail_fifo_is_sync_fifo_buffered_clock_for_clock_with_its_tail(depth):
 
     m = Module()
     m.submodules.ref = ref = SyncFIFOBuffered(width=7, depth=depth)
-    m.submodules.dut = dut = TailFIFOBuffered(width=7, depth=depth, tail=tail, tail_width=7)
+    m.submodules.dut = dut = TailFIFOBuffered(width=7, depth=depth, tail=tail)
     rng = np.random.default_rng(depth)
     log = {"same": True, "tail": True, "reads": 0}
 
@@ -287,4 +287,4 @@ def test_tail_fifo_is_sync_fifo_buffered_clock_for_clock_with_its_tail(depth):
     assert log["reads"] > 200
     assert log["same"] and log["tail"]
     with pytest.raises(ValueError, match="depth 1"):
-        TailFIFOBuffered(width=7, depth=1, tail=tail, tail_width=7)
+        TailFIFOBuffered(width=7, depth=1, tail=tail)

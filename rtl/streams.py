@@ -114,8 +114,7 @@ class TailFIFOBuffered(SyncFIFOBuffered):
     """Amaranth's ``SyncFIFOBuffered`` (its ports, its timing, clock for clock; depth at least 2) whose output
     register also holds ``r_tail``: ``tail(word)`` of the word it holds (as wide as ``tail`` makes it), computed
     as the word leaves the inner FIFO for the output register, so that a reader has a function of the word from
-    flip-flops,
-    not through that function's logic (the texel cache's corner sets from its input FIFO's output:
+    flip-flops, not through that function's logic (the texel cache's corner sets from its input FIFO's output:
     :mod:`rtl.texcache_decoupled`). The inner FIFO holds the words alone; ``r_tail`` is current whenever
     ``r_rdy``, which a proof can state from registers alone (``formal/fetch.py``, ``ififo_tail``), where a tail
     carried through the FIFO's memory would need every slot's contents. Its inner level is named ``inner_level``,

@@ -29,7 +29,6 @@ from fxmodel.units.texcache import Layout, TexCacheParams
 from rtl.texcache_decoupled import AFTER, HELD, INPUT_DEPTH, DecoupledTexCache
 from rtl.texcache_tags import row_states, row_word
 from rtl.texfetch import MAPS, TexFetch
-from rtl.unit import COPY_SUFFIX
 
 from . import whitebox
 from .axiread import LenQueue
@@ -97,9 +96,6 @@ def cache_invariants(h: Harness, sig, top, path: str, cache, pend, beat_ref, ins
         # the input FIFO's output register holds the corners' sets of the lookup it holds (rtl.streams
         # TailFIFOBuffered), the sets the set stage loads
         h.check(~ififo.r_rdy | (ififo.r_tail == Cat(*(s(f"f_set{q}") for q in range(4)))), "ififo_tail")
-        # the prefetch stage's line copies, one per compare term, are its lines (loaded together)
-        h.check(Cat(*(s(f"p_line{q}_t{t}{COPY_SUFFIX}") == s(f"p_line{q}") for q in range(4) for t in range(5))).all(),
-                "p_line_copies")
         h.check(inflight == arq.level + pend + filled, "owed_lines")
         h.check(inflight <= p.misses, "owed_bound")
         h.check(slots.level == inflight, "slot_queue")

@@ -69,7 +69,7 @@ from .streams import TailFIFOBuffered
 from .texcache_step import StepControl
 from .texcache_stepwrite import compare_over, held_rows, step_write
 from .texcache_tags import age_bits, compare, new_rows, row_states, state_bits, tag_store, victim
-from .unit import COPY_SUFFIX, with_next
+from .unit import with_next
 
 __all__ = ["DecoupledTexCache", "request_layout", "INPUT_DEPTH", "HELD", "AFTER"]
 
@@ -330,10 +330,7 @@ class DecoupledTexCache(StepControl, wiring.Component):
         # the outcomes: the prefetch stage's compares (term by term, under the pending write); the tag stage's,
         # registered, and whether they are current
         for q in range(4):
-            # the line in a register per compare term, loaded with it (each beside its comparators: the line
-            # register's fan-out spread them over the cache, the first hop of the Berlin wall engine's slowest path)
-            pre.c[q].lines = [Signal.like(pre.c[q].line, name=f"p_line{q}_t{t}{COPY_SUFFIX}") for t in range(5)]
-            pre.c[q].hit, pre.c[q].hit_way = compare_over(m, pre.c[q], wp, sw.pfw[q], pre.c[q].lines, f"p_{q}_")
+            pre.c[q].hit, pre.c[q].hit_way = compare_over(m, pre.c[q], wp, sw.pfw[q], pre.c[q].line, f"p_{q}_")
             c[q].cmp_hit, c[q].cmp_way = compare(m, eff[q].tags, eff[q].valids, c[q].line, f"t_{q}_")
             c[q].hit, c[q].hit_way = Signal(name=f"hit{q}"), Signal(wb, name=f"hit_way{q}")
         hits_ok = Signal(name="hits_ok")
@@ -357,7 +354,6 @@ class DecoupledTexCache(StepControl, wiring.Component):
         with m.If(p_load):
             self._load(m, pre, SimpleNamespace(req=nreq, c=nc, same=nsame),
                        [Const(1, P.sets) << nc[q].set for q in range(4)])
-            m.d.sync += [x.eq(nc[q].line) for q in range(4) for x in pre.c[q].lines]
         with m.Elif(accept):
             m.d.comb += pre.valid_next.eq(0)
         self._advance(m, (pre, t), (fire, accept, last, step_miss),

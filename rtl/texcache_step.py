@@ -66,7 +66,7 @@ class StepControl:
         registers: they are the clock enables of the held stages, the input FIFO and the lookup FIFO, hundreds of
         flip-flops spread over the cache."""
         (s_valid, ififo), (t_valid, hits_ok) = input_stage, tag_stage
-        room = buffered_room(m, f.lfifo, self.params.lookup_depth, f.lfifo.w_en, "lfifo")
+        room = buffered_room(m, f.lfifo, self.params.lookup_depth, f.lw_take, "lfifo", pending=f.lw_valid)
         fire, accept, p_load = Signal(name="fire"), Signal(), Signal()
         now = SimpleNamespace(t_valid=t_valid, hits_ok=hits_ok, room=room[0], last=last, step_miss=step_miss,
                               inflight=f.inflight)

@@ -382,7 +382,7 @@ class DecoupledTexCache(StepControl, wiring.Component):
         hits_ok_next = self._outcomes(m, c, pre, hits_ok, accept, fire & (sum(fills) != 0), fresh)
         if not rr:   # the step's firing and whether it is the lookup's last, from the registers' next values
             self._fire_ahead(m, ahead, SimpleNamespace(t_valid=t.valid_next, hits_ok=hits_ok_next, room=room[1],
-                                                       allin=ahead.allin_next, k=k_next,
+                                                       allin=ahead.allin_next, k=k_next, later=ahead.later,
                                                        step_miss=ahead.step_miss_next, inflight=f.inflight_next))
         new = new_rows(m, P, self.line_bits, [SimpleNamespace(line=c[q].line, tags=eff[q].tags, valids=eff[q].valids,
                                                              states=eff[q].states, hit=c[q].hit, victim=c[q].victim)

@@ -99,7 +99,8 @@ def buffered_room(m, fifo, depth: int, w, name: str, pending=None):
     the FIFO in the next clock: ``fifo.w_en`` is ``pending``, and ``pending`` takes ``w`` every clock), ``w`` is
     the writer's decision into that register, and the room is for a word decided now: the inner level plus the
     pending word is below the inner FIFO's depth, so the pending word always finds ``w_rdy`` (formal
-    ``{name}_write_fits``); the register and the FIFO together hold ``depth`` words, as the FIFO alone did."""
+    ``{name}_room_after_pending``, ``{name}_write_fits``); the register and the FIFO together hold ``depth``
+    words, as the FIFO alone did."""
     if depth < 2:
         raise ValueError(f"buffered_room: depth {depth} must be at least 2 (SyncFIFOBuffered's register alone)")
     top = depth - 1                                       # the inner FIFO's depth

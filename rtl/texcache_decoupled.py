@@ -29,7 +29,9 @@ request names one by its index). Organisation (``docs/texcache.md``):
   with that pending write over them (:mod:`rtl.texcache_stepwrite`), so the behaviour is clock for clock the
   same.
 - **Lookup FIFO** (:attr:`~fxmodel.units.texcache.TexCacheParams.lookup_depth` entries): each lookup's four bank
-  word addresses, the bank of each corner, its fill count and its sideband, from the tag stage to the data stage.
+  word addresses, the bank of each corner, its fill count and its sideband, from the tag stage to the data stage,
+  through a write register (the addresses are the ways the step chose, so the FIFO's memory is written from
+  flip-flops; its room counts the register's lookup: :func:`rtl.streams.buffered_room`'s ``pending``).
 - **Fill buffer** (:attr:`~fxmodel.units.texcache.TexCacheParams.misses` lines, four banks by texel parity): the
   ``R`` beats land there as they come (``rready`` is always high: a line's space is reserved when its miss is
   queued). The data stage copies a lookup's fills into the data banks (four texels a clock) only when that lookup
@@ -69,7 +71,7 @@ from .streams import TailFIFOBuffered
 from .texcache_step import StepControl
 from .texcache_stepwrite import compare_over, held_rows, step_write
 from .texcache_tags import age_bits, compare, new_rows, row_states, state_bits, tag_store, victim
-from .unit import COPY_SUFFIX, with_next
+from .unit import with_next
 
 __all__ = ["DecoupledTexCache", "request_layout", "INPUT_DEPTH", "HELD", "AFTER"]
 
@@ -191,7 +193,8 @@ class DecoupledTexCache(StepControl, wiring.Component):
             arq=SyncFIFOBuffered(width=self.line_bits, depth=P.misses),
             slots=SyncFIFOBuffered(width=slot_bits, depth=P.misses),
             inflight=Signal(range(P.misses + 1), name="inflight"), miss_now=Signal(name="miss_now"),
-            copy_done=Signal(name="copy_done"))
+            copy_done=Signal(name="copy_done"), lw_take=Signal(name="lw_take"), lw_valid=Signal(name="lw_valid"),
+            lw_entry=Signal(self._entry_layout(), name="lw_entry"))
         m.submodules.lfifo, m.submodules.arq, m.submodules.slots = f.lfifo, f.arq, f.slots
         f.inflight_next = with_next(m, f.inflight)
         m.d.comb += f.inflight_next.eq(f.inflight + f.miss_now - f.copy_done)
@@ -330,10 +333,7 @@ class DecoupledTexCache(StepControl, wiring.Component):
         # the outcomes: the prefetch stage's compares (term by term, under the pending write); the tag stage's,
         # registered, and whether they are current
         for q in range(4):
-            # the line in a register per compare term, loaded with it (each beside its comparators: the line
-            # register's fan-out spread them over the cache, the first hop of the Berlin wall engine's slowest path)
-            pre.c[q].lines = [Signal.like(pre.c[q].line, name=f"p_line{q}_t{t}{COPY_SUFFIX}") for t in range(5)]
-            pre.c[q].hit, pre.c[q].hit_way = compare_over(m, pre.c[q], wp, sw.pfw[q], pre.c[q].lines, f"p_{q}_")
+            pre.c[q].hit, pre.c[q].hit_way = compare_over(m, pre.c[q], wp, sw.pfw[q], pre.c[q].line, f"p_{q}_")
             c[q].cmp_hit, c[q].cmp_way = compare(m, eff[q].tags, eff[q].valids, c[q].line, f"t_{q}_")
             c[q].hit, c[q].hit_way = Signal(name=f"hit{q}"), Signal(wb, name=f"hit_way{q}")
         hits_ok = Signal(name="hits_ok")
@@ -357,7 +357,6 @@ class DecoupledTexCache(StepControl, wiring.Component):
         with m.If(p_load):
             self._load(m, pre, SimpleNamespace(req=nreq, c=nc, same=nsame),
                        [Const(1, P.sets) << nc[q].set for q in range(4)])
-            m.d.sync += [x.eq(nc[q].line) for q in range(4) for x in pre.c[q].lines]
         with m.Elif(accept):
             m.d.comb += pre.valid_next.eq(0)
         self._advance(m, (pre, t), (fire, accept, last, step_miss),
@@ -383,7 +382,7 @@ class DecoupledTexCache(StepControl, wiring.Component):
         hits_ok_next = self._outcomes(m, c, pre, hits_ok, accept, fire & (sum(fills) != 0), fresh)
         if not rr:   # the step's firing and whether it is the lookup's last, from the registers' next values
             self._fire_ahead(m, ahead, SimpleNamespace(t_valid=t.valid_next, hits_ok=hits_ok_next, room=room[1],
-                                                       allin=ahead.allin_next, k=k_next,
+                                                       allin=ahead.allin_next, k=k_next, later=ahead.later,
                                                        step_miss=ahead.step_miss_next, inflight=f.inflight_next))
         new = new_rows(m, P, self.line_bits, [SimpleNamespace(line=c[q].line, tags=eff[q].tags, valids=eff[q].valids,
                                                              states=eff[q].states, hit=c[q].hit, victim=c[q].victim)
@@ -393,7 +392,7 @@ class DecoupledTexCache(StepControl, wiring.Component):
                            next_sets=[nc[q].next_set for q in range(4)])
         held_rows(m, P, sw, c, pre, nc, same, wr, new, p_load, accept, stored)
         self._queue(m, f, c, req, fills, fire, last, step_miss, nf, ways)
-        f.tag_busy = t_valid | pre.valid | s_valid | (ififo.level != 0)   # a lookup in the input FIFO or held
+        f.tag_busy = t_valid | pre.valid | s_valid | f.lw_valid | (ififo.level != 0)   # in the input FIFO or held
 
     def _queue(self, m, f, c, req, fills, fire, last, step_miss, nf, ways):
         """The step's miss (at most one: the corner ``fills`` names) into the ``AR`` queue and the slot queue; the
@@ -419,7 +418,12 @@ class DecoupledTexCache(StepControl, wiring.Component):
                 with m.If(Cat(xs[q][0], ys[q][0]) == b):
                     slot = c[q].set * W + ways[q]
                     m.d.comb += entry.addr[b].eq(slot * self._words + self._word(xs[q], ys[q]))
-        m.d.comb += [f.lfifo.w_en.eq(fire & last), f.lfifo.w_data.eq(entry)]
+        # into the write register, and from it into the lookup FIFO a clock later (its room counts the register)
+        m.d.comb += f.lw_take.eq(fire & last)
+        m.d.sync += f.lw_valid.eq(f.lw_take)
+        with m.If(f.lw_take):
+            m.d.sync += f.lw_entry.eq(entry)
+        m.d.comb += [f.lfifo.w_en.eq(f.lw_valid), f.lfifo.w_data.eq(f.lw_entry)]
 
     def _memory_port(self, m, f):
         """``AR`` from the queue; ``R`` beats into the fill buffer (beat ``n`` = texel ``(n mod B, n div B)``)."""

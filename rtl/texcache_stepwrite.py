@@ -41,16 +41,15 @@ def overlay(m, held, wp, sel, name: str) -> SimpleNamespace:
     return out
 
 
-def compare_over(m, held, wp, sel, lines, name: str) -> tuple:
+def compare_over(m, held, wp, sel, line, name: str) -> tuple:
     """``(hit, way)`` of :func:`rtl.texcache_tags.compare` on the held row with the pending write over it
     (:func:`overlay` with the one-hot selects ``sel``), taken term by term: each pending row and the held row are
-    compared with the line from registers (``lines``: a copy of it per term, the four pending rows' then the held
-    row's), and the selects pick the outcome at the last level instead of the row at the first. Equal whenever the
-    selects are one-hot (formal invariants ``fw*``); the selects, from across the cache, then meet the compare's
-    end, not its start (the prefetch stage's compares lead into the step's decision a clock ahead and its firing:
-    ``docs/texcache.md``)."""
-    outs = [compare(m, w.tags, w.valids, lines[j], f"{name}w{j}_") for j, w in enumerate(wp)]
-    outs.append(compare(m, held.tags, held.valids, lines[4], f"{name}h_"))
+    compared with ``line`` from their registers, and the selects pick the outcome at the last level instead of
+    the row at the first. Equal whenever the selects are one-hot (formal invariants ``fw*``); the selects, from
+    across the cache, then meet the compare's end, not its start (the prefetch stage's compares lead into the
+    step's decision a clock ahead and its firing: ``docs/texcache.md``)."""
+    outs = [compare(m, w.tags, w.valids, line, f"{name}w{j}_") for j, w in enumerate(wp)]
+    outs.append(compare(m, held.tags, held.valids, line, f"{name}h_"))
     hit, way = Signal(name=f"{name}hit"), Signal(age_bits(len(held.tags)), name=f"{name}hit_way")
     m.d.comb += [hit.eq(one_hot_pick(sel, [h for h, _ in outs])), way.eq(one_hot_pick(sel, [w for _, w in outs]))]
     return hit, way

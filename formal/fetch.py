@@ -93,10 +93,10 @@ def cache_invariants(h: Harness, sig, top, path: str, cache, pend, beat_ref, ins
         # the tag stage's copy of the lookup FIFO's inner level, and its room (rtl/streams.py buffered_room): for a
         # lookup decided now, the FIFO's inner level and the write register's lookup below the inner FIFO's depth;
         # so the register's lookup always finds the FIFO ready
-        inner, depth = sig("inner_level", f"{path}/lfifo".strip("/")), p.lookup_depth - 1
-        h.check((s("lfifo_inner") == inner) & (s("lfifo_room") == (inner + s("lw_valid") < depth)),
+        inner, inner_depth = sig("inner_level", f"{path}/lfifo".strip("/")), p.lookup_depth - 1
+        h.check((s("lfifo_inner") == inner) & (s("lfifo_room") == (inner + s("lw_valid") < inner_depth)),
                 "lfifo_room_after_pending")
-        h.check(inner + s("lw_valid") <= depth, "lfifo_write_fits")
+        h.check(inner + s("lw_valid") <= inner_depth, "lfifo_write_fits")
         h.check(slots.r_rdy | ((slots.level == arq.level) & ~arq.r_rdy), "slot_queue_ahead")
         # the input FIFO's output register holds the corners' sets of the lookup it holds (rtl.streams
         # TailFIFOBuffered), the sets the set stage loads

@@ -60,7 +60,7 @@ class StepControl:
         ahead of a lookup's first step needs no decision of it)."""
         free = s.inflight < self.params.misses
         fits = (s.room | ~s.last) & (~s.step_miss | free)
-        if getattr(s, "first", None) is not None:
+        if s.first is not None:
             fits = Mux(s.first, s.room & free, fits)
         return s.t_valid & s.hits_ok & fits
 

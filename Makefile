@@ -24,9 +24,11 @@ BOARD    ?= ulx3s
 FRAME    ?=
 FRAME_ARG = $(if $(FRAME),--frame $(FRAME))
 # MAPS=sdram: the board's bump map and color texture in SDRAM behind the engine's texel caches (--textures); with
-# SCENE, `make fpga` places that engine (SCENE=berlin-wall MAPS=sdram: the Berlin wall at its full resolution)
+# SCENE, `make fpga` places that engine (SCENE=berlin-wall MAPS=sdram: the Berlin wall at its full resolution),
+# with the placer's weights its record (docs/fpga/placement-texcache.json) met its target with
 MAPS     ?=
 MAPS_ARG  = $(if $(filter sdram,$(MAPS)),--textures)
+MAPS_PLACER = $(if $(MAPS_ARG),--placer-timing-weight 30 --placer-crit-exp 4)
 # PRESET or SCENE given on the command line or in the environment: `make verilog` and `make fpga` build the pixel
 # pipeline with SCENE's tables and PRESET (built in or presets/<name>.toml); otherwise every unit and preset.
 SCENE_ARGS = $(if $(filter-out file default undefined,$(origin PRESET) $(origin SCENE)),--scene $(SCENE) --preset $(PRESET))
@@ -105,7 +107,7 @@ bench: setup
 	$(BUMPMAP) bench --docs
 
 fpga: setup
-	$(BUMPMAP) fpga --jobs $(JOBS) --router $(ROUTER) $(SCENE_ARGS) $(if $(SCENE_ARGS),$(MAPS_ARG))
+	$(BUMPMAP) fpga --jobs $(JOBS) --router $(ROUTER) $(SCENE_ARGS) $(if $(SCENE_ARGS),$(MAPS_ARG) $(MAPS_PLACER))
 
 bitstream: setup
 	@test "$(BOARD)" = ulx3s || { echo "BOARD=$(BOARD): the board top exists for ulx3s only" >&2; exit 2; }

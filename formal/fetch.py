@@ -60,9 +60,8 @@ def small_texfetch(cls=TexFetch) -> TexFetch:
 
 
 def _capacity(p: TexCacheParams) -> int:
-    """Lookups a decoupled cache holds at most: the input FIFO's, the set, prefetch and tag stages', the lookup FIFO's
-    with its write register's (together the FIFO's depth: its room counts the register), its head's, the data
-    banks' read's and the output register's."""
+    """Lookups a decoupled cache holds at most: the input FIFO's, the set, prefetch and tag stages', the lookup FIFO's,
+    its head's, the data banks' read's and the output register's."""
     return INPUT_DEPTH + HELD + p.lookup_depth + AFTER
 
 
@@ -90,13 +89,9 @@ def cache_invariants(h: Harness, sig, top, path: str, cache, pend, beat_ref, ins
         for name, fifo in (("lfifo", lfifo), ("arq", arq), ("slots", slots), ("ififo", ififo)):
             buffered_fifo_invariants(h, lambda n, name=name: sig(n, f"{path}/{name}".strip("/")),
                                      fifo, name)
-        # the tag stage's copy of the lookup FIFO's inner level, and its room (rtl/streams.py buffered_room): for a
-        # lookup decided now, the FIFO's inner level and the write register's lookup below the inner FIFO's depth;
-        # so the register's lookup always finds the FIFO ready
-        inner, inner_depth = sig("inner_level", f"{path}/lfifo".strip("/")), p.lookup_depth - 1
-        h.check((s("lfifo_inner") == inner) & (s("lfifo_room") == (inner + s("lw_valid") < inner_depth)),
-                "lfifo_room_after_pending")
-        h.check(inner + s("lw_valid") <= inner_depth, "lfifo_write_fits")
+        # the tag stage's copy of the lookup FIFO's room and inner level (rtl/streams.py buffered_room)
+        h.check((s("lfifo_inner") == sig("inner_level", f"{path}/lfifo".strip("/"))) & (s("lfifo_room") == lfifo.w_rdy),
+                "lfifo_room_is_w_rdy")
         h.check(slots.r_rdy | ((slots.level == arq.level) & ~arq.r_rdy), "slot_queue_ahead")
         # the input FIFO's output register holds the corners' sets of the lookup it holds (rtl.streams
         # TailFIFOBuffered), the sets the set stage loads
@@ -106,7 +101,7 @@ def cache_invariants(h: Harness, sig, top, path: str, cache, pend, beat_ref, ins
         h.check(slots.level == inflight, "slot_queue")
         h.check(~copying | (filled != 0), "copy_of_complete_line")
         h.check(beat == beat_ref, "beat_is_burst_beat")
-        held = s("s_valid") + s("p_valid") + s("t_valid") + s("lw_valid")
+        held = s("s_valid") + s("p_valid") + s("t_valid")
         h.check(inside == ififo.level + held + lfifo.level + s("h_valid") + s("rd_valid") + s("o_valid"),
                 "inside_is_stages")
         rows_coherent(h, s, p)

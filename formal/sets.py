@@ -82,12 +82,12 @@ NO_COVERS = ("pipeline",)
 #: Steps before the decoupled cache's extra burst can show: four misses through the input FIFO, the set stage, the
 #: prefetch stage and the tag stage (after each fill a clock to compare again), then the fifth ``AR``: one step after
 #: the set's cover ``misses_outstanding_reach`` (its cover run's log names the step). Its variant checks that step alone
-#: (``skip``, and a depth one more): without ``skip`` its counterexample fails at step 18 and the solver spends most of
+#: (``skip``, and a depth one more): without ``skip`` its counterexample fails at step 15 and the solver spends most of
 #: its time proving the steps before clean; with later steps checked too the solver may pick a trace whose extra burst
 #: is older (a burst completed since, so ``ar_outstanding`` holds again and only the cache's own count ``owed_lines``
 #: fails). At the earliest step the extra burst has just been accepted (:class:`formal.broken.ExtraBurst` starts it in a
 #: clock in which no burst ends) and both fail. A change that makes the burst later leaves the variant missed: loudly.
-EXTRA_BURST_STEPS = 18
+EXTRA_BURST_STEPS = 15
 
 
 def _unit_sets() -> list[PropertySet]:

@@ -81,7 +81,7 @@ def less_one_if(sel, base, test=lambda v: v):
     return Mux(sel, test(base - 1), test(base))
 
 
-def buffered_room(m, fifo, depth: int, w, name: str, pending=None):
+def buffered_room(m, fifo, depth: int, w, name: str):
     """A register equal on every clock to ``fifo.w_rdy`` of an Amaranth ``SyncFIFOBuffered`` of ``depth`` (at
     least 2) words, for a writer that decides late: ``w_rdy`` is a compare of the FIFO's inner level (a counter),
     and through the writer's decision it led into whatever that decision loads (the texel cache's lookup FIFO:
@@ -93,28 +93,18 @@ def buffered_room(m, fifo, depth: int, w, name: str, pending=None):
     the reader decides it) and the room after the clock if it reads (``if_read``) and if not (``if_not``), from
     this clock's write alone, so that a writer deciding a clock ahead takes the read at its last level too. The
     formal sets check the room and the count (``{name}_room``, ``{name}_inner``) against the FIFO's
-    (``formal/fetch.py``).
-
-    With ``pending`` (the valid bit of a register between the writer and the FIFO, which writes its word into
-    the FIFO in the next clock: ``fifo.w_en`` is ``pending``, and ``pending`` takes ``w`` every clock), ``w`` is
-    the writer's decision into that register, and the room is for a word decided now: the inner level plus the
-    pending word is below the inner FIFO's depth, so the pending word always finds ``w_rdy`` (formal
-    ``{name}_room_after_pending``, ``{name}_write_fits``); the register and the FIFO together hold ``depth``
-    words, as the FIFO alone did."""
+    (``formal/fetch.py``)."""
     if depth < 2:
         raise ValueError(f"buffered_room: depth {depth} must be at least 2 (SyncFIFOBuffered's register alone)")
     top = depth - 1                                       # the inner FIFO's depth
     inner = Signal(range(top + 1), name=f"{name}_inner")
     room = Signal(name=f"{name}_room", init=1)
-    fifo_w = w if pending is None else pending            # the FIFO's own write
-    # the words the writer sees (the inner level, and the pending word): one below the top leaves room for one
-    room_after_w = inner != top - 1 if pending is None else Mux(pending, inner != top - 2, inner != top - 1)
     after = SimpleNamespace(read=Signal(name=f"{name}_read"), if_read=Mux(w, room, 1),
-                            if_not=Mux(w, room_after_w, room))
+                            if_not=Mux(w, inner != top - 1, room))
     m.d.comb += after.read.eq((inner != 0) & (~fifo.r_rdy | fifo.r_en))    # SyncFIFOBuffered's inner read
-    with m.If(fifo_w & ~after.read):
+    with m.If(w & ~after.read):
         m.d.sync += inner.eq(inner + 1)
-    with m.Elif(after.read & ~fifo_w):
+    with m.Elif(after.read & ~w):
         m.d.sync += inner.eq(inner - 1)
     m.d.sync += room.eq(Mux(after.read, after.if_read, after.if_not))
     return room, after

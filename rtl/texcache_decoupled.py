@@ -29,9 +29,7 @@ request names one by its index). Organisation (``docs/texcache.md``):
   with that pending write over them (:mod:`rtl.texcache_stepwrite`), so the behaviour is clock for clock the
   same.
 - **Lookup FIFO** (:attr:`~fxmodel.units.texcache.TexCacheParams.lookup_depth` entries): each lookup's four bank
-  word addresses, the bank of each corner, its fill count and its sideband, from the tag stage to the data stage,
-  through a write register (the addresses are the ways the step chose, so the FIFO's memory is written from
-  flip-flops; its room counts the register's lookup: :func:`rtl.streams.buffered_room`'s ``pending``).
+  word addresses, the bank of each corner, its fill count and its sideband, from the tag stage to the data stage.
 - **Fill buffer** (:attr:`~fxmodel.units.texcache.TexCacheParams.misses` lines, four banks by texel parity): the
   ``R`` beats land there as they come (``rready`` is always high: a line's space is reserved when its miss is
   queued). The data stage copies a lookup's fills into the data banks (four texels a clock) only when that lookup
@@ -193,8 +191,7 @@ class DecoupledTexCache(StepControl, wiring.Component):
             arq=SyncFIFOBuffered(width=self.line_bits, depth=P.misses),
             slots=SyncFIFOBuffered(width=slot_bits, depth=P.misses),
             inflight=Signal(range(P.misses + 1), name="inflight"), miss_now=Signal(name="miss_now"),
-            copy_done=Signal(name="copy_done"), lw_take=Signal(name="lw_take"), lw_valid=Signal(name="lw_valid"),
-            lw_entry=Signal(self._entry_layout(), name="lw_entry"))
+            copy_done=Signal(name="copy_done"))
         m.submodules.lfifo, m.submodules.arq, m.submodules.slots = f.lfifo, f.arq, f.slots
         f.inflight_next = with_next(m, f.inflight)
         m.d.comb += f.inflight_next.eq(f.inflight + f.miss_now - f.copy_done)
@@ -382,7 +379,7 @@ class DecoupledTexCache(StepControl, wiring.Component):
         hits_ok_next = self._outcomes(m, c, pre, hits_ok, accept, fire & (sum(fills) != 0), fresh)
         if not rr:   # the step's firing and whether it is the lookup's last, from the registers' next values
             self._fire_ahead(m, ahead, SimpleNamespace(t_valid=t.valid_next, hits_ok=hits_ok_next, room=room[1],
-                                                       allin=ahead.allin_next, k=k_next, later=ahead.later,
+                                                       allin=ahead.allin_next, k=k_next,
                                                        step_miss=ahead.step_miss_next, inflight=f.inflight_next))
         new = new_rows(m, P, self.line_bits, [SimpleNamespace(line=c[q].line, tags=eff[q].tags, valids=eff[q].valids,
                                                              states=eff[q].states, hit=c[q].hit, victim=c[q].victim)
@@ -392,7 +389,7 @@ class DecoupledTexCache(StepControl, wiring.Component):
                            next_sets=[nc[q].next_set for q in range(4)])
         held_rows(m, P, sw, c, pre, nc, same, wr, new, p_load, accept, stored)
         self._queue(m, f, c, req, fills, fire, last, step_miss, nf, ways)
-        f.tag_busy = t_valid | pre.valid | s_valid | f.lw_valid | (ififo.level != 0)   # in the input FIFO or held
+        f.tag_busy = t_valid | pre.valid | s_valid | (ififo.level != 0)   # a lookup in the input FIFO or held
 
     def _queue(self, m, f, c, req, fills, fire, last, step_miss, nf, ways):
         """The step's miss (at most one: the corner ``fills`` names) into the ``AR`` queue and the slot queue; the
@@ -418,12 +415,7 @@ class DecoupledTexCache(StepControl, wiring.Component):
                 with m.If(Cat(xs[q][0], ys[q][0]) == b):
                     slot = c[q].set * W + ways[q]
                     m.d.comb += entry.addr[b].eq(slot * self._words + self._word(xs[q], ys[q]))
-        # into the write register, and from it into the lookup FIFO a clock later (its room counts the register)
-        m.d.comb += f.lw_take.eq(fire & last)
-        m.d.sync += f.lw_valid.eq(f.lw_take)
-        with m.If(f.lw_take):
-            m.d.sync += f.lw_entry.eq(entry)
-        m.d.comb += [f.lfifo.w_en.eq(f.lw_valid), f.lfifo.w_data.eq(f.lw_entry)]
+        m.d.comb += [f.lfifo.w_en.eq(fire & last), f.lfifo.w_data.eq(entry)]
 
     def _memory_port(self, m, f):
         """``AR`` from the queue; ``R`` beats into the fill buffer (beat ``n`` = texel ``(n mod B, n div B)``)."""

@@ -54,15 +54,8 @@ class StepControl:
     def _fires(self, s):
         """Whether the tag stage's step fires in a state ``s`` (this clock's registers or their next values): it
         holds a lookup (``t_valid``) with current outcomes (``hits_ok``), the lookup FIFO has room (``room``) for
-        the lookup's ``last`` step, and a miss (``step_miss``) finds a free miss register (``inflight``). With
-        ``s.first`` (LRU: the lookup's first step, ``k == 0``) the step waits for both the room and a free miss
-        register, whether it is the last and whether it misses or not (:meth:`_fire_ahead`: so the firing a clock
-        ahead of a lookup's first step needs no decision of it)."""
-        free = s.inflight < self.params.misses
-        fits = (s.room | ~s.last) & (~s.step_miss | free)
-        if s.first is not None:
-            fits = Mux(s.first, s.room & free, fits)
-        return s.t_valid & s.hits_ok & fits
+        the lookup's ``last`` step, and a miss (``step_miss``) finds a free miss register (``inflight``)."""
+        return s.t_valid & s.hits_ok & (s.room | ~s.last) & (~s.step_miss | (s.inflight < self.params.misses))
 
     def _handshake(self, m, f, input_stage, p_valid, tag_stage, last, step_miss, ahead, platform):
         """Whether the tag stage's step fires (:meth:`_fires`; ``tag_stage``: its valid bit and ``hits_ok``; the
@@ -73,10 +66,10 @@ class StepControl:
         registers: they are the clock enables of the held stages, the input FIFO and the lookup FIFO, hundreds of
         flip-flops spread over the cache."""
         (s_valid, ififo), (t_valid, hits_ok) = input_stage, tag_stage
-        room = buffered_room(m, f.lfifo, self.params.lookup_depth, f.lw_take, "lfifo", pending=f.lw_valid)
+        room = buffered_room(m, f.lfifo, self.params.lookup_depth, f.lfifo.w_en, "lfifo")
         fire, accept, p_load = Signal(name="fire"), Signal(), Signal()
         now = SimpleNamespace(t_valid=t_valid, hits_ok=hits_ok, room=room[0], last=last, step_miss=step_miss,
-                              inflight=f.inflight, first=None if ahead is None else ahead.k == 0)
+                              inflight=f.inflight)
         if ahead is None:
             m.d.comb += fire.eq(self._fires(now))
         else:
@@ -94,34 +87,24 @@ class StepControl:
         same functions of this clock's registers (formal invariant ``firing_decided_ahead``): the decision goes from
         the registers through the next-state logic into two flip-flops beside it, not through the handshake into the
         clock enables of the whole cache (the Berlin wall engine's slowest routed paths, from the step's decision
-        across the die to the input FIFO's read and the tag store's read port: ``docs/texcache.md``).
-
-        The next decision (``allin``, ``step_miss``) is the deepest of those values, so it selects at the last
-        level among the firings for each of its four values, each from the other, shallow, next values; and the
-        lookup FIFO's read (the data stage's decision, across the cache) selects after it, between the rooms after
-        a read and after none. A lookup's first step (``k`` next zero) fires on the room and a free miss register
-        alone (:meth:`_fires`), so the decision taken with a lookup as it is accepted (the prefetch stage's compares:
-        :meth:`_decide_ahead`) reaches ``ahead.last`` only, and the firing selects by the decisions of later steps
-        (``nxt.later``: from the tag stage's own outcome registers), which are the next decision whenever the next
-        step is not a first."""
+        across the die to the input FIFO's read and the tag store's read port: ``docs/texcache.md``). The next
+        decision (``allin``, ``step_miss``: the prefetch stage's compares through the step's decision) is the
+        deepest of those values, so it selects at the last level among the firings for each of its four values,
+        each from the other, shallow, next values; and the lookup FIFO's read (the data stage's decision, across the
+        cache) selects after it, between the rooms after a read and after none."""
         last = self._last(nxt.allin, nxt.k)
-        first = nxt.k == 0
-        fires, firsts = {}, {}
+        fires = {}
         for read in (0, 1):
-            room = nxt.room.if_read if read else nxt.room.if_not
             for allin in (0, 1):
                 for miss in (0, 1):
                     state = SimpleNamespace(**{**vars(nxt), "last": self._last(Const(allin), nxt.k),
-                                               "step_miss": Const(miss), "room": room, "first": Const(0)})
+                                               "step_miss": Const(miss),
+                                               "room": nxt.room.if_read if read else nxt.room.if_not})
                     fires[read, allin, miss] = named(m, self._fires(state), f"fire_if{read}{allin}{miss}")
-            state = SimpleNamespace(**{**vars(nxt), "last": Const(1), "step_miss": Const(1), "room": room,
-                                       "first": Const(1)})
-            firsts[read] = named(m, self._fires(state), f"fire_first_if{read}")
 
         def pick(read):
-            allin, miss = nxt.later
-            return Mux(first, firsts[read], Mux(allin, Mux(miss, fires[read, 1, 1], fires[read, 1, 0]),
-                                                Mux(miss, fires[read, 0, 1], fires[read, 0, 0])))
+            return Mux(nxt.allin, Mux(nxt.step_miss, fires[read, 1, 1], fires[read, 1, 0]),
+                       Mux(nxt.step_miss, fires[read, 0, 1], fires[read, 0, 0]))
 
         m.d.sync += [ahead.last.eq(last), ahead.fire.eq(Mux(nxt.room.read, pick(1), pick(0)))]
 
@@ -171,10 +154,6 @@ class StepControl:
         ahead = SimpleNamespace(allin=Signal(name="allin"), step_miss=Signal(name="step_miss"),
                                 fire=Signal(name="fire_ahead"), last=Signal(name="last_ahead"))
         ahead.allin_next, ahead.step_miss_next = with_next(m, ahead.allin), with_next(m, ahead.step_miss)
-        ahead.k = k
-        # the next decision but for a lookup accepted in this clock (_decide_ahead): what the firing selects by
-        ahead.later = (Signal(name="allin_later"), Signal(name="step_miss_later"))
-        m.d.comb += [ahead.later[0].eq(ahead.allin), ahead.later[1].eq(ahead.step_miss)]
         if platform == "formal":
             # the same decision from this clock's registers (``now_allin``, ``now_step_miss``): equal to ``ahead``'s
             # whenever the outcomes are current (formal invariant ``decision_ahead``); nothing else reads it
@@ -196,15 +175,13 @@ class StepControl:
         ``held``: the tag stage's corners, request, live corners, equal sets and next corner."""
         c, req, live, same, k = held
 
-        def take(hits, live, same_, kk, name, later=True):
+        def take(hits, live, same_, kk, name):
             allin, step_miss = step_decision(m, hits, live, same_, kk, name)
             m.d.comb += [ahead.allin_next.eq(allin), ahead.step_miss_next.eq(step_miss)]
-            if later:
-                m.d.comb += [ahead.later[0].eq(allin), ahead.later[1].eq(step_miss)]
 
-        with m.If(accept):   # the next step is the lookup's first: its firing does not read this decision
+        with m.If(accept):
             take([pre.c[q].hit for q in range(4)], self._live(m, pre.c, pre.req, lambda q: 1, "p_live"),
-                 pre.same, 0, "p_", later=False)
+                 pre.same, 0, "p_")
         with m.Elif(fresh):
             take([c[q].hit for q in range(4)], live, same, k, "c_")
         with m.Elif(step_on):

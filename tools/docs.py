@@ -238,7 +238,8 @@ PAGES = {
     "exhaustive-rcp32": rec.exhaustive_rcp32, "exhaustive-throughput": rec.exhaustive_throughput,
     "fpga-resources": rec.fpga_resources, "fpga-placement": rec.fpga_placement, "bench": rec.bench,
     "fpga-placement-texcache": lambda: rec.fpga_placement(
-        "placement-texcache", "--unit engine --scene berlin-wall --textures --router router1 --misses --no-cache"),
+        "placement-texcache", "--unit engine --scene berlin-wall --textures --router router1 --misses --no-cache "
+                              "--placer-timing-weight 30 --placer-crit-exp 4"),
     "fpga-placement-units": lambda: rec.fpga_placement("placement-units", "--unit U ... --router router1"),
     "raster-guard": rec.raster_guard,
     "formal-proofs": formal_proofs, "records": rec.records_index, "scene-schema": scene_schema,

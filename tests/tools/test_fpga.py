@@ -438,7 +438,8 @@ def test_the_flows_yosys_script_keeps_the_flip_flop_copies(tmp_path):
 
 def test_make_fpga_places_a_scenes_engine_with_its_maps_outside_when_asked():
     """``make fpga SCENE=berlin-wall MAPS=sdram`` places the Berlin wall's engine with its maps behind the texel
-    caches (``--textures``); without a scene ``MAPS`` changes nothing (every unit and preset)."""
+    caches (``--textures``), with the placer weights of its committed record (``docs/fpga/placement-texcache.json``,
+    the flow that met its target); without a scene ``MAPS`` changes nothing (every unit and preset)."""
     from fxmodel.core.paths import ROOT
 
     def dry(*args):
@@ -446,7 +447,9 @@ def test_make_fpga_places_a_scenes_engine_with_its_maps_outside_when_asked():
         (line,) = [x for x in out.stdout.splitlines() if " fpga " in x]
         return line.split()
 
-    assert dry("SCENE=berlin-wall", "MAPS=sdram")[-5:] == ["--scene", "berlin-wall", "--preset", "default",
-                                                           "--textures"]
+    flow = json.loads((ROOT / "docs" / "fpga" / "placement-texcache.json").read_text())["result"]["flow"]
+    weights = ["--placer-timing-weight", str(flow["timing_weight"]), "--placer-crit-exp", str(flow["crit_exp"])]
+    assert dry("SCENE=berlin-wall", "MAPS=sdram")[-9:] == ["--scene", "berlin-wall", "--preset", "default",
+                                                           "--textures", *weights]
     assert "--textures" not in dry("MAPS=sdram") and "--scene" not in dry("MAPS=sdram")
     assert "--textures" not in dry("SCENE=berlin-wall")
